@@ -1,0 +1,48 @@
+# Tandem: the two commands of the README, and the steps they are made of.
+#   make demo   install what is missing, configure, build, run the default scene
+#   make test   the same set-up, then the whole test suite (release build, then ASan + UBSan)
+BUILD      ?= build
+ASAN_BUILD ?= build-asan
+JOBS       ?= $(shell nproc 2>/dev/null || echo 2)
+DEMO_OUT   ?= out/demo
+CMAKE_FLAGS ?=
+ifeq ($(CI),true)
+CMAKE_FLAGS += -DTND_WERROR=ON
+endif
+
+.PHONY: all deps configure build build-asan demo test test-release test-asan clean
+
+all: build
+
+deps:
+	@scripts/install-deps.sh
+
+configure: deps
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+
+build: configure
+	cmake --build $(BUILD) -j $(JOBS)
+
+build-asan: deps
+	cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug -DTND_SANITIZE=ON $(CMAKE_FLAGS)
+	cmake --build $(ASAN_BUILD) -j $(JOBS)
+
+demo: build
+	$(BUILD)/tandem info
+	@echo
+	@echo "demo: Tandem is built; 'tandem info' above shows the device it renders on."
+	@echo "demo: the binary is $(BUILD)/tandem ('$(BUILD)/tandem --help' lists its commands)."
+
+test-release: build
+	cd $(BUILD) && ctest --output-on-failure
+
+# Every test again under AddressSanitizer + UndefinedBehaviorSanitizer (GPU tests included:
+# lavapipe runs clean under ASan, leak checking on).
+test-asan: build-asan
+	cd $(ASAN_BUILD) && ctest --output-on-failure
+
+test: test-release test-asan
+	@echo "test: all suites passed (release and ASan+UBSan)"
+
+clean:
+	rm -rf $(BUILD) $(ASAN_BUILD)

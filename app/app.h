@@ -1,0 +1,62 @@
+/* app: the `tandem` command line. Parses options, wires a front-end to the back-end, prints
+ * progress. Only app/ decides exit statuses: 0 success, 1 failure, 2 usage error. */
+#ifndef TND_APP_H
+#define TND_APP_H
+
+#include <stdbool.h>
+#include <stdio.h>
+
+#include "core/core.h"
+
+enum { APP_EXIT_OK = 0, APP_EXIT_FAIL = 1, APP_EXIT_USAGE = 2 };
+
+/* ---- options -------------------------------------------------------------------------------- */
+typedef enum app_opt_kind {
+    APP_OPT_FLAG = 0, /* bool, no argument */
+    APP_OPT_STRING,   /* const char * */
+    APP_OPT_INT,      /* int */
+    APP_OPT_UINT,     /* unsigned */
+    APP_OPT_FLOAT,    /* double */
+    APP_OPT_SIZE,     /* unsigned[2], "WxH" */
+} app_opt_kind;
+
+typedef struct app_opt {
+    const char *name; /* without the leading "--" */
+    app_opt_kind kind;
+    void *dest;
+    const char *arg; /* argument placeholder in help, e.g. "PATH" */
+    const char *help;
+} app_opt;
+
+typedef struct app_cmd {
+    const char *name;
+    const char *summary;
+    const char *usage; /* after "tandem NAME " */
+    int (*run)(int argc, char **argv);
+} app_cmd;
+
+/* Parse argv[1..] against opts (NULL-name terminated). Every command also accepts --help and
+ * --quiet. Returns -1 to continue, or an exit status (help printed: 0; error: 2). Positional
+ * arguments are collected into pos (up to max_pos); *npos receives their count. */
+int app_parse(const app_cmd *cmd, const app_opt *opts, int argc, char **argv, const char **pos,
+              int max_pos, int *npos);
+bool app_quiet(void);
+
+/* Report a failure of a library call: "tandem: <what>: <detail>" on stderr. Returns 1. */
+int app_report(const char *what, tnd_result r);
+
+/* ---- progress bar on stderr (silent when stderr is not a terminal or with --quiet) ---------- */
+typedef struct app_progress {
+    const char *label;
+    unsigned total, done;
+    double start, last_draw;
+    bool enabled;
+} app_progress;
+void app_progress_begin(app_progress *p, const char *label, unsigned total);
+void app_progress_step(app_progress *p, unsigned done);
+void app_progress_end(app_progress *p);
+
+/* ---- commands ------------------------------------------------------------------------------- */
+int cmd_info(int argc, char **argv);
+
+#endif

@@ -1,0 +1,45 @@
+/* app/main.c: `tandem COMMAND [options]`: dispatches to the subcommands. */
+#include "app/app.h"
+
+#include <string.h>
+
+static const app_cmd commands[] = {
+    {"info", "Show the Vulkan devices, the one Tandem picks, and its ray-tracing support.",
+     "[--json] [--device NAME]", cmd_info},
+};
+static const int command_count = (int)(sizeof commands / sizeof commands[0]);
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: tandem COMMAND [options]\n\n"
+               "Tandem %s: denoiser-centric real-time path tracing.\n\ncommands:\n",
+            TND_VERSION_STRING);
+    for (int i = 0; i < command_count; i++)
+        fprintf(f, "  %-10s %s\n", commands[i].name, commands[i].summary);
+    fprintf(f, "\n'tandem COMMAND --help' describes a command's options.\n"
+               "Environment: TANDEM_DEVICE=<substring> picks a device by name; "
+               "TANDEM_VALIDATION=1 enables the Vulkan validation layer.\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return APP_EXIT_USAGE;
+    }
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
+        strcmp(argv[1], "help") == 0) {
+        usage(stdout);
+        return APP_EXIT_OK;
+    }
+    if (strcmp(argv[1], "--version") == 0) {
+        printf("tandem %s\n", TND_VERSION_STRING);
+        return APP_EXIT_OK;
+    }
+    for (int i = 0; i < command_count; i++)
+        if (strcmp(argv[1], commands[i].name) == 0)
+            return commands[i].run(argc - 1, argv + 1);
+    fprintf(stderr, "tandem: unknown command '%s'\n\n", argv[1]);
+    usage(stderr);
+    return APP_EXIT_USAGE;
+}

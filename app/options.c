@@ -1,0 +1,179 @@
+/* app/options.c: one option parser for every subcommand (--name VALUE or --name=VALUE), help
+ * text generated from the same table, and the progress bar. */
+#include "app/app.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static bool quiet_flag;
+
+bool app_quiet(void)
+{
+    return quiet_flag;
+}
+
+static void print_help(const app_cmd *cmd, const app_opt *opts)
+{
+    printf("usage: tandem %s %s\n\n%s\n\noptions:\n", cmd->name, cmd->usage, cmd->summary);
+    for (const app_opt *o = opts; o && o->name; o++) {
+        char left[64];
+        snprintf(left, sizeof left, "--%s%s%s", o->name, o->arg ? " " : "", o->arg ? o->arg : "");
+        printf("  %-26s %s\n", left, o->help);
+    }
+    printf("  %-26s %s\n", "--quiet", "no progress or information messages on stderr");
+    printf("  %-26s %s\n", "--help", "show this help");
+}
+
+static int parse_value(const app_cmd *cmd, const app_opt *o, const char *v)
+{
+    char *end = NULL;
+    errno = 0;
+    switch (o->kind) {
+    case APP_OPT_FLAG:
+        *(bool *)o->dest = true;
+        return 0;
+    case APP_OPT_STRING:
+        *(const char **)o->dest = v;
+        return 0;
+    case APP_OPT_INT: {
+        long x = strtol(v, &end, 10);
+        if (errno || !*v || *end || x < -2147483647L || x > 2147483647L)
+            break;
+        *(int *)o->dest = (int)x;
+        return 0;
+    }
+    case APP_OPT_UINT: {
+        if (*v == '-')
+            break;
+        unsigned long x = strtoul(v, &end, 10);
+        if (errno || !*v || *end || x > 0xffffffffUL)
+            break;
+        *(unsigned *)o->dest = (unsigned)x;
+        return 0;
+    }
+    case APP_OPT_FLOAT: {
+        double x = strtod(v, &end);
+        if (errno || !*v || *end)
+            break;
+        *(double *)o->dest = x;
+        return 0;
+    }
+    case APP_OPT_SIZE: {
+        unsigned *wh = o->dest;
+        unsigned long w = strtoul(v, &end, 10);
+        if (*v == '-' || end == v || (*end != 'x' && *end != 'X'))
+            break;
+        const char *h0 = end + 1;
+        unsigned long h = strtoul(h0, &end, 10);
+        if (*h0 == '-' || end == h0 || *end || w == 0 || h == 0 || w > 65535 || h > 65535)
+            break;
+        wh[0] = (unsigned)w;
+        wh[1] = (unsigned)h;
+        return 0;
+    }
+    }
+    fprintf(stderr, "tandem %s: --%s: bad value '%s'%s\n", cmd->name, o->name, v,
+            o->kind == APP_OPT_SIZE ? " (expected WxH, e.g. 640x360)" : "");
+    return -1;
+}
+
+int app_parse(const app_cmd *cmd, const app_opt *opts, int argc, char **argv, const char **pos,
+              int max_pos, int *npos)
+{
+    *npos = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            print_help(cmd, opts);
+            return APP_EXIT_OK;
+        }
+        if (strcmp(a, "--quiet") == 0 || strcmp(a, "-q") == 0) {
+            quiet_flag = true;
+            tnd_log_set_level(TND_LOG_WARN);
+            continue;
+        }
+        if (strncmp(a, "--", 2) != 0 || a[2] == '\0') {
+            if (*npos >= max_pos) {
+                fprintf(stderr, "tandem %s: unexpected argument '%s' (see tandem %s --help)\n",
+                        cmd->name, a, cmd->name);
+                return APP_EXIT_USAGE;
+            }
+            pos[(*npos)++] = a;
+            continue;
+        }
+        const char *name = a + 2, *eq = strchr(name, '=');
+        size_t len = eq ? (size_t)(eq - name) : strlen(name);
+        const app_opt *o = opts;
+        while (o && o->name && !(strlen(o->name) == len && strncmp(o->name, name, len) == 0))
+            o++;
+        if (!o || !o->name) {
+            fprintf(stderr, "tandem %s: unknown option '--%.*s' (see tandem %s --help)\n",
+                    cmd->name, (int)len, name, cmd->name);
+            return APP_EXIT_USAGE;
+        }
+        const char *v = NULL;
+        if (o->kind != APP_OPT_FLAG) {
+            if (eq)
+                v = eq + 1;
+            else if (i + 1 < argc)
+                v = argv[++i];
+            else {
+                fprintf(stderr, "tandem %s: --%s needs a value (%s)\n", cmd->name, o->name,
+                        o->arg ? o->arg : "VALUE");
+                return APP_EXIT_USAGE;
+            }
+        } else if (eq) {
+            fprintf(stderr, "tandem %s: --%s takes no value\n", cmd->name, o->name);
+            return APP_EXIT_USAGE;
+        }
+        if (parse_value(cmd, o, v) != 0)
+            return APP_EXIT_USAGE;
+    }
+    return -1;
+}
+
+int app_report(const char *what, tnd_result r)
+{
+    const char *d = tnd_error_detail();
+    fprintf(stderr, "tandem: %s: %s\n", what, *d ? d : tnd_result_message(r));
+    return APP_EXIT_FAIL;
+}
+
+void app_progress_begin(app_progress *p, const char *label, unsigned total)
+{
+    *p = (app_progress){.label = label, .total = total, .start = tnd_now()};
+    p->enabled = !quiet_flag && isatty(STDERR_FILENO);
+    app_progress_step(p, 0);
+}
+
+void app_progress_step(app_progress *p, unsigned done)
+{
+    p->done = done;
+    if (!p->enabled)
+        return;
+    double now = tnd_now();
+    if (done != 0 && done != p->total && now - p->last_draw < 0.1)
+        return;
+    p->last_draw = now;
+    const int width = 30;
+    int fill = p->total ? (int)((double)width * done / p->total) : width;
+    char bar[64];
+    for (int i = 0; i < width; i++)
+        bar[i] = i < fill ? '#' : '.';
+    bar[width] = '\0';
+    double el = now - p->start;
+    double eta = done ? el * (p->total - done) / done : 0.0;
+    fprintf(stderr, "\r%s [%s] %u/%u  %.1fs elapsed, %.1fs left ", p->label, bar, done, p->total,
+            el, eta);
+    fflush(stderr);
+}
+
+void app_progress_end(app_progress *p)
+{
+    if (!p->enabled)
+        return;
+    app_progress_step(p, p->total);
+    fputc('\n', stderr);
+}

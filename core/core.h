@@ -1,0 +1,389 @@
+/* core: what every part of Tandem shares.
+ *
+ * - results and error messages (one catalogue of codes; a per-thread detail message),
+ * - logging,
+ * - the Vulkan context: headless instance, device choice, memory, buffers, images, pipelines from
+ *   SPIR-V, shader binding tables, one-shot submission, timestamp queries, debug names.
+ *
+ * Conventions: fallible functions return tnd_result (TND_OK is 0). Every *_destroy accepts a
+ * zeroed or half-built object and may be called twice. Descriptor structs: zero means default. */
+#ifndef TND_CORE_H
+#define TND_CORE_H
+
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <vulkan/vulkan.h>
+
+#define TND_VERSION_STRING "0.1.0"
+
+/* ---------------------------------------------------------------------------------------------
+ * Results and errors
+ * ------------------------------------------------------------------------------------------- */
+
+// clang-format off
+#define TND_RESULT_LIST(X) \
+    X(TND_OK,                   "success") \
+    X(TND_ERR_INVALID_ARGUMENT, "invalid argument") \
+    X(TND_ERR_OUT_OF_MEMORY,    "out of host memory") \
+    X(TND_ERR_IO,               "file input/output error") \
+    X(TND_ERR_BAD_INPUT,        "malformed input") \
+    X(TND_ERR_UNSUPPORTED,      "unsupported feature") \
+    X(TND_ERR_NO_DEVICE,        "no suitable Vulkan device") \
+    X(TND_ERR_VULKAN,           "Vulkan call failed") \
+    X(TND_ERR_LIMIT,            "beyond a device or format limit")
+// clang-format on
+
+typedef enum tnd_result {
+#define TND_X(code, msg) code,
+    TND_RESULT_LIST(TND_X)
+#undef TND_X
+        TND_RESULT_COUNT
+} tnd_result;
+
+/* Name ("TND_ERR_IO") and generic message ("file input/output error") of a code. */
+const char *tnd_result_name(tnd_result r);
+const char *tnd_result_message(tnd_result r);
+
+/* Record a detailed message for the calling thread and return `code`, so that a failure reads
+ * `return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: mesh %u: ...", ...)`. The message should name
+ * the module, the file or object, and what was expected. */
+tnd_result tnd_fail(tnd_result code, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+/* The calling thread's last detail message ("" when none since tnd_error_clear). */
+const char *tnd_error_detail(void);
+void tnd_error_clear(void);
+
+/* VkResult as its enum name ("VK_ERROR_DEVICE_LOST"). */
+const char *tnd_vk_result_name(VkResult r);
+/* Records `file:line: call -> VK_ERROR_...` and returns TND_ERR_VULKAN. */
+tnd_result tnd_fail_vk(const char *file, int line, const char *call, VkResult r);
+
+/* Check a Vulkan call in every build; on failure record the message, set `res` and jump to the
+ * function's `fail:` cleanup label. The enclosing function declares `tnd_result res`. */
+#define TND_VK_TRY(call)                                                                           \
+    do {                                                                                           \
+        VkResult tnd_vr_ = (call);                                                                 \
+        if (tnd_vr_ < 0) {                                                                         \
+            res = tnd_fail_vk(__FILE__, __LINE__, #call, tnd_vr_);                                 \
+            goto fail;                                                                             \
+        }                                                                                          \
+    } while (0)
+/* Same for calls returning tnd_result. */
+#define TND_TRY(expr)                                                                              \
+    do {                                                                                           \
+        res = (expr);                                                                              \
+        if (res != TND_OK)                                                                         \
+            goto fail;                                                                             \
+    } while (0)
+
+/* ---------------------------------------------------------------------------------------------
+ * Logging (stderr). The level is process-wide and set once by the application.
+ * ------------------------------------------------------------------------------------------- */
+typedef enum tnd_log_level {
+    TND_LOG_INFO = 0, /* default */
+    TND_LOG_DEBUG,
+    TND_LOG_WARN,
+    TND_LOG_ERROR,
+    TND_LOG_QUIET,
+} tnd_log_level;
+
+void tnd_log_set_level(tnd_log_level level);
+tnd_log_level tnd_log_get_level(void);
+void tnd_log(tnd_log_level level, const char *module, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+#define tnd_info(mod, ...) tnd_log(TND_LOG_INFO, mod, __VA_ARGS__)
+#define tnd_warn(mod, ...) tnd_log(TND_LOG_WARN, mod, __VA_ARGS__)
+#define tnd_debug(mod, ...) tnd_log(TND_LOG_DEBUG, mod, __VA_ARGS__)
+
+/* Monotonic wall clock in seconds. */
+double tnd_now(void);
+
+/* ---------------------------------------------------------------------------------------------
+ * Files
+ * ------------------------------------------------------------------------------------------- */
+
+/* Read a whole file into a malloc'ed buffer (NUL-terminated, the terminator not counted in
+ * *size). The caller frees it. Errors name the path. */
+tnd_result tnd_file_read(const char *path, void **data, size_t *size);
+/* Write a file atomically: to `path.tmp.<pid>`, then rename. No partial file on failure. */
+tnd_result tnd_file_write_atomic(const char *path, const void *data, size_t size);
+/* mkdir -p. */
+tnd_result tnd_mkdirs(const char *path);
+
+/* ---------------------------------------------------------------------------------------------
+ * Vulkan: devices
+ * ------------------------------------------------------------------------------------------- */
+
+#define TND_DEVICE_NAME_MAX 256
+typedef struct tnd_vk_device_info {
+    uint32_t index; /* in vkEnumeratePhysicalDevices order */
+    char name[TND_DEVICE_NAME_MAX];
+    char driver_name[TND_DEVICE_NAME_MAX];
+    char driver_info[TND_DEVICE_NAME_MAX];
+    VkPhysicalDeviceType type;
+    uint32_t api_version;
+    uint32_t vendor_id, device_id;
+    bool rt_pipeline;       /* VK_KHR_ray_tracing_pipeline + its feature */
+    bool accel_struct;      /* VK_KHR_acceleration_structure + its feature */
+    bool ray_query;         /* VK_KHR_ray_query + its feature */
+    bool buffer_address;    /* bufferDeviceAddress */
+    bool timestamps;        /* compute queue has timestampValidBits > 0 */
+    bool compute_ok;        /* Vulkan >= 1.2, buffer device address, a compute queue */
+    bool suitable;          /* compute_ok and ray-tracing pipelines + acceleration structures */
+    char why_not[128];      /* why not suitable, "" when suitable */
+    /* ray-tracing limits (0 when absent) */
+    uint32_t shader_group_handle_size;
+    uint32_t shader_group_handle_alignment;
+    uint32_t shader_group_base_alignment;
+    uint32_t max_ray_recursion_depth;
+    uint32_t min_scratch_offset_alignment;
+    uint64_t max_primitive_count;
+    uint64_t max_instance_count;
+    /* general limits */
+    uint32_t max_image_dimension_2d;
+    uint32_t max_compute_workgroup_invocations;
+    float timestamp_period_ns;
+    uint64_t device_local_bytes;
+} tnd_vk_device_info;
+
+/* List the physical devices (creates and destroys a temporary instance). `out` holds `cap`
+ * entries; *count receives the number of devices (which may exceed cap). */
+tnd_result tnd_vk_list_devices(tnd_vk_device_info *out, uint32_t cap, uint32_t *count);
+
+/* Choose a device: a case-insensitive substring of the name when `want` is non-empty (an error
+ * naming the devices when none matches or the match is unsuitable); otherwise the first suitable
+ * discrete GPU, then integrated, virtual, and finally CPU (lavapipe). `need_rt`: require ray
+ * tracing (else compute_ok suffices). Pure function. */
+tnd_result tnd_vk_choose_device(const tnd_vk_device_info *devs, uint32_t count, const char *want,
+                                bool need_rt, uint32_t *chosen);
+
+/* ---------------------------------------------------------------------------------------------
+ * Vulkan: context
+ * ------------------------------------------------------------------------------------------- */
+
+/* Ray-tracing device functions, loaded with vkGetDeviceProcAddr. */
+// clang-format off
+#define TND_VK_DEVICE_FNS(X) \
+    X(vkCreateAccelerationStructureKHR) \
+    X(vkDestroyAccelerationStructureKHR) \
+    X(vkGetAccelerationStructureBuildSizesKHR) \
+    X(vkGetAccelerationStructureDeviceAddressKHR) \
+    X(vkCmdBuildAccelerationStructuresKHR) \
+    X(vkCmdWriteAccelerationStructuresPropertiesKHR) \
+    X(vkCmdCopyAccelerationStructureKHR) \
+    X(vkCreateRayTracingPipelinesKHR) \
+    X(vkGetRayTracingShaderGroupHandlesKHR) \
+    X(vkCmdTraceRaysKHR)
+// clang-format on
+
+typedef struct tnd_vk_fns {
+#define TND_X(fn) PFN_##fn fn;
+    TND_VK_DEVICE_FNS(TND_X)
+#undef TND_X
+    PFN_vkSetDebugUtilsObjectNameEXT vkSetDebugUtilsObjectNameEXT; /* may be NULL */
+} tnd_vk_fns;
+
+typedef struct tnd_vk_desc {
+    const char *device;    /* substring of the device name; NULL: $TANDEM_DEVICE, then default */
+    bool validation;       /* enable VK_LAYER_KHRONOS_validation (also $TANDEM_VALIDATION=1) */
+    bool no_ray_tracing;   /* accept devices without ray tracing (compute-only back-end) */
+} tnd_vk_desc;
+
+typedef struct tnd_vk_messages tnd_vk_messages; /* validation message counters (internal) */
+
+typedef struct tnd_vk {
+    VkInstance instance;
+    VkDebugUtilsMessengerEXT messenger;
+    VkPhysicalDevice phys;
+    VkDevice device;
+    VkQueue queue; /* one queue: graphics/compute, used for everything */
+    uint32_t queue_family;
+    VkCommandPool cmd_pool;
+    VkFence fence;
+    tnd_vk_device_info info;
+    VkPhysicalDeviceMemoryProperties mem;
+    tnd_vk_fns fn;
+    bool validation;
+    bool ray_tracing; /* RT pipeline + acceleration structures enabled */
+    bool ray_query;   /* ray query enabled */
+    tnd_vk_messages *messages;
+} tnd_vk;
+
+tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk);
+void tnd_vk_destroy(tnd_vk *vk);
+/* Validation-layer messages seen so far (errors and warnings). The layer's text goes to stderr. */
+uint32_t tnd_vk_validation_errors(const tnd_vk *vk);
+uint32_t tnd_vk_validation_warnings(const tnd_vk *vk);
+
+/* Give any Vulkan object a debug name (no-op without VK_EXT_debug_utils). */
+void tnd_vk_name(const tnd_vk *vk, VkObjectType type, uint64_t handle, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+#define TND_VK_NAME(vk, type, obj, ...) tnd_vk_name(vk, type, (uint64_t)(uintptr_t)(obj), __VA_ARGS__)
+
+/* ---------------------------------------------------------------------------------------------
+ * Vulkan: memory, buffers, images
+ * ------------------------------------------------------------------------------------------- */
+typedef enum tnd_mem_kind {
+    TND_MEM_DEVICE = 0, /* device-local */
+    TND_MEM_UPLOAD,     /* host-visible, coherent, mapped: CPU writes, GPU reads */
+    TND_MEM_READBACK,   /* host-visible, cached if possible, mapped: GPU writes, CPU reads */
+} tnd_mem_kind;
+
+typedef struct tnd_buffer_desc {
+    VkDeviceSize size;
+    VkBufferUsageFlags usage; /* TRANSFER_SRC/DST are always added */
+    tnd_mem_kind mem;
+    bool device_address;      /* allocate with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT */
+    const char *name;
+} tnd_buffer_desc;
+
+typedef struct tnd_buffer {
+    VkBuffer buffer;
+    VkDeviceMemory memory;
+    VkDeviceSize size;
+    VkDeviceAddress address; /* 0 unless desc.device_address */
+    void *mapped;            /* non-NULL for UPLOAD / READBACK */
+} tnd_buffer;
+
+tnd_result tnd_buffer_create(tnd_vk *vk, const tnd_buffer_desc *desc, tnd_buffer *buf);
+void tnd_buffer_destroy(tnd_vk *vk, tnd_buffer *buf);
+/* Copy host data into a buffer (through a staging buffer for device memory); blocks. */
+tnd_result tnd_buffer_upload(tnd_vk *vk, tnd_buffer *dst, VkDeviceSize offset, const void *data,
+                             VkDeviceSize size);
+/* Copy a buffer's bytes to host memory; blocks. */
+tnd_result tnd_buffer_download(tnd_vk *vk, const tnd_buffer *src, VkDeviceSize offset, void *data,
+                               VkDeviceSize size);
+
+typedef struct tnd_image_desc {
+    uint32_t width, height;
+    VkFormat format;
+    VkImageUsageFlags usage; /* STORAGE | SAMPLED | TRANSFER_SRC | TRANSFER_DST when 0 */
+    const char *name;
+} tnd_image_desc;
+
+typedef struct tnd_image {
+    VkImage image;
+    VkDeviceMemory memory;
+    VkImageView view;
+    VkFormat format;
+    uint32_t width, height;
+} tnd_image;
+
+/* A 2D device-local image with one mip, left in VK_IMAGE_LAYOUT_GENERAL. Fails with
+ * TND_ERR_LIMIT when the size is 0 or beyond the device's maxImageDimension2D. */
+tnd_result tnd_image_create(tnd_vk *vk, const tnd_image_desc *desc, tnd_image *img);
+void tnd_image_destroy(tnd_vk *vk, tnd_image *img);
+
+/* Pick a memory type with `bits` allowed and all of `props`; UINT32_MAX when none. */
+uint32_t tnd_vk_memory_type(const tnd_vk *vk, uint32_t bits, VkMemoryPropertyFlags props);
+
+/* ---------------------------------------------------------------------------------------------
+ * Vulkan: commands and synchronisation
+ * ------------------------------------------------------------------------------------------- */
+
+/* One-shot command buffer: begin, record, then submit-and-wait (which frees it). */
+tnd_result tnd_cmd_begin(tnd_vk *vk, VkCommandBuffer *cmd);
+tnd_result tnd_cmd_submit_wait(tnd_vk *vk, VkCommandBuffer cmd);
+
+/* Full memory barrier between passes (compute, ray tracing, transfer, AS build). Coarse on
+ * purpose: passes are separated by one call, which is cheap next to a pass. */
+void tnd_cmd_barrier(VkCommandBuffer cmd);
+
+/* ---------------------------------------------------------------------------------------------
+ * Vulkan: pipelines
+ * ------------------------------------------------------------------------------------------- */
+tnd_result tnd_shader_module_create(tnd_vk *vk, const uint32_t *code, size_t bytes,
+                                    const char *name, VkShaderModule *mod);
+
+typedef struct tnd_compute_desc {
+    const uint32_t *code; /* SPIR-V */
+    size_t bytes;
+    VkPipelineLayout layout;
+    const VkSpecializationInfo *spec; /* optional */
+    const char *name;
+} tnd_compute_desc;
+tnd_result tnd_compute_pipeline_create(tnd_vk *vk, const tnd_compute_desc *desc, VkPipeline *pipe);
+
+typedef struct tnd_rt_stage {
+    const uint32_t *code;
+    size_t bytes;
+    VkShaderStageFlagBits stage;
+} tnd_rt_stage;
+
+/* Ray-tracing pipeline with the groups in SBT order: raygen groups, then miss groups, then hit
+ * groups. Each raygen/miss group is one stage; a hit group is a closest-hit stage (and optionally
+ * an any-hit stage; -1 for none). */
+#define TND_RT_MAX_GROUPS 32
+typedef struct tnd_rt_hit_group {
+    int closest_hit; /* index into stages, -1 none */
+    int any_hit;     /* index into stages, -1 none */
+} tnd_rt_hit_group;
+
+typedef struct tnd_rt_desc {
+    const tnd_rt_stage *stages;
+    uint32_t stage_count;
+    const uint32_t *raygen; /* stage indices */
+    uint32_t raygen_count;
+    const uint32_t *miss; /* stage indices */
+    uint32_t miss_count;
+    const tnd_rt_hit_group *hit;
+    uint32_t hit_count;
+    uint32_t max_recursion; /* 1 when 0 */
+    VkPipelineLayout layout;
+    const VkSpecializationInfo *spec; /* applied to every stage; optional */
+    const char *name;
+} tnd_rt_desc;
+
+/* The shader binding table of one RT pipeline: one buffer, regions laid out from the device's
+ * handle size, handle alignment and base alignment (never hard-coded). */
+typedef struct tnd_sbt {
+    tnd_buffer buffer;
+    VkStridedDeviceAddressRegionKHR raygen[TND_RT_MAX_GROUPS]; /* one region per raygen group */
+    VkStridedDeviceAddressRegionKHR miss;
+    VkStridedDeviceAddressRegionKHR hit;
+    VkStridedDeviceAddressRegionKHR callable;
+    uint32_t raygen_count;
+} tnd_sbt;
+
+/* SBT layout arithmetic, separate so that it can be tested against any device's numbers. */
+typedef struct tnd_sbt_layout {
+    uint32_t handle_stride; /* handle size rounded up to the handle alignment */
+    VkDeviceSize raygen_offset[TND_RT_MAX_GROUPS], raygen_size;
+    VkDeviceSize miss_offset, miss_size;
+    VkDeviceSize hit_offset, hit_size;
+    VkDeviceSize total;
+} tnd_sbt_layout;
+tnd_result tnd_sbt_compute_layout(uint32_t handle_size, uint32_t handle_alignment,
+                                  uint32_t base_alignment, uint32_t raygen_count,
+                                  uint32_t miss_count, uint32_t hit_count, tnd_sbt_layout *out);
+
+tnd_result tnd_rt_pipeline_create(tnd_vk *vk, const tnd_rt_desc *desc, VkPipeline *pipe,
+                                  tnd_sbt *sbt);
+void tnd_sbt_destroy(tnd_vk *vk, tnd_sbt *sbt);
+
+/* ---------------------------------------------------------------------------------------------
+ * Vulkan: timestamps (per-pass GPU times)
+ * ------------------------------------------------------------------------------------------- */
+#define TND_TIMER_MAX_PASSES 64
+typedef struct tnd_timer {
+    VkQueryPool pool;
+    uint32_t count; /* passes recorded since the last reset */
+    const char *names[TND_TIMER_MAX_PASSES];
+    float period_ns;
+    uint64_t valid_mask; /* from timestampValidBits */
+} tnd_timer;
+
+tnd_result tnd_timer_create(tnd_vk *vk, tnd_timer *t);
+void tnd_timer_destroy(tnd_vk *vk, tnd_timer *t);
+/* Record a reset of all queries; call before the first pass of a frame. */
+void tnd_timer_reset(VkCommandBuffer cmd, tnd_timer *t);
+/* Bracket a pass; returns its slot (or -1 when full; then nothing is written). `name` must
+ * outlive the read. */
+int tnd_timer_begin(VkCommandBuffer cmd, tnd_timer *t, const char *name);
+void tnd_timer_end(VkCommandBuffer cmd, tnd_timer *t, int slot);
+/* After the command buffer completed: ms[i] for each recorded pass i < t->count. */
+tnd_result tnd_timer_read(tnd_vk *vk, const tnd_timer *t, double *ms);
+
+#endif

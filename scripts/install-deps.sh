@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Install what Tandem needs to build and test, from Debian packages only.
+#
+# Idempotent: packages already present are not touched, and apt is not called at all when nothing
+# is missing. Uses sudo only when not root. On Debian 12 the distribution's Mesa (22.3) has no ray
+# tracing in lavapipe, so when the installed (or installable) lavapipe lacks
+# VK_KHR_ray_tracing_pipeline, bookworm-backports is added and mesa-vulkan-drivers comes from there.
+set -euo pipefail
+
+log() { printf 'install-deps: %s\n' "$*" >&2; }
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+    if command -v sudo >/dev/null 2>&1; then SUDO="sudo"; else
+        log "not root and no sudo: cannot install packages"; exit 1; fi
+fi
+export DEBIAN_FRONTEND=noninteractive
+
+# Build, Vulkan, libraries, and the independent tools the tests check our files with.
+PKGS=(
+    build-essential cmake pkg-config git
+    libvulkan-dev glslang-tools vulkan-validationlayers vulkan-tools
+    libembree-dev libtbb-dev libopenexr-dev libassimp-dev libcjson-dev libstb-dev
+    openexr openimageio-tools
+)
+
+missing=()
+for p in "${PKGS[@]}"; do
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+        missing+=("$p")
+    fi
+done
+
+apt_updated=0
+apt_update() {
+    if [ "$apt_updated" -eq 0 ]; then
+        log "apt-get update"
+        $SUDO apt-get update -qq
+        apt_updated=1
+    fi
+}
+
+if [ "${#missing[@]}" -gt 0 ]; then
+    apt_update
+    log "installing: ${missing[*]}"
+    $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# lavapipe with ray tracing: Mesa >= 24.1.
+mesa_ok() {
+    local v
+    v=$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true)
+    [ -n "$v" ] && dpkg --compare-versions "$v" ge 24.1
+}
+if ! mesa_ok; then
+    . /etc/os-release
+    if [ "${ID:-}" = debian ] && [ "${VERSION_CODENAME:-}" = bookworm ]; then
+        if ! grep -rqs 'bookworm-backports' /etc/apt/sources.list /etc/apt/sources.list.d/; then
+            log "adding bookworm-backports (lavapipe with ray tracing)"
+            echo 'deb http://deb.debian.org/debian bookworm-backports main' |
+                $SUDO tee /etc/apt/sources.list.d/tandem-backports.list >/dev/null
+            apt_updated=0
+        fi
+        apt_update
+        log "installing mesa-vulkan-drivers from bookworm-backports"
+        $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports mesa-vulkan-drivers
+    else
+        apt_update
+        $SUDO apt-get install -y -qq --no-install-recommends mesa-vulkan-drivers
+        mesa_ok || log "warning: mesa-vulkan-drivers < 24.1: lavapipe has no ray tracing here"
+    fi
+fi
+log "all dependencies present"

@@ -1,0 +1,30 @@
+/* Every shader Tandem builds, written once.
+ *
+ * X(name, file): `name` becomes the C enum TND_SHADER_<name> and the embedded array tnd_spv_<name>;
+ * `file` is the GLSL source in shaders/. shaders/CMakeLists.txt parses the X(...) lines below
+ * (one per line) to compile them, so keep that form. Included by C only. */
+#ifndef TND_SHADER_LIST_H
+#define TND_SHADER_LIST_H
+#include <stddef.h>
+#include <stdint.h>
+
+// clang-format off
+#define TND_SHADER_LIST(X) \
+    X(trace_test_rgen,  "trace_test.rgen") \
+    X(trace_test_rchit, "trace_test.rchit") \
+    X(trace_test_rmiss, "trace_test.rmiss") \
+    X(timestamp_test_comp, "timestamp_test.comp")
+// clang-format on
+
+typedef enum tnd_shader {
+#define TND_X(name, file) TND_SHADER_##name,
+    TND_SHADER_LIST(TND_X)
+#undef TND_X
+        TND_SHADER_COUNT
+} tnd_shader;
+
+/* The SPIR-V of shader `id` (NULL if out of range); its size in bytes and source file name go to
+ * the optional out-parameters. The code is static and lives for the whole program. */
+const uint32_t *tnd_spirv_code(tnd_shader id, size_t *bytes, const char **file);
+
+#endif

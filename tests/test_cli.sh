@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# tests/test_cli.sh TANDEM: the `tandem` command seen from outside: exit codes, messages, JSON.
+set -u
+T="$1"
+pass=0
+fail=0
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+check() { # check NAME CONDITION-EXIT-STATUS
+    if [ "$2" -eq 0 ]; then pass=$((pass + 1)); echo "ok   $1"; else
+        fail=$((fail + 1)); echo "FAIL $1"; fi
+}
+
+"$T" info >"$tmp/out" 2>"$tmp/err"; rc=$?
+check "info exits 0" $rc
+grep -q "ray tracing pipeline: yes" "$tmp/out"; check "info shows a device with RT pipelines" $?
+grep -q "<- chosen" "$tmp/out"; check "info marks the chosen device" $?
+grep -q "shader_group\|SBT: handle size" "$tmp/out"; check "info shows SBT limits" $?
+
+"$T" info --json >"$tmp/json" 2>"$tmp/err"; rc=$?
+check "info --json exits 0" $rc
+python3 - "$tmp/json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+c = [x for x in d["devices"] if x["chosen"]]
+assert len(c) == 1, "exactly one chosen device"
+assert c[0]["ray_tracing_pipeline"] and c[0]["acceleration_structure"]
+assert c[0]["limits"]["shader_group_handle_size"] > 0
+assert c[0]["index"] == d["chosen"]
+PY
+check "info --json is valid JSON with one chosen RT device" $?
+
+TANDEM_DEVICE=nonexistent "$T" info >"$tmp/out" 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ]; check "TANDEM_DEVICE=nonexistent exits 1 (got $rc)" $?
+grep -q "nonexistent" "$tmp/err" && grep -q "devices:" "$tmp/err"
+check "the message names the request and the devices" $?
+[ ! -s "$tmp/out" ]; check "and nothing on stdout" $?
+
+"$T" info --device nonexistent >/dev/null 2>&1; rc=$?
+[ $rc -eq 1 ]; check "--device nonexistent exits 1" $?
+
+"$T" frobnicate >/dev/null 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "unknown command" "$tmp/err"; check "unknown command exits 2" $?
+"$T" info --bogus >/dev/null 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "unknown option '--bogus'" "$tmp/err"; check "unknown option exits 2" $?
+"$T" info --help >"$tmp/out" 2>&1; rc=$?
+[ $rc -eq 0 ] && grep -q -- "--json" "$tmp/out"; check "info --help lists its options" $?
+"$T" --help >"$tmp/out" 2>&1; rc=$?
+[ $rc -eq 0 ] && grep -q "info" "$tmp/out"; check "tandem --help lists the commands" $?
+
+echo "$pass passed, $fail failed"
+[ $fail -eq 0 ]

@@ -1,0 +1,143 @@
+/* tests/test_core.c: unit tests of core/ that need no GPU: results and messages, device choice,
+ * SBT layout arithmetic, files. */
+#include "core/core.h"
+#include "tests/tnd_test.h"
+
+#include <unistd.h>
+
+static void test_result_catalogue(void)
+{
+    CHECK(TND_OK == 0, "TND_OK must be 0");
+    CHECK(strcmp(tnd_result_name(TND_ERR_IO), "TND_ERR_IO") == 0, "name");
+    CHECK(strcmp(tnd_result_message(TND_ERR_BAD_INPUT), "malformed input") == 0, "message");
+    CHECK(strcmp(tnd_result_name((tnd_result)999), "TND_ERR_UNKNOWN") == 0, "out of range");
+    tnd_result r = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: mesh %d", "x.gltf", 3);
+    CHECK(r == TND_ERR_BAD_INPUT, "returns its code");
+    CHECK(strcmp(tnd_error_detail(), "scene: x.gltf: mesh 3") == 0, "detail '%s'",
+          tnd_error_detail());
+    tnd_error_clear();
+    CHECK(tnd_error_detail()[0] == '\0', "cleared");
+}
+
+static void test_vk_error_format(void)
+{
+    tnd_result r = tnd_fail_vk("/a/b/core/vk.c", 42, "vkCreateDevice(phys, &ci, NULL, &dev)",
+                               VK_ERROR_DEVICE_LOST);
+    CHECK(r == TND_ERR_VULKAN, "code");
+    CHECK(strcmp(tnd_error_detail(), "vk.c:42: vkCreateDevice -> VK_ERROR_DEVICE_LOST") == 0,
+          "got '%s'", tnd_error_detail());
+    CHECK(strcmp(tnd_vk_result_name(VK_ERROR_OUT_OF_DEVICE_MEMORY),
+                 "VK_ERROR_OUT_OF_DEVICE_MEMORY") == 0,
+          "name");
+}
+
+static tnd_vk_device_info fake(const char *name, VkPhysicalDeviceType type, bool rt)
+{
+    tnd_vk_device_info d = {0};
+    snprintf(d.name, sizeof d.name, "%s", name);
+    d.type = type;
+    d.compute_ok = true;
+    d.suitable = rt;
+    if (!rt)
+        snprintf(d.why_not, sizeof d.why_not, "no VK_KHR_ray_tracing_pipeline");
+    return d;
+}
+
+static void test_choose_device(void)
+{
+    tnd_vk_device_info devs[3] = {
+        fake("llvmpipe (LLVM 19.1.7, 256 bits)", VK_PHYSICAL_DEVICE_TYPE_CPU, true),
+        fake("Old iGPU", VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU, false),
+        fake("NVIDIA H100 80GB HBM3", VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU, true),
+    };
+    uint32_t c = 99;
+    CHECK_OK(tnd_vk_choose_device(devs, 3, NULL, true, &c));
+    CHECK(c == 2, "a discrete GPU wins by default, got %u", c);
+    CHECK_OK(tnd_vk_choose_device(devs, 2, "", true, &c));
+    CHECK(c == 0, "lavapipe when no GPU has ray tracing, got %u", c);
+    CHECK_OK(tnd_vk_choose_device(devs, 3, "LLVMPIPE", true, &c));
+    CHECK(c == 0, "substring match is case-insensitive, got %u", c);
+    CHECK_OK(tnd_vk_choose_device(devs, 3, NULL, false, &c));
+    CHECK(c == 2, "compute-only still prefers discrete, got %u", c);
+    CHECK_OK(tnd_vk_choose_device(devs + 1, 1, NULL, false, &c));
+    CHECK(c == 0, "compute-only accepts a device without RT");
+
+    tnd_result r = tnd_vk_choose_device(devs, 3, "nonexistent", true, &c);
+    CHECK(r == TND_ERR_NO_DEVICE, "no match must fail");
+    CHECK(strstr(tnd_error_detail(), "nonexistent") && strstr(tnd_error_detail(), "H100"),
+          "message names the request and the devices: '%s'", tnd_error_detail());
+    r = tnd_vk_choose_device(devs, 3, "iGPU", true, &c);
+    CHECK(r == TND_ERR_NO_DEVICE, "an unsuitable match must fail");
+    CHECK(strstr(tnd_error_detail(), "ray_tracing_pipeline") != NULL, "says why: '%s'",
+          tnd_error_detail());
+    r = tnd_vk_choose_device(devs, 0, NULL, true, &c);
+    CHECK(r == TND_ERR_NO_DEVICE, "no devices at all");
+}
+
+/* The SBT rules of VK_KHR_ray_tracing_pipeline, checked on the numbers of both machines we run
+ * on (platform.md) and one more exotic set. */
+static void test_sbt_layout(void)
+{
+    const uint32_t cases[][3] = {{32, 16, 32}, {32, 32, 64}, {16, 8, 256}};
+    for (int k = 0; k < 3; k++) {
+        uint32_t hs = cases[k][0], ha = cases[k][1], ba = cases[k][2];
+        tnd_sbt_layout l;
+        CHECK_OK(tnd_sbt_compute_layout(hs, ha, ba, 3, 2, 5, &l));
+        CHECK(l.handle_stride >= hs && l.handle_stride % ha == 0, "stride %u", l.handle_stride);
+        for (int i = 0; i < 3; i++)
+            CHECK(l.raygen_offset[i] % ba == 0, "raygen %d offset %llu", i,
+                  (unsigned long long)l.raygen_offset[i]);
+        CHECK(l.raygen_size == l.handle_stride, "raygen size must equal its stride");
+        CHECK(l.raygen_offset[1] >= l.raygen_offset[0] + l.raygen_size, "no overlap");
+        CHECK(l.miss_offset % ba == 0 && l.hit_offset % ba == 0, "region bases aligned");
+        CHECK(l.miss_offset >= l.raygen_offset[2] + l.raygen_size, "miss after raygen");
+        CHECK(l.miss_size >= 2ull * l.handle_stride, "miss region holds 2 handles");
+        CHECK(l.hit_offset >= l.miss_offset + l.miss_size, "hit after miss");
+        CHECK(l.hit_size >= 5ull * l.handle_stride, "hit region holds 5 handles");
+        CHECK(l.total >= l.hit_offset + 5ull * l.handle_stride, "total covers everything");
+    }
+    tnd_sbt_layout l;
+    CHECK(tnd_sbt_compute_layout(32, 24, 64, 1, 1, 1, &l) == TND_ERR_INVALID_ARGUMENT,
+          "non-power-of-two alignment rejected");
+    CHECK(tnd_sbt_compute_layout(32, 16, 32, 0, 1, 1, &l) == TND_ERR_INVALID_ARGUMENT,
+          "at least one raygen");
+}
+
+static void test_files(void)
+{
+    char dir[] = "/tmp/tandem_test_XXXXXX";
+    REQUIRE(mkdtemp(dir) != NULL, "mkdtemp");
+    char path[256], sub[256];
+    snprintf(path, sizeof path, "%s/a.bin", dir);
+    snprintf(sub, sizeof sub, "%s/x/y/z", dir);
+    const char msg[] = "hello\0world";
+    CHECK_OK(tnd_file_write_atomic(path, msg, sizeof msg));
+    void *data = NULL;
+    size_t size = 0;
+    CHECK_OK(tnd_file_read(path, &data, &size));
+    CHECK(size == sizeof msg && data && memcmp(data, msg, size) == 0, "round trip");
+    CHECK(data && ((char *)data)[size] == '\0', "NUL-terminated");
+    free(data);
+    char tmp[300];
+    snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+    CHECK(access(tmp, F_OK) != 0, "no temporary file left behind");
+
+    snprintf(tmp, sizeof tmp, "%s/missing.gltf", dir);
+    tnd_result r = tnd_file_read(tmp, &data, &size);
+    CHECK(r == TND_ERR_IO && data == NULL, "missing file is TND_ERR_IO");
+    CHECK(strstr(tnd_error_detail(), "missing.gltf") != NULL, "message names the file: %s",
+          tnd_error_detail());
+    snprintf(tmp, sizeof tmp, "%s/nodir/out.bin", dir);
+    CHECK(tnd_file_write_atomic(tmp, msg, 3) == TND_ERR_IO, "write into a missing directory");
+    CHECK(access(tmp, F_OK) != 0, "and no partial output");
+
+    CHECK_OK(tnd_mkdirs(sub));
+    CHECK_OK(tnd_mkdirs(sub)); /* idempotent */
+    CHECK(tnd_mkdirs(path) == TND_ERR_IO, "a file is not a directory");
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    CHECK(system(cmd) == 0, "cleanup");
+}
+
+TND_TEST_MAIN(T(test_result_catalogue), T(test_vk_error_format), T(test_choose_device),
+              T(test_sbt_layout), T(test_files))

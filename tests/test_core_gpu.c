@@ -1,0 +1,218 @@
+/* tests/test_core_gpu.c: the Vulkan context on a real driver (lavapipe in CI): device choice,
+ * buffers, images, compute pipelines, push and specialisation constants, timestamps, and the
+ * validation-message plumbing itself. Label: gpu. */
+#include "shaders/shader_list.h"
+#include "tests/gpu_common.h"
+
+static void test_context(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    CHECK(vk->ray_tracing, "the chosen device must have RT pipelines: %s", vk->info.name);
+    CHECK(vk->info.suitable, "suitable");
+    CHECK(vk->validation, "validation enabled");
+    CHECK(vk->fn.vkCmdTraceRaysKHR && vk->fn.vkCreateAccelerationStructureKHR, "RT functions");
+    CHECK(vk->info.shader_group_handle_size > 0 && vk->info.shader_group_base_alignment > 0,
+          "SBT properties read from the device");
+    gpu_end();
+}
+
+/* The validation plumbing must count errors, or every "no validation error" check is vacuous:
+ * inject one through the debug-utils messenger and see the counter move. */
+static void test_validation_counts_errors(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    PFN_vkSubmitDebugUtilsMessageEXT submit = (PFN_vkSubmitDebugUtilsMessageEXT)
+        vkGetInstanceProcAddr(vk->instance, "vkSubmitDebugUtilsMessageEXT");
+    REQUIRE(submit, "vkSubmitDebugUtilsMessageEXT");
+    VkDebugUtilsMessengerCallbackDataEXT data = {
+        .sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CALLBACK_DATA_EXT,
+        .pMessage = "(injected by test_validation_counts_errors; expected)"};
+    uint32_t before = tnd_vk_validation_errors(vk);
+    submit(vk->instance, VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT,
+           VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT, &data);
+    CHECK(tnd_vk_validation_errors(vk) == before + 1, "error counted");
+    gpu_errors_before = tnd_vk_validation_errors(vk); /* the injected one is expected */
+    gpu_end();
+}
+
+static void test_device_override(void)
+{
+    tnd_vk other;
+    tnd_result r = tnd_vk_create(&(tnd_vk_desc){.device = "no-such-device-xyz"}, &other);
+    CHECK(r == TND_ERR_NO_DEVICE, "override to a missing device fails: %s",
+          tnd_result_name(r));
+    CHECK(strstr(tnd_error_detail(), "no-such-device-xyz") != NULL, "message: %s",
+          tnd_error_detail());
+    CHECK(other.device == VK_NULL_HANDLE && other.instance == VK_NULL_HANDLE,
+          "nothing left half-built");
+    tnd_vk_destroy(&other); /* safe on a destroyed object */
+}
+
+static void test_buffers(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    enum { N = 1 << 18 };
+    uint32_t *src = malloc(N * 4), *dst = malloc(N * 4);
+    tnd_buffer b = {0};
+    for (uint32_t i = 0; i < N; i++)
+        src[i] = i * 2654435761u;
+    REQUIRE_OK(tnd_buffer_create(
+        vk, &(tnd_buffer_desc){.size = N * 4, .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                               .device_address = true, .name = "test.buffer"},
+        &b));
+    CHECK(b.address != 0, "device address");
+    CHECK(b.mapped == NULL, "device-local buffers are not mapped");
+    REQUIRE_OK(tnd_buffer_upload(vk, &b, 0, src, N * 4));
+    REQUIRE_OK(tnd_buffer_upload(vk, &b, 400, src + 1000, 64));
+    REQUIRE_OK(tnd_buffer_download(vk, &b, 0, dst, N * 4));
+    memcpy(src + 100, src + 1000, 64);
+    CHECK(memcmp(src, dst, N * 4) == 0, "round trip through device memory");
+    CHECK(tnd_buffer_upload(vk, &b, N * 4 - 8, src, 16) == TND_ERR_INVALID_ARGUMENT,
+          "range check");
+    tnd_buffer z;
+    CHECK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = 0, .name = "zero"}, &z) ==
+              TND_ERR_INVALID_ARGUMENT,
+          "size 0 rejected");
+cleanup:
+    tnd_buffer_destroy(vk, &b);
+    tnd_buffer_destroy(vk, &b); /* twice is safe */
+    free(src);
+    free(dst);
+    gpu_end();
+}
+
+static void test_images(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    tnd_image img = {0}, bad = {0};
+    REQUIRE_OK(tnd_image_create(vk,
+                                &(tnd_image_desc){.width = 37, .height = 19,
+                                                  .format = VK_FORMAT_R16G16B16A16_SFLOAT,
+                                                  .name = "test.image"},
+                                &img));
+    CHECK(img.view != VK_NULL_HANDLE && img.width == 37, "image and view");
+    CHECK(tnd_image_create(vk, &(tnd_image_desc){.width = 0, .height = 4,
+                                                 .format = VK_FORMAT_R32_SFLOAT},
+                           &bad) == TND_ERR_LIMIT,
+          "width 0");
+    CHECK(tnd_image_create(vk,
+                           &(tnd_image_desc){.width = vk->info.max_image_dimension_2d + 1,
+                                             .height = 4, .format = VK_FORMAT_R32_SFLOAT},
+                           &bad) == TND_ERR_LIMIT,
+          "beyond the device limit");
+    CHECK(strstr(tnd_error_detail(), "limit") != NULL, "message: %s", tnd_error_detail());
+cleanup:
+    tnd_image_destroy(vk, &img);
+    gpu_end();
+}
+
+static void test_compute_and_timestamps(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    enum { N = 1000 };
+    float in[N], out[N];
+    for (int i = 0; i < N; i++)
+        in[i] = 0.25f * (float)(i - 500);
+    tnd_buffer bin = {0}, bout = {0};
+    VkDescriptorSetLayout dsl = VK_NULL_HANDLE;
+    VkPipelineLayout pl = VK_NULL_HANDLE;
+    VkPipeline pipe = VK_NULL_HANDLE;
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    tnd_timer timer = {0};
+    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof in,
+                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, .name = "in"},
+                                 &bin));
+    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof out,
+                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, .name = "out"},
+                                 &bout));
+    REQUIRE_OK(tnd_buffer_upload(vk, &bin, 0, in, sizeof in));
+
+    VkDescriptorSetLayoutBinding bind[2] = {
+        {0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL},
+        {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL}};
+    VkDescriptorSetLayoutCreateInfo dci = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO, .bindingCount = 2,
+        .pBindings = bind};
+    REQUIRE(vkCreateDescriptorSetLayout(vk->device, &dci, NULL, &dsl) == VK_SUCCESS, "dsl");
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 12};
+    VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+                                      .setLayoutCount = 1, .pSetLayouts = &dsl,
+                                      .pushConstantRangeCount = 1, .pPushConstantRanges = &pcr};
+    REQUIRE(vkCreatePipelineLayout(vk->device, &pci, NULL, &pl) == VK_SUCCESS, "layout");
+    size_t bytes;
+    const uint32_t *code = tnd_spirv_code(TND_SHADER_timestamp_test_comp, &bytes, NULL);
+    uint32_t local = 64;
+    VkSpecializationMapEntry me = {0, 0, 4};
+    VkSpecializationInfo spec = {1, &me, 4, &local};
+    REQUIRE_OK(tnd_compute_pipeline_create(
+        vk, &(tnd_compute_desc){.code = code, .bytes = bytes, .layout = pl, .spec = &spec,
+                                .name = "timestamp_test"},
+        &pipe));
+    VkDescriptorPoolSize ps = {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2};
+    VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+                                       .maxSets = 1, .poolSizeCount = 1, .pPoolSizes = &ps};
+    REQUIRE(vkCreateDescriptorPool(vk->device, &dpci, NULL, &pool) == VK_SUCCESS, "pool");
+    VkDescriptorSet set;
+    VkDescriptorSetAllocateInfo dsai = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+                                        .descriptorPool = pool, .descriptorSetCount = 1,
+                                        .pSetLayouts = &dsl};
+    REQUIRE(vkAllocateDescriptorSets(vk->device, &dsai, &set) == VK_SUCCESS, "set");
+    VkDescriptorBufferInfo bi[2] = {{bin.buffer, 0, VK_WHOLE_SIZE},
+                                    {bout.buffer, 0, VK_WHOLE_SIZE}};
+    VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstSet = set,
+                              .dstBinding = 0, .descriptorCount = 2,
+                              .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                              .pBufferInfo = bi};
+    vkUpdateDescriptorSets(vk->device, 1, &w, 0, NULL);
+    REQUIRE_OK(tnd_timer_create(vk, &timer));
+
+    VkCommandBuffer cmd;
+    REQUIRE_OK(tnd_cmd_begin(vk, &cmd));
+    tnd_timer_reset(cmd, &timer);
+    int slot = tnd_timer_begin(cmd, &timer, "scale");
+    struct { float scale, offset; uint32_t count; } push = {2.0f, 0.5f, N};
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pl, 0, 1, &set, 0, NULL);
+    vkCmdPushConstants(cmd, pl, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+    vkCmdDispatch(cmd, (N + local - 1) / local, 1, 1);
+    tnd_timer_end(cmd, &timer, slot);
+    tnd_cmd_barrier(cmd);
+    REQUIRE_OK(tnd_cmd_submit_wait(vk, cmd));
+    REQUIRE_OK(tnd_buffer_download(vk, &bout, 0, out, sizeof out));
+    int bad = 0;
+    for (int i = 0; i < N; i++)
+        bad += out[i] != in[i] * 2.0f + 0.5f; /* exact: quarters times 2 plus a half */
+    CHECK(bad == 0, "%d of %d outputs wrong", bad, N);
+    double ms[1] = {-1};
+    CHECK_OK(tnd_timer_read(vk, &timer, ms));
+    CHECK(timer.count == 1 && strcmp(timer.names[0], "scale") == 0, "one named pass");
+    CHECK(ms[0] >= 0.0 && ms[0] < 10000.0, "pass time %.4f ms", ms[0]);
+    printf("     compute pass: %.4f ms (timestamps %s)\n", ms[0],
+           vk->info.timestamps ? "on" : "unavailable");
+cleanup:
+    tnd_timer_destroy(vk, &timer);
+    if (pool)
+        vkDestroyDescriptorPool(vk->device, pool, NULL);
+    if (pipe)
+        vkDestroyPipeline(vk->device, pipe, NULL);
+    if (pl)
+        vkDestroyPipelineLayout(vk->device, pl, NULL);
+    if (dsl)
+        vkDestroyDescriptorSetLayout(vk->device, dsl, NULL);
+    tnd_buffer_destroy(vk, &bin);
+    tnd_buffer_destroy(vk, &bout);
+    gpu_end();
+}
+
+static void test_shutdown(void)
+{
+    gpu_shutdown();
+}
+
+TND_TEST_MAIN(T(test_context), T(test_validation_counts_errors), T(test_device_override),
+              T(test_buffers), T(test_images), T(test_compute_and_timestamps), T(test_shutdown))

@@ -1,0 +1,321 @@
+/* tests/test_frontend_vk.c: acceleration structures and a ray-tracing pipeline with an SBT on a
+ * real driver. Rays are traced through BLAS/TLAS with instance transforms and the results are
+ * compared with a double-precision CPU intersector (Moller-Trumbore); then an instance moves,
+ * the TLAS is refitted, and the comparison is repeated. Label: gpu. */
+#include "frontend_vk/frontend_vk.h"
+#include "shaders/shader_list.h"
+#include "shaders/trace_test_shared.h"
+#include "tests/gpu_common.h"
+
+/* ---- scene: a quad (2 triangles) and a closed octahedron (8), three instances ---------------- */
+static const float quad_pos[] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+static const uint32_t quad_idx[] = {0, 1, 2, 0, 2, 3};
+static const float octa_pos[] = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};
+static const uint32_t octa_idx[] = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4,
+                                    2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
+
+typedef struct { double v[3]; } d3;
+static d3 sub(d3 a, d3 b) { return (d3){{a.v[0] - b.v[0], a.v[1] - b.v[1], a.v[2] - b.v[2]}}; }
+static d3 cross(d3 a, d3 b)
+{
+    return (d3){{a.v[1] * b.v[2] - a.v[2] * b.v[1], a.v[2] * b.v[0] - a.v[0] * b.v[2],
+                 a.v[0] * b.v[1] - a.v[1] * b.v[0]}};
+}
+static double dot(d3 a, d3 b) { return a.v[0] * b.v[0] + a.v[1] * b.v[1] + a.v[2] * b.v[2]; }
+
+static d3 xform(const float m[12], const float *p)
+{
+    d3 r;
+    for (int i = 0; i < 3; i++)
+        r.v[i] = m[4 * i] * (double)p[0] + m[4 * i + 1] * (double)p[1] +
+                 m[4 * i + 2] * (double)p[2] + m[4 * i + 3];
+    return r;
+}
+
+typedef struct {
+    double t, b1, b2, edge; /* edge: distance of the hit to the nearest triangle edge (bary) */
+    int custom, prim;
+} cpu_hit;
+
+static cpu_hit cpu_trace(const fvk_instance *inst, int ninst, const fvk_mesh_desc *meshes,
+                         d3 o, d3 d, double tmin, double tmax)
+{
+    cpu_hit best = {.t = -1, .custom = -1, .prim = -1};
+    for (int k = 0; k < ninst; k++) {
+        const fvk_mesh_desc *m = &meshes[inst[k].blas];
+        for (uint32_t p = 0; p < m->triangle_count; p++) {
+            d3 a = xform(inst[k].transform, m->positions + 3 * m->indices[3 * p]);
+            d3 b = xform(inst[k].transform, m->positions + 3 * m->indices[3 * p + 1]);
+            d3 c = xform(inst[k].transform, m->positions + 3 * m->indices[3 * p + 2]);
+            d3 e1 = sub(b, a), e2 = sub(c, a), pv = cross(d, e2);
+            double det = dot(e1, pv);
+            if (fabs(det) < 1e-18)
+                continue;
+            d3 tv = sub(o, a);
+            double u = dot(tv, pv) / det;
+            d3 qv = cross(tv, e1);
+            double v = dot(d, qv) / det;
+            double t = dot(e2, qv) / det;
+            double edge = fmin(fmin(u, v), 1 - u - v);
+            if (edge < 0 || t < tmin || t > tmax)
+                continue;
+            if (best.t < 0 || t < best.t)
+                best = (cpu_hit){t, u, v, edge, (int)inst[k].custom_index, (int)p};
+        }
+    }
+    return best;
+}
+
+static void set_transform(float m[12], double scale, double angle_z, double tx, double ty,
+                          double tz)
+{
+    double c = cos(angle_z) * scale, s = sin(angle_z) * scale;
+    const float r[12] = {(float)c, (float)-s, 0, (float)tx, (float)s, (float)c, 0, (float)ty,
+                         0, 0, (float)scale, (float)tz};
+    memcpy(m, r, sizeof r);
+}
+
+/* ---- GPU side ------------------------------------------------------------------------------- */
+typedef struct {
+    VkDescriptorSetLayout dsl;
+    VkPipelineLayout layout;
+    VkPipeline pipe;
+    tnd_sbt sbt;
+    VkDescriptorPool pool;
+    VkDescriptorSet set;
+} tracer;
+
+static tnd_result tracer_create(tnd_vk *vk, tracer *t)
+{
+    tnd_result res = TND_OK;
+    VkDescriptorSetLayoutBinding b[3] = {
+        {0, VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1, VK_SHADER_STAGE_RAYGEN_BIT_KHR, 0},
+        {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_RAYGEN_BIT_KHR, 0},
+        {2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_RAYGEN_BIT_KHR, 0}};
+    VkDescriptorSetLayoutCreateInfo dci = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO, .bindingCount = 3,
+        .pBindings = b};
+    TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &dci, NULL, &t->dsl));
+    VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+                                      .setLayoutCount = 1, .pSetLayouts = &t->dsl};
+    TND_VK_TRY(vkCreatePipelineLayout(vk->device, &pci, NULL, &t->layout));
+    tnd_rt_stage stages[3];
+    const tnd_shader ids[3] = {TND_SHADER_trace_test_rgen, TND_SHADER_trace_test_rmiss,
+                               TND_SHADER_trace_test_rchit};
+    const VkShaderStageFlagBits kinds[3] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR,
+                                            VK_SHADER_STAGE_MISS_BIT_KHR,
+                                            VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
+    for (int i = 0; i < 3; i++) {
+        stages[i].code = tnd_spirv_code(ids[i], &stages[i].bytes, NULL);
+        stages[i].stage = kinds[i];
+    }
+    const uint32_t rg = 0, ms = 1;
+    const tnd_rt_hit_group hg = {.closest_hit = 2, .any_hit = -1};
+    TND_TRY(tnd_rt_pipeline_create(vk,
+                                   &(tnd_rt_desc){.stages = stages, .stage_count = 3,
+                                                  .raygen = &rg, .raygen_count = 1,
+                                                  .miss = &ms, .miss_count = 1, .hit = &hg,
+                                                  .hit_count = 1, .layout = t->layout,
+                                                  .name = "trace_test"},
+                                   &t->pipe, &t->sbt));
+    VkDescriptorPoolSize ps[2] = {{VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2}};
+    VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+                                       .maxSets = 1, .poolSizeCount = 2, .pPoolSizes = ps};
+    TND_VK_TRY(vkCreateDescriptorPool(vk->device, &dpci, NULL, &t->pool));
+    VkDescriptorSetAllocateInfo ai = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+                                      .descriptorPool = t->pool, .descriptorSetCount = 1,
+                                      .pSetLayouts = &t->dsl};
+    TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, &t->set));
+fail:
+    return res;
+}
+
+static void tracer_destroy(tnd_vk *vk, tracer *t)
+{
+    tnd_sbt_destroy(vk, &t->sbt);
+    if (t->pipe)
+        vkDestroyPipeline(vk->device, t->pipe, NULL);
+    if (t->pool)
+        vkDestroyDescriptorPool(vk->device, t->pool, NULL);
+    if (t->layout)
+        vkDestroyPipelineLayout(vk->device, t->layout, NULL);
+    if (t->dsl)
+        vkDestroyDescriptorSetLayout(vk->device, t->dsl, NULL);
+    memset(t, 0, sizeof *t);
+}
+
+static tnd_result trace(tnd_vk *vk, tracer *t, const fvk_tlas *tlas, const tnd_buffer *rays,
+                        const tnd_buffer *hits, uint32_t n)
+{
+    VkWriteDescriptorSetAccelerationStructureKHR wa = {
+        .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR,
+        .accelerationStructureCount = 1, .pAccelerationStructures = &tlas->as};
+    VkDescriptorBufferInfo bi[2] = {{rays->buffer, 0, VK_WHOLE_SIZE},
+                                    {hits->buffer, 0, VK_WHOLE_SIZE}};
+    VkWriteDescriptorSet w[2] = {
+        {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .pNext = &wa, .dstSet = t->set,
+         .dstBinding = 0, .descriptorCount = 1,
+         .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
+        {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstSet = t->set, .dstBinding = 1,
+         .descriptorCount = 2, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+         .pBufferInfo = bi}};
+    vkUpdateDescriptorSets(vk->device, 2, w, 0, NULL);
+    VkCommandBuffer cmd;
+    tnd_result res = tnd_cmd_begin(vk, &cmd);
+    if (res != TND_OK)
+        return res;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, t->pipe);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, t->layout, 0, 1, &t->set,
+                            0, NULL);
+    vk->fn.vkCmdTraceRaysKHR(cmd, &t->sbt.raygen[0], &t->sbt.miss, &t->sbt.hit,
+                             &t->sbt.callable, n, 1, 1);
+    tnd_cmd_barrier(cmd);
+    return tnd_cmd_submit_wait(vk, cmd);
+}
+
+/* Compare GPU hits with the CPU; rays within 1e-4 (barycentric) of an edge may legitimately
+ * pick the neighbouring triangle or miss, and are only counted. */
+static void compare(const tt_ray *rays, const tt_hit *gpu, uint32_t n, const fvk_instance *inst,
+                    int ninst, const fvk_mesh_desc *meshes, const char *what)
+{
+    int edge = 0, hits = 0, bad_hit = 0, bad_t = 0, bad_id = 0, bad_bary = 0;
+    double max_rel = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        d3 o = {{rays[i].origin_tmin.x, rays[i].origin_tmin.y, rays[i].origin_tmin.z}};
+        d3 d = {{rays[i].dir_tmax.x, rays[i].dir_tmax.y, rays[i].dir_tmax.z}};
+        cpu_hit c = cpu_trace(inst, ninst, meshes, o, d, rays[i].origin_tmin.w,
+                              rays[i].dir_tmax.w);
+        if (c.t >= 0 && c.edge < 1e-4) {
+            edge++;
+            continue;
+        }
+        bool gh = gpu[i].t >= 0, ch = c.t >= 0;
+        if (gh != ch) {
+            bad_hit++;
+            continue;
+        }
+        if (!ch)
+            continue;
+        hits++;
+        /* Float traversal vs double reference: a few ulps of the ray's extent. */
+        double rel = fabs(gpu[i].t - c.t) / c.t;
+        max_rel = fmax(max_rel, rel);
+        bad_t += rel > 1e-5;
+        bad_id += gpu[i].custom_index != c.custom || gpu[i].primitive != c.prim;
+        bad_bary += fabs(gpu[i].bary.x - c.b1) > 1e-4 || fabs(gpu[i].bary.y - c.b2) > 1e-4;
+    }
+    printf("     %s: %u rays, %d hits compared, %d near edges, max relative t error %.2e\n", what,
+           n, hits, edge, max_rel);
+    CHECK(hits > (int)n / 4, "%s: enough hits to mean something (%d)", what, hits);
+    CHECK(edge < (int)n / 100, "%s: edge cases are rare (%d)", what, edge);
+    CHECK(bad_hit == 0, "%s: %d hit/miss disagreements", what, bad_hit);
+    CHECK(bad_t == 0, "%s: %d distances off by > 1e-5 relative", what, bad_t);
+    CHECK(bad_id == 0, "%s: %d instance/primitive mismatches", what, bad_id);
+    CHECK(bad_bary == 0, "%s: %d barycentric mismatches", what, bad_bary);
+}
+
+static uint32_t lcg(uint32_t *s)
+{
+    *s = *s * 1664525u + 1013904223u;
+    return *s >> 8;
+}
+static float frand(uint32_t *s) { return (float)lcg(s) / 16777216.0f; }
+
+static void test_trace_against_cpu(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    fvk_mesh_desc meshes[2] = {
+        {quad_pos, 4, quad_idx, 2, "quad"},
+        {octa_pos, 6, octa_idx, 8, "octahedron"},
+    };
+    fvk_blas blas[2] = {0};
+    fvk_tlas tlas = {0};
+    tracer tr = {0};
+    tnd_buffer rays = {0}, hits = {0};
+    enum { N = 64 * 64 };
+    tt_ray *r = calloc(N, sizeof *r);
+    tt_hit *h = calloc(N, sizeof *h);
+    fvk_instance inst[3] = {{.blas = 0, .custom_index = 7},
+                            {.blas = 0, .custom_index = 9},
+                            {.blas = 1, .custom_index = 3}};
+    set_transform(inst[0].transform, 3.0, 0.0, 0, 0, -2);
+    set_transform(inst[1].transform, 0.7, 0.6, 1.2, 0.4, 0.5);
+    set_transform(inst[2].transform, 0.8, 0.3, -1.0, -0.8, 0.8);
+
+    REQUIRE_OK(fvk_blas_build(vk, meshes, 2, blas));
+    for (int i = 0; i < 2; i++)
+        CHECK(blas[i].compacted_bytes > 0 && blas[i].compacted_bytes <= blas[i].built_bytes,
+              "BLAS %d compacted %llu <= built %llu", i,
+              (unsigned long long)blas[i].compacted_bytes,
+              (unsigned long long)blas[i].built_bytes);
+    REQUIRE_OK(fvk_tlas_build(vk, blas, 2, inst, 3, false, &tlas));
+    REQUIRE_OK(tracer_create(vk, &tr));
+
+    /* A pinhole grid from (0,0,6) over [-3,3]^2 at z = -2, directions not normalised (t is in
+     * units of the direction's length), plus tmin/tmax windows on some rays. */
+    uint32_t seed = 12345;
+    for (int y = 0; y < 64; y++)
+        for (int x = 0; x < 64; x++) {
+            int i = y * 64 + x;
+            float px = -3.0f + 6.0f * ((float)x + frand(&seed)) / 64.0f;
+            float py = -3.0f + 6.0f * ((float)y + frand(&seed)) / 64.0f;
+            float tmax = (i % 7 == 0) ? 0.9f : 1e30f;
+            r[i] = (tt_ray){{0, 0, 6, 0.0f}, {px, py, -8.0f, tmax}};
+        }
+    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = N * sizeof *r,
+                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                     .name = "test.rays"}, &rays));
+    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = N * sizeof *h,
+                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                     .mem = TND_MEM_READBACK, .name = "test.hits"}, &hits));
+    REQUIRE_OK(tnd_buffer_upload(vk, &rays, 0, r, N * sizeof *r));
+    REQUIRE_OK(trace(vk, &tr, &tlas, &rays, &hits, N));
+    REQUIRE_OK(tnd_buffer_download(vk, &hits, 0, h, N * sizeof *h));
+    compare(r, h, N, inst, 3, meshes, "static");
+
+    /* Move the octahedron and the small quad; refit; trace again. */
+    set_transform(inst[1].transform, 0.7, 1.1, 0.2, 1.4, 1.5);
+    set_transform(inst[2].transform, 0.8, 0.9, 1.0, -0.5, 0.2);
+    REQUIRE_OK(fvk_tlas_build(vk, blas, 2, inst, 3, true, &tlas));
+    REQUIRE_OK(trace(vk, &tr, &tlas, &rays, &hits, N));
+    REQUIRE_OK(tnd_buffer_download(vk, &hits, 0, h, N * sizeof *h));
+    compare(r, h, N, inst, 3, meshes, "refit");
+cleanup:
+    tracer_destroy(vk, &tr);
+    tnd_buffer_destroy(vk, &rays);
+    tnd_buffer_destroy(vk, &hits);
+    fvk_tlas_destroy(vk, &tlas);
+    for (int i = 0; i < 2; i++)
+        fvk_blas_destroy(vk, &blas[i]);
+    free(r);
+    free(h);
+    gpu_end();
+}
+
+static void test_blas_bad_input(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    const uint32_t bad_idx[] = {0, 1, 7};
+    fvk_mesh_desc m = {quad_pos, 4, bad_idx, 1, "broken"};
+    fvk_blas b = {0};
+    tnd_result r = fvk_blas_build(vk, &m, 1, &b);
+    CHECK(r == TND_ERR_BAD_INPUT, "out-of-range index rejected: %s", tnd_result_name(r));
+    CHECK(strstr(tnd_error_detail(), "broken") && strstr(tnd_error_detail(), "index 7"),
+          "message names the mesh and the index: %s", tnd_error_detail());
+    CHECK(b.as == VK_NULL_HANDLE, "nothing built");
+    fvk_tlas t = {0};
+    fvk_instance in = {.blas = 3};
+    CHECK(fvk_tlas_build(vk, &b, 1, &in, 1, false, &t) == TND_ERR_INVALID_ARGUMENT,
+          "instance of a missing BLAS");
+    gpu_end();
+}
+
+static void test_shutdown(void)
+{
+    gpu_shutdown();
+}
+
+TND_TEST_MAIN(T(test_trace_against_cpu), T(test_blas_bad_input), T(test_shutdown))
