@@ -58,5 +58,6 @@ void app_progress_end(app_progress *p);
 
 /* ---- commands ------------------------------------------------------------------------------- */
 int cmd_info(int argc, char **argv);
+int cmd_contract(int argc, char **argv);
 
 #endif

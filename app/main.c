@@ -6,6 +6,8 @@
 static const app_cmd commands[] = {
     {"info", "Show the Vulkan devices, the one Tandem picks, and its ray-tracing support.",
      "[--json] [--device NAME]", cmd_info},
+    {"contract", "Print the buffer contract: every entry, its EXR channels, formats and meaning.",
+     "[--json]", cmd_contract},
 };
 static const int command_count = (int)(sizeof commands / sizeof commands[0]);
 

@@ -17,6 +17,7 @@
 #include <vulkan/vulkan.h>
 
 #define TND_VERSION_STRING "0.1.0"
+#define TND_PI 3.14159265358979323846
 
 /* ---------------------------------------------------------------------------------------------
  * Results and errors
@@ -385,5 +386,189 @@ int tnd_timer_begin(VkCommandBuffer cmd, tnd_timer *t, const char *name);
 void tnd_timer_end(VkCommandBuffer cmd, tnd_timer *t, int slot);
 /* After the command buffer completed: ms[i] for each recorded pass i < t->count. */
 tnd_result tnd_timer_read(tnd_vk *vk, const tnd_timer *t, double *ms);
+
+
+/* ---------------------------------------------------------------------------------------------
+ * The buffer contract, C side (the table itself is shaders/contract.h)
+ * ------------------------------------------------------------------------------------------- */
+#include "shaders/contract.h"
+
+typedef enum tnd_precision {
+    TND_PRECISION_F32 = 0, /* every entry float32 (uint32 for indices) */
+    TND_PRECISION_PACKED,  /* RGBE for HF/SPEC, half floats elsewhere (see the table) */
+} tnd_precision;
+
+typedef enum tnd_ct_kind { TND_CT_FLOAT = 0, TND_CT_UINT } tnd_ct_kind;
+typedef enum tnd_ct_pack { TND_PACK_F32 = 0, TND_PACK_HALF, TND_PACK_RGBE } tnd_ct_pack;
+typedef enum tnd_ct_need { TND_NEED_REQUIRED = 0, TND_NEED_DEFAULT, TND_NEED_DERIVED } tnd_ct_need;
+
+typedef struct tnd_ct_info {
+    tnd_ct id;
+    const char *name; /* "albedo" */
+    uint32_t comps;
+    tnd_ct_kind kind;
+    tnd_ct_pack pack;
+    VkFormat vk_f32, vk_packed;
+    const char *glsl_f32, *glsl_packed;
+    const char *exr_layer;          /* "albedo" */
+    const char *exr_channels[4];    /* "R", "G", "B" */
+    tnd_ct_need need;
+    double default_value;
+    const char *semantic, *unit, *space;
+} tnd_ct_info;
+
+const tnd_ct_info *tnd_ct_get(tnd_ct id);
+/* Entry by name ("albedo"), NULL when unknown. */
+const tnd_ct_info *tnd_ct_find(const char *name);
+/* "albedo.R": full EXR channel name of component c. */
+void tnd_ct_exr_name(tnd_ct id, uint32_t c, char *out, size_t cap);
+/* The table as a Markdown table (what docs/contract.md embeds). Returns the length; writes at
+ * most cap bytes (NUL-terminated) when buf is not NULL. */
+size_t tnd_ct_markdown(char *buf, size_t cap);
+const char *tnd_precision_name(tnd_precision p);
+tnd_result tnd_precision_parse(const char *s, tnd_precision *p);
+
+/* Camera state of one frame: what a capture needs to reproduce the frame. Matrices are column-
+ * major (m[col * 4 + row]), right-handed, the camera looking down -Z (glTF); proj maps to
+ * Vulkan clip space (y down, depth [0,1]). Jitter is the sub-pixel offset of the primary rays in
+ * pixels, in [-0.5, 0.5]. */
+typedef struct tnd_camera_state {
+    float view[16], proj[16];
+    float prev_view[16], prev_proj[16];
+    float jitter[2];
+    uint32_t frame_index;
+} tnd_camera_state;
+
+/* One frame of the contract in host memory: every entry W x H x comps, float or uint32,
+ * row-major from the top-left pixel. Entries a source did not provide hold their default (or
+ * derived) values and present[id] is false. */
+typedef struct tnd_frame {
+    uint32_t width, height;
+    tnd_precision precision; /* values already quantised to this precision */
+    tnd_camera_state camera;
+    bool has_camera;
+    bool present[TND_CT_COUNT];
+    void *data[TND_CT_COUNT];
+} tnd_frame;
+
+/* Allocate every entry, filled with defaults (position/geo_normal zero until derived). */
+tnd_result tnd_frame_create(uint32_t width, uint32_t height, tnd_frame *f);
+void tnd_frame_destroy(tnd_frame *f);
+static inline float *tnd_frame_f(const tnd_frame *f, tnd_ct id) { return (float *)f->data[id]; }
+static inline uint32_t *tnd_frame_u(const tnd_frame *f, tnd_ct id)
+{
+    return (uint32_t *)f->data[id];
+}
+/* Quantise every float entry in place as the given precision stores it (the exact C mirror of the
+ * GPU's packed formats), after mapping NaN/Inf to defined values. */
+void tnd_frame_quantize(tnd_frame *f, tnd_precision p);
+/* Fill DERIVED entries that are not present: geo_normal = normal; position from depth and the
+ * camera when the frame has one (else position stays absent). */
+tnd_result tnd_frame_derive(tnd_frame *f, const char *source);
+
+/* ---------------------------------------------------------------------------------------------
+ * OpenEXR (OpenEXRCore C API): generic multi-channel scanline files
+ * ------------------------------------------------------------------------------------------- */
+typedef enum tnd_exr_type { TND_EXR_HALF = 0, TND_EXR_FLOAT, TND_EXR_UINT } tnd_exr_type;
+typedef enum tnd_exr_compression {
+    TND_EXR_ZIP = 0,
+    TND_EXR_PIZ,
+    TND_EXR_NONE,
+    TND_EXR_RLE,
+    TND_EXR_ZIPS,
+} tnd_exr_compression;
+
+typedef struct tnd_exr_channel_desc {
+    const char *name;
+    tnd_exr_type type; /* type in the file; memory is float for HALF/FLOAT, uint32 for UINT */
+    const void *data;  /* first element of pixel (0,0) */
+    uint32_t stride;   /* elements between neighbouring pixels (1 for planar data) */
+} tnd_exr_channel_desc;
+
+typedef enum tnd_exr_attr_type {
+    TND_ATTR_INT = 0,
+    TND_ATTR_FLOAT,
+    TND_ATTR_V2F,
+    TND_ATTR_M44F,
+    TND_ATTR_STRING,
+} tnd_exr_attr_type;
+
+typedef struct tnd_exr_attr {
+    const char *name;
+    tnd_exr_attr_type type;
+    int32_t i;
+    float f[16]; /* FLOAT: f[0]; V2F: f[0..1]; M44F: row-major as OpenEXR stores it */
+    const char *s;
+} tnd_exr_attr;
+
+/* Write a scanline EXR atomically (temporary file, then rename; nothing left on failure). */
+tnd_result tnd_exr_write(const char *path, uint32_t width, uint32_t height,
+                         const tnd_exr_channel_desc *channels, uint32_t channel_count,
+                         const tnd_exr_attr *attrs, uint32_t attr_count,
+                         tnd_exr_compression compression);
+
+typedef struct tnd_exr_channel {
+    char name[256];
+    tnd_exr_type type;
+    int32_t x_sampling, y_sampling;
+    void *data; /* width*height floats (HALF/FLOAT) or uint32 (UINT); NULL if subsampled */
+} tnd_exr_channel;
+
+typedef struct tnd_exr_file {
+    char path[1024];
+    uint32_t width, height;
+    uint32_t channel_count;
+    tnd_exr_channel *channels;
+    void *ctx; /* exr_context_t, kept open for attribute queries */
+} tnd_exr_file;
+
+/* Read the first part of a scanline or tiled-less EXR: header and every channel, converted to
+ * float or uint32. Errors name the file. */
+tnd_result tnd_exr_read(const char *path, tnd_exr_file *f);
+void tnd_exr_close(tnd_exr_file *f);
+const tnd_exr_channel *tnd_exr_find(const tnd_exr_file *f, const char *name);
+/* Attribute lookup; false when absent or of another type. */
+bool tnd_exr_attr_int(const tnd_exr_file *f, const char *name, int32_t *v);
+bool tnd_exr_attr_v2f(const tnd_exr_file *f, const char *name, float v[2]);
+bool tnd_exr_attr_m44f(const tnd_exr_file *f, const char *name, float m[16]);
+bool tnd_exr_attr_string(const tnd_exr_file *f, const char *name, char *out, size_t cap);
+
+/* ---------------------------------------------------------------------------------------------
+ * Captures: one EXR per frame holding the whole contract
+ * ------------------------------------------------------------------------------------------- */
+/* Write every present entry of `f` (channels named as the table says; FLOAT/UINT at float32
+ * precision, HALF for half-packed entries at packed precision) with the camera as attributes. */
+tnd_result tnd_capture_write(const char *path, const tnd_frame *f, tnd_exr_compression c);
+/* Read and validate a Tandem capture: every channel of every entry is checked (missing, wrong
+ * type, non-finite values), and all problems are reported at once, per channel. */
+tnd_result tnd_capture_read(const char *path, tnd_frame *f);
+
+/* A mapping from another renderer's EXR channels onto the contract (docs/captures.md). */
+typedef struct tnd_capture_map tnd_capture_map;
+tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **map);
+void tnd_capture_map_destroy(tnd_capture_map *map);
+/* Read a foreign EXR through a mapping; an unfed REQUIRED entry is an error naming it. */
+tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map, tnd_frame *f);
+
+/* ---------------------------------------------------------------------------------------------
+ * Math: column-major 4x4 matrices (m[col * 4 + row]), quaternions (x, y, z, w)
+ * ------------------------------------------------------------------------------------------- */
+void tnd_mat4_identity(float m[16]);
+void tnd_mat4_mul(const float a[16], const float b[16], float out[16]); /* out = a * b */
+/* General inverse; false (and out = identity) when singular. */
+bool tnd_mat4_inverse(const float m[16], float out[16]);
+/* m * (p, 1), divided by w when `project`. */
+void tnd_mat4_point(const float m[16], const float p[3], bool project, float out[3]);
+void tnd_mat4_dir(const float m[16], const float d[3], float out[3]);
+/* Translation * rotation * scale, as glTF composes node transforms. */
+void tnd_mat4_trs(const float t[3], const float q[4], const float s[3], float out[16]);
+/* Right-handed perspective for Vulkan: clip y down, depth [0, 1]; zfar <= 0 means infinite. */
+void tnd_mat4_perspective(float yfov, float aspect, float znear, float zfar, float out[16]);
+/* Normalised quaternion slerp (shortest path). */
+void tnd_quat_slerp(const float a[4], const float b[4], float t, float out[4]);
+/* World-space primary ray direction (unit) and origin through pixel position (px, py) (pixel
+ * units, top-left origin, centres at +0.5) for the camera state's current view/proj. */
+void tnd_camera_ray(const tnd_camera_state *c, uint32_t width, uint32_t height, float px,
+                    float py, float origin[3], float dir[3]);
 
 #endif

@@ -32,7 +32,7 @@ const char *tnd_result_message(tnd_result r)
 }
 
 /* The detail message is per thread so that worker threads can fail independently. */
-static _Thread_local char error_detail[1024];
+static _Thread_local char error_detail[4096];
 
 tnd_result tnd_fail(tnd_result code, const char *fmt, ...)
 {

@@ -1,8 +1,9 @@
 /* Every shader Tandem builds, written once.
  *
- * X(name, file): `name` becomes the C enum TND_SHADER_<name> and the embedded array tnd_spv_<name>;
- * `file` is the GLSL source in shaders/. shaders/CMakeLists.txt parses the X(...) lines below
- * (one per line) to compile them, so keep that form. Included by C only. */
+ * X(name, file, defines): `name` becomes the C enum TND_SHADER_<name> and the embedded array
+ * tnd_spv_<name>; `file` is the GLSL source in shaders/; `defines` is a space-separated list of
+ * NAME=VALUE preprocessor definitions ("" for none), so one source builds several variants.
+ * shaders/CMakeLists.txt parses the X(...) lines below to compile them: keep that form. */
 #ifndef TND_SHADER_LIST_H
 #define TND_SHADER_LIST_H
 #include <stddef.h>
@@ -10,14 +11,16 @@
 
 // clang-format off
 #define TND_SHADER_LIST(X) \
-    X(trace_test_rgen,  "trace_test.rgen") \
-    X(trace_test_rchit, "trace_test.rchit") \
-    X(trace_test_rmiss, "trace_test.rmiss") \
-    X(timestamp_test_comp, "timestamp_test.comp")
+    X(trace_test_rgen,     "trace_test.rgen",     "") \
+    X(trace_test_rchit,    "trace_test.rchit",    "") \
+    X(trace_test_rmiss,    "trace_test.rmiss",    "") \
+    X(timestamp_test_comp, "timestamp_test.comp", "") \
+    X(encoding_test_f32,   "encoding_test.comp",  "TND_PACKED=0") \
+    X(encoding_test_packed, "encoding_test.comp", "TND_PACKED=1")
 // clang-format on
 
 typedef enum tnd_shader {
-#define TND_X(name, file) TND_SHADER_##name,
+#define TND_X(name, file, defines) TND_SHADER_##name,
     TND_SHADER_LIST(TND_X)
 #undef TND_X
         TND_SHADER_COUNT

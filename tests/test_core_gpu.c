@@ -1,6 +1,7 @@
 /* tests/test_core_gpu.c: the Vulkan context on a real driver (lavapipe in CI): device choice,
  * buffers, images, compute pipelines, push and specialisation constants, timestamps, and the
  * validation-message plumbing itself. Label: gpu. */
+#include "shaders/encoding.h"
 #include "shaders/shader_list.h"
 #include "tests/gpu_common.h"
 
@@ -209,10 +210,132 @@ cleanup:
     gpu_end();
 }
 
+/* Run `shader` over n items with two storage buffers (in, out) and a 4-byte push constant n. */
+static tnd_result run_two_buffer_shader(tnd_vk *vk, tnd_shader shader, const void *in,
+                                        size_t in_bytes, void *out, size_t out_bytes, uint32_t n)
+{
+    tnd_result res = TND_OK;
+    tnd_buffer bin = {0}, bout = {0};
+    VkDescriptorSetLayout dsl = VK_NULL_HANDLE;
+    VkPipelineLayout pl = VK_NULL_HANDLE;
+    VkPipeline pipe = VK_NULL_HANDLE;
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = in_bytes,
+                                  .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, .name = "in"},
+                              &bin));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = out_bytes,
+                                  .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                  .mem = TND_MEM_READBACK, .name = "out"},
+                              &bout));
+    TND_TRY(tnd_buffer_upload(vk, &bin, 0, in, in_bytes));
+    VkDescriptorSetLayoutBinding bind[2] = {
+        {0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL},
+        {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL}};
+    VkDescriptorSetLayoutCreateInfo dci = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO, .bindingCount = 2,
+        .pBindings = bind};
+    TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &dci, NULL, &dsl));
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 4};
+    VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+                                      .setLayoutCount = 1, .pSetLayouts = &dsl,
+                                      .pushConstantRangeCount = 1, .pPushConstantRanges = &pcr};
+    TND_VK_TRY(vkCreatePipelineLayout(vk->device, &pci, NULL, &pl));
+    size_t bytes;
+    const uint32_t *code = tnd_spirv_code(shader, &bytes, NULL);
+    TND_TRY(tnd_compute_pipeline_create(
+        vk, &(tnd_compute_desc){.code = code, .bytes = bytes, .layout = pl, .name = "test"},
+        &pipe));
+    VkDescriptorPoolSize ps = {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2};
+    VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+                                       .maxSets = 1, .poolSizeCount = 1, .pPoolSizes = &ps};
+    TND_VK_TRY(vkCreateDescriptorPool(vk->device, &dpci, NULL, &pool));
+    VkDescriptorSet set;
+    VkDescriptorSetAllocateInfo dsai = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+                                        .descriptorPool = pool, .descriptorSetCount = 1,
+                                        .pSetLayouts = &dsl};
+    TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &dsai, &set));
+    VkDescriptorBufferInfo bi[2] = {{bin.buffer, 0, VK_WHOLE_SIZE},
+                                    {bout.buffer, 0, VK_WHOLE_SIZE}};
+    VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstSet = set,
+                              .dstBinding = 0, .descriptorCount = 2,
+                              .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                              .pBufferInfo = bi};
+    vkUpdateDescriptorSets(vk->device, 1, &w, 0, NULL);
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(vk, &cmd));
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pl, 0, 1, &set, 0, NULL);
+    vkCmdPushConstants(cmd, pl, VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &n);
+    vkCmdDispatch(cmd, (n + 63) / 64, 1, 1);
+    tnd_cmd_barrier(cmd);
+    TND_TRY(tnd_cmd_submit_wait(vk, cmd));
+    TND_TRY(tnd_buffer_download(vk, &bout, 0, out, out_bytes));
+fail:
+    if (pool)
+        vkDestroyDescriptorPool(vk->device, pool, NULL);
+    if (pipe)
+        vkDestroyPipeline(vk->device, pipe, NULL);
+    if (pl)
+        vkDestroyPipelineLayout(vk->device, pl, NULL);
+    if (dsl)
+        vkDestroyDescriptorSetLayout(vk->device, dsl, NULL);
+    tnd_buffer_destroy(vk, &bin);
+    tnd_buffer_destroy(vk, &bout);
+    return res;
+}
+
+/* shaders/encoding.h compiled as GLSL gives the same bits as compiled as C, over the extremes
+ * (1e-8 .. 1e7, zero, denormals, negatives, NaN, Inf). Both contract precisions' declarations
+ * compile (the two shader variants). */
+static void test_rgbe_glsl_matches_c(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    enum { N = 4096 };
+    float(*in)[4] = calloc(N, sizeof *in);
+    uint32_t(*out)[4] = calloc(N, sizeof *out);
+    uint32_t s = 777;
+    for (int i = 0; i < N; i++)
+        for (int c = 0; c < 3; c++) {
+            s = s * 1664525u + 1013904223u;
+            in[i][c] = (float)pow(10.0, -8.0 + 15.0 * (double)(s >> 8) / 16777216.0);
+        }
+    const float special[] = {0.0f, -0.0f, 1e-40f, -1.0f, NAN, INFINITY, -INFINITY,
+                             (float)TND_RGBE_MAX, 130815.9f, 511.75f / 256.0f, 3.0517578e-5f};
+    for (int i = 0; i < 11; i++)
+        for (int c = 0; c < 3; c++)
+            in[i * 3 + c][c] = special[i], in[i * 3 + c][3] = special[i];
+    const tnd_shader variants[2] = {TND_SHADER_encoding_test_f32, TND_SHADER_encoding_test_packed};
+    for (int v = 0; v < 2; v++) {
+        REQUIRE_OK(run_two_buffer_shader(vk, variants[v], in, N * sizeof *in, out,
+                                         N * sizeof *out, N));
+        int bad = 0, bad_dec = 0, bad_nf = 0;
+        for (int i = 0; i < N; i++) {
+            uint32_t p = tnd_rgbe_encode(in[i][0], in[i][1], in[i][2]);
+            float r = tnd_rgbe_channel(p, 0), g = tnd_rgbe_channel(p, 1);
+            uint32_t rb, gb;
+            memcpy(&rb, &r, 4);
+            memcpy(&gb, &g, 4);
+            if (out[i][0] != p && bad++ < 3)
+                printf("     item %d (%g %g %g): GLSL %08x, C %08x\n", i, in[i][0], in[i][1],
+                       in[i][2], out[i][0], p);
+            bad_dec += out[i][1] != rb || out[i][2] != gb;
+            bad_nf += out[i][3] != (tnd_nonfinite(in[i][3]) ? 1u : 0u);
+        }
+        CHECK(bad == 0, "%d of %d RGBE encodings differ between GLSL and C", bad, N);
+        CHECK(bad_dec == 0, "%d decodings differ", bad_dec);
+        CHECK(bad_nf == 0, "%d non-finite tests differ", bad_nf);
+    }
+cleanup:
+    free(in);
+    free(out);
+    gpu_end();
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
 }
 
 TND_TEST_MAIN(T(test_context), T(test_validation_counts_errors), T(test_device_override),
-              T(test_buffers), T(test_images), T(test_compute_and_timestamps), T(test_shutdown))
+              T(test_buffers), T(test_images), T(test_compute_and_timestamps), T(test_rgbe_glsl_matches_c), T(test_shutdown))

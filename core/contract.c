@@ -1,0 +1,201 @@
+/* core/contract.c: the C side of the buffer contract: entry metadata generated from the table in
+ * shaders/contract.h, host frames, quantisation to the packed precision (the exact C mirror of
+ * shaders/encoding.h), and derived entries.
+ * Entry points: tnd_ct_get, tnd_ct_find, tnd_frame_create/destroy/quantize/derive. */
+#include "core/core.h"
+#include "shaders/encoding.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define CT_KIND_FLOAT TND_CT_FLOAT
+#define CT_KIND_UINT TND_CT_UINT
+#define CT_PACK_F32 TND_PACK_F32
+#define CT_PACK_HALF TND_PACK_HALF
+#define CT_PACK_RGBE TND_PACK_RGBE
+#define CT_NEED_REQUIRED TND_NEED_REQUIRED
+#define CT_NEED_DEFAULT TND_NEED_DEFAULT
+#define CT_NEED_DERIVED TND_NEED_DERIVED
+
+#define CT_CHANNELS(...) {__VA_ARGS__}
+
+static const tnd_ct_info rows[TND_CT_COUNT] = {
+#define ROW(ID, bind, nm, comps, kind, pack, vk32, vkp, g32, gp, layer, chans, need, def, sem,   \
+            unit, space)                                                                           \
+    [bind] = {TND_CT_##ID, #nm,  comps, CT_KIND_##kind, CT_PACK_##pack, VK_FORMAT_##vk32,          \
+              VK_FORMAT_##vkp, #g32, #gp, layer, CT_CHANNELS chans, CT_NEED_##need, def, sem,     \
+              unit, space},
+    TND_CONTRACT(ROW)
+#undef ROW
+};
+
+const tnd_ct_info *tnd_ct_get(tnd_ct id)
+{
+    return (unsigned)id < TND_CT_COUNT ? &rows[id] : NULL;
+}
+
+const tnd_ct_info *tnd_ct_find(const char *name)
+{
+    for (int i = 0; i < TND_CT_COUNT; i++)
+        if (strcmp(rows[i].name, name) == 0)
+            return &rows[i];
+    return NULL;
+}
+
+void tnd_ct_exr_name(tnd_ct id, uint32_t c, char *out, size_t cap)
+{
+    const tnd_ct_info *e = tnd_ct_get(id);
+    snprintf(out, cap, "%s.%s", e->exr_layer, c < e->comps ? e->exr_channels[c] : "?");
+}
+
+const char *tnd_precision_name(tnd_precision p)
+{
+    return p == TND_PRECISION_PACKED ? "packed" : "float32";
+}
+
+tnd_result tnd_precision_parse(const char *s, tnd_precision *p)
+{
+    if (strcmp(s, "float32") == 0 || strcmp(s, "f32") == 0)
+        *p = TND_PRECISION_F32;
+    else if (strcmp(s, "packed") == 0)
+        *p = TND_PRECISION_PACKED;
+    else
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "contract: precision '%s' (expected float32 or packed)", s);
+    return TND_OK;
+}
+
+tnd_result tnd_frame_create(uint32_t width, uint32_t height, tnd_frame *f)
+{
+    memset(f, 0, sizeof *f);
+    if (width == 0 || height == 0 || width > 32768 || height > 32768)
+        return tnd_fail(TND_ERR_LIMIT, "contract: frame size %ux%u (1..32768 per side)", width,
+                        height);
+    f->width = width;
+    f->height = height;
+    size_t n = (size_t)width * height;
+    for (int i = 0; i < TND_CT_COUNT; i++) {
+        const tnd_ct_info *e = tnd_ct_get((tnd_ct)i);
+        f->data[i] = malloc(n * e->comps * 4);
+        if (!f->data[i]) {
+            tnd_frame_destroy(f);
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "contract: out of memory for %ux%u frame",
+                            width, height);
+        }
+        if (e->kind == TND_CT_UINT) {
+            uint32_t v = (uint32_t)e->default_value, *d = f->data[i];
+            for (size_t k = 0; k < n * e->comps; k++)
+                d[k] = v;
+        } else {
+            float v = (float)e->default_value, *d = f->data[i];
+            for (size_t k = 0; k < n * e->comps; k++)
+                d[k] = v;
+        }
+    }
+    tnd_mat4_identity(f->camera.view);
+    tnd_mat4_identity(f->camera.proj);
+    tnd_mat4_identity(f->camera.prev_view);
+    tnd_mat4_identity(f->camera.prev_proj);
+    return TND_OK;
+}
+
+void tnd_frame_destroy(tnd_frame *f)
+{
+    for (int i = 0; i < TND_CT_COUNT; i++)
+        free(f->data[i]);
+    memset(f, 0, sizeof *f);
+}
+
+void tnd_frame_quantize(tnd_frame *f, tnd_precision p)
+{
+    size_t n = (size_t)f->width * f->height;
+    for (int i = 0; i < TND_CT_COUNT; i++) {
+        const tnd_ct_info *e = tnd_ct_get((tnd_ct)i);
+        if (e->kind != TND_CT_FLOAT)
+            continue;
+        float *d = f->data[i];
+        tnd_ct_pack pack = p == TND_PRECISION_PACKED ? e->pack : TND_PACK_F32;
+        switch (pack) {
+        case TND_PACK_F32:
+            for (size_t k = 0; k < n * e->comps; k++)
+                d[k] = tnd_sanitize(d[k], 3.4028234663852886e38f);
+            break;
+        case TND_PACK_HALF:
+            for (size_t k = 0; k < n * e->comps; k++)
+                d[k] = tnd_half_to_float(tnd_half_from_float(d[k]));
+            break;
+        case TND_PACK_RGBE:
+            for (size_t k = 0; k < n; k++) {
+                float *px = d + k * e->comps;
+                uint32_t v = tnd_rgbe_encode(px[0], px[1], px[2]);
+                for (int c = 0; c < 3; c++)
+                    px[c] = tnd_rgbe_channel(v, c);
+            }
+            break;
+        }
+    }
+    f->precision = p;
+}
+
+tnd_result tnd_frame_derive(tnd_frame *f, const char *source)
+{
+    size_t n = (size_t)f->width * f->height;
+    if (!f->present[TND_CT_GEO_NORMAL] && f->present[TND_CT_NORMAL]) {
+        memcpy(f->data[TND_CT_GEO_NORMAL], f->data[TND_CT_NORMAL], n * 3 * sizeof(float));
+        f->present[TND_CT_GEO_NORMAL] = true;
+    }
+    if (!f->present[TND_CT_POSITION] && f->present[TND_CT_DEPTH] && f->has_camera) {
+        tnd_debug("contract", "%s: position derived from depth and the camera", source);
+        float *pos = tnd_frame_f(f, TND_CT_POSITION), *depth = tnd_frame_f(f, TND_CT_DEPTH);
+        for (uint32_t y = 0; y < f->height; y++)
+            for (uint32_t x = 0; x < f->width; x++) {
+                size_t k = (size_t)y * f->width + x;
+                float o[3], d[3];
+                tnd_camera_ray(&f->camera, f->width, f->height,
+                               (float)x + 0.5f + f->camera.jitter[0],
+                               (float)y + 0.5f + f->camera.jitter[1], o, d);
+                float t = depth[k] >= (float)TND_DEPTH_MISS ? 0.0f : depth[k];
+                for (int c = 0; c < 3; c++)
+                    pos[k * 3 + c] = o[c] + t * d[c];
+            }
+        f->present[TND_CT_POSITION] = true;
+    }
+    return TND_OK;
+}
+
+size_t tnd_ct_markdown(char *buf, size_t cap)
+{
+    size_t n = 0;
+#define PUT(...)                                                                                   \
+    do {                                                                                           \
+        int w_ = snprintf(buf ? buf + n : NULL, buf && n < cap ? cap - n : 0, __VA_ARGS__);       \
+        n += w_ > 0 ? (size_t)w_ : 0;                                                              \
+    } while (0)
+    PUT("| entry | EXR channels | float32 | packed | need | semantic | unit | space |\n");
+    PUT("|---|---|---|---|---|---|---|---|\n");
+    for (int i = 0; i < TND_CT_COUNT; i++) {
+        const tnd_ct_info *e = &rows[i];
+        PUT("| `%s` | ", e->name);
+        for (uint32_t c = 0; c < e->comps; c++)
+            PUT("%s`%s.%s`", c ? ", " : "", e->exr_layer, e->exr_channels[c]);
+        const char *packed = e->kind == TND_CT_UINT      ? "uint32"
+                             : e->pack == TND_PACK_HALF ? "half"
+                             : e->pack == TND_PACK_RGBE ? "RGBE 9-9-9-5"
+                                                        : "float32";
+        char need[64];
+        if (e->need == TND_NEED_REQUIRED)
+            snprintf(need, sizeof need, "required");
+        else if (e->need == TND_NEED_DERIVED)
+            snprintf(need, sizeof need, "derived");
+        else if (e->default_value == 4294967295.0)
+            snprintf(need, sizeof need, "default 0xFFFFFFFF");
+        else
+            snprintf(need, sizeof need, "default %g", e->default_value);
+        PUT(" | %s | %s | %s | %s | %s | %s |\n", e->kind == TND_CT_UINT ? "uint32" : "float32",
+            packed, need, e->semantic, e->unit, e->space);
+    }
+#undef PUT
+    return n;
+}

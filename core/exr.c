@@ -1,0 +1,334 @@
+/* core/exr.c: scanline OpenEXR files through the OpenEXRCore C API.
+ *
+ * Writing: exr_start_write (temporary file, renamed on success), one part, required attributes,
+ * channels (the library stores them sorted by name), header, then per chunk: chunk info,
+ * encoder, pointers re-aimed at the chunk's first line (the library does not advance them),
+ * run. Reading mirrors it, matching decoder channels by name. HALF <-> FLOAT conversion is done
+ * by the library both ways. Errors from the library go to the caller's message, not stderr.
+ * Entry points: tnd_exr_write, tnd_exr_read, tnd_exr_close, tnd_exr_find, tnd_exr_attr_*. */
+#include "core/core.h"
+
+#include <openexr.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Library messages are collected here (per context, through its user data). */
+typedef struct exr_msgs {
+    char text[512];
+} exr_msgs;
+
+static void on_exr_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+{
+    void *ud = NULL;
+    exr_get_user_data(ctxt, &ud);
+    exr_msgs *m = ud;
+    if (m && !m->text[0])
+        snprintf(m->text, sizeof m->text, "%s (%s)", msg ? msg : "",
+                 exr_get_error_code_as_string(code));
+}
+
+static tnd_result exr_fail(const char *path, const char *what, exr_result_t rv, const exr_msgs *m)
+{
+    return tnd_fail(TND_ERR_IO, "exr: %s: %s: %s", path, what,
+                    m && m->text[0] ? m->text : exr_get_default_error_message(rv));
+}
+
+#define EXR_TRY(call, what)                                                                        \
+    do {                                                                                           \
+        exr_result_t rv_ = (call);                                                                 \
+        if (rv_ != EXR_ERR_SUCCESS) {                                                              \
+            res = exr_fail(path, what, rv_, &msgs);                                                \
+            goto fail;                                                                             \
+        }                                                                                          \
+    } while (0)
+
+static exr_pixel_type_t pixel_type(tnd_exr_type t)
+{
+    return t == TND_EXR_HALF ? EXR_PIXEL_HALF : t == TND_EXR_UINT ? EXR_PIXEL_UINT
+                                                                  : EXR_PIXEL_FLOAT;
+}
+
+static exr_compression_t compression_type(tnd_exr_compression c)
+{
+    switch (c) {
+    case TND_EXR_PIZ:
+        return EXR_COMPRESSION_PIZ;
+    case TND_EXR_NONE:
+        return EXR_COMPRESSION_NONE;
+    case TND_EXR_RLE:
+        return EXR_COMPRESSION_RLE;
+    case TND_EXR_ZIPS:
+        return EXR_COMPRESSION_ZIPS;
+    default:
+        return EXR_COMPRESSION_ZIP;
+    }
+}
+
+tnd_result tnd_exr_write(const char *path, uint32_t width, uint32_t height,
+                         const tnd_exr_channel_desc *channels, uint32_t channel_count,
+                         const tnd_exr_attr *attrs, uint32_t attr_count,
+                         tnd_exr_compression compression)
+{
+    tnd_result res = TND_OK;
+    exr_msgs msgs = {{0}};
+    exr_context_t ctx = NULL;
+    exr_encode_pipeline_t enc;
+    bool enc_init = false;
+    if (width == 0 || height == 0 || width > 65536 || height > 65536 || channel_count == 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "exr: %s: bad image %ux%u with %u channels",
+                        path, width, height, channel_count);
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = on_exr_error;
+    init.user_data = &msgs;
+    EXR_TRY(exr_start_write(&ctx, path, EXR_INTERMEDIATE_TEMP_FILE, &init), "cannot create");
+    int part;
+    EXR_TRY(exr_add_part(ctx, "tandem", EXR_STORAGE_SCANLINE, &part), "add part");
+    EXR_TRY(exr_initialize_required_attr_simple(ctx, part, (int32_t)width, (int32_t)height,
+                                                compression_type(compression)),
+            "header");
+    for (uint32_t c = 0; c < channel_count; c++)
+        EXR_TRY(exr_add_channel(ctx, part, channels[c].name, pixel_type(channels[c].type),
+                                EXR_PERCEPTUALLY_LINEAR, 1, 1),
+                "add channel");
+    for (uint32_t a = 0; a < attr_count; a++) {
+        const tnd_exr_attr *at = &attrs[a];
+        switch (at->type) {
+        case TND_ATTR_INT:
+            EXR_TRY(exr_attr_set_int(ctx, part, at->name, at->i), "attribute");
+            break;
+        case TND_ATTR_FLOAT:
+            EXR_TRY(exr_attr_set_float(ctx, part, at->name, at->f[0]), "attribute");
+            break;
+        case TND_ATTR_V2F: {
+            exr_attr_v2f_t v = {.x = at->f[0], .y = at->f[1]};
+            EXR_TRY(exr_attr_set_v2f(ctx, part, at->name, &v), "attribute");
+            break;
+        }
+        case TND_ATTR_M44F: {
+            exr_attr_m44f_t m;
+            memcpy(m.m, at->f, sizeof m.m);
+            EXR_TRY(exr_attr_set_m44f(ctx, part, at->name, &m), "attribute");
+            break;
+        }
+        case TND_ATTR_STRING:
+            EXR_TRY(exr_attr_set_string(ctx, part, at->name, at->s ? at->s : ""), "attribute");
+            break;
+        }
+    }
+    EXR_TRY(exr_write_header(ctx), "write header");
+
+    int32_t lines = 0;
+    EXR_TRY(exr_get_scanlines_per_chunk(ctx, part, &lines), "chunk size");
+    int32_t nchunks = ((int32_t)height + lines - 1) / lines;
+    for (int32_t k = 0; k < nchunks; k++) {
+        int32_t y0 = k * lines;
+        exr_chunk_info_t ci;
+        EXR_TRY(exr_write_scanline_chunk_info(ctx, part, y0, &ci), "chunk info");
+        if (!enc_init) {
+            EXR_TRY(exr_encoding_initialize(ctx, part, &ci, &enc), "encoder");
+            enc_init = true;
+        } else {
+            EXR_TRY(exr_encoding_update(ctx, part, &ci, &enc), "encoder");
+        }
+        for (int16_t c = 0; c < enc.channel_count; c++) {
+            exr_coding_channel_info_t *ch = &enc.channels[c];
+            const tnd_exr_channel_desc *src = NULL;
+            for (uint32_t s = 0; s < channel_count && !src; s++)
+                if (strcmp(channels[s].name, ch->channel_name) == 0)
+                    src = &channels[s];
+            uint32_t stride = src->stride ? src->stride : 1;
+            ch->user_bytes_per_element = 4;
+            ch->user_data_type = src->type == TND_EXR_UINT ? EXR_PIXEL_UINT : EXR_PIXEL_FLOAT;
+            ch->user_pixel_stride = (int32_t)(4 * stride);
+            ch->user_line_stride = (int32_t)(4 * stride * width);
+            ch->encode_from_ptr =
+                (const uint8_t *)src->data + (size_t)4 * stride * width * (size_t)y0;
+        }
+        if (k == 0)
+            EXR_TRY(exr_encoding_choose_default_routines(ctx, part, &enc), "encoder");
+        EXR_TRY(exr_encoding_run(ctx, part, &enc), "encode");
+    }
+fail:
+    if (enc_init)
+        exr_encoding_destroy(ctx, &enc);
+    if (ctx) {
+        if (res != TND_OK) {
+            /* Finishing a failed write would publish a broken file: remove the temporary. */
+            exr_finish(&ctx);
+            char tmp[1100];
+            snprintf(tmp, sizeof tmp, "%s.tmp", path);
+            remove(tmp);
+        } else {
+            exr_result_t rv = exr_finish(&ctx);
+            if (rv != EXR_ERR_SUCCESS)
+                res = exr_fail(path, "finish", rv, &msgs);
+        }
+    }
+    return res;
+}
+
+void tnd_exr_close(tnd_exr_file *f)
+{
+    for (uint32_t c = 0; f->channels && c < f->channel_count; c++)
+        free(f->channels[c].data);
+    free(f->channels);
+    if (f->ctx) {
+        exr_context_t ctx = f->ctx;
+        exr_finish(&ctx);
+    }
+    memset(f, 0, sizeof *f);
+}
+
+tnd_result tnd_exr_read(const char *path, tnd_exr_file *f)
+{
+    tnd_result res = TND_OK;
+    exr_msgs msgs = {{0}};
+    exr_context_t ctx = NULL;
+    exr_decode_pipeline_t dec;
+    bool dec_init = false;
+    memset(f, 0, sizeof *f);
+    snprintf(f->path, sizeof f->path, "%s", path);
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = on_exr_error;
+    init.user_data = &msgs;
+    init.flags = EXR_CONTEXT_FLAG_SILENT_HEADER_PARSE;
+    EXR_TRY(exr_start_read(&ctx, path, &init), "cannot read as OpenEXR");
+    f->ctx = ctx;
+    int parts = 0;
+    EXR_TRY(exr_get_count(ctx, &parts), "parts");
+    exr_storage_t storage;
+    EXR_TRY(exr_get_storage(ctx, 0, &storage), "storage");
+    if (storage != EXR_STORAGE_SCANLINE) {
+        res = tnd_fail(TND_ERR_UNSUPPORTED, "exr: %s: only scanline images are supported", path);
+        goto fail;
+    }
+    exr_attr_box2i_t dw;
+    EXR_TRY(exr_get_data_window(ctx, 0, &dw), "data window");
+    int64_t w = (int64_t)dw.max.x - dw.min.x + 1, h = (int64_t)dw.max.y - dw.min.y + 1;
+    if (w <= 0 || h <= 0 || w > 65536 || h > 65536) {
+        res = tnd_fail(TND_ERR_BAD_INPUT, "exr: %s: data window %lldx%lld", path, (long long)w,
+                       (long long)h);
+        goto fail;
+    }
+    f->width = (uint32_t)w;
+    f->height = (uint32_t)h;
+    const exr_attr_chlist_t *chl = NULL;
+    EXR_TRY(exr_get_channels(ctx, 0, &chl), "channels");
+    f->channel_count = (uint32_t)chl->num_channels;
+    f->channels = calloc(f->channel_count ? f->channel_count : 1, sizeof *f->channels);
+    if (!f->channels) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "exr: %s: out of memory", path);
+        goto fail;
+    }
+    for (uint32_t c = 0; c < f->channel_count; c++) {
+        const exr_attr_chlist_entry_t *e = &chl->entries[c];
+        tnd_exr_channel *ch = &f->channels[c];
+        snprintf(ch->name, sizeof ch->name, "%s", e->name.str);
+        ch->type = e->pixel_type == EXR_PIXEL_HALF   ? TND_EXR_HALF
+                   : e->pixel_type == EXR_PIXEL_UINT ? TND_EXR_UINT
+                                                     : TND_EXR_FLOAT;
+        ch->x_sampling = e->x_sampling;
+        ch->y_sampling = e->y_sampling;
+        if (e->x_sampling != 1 || e->y_sampling != 1)
+            continue; /* subsampled channels are listed but not loaded */
+        ch->data = calloc((size_t)w * (size_t)h, 4);
+        if (!ch->data) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "exr: %s: out of memory", path);
+            goto fail;
+        }
+    }
+    int32_t lines = 0;
+    EXR_TRY(exr_get_scanlines_per_chunk(ctx, 0, &lines), "chunk size");
+    for (int64_t y = dw.min.y; y <= dw.max.y; y += lines) {
+        exr_chunk_info_t ci;
+        EXR_TRY(exr_read_scanline_chunk_info(ctx, 0, (int)y, &ci), "chunk table");
+        if (!dec_init) {
+            EXR_TRY(exr_decoding_initialize(ctx, 0, &ci, &dec), "decoder");
+            dec_init = true;
+        } else {
+            EXR_TRY(exr_decoding_update(ctx, 0, &ci, &dec), "decoder");
+        }
+        for (int16_t c = 0; c < dec.channel_count; c++) {
+            exr_coding_channel_info_t *dc = &dec.channels[c];
+            tnd_exr_channel *ch = NULL;
+            for (uint32_t s = 0; s < f->channel_count && !ch; s++)
+                if (strcmp(f->channels[s].name, dc->channel_name) == 0)
+                    ch = &f->channels[s];
+            if (!ch || !ch->data) {
+                dc->decode_to_ptr = NULL; /* skipped */
+                continue;
+            }
+            dc->user_bytes_per_element = 4;
+            dc->user_data_type = ch->type == TND_EXR_UINT ? EXR_PIXEL_UINT : EXR_PIXEL_FLOAT;
+            dc->user_pixel_stride = 4;
+            dc->user_line_stride = (int32_t)(4 * w);
+            dc->decode_to_ptr = (uint8_t *)ch->data + (size_t)4 * w * (size_t)(ci.start_y - dw.min.y);
+        }
+        if (y == dw.min.y)
+            EXR_TRY(exr_decoding_choose_default_routines(ctx, 0, &dec), "decoder");
+        EXR_TRY(exr_decoding_run(ctx, 0, &dec), "decode (truncated or corrupt file?)");
+    }
+    if (dec_init)
+        exr_decoding_destroy(ctx, &dec);
+    return TND_OK;
+fail:
+    if (dec_init)
+        exr_decoding_destroy(ctx, &dec);
+    if (!f->ctx && ctx)
+        exr_finish(&ctx);
+    tnd_exr_close(f);
+    return res;
+}
+
+const tnd_exr_channel *tnd_exr_find(const tnd_exr_file *f, const char *name)
+{
+    for (uint32_t c = 0; c < f->channel_count; c++)
+        if (strcmp(f->channels[c].name, name) == 0)
+            return &f->channels[c];
+    return NULL;
+}
+
+static const exr_attribute_t *find_attr(const tnd_exr_file *f, const char *name,
+                                        exr_attribute_type_t type)
+{
+    const exr_attribute_t *a = NULL;
+    if (!f->ctx || exr_get_attribute_by_name(f->ctx, 0, name, &a) != EXR_ERR_SUCCESS || !a ||
+        a->type != type)
+        return NULL;
+    return a;
+}
+
+bool tnd_exr_attr_int(const tnd_exr_file *f, const char *name, int32_t *v)
+{
+    const exr_attribute_t *a = find_attr(f, name, EXR_ATTR_INT);
+    if (a)
+        *v = a->i;
+    return a != NULL;
+}
+
+bool tnd_exr_attr_v2f(const tnd_exr_file *f, const char *name, float v[2])
+{
+    const exr_attribute_t *a = find_attr(f, name, EXR_ATTR_V2F);
+    if (a) {
+        v[0] = a->v2f->x;
+        v[1] = a->v2f->y;
+    }
+    return a != NULL;
+}
+
+bool tnd_exr_attr_m44f(const tnd_exr_file *f, const char *name, float m[16])
+{
+    const exr_attribute_t *a = find_attr(f, name, EXR_ATTR_M44F);
+    if (a)
+        memcpy(m, a->m44f->m, 16 * sizeof(float));
+    return a != NULL;
+}
+
+bool tnd_exr_attr_string(const tnd_exr_file *f, const char *name, char *out, size_t cap)
+{
+    const exr_attribute_t *a = find_attr(f, name, EXR_ATTR_STRING);
+    if (a)
+        snprintf(out, cap, "%.*s", a->string->length, a->string->str);
+    return a != NULL;
+}

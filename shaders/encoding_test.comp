@@ -1,0 +1,25 @@
+/* encoding_test.comp: RGBE-encodes vec3 inputs with shaders/encoding.h, so that a test can compare
+ * the bits with the C mirror; also declares the whole contract (both precisions are compiled) to
+ * keep the GLSL side of shaders/contract.h honest. */
+#version 460
+#extension GL_GOOGLE_include_directive : require
+layout(local_size_x = 64) in;
+#include "encoding.h"
+#define TND_CONTRACT_SET 1
+#include "contract.h"
+TND_CONTRACT(TND_CT_DECLARE)
+
+layout(set = 0, binding = 0, std430) readonly buffer In { vec4 src[]; };
+layout(set = 0, binding = 1, std430) writeonly buffer Out { uvec4 dst[]; };
+layout(push_constant) uniform Push { uint count; } pc;
+
+void main()
+{
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= pc.count)
+        return;
+    vec4 v = src[i];
+    uint p = tnd_rgbe_encode(v.x, v.y, v.z);
+    vec3 d = tnd_rgbe_decode(p);
+    dst[i] = uvec4(p, floatBitsToUint(d.x), floatBitsToUint(d.y), tnd_nonfinite(v.w) ? 1u : 0u);
+}
