@@ -2,12 +2,99 @@
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 static const app_cmd info_cmd = {
-    "info", "Show the Vulkan devices, the one Tandem picks, and its ray-tracing support.",
-    "[--json] [--device NAME]", NULL};
+    "info",
+    "Show the Vulkan devices, the one Tandem picks, and its ray-tracing support; with --scene,\n"
+    "what a scene contains and which pipeline features it requires.",
+    "[--json] [--device NAME] [--scene PATH]", NULL};
+
+/* Materials used by at least one instance, by kind. */
+static void material_kinds(const tnd_scene *s, uint32_t counts[TND_MAT_KIND_COUNT])
+{
+    memset(counts, 0, sizeof(uint32_t) * TND_MAT_KIND_COUNT);
+    for (uint32_t m = 0; m < s->material_count; m++) {
+        bool used = false;
+        for (uint32_t i = 0; i < s->instance_count && !used; i++)
+            used = s->meshes[s->instances[i].mesh].material == m;
+        if (used)
+            counts[s->materials[m].kind]++;
+    }
+}
+
+static int scene_info(const char *path, bool json)
+{
+    tnd_scene *s = NULL;
+    tnd_result r = tnd_scene_load(path, &s);
+    if (r != TND_OK)
+        return app_report("info", r);
+    uint32_t kinds[TND_MAT_KIND_COUNT], lights[TND_LIGHT_TYPE_COUNT] = {0};
+    material_kinds(s, kinds);
+    for (uint32_t l = 0; l < s->light_count; l++)
+        lights[s->lights[l].type]++;
+    lights[TND_LIGHT_AREA] = s->emitter_count;
+    uint64_t unique = 0;
+    for (uint32_t m = 0; m < s->mesh_count; m++)
+        unique += s->meshes[m].triangle_count;
+    if (json) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "scene", path);
+        cJSON_AddNumberToObject(o, "triangles", (double)tnd_scene_triangles(s));
+        cJSON_AddNumberToObject(o, "unique_triangles", (double)unique);
+        cJSON_AddNumberToObject(o, "vertices", s->vertex_count);
+        cJSON_AddNumberToObject(o, "meshes", s->mesh_count);
+        cJSON_AddNumberToObject(o, "instances", s->instance_count);
+        cJSON_AddNumberToObject(o, "nodes", s->node_count);
+        cJSON_AddNumberToObject(o, "textures", s->texture_count);
+        cJSON *mk = cJSON_AddObjectToObject(o, "materials");
+        for (int k = 0; k < TND_MAT_KIND_COUNT; k++)
+            cJSON_AddNumberToObject(mk, tnd_material_kind_name((tnd_material_kind)k), kinds[k]);
+        cJSON *lk = cJSON_AddObjectToObject(o, "lights");
+        for (int k = 0; k < TND_LIGHT_TYPE_COUNT; k++)
+            cJSON_AddNumberToObject(lk, tnd_light_type_name((tnd_light_type)k), lights[k]);
+        cJSON_AddNumberToObject(o, "cameras", s->camera_count);
+        cJSON_AddNumberToObject(o, "animation_seconds", s->duration);
+        cJSON *sky = cJSON_AddArrayToObject(o, "sky");
+        for (int k = 0; k < 3; k++)
+            cJSON_AddItemToArray(sky, cJSON_CreateNumber(s->sky[k]));
+        cJSON *f = cJSON_AddArrayToObject(o, "features");
+        for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
+            if (s->features & (1u << b))
+                cJSON_AddItemToArray(f, cJSON_CreateString(tnd_feature_name(b)));
+        char *txt = cJSON_Print(o);
+        printf("%s\n", txt);
+        free(txt);
+        cJSON_Delete(o);
+    } else {
+        printf("scene %s\n", path);
+        printf("  triangles   %llu traced (%llu in %u meshes), %u vertices\n",
+               (unsigned long long)tnd_scene_triangles(s), (unsigned long long)unique,
+               s->mesh_count, s->vertex_count);
+        printf("  instances   %u (%u nodes)\n", s->instance_count, s->node_count);
+        printf("  materials  ");
+        for (int k = 0; k < TND_MAT_KIND_COUNT; k++)
+            printf(" %u %s%s", kinds[k], tnd_material_kind_name((tnd_material_kind)k),
+                   k + 1 < TND_MAT_KIND_COUNT ? "," : "");
+        printf("; %u textures\n  lights     ", s->texture_count);
+        for (int k = 0; k < TND_LIGHT_TYPE_COUNT; k++)
+            printf(" %u %s%s", lights[k], tnd_light_type_name((tnd_light_type)k),
+                   k == TND_LIGHT_AREA ? " (emissive triangles)" : ",");
+        printf("\n  cameras     %u\n  animation   %.3f s (%u frames at 30 fps)\n",
+               s->camera_count, (double)s->duration, (unsigned)floor(s->duration * 30.0 + 1e-6) + 1);
+        if (s->features & TND_FEATURE(SKY))
+            printf("  sky         %g %g %g nits\n", (double)s->sky[0], (double)s->sky[1],
+                   (double)s->sky[2]);
+        printf("  requires:\n");
+        for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
+            if (s->features & (1u << b))
+                printf("    - %s\n", tnd_feature_name(b));
+    }
+    tnd_scene_destroy(s);
+    return APP_EXIT_OK;
+}
 
 static const char *type_name(VkPhysicalDeviceType t)
 {
@@ -84,12 +171,14 @@ static void device_text(const tnd_vk_device_info *d, bool chosen)
 int cmd_info(int argc, char **argv)
 {
     bool json = false;
-    const char *device = NULL;
+    const char *device = NULL, *scene = NULL;
     const app_opt opts[] = {
         {"json", APP_OPT_FLAG, &json, NULL, "print the same information as JSON on stdout"},
         {"device", APP_OPT_STRING, &device, "NAME",
          "pick the device whose name contains NAME (default: $TANDEM_DEVICE, then a GPU, "
          "then lavapipe)"},
+        {"scene", APP_OPT_STRING, &scene, "PATH",
+         "describe a scene (.gltf/.glb, or stress:N) instead of the devices"},
         {0},
     };
     const char *pos[1];
@@ -97,6 +186,8 @@ int cmd_info(int argc, char **argv)
     int rc = app_parse(&info_cmd, opts, argc, argv, pos, 0, &npos);
     if (rc >= 0)
         return rc;
+    if (scene)
+        return scene_info(scene, json);
 
     tnd_vk_device_info devs[16];
     uint32_t n = 0;

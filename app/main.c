@@ -4,8 +4,8 @@
 #include <string.h>
 
 static const app_cmd commands[] = {
-    {"info", "Show the Vulkan devices, the one Tandem picks, and its ray-tracing support.",
-     "[--json] [--device NAME]", cmd_info},
+    {"info", "Show the Vulkan devices and their ray-tracing support, or a scene's contents.",
+     "[--json] [--device NAME] [--scene PATH]", cmd_info},
     {"contract", "Print the buffer contract: every entry, its EXR channels, formats and meaning.",
      "[--json]", cmd_contract},
 };

@@ -571,4 +571,179 @@ void tnd_quat_slerp(const float a[4], const float b[4], float t, float out[4]);
 void tnd_camera_ray(const tnd_camera_state *c, uint32_t width, uint32_t height, float px,
                     float py, float origin[3], float dir[3]);
 
+
+/* ---------------------------------------------------------------------------------------------
+ * Scenes: glTF 2.0 through assimp (+ cJSON for what assimp drops), flat and GPU-friendly
+ * ------------------------------------------------------------------------------------------- */
+typedef enum tnd_material_kind {
+    TND_MAT_OPAQUE = 0,  /* metal-rough */
+    TND_MAT_MIRROR,      /* metallic >= 0.5 and roughness < TND_MIRROR_ROUGHNESS */
+    TND_MAT_THIN_GLASS,  /* transmission without KHR_materials_volume (thin-walled) */
+    TND_MAT_GLASS,       /* transmission with a volume: IOR and Beer-Lambert absorption */
+    TND_MAT_KIND_COUNT,
+} tnd_material_kind;
+#define TND_MIRROR_ROUGHNESS 0.05f
+const char *tnd_material_kind_name(tnd_material_kind k);
+
+typedef struct tnd_material {
+    char name[64];
+    tnd_material_kind kind;
+    float base_color[4];
+    float metallic, roughness;
+    float emission[3]; /* emissiveFactor x KHR_materials_emissive_strength, nits */
+    float transmission, ior;
+    float attenuation_color[3], attenuation_distance, thickness; /* KHR_materials_volume */
+    float normal_scale;
+    int32_t tex_base_color, tex_metal_rough, tex_normal, tex_emission; /* -1: none */
+    bool double_sided;
+} tnd_material;
+
+typedef struct tnd_texture {
+    char name[256];
+    uint32_t width, height;
+    uint8_t *rgba8; /* width x height x 4, top row first */
+    bool srgb;      /* base colour and emission textures */
+} tnd_texture;
+
+typedef struct tnd_mesh {
+    char name[64];
+    uint32_t first_vertex, vertex_count; /* into the scene's vertex arrays */
+    uint32_t first_index, triangle_count; /* indices are relative to first_vertex */
+    uint32_t material;
+} tnd_mesh;
+
+typedef enum tnd_light_type {
+    TND_LIGHT_POINT = 0,
+    TND_LIGHT_SPOT,
+    TND_LIGHT_DIRECTIONAL,
+    TND_LIGHT_AREA, /* emissive triangles; not in tnd_scene.lights */
+    TND_LIGHT_TYPE_COUNT,
+} tnd_light_type;
+const char *tnd_light_type_name(tnd_light_type t);
+
+#define TND_SCHEDULE_MAX 16
+typedef struct tnd_light {
+    char name[64];
+    tnd_light_type type;
+    uint32_t node;
+    float color[3];    /* colour x intensity: candela (point, spot) or lux (directional) */
+    float inner_cone, outer_cone; /* spot, radians */
+    uint32_t schedule_count; /* step-wise intensity scale: from frame[k] on, scale[k] */
+    float schedule_fps;
+    float schedule_frame[TND_SCHEDULE_MAX], schedule_scale[TND_SCHEDULE_MAX];
+} tnd_light;
+
+typedef struct tnd_instance {
+    uint32_t mesh, node;
+    bool animated; /* its node (or an ancestor) is animated */
+} tnd_instance;
+
+typedef struct tnd_node {
+    char name[64];
+    int32_t parent;  /* -1 for roots; parents come before children */
+    float t[3], r[4], s[3]; /* rest pose */
+    bool animated;   /* this node or an ancestor has animation channels */
+} tnd_node;
+
+typedef struct tnd_camera_def {
+    char name[64];
+    uint32_t node;
+    float yfov, aspect, znear, zfar; /* aspect 0: the image's; zfar 0: infinite */
+} tnd_camera_def;
+
+typedef enum tnd_anim_path { TND_ANIM_T = 0, TND_ANIM_R, TND_ANIM_S } tnd_anim_path;
+typedef struct tnd_anim_channel {
+    uint32_t node;
+    tnd_anim_path path;
+    uint32_t key_count;
+    float *times;  /* seconds, increasing */
+    float *values; /* 3 (T, S) or 4 (R: quaternion xyzw) per key */
+    bool step;
+} tnd_anim_channel;
+
+/* Emissive triangle: an area light. */
+typedef struct tnd_emitter {
+    uint32_t instance, primitive;
+} tnd_emitter;
+
+/* What a scene requires of the pipeline (docs: model only what a scene requires). */
+// clang-format off
+#define TND_FEATURE_LIST(X) \
+    X(LIGHT_POINT,       "point lights") \
+    X(LIGHT_SPOT,        "spot lights") \
+    X(LIGHT_DIRECTIONAL, "directional lights") \
+    X(LIGHT_AREA,        "area lights (emissive triangles)") \
+    X(SKY,               "sky radiance") \
+    X(TEXTURES,          "textures") \
+    X(NORMAL_MAPS,       "normal maps") \
+    X(MIRROR,            "mirrors (reflect pass)") \
+    X(GLASS,             "glass with volume (refract pass, absorption)") \
+    X(THIN_GLASS,        "thin glass (refract pass)") \
+    X(SPLIT,             "surfaces that both reflect and refract (checkerboard split)") \
+    X(ANIMATED_CAMERA,   "animated camera") \
+    X(ANIMATED_OBJECTS,  "animated objects (TLAS refit, object motion)") \
+    X(LIGHT_SCHEDULE,    "lights switching over time")
+// clang-format on
+enum {
+#define TND_X(id, text) TND_FEATURE_BIT_##id,
+    TND_FEATURE_LIST(TND_X)
+#undef TND_X
+    TND_FEATURE_COUNT
+};
+#define TND_FEATURE(id) (1u << TND_FEATURE_BIT_##id)
+const char *tnd_feature_name(uint32_t bit);
+
+typedef struct tnd_scene {
+    char path[1024];
+    float *positions, *normals, *uvs, *tangents; /* 3, 3, 2, 4 floats per vertex */
+    uint32_t vertex_count;
+    uint32_t *indices;
+    uint32_t index_count;
+    tnd_mesh *meshes;
+    uint32_t mesh_count;
+    tnd_material *materials;
+    uint32_t material_count;
+    tnd_texture *textures;
+    uint32_t texture_count;
+    tnd_node *nodes;
+    uint32_t node_count;
+    tnd_instance *instances;
+    uint32_t instance_count;
+    tnd_light *lights;
+    uint32_t light_count;
+    tnd_emitter *emitters;
+    uint32_t emitter_count;
+    tnd_camera_def *cameras;
+    uint32_t camera_count;
+    tnd_anim_channel *channels;
+    uint32_t channel_count;
+    float duration; /* seconds; 0 for a still scene */
+    float sky[3];   /* uniform sky radiance, nits */
+    uint32_t features;
+} tnd_scene;
+
+/* Load a scene: a .gltf/.glb path, or a generated one: "stress:N" (about N triangles in 16
+ * distinct meshes, for benchmarks). Bad input gets a message naming the file and the element. */
+tnd_result tnd_scene_load(const char *path, tnd_scene **scene);
+void tnd_scene_destroy(tnd_scene *scene);
+/* Triangles over all instances (what the tracer sees). */
+uint64_t tnd_scene_triangles(const tnd_scene *s);
+
+/* The scene at one moment. */
+typedef struct tnd_scene_state {
+    double time;
+    float *node_world;     /* 16 floats per node, column-major */
+    float *instance_xform; /* 12 floats per instance, 3x4 row-major (TLAS/Embree layout) */
+    float *light_scale;    /* schedule factor per light */
+    tnd_camera_state camera; /* view/proj of this moment; prev_* left for the caller */
+    float camera_position[3];
+} tnd_scene_state;
+
+/* Evaluate animation at `time` seconds (clamped to [0, duration]) for an image of the given
+ * aspect ratio, with camera `camera` (0: the first). The state's arrays are allocated on first
+ * use and reused; free them with tnd_scene_state_free. */
+tnd_result tnd_scene_evaluate(const tnd_scene *s, double time, uint32_t camera, float aspect,
+                              tnd_scene_state *st);
+void tnd_scene_state_free(tnd_scene_state *st);
+
 #endif

@@ -1,0 +1,465 @@
+/* core/scene.c: the flat scene representation: evaluation of animation (glTF TRS channels,
+ * linear / slerp / step), the features a scene requires, validation shared by every source, and
+ * the generated stress scene ("stress:N"). glTF import is in scene_gltf.c.
+ * Entry points: tnd_scene_load, tnd_scene_destroy, tnd_scene_evaluate, tnd_scene_triangles. */
+#include "core/core.h"
+#include "core/scene_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+const char *tnd_material_kind_name(tnd_material_kind k)
+{
+    static const char *const n[] = {"opaque", "mirror", "thin glass", "glass"};
+    return (unsigned)k < TND_MAT_KIND_COUNT ? n[k] : "?";
+}
+
+const char *tnd_light_type_name(tnd_light_type t)
+{
+    static const char *const n[] = {"point", "spot", "directional", "area"};
+    return (unsigned)t < TND_LIGHT_TYPE_COUNT ? n[t] : "?";
+}
+
+const char *tnd_feature_name(uint32_t bit)
+{
+    static const char *const n[] = {
+#define TND_X(id, text) text,
+        TND_FEATURE_LIST(TND_X)
+#undef TND_X
+    };
+    return bit < TND_FEATURE_COUNT ? n[bit] : "?";
+}
+
+void tnd_scene_destroy(tnd_scene *s)
+{
+    if (!s)
+        return;
+    free(s->positions);
+    free(s->normals);
+    free(s->uvs);
+    free(s->tangents);
+    free(s->indices);
+    free(s->meshes);
+    free(s->materials);
+    for (uint32_t i = 0; s->textures && i < s->texture_count; i++)
+        free(s->textures[i].rgba8);
+    free(s->textures);
+    free(s->nodes);
+    free(s->instances);
+    free(s->lights);
+    free(s->emitters);
+    free(s->cameras);
+    for (uint32_t i = 0; s->channels && i < s->channel_count; i++) {
+        free(s->channels[i].times);
+        free(s->channels[i].values);
+    }
+    free(s->channels);
+    free(s);
+}
+
+uint64_t tnd_scene_triangles(const tnd_scene *s)
+{
+    uint64_t n = 0;
+    for (uint32_t i = 0; i < s->instance_count; i++)
+        n += s->meshes[s->instances[i].mesh].triangle_count;
+    return n;
+}
+
+/* ---- checks and derived data shared by all sources ------------------------------------------ */
+tnd_result scene_finish(tnd_scene *s)
+{
+    const char *path = s->path;
+    /* indices in range, finite vertices */
+    for (uint32_t m = 0; m < s->mesh_count; m++) {
+        const tnd_mesh *me = &s->meshes[m];
+        for (uint32_t k = 0; k < 3 * me->triangle_count; k++) {
+            uint32_t i = s->indices[me->first_index + k];
+            if (i >= me->vertex_count)
+                return tnd_fail(TND_ERR_BAD_INPUT,
+                                "scene: %s: mesh %u '%s': index %u out of range (%u vertices)",
+                                path, m, me->name, i, me->vertex_count);
+        }
+        for (uint32_t v = 0; v < me->vertex_count; v++) {
+            const float *p = s->positions + 3 * (size_t)(me->first_vertex + v);
+            const float *n = s->normals + 3 * (size_t)(me->first_vertex + v);
+            const float *uv = s->uvs + 2 * (size_t)(me->first_vertex + v);
+            bool ok = true;
+            for (int c = 0; c < 3; c++)
+                ok &= isfinite(p[c]) && isfinite(n[c]);
+            ok &= isfinite(uv[0]) && isfinite(uv[1]);
+            if (!ok)
+                return tnd_fail(TND_ERR_BAD_INPUT,
+                                "scene: %s: mesh %u '%s': vertex %u has a non-finite position, "
+                                "normal or texture coordinate (%g, %g, %g)",
+                                path, m, me->name, v, (double)p[0], (double)p[1], (double)p[2]);
+        }
+        if (me->material >= s->material_count)
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: mesh %u '%s': material %u of %u", path,
+                            m, me->name, me->material, s->material_count);
+    }
+    /* emissive triangles become area lights; a degenerate one is an error (its pdf would be
+     * infinite) */
+    uint32_t cap = 0;
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        const tnd_mesh *me = &s->meshes[s->instances[i].mesh];
+        const float *e = s->materials[me->material].emission;
+        if (e[0] > 0 || e[1] > 0 || e[2] > 0)
+            cap += me->triangle_count;
+    }
+    free(s->emitters);
+    s->emitters = calloc(cap ? cap : 1, sizeof *s->emitters);
+    if (!s->emitters)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: %s: out of memory", path);
+    s->emitter_count = 0;
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        const tnd_mesh *me = &s->meshes[s->instances[i].mesh];
+        const tnd_material *mat = &s->materials[me->material];
+        if (!(mat->emission[0] > 0 || mat->emission[1] > 0 || mat->emission[2] > 0))
+            continue;
+        for (uint32_t t = 0; t < me->triangle_count; t++) {
+            const uint32_t *ix = s->indices + me->first_index + 3 * t;
+            const float *a = s->positions + 3 * (size_t)(me->first_vertex + ix[0]);
+            const float *b = s->positions + 3 * (size_t)(me->first_vertex + ix[1]);
+            const float *c = s->positions + 3 * (size_t)(me->first_vertex + ix[2]);
+            double e1[3], e2[3], cr[3];
+            for (int k = 0; k < 3; k++)
+                e1[k] = (double)b[k] - a[k], e2[k] = (double)c[k] - a[k];
+            cr[0] = e1[1] * e2[2] - e1[2] * e2[1];
+            cr[1] = e1[2] * e2[0] - e1[0] * e2[2];
+            cr[2] = e1[0] * e2[1] - e1[1] * e2[0];
+            double area2 = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+            double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+            double l2 = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+            if (!(area2 > 1e-9 * l1 * l2) || area2 == 0.0)
+                return tnd_fail(TND_ERR_BAD_INPUT,
+                                "scene: %s: mesh '%s' (emissive material '%s'): triangle %u has "
+                                "zero area",
+                                path, me->name, mat->name, t);
+            s->emitters[s->emitter_count++] = (tnd_emitter){i, t};
+        }
+    }
+    /* animation flags propagate to children (parents come first) */
+    for (uint32_t c = 0; c < s->channel_count; c++)
+        s->nodes[s->channels[c].node].animated = true;
+    for (uint32_t n = 0; n < s->node_count; n++)
+        if (s->nodes[n].parent >= 0 && s->nodes[s->nodes[n].parent].animated)
+            s->nodes[n].animated = true;
+    s->duration = 0;
+    for (uint32_t c = 0; c < s->channel_count; c++)
+        if (s->channels[c].key_count)
+            s->duration = fmaxf(s->duration, s->channels[c].times[s->channels[c].key_count - 1]);
+    /* features */
+    uint32_t f = 0;
+    for (uint32_t l = 0; l < s->light_count; l++) {
+        f |= s->lights[l].type == TND_LIGHT_POINT         ? TND_FEATURE(LIGHT_POINT)
+             : s->lights[l].type == TND_LIGHT_SPOT        ? TND_FEATURE(LIGHT_SPOT)
+             : s->lights[l].type == TND_LIGHT_DIRECTIONAL ? TND_FEATURE(LIGHT_DIRECTIONAL)
+                                                          : 0;
+        if (s->lights[l].schedule_count > 1)
+            f |= TND_FEATURE(LIGHT_SCHEDULE);
+    }
+    if (s->emitter_count)
+        f |= TND_FEATURE(LIGHT_AREA);
+    if (s->sky[0] > 0 || s->sky[1] > 0 || s->sky[2] > 0)
+        f |= TND_FEATURE(SKY);
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        s->instances[i].animated = s->nodes[s->instances[i].node].animated;
+        if (s->instances[i].animated)
+            f |= TND_FEATURE(ANIMATED_OBJECTS);
+        const tnd_material *m = &s->materials[s->meshes[s->instances[i].mesh].material];
+        if (m->tex_base_color >= 0 || m->tex_metal_rough >= 0 || m->tex_emission >= 0 ||
+            m->tex_normal >= 0)
+            f |= TND_FEATURE(TEXTURES);
+        if (m->tex_normal >= 0)
+            f |= TND_FEATURE(NORMAL_MAPS);
+        if (m->kind == TND_MAT_MIRROR)
+            f |= TND_FEATURE(MIRROR);
+        if (m->kind == TND_MAT_GLASS)
+            f |= TND_FEATURE(GLASS) | TND_FEATURE(SPLIT);
+        if (m->kind == TND_MAT_THIN_GLASS)
+            f |= TND_FEATURE(THIN_GLASS) | TND_FEATURE(SPLIT);
+    }
+    for (uint32_t c = 0; c < s->camera_count; c++)
+        if (s->nodes[s->cameras[c].node].animated)
+            f |= TND_FEATURE(ANIMATED_CAMERA);
+    s->features = f;
+    if (s->instance_count == 0)
+        return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: no geometry", path);
+    return TND_OK;
+}
+
+tnd_material_kind scene_classify(const tnd_material *m)
+{
+    if (m->transmission > 0.0f)
+        return m->thickness > 0.0f ? TND_MAT_GLASS : TND_MAT_THIN_GLASS;
+    if (m->metallic >= 0.5f && m->roughness < TND_MIRROR_ROUGHNESS)
+        return TND_MAT_MIRROR;
+    return TND_MAT_OPAQUE;
+}
+
+/* ---- evaluation ------------------------------------------------------------------------------ */
+static uint32_t find_key(const tnd_anim_channel *c, float t)
+{
+    /* last key with time <= t (binary search); keys are few, but cameras can have many */
+    uint32_t lo = 0, hi = c->key_count;
+    while (hi - lo > 1) {
+        uint32_t mid = (lo + hi) / 2;
+        if (c->times[mid] <= t)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+tnd_result tnd_scene_evaluate(const tnd_scene *s, double time, uint32_t camera, float aspect,
+                              tnd_scene_state *st)
+{
+    if (!st->node_world) {
+        st->node_world = calloc((size_t)s->node_count * 16 + 16, sizeof(float));
+        st->instance_xform = calloc((size_t)s->instance_count * 12 + 12, sizeof(float));
+        st->light_scale = calloc((size_t)s->light_count + 1, sizeof(float));
+        if (!st->node_world || !st->instance_xform || !st->light_scale) {
+            tnd_scene_state_free(st);
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+        }
+    }
+    double t = time < 0 ? 0 : time > s->duration ? s->duration : time;
+    st->time = t;
+    for (uint32_t n = 0; n < s->node_count; n++) {
+        const tnd_node *nd = &s->nodes[n];
+        float tr[3], rot[4], sc[3];
+        memcpy(tr, nd->t, sizeof tr);
+        memcpy(rot, nd->r, sizeof rot);
+        memcpy(sc, nd->s, sizeof sc);
+        if (nd->animated)
+            for (uint32_t c = 0; c < s->channel_count; c++) {
+                const tnd_anim_channel *ch = &s->channels[c];
+                if (ch->node != n || ch->key_count == 0)
+                    continue;
+                uint32_t k = find_key(ch, (float)t);
+                uint32_t k1 = k + 1 < ch->key_count ? k + 1 : k;
+                float u = 0;
+                if (k1 != k && !ch->step && (float)t > ch->times[k])
+                    u = (float)((t - ch->times[k]) / (ch->times[k1] - ch->times[k]));
+                if (u > 1)
+                    u = 1;
+                if (ch->path == TND_ANIM_R) {
+                    tnd_quat_slerp(ch->values + 4 * k, ch->values + 4 * k1, u, rot);
+                } else {
+                    float *dst = ch->path == TND_ANIM_T ? tr : sc;
+                    for (int i = 0; i < 3; i++)
+                        dst[i] = ch->values[3 * k + i] * (1 - u) + ch->values[3 * k1 + i] * u;
+                }
+            }
+        float local[16];
+        tnd_mat4_trs(tr, rot, sc, local);
+        float *w = st->node_world + 16 * n;
+        if (nd->parent >= 0)
+            tnd_mat4_mul(st->node_world + 16 * nd->parent, local, w);
+        else
+            memcpy(w, local, sizeof local);
+    }
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        const float *w = st->node_world + 16 * s->instances[i].node;
+        float *x = st->instance_xform + 12 * i;
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 4; c++)
+                x[4 * r + c] = w[c * 4 + r];
+    }
+    for (uint32_t l = 0; l < s->light_count; l++) {
+        const tnd_light *li = &s->lights[l];
+        float scale = 1.0f;
+        if (li->schedule_count) {
+            double frame = t * li->schedule_fps + 1e-6;
+            for (uint32_t k = 0; k < li->schedule_count; k++)
+                if (frame >= li->schedule_frame[k])
+                    scale = li->schedule_scale[k];
+        }
+        st->light_scale[l] = scale;
+    }
+    /* camera: view = inverse of the camera node's rigid world transform */
+    tnd_mat4_identity(st->camera.view);
+    tnd_mat4_perspective(0.8f, aspect > 0 ? aspect : 1.0f, 0.05f, 0.0f, st->camera.proj);
+    st->camera_position[0] = st->camera_position[1] = st->camera_position[2] = 0;
+    if (camera < s->camera_count) {
+        const tnd_camera_def *cd = &s->cameras[camera];
+        const float *w = st->node_world + 16 * cd->node;
+        float rigid[16];
+        memcpy(rigid, w, sizeof rigid);
+        for (int c = 0; c < 3; c++) { /* drop scale: glTF cameras must not be scaled */
+            double n = sqrt((double)w[c * 4] * w[c * 4] + (double)w[c * 4 + 1] * w[c * 4 + 1] +
+                            (double)w[c * 4 + 2] * w[c * 4 + 2]);
+            for (int r = 0; r < 3; r++)
+                rigid[c * 4 + r] = n > 0 ? (float)(w[c * 4 + r] / n) : (c == r);
+        }
+        tnd_mat4_inverse(rigid, st->camera.view);
+        tnd_mat4_perspective(cd->yfov, aspect > 0 ? aspect : (cd->aspect > 0 ? cd->aspect : 1.0f),
+                             cd->znear, cd->zfar, st->camera.proj);
+        memcpy(st->camera_position, w + 12, 3 * sizeof(float));
+    } else if (s->camera_count) {
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "scene: %s: camera %u of %u", s->path, camera,
+                        s->camera_count);
+    }
+    return TND_OK;
+}
+
+void tnd_scene_state_free(tnd_scene_state *st)
+{
+    free(st->node_world);
+    free(st->instance_xform);
+    free(st->light_scale);
+    memset(st, 0, sizeof *st);
+}
+
+/* ---- the generated stress scene --------------------------------------------------------------- */
+static tnd_result stress_scene(const char *spec, tnd_scene **out)
+{
+    char *end = NULL;
+    double want = strtod(spec + 7, &end);
+    if (end == spec + 7 || *end || !(want >= 1000) || want > 2e8)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "scene: '%s': expected stress:N with 1000 <= N <= 2e8 triangles", spec);
+    tnd_scene *s = calloc(1, sizeof *s);
+    if (!s)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    snprintf(s->path, sizeof s->path, "%s", spec);
+    /* 16 displaced spheres of seg x seg/2 quads (about seg^2 triangles each), a ground quad, an
+     * emissive panel, a camera. */
+    const uint32_t nb = 16;
+    uint32_t seg = (uint32_t)ceil(sqrt(want / nb));
+    if (seg < 8)
+        seg = 8;
+    seg += seg & 1;
+    uint32_t rings = seg / 2;
+    uint32_t sv = (seg + 1) * (rings + 1), st = 2 * seg * (rings - 1);
+    s->vertex_count = nb * sv + 8;
+    s->index_count = 3 * (nb * st + 4);
+    s->positions = calloc((size_t)s->vertex_count * 3, sizeof(float));
+    s->normals = calloc((size_t)s->vertex_count * 3, sizeof(float));
+    s->uvs = calloc((size_t)s->vertex_count * 2, sizeof(float));
+    s->tangents = calloc((size_t)s->vertex_count * 4, sizeof(float));
+    s->indices = calloc(s->index_count, sizeof(uint32_t));
+    s->mesh_count = nb + 2;
+    s->meshes = calloc(s->mesh_count, sizeof *s->meshes);
+    s->material_count = 3;
+    s->materials = calloc(3, sizeof *s->materials);
+    s->node_count = s->mesh_count + 1;
+    s->nodes = calloc(s->node_count, sizeof *s->nodes);
+    s->instance_count = s->mesh_count;
+    s->instances = calloc(s->instance_count, sizeof *s->instances);
+    s->camera_count = 1;
+    s->cameras = calloc(1, sizeof *s->cameras);
+    if (!s->positions || !s->normals || !s->uvs || !s->tangents || !s->indices || !s->meshes ||
+        !s->materials || !s->nodes || !s->instances || !s->cameras) {
+        tnd_scene_destroy(s);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: '%s': out of memory", spec);
+    }
+    const float cols[3][3] = {{0.7f, 0.7f, 0.7f}, {0.6f, 0.3f, 0.2f}, {0.8f, 0.8f, 0.8f}};
+    for (int m = 0; m < 3; m++) {
+        tnd_material *mt = &s->materials[m];
+        snprintf(mt->name, sizeof mt->name, "%s", m == 0 ? "ground" : m == 1 ? "blob" : "panel");
+        memcpy(mt->base_color, cols[m], sizeof cols[m]);
+        mt->base_color[3] = 1;
+        mt->roughness = m == 1 ? 0.4f : 0.9f;
+        mt->ior = 1.5f;
+        mt->normal_scale = 1;
+        mt->tex_base_color = mt->tex_metal_rough = mt->tex_normal = mt->tex_emission = -1;
+        if (m == 2)
+            mt->emission[0] = mt->emission[1] = mt->emission[2] = 20.0f;
+    }
+    uint32_t v = 0, ix = 0;
+    for (uint32_t b = 0; b < nb; b++) {
+        tnd_mesh *me = &s->meshes[b];
+        snprintf(me->name, sizeof me->name, "blob_%u", b);
+        me->first_vertex = v;
+        me->first_index = ix;
+        me->material = 1;
+        for (uint32_t j = 0; j <= rings; j++)
+            for (uint32_t i = 0; i <= seg; i++, v++) {
+                double th = TND_PI * j / rings, ph = 2 * TND_PI * i / seg;
+                double n[3] = {sin(th) * cos(ph), cos(th), sin(th) * sin(ph)};
+                double r = 0.45 * (1.0 + 0.08 * sin(5 * ph + b) * sin(4 * th + 0.5 * b));
+                for (int c = 0; c < 3; c++) {
+                    s->positions[3 * v + c] = (float)(r * n[c]);
+                    s->normals[3 * v + c] = (float)n[c];
+                }
+                s->uvs[2 * v] = (float)i / seg;
+                s->uvs[2 * v + 1] = (float)j / rings;
+                s->tangents[4 * v] = 1, s->tangents[4 * v + 3] = 1;
+            }
+        for (uint32_t j = 0; j < rings; j++)
+            for (uint32_t i = 0; i < seg; i++) {
+                uint32_t a = j * (seg + 1) + i, c = (j + 1) * (seg + 1) + i;
+                if (j != 0) {
+                    s->indices[ix++] = a, s->indices[ix++] = c, s->indices[ix++] = a + 1;
+                }
+                if (j != rings - 1) {
+                    s->indices[ix++] = a + 1, s->indices[ix++] = c, s->indices[ix++] = c + 1;
+                }
+            }
+        me->vertex_count = v - me->first_vertex;
+        me->triangle_count = (ix - me->first_index) / 3;
+    }
+    for (uint32_t q = 0; q < 2; q++) { /* ground (up) and panel (down) */
+        tnd_mesh *me = &s->meshes[nb + q];
+        snprintf(me->name, sizeof me->name, "%s", q ? "panel" : "ground");
+        me->first_vertex = v;
+        me->first_index = ix;
+        me->vertex_count = 4;
+        me->triangle_count = 2;
+        me->material = q ? 2 : 0;
+        float h = q ? 0.5f : 5.0f, y = q ? 3.0f : 0.0f, ny = q ? -1.0f : 1.0f;
+        const float xz[4][2] = {{-h, -h}, {h, -h}, {h, h}, {-h, h}};
+        for (int k = 0; k < 4; k++, v++) {
+            s->positions[3 * v] = xz[k][0], s->positions[3 * v + 1] = y;
+            s->positions[3 * v + 2] = xz[k][1];
+            s->normals[3 * v + 1] = ny;
+            s->tangents[4 * v] = 1, s->tangents[4 * v + 3] = 1;
+        }
+        const uint32_t up[6] = {0, 2, 1, 0, 3, 2}, down[6] = {0, 1, 2, 0, 2, 3};
+        for (int k = 0; k < 6; k++)
+            s->indices[ix++] = q ? down[k] : up[k];
+    }
+    s->vertex_count = v;
+    s->index_count = ix;
+    for (uint32_t n = 0; n < s->mesh_count; n++) {
+        tnd_node *nd = &s->nodes[n];
+        snprintf(nd->name, sizeof nd->name, "%s", s->meshes[n].name);
+        nd->parent = -1;
+        nd->r[3] = 1;
+        nd->s[0] = nd->s[1] = nd->s[2] = 1;
+        if (n < nb) {
+            nd->t[0] = -1.8f + 1.2f * (float)(n % 4);
+            nd->t[1] = 0.5f;
+            nd->t[2] = -1.8f + 1.2f * (float)(n / 4);
+        }
+        s->instances[n] = (tnd_instance){n, n, false};
+    }
+    tnd_node *cn = &s->nodes[s->mesh_count];
+    snprintf(cn->name, sizeof cn->name, "camera");
+    cn->parent = -1;
+    /* look from (0, 3, 6) towards the grid: pitch down about 24 degrees */
+    double a = -0.42 / 2;
+    cn->t[1] = 3.0f, cn->t[2] = 6.0f;
+    cn->r[0] = (float)sin(a), cn->r[3] = (float)cos(a);
+    cn->s[0] = cn->s[1] = cn->s[2] = 1;
+    s->cameras[0] = (tnd_camera_def){"camera", s->mesh_count, 0.8f, 0.0f, 0.05f, 0.0f};
+    tnd_result r = scene_finish(s);
+    if (r != TND_OK) {
+        tnd_scene_destroy(s);
+        return r;
+    }
+    *out = s;
+    return TND_OK;
+}
+
+tnd_result tnd_scene_load(const char *path, tnd_scene **scene)
+{
+    *scene = NULL;
+    if (strncmp(path, "stress:", 7) == 0)
+        return stress_scene(path, scene);
+    return scene_load_gltf(path, scene);
+}

@@ -1,0 +1,672 @@
+/* core/scene_gltf.c: glTF 2.0 import through assimp's C API, with cJSON for what assimp 5.2 drops
+ * or gets wrong: KHR_materials_emissive_strength (ignored by assimp), KHR_materials_volume,
+ * exact KHR_lights_punctual values, camera yfov (assimp stores yfov x aspect as a horizontal
+ * FOV), STEP interpolation, extensionsRequired, and Tandem's extras (tandem_sky,
+ * tandem_light_schedule). Nodes are matched between the two by name; assimp names an unnamed
+ * glTF node "nodes[i]".
+ * Entry point: scene_load_gltf. */
+#include "core/core.h"
+#include "core/scene_internal.h"
+
+#include <assimp/GltfMaterial.h>
+#include <assimp/cimport.h>
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stb/stb_image.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *const supported_ext[] = {
+    "KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_transmission",
+    "KHR_materials_ior",   "KHR_materials_volume",
+};
+
+typedef struct gltf_ctx {
+    const char *path;
+    char dir[1024];
+    cJSON *json;
+    const struct aiScene *ai;
+    tnd_scene *s;
+} gltf_ctx;
+
+/* The JSON text of a .gltf, or the JSON chunk of a .glb. */
+static tnd_result parse_json(gltf_ctx *c, const uint8_t *data, size_t size)
+{
+    const char *text = (const char *)data;
+    size_t len = size;
+    if (size >= 12 && memcmp(data, "glTF", 4) == 0) {
+        uint32_t version, total, clen, ctype;
+        memcpy(&version, data + 4, 4);
+        memcpy(&total, data + 8, 4);
+        if (version != 2 || size < 20)
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: GLB version %u (expected 2)", c->path,
+                            version);
+        memcpy(&clen, data + 12, 4);
+        memcpy(&ctype, data + 16, 4);
+        if (ctype != 0x4E4F534Au || (size_t)clen > size - 20 || total > size)
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: truncated or malformed GLB header",
+                            c->path);
+        text = (const char *)data + 20;
+        len = clen;
+    }
+    c->json = cJSON_ParseWithLength(text, len);
+    if (!c->json) {
+        const char *at = cJSON_GetErrorPtr();
+        long off = at && at >= text && at <= text + len ? (long)(at - text) : -1;
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "scene: %s: invalid glTF JSON (parse error near byte %ld%s)", c->path, off,
+                        off >= (long)len - 1 ? ", the file looks truncated" : "");
+    }
+    const cJSON *asset = cJSON_GetObjectItemCaseSensitive(c->json, "asset");
+    const cJSON *ver = asset ? cJSON_GetObjectItemCaseSensitive(asset, "version") : NULL;
+    if (!cJSON_IsString(ver) || ver->valuestring[0] != '2')
+        return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: not a glTF 2.0 file (asset.version)",
+                        c->path);
+    const cJSON *req = cJSON_GetObjectItemCaseSensitive(c->json, "extensionsRequired"), *e;
+    cJSON_ArrayForEach(e, req)
+    {
+        bool ok = false;
+        for (size_t i = 0; i < sizeof supported_ext / sizeof *supported_ext; i++)
+            ok |= cJSON_IsString(e) && strcmp(e->valuestring, supported_ext[i]) == 0;
+        if (!ok)
+            return tnd_fail(TND_ERR_UNSUPPORTED,
+                            "scene: %s: requires extension '%s', which Tandem does not support "
+                            "(supported: KHR_lights_punctual, KHR_materials_emissive_strength, "
+                            "KHR_materials_transmission, KHR_materials_ior, KHR_materials_volume)",
+                            c->path, cJSON_IsString(e) ? e->valuestring : "?");
+    }
+    const cJSON *used = cJSON_GetObjectItemCaseSensitive(c->json, "extensionsUsed");
+    cJSON_ArrayForEach(e, used)
+    {
+        bool ok = false;
+        for (size_t i = 0; i < sizeof supported_ext / sizeof *supported_ext; i++)
+            ok |= cJSON_IsString(e) && strcmp(e->valuestring, supported_ext[i]) == 0;
+        if (!ok && cJSON_IsString(e))
+            tnd_warn("scene", "%s: extension '%s' is used but ignored", c->path, e->valuestring);
+    }
+    return TND_OK;
+}
+
+/* Copy a name, truncating (names are for messages and lookups of short authored names). */
+static void put_name(char *dst, size_t cap, const char *src)
+{
+    size_t n = strlen(src);
+    if (n >= cap)
+        n = cap - 1;
+    memcpy(dst, src, n);
+    dst[n] = '\0';
+}
+
+static const cJSON *jget(const cJSON *o, const char *k)
+{
+    return o ? cJSON_GetObjectItemCaseSensitive(o, k) : NULL;
+}
+
+static double jnum(const cJSON *o, const char *k, double def)
+{
+    const cJSON *v = jget(o, k);
+    return cJSON_IsNumber(v) ? v->valuedouble : def;
+}
+
+/* The JSON node that assimp calls `name`. */
+static const cJSON *json_node(const gltf_ctx *c, const char *name)
+{
+    const cJSON *nodes = jget(c->json, "nodes");
+    int n = cJSON_GetArraySize(nodes);
+    for (int i = 0; i < n; i++) {
+        const cJSON *nd = cJSON_GetArrayItem(nodes, i);
+        const cJSON *nm = jget(nd, "name");
+        char alt[32];
+        snprintf(alt, sizeof alt, "nodes[%d]", i);
+        if ((cJSON_IsString(nm) && strcmp(nm->valuestring, name) == 0) ||
+            (!cJSON_IsString(nm) && strcmp(alt, name) == 0))
+            return nd;
+    }
+    return NULL;
+}
+
+/* ---- textures ----------------------------------------------------------------------------- */
+static int32_t load_texture(gltf_ctx *c, const struct aiMaterial *m, enum aiTextureType type,
+                            unsigned index, bool srgb, const char *matname, tnd_result *res)
+{
+    struct aiString p;
+    if (aiGetMaterialTexture(m, type, index, &p, NULL, NULL, NULL, NULL, NULL, NULL) !=
+        aiReturn_SUCCESS)
+        return -1;
+    tnd_scene *s = c->s;
+    for (uint32_t t = 0; t < s->texture_count; t++)
+        if (strcmp(s->textures[t].name, p.data) == 0 && s->textures[t].srgb == srgb)
+            return (int32_t)t;
+    tnd_texture *nt = realloc(s->textures, (s->texture_count + 1) * sizeof *nt);
+    if (!nt) {
+        *res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+        return -1;
+    }
+    s->textures = nt;
+    tnd_texture *tx = &s->textures[s->texture_count];
+    memset(tx, 0, sizeof *tx);
+    put_name(tx->name, sizeof tx->name, p.data);
+    tx->srgb = srgb;
+    int w = 0, h = 0, n = 0;
+    uint8_t *px = NULL;
+    char full[2048];
+    if (p.data[0] == '*') { /* embedded: "*N" */
+        unsigned k = (unsigned)atoi(p.data + 1);
+        if (k < c->ai->mNumTextures) {
+            const struct aiTexture *at = c->ai->mTextures[k];
+            if (at->mHeight == 0)
+                px = stbi_load_from_memory((const uint8_t *)at->pcData, (int)at->mWidth, &w, &h,
+                                           &n, 4);
+        }
+        snprintf(full, sizeof full, "embedded texture %s", p.data);
+    } else {
+        snprintf(full, sizeof full, "%s%s", c->dir, p.data);
+        px = stbi_load(full, &w, &h, &n, 4);
+    }
+    if (!px) {
+        *res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: material '%s': texture '%s': %s", c->path,
+                        matname, full, stbi_failure_reason() ? stbi_failure_reason() : "unreadable");
+        return -1;
+    }
+    tx->width = (uint32_t)w;
+    tx->height = (uint32_t)h;
+    tx->rgba8 = px; /* stbi allocates with malloc */
+    return (int32_t)s->texture_count++;
+}
+
+static tnd_result load_materials(gltf_ctx *c)
+{
+    tnd_result res = TND_OK;
+    tnd_scene *s = c->s;
+    const struct aiScene *ai = c->ai;
+    s->material_count = ai->mNumMaterials;
+    s->materials = calloc(s->material_count ? s->material_count : 1, sizeof *s->materials);
+    if (!s->materials)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    const cJSON *jmats = jget(c->json, "materials");
+    for (uint32_t i = 0; i < ai->mNumMaterials; i++) {
+        const struct aiMaterial *am = ai->mMaterials[i];
+        tnd_material *m = &s->materials[i];
+        struct aiString nm;
+        if (aiGetMaterialString(am, AI_MATKEY_NAME, &nm) == aiReturn_SUCCESS)
+            put_name(m->name, sizeof m->name, nm.data);
+        float v4[4] = {1, 1, 1, 1};
+        unsigned n = 4;
+        if (aiGetMaterialFloatArray(am, AI_MATKEY_BASE_COLOR, v4, &n) != aiReturn_SUCCESS) {
+            n = 4;
+            aiGetMaterialFloatArray(am, AI_MATKEY_COLOR_DIFFUSE, v4, &n);
+        }
+        memcpy(m->base_color, v4, sizeof v4);
+        m->metallic = 1.0f;
+        m->roughness = 1.0f;
+        n = 1;
+        aiGetMaterialFloatArray(am, AI_MATKEY_METALLIC_FACTOR, &m->metallic, &n);
+        n = 1;
+        aiGetMaterialFloatArray(am, AI_MATKEY_ROUGHNESS_FACTOR, &m->roughness, &n);
+        float em[3] = {0, 0, 0};
+        n = 3;
+        aiGetMaterialFloatArray(am, AI_MATKEY_COLOR_EMISSIVE, em, &n);
+        int two = 0;
+        n = 1;
+        aiGetMaterialIntegerArray(am, AI_MATKEY_TWOSIDED, &two, &n);
+        m->double_sided = two != 0;
+        m->ior = 1.5f;
+        m->normal_scale = 1.0f;
+        m->attenuation_color[0] = m->attenuation_color[1] = m->attenuation_color[2] = 1.0f;
+        /* The JSON material of the same name (assimp reorders materials and appends a default
+         * one); unnamed glTF materials are matched by index. Its extensions are read here. */
+        const cJSON *jm = NULL, *it;
+        cJSON_ArrayForEach(it, jmats)
+        {
+            const cJSON *jn = jget(it, "name");
+            if (!jm && cJSON_IsString(jn) && strcmp(jn->valuestring, m->name) == 0)
+                jm = it;
+        }
+        if (!jm && !cJSON_IsString(jget(cJSON_GetArrayItem(jmats, (int)i), "name")))
+            jm = cJSON_GetArrayItem(jmats, (int)i);
+        float strength = 1.0f;
+        const cJSON *ext = jget(jm, "extensions");
+        const cJSON *es = jget(ext, "KHR_materials_emissive_strength");
+        strength = (float)jnum(es, "emissiveStrength", 1.0);
+        for (int k = 0; k < 3; k++)
+            m->emission[k] = em[k] * strength;
+        const cJSON *tr = jget(ext, "KHR_materials_transmission");
+        m->transmission = (float)jnum(tr, "transmissionFactor", 0.0);
+        m->ior = (float)jnum(jget(ext, "KHR_materials_ior"), "ior", 1.5);
+        const cJSON *vol = jget(ext, "KHR_materials_volume");
+        if (vol) {
+            m->thickness = (float)jnum(vol, "thicknessFactor", 0.0);
+            m->attenuation_distance = (float)jnum(vol, "attenuationDistance", 0.0);
+            const cJSON *ac = jget(vol, "attenuationColor");
+            for (int k = 0; k < 3 && cJSON_GetArraySize(ac) == 3; k++)
+                m->attenuation_color[k] = (float)cJSON_GetArrayItem(ac, k)->valuedouble;
+        }
+        m->normal_scale = (float)jnum(jget(jm, "normalTexture"), "scale", 1.0);
+        bool finite = true;
+        const float *vals[] = {m->base_color, m->emission, &m->metallic, &m->roughness, &m->ior};
+        const int counts[] = {4, 3, 1, 1, 1};
+        for (int a = 0; a < 5; a++)
+            for (int k = 0; k < counts[a]; k++)
+                finite &= isfinite(vals[a][k]);
+        if (!finite || m->ior < 1.0f || m->ior > 5.0f)
+            return tnd_fail(TND_ERR_BAD_INPUT,
+                            "scene: %s: material %u '%s': non-finite factor or IOR %g outside "
+                            "[1, 5]",
+                            c->path, i, m->name, (double)m->ior);
+        m->metallic = fminf(fmaxf(m->metallic, 0.0f), 1.0f);
+        m->roughness = fminf(fmaxf(m->roughness, 0.0f), 1.0f);
+        m->tex_base_color = load_texture(c, am, aiTextureType_BASE_COLOR, 0, true, m->name, &res);
+        if (res != TND_OK)
+            return res;
+        if (m->tex_base_color < 0)
+            m->tex_base_color = load_texture(c, am, aiTextureType_DIFFUSE, 0, true, m->name, &res);
+        if (res != TND_OK)
+            return res;
+        m->tex_metal_rough = load_texture(c, am, AI_MATKEY_GLTF_PBRMETALLICROUGHNESS_METALLICROUGHNESS_TEXTURE,
+                                          false, m->name, &res);
+        if (res != TND_OK)
+            return res;
+        m->tex_normal = load_texture(c, am, aiTextureType_NORMALS, 0, false, m->name, &res);
+        if (res != TND_OK)
+            return res;
+        m->tex_emission = load_texture(c, am, aiTextureType_EMISSIVE, 0, true, m->name, &res);
+        if (res != TND_OK)
+            return res;
+        m->kind = scene_classify(m);
+    }
+    return TND_OK;
+}
+
+static tnd_result load_meshes(gltf_ctx *c)
+{
+    tnd_scene *s = c->s;
+    const struct aiScene *ai = c->ai;
+    uint64_t nv = 0, ni = 0;
+    for (unsigned i = 0; i < ai->mNumMeshes; i++) {
+        nv += ai->mMeshes[i]->mNumVertices;
+        ni += 3ull * ai->mMeshes[i]->mNumFaces;
+    }
+    if (nv > UINT32_MAX || ni > UINT32_MAX)
+        return tnd_fail(TND_ERR_LIMIT, "scene: %s: too many vertices or indices", c->path);
+    s->positions = calloc(nv * 3 + 3, sizeof(float));
+    s->normals = calloc(nv * 3 + 3, sizeof(float));
+    s->uvs = calloc(nv * 2 + 2, sizeof(float));
+    s->tangents = calloc(nv * 4 + 4, sizeof(float));
+    s->indices = calloc(ni + 3, sizeof(uint32_t));
+    s->meshes = calloc(ai->mNumMeshes + 1, sizeof *s->meshes);
+    if (!s->positions || !s->normals || !s->uvs || !s->tangents || !s->indices || !s->meshes)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: %s: out of memory", c->path);
+    uint32_t v = 0, ix = 0;
+    for (unsigned i = 0; i < ai->mNumMeshes; i++) {
+        const struct aiMesh *am = ai->mMeshes[i];
+        tnd_mesh *me = &s->meshes[i];
+        put_name(me->name, sizeof me->name, am->mName.data);
+        me->first_vertex = v;
+        me->vertex_count = am->mNumVertices;
+        me->first_index = ix;
+        me->material = am->mMaterialIndex;
+        for (unsigned k = 0; k < am->mNumVertices; k++) {
+            float *p = s->positions + 3 * (size_t)(v + k), *n = s->normals + 3 * (size_t)(v + k);
+            p[0] = am->mVertices[k].x, p[1] = am->mVertices[k].y, p[2] = am->mVertices[k].z;
+            if (am->mNormals)
+                n[0] = am->mNormals[k].x, n[1] = am->mNormals[k].y, n[2] = am->mNormals[k].z;
+            if (am->mTextureCoords[0]) {
+                s->uvs[2 * (size_t)(v + k)] = am->mTextureCoords[0][k].x;
+                /* assimp flips V for glTF (aiProcess_FlipUVs not set): undo to glTF's top-left */
+                s->uvs[2 * (size_t)(v + k) + 1] = 1.0f - am->mTextureCoords[0][k].y;
+            }
+            float *t = s->tangents + 4 * (size_t)(v + k);
+            if (am->mTangents && am->mBitangents) {
+                const struct aiVector3D T = am->mTangents[k], B = am->mBitangents[k];
+                t[0] = T.x, t[1] = T.y, t[2] = T.z;
+                /* handedness: sign of dot(cross(N, T), B) */
+                float cx = n[1] * T.z - n[2] * T.y, cy = n[2] * T.x - n[0] * T.z,
+                      cz = n[0] * T.y - n[1] * T.x;
+                t[3] = cx * B.x + cy * B.y + cz * B.z < 0 ? -1.0f : 1.0f;
+            } else {
+                t[0] = 1, t[3] = 1;
+            }
+        }
+        for (unsigned f = 0; f < am->mNumFaces; f++) {
+            const struct aiFace *fc = &am->mFaces[f];
+            if (fc->mNumIndices != 3)
+                continue; /* points and lines are not rendered */
+            for (int k = 0; k < 3; k++)
+                s->indices[ix++] = fc->mIndices[k];
+        }
+        me->triangle_count = (ix - me->first_index) / 3;
+        v += am->mNumVertices;
+    }
+    s->vertex_count = v;
+    s->index_count = ix;
+    s->mesh_count = ai->mNumMeshes;
+    return TND_OK;
+}
+
+/* Depth-first, parents before children. */
+static tnd_result add_node(gltf_ctx *c, const struct aiNode *an, int32_t parent, uint32_t *cap)
+{
+    tnd_scene *s = c->s;
+    if (s->node_count == *cap) {
+        *cap = *cap ? *cap * 2 : 64;
+        tnd_node *nn = realloc(s->nodes, *cap * sizeof *nn);
+        if (!nn)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+        s->nodes = nn;
+    }
+    uint32_t me = s->node_count++;
+    tnd_node *nd = &s->nodes[me];
+    memset(nd, 0, sizeof *nd);
+    put_name(nd->name, sizeof nd->name, an->mName.data);
+    nd->parent = parent;
+    struct aiVector3D sc, pos;
+    struct aiQuaternion q;
+    aiDecomposeMatrix(&an->mTransformation, &sc, &q, &pos);
+    nd->t[0] = pos.x, nd->t[1] = pos.y, nd->t[2] = pos.z;
+    nd->r[0] = q.x, nd->r[1] = q.y, nd->r[2] = q.z, nd->r[3] = q.w;
+    nd->s[0] = sc.x, nd->s[1] = sc.y, nd->s[2] = sc.z;
+    for (unsigned k = 0; k < an->mNumMeshes; k++) {
+        if (an->mMeshes[k] >= c->ai->mNumMeshes)
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: node '%s': mesh %u of %u", c->path,
+                            nd->name, an->mMeshes[k], c->ai->mNumMeshes);
+        if (s->meshes[an->mMeshes[k]].triangle_count == 0)
+            continue;
+        tnd_instance *ni = realloc(s->instances, (s->instance_count + 1) * sizeof *ni);
+        if (!ni)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+        s->instances = ni;
+        s->instances[s->instance_count++] = (tnd_instance){an->mMeshes[k], me, false};
+    }
+    for (unsigned k = 0; k < an->mNumChildren; k++) {
+        tnd_result r = add_node(c, an->mChildren[k], (int32_t)me, cap);
+        if (r != TND_OK)
+            return r;
+    }
+    return TND_OK;
+}
+
+static int32_t node_index(const tnd_scene *s, const char *name)
+{
+    for (uint32_t i = 0; i < s->node_count; i++)
+        if (strcmp(s->nodes[i].name, name) == 0)
+            return (int32_t)i;
+    return -1;
+}
+
+static tnd_result load_cameras_lights(gltf_ctx *c)
+{
+    tnd_scene *s = c->s;
+    const struct aiScene *ai = c->ai;
+    s->cameras = calloc(ai->mNumCameras + 1, sizeof *s->cameras);
+    s->lights = calloc(ai->mNumLights + 1, sizeof *s->lights);
+    if (!s->cameras || !s->lights)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    const cJSON *jcams = jget(c->json, "cameras");
+    for (unsigned i = 0; i < ai->mNumCameras; i++) {
+        const struct aiCamera *ac = ai->mCameras[i];
+        int32_t n = node_index(s, ac->mName.data);
+        if (n < 0)
+            continue;
+        tnd_camera_def *cd = &s->cameras[s->camera_count++];
+        put_name(cd->name, sizeof cd->name, ac->mName.data);
+        cd->node = (uint32_t)n;
+        cd->aspect = ac->mAspect;
+        cd->znear = ac->mClipPlaneNear > 0 ? ac->mClipPlaneNear : 0.05f;
+        cd->zfar = 0.0f;
+        cd->yfov = ac->mAspect > 0 ? ac->mHorizontalFOV / ac->mAspect : ac->mHorizontalFOV;
+        const cJSON *jn = json_node(c, ac->mName.data);
+        const cJSON *jc = cJSON_GetArrayItem(jcams, (int)jnum(jn, "camera", -1));
+        const cJSON *pp = jget(jc, "perspective");
+        if (pp) {
+            cd->yfov = (float)jnum(pp, "yfov", cd->yfov);
+            cd->znear = (float)jnum(pp, "znear", cd->znear);
+            cd->zfar = (float)jnum(pp, "zfar", 0.0);
+            cd->aspect = (float)jnum(pp, "aspectRatio", 0.0);
+        } else if (jc) {
+            return tnd_fail(TND_ERR_UNSUPPORTED,
+                            "scene: %s: camera '%s': only perspective cameras are supported",
+                            c->path, cd->name);
+        }
+        if (!(cd->yfov > 1e-4f && cd->yfov < 3.1f) || !(cd->znear > 0))
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: camera '%s': yfov %g, znear %g",
+                            c->path, cd->name, (double)cd->yfov, (double)cd->znear);
+    }
+    const cJSON *jlights = jget(jget(jget(c->json, "extensions"), "KHR_lights_punctual"), "lights");
+    for (unsigned i = 0; i < ai->mNumLights; i++) {
+        const struct aiLight *al = ai->mLights[i];
+        int32_t n = node_index(s, al->mName.data);
+        if (n < 0)
+            continue;
+        tnd_light *l = &s->lights[s->light_count];
+        put_name(l->name, sizeof l->name, al->mName.data);
+        l->node = (uint32_t)n;
+        switch (al->mType) {
+        case aiLightSource_DIRECTIONAL:
+            l->type = TND_LIGHT_DIRECTIONAL;
+            break;
+        case aiLightSource_POINT:
+            l->type = TND_LIGHT_POINT;
+            break;
+        case aiLightSource_SPOT:
+            l->type = TND_LIGHT_SPOT;
+            break;
+        default:
+            tnd_warn("scene", "%s: light '%s' of unsupported type %d ignored", c->path, l->name,
+                     (int)al->mType);
+            continue;
+        }
+        l->color[0] = al->mColorDiffuse.r, l->color[1] = al->mColorDiffuse.g;
+        l->color[2] = al->mColorDiffuse.b;
+        l->inner_cone = al->mAngleInnerCone;
+        l->outer_cone = al->mAngleOuterCone;
+        /* exact glTF values where the JSON has them */
+        const cJSON *jn = json_node(c, l->name);
+        const cJSON *lref = jget(jget(jn, "extensions"), "KHR_lights_punctual");
+        const cJSON *jl = cJSON_GetArrayItem(jlights, (int)jnum(lref, "light", -1));
+        if (jl) {
+            double inten = jnum(jl, "intensity", 1.0);
+            const cJSON *col = jget(jl, "color");
+            for (int k = 0; k < 3; k++)
+                l->color[k] = (float)((cJSON_GetArraySize(col) == 3
+                                           ? cJSON_GetArrayItem(col, k)->valuedouble
+                                           : 1.0) *
+                                      inten);
+            const cJSON *spot = jget(jl, "spot");
+            l->inner_cone = (float)jnum(spot, "innerConeAngle", 0.0);
+            l->outer_cone = (float)jnum(spot, "outerConeAngle", TND_PI / 4);
+        }
+        if (!isfinite(l->color[0]) || !isfinite(l->color[1]) || !isfinite(l->color[2]) ||
+            l->color[0] < 0 || l->color[1] < 0 || l->color[2] < 0)
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: light '%s': intensity not finite and "
+                                               "non-negative",
+                            c->path, l->name);
+        if (l->type == TND_LIGHT_SPOT && !(l->outer_cone > l->inner_cone && l->outer_cone <= TND_PI / 2))
+            return tnd_fail(TND_ERR_BAD_INPUT,
+                            "scene: %s: light '%s': spot cone angles %g..%g (need inner < outer "
+                            "<= pi/2)",
+                            c->path, l->name, (double)l->inner_cone, (double)l->outer_cone);
+        const cJSON *sched = jget(jget(jn, "extras"), "tandem_light_schedule");
+        if (sched) {
+            const cJSON *keys = jget(sched, "keys"), *k;
+            l->schedule_fps = (float)jnum(sched, "fps", 30.0);
+            cJSON_ArrayForEach(k, keys)
+            {
+                if (l->schedule_count == TND_SCHEDULE_MAX || cJSON_GetArraySize(k) != 2)
+                    return tnd_fail(TND_ERR_BAD_INPUT,
+                                    "scene: %s: light '%s': tandem_light_schedule keys must be "
+                                    "[frame, scale] pairs (at most %d)",
+                                    c->path, l->name, TND_SCHEDULE_MAX);
+                l->schedule_frame[l->schedule_count] =
+                    (float)cJSON_GetArrayItem(k, 0)->valuedouble;
+                l->schedule_scale[l->schedule_count++] =
+                    (float)cJSON_GetArrayItem(k, 1)->valuedouble;
+            }
+        }
+        s->light_count++;
+    }
+    const cJSON *scenes = jget(c->json, "scenes");
+    const cJSON *sc = cJSON_GetArrayItem(scenes, (int)jnum(c->json, "scene", 0));
+    const cJSON *sky = jget(jget(sc, "extras"), "tandem_sky");
+    if (cJSON_GetArraySize(sky) == 3)
+        for (int k = 0; k < 3; k++)
+            s->sky[k] = (float)cJSON_GetArrayItem(sky, k)->valuedouble;
+    return TND_OK;
+}
+
+/* Whether the glTF sampler animating (node, path) is STEP. */
+static bool json_step(const gltf_ctx *c, const char *node, const char *path)
+{
+    const cJSON *anims = jget(c->json, "animations"), *a;
+    const cJSON *nodes = jget(c->json, "nodes");
+    cJSON_ArrayForEach(a, anims)
+    {
+        const cJSON *ch, *samplers = jget(a, "samplers");
+        cJSON_ArrayForEach(ch, jget(a, "channels"))
+        {
+            const cJSON *tg = jget(ch, "target");
+            const cJSON *pth = jget(tg, "path");
+            int ni = (int)jnum(tg, "node", -1);
+            if (!cJSON_IsString(pth) || strcmp(pth->valuestring, path) != 0 || ni < 0)
+                continue;
+            if (json_node(c, node) != cJSON_GetArrayItem(nodes, ni))
+                continue;
+            const cJSON *smp = cJSON_GetArrayItem(samplers, (int)jnum(ch, "sampler", -1));
+            const cJSON *ip = jget(smp, "interpolation");
+            return cJSON_IsString(ip) && strcmp(ip->valuestring, "STEP") == 0;
+        }
+    }
+    return false;
+}
+
+static tnd_result load_animation(gltf_ctx *c)
+{
+    tnd_scene *s = c->s;
+    const struct aiScene *ai = c->ai;
+    uint32_t cap = 0;
+    for (unsigned a = 0; a < ai->mNumAnimations; a++)
+        cap += 3 * ai->mAnimations[a]->mNumChannels;
+    s->channels = calloc(cap + 1, sizeof *s->channels);
+    if (!s->channels)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    for (unsigned a = 0; a < ai->mNumAnimations; a++) {
+        const struct aiAnimation *an = ai->mAnimations[a];
+        double tps = an->mTicksPerSecond > 0 ? an->mTicksPerSecond : 1000.0;
+        for (unsigned k = 0; k < an->mNumChannels; k++) {
+            const struct aiNodeAnim *na = an->mChannels[k];
+            int32_t n = node_index(s, na->mNodeName.data);
+            if (n < 0)
+                continue;
+            const tnd_node *nd = &s->nodes[n];
+            for (int path = 0; path < 3; path++) {
+                unsigned count = path == 0   ? na->mNumPositionKeys
+                                 : path == 1 ? na->mNumRotationKeys
+                                             : na->mNumScalingKeys;
+                int dim = path == 1 ? 4 : 3;
+                if (count == 0)
+                    continue;
+                tnd_anim_channel *ch = &s->channels[s->channel_count];
+                ch->node = (uint32_t)n;
+                ch->path = (tnd_anim_path)path;
+                ch->times = calloc(count, sizeof(float));
+                ch->values = calloc((size_t)count * dim, sizeof(float));
+                if (!ch->times || !ch->values) {
+                    free(ch->times);
+                    free(ch->values);
+                    return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+                }
+                ch->key_count = count;
+                bool constant = true;
+                for (unsigned q = 0; q < count; q++) {
+                    float *v = ch->values + (size_t)dim * q;
+                    if (path == 0) {
+                        ch->times[q] = (float)(na->mPositionKeys[q].mTime / tps);
+                        v[0] = na->mPositionKeys[q].mValue.x, v[1] = na->mPositionKeys[q].mValue.y;
+                        v[2] = na->mPositionKeys[q].mValue.z;
+                    } else if (path == 1) {
+                        ch->times[q] = (float)(na->mRotationKeys[q].mTime / tps);
+                        const struct aiQuaternion *qq = &na->mRotationKeys[q].mValue;
+                        v[0] = qq->x, v[1] = qq->y, v[2] = qq->z, v[3] = qq->w;
+                    } else {
+                        ch->times[q] = (float)(na->mScalingKeys[q].mTime / tps);
+                        v[0] = na->mScalingKeys[q].mValue.x, v[1] = na->mScalingKeys[q].mValue.y;
+                        v[2] = na->mScalingKeys[q].mValue.z;
+                    }
+                    const float *rest = path == 0 ? nd->t : path == 1 ? nd->r : nd->s;
+                    for (int d = 0; d < dim; d++)
+                        constant &= fabsf(v[d] - rest[d]) < 1e-6f;
+                    for (int d = 0; d < dim; d++)
+                        if (!isfinite(v[d]) || !isfinite(ch->times[q]) ||
+                            (q > 0 && ch->times[q] < ch->times[q - 1])) {
+                            free(ch->times);
+                            free(ch->values);
+                            ch->times = NULL;
+                            ch->values = NULL;
+                            return tnd_fail(TND_ERR_BAD_INPUT,
+                                            "scene: %s: animation of node '%s': key %u is not "
+                                            "finite or out of order",
+                                            c->path, nd->name, q);
+                        }
+                }
+                if (constant) { /* assimp adds one-key channels for untouched paths */
+                    free(ch->times);
+                    free(ch->values);
+                    memset(ch, 0, sizeof *ch);
+                    continue;
+                }
+                static const char *const names[3] = {"translation", "rotation", "scale"};
+                ch->step = json_step(c, nd->name, names[path]);
+                s->channel_count++;
+            }
+        }
+    }
+    return TND_OK;
+}
+
+tnd_result scene_load_gltf(const char *path, tnd_scene **out)
+{
+    tnd_result res = TND_OK;
+    gltf_ctx c = {.path = path};
+    void *bytes = NULL;
+    size_t size = 0;
+    c.s = calloc(1, sizeof *c.s);
+    if (!c.s)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    snprintf(c.s->path, sizeof c.s->path, "%s", path);
+    const char *slash = strrchr(path, '/');
+    if (slash)
+        snprintf(c.dir, sizeof c.dir, "%.*s/", (int)(slash - path), path);
+    TND_TRY(tnd_file_read(path, &bytes, &size));
+    TND_TRY(parse_json(&c, bytes, size));
+    c.ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_CalcTangentSpace |
+                                  aiProcess_GenSmoothNormals | aiProcess_ValidateDataStructure);
+    if (!c.ai) {
+        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: cannot import: %s", path,
+                       aiGetErrorString());
+        goto fail;
+    }
+    if (!c.ai->mRootNode || (c.ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) {
+        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: incomplete scene (no nodes or meshes)",
+                       path);
+        goto fail;
+    }
+    TND_TRY(load_meshes(&c));
+    TND_TRY(load_materials(&c));
+    uint32_t cap = 0;
+    TND_TRY(add_node(&c, c.ai->mRootNode, -1, &cap));
+    TND_TRY(load_cameras_lights(&c));
+    TND_TRY(load_animation(&c));
+    TND_TRY(scene_finish(c.s));
+    *out = c.s;
+    c.s = NULL;
+fail:
+    if (c.ai)
+        aiReleaseImport(c.ai);
+    cJSON_Delete(c.json);
+    free(bytes);
+    tnd_scene_destroy(c.s);
+    return res;
+}

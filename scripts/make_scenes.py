@@ -1,0 +1,438 @@
+#!/usr/bin/env python3
+"""Generate Tandem's built-in glTF 2.0 scenes under data/scenes/ (standard library only).
+
+Each scene is NAME.gltf + NAME.bin (+ PNG textures), small, with an animated camera. The files are
+committed; run this script only to change them:  python3 scripts/make_scenes.py [OUTDIR]
+
+Units are metres; light intensities are glTF's photometric units (candela for point and spot
+lights, lux for directional lights, nits for emission x KHR_materials_emissive_strength).
+Tandem-specific data lives in glTF `extras`:
+  scene.extras.tandem_sky = [r, g, b]                   uniform sky radiance (nits)
+  node.extras.tandem_light_schedule = {"fps": F, "keys": [[frame, scale], ...]}
+                                                        step-wise intensity scale of a light node
+"""
+import base64, json, math, os, struct, sys, zlib
+
+
+class Gltf:
+    def __init__(self, name):
+        self.name = name
+        self.bin = bytearray()
+        self.doc = {"asset": {"version": "2.0", "generator": "tandem scripts/make_scenes.py"},
+                    "scene": 0, "scenes": [{"name": name, "nodes": []}], "nodes": [],
+                    "meshes": [], "materials": [], "accessors": [], "bufferViews": [],
+                    "buffers": []}
+        self.images = {}
+        self.extensions = set()
+
+    def _view(self, data, target=None):
+        while len(self.bin) % 4:
+            self.bin.append(0)
+        v = {"buffer": 0, "byteOffset": len(self.bin), "byteLength": len(data)}
+        if target:
+            v["target"] = target
+        self.bin += data
+        self.doc["bufferViews"].append(v)
+        return len(self.doc["bufferViews"]) - 1
+
+    def accessor(self, values, kind, ctype=5126, target=None, minmax=False):
+        n = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[kind]
+        flat = [x for v in values for x in (v if n > 1 else [v])]
+        fmt = {5126: "f", 5125: "I"}[ctype]
+        view = self._view(struct.pack("<%d%s" % (len(flat), fmt), *flat), target)
+        a = {"bufferView": view, "componentType": ctype, "count": len(values), "type": kind}
+        if minmax:
+            a["min"] = [min(v[i] for v in values) for i in range(n)]
+            a["max"] = [max(v[i] for v in values) for i in range(n)]
+        self.doc["accessors"].append(a)
+        return len(self.doc["accessors"]) - 1
+
+    def material(self, name, base=(0.8, 0.8, 0.8), metallic=0.0, roughness=1.0, emission=None,
+                 strength=1.0, transmission=None, ior=None, base_tex=None, mr_tex=None,
+                 normal_tex=None, double_sided=False, volume=None):
+        m = {"name": name, "pbrMetallicRoughness": {"baseColorFactor": list(base) + [1.0],
+                                                    "metallicFactor": metallic,
+                                                    "roughnessFactor": roughness}}
+        if double_sided:
+            m["doubleSided"] = True
+        if emission:
+            m["emissiveFactor"] = list(emission)
+            if strength != 1.0:
+                m.setdefault("extensions", {})["KHR_materials_emissive_strength"] = {
+                    "emissiveStrength": strength}
+                self.extensions.add("KHR_materials_emissive_strength")
+        if transmission is not None:
+            m.setdefault("extensions", {})["KHR_materials_transmission"] = {
+                "transmissionFactor": transmission}
+            self.extensions.add("KHR_materials_transmission")
+        if ior is not None:
+            m.setdefault("extensions", {})["KHR_materials_ior"] = {"ior": ior}
+            self.extensions.add("KHR_materials_ior")
+        if volume is not None:  # (thickness, attenuation colour, attenuation distance)
+            m.setdefault("extensions", {})["KHR_materials_volume"] = {
+                "thicknessFactor": volume[0], "attenuationColor": list(volume[1]),
+                "attenuationDistance": volume[2]}
+            self.extensions.add("KHR_materials_volume")
+        if base_tex:
+            m["pbrMetallicRoughness"]["baseColorTexture"] = {"index": self.texture(base_tex)}
+        if mr_tex:
+            m["pbrMetallicRoughness"]["metallicRoughnessTexture"] = {"index": self.texture(mr_tex)}
+        if normal_tex:
+            m["normalTexture"] = {"index": self.texture(normal_tex)}
+        self.doc["materials"].append(m)
+        return len(self.doc["materials"]) - 1
+
+    def texture(self, png):
+        name, data = png
+        if name not in self.images:
+            self.doc.setdefault("images", []).append({"uri": name})
+            self.doc.setdefault("textures", []).append({"source": len(self.doc["images"]) - 1,
+                                                        "sampler": 0})
+            self.doc.setdefault("samplers", [{"magFilter": 9729, "minFilter": 9987,
+                                              "wrapS": 10497, "wrapT": 10497}])
+            self.images[name] = (len(self.doc["textures"]) - 1, data)
+        return self.images[name][0]
+
+    def mesh(self, name, geo, material):
+        pos, nrm, uv, idx = geo
+        prim = {"attributes": {"POSITION": self.accessor(pos, "VEC3", target=34962, minmax=True),
+                               "NORMAL": self.accessor(nrm, "VEC3", target=34962),
+                               "TEXCOORD_0": self.accessor(uv, "VEC2", target=34962)},
+                "indices": self.accessor(idx, "SCALAR", 5125, target=34963),
+                "material": material}
+        self.doc["meshes"].append({"name": name, "primitives": [prim]})
+        return len(self.doc["meshes"]) - 1
+
+    def node(self, name, mesh=None, t=None, r=None, s=None, parent=None, **kw):
+        n = {"name": name}
+        if mesh is not None:
+            n["mesh"] = mesh
+        if t:
+            n["translation"] = list(t)
+        if r:
+            n["rotation"] = list(r)
+        if s:
+            n["scale"] = list(s)
+        n.update(kw)
+        self.doc["nodes"].append(n)
+        i = len(self.doc["nodes"]) - 1
+        if parent is None:
+            self.doc["scenes"][0]["nodes"].append(i)
+        else:
+            self.doc["nodes"][parent].setdefault("children", []).append(i)
+        return i
+
+    def camera(self, name, yfov_deg, aspect=16 / 9, znear=0.05, zfar=None):
+        p = {"yfov": math.radians(yfov_deg), "znear": znear, "aspectRatio": aspect}
+        if zfar:
+            p["zfar"] = zfar
+        self.doc.setdefault("cameras", []).append({"name": name, "type": "perspective",
+                                                   "perspective": p})
+        return len(self.doc["cameras"]) - 1
+
+    def light(self, name, kind, color, intensity, spot=None, rng=None):
+        l = {"name": name, "type": kind, "color": list(color), "intensity": intensity}
+        if spot:
+            l["spot"] = {"innerConeAngle": spot[0], "outerConeAngle": spot[1]}
+        if rng:
+            l["range"] = rng
+        ext = self.doc.setdefault("extensions", {}).setdefault("KHR_lights_punctual",
+                                                               {"lights": []})
+        ext["lights"].append(l)
+        self.extensions.add("KHR_lights_punctual")
+        return len(ext["lights"]) - 1
+
+    def light_node(self, name, light, t=None, r=None, parent=None, **kw):
+        return self.node(name, t=t, r=r, parent=parent,
+                         extensions={"KHR_lights_punctual": {"light": light}}, **kw)
+
+    def animate(self, node, path, times, values, interp="LINEAR"):
+        anims = self.doc.setdefault("animations", [{"name": "main", "channels": [],
+                                                    "samplers": []}])
+        a = anims[0]
+        kind = {"translation": "VEC3", "rotation": "VEC4", "scale": "VEC3"}[path]
+        s = {"input": self.accessor(times, "SCALAR", minmax=False),
+             "output": self.accessor(values, kind), "interpolation": interp}
+        self.doc["accessors"][s["input"]]["min"] = [min(times)]
+        self.doc["accessors"][s["input"]]["max"] = [max(times)]
+        a["samplers"].append(s)
+        a["channels"].append({"sampler": len(a["samplers"]) - 1,
+                              "target": {"node": node, "path": path}})
+
+    def write(self, outdir):
+        self.doc["buffers"] = [{"uri": self.name + ".bin", "byteLength": len(self.bin)}]
+        if self.extensions:
+            self.doc["extensionsUsed"] = sorted(self.extensions)
+        with open(os.path.join(outdir, self.name + ".bin"), "wb") as f:
+            f.write(self.bin)
+        for name, (_, data) in self.images.items():
+            with open(os.path.join(outdir, name), "wb") as f:
+                f.write(data)
+        with open(os.path.join(outdir, self.name + ".gltf"), "w") as f:
+            json.dump(self.doc, f, indent=1)
+            f.write("\n")
+
+
+# ---- geometry ------------------------------------------------------------------------------
+def quad(w, h):
+    """A w x h quad in the XZ plane facing +Y, centred at the origin."""
+    x, z = w / 2, h / 2
+    pos = [(-x, 0, -z), (x, 0, -z), (x, 0, z), (-x, 0, z)]
+    return pos, [(0, 1, 0)] * 4, [(0, 0), (w, 0), (w, h), (0, h)], [0, 2, 1, 0, 3, 2]
+
+
+def box(sx, sy, sz, inward=False):
+    pos, nrm, uv, idx = [], [], [], []
+    faces = [((1, 0, 0), (0, 0, -1), (0, 1, 0)), ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
+             ((0, 1, 0), (1, 0, 0), (0, 0, -1)), ((0, -1, 0), (1, 0, 0), (0, 0, 1)),
+             ((0, 0, 1), (1, 0, 0), (0, 1, 0)), ((0, 0, -1), (-1, 0, 0), (0, 1, 0))]
+    h = (sx / 2, sy / 2, sz / 2)
+    for n, u, v in faces:
+        base = len(pos)
+        for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+            p = tuple(h[i] * (n[i] + a * u[i] + b * v[i]) for i in range(3))
+            pos.append(p)
+            nrm.append(tuple(-c for c in n) if inward else n)
+            uv.append(((a + 1) / 2, (b + 1) / 2))
+        tri = [0, 1, 2, 0, 2, 3] if not inward else [0, 2, 1, 0, 3, 2]
+        idx += [base + t for t in tri]
+    return pos, nrm, uv, idx
+
+
+def sphere(r, seg=32, rings=16):
+    pos, nrm, uv, idx = [], [], [], []
+    for j in range(rings + 1):
+        th = math.pi * j / rings
+        for i in range(seg + 1):
+            ph = 2 * math.pi * i / seg
+            n = (math.sin(th) * math.cos(ph), math.cos(th), math.sin(th) * math.sin(ph))
+            pos.append(tuple(r * c for c in n))
+            nrm.append(n)
+            uv.append((i / seg, j / rings))
+    for j in range(rings):
+        for i in range(seg):
+            a, b = j * (seg + 1) + i, (j + 1) * (seg + 1) + i
+            if j != 0:
+                idx += [a, a + 1, b]
+            if j != rings - 1:
+                idx += [a + 1, b + 1, b]
+    return pos, nrm, uv, idx
+
+
+def png(name, w, h, pixel):
+    """An 8-bit RGBA PNG from pixel(x, y) -> (r, g, b, a) in 0..255."""
+    raw = b"".join(b"\0" + bytes(c for x in range(w) for c in pixel(x, y)) for y in range(h))
+
+    def chunk(t, d):
+        c = struct.pack(">I", len(d)) + t + d
+        return c + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+    data = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+    return name, data
+
+
+def quat_axis(axis, deg):
+    a = math.radians(deg) / 2
+    n = math.sqrt(sum(c * c for c in axis))
+    return tuple(c / n * math.sin(a) for c in axis) + (math.cos(a),)
+
+
+def quat_mul(a, b):
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+
+
+def look_rot(yaw_deg, pitch_deg):
+    """Camera rotation: yaw about +Y, then pitch about the camera's X (glTF cameras look -Z)."""
+    return quat_mul(quat_axis((0, 1, 0), yaw_deg), quat_axis((1, 0, 0), pitch_deg))
+
+
+def camera_path(g, name, keys, yfov=39.0, aspect=16 / 9, zfar=None):
+    """keys: [(time, (x, y, z), yaw, pitch)]; linear translation, slerped rotation."""
+    cam = g.camera(name, yfov, aspect, zfar=zfar)
+    t0 = keys[0]
+    n = g.node(name, t=t0[1], r=look_rot(t0[2], t0[3]), camera=cam)
+    g.animate(n, "translation", [k[0] for k in keys], [k[1] for k in keys])
+    g.animate(n, "rotation", [k[0] for k in keys], [look_rot(k[2], k[3]) for k in keys])
+    return n
+
+
+# ---- scenes --------------------------------------------------------------------------------
+def cornell(out):
+    g = Gltf("cornell")
+    white = g.material("white", (0.73, 0.73, 0.73))
+    red = g.material("red", (0.65, 0.05, 0.05))
+    green = g.material("green", (0.12, 0.45, 0.15))
+    light = g.material("light", (0.78, 0.78, 0.78), emission=(1.0, 0.85, 0.6), strength=17.0)
+    S = 2.0  # box of 2 m, floor at y = 0
+    g.node("floor", g.mesh("floor", quad(S, S), white))
+    g.node("ceiling", g.mesh("ceiling", quad(S, S), white), t=(0, S, 0),
+           r=quat_axis((1, 0, 0), 180))
+    g.node("back", g.mesh("back", quad(S, S), white), t=(0, S / 2, -S / 2),
+           r=quat_axis((1, 0, 0), 90))
+    g.node("left", g.mesh("left", quad(S, S), red), t=(-S / 2, S / 2, 0),
+           r=quat_axis((0, 0, 1), -90))
+    g.node("right", g.mesh("right", quad(S, S), green), t=(S / 2, S / 2, 0),
+           r=quat_axis((0, 0, 1), 90))
+    g.node("light", g.mesh("light", quad(0.5, 0.4), light), t=(0, S - 0.001, 0),
+           r=quat_axis((1, 0, 0), 180))
+    g.node("tall_box", g.mesh("tall_box", box(0.6, 1.2, 0.6), white), t=(-0.35, 0.6, -0.3),
+           r=quat_axis((0, 1, 0), 17))
+    g.node("short_box", g.mesh("short_box", box(0.6, 0.6, 0.6), white), t=(0.4, 0.3, 0.35),
+           r=quat_axis((0, 1, 0), -17))
+    camera_path(g, "camera", [(0.0, (0.0, 1.0, 3.9), 0, 0), (2.0, (0.25, 1.05, 3.7), 3, -1),
+                              (4.0, (0.0, 1.0, 3.9), 0, 0)])
+    g.write(out)
+
+
+def materials(out):
+    g = Gltf("materials")
+    checker = png("materials_checker.png", 64, 64,
+                  lambda x, y: (200, 200, 200, 255) if (x // 8 + y // 8) % 2 else (60, 60, 70, 255))
+    # metallicRoughness: G = roughness, B = metallic (glTF); stripes of rough/smooth metal
+    mr = png("materials_mr.png", 32, 32,
+             lambda x, y: (0, 40 if (x // 4) % 2 else 220, 255 if (y // 16) else 0, 255))
+    # normal map: gentle bumps (tangent space, +Z up)
+    def bump(x, y):
+        nx = 0.35 * math.sin(2 * math.pi * x / 16)
+        ny = 0.35 * math.sin(2 * math.pi * y / 16)
+        nz = math.sqrt(max(0.0, 1 - nx * nx - ny * ny))
+        return (int(127.5 + 127.5 * nx), int(127.5 + 127.5 * ny), int(127.5 + 127.5 * nz), 255)
+    nmap = png("materials_normal.png", 32, 32, bump)
+    floor = g.material("checker_floor", (1, 1, 1), roughness=0.8, base_tex=checker)
+    wall = g.material("wall", (0.7, 0.7, 0.72), roughness=0.9)
+    gold = g.material("rough_gold", (1.0, 0.78, 0.34), metallic=1.0, roughness=0.35)
+    chrome = g.material("chrome", (0.95, 0.95, 0.95), metallic=1.0, roughness=0.02)
+    plastic = g.material("smooth_plastic", (0.1, 0.25, 0.8), metallic=0.0, roughness=0.15)
+    rubber = g.material("rough_rubber", (0.8, 0.3, 0.1), metallic=0.0, roughness=0.95)
+    glass = g.material("glass", (1, 1, 1), metallic=0.0, roughness=0.0, transmission=1.0, ior=1.5,
+                       volume=(0.8, (0.85, 0.95, 0.9), 2.0))
+    pane = g.material("thin_glass", (1, 1, 1), metallic=0.0, roughness=0.0, transmission=1.0,
+                      ior=1.5, double_sided=True)
+    textured = g.material("textured_metal", (0.9, 0.9, 0.9), metallic=1.0, roughness=1.0,
+                          mr_tex=mr, normal_tex=nmap)
+    mirror = g.material("mirror", (0.98, 0.98, 0.98), metallic=1.0, roughness=0.0)
+    lamp = g.material("lamp", (0.8, 0.8, 0.8), emission=(1, 1, 1), strength=30.0)
+    g.node("floor", g.mesh("floor", quad(8, 8), floor))
+    g.node("back_wall", g.mesh("back_wall", quad(8, 4), wall), t=(0, 2, -3),
+           r=quat_axis((1, 0, 0), 90))
+    g.node("mirror", g.mesh("mirror", quad(1.6, 1.2), mirror), t=(2.2, 1.0, -2.95),
+           r=quat_axis((1, 0, 0), 90))
+    ball = lambda n, m, x, z: g.node(n, g.mesh(n, sphere(0.4), m), t=(x, 0.4, z))
+    ball("gold_sphere", gold, -1.8, -0.8)
+    ball("chrome_sphere", chrome, -0.9, 0.2)
+    ball("plastic_sphere", plastic, 0.0, -0.8)
+    ball("rubber_sphere", rubber, 0.9, 0.2)
+    ball("glass_sphere", glass, 1.8, -0.8)
+    g.node("glass_pane", g.mesh("glass_pane", quad(1.0, 1.4), pane), t=(1.0, 0.7, 1.4),
+           r=quat_axis((1, 0, 0), 90))
+    g.node("textured_box", g.mesh("textured_box", box(0.7, 0.7, 0.7), textured),
+           t=(-2.2, 0.35, 1.0), r=quat_axis((0, 1, 0), 30))
+    g.node("ceiling_lamp", g.mesh("ceiling_lamp", quad(1.5, 0.6), lamp), t=(0, 3.2, -1),
+           r=quat_axis((1, 0, 0), 180))
+    pl = g.light("warm_point", "point", (1.0, 0.8, 0.6), 60.0)
+    g.light_node("warm_point", pl, t=(-2.5, 2.0, 1.5))
+    sl = g.light("spot", "spot", (0.7, 0.8, 1.0), 400.0, spot=(0.2, 0.35))
+    g.light_node("spot", sl, t=(2.0, 3.0, 1.0), r=quat_axis((1, 0, 0), -70))
+    camera_path(g, "camera", [(0.0, (0.0, 1.6, 5.0), 0, -12), (3.0, (1.2, 1.4, 4.6), 12, -10),
+                              (6.0, (-1.2, 1.5, 4.7), -12, -11)], yfov=45.0)
+    g.write(out)
+
+
+def dynamic(out):
+    g = Gltf("dynamic")
+    floor = g.material("floor", (0.6, 0.6, 0.6), roughness=0.7)
+    wall = g.material("wall", (0.75, 0.72, 0.68), roughness=0.9)
+    cube_m = g.material("cube", (0.8, 0.15, 0.1), roughness=0.4)
+    pillar_m = g.material("pillar", (0.2, 0.4, 0.7), roughness=0.5)
+    panel = g.material("ceiling_panel", (0.8, 0.8, 0.8), emission=(0.9, 0.95, 1.0), strength=4.0)
+    g.node("floor", g.mesh("floor", quad(8, 8), floor))
+    g.node("back_wall", g.mesh("back_wall", quad(8, 3), wall), t=(0, 1.5, -3),
+           r=quat_axis((1, 0, 0), 90))
+    g.node("left_wall", g.mesh("left_wall", quad(6, 3), wall), t=(-3, 1.5, 0),
+           r=quat_axis((0, 0, 1), -90))
+    g.node("ceiling_panel", g.mesh("ceiling_panel", quad(1.0, 1.0), panel), t=(0, 3.0, -1.5),
+           r=quat_axis((1, 0, 0), 180))
+    g.node("pillar", g.mesh("pillar", box(0.4, 2.0, 0.4), pillar_m), t=(0.8, 1.0, -0.8))
+    cube = g.node("moving_cube", g.mesh("moving_cube", box(0.5, 0.5, 0.5), cube_m),
+                  t=(-1.5, 0.25, 0.0))
+    # the cube slides behind the pillar and back (disocclusions on both sides)
+    g.animate(cube, "translation", [0.0, 2.0, 4.0], [(-1.5, 0.25, 0.0), (2.0, 0.25, -1.2),
+                                                       (-1.5, 0.25, 0.0)])
+    g.animate(cube, "rotation", [0.0, 2.0, 4.0], [quat_axis((0, 1, 0), 0),
+                                                    quat_axis((0, 1, 0), 179),
+                                                    quat_axis((0, 1, 0), 358)])
+    lamp = g.light("switched_lamp", "point", (1.0, 0.9, 0.75), 25.0)
+    # switched off at frame 30 and on again at frame 60 (30 frames per second)
+    g.light_node("switched_lamp", lamp, t=(-1.0, 2.2, 0.5),
+                 extras={"tandem_light_schedule": {"fps": 30, "keys": [[0, 1.0], [30, 0.0],
+                                                                        [60, 1.0]]}})
+    camera_path(g, "camera", [(0.0, (-0.5, 1.5, 4.5), -5, -10), (2.0, (0.8, 1.4, 4.2), 8, -9),
+                              (4.0, (-0.5, 1.5, 4.5), -5, -10)])
+    g.write(out)
+
+
+def sun(out):
+    g = Gltf("sun")
+    ground = g.material("ground", (0.45, 0.42, 0.38), roughness=0.95)
+    stone = g.material("stone", (0.7, 0.68, 0.62), roughness=0.8)
+    roof = g.material("roof", (0.55, 0.2, 0.15), roughness=0.6)
+    g.node("ground", g.mesh("ground", quad(60, 60), ground))
+    for i, (x, z) in enumerate([(-3, -2), (-1, -2), (1, -2), (3, -2), (-3, 2), (3, 2)]):
+        g.node("pillar_%d" % i, g.mesh("pillar_%d" % i, box(0.5, 3.0, 0.5), stone),
+               t=(x, 1.5, z))
+    g.node("roof", g.mesh("roof", box(7.5, 0.3, 5.0), roof), t=(0, 3.15, 0))
+    g.node("block", g.mesh("block", box(1.2, 1.2, 1.2), stone), t=(0.5, 0.6, 0.4),
+           r=quat_axis((0, 1, 0), 25))
+    sl = g.light("sun", "directional", (1.0, 0.95, 0.85), 8.0)
+    g.light_node("sun", sl, r=quat_mul(quat_axis((0, 1, 0), 35), quat_axis((1, 0, 0), -50)))
+    g.doc["scenes"][0]["extras"] = {"tandem_sky": [0.35, 0.5, 0.8]}
+    camera_path(g, "camera", [(0.0, (-7.0, 2.0, 8.0), -40, -8), (3.0, (0.0, 2.5, 10.0), 0, -9),
+                              (6.0, (7.0, 2.0, 8.0), 40, -8)], yfov=50.0)
+    g.write(out)
+
+
+def extremes(out):
+    """Numerical extremes: a tiny very bright light beside a large dim one, geometry 1e5 units
+    from the origin, roughness 0 and 1, metallic 0 and 1, grazing views."""
+    g = Gltf("extremes")
+    far = g.node("far_away", t=(1.0e5, 0.0, -1.0e5))  # everything below lives here
+    plane = g.material("plane", (0.5, 0.5, 0.5), roughness=1.0)
+    mirror = g.material("rough0_metal1", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.0)
+    rough1 = g.material("rough1_metal0", (0.9, 0.9, 0.9), metallic=0.0, roughness=1.0)
+    smooth_d = g.material("rough0_metal0", (0.2, 0.7, 0.3), metallic=0.0, roughness=0.0)
+    rough_m = g.material("rough1_metal1", (0.9, 0.6, 0.3), metallic=1.0, roughness=1.0)
+    tiny = g.material("tiny_bright", (0, 0, 0), emission=(1, 1, 1), strength=1.0e5)
+    dim = g.material("large_dim", (0, 0, 0), emission=(1, 1, 1), strength=1.0e-4)
+    g.node("plane", g.mesh("plane", quad(200, 200), plane), parent=far)
+    for i, (m, x) in enumerate([(mirror, -1.5), (rough1, -0.5), (smooth_d, 0.5), (rough_m, 1.5)]):
+        g.node("sphere_%d" % i, g.mesh("sphere_%d" % i, sphere(0.4, 24, 12), m),
+               t=(x, 0.4, 0), parent=far)
+    g.node("tiny_bright_light", g.mesh("tiny_bright_light", quad(0.01, 0.01), tiny),
+           t=(0.0, 1.2, 0.3), r=quat_axis((1, 0, 0), 180), parent=far)
+    g.node("large_dim_light", g.mesh("large_dim_light", quad(20, 20), dim),
+           t=(0.0, 6.0, 0.0), r=quat_axis((1, 0, 0), 180), parent=far)
+    pl = g.light("faint_point", "point", (1, 1, 1), 1.0e-4)
+    g.light_node("faint_point", pl, t=(2.0, 0.5, 1.0), parent=far)
+    bl = g.light("blazing_point", "point", (1, 1, 1), 1.0e5)
+    g.light_node("blazing_point", bl, t=(-2.5, 0.3, -1.0), parent=far)
+    # grazing: the camera skims the plane at 2 cm and looks almost along it
+    cam = g.camera("camera", 40.0, zfar=None)
+    c = g.node("camera", t=(0.0, 0.02, 6.0), r=look_rot(0, -0.3), camera=cam, parent=far)
+    g.animate(c, "translation", [0.0, 2.0], [(0.0, 0.02, 6.0), (0.3, 0.05, 5.5)])
+    g.animate(c, "rotation", [0.0, 2.0], [look_rot(0, -0.3), look_rot(4, -0.5)])
+    g.write(out)
+
+
+def main():
+    out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
+        os.path.dirname(os.path.abspath(__file__)), "..", "data", "scenes")
+    os.makedirs(out, exist_ok=True)
+    for f in (cornell, materials, dynamic, sun, extremes):
+        f(out)
+
+
+if __name__ == "__main__":
+    main()
