@@ -129,6 +129,172 @@ static const cJSON *json_node(const gltf_ctx *c, const char *name)
     return NULL;
 }
 
+/* ---- index validation ------------------------------------------------------------------------
+ * assimp 5.2 silently drops triangles whose indices are out of range, so the indices are checked
+ * here, from the glTF buffers themselves, before assimp sees the file. */
+static int b64(int ch)
+{
+    return ch >= 'A' && ch <= 'Z'   ? ch - 'A'
+           : ch >= 'a' && ch <= 'z' ? ch - 'a' + 26
+           : ch >= '0' && ch <= '9' ? ch - '0' + 52
+           : ch == '+'              ? 62
+           : ch == '/'              ? 63
+                                    : -1;
+}
+
+/* Buffer `b` of the glTF: a file next to it, a base64 data URI, or the GLB's BIN chunk. */
+static tnd_result load_buffer(gltf_ctx *c, int b, const uint8_t *glb, size_t glb_size,
+                              uint8_t **data, size_t *size)
+{
+    const cJSON *buf = cJSON_GetArrayItem(jget(c->json, "buffers"), b);
+    const cJSON *uri = jget(buf, "uri");
+    size_t want = (size_t)jnum(buf, "byteLength", 0);
+    *data = NULL;
+    *size = 0;
+    if (!buf)
+        return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d does not exist", c->path, b);
+    if (!cJSON_IsString(uri)) { /* GLB binary chunk */
+        if (glb && glb_size >= 20) {
+            uint32_t jlen;
+            memcpy(&jlen, glb + 12, 4);
+            size_t off = 20 + (size_t)jlen;
+            if (off + 8 <= glb_size) {
+                uint32_t blen;
+                memcpy(&blen, glb + off, 4);
+                if (off + 8 + blen <= glb_size && (*data = malloc(blen ? blen : 1))) {
+                    memcpy(*data, glb + off + 8, blen);
+                    *size = blen;
+                }
+            }
+        }
+        if (!*data)
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d has no data (no uri, no GLB "
+                                               "binary chunk)",
+                            c->path, b);
+    } else if (strncmp(uri->valuestring, "data:", 5) == 0) {
+        const char *comma = strchr(uri->valuestring, ',');
+        if (!comma || !strstr(uri->valuestring, ";base64,"))
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d: unsupported data URI",
+                            c->path, b);
+        const char *q = comma + 1;
+        size_t len = strlen(q);
+        *data = malloc(len / 4 * 3 + 3);
+        if (!*data)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+        uint32_t acc = 0;
+        int bits = 0;
+        for (; *q && *q != '='; q++) {
+            int v = b64((unsigned char)*q);
+            if (v < 0) {
+                free(*data);
+                *data = NULL;
+                return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d: bad base64", c->path,
+                                b);
+            }
+            acc = acc << 6 | (uint32_t)v;
+            bits += 6;
+            if (bits >= 8) {
+                bits -= 8;
+                (*data)[(*size)++] = (uint8_t)(acc >> bits);
+            }
+        }
+    } else {
+        char full[2048];
+        snprintf(full, sizeof full, "%s%s", c->dir, uri->valuestring);
+        void *d;
+        tnd_result r = tnd_file_read(full, &d, size);
+        if (r != TND_OK)
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d '%s': cannot open", c->path,
+                            b, uri->valuestring);
+        *data = d;
+    }
+    if (*size < want) {
+        free(*data);
+        *data = NULL;
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "scene: %s: buffer %d: %zu bytes, but byteLength says %zu (truncated?)",
+                        c->path, b, *size, want);
+    }
+    return TND_OK;
+}
+
+static tnd_result validate_indices(gltf_ctx *c, const uint8_t *glb, size_t glb_size)
+{
+    tnd_result res = TND_OK;
+    const cJSON *accs = jget(c->json, "accessors"), *views = jget(c->json, "bufferViews");
+    int nbuf = cJSON_GetArraySize(jget(c->json, "buffers"));
+    uint8_t **bufs = calloc((size_t)nbuf + 1, sizeof *bufs);
+    size_t *sizes = calloc((size_t)nbuf + 1, sizeof *sizes);
+    if (!bufs || !sizes) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+        goto done;
+    }
+    const cJSON *meshes = jget(c->json, "meshes"), *mesh;
+    int mi = 0;
+    cJSON_ArrayForEach(mesh, meshes)
+    {
+        const cJSON *nm = jget(mesh, "name"), *prim;
+        const char *mname = cJSON_IsString(nm) ? nm->valuestring : "";
+        cJSON_ArrayForEach(prim, jget(mesh, "primitives"))
+        {
+            const cJSON *pa = cJSON_GetArrayItem(accs, (int)jnum(jget(prim, "attributes"),
+                                                                 "POSITION", -1));
+            const cJSON *ia = cJSON_GetArrayItem(accs, (int)jnum(prim, "indices", -1));
+            if (!pa) {
+                res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: mesh %d '%s': no POSITION accessor",
+                               c->path, mi, mname);
+                goto done;
+            }
+            if (!ia)
+                continue;
+            long nverts = (long)jnum(pa, "count", 0), count = (long)jnum(ia, "count", 0);
+            int ct = (int)jnum(ia, "componentType", 0);
+            int es = ct == 5121 ? 1 : ct == 5123 ? 2 : ct == 5125 ? 4 : 0;
+            const cJSON *bv = cJSON_GetArrayItem(views, (int)jnum(ia, "bufferView", -1));
+            int b = (int)jnum(bv, "buffer", -1);
+            if (!es || !bv || b < 0 || b >= nbuf) {
+                res = tnd_fail(TND_ERR_BAD_INPUT,
+                               "scene: %s: mesh %d '%s': bad index accessor (component type %d)",
+                               c->path, mi, mname, ct);
+                goto done;
+            }
+            if (!bufs[b])
+                TND_TRY(load_buffer(c, b, glb, glb_size, &bufs[b], &sizes[b]));
+            size_t off = (size_t)jnum(bv, "byteOffset", 0) + (size_t)jnum(ia, "byteOffset", 0);
+            size_t stride = (size_t)jnum(bv, "byteStride", es);
+            if (count < 0 || off + (count ? (size_t)(count - 1) * stride + es : 0) > sizes[b] ||
+                (size_t)jnum(ia, "byteOffset", 0) + (count ? (size_t)(count - 1) * stride + es : 0) >
+                    (size_t)jnum(bv, "byteLength", 0)) {
+                res = tnd_fail(TND_ERR_BAD_INPUT,
+                               "scene: %s: mesh %d '%s': index accessor runs past its buffer",
+                               c->path, mi, mname);
+                goto done;
+            }
+            for (long k = 0; k < count; k++) {
+                const uint8_t *p = bufs[b] + off + (size_t)k * stride;
+                uint32_t v = es == 1 ? p[0] : es == 2 ? (uint32_t)(p[0] | p[1] << 8)
+                                                      : (uint32_t)p[0] | (uint32_t)p[1] << 8 |
+                                                            (uint32_t)p[2] << 16 |
+                                                            (uint32_t)p[3] << 24;
+                if ((long)v >= nverts) {
+                    res = tnd_fail(TND_ERR_BAD_INPUT,
+                                   "scene: %s: mesh %d '%s': index %u out of range (%ld vertices)",
+                                   c->path, mi, mname, v, nverts);
+                    goto done;
+                }
+            }
+        }
+        mi++;
+    }
+done:
+fail:
+    for (int i = 0; bufs && i < nbuf; i++)
+        free(bufs[i]);
+    free(bufs);
+    free(sizes);
+    return res;
+}
+
 /* ---- textures ----------------------------------------------------------------------------- */
 static int32_t load_texture(gltf_ctx *c, const struct aiMaterial *m, enum aiTextureType type,
                             unsigned index, bool srgb, const char *matname, tnd_result *res)
@@ -641,6 +807,8 @@ tnd_result scene_load_gltf(const char *path, tnd_scene **out)
         snprintf(c.dir, sizeof c.dir, "%.*s/", (int)(slash - path), path);
     TND_TRY(tnd_file_read(path, &bytes, &size));
     TND_TRY(parse_json(&c, bytes, size));
+    bool glb = size >= 12 && memcmp(bytes, "glTF", 4) == 0;
+    TND_TRY(validate_indices(&c, glb ? bytes : NULL, glb ? size : 0));
     c.ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_CalcTangentSpace |
                                   aiProcess_GenSmoothNormals | aiProcess_ValidateDataStructure);
     if (!c.ai) {

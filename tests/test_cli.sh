@@ -49,5 +49,23 @@ check "the message names the request and the devices" $?
 "$T" --help >"$tmp/out" 2>&1; rc=$?
 [ $rc -eq 0 ] && grep -q "info" "$tmp/out"; check "tandem --help lists the commands" $?
 
+# scenes
+SRC=$(cd "$(dirname "$0")/.." && pwd)
+"$T" info --scene "$SRC/data/scenes/cornell.gltf" >"$tmp/out" 2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && grep -q "triangles   36" "$tmp/out" && grep -q "area lights" "$tmp/out"
+check "info --scene describes cornell" $?
+"$T" info --scene "$SRC/data/scenes/materials.gltf" --json >"$tmp/json" 2>/dev/null
+python3 -c "import json,sys; d=json.load(open(sys.argv[1])); assert d['materials']['glass']==1 and d['lights']['spot']==1" "$tmp/json"
+check "info --scene --json is valid JSON" $?
+"$T" info --scene "$tmp/none.gltf" >"$tmp/out" 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ] && grep -q "none.gltf" "$tmp/err" && [ ! -s "$tmp/out" ]
+check "a missing scene exits 1 naming the file" $?
+printf '{"asset": {"version": "2.0"}, "meshes": [' >"$tmp/trunc.gltf"
+"$T" info --scene "$tmp/trunc.gltf" >/dev/null 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ] && grep -q "trunc.gltf: invalid glTF JSON" "$tmp/err"
+check "a truncated scene exits 1 with a clear message" $?
+"$T" contract >"$tmp/out" 2>&1; rc=$?
+[ $rc -eq 0 ] && grep -q '`hf.R`' "$tmp/out"; check "contract prints the table" $?
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

@@ -1,0 +1,392 @@
+/* tests/test_scene.c: every shipped scene imports with the expected contents; animation, light
+ * schedules and cameras evaluate to the authored values; the stress generator; and every kind of
+ * bad input gets a message naming the file and the element. Label: unit. */
+#include "core/core.h"
+#include "tests/tnd_test.h"
+
+#include <cjson/cJSON.h>
+#include <unistd.h>
+
+#define SCENES TND_SOURCE_DIR "/data/scenes/"
+
+typedef struct expect {
+    const char *name;
+    uint64_t triangles;
+    uint32_t instances, opaque, mirror, thin_glass, glass, textures;
+    uint32_t point, spot, directional, area_triangles, cameras;
+    float duration;
+    uint32_t features;
+} expect;
+
+static uint32_t kind_count(const tnd_scene *s, tnd_material_kind k)
+{
+    uint32_t n = 0;
+    for (uint32_t m = 0; m < s->material_count; m++) {
+        bool used = false;
+        for (uint32_t i = 0; i < s->instance_count; i++)
+            used |= s->meshes[s->instances[i].mesh].material == m;
+        n += used && s->materials[m].kind == k;
+    }
+    return n;
+}
+
+static uint32_t light_count(const tnd_scene *s, tnd_light_type t)
+{
+    uint32_t n = 0;
+    for (uint32_t l = 0; l < s->light_count; l++)
+        n += s->lights[l].type == t;
+    return n;
+}
+
+static void test_shipped_scenes(void)
+{
+    /* Counts follow from scripts/make_scenes.py: a quad is 2 triangles, a box 12, a 32x16 sphere
+     * 960, a 24x12 sphere 528. */
+    const expect ex[] = {
+        {"cornell", 36, 8, 4, 0, 0, 0, 0, 0, 0, 0, 2, 1, 4.0f,
+         TND_FEATURE(LIGHT_AREA) | TND_FEATURE(ANIMATED_CAMERA)},
+        {"materials", 2 + 2 + 2 + 5 * 960 + 2 + 12 + 2, 11, 7, 2, 1, 1, 3, 1, 1, 0, 2, 1, 6.0f,
+         TND_FEATURE(LIGHT_POINT) | TND_FEATURE(LIGHT_SPOT) | TND_FEATURE(LIGHT_AREA) |
+             TND_FEATURE(TEXTURES) | TND_FEATURE(NORMAL_MAPS) | TND_FEATURE(MIRROR) |
+             TND_FEATURE(GLASS) | TND_FEATURE(THIN_GLASS) | TND_FEATURE(SPLIT) |
+             TND_FEATURE(ANIMATED_CAMERA)},
+        {"dynamic", 2 * 4 + 12 * 2, 6, 5, 0, 0, 0, 0, 1, 0, 0, 2, 1, 4.0f,
+         TND_FEATURE(LIGHT_POINT) | TND_FEATURE(LIGHT_AREA) | TND_FEATURE(ANIMATED_CAMERA) |
+             TND_FEATURE(ANIMATED_OBJECTS) | TND_FEATURE(LIGHT_SCHEDULE)},
+        {"sun", 2 + 6 * 12 + 12 + 12, 9, 3, 0, 0, 0, 0, 0, 0, 1, 0, 1, 6.0f,
+         TND_FEATURE(LIGHT_DIRECTIONAL) | TND_FEATURE(SKY) | TND_FEATURE(ANIMATED_CAMERA)},
+        {"extremes", 2 + 4 * 528 + 2 + 2, 7, 6, 1, 0, 0, 0, 2, 0, 0, 4, 1, 2.0f,
+         TND_FEATURE(LIGHT_POINT) | TND_FEATURE(LIGHT_AREA) | TND_FEATURE(MIRROR) |
+             TND_FEATURE(ANIMATED_CAMERA)},
+    };
+    for (size_t k = 0; k < sizeof ex / sizeof *ex; k++) {
+        const expect *e = &ex[k];
+        char path[512];
+        snprintf(path, sizeof path, SCENES "%s.gltf", e->name);
+        tnd_scene *s = NULL;
+        tnd_result r = tnd_scene_load(path, &s);
+        CHECK(r == TND_OK, "%s: %s", e->name, tnd_error_detail());
+        if (r != TND_OK)
+            continue;
+        CHECK(tnd_scene_triangles(s) == e->triangles, "%s: %llu triangles, expected %llu",
+              e->name, (unsigned long long)tnd_scene_triangles(s),
+              (unsigned long long)e->triangles);
+        CHECK(s->instance_count == e->instances, "%s: %u instances", e->name, s->instance_count);
+        CHECK(kind_count(s, TND_MAT_OPAQUE) == e->opaque &&
+                  kind_count(s, TND_MAT_MIRROR) == e->mirror &&
+                  kind_count(s, TND_MAT_THIN_GLASS) == e->thin_glass &&
+                  kind_count(s, TND_MAT_GLASS) == e->glass,
+              "%s: materials by kind %u/%u/%u/%u", e->name, kind_count(s, TND_MAT_OPAQUE),
+              kind_count(s, TND_MAT_MIRROR), kind_count(s, TND_MAT_THIN_GLASS),
+              kind_count(s, TND_MAT_GLASS));
+        CHECK(s->texture_count == e->textures, "%s: %u textures", e->name, s->texture_count);
+        CHECK(light_count(s, TND_LIGHT_POINT) == e->point &&
+                  light_count(s, TND_LIGHT_SPOT) == e->spot &&
+                  light_count(s, TND_LIGHT_DIRECTIONAL) == e->directional,
+              "%s: lights by type", e->name);
+        CHECK(s->emitter_count == e->area_triangles, "%s: %u emissive triangles", e->name,
+              s->emitter_count);
+        CHECK(s->camera_count == e->cameras, "%s: cameras", e->name);
+        CHECK_NEAR(s->duration, e->duration, 1e-6, "duration");
+        CHECK(s->features == e->features, "%s: features 0x%x, expected 0x%x", e->name,
+              s->features, e->features);
+        for (uint32_t t = 0; t < s->texture_count; t++)
+            CHECK(s->textures[t].rgba8 && s->textures[t].width > 0, "%s: texture %u decoded",
+                  e->name, t);
+        tnd_scene_destroy(s);
+    }
+}
+
+static const tnd_material *material(const tnd_scene *s, const char *name)
+{
+    for (uint32_t m = 0; m < s->material_count; m++)
+        if (strcmp(s->materials[m].name, name) == 0)
+            return &s->materials[m];
+    return NULL;
+}
+
+static const tnd_light *light(const tnd_scene *s, const char *name)
+{
+    for (uint32_t l = 0; l < s->light_count; l++)
+        if (strcmp(s->lights[l].name, name) == 0)
+            return &s->lights[l];
+    return NULL;
+}
+
+/* Values assimp drops or alters come through exactly. */
+static void test_values(void)
+{
+    tnd_scene *s = NULL;
+    REQUIRE_OK(tnd_scene_load(SCENES "cornell.gltf", &s));
+    const tnd_material *m = material(s, "light");
+    REQUIRE(m, "light material");
+    CHECK_NEAR(m->emission[0], 17.0, 1e-5, "emissive x KHR_materials_emissive_strength");
+    CHECK_NEAR(m->emission[1], 0.85 * 17.0, 1e-5, "emission G");
+    CHECK_NEAR(s->cameras[0].yfov, 39.0 * TND_PI / 180.0, 1e-6, "camera yfov from the JSON");
+    tnd_scene_destroy(s);
+    s = NULL;
+    REQUIRE_OK(tnd_scene_load(SCENES "materials.gltf", &s));
+    const tnd_light *l = light(s, "warm_point");
+    REQUIRE(l, "warm_point");
+    CHECK(l->color[0] == 60.0f && l->color[1] == 48.0f && l->color[2] == 36.0f,
+          "candela x colour: %g %g %g", l->color[0], l->color[1], l->color[2]);
+    l = light(s, "spot");
+    REQUIRE(l, "spot");
+    CHECK_NEAR(l->inner_cone, 0.2, 1e-6, "inner cone");
+    CHECK_NEAR(l->outer_cone, 0.35, 1e-6, "outer cone");
+    m = material(s, "glass");
+    REQUIRE(m, "glass");
+    CHECK(m->kind == TND_MAT_GLASS && m->ior == 1.5f && m->transmission == 1.0f,
+          "glass: kind %d ior %g", m->kind, m->ior);
+    CHECK_NEAR(m->thickness, 0.8, 1e-6, "volume thickness");
+    CHECK_NEAR(m->attenuation_distance, 2.0, 1e-6, "attenuation distance");
+    CHECK_NEAR(m->attenuation_color[1], 0.95, 1e-6, "attenuation colour");
+    m = material(s, "textured_metal");
+    REQUIRE(m, "textured_metal");
+    CHECK(m->tex_metal_rough >= 0 && m->tex_normal >= 0 && m->tex_base_color < 0,
+          "metallicRoughness and normal textures");
+    CHECK(!s->textures[m->tex_normal].srgb, "normal maps are linear");
+    m = material(s, "checker_floor");
+    REQUIRE(m && m->tex_base_color >= 0, "checker texture");
+    const tnd_texture *t = &s->textures[m->tex_base_color];
+    CHECK(t->srgb && t->width == 64 && t->height == 64, "base colour texture 64x64 sRGB");
+    /* texel (0,0) is dark (60,60,70), texel (8,0) light (200) */
+    CHECK(t->rgba8[0] == 60 && t->rgba8[2] == 70 && t->rgba8[4 * 8] == 200, "texels decoded");
+cleanup:
+    tnd_scene_destroy(s);
+}
+
+static void test_animation(void)
+{
+    tnd_scene *s = NULL;
+    tnd_scene_state st = {0};
+    REQUIRE_OK(tnd_scene_load(SCENES "dynamic.gltf", &s));
+    uint32_t cube = UINT32_MAX;
+    for (uint32_t i = 0; i < s->instance_count; i++)
+        if (strcmp(s->meshes[s->instances[i].mesh].name, "moving_cube") == 0)
+            cube = i;
+    REQUIRE(cube != UINT32_MAX, "moving cube");
+    CHECK(s->instances[cube].animated, "cube is animated");
+    REQUIRE_OK(tnd_scene_evaluate(s, 2.0, 0, 16.0f / 9.0f, &st));
+    const float *x = st.instance_xform + 12 * cube;
+    CHECK_NEAR(x[3], 2.0, 1e-5, "cube x at its key");
+    CHECK_NEAR(x[7], 0.25, 1e-5, "cube y");
+    CHECK_NEAR(x[11], -1.2, 1e-5, "cube z");
+    REQUIRE_OK(tnd_scene_evaluate(s, 1.0, 0, 16.0f / 9.0f, &st));
+    CHECK_NEAR(st.instance_xform[12 * cube + 3], 0.25, 1e-5, "linear halfway (-1.5 .. 2.0)");
+    /* the schedule: off from frame 30, on again from frame 60 (30 fps) */
+    const tnd_light *l = light(s, "switched_lamp");
+    REQUIRE(l, "switched lamp");
+    uint32_t li = (uint32_t)(l - s->lights);
+    const int frames[] = {0, 29, 30, 45, 59, 60, 90};
+    const float scales[] = {1, 1, 0, 0, 0, 1, 1};
+    for (int k = 0; k < 7; k++) {
+        REQUIRE_OK(tnd_scene_evaluate(s, frames[k] / 30.0, 0, 1.0f, &st));
+        CHECK(st.light_scale[li] == scales[k], "frame %d: scale %g, expected %g", frames[k],
+              st.light_scale[li], scales[k]);
+    }
+    /* camera at t = 0: authored at (-0.5, 1.5, 4.5) */
+    REQUIRE_OK(tnd_scene_evaluate(s, 0.0, 0, 16.0f / 9.0f, &st));
+    CHECK_NEAR(st.camera_position[0], -0.5, 1e-5, "camera x");
+    CHECK_NEAR(st.camera_position[2], 4.5, 1e-5, "camera z");
+    float o[3], d[3];
+    tnd_camera_ray(&st.camera, 160, 90, 80.0f, 45.0f, o, d);
+    CHECK_NEAR(o[1], 1.5, 1e-5, "ray origin at the camera");
+    /* yaw -5, pitch -10 degrees: the centre ray looks down and slightly to the right (-yaw) */
+    CHECK_NEAR(d[1], -sin(10 * TND_PI / 180), 1e-4, "centre ray pitch");
+    CHECK(d[2] < -0.9f, "looks down -Z");
+    tnd_scene_state_free(&st);
+    tnd_scene_destroy(s);
+    s = NULL;
+    /* geometry 1e5 from the origin stays put */
+    REQUIRE_OK(tnd_scene_load(SCENES "extremes.gltf", &s));
+    REQUIRE_OK(tnd_scene_evaluate(s, 0.0, 0, 1.0f, &st));
+    CHECK_NEAR(st.instance_xform[3], 1.0e5, 0.01, "far instance x");
+    CHECK_NEAR(st.camera_position[0], 1.0e5, 0.01, "far camera");
+cleanup:
+    tnd_scene_state_free(&st);
+    tnd_scene_destroy(s);
+}
+
+static void test_stress(void)
+{
+    tnd_scene *s = NULL;
+    const double wants[] = {20000, 1000000};
+    for (int k = 0; k < 2; k++) {
+        char spec[64];
+        snprintf(spec, sizeof spec, "stress:%.0f", wants[k]);
+        REQUIRE_OK(tnd_scene_load(spec, &s));
+        double n = (double)tnd_scene_triangles(s);
+        CHECK(fabs(n - wants[k]) / wants[k] < 0.05, "%s: %.0f triangles", spec, n);
+        CHECK(s->mesh_count == 18 && s->emitter_count == 2 && s->camera_count == 1,
+              "16 distinct meshes + ground + panel");
+        tnd_scene_destroy(s);
+        s = NULL;
+    }
+    CHECK(tnd_scene_load("stress:abc", &s) == TND_ERR_INVALID_ARGUMENT && !s, "bad stress spec");
+    CHECK(tnd_scene_load("stress:10", &s) == TND_ERR_INVALID_ARGUMENT, "too small");
+cleanup:
+    tnd_scene_destroy(s);
+}
+
+/* ---- bad input ------------------------------------------------------------------------------ */
+static char dir[64];
+
+static void copy_file(const char *from, const char *to)
+{
+    void *d;
+    size_t n;
+    if (tnd_file_read(from, &d, &n) == TND_OK) {
+        tnd_file_write_atomic(to, d, n);
+        free(d);
+    }
+}
+
+/* Byte offset in the .bin of element `elem` of the accessor for (mesh m, attribute or indices). */
+static long accessor_offset(const char *gltf, int mesh, const char *attr, int elem, int elem_size)
+{
+    void *txt;
+    size_t n;
+    if (tnd_file_read(gltf, &txt, &n) != TND_OK)
+        return -1;
+    cJSON *j = cJSON_Parse(txt);
+    free(txt);
+    const cJSON *prim = cJSON_GetArrayItem(
+        cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(j, "meshes"), mesh),
+                            "primitives"),
+        0);
+    const cJSON *acc_i = attr ? cJSON_GetObjectItem(cJSON_GetObjectItem(prim, "attributes"), attr)
+                              : cJSON_GetObjectItem(prim, "indices");
+    const cJSON *acc = cJSON_GetArrayItem(cJSON_GetObjectItem(j, "accessors"), acc_i->valueint);
+    const cJSON *bv = cJSON_GetArrayItem(cJSON_GetObjectItem(j, "bufferViews"),
+                                         cJSON_GetObjectItem(acc, "bufferView")->valueint);
+    long off = cJSON_GetObjectItem(bv, "byteOffset")->valueint + (long)elem * elem_size;
+    cJSON_Delete(j);
+    return off;
+}
+
+static void patch_bin(const char *path, long off, const void *bytes, size_t n)
+{
+    void *d;
+    size_t size;
+    if (tnd_file_read(path, &d, &size) == TND_OK) {
+        if (off >= 0 && (size_t)off + n <= size)
+            memcpy((char *)d + off, bytes, n);
+        tnd_file_write_atomic(path, d, size);
+        free(d);
+    }
+}
+
+/* Make DIR/NAME.gltf (+ .bin + textures) from a shipped scene, then let the case break it. */
+static void stage(const char *scene, bool with_bin, bool with_textures)
+{
+    char from[512], to[512];
+    snprintf(from, sizeof from, SCENES "%s.gltf", scene);
+    snprintf(to, sizeof to, "%s/%s.gltf", dir, scene);
+    copy_file(from, to);
+    if (with_bin) {
+        snprintf(from, sizeof from, SCENES "%s.bin", scene);
+        snprintf(to, sizeof to, "%s/%s.bin", dir, scene);
+        copy_file(from, to);
+    }
+    const char *tex[] = {"materials_checker.png", "materials_mr.png", "materials_normal.png"};
+    for (int i = 0; with_textures && i < 3; i++) {
+        snprintf(from, sizeof from, SCENES "%s", tex[i]);
+        snprintf(to, sizeof to, "%s/%s", dir, tex[i]);
+        copy_file(from, to);
+    }
+}
+
+static void expect_error(const char *what, const char *path, const char *needle1,
+                         const char *needle2)
+{
+    tnd_scene *s = NULL;
+    tnd_result r = tnd_scene_load(path, &s);
+    const char *d = tnd_error_detail();
+    CHECK(r != TND_OK && s == NULL, "%s: must fail", what);
+    CHECK(strstr(d, path) != NULL, "%s: message names the file: %s", what, d);
+    CHECK(strstr(d, needle1) != NULL && (!needle2 || strstr(d, needle2) != NULL),
+          "%s: message names the element ('%s'%s%s): %s", what, needle1, needle2 ? ", '" : "",
+          needle2 ? needle2 : "", d);
+    tnd_scene_destroy(s);
+}
+
+static void test_bad_input(void)
+{
+    snprintf(dir, sizeof dir, "/tmp/tandem_scene_XXXXXX");
+    REQUIRE(mkdtemp(dir), "mkdtemp");
+    char p[512], bin[512];
+    snprintf(p, sizeof p, "%s/cornell.gltf", dir);
+    snprintf(bin, sizeof bin, "%s/cornell.bin", dir);
+
+    /* truncated JSON */
+    stage("cornell", true, false);
+    void *txt;
+    size_t n;
+    REQUIRE_OK(tnd_file_read(p, &txt, &n));
+    CHECK_OK(tnd_file_write_atomic(p, txt, n / 2));
+    free(txt);
+    expect_error("truncated JSON", p, "invalid glTF JSON", "truncated");
+
+    /* missing .bin */
+    remove(bin);
+    stage("cornell", false, false);
+    expect_error("missing .bin", p, "buffer 0", "cornell.bin");
+
+    /* missing texture */
+    char mp[512];
+    snprintf(mp, sizeof mp, "%s/materials.gltf", dir);
+    stage("materials", true, false);
+    expect_error("missing texture", mp, "texture", "materials_");
+
+    /* out-of-range index: mesh 0 ('floor'), index 1 := 999 (4 vertices) */
+    stage("cornell", true, false);
+    uint32_t big = 999;
+    patch_bin(bin, accessor_offset(p, 0, NULL, 1, 4), &big, 4);
+    expect_error("index out of range", p, "floor", "999");
+
+    /* NaN vertex: mesh 1 ('ceiling'), vertex 2, x */
+    stage("cornell", true, false);
+    float nan = NAN;
+    patch_bin(bin, accessor_offset(p, 1, "POSITION", 2, 12), &nan, 4);
+    expect_error("NaN vertex", p, "ceiling", "non-finite");
+
+    /* zero-area emissive triangle: the 'light' mesh (5) with vertex 1 := vertex 0 */
+    stage("cornell", true, false);
+    float v0[3];
+    {
+        void *b;
+        size_t bs;
+        REQUIRE_OK(tnd_file_read(bin, &b, &bs));
+        memcpy(v0, (char *)b + accessor_offset(p, 5, "POSITION", 0, 12), 12);
+        free(b);
+    }
+    patch_bin(bin, accessor_offset(p, 5, "POSITION", 1, 12), v0, 12);
+    patch_bin(bin, accessor_offset(p, 5, "POSITION", 2, 12), v0, 12);
+    expect_error("zero-area emitter", p, "light", "zero area");
+
+    /* unsupported required extension */
+    stage("cornell", true, false);
+    REQUIRE_OK(tnd_file_read(p, &txt, &n));
+    char *patched = malloc(n + 128);
+    char *brace = strchr(txt, '{');
+    snprintf(patched, n + 128, "{\"extensionsRequired\": [\"KHR_draco_mesh_compression\"],%s",
+             brace + 1);
+    CHECK_OK(tnd_file_write_atomic(p, patched, strlen(patched)));
+    free(patched);
+    free(txt);
+    expect_error("unsupported extension", p, "KHR_draco_mesh_compression", "not support");
+
+    /* not glTF at all, and a missing file */
+    CHECK_OK(tnd_file_write_atomic(p, "{\"asset\": {\"version\": \"1.0\"}}", 29));
+    expect_error("glTF 1.0", p, "glTF 2.0", NULL);
+    snprintf(p, sizeof p, "%s/absent.gltf", dir);
+    expect_error("missing file", p, "cannot open", NULL);
+cleanup:;
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    CHECK(system(cmd) == 0, "cleanup");
+}
+
+TND_TEST_MAIN(T(test_shipped_scenes), T(test_values), T(test_animation), T(test_stress),
+              T(test_bad_input))
