@@ -746,4 +746,26 @@ tnd_result tnd_scene_evaluate(const tnd_scene *s, double time, uint32_t camera, 
                               tnd_scene_state *st);
 void tnd_scene_state_free(tnd_scene_state *st);
 
+
+/* ---------------------------------------------------------------------------------------------
+ * The contract on the GPU: one storage image per entry, formats from the table
+ * ------------------------------------------------------------------------------------------- */
+typedef struct tnd_contract_gpu {
+    tnd_image images[TND_CT_COUNT]; /* binding i = entry i (shaders/contract.h) */
+    tnd_precision precision;
+    uint32_t width, height;
+} tnd_contract_gpu;
+
+VkFormat tnd_ct_format(tnd_ct id, tnd_precision p);
+/* Bytes per texel of an entry's image at a precision. */
+uint32_t tnd_ct_texel_bytes(tnd_ct id, tnd_precision p);
+tnd_result tnd_contract_gpu_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision p,
+                                   tnd_contract_gpu *c);
+void tnd_contract_gpu_destroy(tnd_vk *vk, tnd_contract_gpu *c);
+/* Host frame -> images (packed on the CPU with shaders/encoding.h, so the GPU holds exactly
+ * what tnd_frame_quantize computes). Sizes must match. Blocks. */
+tnd_result tnd_contract_upload(tnd_vk *vk, tnd_contract_gpu *c, const tnd_frame *f);
+/* Images -> host frame (created by the caller at the same size); marks every entry present. */
+tnd_result tnd_contract_download(tnd_vk *vk, const tnd_contract_gpu *c, tnd_frame *f);
+
 #endif

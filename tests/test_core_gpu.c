@@ -332,10 +332,54 @@ cleanup:
     gpu_end();
 }
 
+/* A host frame survives upload to the contract images and download, bit for bit, at both
+ * precisions (formats straight from the table). */
+static void test_contract_images(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    for (int p = 0; p < 2; p++) {
+        tnd_frame f = {0}, g = {0};
+        tnd_contract_gpu c = {0};
+        REQUIRE_OK(tnd_frame_create(37, 23, &f));
+        REQUIRE_OK(tnd_frame_create(37, 23, &g));
+        uint32_t s = 99;
+        for (int i = 0; i < TND_CT_COUNT; i++) {
+            const tnd_ct_info *e = tnd_ct_get((tnd_ct)i);
+            for (size_t k = 0; k < (size_t)37 * 23 * e->comps; k++) {
+                s = s * 1664525u + 1013904223u;
+                if (e->kind == TND_CT_UINT)
+                    tnd_frame_u(&f, (tnd_ct)i)[k] = s;
+                else
+                    tnd_frame_f(&f, (tnd_ct)i)[k] =
+                        (float)((double)(s >> 8) / 16777216.0 * 4.0 - 1.0) * (k % 7 ? 1.0f : 3e4f);
+            }
+            f.present[i] = true;
+        }
+        tnd_frame_quantize(&f, (tnd_precision)p);
+        REQUIRE_OK(tnd_contract_gpu_create(vk, 37, 23, (tnd_precision)p, &c));
+        CHECK(c.images[TND_CT_HF].format == (p ? VK_FORMAT_R32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT),
+              "hf format from the table");
+        REQUIRE_OK(tnd_contract_upload(vk, &c, &f));
+        REQUIRE_OK(tnd_contract_download(vk, &c, &g));
+        for (int i = 0; i < TND_CT_COUNT; i++) {
+            size_t bytes = (size_t)37 * 23 * tnd_ct_get((tnd_ct)i)->comps * 4;
+            CHECK(memcmp(f.data[i], g.data[i], bytes) == 0, "%s: %s differs after the GPU",
+                  tnd_precision_name((tnd_precision)p), tnd_ct_get((tnd_ct)i)->name);
+        }
+        tnd_contract_gpu_destroy(vk, &c);
+        tnd_frame_destroy(&f);
+        tnd_frame_destroy(&g);
+    }
+cleanup:
+    gpu_end();
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
 }
 
 TND_TEST_MAIN(T(test_context), T(test_validation_counts_errors), T(test_device_override),
-              T(test_buffers), T(test_images), T(test_compute_and_timestamps), T(test_rgbe_glsl_matches_c), T(test_shutdown))
+              T(test_buffers), T(test_images), T(test_compute_and_timestamps), T(test_rgbe_glsl_matches_c),
+              T(test_contract_images), T(test_shutdown))
