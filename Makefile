@@ -34,15 +34,16 @@ demo: build
 	@echo "demo: the binary is $(BUILD)/tandem ('$(BUILD)/tandem --help' lists its commands)."
 
 test-release: build
-	cd $(BUILD) && ctest --output-on-failure
+	scripts/run-tests.sh $(BUILD)
 
 # Every test again under AddressSanitizer + UndefinedBehaviorSanitizer (GPU tests included:
 # lavapipe runs clean under ASan, leak checking on).
 test-asan: build-asan
-	cd $(ASAN_BUILD) && ctest --output-on-failure
+	scripts/run-tests.sh $(ASAN_BUILD)
 
-test: test-release test-asan
-	@echo "test: all suites passed (release and ASan+UBSan)"
+# Both builds are made first, then every suite runs in both; one closing line counts them all.
+test: build build-asan
+	scripts/run-tests.sh $(BUILD) $(ASAN_BUILD)
 
 clean:
 	rm -rf $(BUILD) $(ASAN_BUILD)

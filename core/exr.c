@@ -12,17 +12,21 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
-/* Library messages are collected here (per context, through its user data). */
+/* Library messages are collected here. The handler cannot ask the context for its user data:
+ * the library calls it with the context's lock held (exr_get_user_data would deadlock), so the
+ * calling thread's current message buffer is found through a thread-local pointer instead. */
 typedef struct exr_msgs {
     char text[512];
 } exr_msgs;
 
+static _Thread_local exr_msgs *current_msgs;
+
 static void on_exr_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
-    void *ud = NULL;
-    exr_get_user_data(ctxt, &ud);
-    exr_msgs *m = ud;
+    (void)ctxt;
+    exr_msgs *m = current_msgs;
     if (m && !m->text[0])
         snprintf(m->text, sizeof m->text, "%s (%s)", msg ? msg : "",
                  exr_get_error_code_as_string(code));
@@ -78,10 +82,14 @@ tnd_result tnd_exr_write(const char *path, uint32_t width, uint32_t height,
     if (width == 0 || height == 0 || width > 65536 || height > 65536 || channel_count == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "exr: %s: bad image %ux%u with %u channels",
                         path, width, height, channel_count);
+    /* Written under a temporary name and renamed on success: never a partial file at `path`. */
+    char tmp[1100];
+    if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "exr: %s: path too long", path);
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = on_exr_error;
-    init.user_data = &msgs;
-    EXR_TRY(exr_start_write(&ctx, path, EXR_INTERMEDIATE_TEMP_FILE, &init), "cannot create");
+    current_msgs = &msgs;
+    EXR_TRY(exr_start_write(&ctx, tmp, EXR_WRITE_FILE_DIRECTLY, &init), "cannot create");
     int part;
     EXR_TRY(exr_add_part(ctx, "tandem", EXR_STORAGE_SCANLINE, &part), "add part");
     EXR_TRY(exr_initialize_required_attr_simple(ctx, part, (int32_t)width, (int32_t)height,
@@ -153,18 +161,15 @@ fail:
     if (enc_init)
         exr_encoding_destroy(ctx, &enc);
     if (ctx) {
-        if (res != TND_OK) {
-            /* Finishing a failed write would publish a broken file: remove the temporary. */
-            exr_finish(&ctx);
-            char tmp[1100];
-            snprintf(tmp, sizeof tmp, "%s.tmp", path);
+        exr_result_t rv = exr_finish(&ctx);
+        if (res == TND_OK && rv != EXR_ERR_SUCCESS)
+            res = exr_fail(path, "finish", rv, &msgs);
+        if (res == TND_OK && rename(tmp, path) != 0)
+            res = tnd_fail(TND_ERR_IO, "exr: %s: cannot rename into place", path);
+        if (res != TND_OK)
             remove(tmp);
-        } else {
-            exr_result_t rv = exr_finish(&ctx);
-            if (rv != EXR_ERR_SUCCESS)
-                res = exr_fail(path, "finish", rv, &msgs);
-        }
     }
+    current_msgs = NULL;
     return res;
 }
 
@@ -191,7 +196,7 @@ tnd_result tnd_exr_read(const char *path, tnd_exr_file *f)
     snprintf(f->path, sizeof f->path, "%s", path);
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = on_exr_error;
-    init.user_data = &msgs;
+    current_msgs = &msgs;
     init.flags = EXR_CONTEXT_FLAG_SILENT_HEADER_PARSE;
     EXR_TRY(exr_start_read(&ctx, path, &init), "cannot read as OpenEXR");
     f->ctx = ctx;
@@ -271,6 +276,7 @@ tnd_result tnd_exr_read(const char *path, tnd_exr_file *f)
     }
     if (dec_init)
         exr_decoding_destroy(ctx, &dec);
+    current_msgs = NULL;
     return TND_OK;
 fail:
     if (dec_init)
@@ -278,6 +284,7 @@ fail:
     if (!f->ctx && ctx)
         exr_finish(&ctx);
     tnd_exr_close(f);
+    current_msgs = NULL;
     return res;
 }
 

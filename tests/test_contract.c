@@ -380,6 +380,23 @@ static void test_capture_validation(void)
     CHECK(r != TND_OK && strstr(tnd_error_detail(), "truncated.exr"), "truncated: %s",
           tnd_error_detail());
     CHECK(tnd_capture_read(tmp_path("nope.exr"), &f) == TND_ERR_IO, "missing file");
+
+    /* a failing write leaves nothing behind: duplicate channel names are refused mid-header */
+    const char *dup[] = {"albedo.R", "albedo.R"};
+    const char *dp = tmp_path("dup.exr");
+    CHECK(write_raw(dp, W, H, dup, types, data, 2, true) != TND_OK, "duplicate channels refused");
+    CHECK(access(dp, F_OK) != 0, "no partial output file");
+    char cmd[300], out[256] = "";
+    snprintf(cmd, sizeof cmd, "ls '%s' | grep -c '\\.tmp\\.' || true", tmpdir);
+    FILE *pp = popen(cmd, "r");
+    if (pp) {
+        if (!fgets(out, sizeof out, pp))
+            out[0] = 0;
+        pclose(pp);
+    }
+    CHECK(atoi(out) == 0, "no temporary files left (%s)", out);
+    CHECK(tnd_capture_write(tmp_path("missing_dir/x.exr"), &(tnd_frame){0}, TND_EXR_ZIP) != TND_OK,
+          "empty frame refused");
 cleanup:
     tnd_frame_destroy(&f);
 }
