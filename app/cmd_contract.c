@@ -48,9 +48,10 @@ int cmd_contract(int argc, char **argv)
         cJSON_AddStringToObject(o, "type", e->kind == TND_CT_UINT ? "uint32" : "float");
         cJSON_AddStringToObject(o, "glsl_float32", e->glsl_f32);
         cJSON_AddStringToObject(o, "glsl_packed", e->glsl_packed);
-        cJSON_AddStringToObject(o, "need", e->need == TND_NEED_REQUIRED  ? "required"
-                                           : e->need == TND_NEED_DERIVED ? "derived"
-                                                                         : "default");
+        cJSON_AddStringToObject(o, "need",
+                                e->need == TND_NEED_REQUIRED  ? "required"
+                                : e->need == TND_NEED_DERIVED ? "derived"
+                                                              : "default");
         cJSON_AddNumberToObject(o, "default", e->default_value);
         cJSON_AddStringToObject(o, "semantic", e->semantic);
         cJSON_AddStringToObject(o, "unit", e->unit);

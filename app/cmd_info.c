@@ -82,8 +82,8 @@ static int scene_info(const char *path, bool json)
         for (int k = 0; k < TND_LIGHT_TYPE_COUNT; k++)
             printf(" %u %s%s", lights[k], tnd_light_type_name((tnd_light_type)k),
                    k == TND_LIGHT_AREA ? " (emissive triangles)" : ",");
-        printf("\n  cameras     %u\n  animation   %.3f s (%u frames at 30 fps)\n",
-               s->camera_count, (double)s->duration, (unsigned)floor(s->duration * 30.0 + 1e-6) + 1);
+        printf("\n  cameras     %u\n  animation   %.3f s (%u frames at 30 fps)\n", s->camera_count,
+               (double)s->duration, (unsigned)floor(s->duration * 30.0 + 1e-6) + 1);
         if (s->features & TND_FEATURE(SKY))
             printf("  sky         %g %g %g nits\n", (double)s->sky[0], (double)s->sky[1],
                    (double)s->sky[2]);
@@ -148,8 +148,8 @@ static cJSON *device_json(const tnd_vk_device_info *d, bool chosen)
 
 static void device_text(const tnd_vk_device_info *d, bool chosen)
 {
-    printf("%s device %u: %s (%s, %s, Vulkan %u.%u.%u)%s\n", chosen ? "*" : " ", d->index,
-           d->name, type_name(d->type), d->driver_name, VK_API_VERSION_MAJOR(d->api_version),
+    printf("%s device %u: %s (%s, %s, Vulkan %u.%u.%u)%s\n", chosen ? "*" : " ", d->index, d->name,
+           type_name(d->type), d->driver_name, VK_API_VERSION_MAJOR(d->api_version),
            VK_API_VERSION_MINOR(d->api_version), VK_API_VERSION_PATCH(d->api_version),
            chosen ? "  <- chosen" : "");
     printf("    ray tracing pipeline: %s   acceleration structure: %s   ray query: %s\n",

@@ -13,8 +13,9 @@ static const int command_count = (int)(sizeof commands / sizeof commands[0]);
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: tandem COMMAND [options]\n\n"
-               "Tandem %s: denoiser-centric real-time path tracing.\n\ncommands:\n",
+    fprintf(f,
+            "usage: tandem COMMAND [options]\n\n"
+            "Tandem %s: denoiser-centric real-time path tracing.\n\ncommands:\n",
             TND_VERSION_STRING);
     for (int i = 0; i < command_count; i++)
         fprintf(f, "  %-10s %s\n", commands[i].name, commands[i].summary);

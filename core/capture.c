@@ -29,8 +29,7 @@ tnd_result tnd_capture_write(const char *path, const tnd_frame *f, tnd_exr_compr
                              : TND_EXR_FLOAT;
         for (uint32_t k = 0; k < e->comps; k++) {
             tnd_ct_exr_name((tnd_ct)i, k, names[n], sizeof names[n]);
-            ch[n] = (tnd_exr_channel_desc){names[n], t, (const uint32_t *)f->data[i] + k,
-                                           e->comps};
+            ch[n] = (tnd_exr_channel_desc){names[n], t, (const uint32_t *)f->data[i] + k, e->comps};
             n++;
         }
     }
@@ -38,13 +37,14 @@ tnd_result tnd_capture_write(const char *path, const tnd_frame *f, tnd_exr_compr
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "capture: %s: frame has no entries", path);
     tnd_exr_attr at[8] = {
         {.name = "tandem.contractVersion", .type = TND_ATTR_INT, .i = TND_CONTRACT_VERSION},
-        {.name = "tandem.precision", .type = TND_ATTR_STRING,
+        {.name = "tandem.precision",
+         .type = TND_ATTR_STRING,
          .s = tnd_precision_name(f->precision)},
     };
     uint32_t na = 2;
     if (f->has_camera) {
-        at[na++] = (tnd_exr_attr){.name = "tandem.frame", .type = TND_ATTR_INT,
-                                  .i = (int32_t)f->camera.frame_index};
+        at[na++] = (tnd_exr_attr){
+            .name = "tandem.frame", .type = TND_ATTR_INT, .i = (int32_t)f->camera.frame_index};
         at[na] = (tnd_exr_attr){.name = "tandem.jitter", .type = TND_ATTR_V2F};
         memcpy(at[na++].f, f->camera.jitter, sizeof f->camera.jitter);
         const char *mn[4] = {"tandem.view", "tandem.proj", "tandem.prevView", "tandem.prevProj"};
@@ -122,8 +122,9 @@ tnd_result tnd_capture_read(const char *path, tnd_frame *f)
     }
     if (version != TND_CONTRACT_VERSION) {
         tnd_exr_close(&x);
-        return tnd_fail(TND_ERR_UNSUPPORTED, "capture: %s: contract version %d (this Tandem reads %d)",
-                        path, version, TND_CONTRACT_VERSION);
+        return tnd_fail(TND_ERR_UNSUPPORTED,
+                        "capture: %s: contract version %d (this Tandem reads %d)", path, version,
+                        TND_CONTRACT_VERSION);
     }
     TND_TRY(tnd_frame_create(x.width, x.height, f));
     char prec[32] = "float32";
@@ -162,7 +163,9 @@ tnd_result tnd_capture_read(const char *path, tnd_frame *f)
             bool want_uint = e->kind == TND_CT_UINT;
             if (want_uint != (c->type == TND_EXR_UINT)) {
                 add_problem(&p, "channel '%s': wrong type %s (expected %s)", nm[k],
-                            c->type == TND_EXR_UINT ? "UINT" : c->type == TND_EXR_HALF ? "HALF" : "FLOAT",
+                            c->type == TND_EXR_UINT   ? "UINT"
+                            : c->type == TND_EXR_HALF ? "HALF"
+                                                      : "FLOAT",
                             want_uint ? "UINT" : "HALF or FLOAT");
                 ok = false;
                 continue;
@@ -289,8 +292,8 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
         map_entry *me = &m->e[ci->id];
         const cJSON *chans = cJSON_GetObjectItemCaseSensitive(it, "channels");
         if (!cJSON_IsArray(chans) || cJSON_GetArraySize(chans) != (int)ci->comps) {
-            snprintf(msg, sizeof msg, "entry '%s': \"channels\" must list %u channel(s)",
-                     ci->name, ci->comps);
+            snprintf(msg, sizeof msg, "entry '%s': \"channels\" must list %u channel(s)", ci->name,
+                     ci->comps);
             res = map_error(path, msg);
             goto fail;
         }
@@ -310,8 +313,8 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
                 }
             } else if (!cJSON_IsNull(c)) {
                 snprintf(msg, sizeof msg,
-                         "entry '%s': channel %u must be a name, a list of names or null",
-                         ci->name, k);
+                         "entry '%s': channel %u must be a name, a list of names or null", ci->name,
+                         k);
                 res = map_error(path, msg);
                 goto fail;
             }

@@ -10,23 +10,39 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define CT_KIND_FLOAT TND_CT_FLOAT
-#define CT_KIND_UINT TND_CT_UINT
-#define CT_PACK_F32 TND_PACK_F32
-#define CT_PACK_HALF TND_PACK_HALF
-#define CT_PACK_RGBE TND_PACK_RGBE
+#define CT_KIND_FLOAT    TND_CT_FLOAT
+#define CT_KIND_UINT     TND_CT_UINT
+#define CT_PACK_F32      TND_PACK_F32
+#define CT_PACK_HALF     TND_PACK_HALF
+#define CT_PACK_RGBE     TND_PACK_RGBE
 #define CT_NEED_REQUIRED TND_NEED_REQUIRED
-#define CT_NEED_DEFAULT TND_NEED_DEFAULT
-#define CT_NEED_DERIVED TND_NEED_DERIVED
+#define CT_NEED_DEFAULT  TND_NEED_DEFAULT
+#define CT_NEED_DERIVED  TND_NEED_DERIVED
 
-#define CT_CHANNELS(...) {__VA_ARGS__}
+#define CT_CHANNELS(...)                                                                           \
+    {                                                                                              \
+        __VA_ARGS__                                                                                \
+    }
 
 static const tnd_ct_info rows[TND_CT_COUNT] = {
-#define ROW(ID, bind, nm, comps, kind, pack, vk32, vkp, g32, gp, layer, chans, need, def, sem,   \
+#define ROW(ID, bind, nm, comps, kind, pack, vk32, vkp, g32, gp, layer, chans, need, def, sem,     \
             unit, space)                                                                           \
-    [bind] = {TND_CT_##ID, #nm,  comps, CT_KIND_##kind, CT_PACK_##pack, VK_FORMAT_##vk32,          \
-              VK_FORMAT_##vkp, #g32, #gp, layer, CT_CHANNELS chans, CT_NEED_##need, def, sem,     \
-              unit, space},
+    [bind] = {TND_CT_##ID,                                                                         \
+              #nm,                                                                                 \
+              comps,                                                                               \
+              CT_KIND_##kind,                                                                      \
+              CT_PACK_##pack,                                                                      \
+              VK_FORMAT_##vk32,                                                                    \
+              VK_FORMAT_##vkp,                                                                     \
+              #g32,                                                                                \
+              #gp,                                                                                 \
+              layer,                                                                               \
+              CT_CHANNELS chans,                                                                   \
+              CT_NEED_##need,                                                                      \
+              def,                                                                                 \
+              sem,                                                                                 \
+              unit,                                                                                \
+              space},
     TND_CONTRACT(ROW)
 #undef ROW
 };
@@ -81,8 +97,8 @@ tnd_result tnd_frame_create(uint32_t width, uint32_t height, tnd_frame *f)
         f->data[i] = malloc(n * e->comps * 4);
         if (!f->data[i]) {
             tnd_frame_destroy(f);
-            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "contract: out of memory for %ux%u frame",
-                            width, height);
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "contract: out of memory for %ux%u frame", width,
+                            height);
         }
         if (e->kind == TND_CT_UINT) {
             uint32_t v = (uint32_t)e->default_value, *d = f->data[i];
@@ -170,7 +186,7 @@ size_t tnd_ct_markdown(char *buf, size_t cap)
     size_t n = 0;
 #define PUT(...)                                                                                   \
     do {                                                                                           \
-        int w_ = snprintf(buf ? buf + n : NULL, buf && n < cap ? cap - n : 0, __VA_ARGS__);       \
+        int w_ = snprintf(buf ? buf + n : NULL, buf && n < cap ? cap - n : 0, __VA_ARGS__);        \
         n += w_ > 0 ? (size_t)w_ : 0;                                                              \
     } while (0)
     PUT("| entry | EXR channels | float32 | packed | need | semantic | unit | space |\n");
@@ -180,7 +196,7 @@ size_t tnd_ct_markdown(char *buf, size_t cap)
         PUT("| `%s` | ", e->name);
         for (uint32_t c = 0; c < e->comps; c++)
             PUT("%s`%s.%s`", c ? ", " : "", e->exr_layer, e->exr_channels[c]);
-        const char *packed = e->kind == TND_CT_UINT      ? "uint32"
+        const char *packed = e->kind == TND_CT_UINT     ? "uint32"
                              : e->pack == TND_PACK_HALF ? "half"
                              : e->pack == TND_PACK_RGBE ? "RGBE 9-9-9-5"
                                                         : "float32";

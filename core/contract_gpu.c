@@ -65,11 +65,12 @@ tnd_result tnd_contract_gpu_create(tnd_vk *vk, uint32_t width, uint32_t height, 
     for (int i = 0; i < TND_CT_COUNT; i++) {
         char name[64];
         snprintf(name, sizeof name, "contract.%s", tnd_ct_get((tnd_ct)i)->name);
-        tnd_result r = tnd_image_create(
-            vk,
-            &(tnd_image_desc){.width = width, .height = height,
-                              .format = tnd_ct_format((tnd_ct)i, p), .name = name},
-            &c->images[i]);
+        tnd_result r = tnd_image_create(vk,
+                                        &(tnd_image_desc){.width = width,
+                                                          .height = height,
+                                                          .format = tnd_ct_format((tnd_ct)i, p),
+                                                          .name = name},
+                                        &c->images[i]);
         if (r != TND_OK) {
             tnd_contract_gpu_destroy(vk, c);
             return r;
@@ -186,9 +187,9 @@ tnd_result tnd_contract_upload(tnd_vk *vk, tnd_contract_gpu *c, const tnd_frame 
     size_t offsets[TND_CT_COUNT];
     size_t total = total_bytes(c, offsets);
     tnd_buffer st = {0};
-    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = total, .mem = TND_MEM_UPLOAD,
-                                                     .name = "contract.upload"},
-                              &st));
+    TND_TRY(tnd_buffer_create(
+        vk, &(tnd_buffer_desc){.size = total, .mem = TND_MEM_UPLOAD, .name = "contract.upload"},
+        &st));
     for (int i = 0; i < TND_CT_COUNT; i++)
         pack_entry(c, f, i, (uint8_t *)st.mapped + offsets[i]);
     res = copy_all(vk, c, &st, offsets, true);
@@ -206,9 +207,9 @@ tnd_result tnd_contract_download(tnd_vk *vk, const tnd_contract_gpu *c, tnd_fram
     size_t offsets[TND_CT_COUNT];
     size_t total = total_bytes(c, offsets);
     tnd_buffer st = {0};
-    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = total, .mem = TND_MEM_READBACK,
-                                                     .name = "contract.download"},
-                              &st));
+    TND_TRY(tnd_buffer_create(
+        vk, &(tnd_buffer_desc){.size = total, .mem = TND_MEM_READBACK, .name = "contract.download"},
+        &st));
     TND_TRY(copy_all(vk, c, &st, offsets, false));
     for (int i = 0; i < TND_CT_COUNT; i++) {
         unpack_entry(c, f, i, (const uint8_t *)st.mapped + offsets[i]);

@@ -17,7 +17,7 @@
 #include <vulkan/vulkan.h>
 
 #define TND_VERSION_STRING "0.1.0"
-#define TND_PI 3.14159265358979323846
+#define TND_PI             3.14159265358979323846
 
 /* ---------------------------------------------------------------------------------------------
  * Results and errors
@@ -50,8 +50,7 @@ const char *tnd_result_message(tnd_result r);
 /* Record a detailed message for the calling thread and return `code`, so that a failure reads
  * `return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: mesh %u: ...", ...)`. The message should name
  * the module, the file or object, and what was expected. */
-tnd_result tnd_fail(tnd_result code, const char *fmt, ...)
-    __attribute__((format(printf, 2, 3)));
+tnd_result tnd_fail(tnd_result code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* The calling thread's last detail message ("" when none since tnd_error_clear). */
 const char *tnd_error_detail(void);
 void tnd_error_clear(void);
@@ -94,8 +93,8 @@ void tnd_log_set_level(tnd_log_level level);
 tnd_log_level tnd_log_get_level(void);
 void tnd_log(tnd_log_level level, const char *module, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
-#define tnd_info(mod, ...) tnd_log(TND_LOG_INFO, mod, __VA_ARGS__)
-#define tnd_warn(mod, ...) tnd_log(TND_LOG_WARN, mod, __VA_ARGS__)
+#define tnd_info(mod, ...)  tnd_log(TND_LOG_INFO, mod, __VA_ARGS__)
+#define tnd_warn(mod, ...)  tnd_log(TND_LOG_WARN, mod, __VA_ARGS__)
 #define tnd_debug(mod, ...) tnd_log(TND_LOG_DEBUG, mod, __VA_ARGS__)
 
 /* Monotonic wall clock in seconds. */
@@ -126,14 +125,14 @@ typedef struct tnd_vk_device_info {
     VkPhysicalDeviceType type;
     uint32_t api_version;
     uint32_t vendor_id, device_id;
-    bool rt_pipeline;       /* VK_KHR_ray_tracing_pipeline + its feature */
-    bool accel_struct;      /* VK_KHR_acceleration_structure + its feature */
-    bool ray_query;         /* VK_KHR_ray_query + its feature */
-    bool buffer_address;    /* bufferDeviceAddress */
-    bool timestamps;        /* compute queue has timestampValidBits > 0 */
-    bool compute_ok;        /* Vulkan >= 1.2, buffer device address, a compute queue */
-    bool suitable;          /* compute_ok and ray-tracing pipelines + acceleration structures */
-    char why_not[128];      /* why not suitable, "" when suitable */
+    bool rt_pipeline;    /* VK_KHR_ray_tracing_pipeline + its feature */
+    bool accel_struct;   /* VK_KHR_acceleration_structure + its feature */
+    bool ray_query;      /* VK_KHR_ray_query + its feature */
+    bool buffer_address; /* bufferDeviceAddress */
+    bool timestamps;     /* compute queue has timestampValidBits > 0 */
+    bool compute_ok;     /* Vulkan >= 1.2, buffer device address, a compute queue */
+    bool suitable;       /* compute_ok and ray-tracing pipelines + acceleration structures */
+    char why_not[128];   /* why not suitable, "" when suitable */
     /* ray-tracing limits (0 when absent) */
     uint32_t shader_group_handle_size;
     uint32_t shader_group_handle_alignment;
@@ -187,9 +186,9 @@ typedef struct tnd_vk_fns {
 } tnd_vk_fns;
 
 typedef struct tnd_vk_desc {
-    const char *device;    /* substring of the device name; NULL: $TANDEM_DEVICE, then default */
-    bool validation;       /* enable VK_LAYER_KHRONOS_validation (also $TANDEM_VALIDATION=1) */
-    bool no_ray_tracing;   /* accept devices without ray tracing (compute-only back-end) */
+    const char *device;  /* substring of the device name; NULL: $TANDEM_DEVICE, then default */
+    bool validation;     /* enable VK_LAYER_KHRONOS_validation (also $TANDEM_VALIDATION=1) */
+    bool no_ray_tracing; /* accept devices without ray tracing (compute-only back-end) */
 } tnd_vk_desc;
 
 typedef struct tnd_vk_messages tnd_vk_messages; /* validation message counters (internal) */
@@ -221,7 +220,8 @@ uint32_t tnd_vk_validation_warnings(const tnd_vk *vk);
 /* Give any Vulkan object a debug name (no-op without VK_EXT_debug_utils). */
 void tnd_vk_name(const tnd_vk *vk, VkObjectType type, uint64_t handle, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
-#define TND_VK_NAME(vk, type, obj, ...) tnd_vk_name(vk, type, (uint64_t)(uintptr_t)(obj), __VA_ARGS__)
+#define TND_VK_NAME(vk, type, obj, ...)                                                            \
+    tnd_vk_name(vk, type, (uint64_t)(uintptr_t)(obj), __VA_ARGS__)
 
 /* ---------------------------------------------------------------------------------------------
  * Vulkan: memory, buffers, images
@@ -236,7 +236,7 @@ typedef struct tnd_buffer_desc {
     VkDeviceSize size;
     VkBufferUsageFlags usage; /* TRANSFER_SRC/DST are always added */
     tnd_mem_kind mem;
-    bool device_address;      /* allocate with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT */
+    bool device_address; /* allocate with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT */
     const char *name;
 } tnd_buffer_desc;
 
@@ -387,7 +387,6 @@ void tnd_timer_end(VkCommandBuffer cmd, tnd_timer *t, int slot);
 /* After the command buffer completed: ms[i] for each recorded pass i < t->count. */
 tnd_result tnd_timer_read(tnd_vk *vk, const tnd_timer *t, double *ms);
 
-
 /* ---------------------------------------------------------------------------------------------
  * The buffer contract, C side (the table itself is shaders/contract.h)
  * ------------------------------------------------------------------------------------------- */
@@ -410,8 +409,8 @@ typedef struct tnd_ct_info {
     tnd_ct_pack pack;
     VkFormat vk_f32, vk_packed;
     const char *glsl_f32, *glsl_packed;
-    const char *exr_layer;          /* "albedo" */
-    const char *exr_channels[4];    /* "R", "G", "B" */
+    const char *exr_layer;       /* "albedo" */
+    const char *exr_channels[4]; /* "R", "G", "B" */
     tnd_ct_need need;
     double default_value;
     const char *semantic, *unit, *space;
@@ -454,7 +453,10 @@ typedef struct tnd_frame {
 /* Allocate every entry, filled with defaults (position/geo_normal zero until derived). */
 tnd_result tnd_frame_create(uint32_t width, uint32_t height, tnd_frame *f);
 void tnd_frame_destroy(tnd_frame *f);
-static inline float *tnd_frame_f(const tnd_frame *f, tnd_ct id) { return (float *)f->data[id]; }
+static inline float *tnd_frame_f(const tnd_frame *f, tnd_ct id)
+{
+    return (float *)f->data[id];
+}
 static inline uint32_t *tnd_frame_u(const tnd_frame *f, tnd_ct id)
 {
     return (uint32_t *)f->data[id];
@@ -568,18 +570,17 @@ void tnd_mat4_perspective(float yfov, float aspect, float znear, float zfar, flo
 void tnd_quat_slerp(const float a[4], const float b[4], float t, float out[4]);
 /* World-space primary ray direction (unit) and origin through pixel position (px, py) (pixel
  * units, top-left origin, centres at +0.5) for the camera state's current view/proj. */
-void tnd_camera_ray(const tnd_camera_state *c, uint32_t width, uint32_t height, float px,
-                    float py, float origin[3], float dir[3]);
-
+void tnd_camera_ray(const tnd_camera_state *c, uint32_t width, uint32_t height, float px, float py,
+                    float origin[3], float dir[3]);
 
 /* ---------------------------------------------------------------------------------------------
  * Scenes: glTF 2.0 through assimp (+ cJSON for what assimp drops), flat and GPU-friendly
  * ------------------------------------------------------------------------------------------- */
 typedef enum tnd_material_kind {
-    TND_MAT_OPAQUE = 0,  /* metal-rough */
-    TND_MAT_MIRROR,      /* metallic >= 0.5 and roughness < TND_MIRROR_ROUGHNESS */
-    TND_MAT_THIN_GLASS,  /* transmission without KHR_materials_volume (thin-walled) */
-    TND_MAT_GLASS,       /* transmission with a volume: IOR and Beer-Lambert absorption */
+    TND_MAT_OPAQUE = 0, /* metal-rough */
+    TND_MAT_MIRROR,     /* metallic >= 0.5 and roughness < TND_MIRROR_ROUGHNESS */
+    TND_MAT_THIN_GLASS, /* transmission without KHR_materials_volume (thin-walled) */
+    TND_MAT_GLASS,      /* transmission with a volume: IOR and Beer-Lambert absorption */
     TND_MAT_KIND_COUNT,
 } tnd_material_kind;
 #define TND_MIRROR_ROUGHNESS 0.05f
@@ -607,7 +608,7 @@ typedef struct tnd_texture {
 
 typedef struct tnd_mesh {
     char name[64];
-    uint32_t first_vertex, vertex_count; /* into the scene's vertex arrays */
+    uint32_t first_vertex, vertex_count;  /* into the scene's vertex arrays */
     uint32_t first_index, triangle_count; /* indices are relative to first_vertex */
     uint32_t material;
 } tnd_mesh;
@@ -626,9 +627,9 @@ typedef struct tnd_light {
     char name[64];
     tnd_light_type type;
     uint32_t node;
-    float color[3];    /* colour x intensity: candela (point, spot) or lux (directional) */
+    float color[3]; /* colour x intensity: candela (point, spot) or lux (directional) */
     float inner_cone, outer_cone; /* spot, radians */
-    uint32_t schedule_count; /* step-wise intensity scale: from frame[k] on, scale[k] */
+    uint32_t schedule_count;      /* step-wise intensity scale: from frame[k] on, scale[k] */
     float schedule_fps;
     float schedule_frame[TND_SCHEDULE_MAX], schedule_scale[TND_SCHEDULE_MAX];
 } tnd_light;
@@ -640,9 +641,9 @@ typedef struct tnd_instance {
 
 typedef struct tnd_node {
     char name[64];
-    int32_t parent;  /* -1 for roots; parents come before children */
+    int32_t parent;         /* -1 for roots; parents come before children */
     float t[3], r[4], s[3]; /* rest pose */
-    bool animated;   /* this node or an ancestor has animation channels */
+    bool animated;          /* this node or an ancestor has animation channels */
 } tnd_node;
 
 typedef struct tnd_camera_def {
@@ -688,7 +689,7 @@ enum {
 #define TND_X(id, text) TND_FEATURE_BIT_##id,
     TND_FEATURE_LIST(TND_X)
 #undef TND_X
-    TND_FEATURE_COUNT
+        TND_FEATURE_COUNT
 };
 #define TND_FEATURE(id) (1u << TND_FEATURE_BIT_##id)
 const char *tnd_feature_name(uint32_t bit);
@@ -732,9 +733,9 @@ uint64_t tnd_scene_triangles(const tnd_scene *s);
 /* The scene at one moment. */
 typedef struct tnd_scene_state {
     double time;
-    float *node_world;     /* 16 floats per node, column-major */
-    float *instance_xform; /* 12 floats per instance, 3x4 row-major (TLAS/Embree layout) */
-    float *light_scale;    /* schedule factor per light */
+    float *node_world;       /* 16 floats per node, column-major */
+    float *instance_xform;   /* 12 floats per instance, 3x4 row-major (TLAS/Embree layout) */
+    float *light_scale;      /* schedule factor per light */
     tnd_camera_state camera; /* view/proj of this moment; prev_* left for the caller */
     float camera_position[3];
 } tnd_scene_state;
@@ -745,7 +746,6 @@ typedef struct tnd_scene_state {
 tnd_result tnd_scene_evaluate(const tnd_scene *s, double time, uint32_t camera, float aspect,
                               tnd_scene_state *st);
 void tnd_scene_state_free(tnd_scene_state *st);
-
 
 /* ---------------------------------------------------------------------------------------------
  * The contract on the GPU: one storage image per entry, formats from the table

@@ -49,8 +49,9 @@ static tnd_result exr_fail(const char *path, const char *what, exr_result_t rv, 
 
 static exr_pixel_type_t pixel_type(tnd_exr_type t)
 {
-    return t == TND_EXR_HALF ? EXR_PIXEL_HALF : t == TND_EXR_UINT ? EXR_PIXEL_UINT
-                                                                  : EXR_PIXEL_FLOAT;
+    return t == TND_EXR_HALF   ? EXR_PIXEL_HALF
+           : t == TND_EXR_UINT ? EXR_PIXEL_UINT
+                               : EXR_PIXEL_FLOAT;
 }
 
 static exr_compression_t compression_type(tnd_exr_compression c)
@@ -80,8 +81,8 @@ tnd_result tnd_exr_write(const char *path, uint32_t width, uint32_t height,
     exr_encode_pipeline_t enc;
     bool enc_init = false;
     if (width == 0 || height == 0 || width > 65536 || height > 65536 || channel_count == 0)
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "exr: %s: bad image %ux%u with %u channels",
-                        path, width, height, channel_count);
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "exr: %s: bad image %ux%u with %u channels", path,
+                        width, height, channel_count);
     /* Written under a temporary name and renamed on success: never a partial file at `path`. */
     char tmp[1100];
     if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp)
@@ -268,7 +269,8 @@ tnd_result tnd_exr_read(const char *path, tnd_exr_file *f)
             dc->user_data_type = ch->type == TND_EXR_UINT ? EXR_PIXEL_UINT : EXR_PIXEL_FLOAT;
             dc->user_pixel_stride = 4;
             dc->user_line_stride = (int32_t)(4 * w);
-            dc->decode_to_ptr = (uint8_t *)ch->data + (size_t)4 * w * (size_t)(ci.start_y - dw.min.y);
+            dc->decode_to_ptr =
+                (uint8_t *)ch->data + (size_t)4 * w * (size_t)(ci.start_y - dw.min.y);
         }
         if (y == dw.min.y)
             EXR_TRY(exr_decoding_choose_default_routines(ctx, 0, &dec), "decoder");

@@ -121,7 +121,8 @@ void tnd_mat4_perspective(float yfov, float aspect, float znear, float zfar, flo
 
 void tnd_quat_slerp(const float a[4], const float b[4], float t, float out[4])
 {
-    double d = (double)a[0] * b[0] + (double)a[1] * b[1] + (double)a[2] * b[2] + (double)a[3] * b[3];
+    double d =
+        (double)a[0] * b[0] + (double)a[1] * b[1] + (double)a[2] * b[2] + (double)a[3] * b[3];
     double sb = 1.0;
     if (d < 0) {
         d = -d;
@@ -146,8 +147,8 @@ void tnd_quat_slerp(const float a[4], const float b[4], float t, float out[4])
         out[i] = (float)(r[i] * n);
 }
 
-void tnd_camera_ray(const tnd_camera_state *c, uint32_t width, uint32_t height, float px,
-                    float py, float origin[3], float dir[3])
+void tnd_camera_ray(const tnd_camera_state *c, uint32_t width, uint32_t height, float px, float py,
+                    float origin[3], float dir[3])
 {
     /* Unproject in view space, then rotate: no translation enters the direction, so cameras far
      * from the origin keep full precision. */

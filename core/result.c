@@ -119,8 +119,11 @@ tnd_log_level tnd_log_get_level(void)
 void tnd_log(tnd_log_level level, const char *module, const char *fmt, ...)
 {
     /* INFO (0) is the default level; DEBUG is more verbose than INFO. */
-    static const int rank[] = {[TND_LOG_DEBUG] = 0, [TND_LOG_INFO] = 1, [TND_LOG_WARN] = 2,
-                               [TND_LOG_ERROR] = 3, [TND_LOG_QUIET] = 4};
+    static const int rank[] = {[TND_LOG_DEBUG] = 0,
+                               [TND_LOG_INFO] = 1,
+                               [TND_LOG_WARN] = 2,
+                               [TND_LOG_ERROR] = 3,
+                               [TND_LOG_QUIET] = 4};
     if (rank[level] < rank[log_level] || level == TND_LOG_QUIET)
         return;
     char buf[2048];

@@ -314,7 +314,8 @@ void tnd_scene_state_free(tnd_scene_state *st)
     memset(st, 0, sizeof *st);
 }
 
-/* ---- the generated stress scene --------------------------------------------------------------- */
+/* ---- the generated stress scene ---------------------------------------------------------------
+ */
 static tnd_result stress_scene(const char *spec, tnd_scene **out)
 {
     char *end = NULL;

@@ -21,8 +21,9 @@
 #include <string.h>
 
 static const char *const supported_ext[] = {
-    "KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_transmission",
-    "KHR_materials_ior",   "KHR_materials_volume",
+    "KHR_lights_punctual",        "KHR_materials_emissive_strength",
+    "KHR_materials_transmission", "KHR_materials_ior",
+    "KHR_materials_volume",
 };
 
 typedef struct gltf_ctx {
@@ -168,8 +169,9 @@ static tnd_result load_buffer(gltf_ctx *c, int b, const uint8_t *glb, size_t glb
             }
         }
         if (!*data)
-            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d has no data (no uri, no GLB "
-                                               "binary chunk)",
+            return tnd_fail(TND_ERR_BAD_INPUT,
+                            "scene: %s: buffer %d has no data (no uri, no GLB "
+                            "binary chunk)",
                             c->path, b);
     } else if (strncmp(uri->valuestring, "data:", 5) == 0) {
         const char *comma = strchr(uri->valuestring, ',');
@@ -188,8 +190,7 @@ static tnd_result load_buffer(gltf_ctx *c, int b, const uint8_t *glb, size_t glb
             if (v < 0) {
                 free(*data);
                 *data = NULL;
-                return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d: bad base64", c->path,
-                                b);
+                return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d: bad base64", c->path, b);
             }
             acc = acc << 6 | (uint32_t)v;
             bits += 6;
@@ -204,8 +205,8 @@ static tnd_result load_buffer(gltf_ctx *c, int b, const uint8_t *glb, size_t glb
         void *d;
         tnd_result r = tnd_file_read(full, &d, size);
         if (r != TND_OK)
-            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d '%s': cannot open", c->path,
-                            b, uri->valuestring);
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d '%s': cannot open", c->path, b,
+                            uri->valuestring);
         *data = d;
     }
     if (*size < want) {
@@ -237,8 +238,8 @@ static tnd_result validate_indices(gltf_ctx *c, const uint8_t *glb, size_t glb_s
         const char *mname = cJSON_IsString(nm) ? nm->valuestring : "";
         cJSON_ArrayForEach(prim, jget(mesh, "primitives"))
         {
-            const cJSON *pa = cJSON_GetArrayItem(accs, (int)jnum(jget(prim, "attributes"),
-                                                                 "POSITION", -1));
+            const cJSON *pa =
+                cJSON_GetArrayItem(accs, (int)jnum(jget(prim, "attributes"), "POSITION", -1));
             const cJSON *ia = cJSON_GetArrayItem(accs, (int)jnum(prim, "indices", -1));
             if (!pa) {
                 res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: mesh %d '%s': no POSITION accessor",
@@ -263,7 +264,8 @@ static tnd_result validate_indices(gltf_ctx *c, const uint8_t *glb, size_t glb_s
             size_t off = (size_t)jnum(bv, "byteOffset", 0) + (size_t)jnum(ia, "byteOffset", 0);
             size_t stride = (size_t)jnum(bv, "byteStride", es);
             if (count < 0 || off + (count ? (size_t)(count - 1) * stride + es : 0) > sizes[b] ||
-                (size_t)jnum(ia, "byteOffset", 0) + (count ? (size_t)(count - 1) * stride + es : 0) >
+                (size_t)jnum(ia, "byteOffset", 0) +
+                        (count ? (size_t)(count - 1) * stride + es : 0) >
                     (size_t)jnum(bv, "byteLength", 0)) {
                 res = tnd_fail(TND_ERR_BAD_INPUT,
                                "scene: %s: mesh %d '%s': index accessor runs past its buffer",
@@ -272,10 +274,10 @@ static tnd_result validate_indices(gltf_ctx *c, const uint8_t *glb, size_t glb_s
             }
             for (long k = 0; k < count; k++) {
                 const uint8_t *p = bufs[b] + off + (size_t)k * stride;
-                uint32_t v = es == 1 ? p[0] : es == 2 ? (uint32_t)(p[0] | p[1] << 8)
-                                                      : (uint32_t)p[0] | (uint32_t)p[1] << 8 |
-                                                            (uint32_t)p[2] << 16 |
-                                                            (uint32_t)p[3] << 24;
+                uint32_t v = es == 1   ? p[0]
+                             : es == 2 ? (uint32_t)(p[0] | p[1] << 8)
+                                       : (uint32_t)p[0] | (uint32_t)p[1] << 8 |
+                                             (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
                 if ((long)v >= nverts) {
                     res = tnd_fail(TND_ERR_BAD_INPUT,
                                    "scene: %s: mesh %d '%s': index %u out of range (%ld vertices)",
@@ -325,8 +327,8 @@ static int32_t load_texture(gltf_ctx *c, const struct aiMaterial *m, enum aiText
         if (k < c->ai->mNumTextures) {
             const struct aiTexture *at = c->ai->mTextures[k];
             if (at->mHeight == 0)
-                px = stbi_load_from_memory((const uint8_t *)at->pcData, (int)at->mWidth, &w, &h,
-                                           &n, 4);
+                px = stbi_load_from_memory((const uint8_t *)at->pcData, (int)at->mWidth, &w, &h, &n,
+                                           4);
         }
         snprintf(full, sizeof full, "embedded texture %s", p.data);
     } else {
@@ -334,8 +336,9 @@ static int32_t load_texture(gltf_ctx *c, const struct aiMaterial *m, enum aiText
         px = stbi_load(full, &w, &h, &n, 4);
     }
     if (!px) {
-        *res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: material '%s': texture '%s': %s", c->path,
-                        matname, full, stbi_failure_reason() ? stbi_failure_reason() : "unreadable");
+        *res =
+            tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: material '%s': texture '%s': %s", c->path,
+                     matname, full, stbi_failure_reason() ? stbi_failure_reason() : "unreadable");
         return -1;
     }
     tx->width = (uint32_t)w;
@@ -432,8 +435,9 @@ static tnd_result load_materials(gltf_ctx *c)
             m->tex_base_color = load_texture(c, am, aiTextureType_DIFFUSE, 0, true, m->name, &res);
         if (res != TND_OK)
             return res;
-        m->tex_metal_rough = load_texture(c, am, AI_MATKEY_GLTF_PBRMETALLICROUGHNESS_METALLICROUGHNESS_TEXTURE,
-                                          false, m->name, &res);
+        m->tex_metal_rough =
+            load_texture(c, am, AI_MATKEY_GLTF_PBRMETALLICROUGHNESS_METALLICROUGHNESS_TEXTURE,
+                         false, m->name, &res);
         if (res != TND_OK)
             return res;
         m->tex_normal = load_texture(c, am, aiTextureType_NORMALS, 0, false, m->name, &res);
@@ -598,8 +602,8 @@ static tnd_result load_cameras_lights(gltf_ctx *c)
                             c->path, cd->name);
         }
         if (!(cd->yfov > 1e-4f && cd->yfov < 3.1f) || !(cd->znear > 0))
-            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: camera '%s': yfov %g, znear %g",
-                            c->path, cd->name, (double)cd->yfov, (double)cd->znear);
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: camera '%s': yfov %g, znear %g", c->path,
+                            cd->name, (double)cd->yfov, (double)cd->znear);
     }
     const cJSON *jlights = jget(jget(jget(c->json, "extensions"), "KHR_lights_punctual"), "lights");
     for (unsigned i = 0; i < ai->mNumLights; i++) {
@@ -637,20 +641,22 @@ static tnd_result load_cameras_lights(gltf_ctx *c)
             double inten = jnum(jl, "intensity", 1.0);
             const cJSON *col = jget(jl, "color");
             for (int k = 0; k < 3; k++)
-                l->color[k] = (float)((cJSON_GetArraySize(col) == 3
-                                           ? cJSON_GetArrayItem(col, k)->valuedouble
-                                           : 1.0) *
-                                      inten);
+                l->color[k] =
+                    (float)((cJSON_GetArraySize(col) == 3 ? cJSON_GetArrayItem(col, k)->valuedouble
+                                                          : 1.0) *
+                            inten);
             const cJSON *spot = jget(jl, "spot");
             l->inner_cone = (float)jnum(spot, "innerConeAngle", 0.0);
             l->outer_cone = (float)jnum(spot, "outerConeAngle", TND_PI / 4);
         }
         if (!isfinite(l->color[0]) || !isfinite(l->color[1]) || !isfinite(l->color[2]) ||
             l->color[0] < 0 || l->color[1] < 0 || l->color[2] < 0)
-            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: light '%s': intensity not finite and "
-                                               "non-negative",
+            return tnd_fail(TND_ERR_BAD_INPUT,
+                            "scene: %s: light '%s': intensity not finite and "
+                            "non-negative",
                             c->path, l->name);
-        if (l->type == TND_LIGHT_SPOT && !(l->outer_cone > l->inner_cone && l->outer_cone <= TND_PI / 2))
+        if (l->type == TND_LIGHT_SPOT &&
+            !(l->outer_cone > l->inner_cone && l->outer_cone <= TND_PI / 2))
             return tnd_fail(TND_ERR_BAD_INPUT,
                             "scene: %s: light '%s': spot cone angles %g..%g (need inner < outer "
                             "<= pi/2)",
@@ -666,8 +672,7 @@ static tnd_result load_cameras_lights(gltf_ctx *c)
                                     "scene: %s: light '%s': tandem_light_schedule keys must be "
                                     "[frame, scale] pairs (at most %d)",
                                     c->path, l->name, TND_SCHEDULE_MAX);
-                l->schedule_frame[l->schedule_count] =
-                    (float)cJSON_GetArrayItem(k, 0)->valuedouble;
+                l->schedule_frame[l->schedule_count] = (float)cJSON_GetArrayItem(k, 0)->valuedouble;
                 l->schedule_scale[l->schedule_count++] =
                     (float)cJSON_GetArrayItem(k, 1)->valuedouble;
             }
@@ -812,13 +817,11 @@ tnd_result scene_load_gltf(const char *path, tnd_scene **out)
     c.ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_CalcTangentSpace |
                                   aiProcess_GenSmoothNormals | aiProcess_ValidateDataStructure);
     if (!c.ai) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: cannot import: %s", path,
-                       aiGetErrorString());
+        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: cannot import: %s", path, aiGetErrorString());
         goto fail;
     }
     if (!c.ai->mRootNode || (c.ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: incomplete scene (no nodes or meshes)",
-                       path);
+        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: incomplete scene (no nodes or meshes)", path);
         goto fail;
     }
     TND_TRY(load_meshes(&c));

@@ -94,8 +94,8 @@ static tnd_result create_instance(bool validation, VkInstance *inst, bool *debug
         .pApplicationName = "tandem",
         .applicationVersion = VK_MAKE_API_VERSION(0, 0, 1, 0),
         .pEngineName = "tandem",
-        .apiVersion = loader_version >= VK_API_VERSION_1_3 ? VK_API_VERSION_1_3
-                                                           : VK_API_VERSION_1_2,
+        .apiVersion =
+            loader_version >= VK_API_VERSION_1_3 ? VK_API_VERSION_1_3 : VK_API_VERSION_1_2,
     };
     const char *ext_names[1] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
     VkInstanceCreateInfo ci = {
@@ -359,8 +359,9 @@ tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk)
         };
         if (create_messenger && vk->validation)
             TND_VK_TRY(create_messenger(vk->instance, &mci, NULL, &vk->messenger));
-        vk->fn.vkSetDebugUtilsObjectNameEXT = (PFN_vkSetDebugUtilsObjectNameEXT)
-            vkGetInstanceProcAddr(vk->instance, "vkSetDebugUtilsObjectNameEXT");
+        vk->fn.vkSetDebugUtilsObjectNameEXT =
+            (PFN_vkSetDebugUtilsObjectNameEXT)vkGetInstanceProcAddr(vk->instance,
+                                                                    "vkSetDebugUtilsObjectNameEXT");
     }
 
     VkPhysicalDevice pds[16];
@@ -415,8 +416,7 @@ tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk)
         .shaderFloat16 = have12.shaderFloat16,
         .runtimeDescriptorArray = have12.runtimeDescriptorArray,
         .descriptorBindingPartiallyBound = have12.descriptorBindingPartiallyBound,
-        .descriptorBindingVariableDescriptorCount =
-            have12.descriptorBindingVariableDescriptorCount,
+        .descriptorBindingVariableDescriptorCount = have12.descriptorBindingVariableDescriptorCount,
         .shaderSampledImageArrayNonUniformIndexing =
             have12.shaderSampledImageArrayNonUniformIndexing,
         .descriptorIndexing = have12.descriptorIndexing,
@@ -465,9 +465,9 @@ tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk)
 
     if (vk->ray_tracing) {
 #define TND_X(F)                                                                                   \
-    vk->fn.F = (PFN_##F)vkGetDeviceProcAddr(vk->device, #F);                              \
-    if (!vk->fn.F) {                                                                            \
-        res = tnd_fail(TND_ERR_UNSUPPORTED, "vulkan: %s: %s not found", vk->info.name, #F);   \
+    vk->fn.F = (PFN_##F)vkGetDeviceProcAddr(vk->device, #F);                                       \
+    if (!vk->fn.F) {                                                                               \
+        res = tnd_fail(TND_ERR_UNSUPPORTED, "vulkan: %s: %s not found", vk->info.name, #F);        \
         goto fail;                                                                                 \
     }
         TND_VK_DEVICE_FNS(TND_X)

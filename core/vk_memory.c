@@ -127,8 +127,8 @@ tnd_result tnd_buffer_upload(tnd_vk *vk, tnd_buffer *dst, VkDeviceSize offset, c
         &staging));
     memcpy(staging.mapped, data, size);
     TND_TRY(tnd_cmd_begin(vk, &cmd));
-    vkCmdCopyBuffer(cmd, staging.buffer, dst->buffer,
-                    1, &(VkBufferCopy){.srcOffset = 0, .dstOffset = offset, .size = size});
+    vkCmdCopyBuffer(cmd, staging.buffer, dst->buffer, 1,
+                    &(VkBufferCopy){.srcOffset = 0, .dstOffset = offset, .size = size});
     tnd_cmd_barrier(cmd);
     res = tnd_cmd_submit_wait(vk, cmd);
 fail:
@@ -172,10 +172,10 @@ tnd_result tnd_image_create(tnd_vk *vk, const tnd_image_desc *desc, tnd_image *i
         desc->height > vk->info.max_image_dimension_2d)
         return tnd_fail(TND_ERR_LIMIT, "vulkan: image '%s' of %ux%u (device limit %u)", name,
                         desc->width, desc->height, vk->info.max_image_dimension_2d);
-    VkImageUsageFlags usage = desc->usage ? desc->usage
-                                          : VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
-                                                VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
-                                                VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    VkImageUsageFlags usage =
+        desc->usage ? desc->usage
+                    : VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
+                          VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
     VkImageCreateInfo ici = {.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
                              .imageType = VK_IMAGE_TYPE_2D,
                              .format = desc->format,
@@ -210,16 +210,16 @@ tnd_result tnd_image_create(tnd_vk *vk, const tnd_image_desc *desc, tnd_image *i
     TND_TRY(tnd_cmd_begin(vk, &cmd));
     VkImageMemoryBarrier b = {.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
                               .srcAccessMask = 0,
-                              .dstAccessMask = VK_ACCESS_MEMORY_READ_BIT |
-                                               VK_ACCESS_MEMORY_WRITE_BIT,
+                              .dstAccessMask =
+                                  VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT,
                               .oldLayout = VK_IMAGE_LAYOUT_UNDEFINED,
                               .newLayout = VK_IMAGE_LAYOUT_GENERAL,
                               .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
                               .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
                               .image = img->image,
                               .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1}};
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT,
-                         VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 0, NULL, 0, NULL, 1, &b);
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT,
+                         0, 0, NULL, 0, NULL, 1, &b);
     TND_TRY(tnd_cmd_submit_wait(vk, cmd));
     return TND_OK;
 fail:
@@ -262,9 +262,8 @@ tnd_result tnd_cmd_submit_wait(tnd_vk *vk, VkCommandBuffer cmd)
 {
     tnd_result res = TND_OK;
     TND_VK_TRY(vkEndCommandBuffer(cmd));
-    VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO,
-                       .commandBufferCount = 1,
-                       .pCommandBuffers = &cmd};
+    VkSubmitInfo si = {
+        .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &cmd};
     TND_VK_TRY(vkResetFences(vk->device, 1, &vk->fence));
     TND_VK_TRY(vkQueueSubmit(vk->queue, 1, &si, vk->fence));
     TND_VK_TRY(vkWaitForFences(vk->device, 1, &vk->fence, VK_TRUE, UINT64_MAX));

@@ -31,9 +31,8 @@ tnd_result tnd_shader_module_create(tnd_vk *vk, const uint32_t *code, size_t byt
     if (!code || bytes < 20 || bytes % 4 || code[0] != 0x07230203u)
         return tnd_fail(TND_ERR_BAD_INPUT, "vulkan: shader '%s': not SPIR-V (%zu bytes)",
                         name ? name : "?", bytes);
-    VkShaderModuleCreateInfo ci = {.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
-                                   .codeSize = bytes,
-                                   .pCode = code};
+    VkShaderModuleCreateInfo ci = {
+        .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO, .codeSize = bytes, .pCode = code};
     TND_VK_TRY(vkCreateShaderModule(vk->device, &ci, NULL, mod));
     TND_VK_NAME(vk, VK_OBJECT_TYPE_SHADER_MODULE, *mod, "%s", name ? name : "shader");
 fail:
@@ -170,8 +169,8 @@ tnd_result tnd_rt_pipeline_create(tnd_vk *vk, const tnd_rt_desc *desc, VkPipelin
         .maxPipelineRayRecursionDepth = recursion,
         .layout = desc->layout,
     };
-    TND_VK_TRY(vk->fn.vkCreateRayTracingPipelinesKHR(vk->device, VK_NULL_HANDLE, VK_NULL_HANDLE,
-                                                     1, &ci, NULL, pipe));
+    TND_VK_TRY(vk->fn.vkCreateRayTracingPipelinesKHR(vk->device, VK_NULL_HANDLE, VK_NULL_HANDLE, 1,
+                                                     &ci, NULL, pipe));
     TND_VK_NAME(vk, VK_OBJECT_TYPE_PIPELINE, *pipe, "%s", name);
 
     /* Fetch the handles and write them at their aligned places. */
@@ -187,22 +186,22 @@ tnd_result tnd_rt_pipeline_create(tnd_vk *vk, const tnd_rt_desc *desc, VkPipelin
     snprintf(bname, sizeof bname, "%s.sbt", name);
     /* The buffer's own address must honour the base alignment: allocate slack and offset. */
     VkDeviceSize slack = vk->info.shader_group_base_alignment;
-    TND_TRY(tnd_buffer_create(
-        vk,
-        &(tnd_buffer_desc){.size = lay.total + slack,
-                           .usage = VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR,
-                           .mem = TND_MEM_UPLOAD,
-                           .device_address = true,
-                           .name = bname},
-        &sbt->buffer));
+    TND_TRY(
+        tnd_buffer_create(vk,
+                          &(tnd_buffer_desc){.size = lay.total + slack,
+                                             .usage = VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR,
+                                             .mem = TND_MEM_UPLOAD,
+                                             .device_address = true,
+                                             .name = bname},
+                          &sbt->buffer));
     VkDeviceAddress base = align_up(sbt->buffer.address, slack);
     uint8_t *dst = (uint8_t *)sbt->buffer.mapped + (base - sbt->buffer.address);
     memset(sbt->buffer.mapped, 0, lay.total + slack);
     g = 0;
     for (uint32_t i = 0; i < desc->raygen_count; i++, g++) {
         memcpy(dst + lay.raygen_offset[i], handles + (size_t)g * hs, hs);
-        sbt->raygen[i] = (VkStridedDeviceAddressRegionKHR){
-            base + lay.raygen_offset[i], lay.raygen_size, lay.raygen_size};
+        sbt->raygen[i] = (VkStridedDeviceAddressRegionKHR){base + lay.raygen_offset[i],
+                                                           lay.raygen_size, lay.raygen_size};
     }
     for (uint32_t i = 0; i < desc->miss_count; i++, g++)
         memcpy(dst + lay.miss_offset + i * lay.handle_stride, handles + (size_t)g * hs, hs);

@@ -16,8 +16,7 @@ static VkDeviceSize align_up(VkDeviceSize v, VkDeviceSize a)
 }
 
 static tnd_result create_as(tnd_vk *vk, VkAccelerationStructureTypeKHR type, VkDeviceSize size,
-                            const char *name, tnd_buffer *storage,
-                            VkAccelerationStructureKHR *as)
+                            const char *name, tnd_buffer *storage, VkAccelerationStructureKHR *as)
 {
     tnd_result res = TND_OK;
     TND_TRY(tnd_buffer_create(
@@ -93,9 +92,9 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
             goto fail;
         }
         if (d->triangle_count > vk->info.max_primitive_count) {
-            res = tnd_fail(TND_ERR_LIMIT, "accel: mesh %u '%s': %u triangles > device limit %llu",
-                           m, nm, d->triangle_count,
-                           (unsigned long long)vk->info.max_primitive_count);
+            res =
+                tnd_fail(TND_ERR_LIMIT, "accel: mesh %u '%s': %u triangles > device limit %llu", m,
+                         nm, d->triangle_count, (unsigned long long)vk->info.max_primitive_count);
             goto fail;
         }
         for (uint64_t i = 0; i < 3ull * d->triangle_count; i++) {
@@ -161,8 +160,8 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
             .mode = VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR,
             .geometryCount = 1,
             .pGeometries = &geoms[m]};
-        ranges[m] = (VkAccelerationStructureBuildRangeInfoKHR){
-            .primitiveCount = meshes[m].triangle_count};
+        ranges[m] =
+            (VkAccelerationStructureBuildRangeInfoKHR){.primitiveCount = meshes[m].triangle_count};
         VkAccelerationStructureBuildSizesInfoKHR sz = {
             .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR};
         vk->fn.vkGetAccelerationStructureBuildSizesKHR(
@@ -182,10 +181,10 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
     for (uint32_t m = 0; m < count; m++)
         infos[m].scratchData.deviceAddress = sbase + scratch_off[m];
 
-    VkQueryPoolCreateInfo qci = {
-        .sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
-        .queryType = VK_QUERY_TYPE_ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
-        .queryCount = count};
+    VkQueryPoolCreateInfo qci = {.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
+                                 .queryType =
+                                     VK_QUERY_TYPE_ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
+                                 .queryCount = count};
     TND_VK_TRY(vkCreateQueryPool(vk->device, &qci, NULL, &query));
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(vk, &cmd));
@@ -209,8 +208,8 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
         cmd, count, handles, VK_QUERY_TYPE_ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR, query, 0);
     free(handles);
     TND_TRY(tnd_cmd_submit_wait(vk, cmd));
-    TND_VK_TRY(vkGetQueryPoolResults(vk->device, query, 0, count, count * sizeof(uint64_t),
-                                     compact, sizeof(uint64_t),
+    TND_VK_TRY(vkGetQueryPoolResults(vk->device, query, 0, count, count * sizeof(uint64_t), compact,
+                                     sizeof(uint64_t),
                                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
 
     /* Compact: copy each BLAS into a right-sized one. */
@@ -327,8 +326,8 @@ tnd_result fvk_tlas_build(tnd_vk *vk, const fvk_blas *blas, uint32_t blas_count,
             vk->device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &info, &cap, &sz);
         TND_TRY(create_as(vk, VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR,
                           sz.accelerationStructureSize, "accel.tlas", &tlas->storage, &tlas->as));
-        VkDeviceSize s = sz.buildScratchSize > sz.updateScratchSize ? sz.buildScratchSize
-                                                                    : sz.updateScratchSize;
+        VkDeviceSize s =
+            sz.buildScratchSize > sz.updateScratchSize ? sz.buildScratchSize : sz.updateScratchSize;
         TND_TRY(scratch_buffer(vk, s, "accel.tlas_scratch", &tlas->scratch));
         tlas->address = as_address(vk, tlas->as);
     }

@@ -14,7 +14,7 @@
  * - hf: direct diffuse irradiance times (1 - F) / pi, albedo demodulated (radiance units);
  * - lf: indirect diffuse as L1 spherical harmonics of luma Y (L1x, L1y, L1z, L0 in that order)
  *   plus raw chroma Co/Cg (YCoCg), albedo demodulated;
- * - spec: specular radiance divided by max(0.01, F0), per channel, F0 = mix(0.04, albedo, metallic).
+ * - spec: specular radiance / max(0.01, F0) per channel, F0 = mix(0.04, albedo, metallic).
  *
  * X(ID, binding, name, comps, kind, pack, vk_f32, vk_packed, glsl_f32, glsl_packed, exr_layer,
  *   (exr_channels...), need, default_value, semantic, unit, space)
@@ -46,23 +46,27 @@
 // clang-format on
 
 /* Sentinels. TND_DEPTH_MISS is finite so that every stored value is finite. */
-#define TND_DEPTH_MISS 1.0e30
-#define TND_VIS_NONE 0xFFFFFFFFu
+#define TND_DEPTH_MISS       1.0e30
+#define TND_VIS_NONE         0xFFFFFFFFu
 #define TND_CONTRACT_VERSION 1
 
 #ifdef TND_GLSL
 /* GLSL: one storage image per entry, binding = entry index, in set TND_CONTRACT_SET (which the
  * including shader defines), format chosen by TND_PACKED (0: float32, 1: packed). */
-#define TND_CT_IMGTYPE_FLOAT_F32 image2D
+#define TND_CT_IMGTYPE_FLOAT_F32  image2D
 #define TND_CT_IMGTYPE_FLOAT_HALF image2D
 #define TND_CT_IMGTYPE_FLOAT_RGBE uimage2D
-#define TND_CT_IMGTYPE_UINT_F32 uimage2D
+#define TND_CT_IMGTYPE_UINT_F32   uimage2D
 #if TND_PACKED
-#define TND_CT_DECLARE(ID, bind, name, comps, kind, pack, vk32, vkp, g32, gp, layer, chans, need, def, sem, unit, space) \
-    layout(set = TND_CONTRACT_SET, binding = bind, gp) uniform TND_CT_IMGTYPE_##kind##_##pack img_##name;
+#define TND_CT_DECLARE(ID, bind, name, comps, kind, pack, vk32, vkp, g32, gp, layer, chans, need,  \
+                       def, sem, unit, space)                                                      \
+    layout(set = TND_CONTRACT_SET, binding = bind, gp)                                             \
+        uniform TND_CT_IMGTYPE_##kind##_##pack img_##name;
 #else
-#define TND_CT_DECLARE(ID, bind, name, comps, kind, pack, vk32, vkp, g32, gp, layer, chans, need, def, sem, unit, space) \
-    layout(set = TND_CONTRACT_SET, binding = bind, g32) uniform TND_CT_IMGTYPE_##kind##_F32 img_##name;
+#define TND_CT_DECLARE(ID, bind, name, comps, kind, pack, vk32, vkp, g32, gp, layer, chans, need,  \
+                       def, sem, unit, space)                                                      \
+    layout(set = TND_CONTRACT_SET, binding = bind, g32)                                            \
+        uniform TND_CT_IMGTYPE_##kind##_F32 img_##name;
 #endif
 #else
 /* C: the enum; the rest of the table's uses live in core/contract.c. */

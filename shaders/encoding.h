@@ -20,31 +20,31 @@
 #define TND_ENCODING_H
 
 #define TND_RGBE_BIAS 15
-#define TND_RGBE_MAX 130816.0 /* 511 * 2^(31 - BIAS - 8) */
-#define TND_HALF_MAX 65504.0
+#define TND_RGBE_MAX  130816.0 /* 511 * 2^(31 - BIAS - 8) */
+#define TND_HALF_MAX  65504.0
 
 #ifdef TND_GLSL
 #define TND_FN
-#define TND_U32 uint
-#define TND_I32 int
-#define TND_F2U(x) floatBitsToUint(x)
-#define TND_U2F(x) uintBitsToFloat(x)
-#define TND_TOU(x) uint(x)
-#define TND_TOI(x) int(x)
-#define TND_FLOORF(x) floor(x)
-#define TND_MINF(a, b) min(a, b)
-#define TND_MAXF(a, b) max(a, b)
-#define TND_MINU(a, b) min(a, b)
-#define TND_MAXU(a, b) max(a, b)
+#define TND_U32             uint
+#define TND_I32             int
+#define TND_F2U(x)          floatBitsToUint(x)
+#define TND_U2F(x)          uintBitsToFloat(x)
+#define TND_TOU(x)          uint(x)
+#define TND_TOI(x)          int(x)
+#define TND_FLOORF(x)       floor(x)
+#define TND_MINF(a, b)      min(a, b)
+#define TND_MAXF(a, b)      max(a, b)
+#define TND_MINU(a, b)      min(a, b)
+#define TND_MAXU(a, b)      max(a, b)
 #define TND_CLAMPI(x, a, b) clamp(x, a, b)
-#define TND_FLT(x) float(x)
+#define TND_FLT(x)          float(x)
 #else
 #include <stdbool.h>
 #include <stdint.h>
 #include <string.h>
-#define TND_FN static inline
-#define TND_U32 uint32_t
-#define TND_I32 int32_t
+#define TND_FN              static inline
+#define TND_U32             uint32_t
+#define TND_I32             int32_t
 static inline uint32_t tnd_f2u_(float f)
 {
     uint32_t u;
@@ -57,20 +57,32 @@ static inline float tnd_u2f_(uint32_t u)
     memcpy(&f, &u, 4);
     return f;
 }
-static inline float tnd_minf_(float a, float b) { return a < b ? a : b; }
-static inline float tnd_maxf_(float a, float b) { return a > b ? a : b; }
-static inline uint32_t tnd_maxu_(uint32_t a, uint32_t b) { return a > b ? a : b; }
-static inline int32_t tnd_clampi_(int32_t x, int32_t a, int32_t b) { return x < a ? a : x > b ? b : x; }
-#define TND_F2U(x) tnd_f2u_(x)
-#define TND_U2F(x) tnd_u2f_(x)
-#define TND_TOU(x) ((uint32_t)(x))
-#define TND_TOI(x) ((int32_t)(x))
-#define TND_FLOORF(x) floorf(x)
-#define TND_MINF(a, b) tnd_minf_(a, b)
-#define TND_MAXF(a, b) tnd_maxf_(a, b)
-#define TND_MAXU(a, b) tnd_maxu_(a, b)
+static inline float tnd_minf_(float a, float b)
+{
+    return a < b ? a : b;
+}
+static inline float tnd_maxf_(float a, float b)
+{
+    return a > b ? a : b;
+}
+static inline uint32_t tnd_maxu_(uint32_t a, uint32_t b)
+{
+    return a > b ? a : b;
+}
+static inline int32_t tnd_clampi_(int32_t x, int32_t a, int32_t b)
+{
+    return x < a ? a : x > b ? b : x;
+}
+#define TND_F2U(x)          tnd_f2u_(x)
+#define TND_U2F(x)          tnd_u2f_(x)
+#define TND_TOU(x)          ((uint32_t)(x))
+#define TND_TOI(x)          ((int32_t)(x))
+#define TND_FLOORF(x)       floorf(x)
+#define TND_MINF(a, b)      tnd_minf_(a, b)
+#define TND_MAXF(a, b)      tnd_maxf_(a, b)
+#define TND_MAXU(a, b)      tnd_maxu_(a, b)
 #define TND_CLAMPI(x, a, b) tnd_clampi_(x, a, b)
-#define TND_FLT(x) ((float)(x))
+#define TND_FLT(x)          ((float)(x))
 #include <math.h>
 #endif
 
@@ -146,7 +158,7 @@ static inline uint16_t tnd_half_from_float(float f)
     uint32_t x = tnd_f2u_(f);
     uint32_t sign = (x >> 16) & 0x8000u;
     uint32_t ax = x & 0x7fffffffu;
-    if (ax < 0x38800000u) { /* below the smallest normal half (2^-14): subnormal or zero */
+    if (ax < 0x38800000u) {   /* below the smallest normal half (2^-14): subnormal or zero */
         if (ax < 0x33000000u) /* < 2^-25: rounds to zero (2^-25 itself ties to even 0) */
             return (uint16_t)sign;
         uint32_t e = ax >> 23, mant = (ax & 0x7fffffu) | 0x800000u;

@@ -3,11 +3,17 @@
 #define TRACE_TEST_SHARED_H
 #ifndef TND_GLSL
 #include <stdint.h>
-typedef struct { float x, y, z, w; } tt_vec4;
-typedef struct { float x, y; } tt_vec2;
-typedef struct { uint32_t x, y; } tt_uvec2;
-#define vec4 tt_vec4
-#define vec2 tt_vec2
+typedef struct {
+    float x, y, z, w;
+} tt_vec4;
+typedef struct {
+    float x, y;
+} tt_vec2;
+typedef struct {
+    uint32_t x, y;
+} tt_uvec2;
+#define vec4  tt_vec4
+#define vec2  tt_vec2
 #define uvec2 tt_uvec2
 #define int int32_t
 #endif

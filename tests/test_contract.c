@@ -34,14 +34,12 @@ static void test_table(void)
               e->name, (int)e->id, i);
         CHECK(e->comps >= 1 && e->comps <= 4, "'%s' comps", e->name);
         for (uint32_t c = 0; c < e->comps; c++)
-            CHECK(e->exr_channels[c] && e->exr_channels[c][0], "'%s' channel %u named", e->name,
-                  c);
+            CHECK(e->exr_channels[c] && e->exr_channels[c][0], "'%s' channel %u named", e->name, c);
         CHECK(tnd_ct_find(e->name) == e, "find '%s'", e->name);
         /* float32 formats hold all components; RGBE only for 3-component floats */
         CHECK(e->pack != TND_PACK_RGBE || (e->comps == 3 && e->vk_packed == VK_FORMAT_R32_UINT),
               "'%s' RGBE layout", e->name);
-        CHECK(e->kind != TND_CT_UINT || e->pack == TND_PACK_F32, "'%s' uint never packed",
-              e->name);
+        CHECK(e->kind != TND_CT_UINT || e->pack == TND_PACK_F32, "'%s' uint never packed", e->name);
         for (int j = 0; j < i; j++) {
             const tnd_ct_info *o = tnd_ct_get((tnd_ct)j);
             CHECK(strcmp(o->name, e->name) != 0, "duplicate name %s", e->name);
@@ -55,9 +53,9 @@ static void test_table(void)
         }
     }
     /* The names other tools map onto (the issue's list). */
-    const char *expect[] = {"albedo.R", "normal.X",   "geo_normal.Z", "position.Y", "depth.Z",
-                            "motion.Z", "roughness.V", "metallic.V",  "emission.B", "hf.R",
-                            "spec.B",   "lf.L0",       "vis.instance", "vis.u",     "rng.frame"};
+    const char *expect[] = {"albedo.R", "normal.X",    "geo_normal.Z", "position.Y", "depth.Z",
+                            "motion.Z", "roughness.V", "metallic.V",   "emission.B", "hf.R",
+                            "spec.B",   "lf.L0",       "vis.instance", "vis.u",      "rng.frame"};
     for (size_t k = 0; k < sizeof expect / sizeof *expect; k++) {
         bool found = false;
         for (int i = 0; i < TND_CT_COUNT; i++)
@@ -293,8 +291,7 @@ static void test_quantize(void)
     tnd_frame_f(&f, TND_CT_SPEC)[0] = NAN;
     tnd_frame_f(&f, TND_CT_SPEC)[1] = -INFINITY;
     tnd_frame_quantize(&f, TND_PRECISION_F32);
-    CHECK(tnd_frame_f(&f, TND_CT_SPEC)[0] == 0.0f &&
-              tnd_frame_f(&f, TND_CT_SPEC)[1] == -FLT_MAX,
+    CHECK(tnd_frame_f(&f, TND_CT_SPEC)[0] == 0.0f && tnd_frame_f(&f, TND_CT_SPEC)[1] == -FLT_MAX,
           "float32 maps NaN/Inf to defined values");
 cleanup:
     tnd_frame_destroy(&f);
@@ -307,8 +304,8 @@ static tnd_result write_raw(const char *path, uint32_t w, uint32_t h, const char
     tnd_exr_channel_desc ch[64];
     for (int i = 0; i < n; i++)
         ch[i] = (tnd_exr_channel_desc){names[i], types[i], data, 1};
-    tnd_exr_attr at = {.name = "tandem.contractVersion", .type = TND_ATTR_INT,
-                       .i = TND_CONTRACT_VERSION};
+    tnd_exr_attr at = {
+        .name = "tandem.contractVersion", .type = TND_ATTR_INT, .i = TND_CONTRACT_VERSION};
     return tnd_exr_write(path, w, h, ch, (uint32_t)n, &at, tagged ? 1 : 0, TND_EXR_ZIP);
 }
 
@@ -318,9 +315,9 @@ static void test_capture_validation(void)
     float data[W * H];
     for (int i = 0; i < W * H; i++)
         data[i] = 0.5f;
-    const char *req[] = {"albedo.R", "albedo.G", "albedo.B", "normal.X", "normal.Y", "normal.Z",
-                         "depth.Z",  "motion.X", "motion.Y", "motion.Z", "hf.R",     "hf.G",
-                         "hf.B"};
+    const char *req[] = {"albedo.R", "albedo.G", "albedo.B", "normal.X", "normal.Y",
+                         "normal.Z", "depth.Z",  "motion.X", "motion.Y", "motion.Z",
+                         "hf.R",     "hf.G",     "hf.B"};
     tnd_exr_type types[20];
     for (int i = 0; i < 20; i++)
         types[i] = TND_EXR_FLOAT;
@@ -344,10 +341,9 @@ static void test_capture_validation(void)
     CHECK(f.data[0] == NULL, "no frame left allocated");
 
     /* partly present entry, wrong type, non-finite: all reported at once */
-    const char *mixed[] = {"albedo.R", "albedo.G", "normal.X",     "normal.Y",
-                           "normal.Z", "depth.Z",  "motion.X",     "motion.Y",
-                           "motion.Z", "hf.R",     "hf.G",         "hf.B",
-                           "vis.instance", "vis.primitive"};
+    const char *mixed[] = {"albedo.R", "albedo.G", "normal.X",     "normal.Y",     "normal.Z",
+                           "depth.Z",  "motion.X", "motion.Y",     "motion.Z",     "hf.R",
+                           "hf.G",     "hf.B",     "vis.instance", "vis.primitive"};
     float bad[W * H];
     memcpy(bad, data, sizeof bad);
     bad[W + 3] = NAN;
@@ -415,7 +411,8 @@ static void test_independent_tools(void)
     size_t n = pp ? fread(out, 1, sizeof out - 1, pp) : 0;
     out[n] = 0;
     CHECK(pp && pclose(pp) == 0, "exrheader runs: %s", out);
-    CHECK(strstr(out, "albedo.R, 16-bit floating-point") && strstr(out, "vis.instance, 32-bit unsigned int") &&
+    CHECK(strstr(out, "albedo.R, 16-bit floating-point") &&
+              strstr(out, "vis.instance, 32-bit unsigned int") &&
               strstr(out, "hf.G, 32-bit floating-point") && strstr(out, "piz"),
           "exrheader shows the channels, types and compression");
     CHECK(strstr(out, "tandem.view") && strstr(out, "tandem.jitter"), "camera attributes");
@@ -438,8 +435,7 @@ cleanup:
 static void test_cycles_mapping(void)
 {
     enum { W = 16, H = 8 };
-    static float noisy[3][W * H], albedo[3][W * H], normal[3][W * H], depth[W * H],
-        vec[4][W * H];
+    static float noisy[3][W * H], albedo[3][W * H], normal[3][W * H], depth[W * H], vec[4][W * H];
     for (int i = 0; i < W * H; i++) {
         for (int c = 0; c < 3; c++) {
             albedo[c][i] = 0.2f + 0.2f * (float)c;
@@ -450,15 +446,16 @@ static void test_cycles_mapping(void)
         vec[0][i] = 1.5f, vec[1][i] = -2.0f, vec[2][i] = 0, vec[3][i] = 0;
     }
     depth[0] = 1e10f; /* Cycles' background */
-    const char *names[] = {"ViewLayer.Noisy Image.R", "ViewLayer.Noisy Image.G",
-                           "ViewLayer.Noisy Image.B", "ViewLayer.Denoising Albedo.R",
+    const char *names[] = {"ViewLayer.Noisy Image.R",      "ViewLayer.Noisy Image.G",
+                           "ViewLayer.Noisy Image.B",      "ViewLayer.Denoising Albedo.R",
                            "ViewLayer.Denoising Albedo.G", "ViewLayer.Denoising Albedo.B",
                            "ViewLayer.Denoising Normal.X", "ViewLayer.Denoising Normal.Y",
                            "ViewLayer.Denoising Normal.Z", "ViewLayer.Depth.Z",
-                           "ViewLayer.Vector.X", "ViewLayer.Vector.Y", "ViewLayer.Vector.Z",
-                           "ViewLayer.Vector.W"};
-    const float *srcs[] = {noisy[0], noisy[1], noisy[2], albedo[0], albedo[1], albedo[2],
-                           normal[0], normal[1], normal[2], depth, vec[0], vec[1], vec[2], vec[3]};
+                           "ViewLayer.Vector.X",           "ViewLayer.Vector.Y",
+                           "ViewLayer.Vector.Z",           "ViewLayer.Vector.W"};
+    const float *srcs[] = {noisy[0],  noisy[1],  noisy[2],  albedo[0], albedo[1],
+                           albedo[2], normal[0], normal[1], normal[2], depth,
+                           vec[0],    vec[1],    vec[2],    vec[3]};
     tnd_exr_channel_desc ch[14];
     for (int i = 0; i < 14; i++)
         ch[i] = (tnd_exr_channel_desc){names[i], i < 9 ? TND_EXR_HALF : TND_EXR_FLOAT, srcs[i], 1};
@@ -501,8 +498,8 @@ static void test_cycles_mapping(void)
           "unfed hf: %s", tnd_error_detail());
     tnd_capture_map_destroy(map);
     map = NULL;
-    REQUIRE_OK(tnd_file_write_atomic(mp, "{\"tandem_mapping\": 1, \"entries\": {\"albedo\": {",
-                                     44));
+    REQUIRE_OK(
+        tnd_file_write_atomic(mp, "{\"tandem_mapping\": 1, \"entries\": {\"albedo\": {", 44));
     CHECK(tnd_capture_map_load(mp, &map) == TND_ERR_BAD_INPUT &&
               strstr(tnd_error_detail(), "partial.json"),
           "broken JSON named: %s", tnd_error_detail());

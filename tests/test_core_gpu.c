@@ -24,8 +24,9 @@ static void test_validation_counts_errors(void)
 {
     tnd_vk *vk = gpu_begin();
     REQUIRE(vk, "no context");
-    PFN_vkSubmitDebugUtilsMessageEXT submit = (PFN_vkSubmitDebugUtilsMessageEXT)
-        vkGetInstanceProcAddr(vk->instance, "vkSubmitDebugUtilsMessageEXT");
+    PFN_vkSubmitDebugUtilsMessageEXT submit =
+        (PFN_vkSubmitDebugUtilsMessageEXT)vkGetInstanceProcAddr(vk->instance,
+                                                                "vkSubmitDebugUtilsMessageEXT");
     REQUIRE(submit, "vkSubmitDebugUtilsMessageEXT");
     VkDebugUtilsMessengerCallbackDataEXT data = {
         .sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CALLBACK_DATA_EXT,
@@ -42,8 +43,7 @@ static void test_device_override(void)
 {
     tnd_vk other;
     tnd_result r = tnd_vk_create(&(tnd_vk_desc){.device = "no-such-device-xyz"}, &other);
-    CHECK(r == TND_ERR_NO_DEVICE, "override to a missing device fails: %s",
-          tnd_result_name(r));
+    CHECK(r == TND_ERR_NO_DEVICE, "override to a missing device fails: %s", tnd_result_name(r));
     CHECK(strstr(tnd_error_detail(), "no-such-device-xyz") != NULL, "message: %s",
           tnd_error_detail());
     CHECK(other.device == VK_NULL_HANDLE && other.instance == VK_NULL_HANDLE,
@@ -60,10 +60,12 @@ static void test_buffers(void)
     tnd_buffer b = {0};
     for (uint32_t i = 0; i < N; i++)
         src[i] = i * 2654435761u;
-    REQUIRE_OK(tnd_buffer_create(
-        vk, &(tnd_buffer_desc){.size = N * 4, .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                               .device_address = true, .name = "test.buffer"},
-        &b));
+    REQUIRE_OK(tnd_buffer_create(vk,
+                                 &(tnd_buffer_desc){.size = N * 4,
+                                                    .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                    .device_address = true,
+                                                    .name = "test.buffer"},
+                                 &b));
     CHECK(b.address != 0, "device address");
     CHECK(b.mapped == NULL, "device-local buffers are not mapped");
     REQUIRE_OK(tnd_buffer_upload(vk, &b, 0, src, N * 4));
@@ -71,8 +73,7 @@ static void test_buffers(void)
     REQUIRE_OK(tnd_buffer_download(vk, &b, 0, dst, N * 4));
     memcpy(src + 100, src + 1000, 64);
     CHECK(memcmp(src, dst, N * 4) == 0, "round trip through device memory");
-    CHECK(tnd_buffer_upload(vk, &b, N * 4 - 8, src, 16) == TND_ERR_INVALID_ARGUMENT,
-          "range check");
+    CHECK(tnd_buffer_upload(vk, &b, N * 4 - 8, src, 16) == TND_ERR_INVALID_ARGUMENT, "range check");
     tnd_buffer z;
     CHECK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = 0, .name = "zero"}, &z) ==
               TND_ERR_INVALID_ARGUMENT,
@@ -91,18 +92,20 @@ static void test_images(void)
     REQUIRE(vk, "no context");
     tnd_image img = {0}, bad = {0};
     REQUIRE_OK(tnd_image_create(vk,
-                                &(tnd_image_desc){.width = 37, .height = 19,
+                                &(tnd_image_desc){.width = 37,
+                                                  .height = 19,
                                                   .format = VK_FORMAT_R16G16B16A16_SFLOAT,
                                                   .name = "test.image"},
                                 &img));
     CHECK(img.view != VK_NULL_HANDLE && img.width == 37, "image and view");
-    CHECK(tnd_image_create(vk, &(tnd_image_desc){.width = 0, .height = 4,
-                                                 .format = VK_FORMAT_R32_SFLOAT},
-                           &bad) == TND_ERR_LIMIT,
+    CHECK(tnd_image_create(
+              vk, &(tnd_image_desc){.width = 0, .height = 4, .format = VK_FORMAT_R32_SFLOAT},
+              &bad) == TND_ERR_LIMIT,
           "width 0");
     CHECK(tnd_image_create(vk,
                            &(tnd_image_desc){.width = vk->info.max_image_dimension_2d + 1,
-                                             .height = 4, .format = VK_FORMAT_R32_SFLOAT},
+                                             .height = 4,
+                                             .format = VK_FORMAT_R32_SFLOAT},
                            &bad) == TND_ERR_LIMIT,
           "beyond the device limit");
     CHECK(strstr(tnd_error_detail(), "limit") != NULL, "message: %s", tnd_error_detail());
@@ -125,25 +128,32 @@ static void test_compute_and_timestamps(void)
     VkPipeline pipe = VK_NULL_HANDLE;
     VkDescriptorPool pool = VK_NULL_HANDLE;
     tnd_timer timer = {0};
-    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof in,
-                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, .name = "in"},
+    REQUIRE_OK(tnd_buffer_create(vk,
+                                 &(tnd_buffer_desc){.size = sizeof in,
+                                                    .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                    .name = "in"},
                                  &bin));
-    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof out,
-                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, .name = "out"},
+    REQUIRE_OK(tnd_buffer_create(vk,
+                                 &(tnd_buffer_desc){.size = sizeof out,
+                                                    .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                    .name = "out"},
                                  &bout));
     REQUIRE_OK(tnd_buffer_upload(vk, &bin, 0, in, sizeof in));
 
     VkDescriptorSetLayoutBinding bind[2] = {
         {0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL},
         {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL}};
-    VkDescriptorSetLayoutCreateInfo dci = {
-        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO, .bindingCount = 2,
-        .pBindings = bind};
+    VkDescriptorSetLayoutCreateInfo dci = {.sType =
+                                               VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                           .bindingCount = 2,
+                                           .pBindings = bind};
     REQUIRE(vkCreateDescriptorSetLayout(vk->device, &dci, NULL, &dsl) == VK_SUCCESS, "dsl");
     VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 12};
     VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
-                                      .setLayoutCount = 1, .pSetLayouts = &dsl,
-                                      .pushConstantRangeCount = 1, .pPushConstantRanges = &pcr};
+                                      .setLayoutCount = 1,
+                                      .pSetLayouts = &dsl,
+                                      .pushConstantRangeCount = 1,
+                                      .pPushConstantRanges = &pcr};
     REQUIRE(vkCreatePipelineLayout(vk->device, &pci, NULL, &pl) == VK_SUCCESS, "layout");
     size_t bytes;
     const uint32_t *code = tnd_spirv_code(TND_SHADER_timestamp_test_comp, &bytes, NULL);
@@ -151,22 +161,28 @@ static void test_compute_and_timestamps(void)
     VkSpecializationMapEntry me = {0, 0, 4};
     VkSpecializationInfo spec = {1, &me, 4, &local};
     REQUIRE_OK(tnd_compute_pipeline_create(
-        vk, &(tnd_compute_desc){.code = code, .bytes = bytes, .layout = pl, .spec = &spec,
-                                .name = "timestamp_test"},
+        vk,
+        &(tnd_compute_desc){
+            .code = code, .bytes = bytes, .layout = pl, .spec = &spec, .name = "timestamp_test"},
         &pipe));
     VkDescriptorPoolSize ps = {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2};
     VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
-                                       .maxSets = 1, .poolSizeCount = 1, .pPoolSizes = &ps};
+                                       .maxSets = 1,
+                                       .poolSizeCount = 1,
+                                       .pPoolSizes = &ps};
     REQUIRE(vkCreateDescriptorPool(vk->device, &dpci, NULL, &pool) == VK_SUCCESS, "pool");
     VkDescriptorSet set;
     VkDescriptorSetAllocateInfo dsai = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
-                                        .descriptorPool = pool, .descriptorSetCount = 1,
+                                        .descriptorPool = pool,
+                                        .descriptorSetCount = 1,
                                         .pSetLayouts = &dsl};
     REQUIRE(vkAllocateDescriptorSets(vk->device, &dsai, &set) == VK_SUCCESS, "set");
     VkDescriptorBufferInfo bi[2] = {{bin.buffer, 0, VK_WHOLE_SIZE},
                                     {bout.buffer, 0, VK_WHOLE_SIZE}};
-    VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstSet = set,
-                              .dstBinding = 0, .descriptorCount = 2,
+    VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                              .dstSet = set,
+                              .dstBinding = 0,
+                              .descriptorCount = 2,
                               .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
                               .pBufferInfo = bi};
     vkUpdateDescriptorSets(vk->device, 1, &w, 0, NULL);
@@ -176,7 +192,10 @@ static void test_compute_and_timestamps(void)
     REQUIRE_OK(tnd_cmd_begin(vk, &cmd));
     tnd_timer_reset(cmd, &timer);
     int slot = tnd_timer_begin(cmd, &timer, "scale");
-    struct { float scale, offset; uint32_t count; } push = {2.0f, 0.5f, N};
+    struct {
+        float scale, offset;
+        uint32_t count;
+    } push = {2.0f, 0.5f, N};
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pl, 0, 1, &set, 0, NULL);
     vkCmdPushConstants(cmd, pl, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
@@ -220,25 +239,32 @@ static tnd_result run_two_buffer_shader(tnd_vk *vk, tnd_shader shader, const voi
     VkPipelineLayout pl = VK_NULL_HANDLE;
     VkPipeline pipe = VK_NULL_HANDLE;
     VkDescriptorPool pool = VK_NULL_HANDLE;
-    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = in_bytes,
-                                  .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, .name = "in"},
+    TND_TRY(tnd_buffer_create(vk,
+                              &(tnd_buffer_desc){.size = in_bytes,
+                                                 .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                 .name = "in"},
                               &bin));
-    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = out_bytes,
-                                  .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                  .mem = TND_MEM_READBACK, .name = "out"},
+    TND_TRY(tnd_buffer_create(vk,
+                              &(tnd_buffer_desc){.size = out_bytes,
+                                                 .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                 .mem = TND_MEM_READBACK,
+                                                 .name = "out"},
                               &bout));
     TND_TRY(tnd_buffer_upload(vk, &bin, 0, in, in_bytes));
     VkDescriptorSetLayoutBinding bind[2] = {
         {0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL},
         {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL}};
-    VkDescriptorSetLayoutCreateInfo dci = {
-        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO, .bindingCount = 2,
-        .pBindings = bind};
+    VkDescriptorSetLayoutCreateInfo dci = {.sType =
+                                               VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                           .bindingCount = 2,
+                                           .pBindings = bind};
     TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &dci, NULL, &dsl));
     VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 4};
     VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
-                                      .setLayoutCount = 1, .pSetLayouts = &dsl,
-                                      .pushConstantRangeCount = 1, .pPushConstantRanges = &pcr};
+                                      .setLayoutCount = 1,
+                                      .pSetLayouts = &dsl,
+                                      .pushConstantRangeCount = 1,
+                                      .pPushConstantRanges = &pcr};
     TND_VK_TRY(vkCreatePipelineLayout(vk->device, &pci, NULL, &pl));
     size_t bytes;
     const uint32_t *code = tnd_spirv_code(shader, &bytes, NULL);
@@ -247,17 +273,22 @@ static tnd_result run_two_buffer_shader(tnd_vk *vk, tnd_shader shader, const voi
         &pipe));
     VkDescriptorPoolSize ps = {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2};
     VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
-                                       .maxSets = 1, .poolSizeCount = 1, .pPoolSizes = &ps};
+                                       .maxSets = 1,
+                                       .poolSizeCount = 1,
+                                       .pPoolSizes = &ps};
     TND_VK_TRY(vkCreateDescriptorPool(vk->device, &dpci, NULL, &pool));
     VkDescriptorSet set;
     VkDescriptorSetAllocateInfo dsai = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
-                                        .descriptorPool = pool, .descriptorSetCount = 1,
+                                        .descriptorPool = pool,
+                                        .descriptorSetCount = 1,
                                         .pSetLayouts = &dsl};
     TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &dsai, &set));
     VkDescriptorBufferInfo bi[2] = {{bin.buffer, 0, VK_WHOLE_SIZE},
                                     {bout.buffer, 0, VK_WHOLE_SIZE}};
-    VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstSet = set,
-                              .dstBinding = 0, .descriptorCount = 2,
+    VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                              .dstSet = set,
+                              .dstBinding = 0,
+                              .descriptorCount = 2,
                               .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
                               .pBufferInfo = bi};
     vkUpdateDescriptorSets(vk->device, 1, &w, 0, NULL);
@@ -300,15 +331,19 @@ static void test_rgbe_glsl_matches_c(void)
             s = s * 1664525u + 1013904223u;
             in[i][c] = (float)pow(10.0, -8.0 + 15.0 * (double)(s >> 8) / 16777216.0);
         }
-    const float special[] = {0.0f, -0.0f, 1e-40f, -1.0f, NAN, INFINITY, -INFINITY,
-                             (float)TND_RGBE_MAX, 130815.9f, 511.75f / 256.0f, 3.0517578e-5f};
+    const float special[] = {0.0f,         -0.0f,
+                             1e-40f,       -1.0f,
+                             NAN,          INFINITY,
+                             -INFINITY,    (float)TND_RGBE_MAX,
+                             130815.9f,    511.75f / 256.0f,
+                             3.0517578e-5f};
     for (int i = 0; i < 11; i++)
         for (int c = 0; c < 3; c++)
             in[i * 3 + c][c] = special[i], in[i * 3 + c][3] = special[i];
     const tnd_shader variants[2] = {TND_SHADER_encoding_test_f32, TND_SHADER_encoding_test_packed};
     for (int v = 0; v < 2; v++) {
-        REQUIRE_OK(run_two_buffer_shader(vk, variants[v], in, N * sizeof *in, out,
-                                         N * sizeof *out, N));
+        REQUIRE_OK(
+            run_two_buffer_shader(vk, variants[v], in, N * sizeof *in, out, N * sizeof *out, N));
         int bad = 0, bad_dec = 0, bad_nf = 0;
         for (int i = 0; i < N; i++) {
             uint32_t p = tnd_rgbe_encode(in[i][0], in[i][1], in[i][2]);
@@ -358,7 +393,8 @@ static void test_contract_images(void)
         }
         tnd_frame_quantize(&f, (tnd_precision)p);
         REQUIRE_OK(tnd_contract_gpu_create(vk, 37, 23, (tnd_precision)p, &c));
-        CHECK(c.images[TND_CT_HF].format == (p ? VK_FORMAT_R32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT),
+        CHECK(c.images[TND_CT_HF].format ==
+                  (p ? VK_FORMAT_R32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT),
               "hf format from the table");
         REQUIRE_OK(tnd_contract_upload(vk, &c, &f));
         REQUIRE_OK(tnd_contract_download(vk, &c, &g));
@@ -381,5 +417,5 @@ static void test_shutdown(void)
 }
 
 TND_TEST_MAIN(T(test_context), T(test_validation_counts_errors), T(test_device_override),
-              T(test_buffers), T(test_images), T(test_compute_and_timestamps), T(test_rgbe_glsl_matches_c),
-              T(test_contract_images), T(test_shutdown))
+              T(test_buffers), T(test_images), T(test_compute_and_timestamps),
+              T(test_rgbe_glsl_matches_c), T(test_contract_images), T(test_shutdown))

@@ -14,14 +14,22 @@ static const float octa_pos[] = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 
 static const uint32_t octa_idx[] = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4,
                                     2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
 
-typedef struct { double v[3]; } d3;
-static d3 sub(d3 a, d3 b) { return (d3){{a.v[0] - b.v[0], a.v[1] - b.v[1], a.v[2] - b.v[2]}}; }
+typedef struct {
+    double v[3];
+} d3;
+static d3 sub(d3 a, d3 b)
+{
+    return (d3){{a.v[0] - b.v[0], a.v[1] - b.v[1], a.v[2] - b.v[2]}};
+}
 static d3 cross(d3 a, d3 b)
 {
     return (d3){{a.v[1] * b.v[2] - a.v[2] * b.v[1], a.v[2] * b.v[0] - a.v[0] * b.v[2],
                  a.v[0] * b.v[1] - a.v[1] * b.v[0]}};
 }
-static double dot(d3 a, d3 b) { return a.v[0] * b.v[0] + a.v[1] * b.v[1] + a.v[2] * b.v[2]; }
+static double dot(d3 a, d3 b)
+{
+    return a.v[0] * b.v[0] + a.v[1] * b.v[1] + a.v[2] * b.v[2];
+}
 
 static d3 xform(const float m[12], const float *p)
 {
@@ -37,8 +45,8 @@ typedef struct {
     int custom, prim;
 } cpu_hit;
 
-static cpu_hit cpu_trace(const fvk_instance *inst, int ninst, const fvk_mesh_desc *meshes,
-                         d3 o, d3 d, double tmin, double tmax)
+static cpu_hit cpu_trace(const fvk_instance *inst, int ninst, const fvk_mesh_desc *meshes, d3 o,
+                         d3 d, double tmin, double tmax)
 {
     cpu_hit best = {.t = -1, .custom = -1, .prim = -1};
     for (int k = 0; k < ninst; k++) {
@@ -70,8 +78,8 @@ static void set_transform(float m[12], double scale, double angle_z, double tx, 
                           double tz)
 {
     double c = cos(angle_z) * scale, s = sin(angle_z) * scale;
-    const float r[12] = {(float)c, (float)-s, 0, (float)tx, (float)s, (float)c, 0, (float)ty,
-                         0, 0, (float)scale, (float)tz};
+    const float r[12] = {(float)c, (float)-s, 0, (float)tx, (float)s,     (float)c,
+                         0,        (float)ty, 0, 0,         (float)scale, (float)tz};
     memcpy(m, r, sizeof r);
 }
 
@@ -92,12 +100,14 @@ static tnd_result tracer_create(tnd_vk *vk, tracer *t)
         {0, VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1, VK_SHADER_STAGE_RAYGEN_BIT_KHR, 0},
         {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_RAYGEN_BIT_KHR, 0},
         {2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_RAYGEN_BIT_KHR, 0}};
-    VkDescriptorSetLayoutCreateInfo dci = {
-        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO, .bindingCount = 3,
-        .pBindings = b};
+    VkDescriptorSetLayoutCreateInfo dci = {.sType =
+                                               VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                           .bindingCount = 3,
+                                           .pBindings = b};
     TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &dci, NULL, &t->dsl));
     VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
-                                      .setLayoutCount = 1, .pSetLayouts = &t->dsl};
+                                      .setLayoutCount = 1,
+                                      .pSetLayouts = &t->dsl};
     TND_VK_TRY(vkCreatePipelineLayout(vk->device, &pci, NULL, &t->layout));
     tnd_rt_stage stages[3];
     const tnd_shader ids[3] = {TND_SHADER_trace_test_rgen, TND_SHADER_trace_test_rmiss,
@@ -112,19 +122,27 @@ static tnd_result tracer_create(tnd_vk *vk, tracer *t)
     const uint32_t rg = 0, ms = 1;
     const tnd_rt_hit_group hg = {.closest_hit = 2, .any_hit = -1};
     TND_TRY(tnd_rt_pipeline_create(vk,
-                                   &(tnd_rt_desc){.stages = stages, .stage_count = 3,
-                                                  .raygen = &rg, .raygen_count = 1,
-                                                  .miss = &ms, .miss_count = 1, .hit = &hg,
-                                                  .hit_count = 1, .layout = t->layout,
+                                   &(tnd_rt_desc){.stages = stages,
+                                                  .stage_count = 3,
+                                                  .raygen = &rg,
+                                                  .raygen_count = 1,
+                                                  .miss = &ms,
+                                                  .miss_count = 1,
+                                                  .hit = &hg,
+                                                  .hit_count = 1,
+                                                  .layout = t->layout,
                                                   .name = "trace_test"},
                                    &t->pipe, &t->sbt));
     VkDescriptorPoolSize ps[2] = {{VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2}};
     VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
-                                       .maxSets = 1, .poolSizeCount = 2, .pPoolSizes = ps};
+                                       .maxSets = 1,
+                                       .poolSizeCount = 2,
+                                       .pPoolSizes = ps};
     TND_VK_TRY(vkCreateDescriptorPool(vk->device, &dpci, NULL, &t->pool));
     VkDescriptorSetAllocateInfo ai = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
-                                      .descriptorPool = t->pool, .descriptorSetCount = 1,
+                                      .descriptorPool = t->pool,
+                                      .descriptorSetCount = 1,
                                       .pSetLayouts = &t->dsl};
     TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, &t->set));
 fail:
@@ -150,16 +168,22 @@ static tnd_result trace(tnd_vk *vk, tracer *t, const fvk_tlas *tlas, const tnd_b
 {
     VkWriteDescriptorSetAccelerationStructureKHR wa = {
         .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR,
-        .accelerationStructureCount = 1, .pAccelerationStructures = &tlas->as};
+        .accelerationStructureCount = 1,
+        .pAccelerationStructures = &tlas->as};
     VkDescriptorBufferInfo bi[2] = {{rays->buffer, 0, VK_WHOLE_SIZE},
                                     {hits->buffer, 0, VK_WHOLE_SIZE}};
-    VkWriteDescriptorSet w[2] = {
-        {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .pNext = &wa, .dstSet = t->set,
-         .dstBinding = 0, .descriptorCount = 1,
-         .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
-        {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstSet = t->set, .dstBinding = 1,
-         .descriptorCount = 2, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-         .pBufferInfo = bi}};
+    VkWriteDescriptorSet w[2] = {{.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                  .pNext = &wa,
+                                  .dstSet = t->set,
+                                  .dstBinding = 0,
+                                  .descriptorCount = 1,
+                                  .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
+                                 {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                  .dstSet = t->set,
+                                  .dstBinding = 1,
+                                  .descriptorCount = 2,
+                                  .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                  .pBufferInfo = bi}};
     vkUpdateDescriptorSets(vk->device, 2, w, 0, NULL);
     VkCommandBuffer cmd;
     tnd_result res = tnd_cmd_begin(vk, &cmd);
@@ -168,8 +192,8 @@ static tnd_result trace(tnd_vk *vk, tracer *t, const fvk_tlas *tlas, const tnd_b
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, t->pipe);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, t->layout, 0, 1, &t->set,
                             0, NULL);
-    vk->fn.vkCmdTraceRaysKHR(cmd, &t->sbt.raygen[0], &t->sbt.miss, &t->sbt.hit,
-                             &t->sbt.callable, n, 1, 1);
+    vk->fn.vkCmdTraceRaysKHR(cmd, &t->sbt.raygen[0], &t->sbt.miss, &t->sbt.hit, &t->sbt.callable, n,
+                             1, 1);
     tnd_cmd_barrier(cmd);
     return tnd_cmd_submit_wait(vk, cmd);
 }
@@ -184,8 +208,7 @@ static void compare(const tt_ray *rays, const tt_hit *gpu, uint32_t n, const fvk
     for (uint32_t i = 0; i < n; i++) {
         d3 o = {{rays[i].origin_tmin.x, rays[i].origin_tmin.y, rays[i].origin_tmin.z}};
         d3 d = {{rays[i].dir_tmax.x, rays[i].dir_tmax.y, rays[i].dir_tmax.z}};
-        cpu_hit c = cpu_trace(inst, ninst, meshes, o, d, rays[i].origin_tmin.w,
-                              rays[i].dir_tmax.w);
+        cpu_hit c = cpu_trace(inst, ninst, meshes, o, d, rays[i].origin_tmin.w, rays[i].dir_tmax.w);
         if (c.t >= 0 && c.edge < 1e-4) {
             edge++;
             continue;
@@ -220,7 +243,10 @@ static uint32_t lcg(uint32_t *s)
     *s = *s * 1664525u + 1013904223u;
     return *s >> 8;
 }
-static float frand(uint32_t *s) { return (float)lcg(s) / 16777216.0f; }
+static float frand(uint32_t *s)
+{
+    return (float)lcg(s) / 16777216.0f;
+}
 
 static void test_trace_against_cpu(void)
 {
@@ -248,8 +274,7 @@ static void test_trace_against_cpu(void)
     for (int i = 0; i < 2; i++)
         CHECK(blas[i].compacted_bytes > 0 && blas[i].compacted_bytes <= blas[i].built_bytes,
               "BLAS %d compacted %llu <= built %llu", i,
-              (unsigned long long)blas[i].compacted_bytes,
-              (unsigned long long)blas[i].built_bytes);
+              (unsigned long long)blas[i].compacted_bytes, (unsigned long long)blas[i].built_bytes);
     REQUIRE_OK(fvk_tlas_build(vk, blas, 2, inst, 3, false, &tlas));
     REQUIRE_OK(tracer_create(vk, &tr));
 
@@ -264,12 +289,17 @@ static void test_trace_against_cpu(void)
             float tmax = (i % 7 == 0) ? 0.9f : 1e30f;
             r[i] = (tt_ray){{0, 0, 6, 0.0f}, {px, py, -8.0f, tmax}};
         }
-    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = N * sizeof *r,
-                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                     .name = "test.rays"}, &rays));
-    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = N * sizeof *h,
-                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                     .mem = TND_MEM_READBACK, .name = "test.hits"}, &hits));
+    REQUIRE_OK(tnd_buffer_create(vk,
+                                 &(tnd_buffer_desc){.size = N * sizeof *r,
+                                                    .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                    .name = "test.rays"},
+                                 &rays));
+    REQUIRE_OK(tnd_buffer_create(vk,
+                                 &(tnd_buffer_desc){.size = N * sizeof *h,
+                                                    .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                    .mem = TND_MEM_READBACK,
+                                                    .name = "test.hits"},
+                                 &hits));
     REQUIRE_OK(tnd_buffer_upload(vk, &rays, 0, r, N * sizeof *r));
     REQUIRE_OK(trace(vk, &tr, &tlas, &rays, &hits, N));
     REQUIRE_OK(tnd_buffer_download(vk, &hits, 0, h, N * sizeof *h));

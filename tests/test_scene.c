@@ -68,9 +68,8 @@ static void test_shipped_scenes(void)
         CHECK(r == TND_OK, "%s: %s", e->name, tnd_error_detail());
         if (r != TND_OK)
             continue;
-        CHECK(tnd_scene_triangles(s) == e->triangles, "%s: %llu triangles, expected %llu",
-              e->name, (unsigned long long)tnd_scene_triangles(s),
-              (unsigned long long)e->triangles);
+        CHECK(tnd_scene_triangles(s) == e->triangles, "%s: %llu triangles, expected %llu", e->name,
+              (unsigned long long)tnd_scene_triangles(s), (unsigned long long)e->triangles);
         CHECK(s->instance_count == e->instances, "%s: %u instances", e->name, s->instance_count);
         CHECK(kind_count(s, TND_MAT_OPAQUE) == e->opaque &&
                   kind_count(s, TND_MAT_MIRROR) == e->mirror &&
@@ -88,8 +87,8 @@ static void test_shipped_scenes(void)
               s->emitter_count);
         CHECK(s->camera_count == e->cameras, "%s: cameras", e->name);
         CHECK_NEAR(s->duration, e->duration, 1e-6, "duration");
-        CHECK(s->features == e->features, "%s: features 0x%x, expected 0x%x", e->name,
-              s->features, e->features);
+        CHECK(s->features == e->features, "%s: features 0x%x, expected 0x%x", e->name, s->features,
+              e->features);
         for (uint32_t t = 0; t < s->texture_count; t++)
             CHECK(s->textures[t].rgba8 && s->textures[t].width > 0, "%s: texture %u decoded",
                   e->name, t);

@@ -33,7 +33,7 @@ extern int tnd_test_failures; /* failures in the current test */
 #define CHECK_NEAR(a, b, tol, what)                                                                \
     do {                                                                                           \
         double ta_ = (double)(a), tb_ = (double)(b), tt_ = (double)(tol);                          \
-        CHECK(fabs(ta_ - tb_) <= tt_, "%s: %.9g vs %.9g (tolerance %.3g)", what, ta_, tb_, tt_);  \
+        CHECK(fabs(ta_ - tb_) <= tt_, "%s: %.9g vs %.9g (tolerance %.3g)", what, ta_, tb_, tt_);   \
     } while (0)
 
 #define CHECK_OK(expr)                                                                             \
@@ -67,6 +67,9 @@ int tnd_test_run(const tnd_test_case *tests, int count, int argc, char **argv);
         static const tnd_test_case tests_[] = {__VA_ARGS__};                                       \
         return tnd_test_run(tests_, (int)(sizeof tests_ / sizeof tests_[0]), argc, argv);          \
     }
-#define T(fn) {#fn, fn}
+#define T(fn)                                                                                      \
+    {                                                                                              \
+#fn, fn                                                                                    \
+    }
 
 #endif
