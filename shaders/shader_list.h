@@ -16,7 +16,8 @@
     X(trace_test_rmiss,    "trace_test.rmiss",    "") \
     X(timestamp_test_comp, "timestamp_test.comp", "") \
     X(encoding_test_f32,   "encoding_test.comp",  "TND_PACKED=0") \
-    X(encoding_test_packed, "encoding_test.comp", "TND_PACKED=1")
+    X(encoding_test_packed, "encoding_test.comp", "TND_PACKED=1") \
+    X(sampling_test,       "sampling_test.comp",  "")
 // clang-format on
 
 typedef enum tnd_shader {

@@ -2,6 +2,7 @@
  * buffers, images, compute pipelines, push and specialisation constants, timestamps, and the
  * validation-message plumbing itself. Label: gpu. */
 #include "shaders/encoding.h"
+#include "shaders/sampling.h"
 #include "shaders/shader_list.h"
 #include "tests/gpu_common.h"
 
@@ -367,6 +368,40 @@ cleanup:
     gpu_end();
 }
 
+/* The shared counter-based generator draws the same bits in GLSL as in C. */
+static void test_rng_glsl_matches_c(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    enum { N = 8192 };
+    uint32_t(*in)[4] = calloc(N, sizeof *in), (*out)[4] = calloc(N, sizeof *out);
+    for (uint32_t i = 0; i < N; i++) {
+        in[i][0] = i * 7919u % 2073600u; /* pixel keys of a 1080p frame */
+        in[i][1] = i % 3 == 0 ? 0xffffffffu - i : i / 13u;
+        in[i][2] = tnd_dim(i % 6, i % TND_DIMS_PER_BOUNCE);
+    }
+    REQUIRE_OK(run_two_buffer_shader(vk, TND_SHADER_sampling_test, in, N * sizeof *in, out,
+                                     N * sizeof *out, N));
+    int bad = 0;
+    double mean = 0;
+    for (uint32_t i = 0; i < N; i++) {
+        float r = tnd_rand(in[i][0], in[i][1], in[i][2]);
+        uint32_t rb, v[3] = {in[i][0], in[i][1], in[i][2]};
+        memcpy(&rb, &r, 4);
+        tnd_pcg3d(v);
+        bad += out[i][0] != rb || out[i][1] != v[0] || out[i][2] != v[1] || out[i][3] != v[2];
+        mean += r;
+    }
+    mean /= N;
+    CHECK(bad == 0, "%d of %d draws differ between GLSL and C", bad, N);
+    /* uniform on [0,1): mean 1/2 with standard error 1/sqrt(12 N) = 0.0032; 5 sigma */
+    CHECK(fabs(mean - 0.5) < 5 * 0.0032, "mean %.4f", mean);
+cleanup:
+    free(in);
+    free(out);
+    gpu_end();
+}
+
 /* A host frame survives upload to the contract images and download, bit for bit, at both
  * precisions (formats straight from the table). */
 static void test_contract_images(void)
@@ -418,4 +453,4 @@ static void test_shutdown(void)
 
 TND_TEST_MAIN(T(test_context), T(test_validation_counts_errors), T(test_device_override),
               T(test_buffers), T(test_images), T(test_compute_and_timestamps),
-              T(test_rgbe_glsl_matches_c), T(test_contract_images), T(test_shutdown))
+              T(test_rgbe_glsl_matches_c), T(test_rng_glsl_matches_c), T(test_contract_images), T(test_shutdown))
