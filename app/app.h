@@ -59,5 +59,7 @@ void app_progress_end(app_progress *p);
 /* ---- commands ------------------------------------------------------------------------------- */
 int cmd_info(int argc, char **argv);
 int cmd_contract(int argc, char **argv);
+int cmd_render(int argc, char **argv);
+int cmd_reference(int argc, char **argv);
 
 #endif

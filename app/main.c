@@ -6,6 +6,10 @@
 static const app_cmd commands[] = {
     {"info", "Show the Vulkan devices and their ray-tracing support, or a scene's contents.",
      "[--json] [--device NAME] [--scene PATH]", cmd_info},
+    {"render", "Render a scene's camera path through a front-end (contract, composite, preview).",
+     "--out DIR [options]", cmd_render},
+    {"reference", "Render converged reference frames (unbiased path tracing).",
+     "--out DIR [options]", cmd_reference},
     {"contract", "Print the buffer contract: every entry, its EXR channels, formats and meaning.",
      "[--json]", cmd_contract},
 };

@@ -593,18 +593,30 @@ typedef struct tnd_material {
     float metallic, roughness;
     float emission[3]; /* emissiveFactor x KHR_materials_emissive_strength, nits */
     float transmission, ior;
+    float specular; /* KHR_materials_specular factor (1 by default) */
     float attenuation_color[3], attenuation_distance, thickness; /* KHR_materials_volume */
     float normal_scale;
     int32_t tex_base_color, tex_metal_rough, tex_normal, tex_emission; /* -1: none */
     bool double_sided;
 } tnd_material;
 
+#define TND_TEXTURE_MAX_LEVELS 16
 typedef struct tnd_texture {
     char name[256];
     uint32_t width, height;
-    uint8_t *rgba8; /* width x height x 4, top row first */
+    uint8_t *rgba8; /* width x height x 4, top row first, as decoded */
     bool srgb;      /* base colour and emission textures */
+    /* Linear float RGBA mip chain (level 0 = rgba8 decoded, sRGB to linear when srgb), each
+     * level a 2x2 box filter of the one above; what both front-ends sample. */
+    uint32_t levels;
+    uint32_t level_w[TND_TEXTURE_MAX_LEVELS], level_h[TND_TEXTURE_MAX_LEVELS];
+    float *level[TND_TEXTURE_MAX_LEVELS];
 } tnd_texture;
+
+/* Build the mip chain of a decoded texture. */
+tnd_result tnd_texture_build_mips(tnd_texture *t);
+/* Trilinear sample (repeat wrap, texel centres at +0.5) at level of detail lod >= 0. */
+void tnd_texture_sample(const tnd_texture *t, float u, float v, float lod, float out[4]);
 
 typedef struct tnd_mesh {
     char name[64];
@@ -767,5 +779,44 @@ void tnd_contract_gpu_destroy(tnd_vk *vk, tnd_contract_gpu *c);
 tnd_result tnd_contract_upload(tnd_vk *vk, tnd_contract_gpu *c, const tnd_frame *f);
 /* Images -> host frame (created by the caller at the same size); marks every entry present. */
 tnd_result tnd_contract_download(tnd_vk *vk, const tnd_contract_gpu *c, tnd_frame *f);
+
+
+/* ---------------------------------------------------------------------------------------------
+ * Light list for next-event estimation (layout in shaders/lights.h), per frame
+ * ------------------------------------------------------------------------------------------- */
+#include "shaders/lights.h"
+
+typedef struct tnd_light_list {
+    tnd_light_gpu *lights;
+    uint32_t count;
+    uint32_t *instance_first; /* per instance: index of its first emissive triangle, or ~0u */
+    float total_power;
+} tnd_light_list;
+
+/* Build the list for a scene state (world-space emitters, schedule scales applied). Lights of
+ * zero power are left out; count 0 means no light to sample. Reuses the arrays of `list`. */
+tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_light_list *list);
+void tnd_lights_free(tnd_light_list *list);
+/* Index of the light picked by u in [0,1) (binary search on the cdf). */
+uint32_t tnd_lights_pick(const tnd_light_list *list, float u);
+
+
+/* ---------------------------------------------------------------------------------------------
+ * Building scenes in code (tests, generators): add parts, then commit (validates like a load)
+ * ------------------------------------------------------------------------------------------- */
+tnd_result tnd_scene_new(const char *name, tnd_scene **s);
+/* Each returns the new element's index, or -1 (out of memory; the detail says so). */
+int32_t tnd_scene_add_material(tnd_scene *s, const tnd_material *m);
+/* tnd_material with glTF's defaults (white, metallic 1, roughness 1, IOR 1.5, no textures). */
+tnd_material tnd_material_default(const char *name);
+int32_t tnd_scene_add_mesh(tnd_scene *s, const char *name, const float *pos, const float *nrm,
+                           const float *uv, uint32_t vertex_count, const uint32_t *idx,
+                           uint32_t triangle_count, uint32_t material);
+int32_t tnd_scene_add_node(tnd_scene *s, const char *name, int32_t parent, const float t[3],
+                           const float r[4], const float sc[3]);
+int32_t tnd_scene_add_instance(tnd_scene *s, uint32_t mesh, uint32_t node);
+int32_t tnd_scene_add_camera(tnd_scene *s, uint32_t node, float yfov);
+int32_t tnd_scene_add_light(tnd_scene *s, const tnd_light *l);
+tnd_result tnd_scene_commit(tnd_scene *s);
 
 #endif

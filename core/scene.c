@@ -43,8 +43,11 @@ void tnd_scene_destroy(tnd_scene *s)
     free(s->indices);
     free(s->meshes);
     free(s->materials);
-    for (uint32_t i = 0; s->textures && i < s->texture_count; i++)
+    for (uint32_t i = 0; s->textures && i < s->texture_count; i++) {
         free(s->textures[i].rgba8);
+        for (uint32_t l = 0; l < s->textures[i].levels; l++)
+            free(s->textures[i].level[l]);
+    }
     free(s->textures);
     free(s->nodes);
     free(s->instances);
@@ -71,6 +74,12 @@ uint64_t tnd_scene_triangles(const tnd_scene *s)
 tnd_result scene_finish(tnd_scene *s)
 {
     const char *path = s->path;
+    for (uint32_t t = 0; t < s->texture_count; t++)
+        if (!s->textures[t].levels) {
+            tnd_result r = tnd_texture_build_mips(&s->textures[t]);
+            if (r != TND_OK)
+                return r;
+        }
     /* indices in range, finite vertices */
     for (uint32_t m = 0; m < s->mesh_count; m++) {
         const tnd_mesh *me = &s->meshes[m];
@@ -188,6 +197,91 @@ tnd_result scene_finish(tnd_scene *s)
     if (s->instance_count == 0)
         return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: no geometry", path);
     return TND_OK;
+}
+
+static float srgb_to_linear(float c)
+{
+    return c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f);
+}
+
+tnd_result tnd_texture_build_mips(tnd_texture *t)
+{
+    uint32_t w = t->width, h = t->height;
+    t->levels = 0;
+    float *l0 = malloc((size_t)w * h * 4 * sizeof(float));
+    if (!l0)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: texture '%s': out of memory", t->name);
+    float lut[256];
+    for (int i = 0; i < 256; i++)
+        lut[i] = t->srgb ? srgb_to_linear((float)i / 255.0f) : (float)i / 255.0f;
+    for (size_t k = 0; k < (size_t)w * h; k++)
+        for (int c = 0; c < 4; c++)
+            l0[4 * k + c] = c == 3 ? (float)t->rgba8[4 * k + 3] / 255.0f : lut[t->rgba8[4 * k + c]];
+    t->level[0] = l0;
+    t->level_w[0] = w;
+    t->level_h[0] = h;
+    t->levels = 1;
+    while ((w > 1 || h > 1) && t->levels < TND_TEXTURE_MAX_LEVELS) {
+        uint32_t nw = w > 1 ? w / 2 : 1, nh = h > 1 ? h / 2 : 1;
+        const float *src = t->level[t->levels - 1];
+        float *dst = malloc((size_t)nw * nh * 4 * sizeof(float));
+        if (!dst)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: texture '%s': out of memory", t->name);
+        for (uint32_t y = 0; y < nh; y++)
+            for (uint32_t x = 0; x < nw; x++)
+                for (int c = 0; c < 4; c++) {
+                    uint32_t x0 = 2 * x < w ? 2 * x : w - 1, x1 = 2 * x + 1 < w ? 2 * x + 1 : x0;
+                    uint32_t y0 = 2 * y < h ? 2 * y : h - 1, y1 = 2 * y + 1 < h ? 2 * y + 1 : y0;
+                    dst[4 * ((size_t)y * nw + x) + c] =
+                        0.25f * (src[4 * ((size_t)y0 * w + x0) + c] + src[4 * ((size_t)y0 * w + x1) + c] +
+                                 src[4 * ((size_t)y1 * w + x0) + c] + src[4 * ((size_t)y1 * w + x1) + c]);
+                }
+        t->level[t->levels] = dst;
+        t->level_w[t->levels] = nw;
+        t->level_h[t->levels] = nh;
+        t->levels++;
+        w = nw, h = nh;
+    }
+    return TND_OK;
+}
+
+static void bilinear(const tnd_texture *t, uint32_t l, float u, float v, float out[4])
+{
+    uint32_t w = t->level_w[l], h = t->level_h[l];
+    float x = u * (float)w - 0.5f, y = v * (float)h - 0.5f;
+    float fx = floorf(x), fy = floorf(y);
+    float ax = x - fx, ay = y - fy;
+    long ix = (long)fx, iy = (long)fy;
+    const float *d = t->level[l];
+    for (int c = 0; c < 4; c++)
+        out[c] = 0;
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 2; i++) {
+            long xx = ((ix + i) % (long)w + (long)w) % (long)w;
+            long yy = ((iy + j) % (long)h + (long)h) % (long)h;
+            float wgt = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
+            for (int c = 0; c < 4; c++)
+                out[c] += wgt * d[4 * ((size_t)yy * w + (size_t)xx) + c];
+        }
+}
+
+void tnd_texture_sample(const tnd_texture *t, float u, float v, float lod, float out[4])
+{
+    if (!isfinite(u) || !isfinite(v))
+        u = v = 0;
+    u -= floorf(u);
+    v -= floorf(v);
+    if (!(lod > 0))
+        lod = 0;
+    float maxl = (float)(t->levels - 1);
+    if (lod > maxl)
+        lod = maxl;
+    uint32_t l0 = (uint32_t)lod, l1 = l0 + 1 < t->levels ? l0 + 1 : l0;
+    float f = lod - (float)l0, a[4], b[4];
+    bilinear(t, l0, u, v, a);
+    bilinear(t, l1, u, v, b);
+    for (int c = 0; c < 4; c++)
+        out[c] = a[c] + f * (b[c] - a[c]);
 }
 
 tnd_material_kind scene_classify(const tnd_material *m)
@@ -366,6 +460,7 @@ static tnd_result stress_scene(const char *spec, tnd_scene **out)
         mt->base_color[3] = 1;
         mt->roughness = m == 1 ? 0.4f : 0.9f;
         mt->ior = 1.5f;
+        mt->specular = 1.0f;
         mt->normal_scale = 1;
         mt->tex_base_color = mt->tex_metal_rough = mt->tex_normal = mt->tex_emission = -1;
         if (m == 2)

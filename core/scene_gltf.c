@@ -77,7 +77,8 @@ static tnd_result parse_json(gltf_ctx *c, const uint8_t *data, size_t size)
             return tnd_fail(TND_ERR_UNSUPPORTED,
                             "scene: %s: requires extension '%s', which Tandem does not support "
                             "(supported: KHR_lights_punctual, KHR_materials_emissive_strength, "
-                            "KHR_materials_transmission, KHR_materials_ior, KHR_materials_volume)",
+                            "KHR_materials_transmission, KHR_materials_ior, KHR_materials_volume, "
+                            "KHR_materials_specular)",
                             c->path, cJSON_IsString(e) ? e->valuestring : "?");
     }
     const cJSON *used = cJSON_GetObjectItemCaseSensitive(c->json, "extensionsUsed");
@@ -406,6 +407,7 @@ static tnd_result load_materials(gltf_ctx *c)
         const cJSON *tr = jget(ext, "KHR_materials_transmission");
         m->transmission = (float)jnum(tr, "transmissionFactor", 0.0);
         m->ior = (float)jnum(jget(ext, "KHR_materials_ior"), "ior", 1.5);
+        m->specular = (float)jnum(jget(ext, "KHR_materials_specular"), "specularFactor", 1.0);
         const cJSON *vol = jget(ext, "KHR_materials_volume");
         if (vol) {
             m->thickness = (float)jnum(vol, "thicknessFactor", 0.0);
@@ -421,6 +423,7 @@ static tnd_result load_materials(gltf_ctx *c)
         for (int a = 0; a < 5; a++)
             for (int k = 0; k < counts[a]; k++)
                 finite &= isfinite(vals[a][k]);
+        finite &= isfinite(m->specular) && m->specular >= 0.0f;
         if (!finite || m->ior < 1.0f || m->ior > 5.0f)
             return tnd_fail(TND_ERR_BAD_INPUT,
                             "scene: %s: material %u '%s': non-finite factor or IOR %g outside "

@@ -1,0 +1,248 @@
+/* app/cmd_render.c: `tandem render` (the real-time pipeline over a camera path) and
+ * `tandem reference` (converged images). Until the back-end exists, render writes the plain
+ * composite of the noisy signals, plus a preview PNG. */
+#include "app/app.h"
+#include "frontend_embree/frontend_embree.h"
+
+#include <math.h>
+#include <stb/stb_image_write.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef TND_DATA_DIR
+#define TND_DATA_DIR "data"
+#endif
+
+typedef struct render_opts {
+    const char *scene, *frontend, *out, *precision;
+    unsigned frames, start, threads, bounces, spp, camera;
+    unsigned size[2];
+    double fps;
+    bool capture;
+} render_opts;
+
+static const app_cmd render_cmd = {
+    "render",
+    "Render a scene's camera path through a front-end: the contract (with --capture) and the\n"
+    "composited frames (DIR/frame_NNNN.exr, linear HDR; DIR/frame_NNNN.png, a preview).",
+    "--out DIR [--scene PATH] [--frontend embree] [--frames N] [--size WxH] [--capture] ...",
+    NULL};
+static const app_cmd reference_cmd = {
+    "reference",
+    "Render converged reference frames (unbiased path tracing, --spp samples per pixel) of a\n"
+    "scene's camera path: DIR/frame_NNNN.exr, linear HDR radiance.",
+    "--out DIR [--scene PATH] [--frontend embree] [--frames N] [--size WxH] [--spp K]", NULL};
+
+/* Preview PNG: exposure from the frame's log-average luminance (key 0.18), Reinhard, sRGB. Real
+ * tone mapping is the composite stage's. */
+static tnd_result write_preview(const char *path, const float *rgb, uint32_t w, uint32_t h)
+{
+    size_t n = (size_t)w * h;
+    double logsum = 0;
+    for (size_t q = 0; q < n; q++) {
+        double l = 0.2126 * rgb[3 * q] + 0.7152 * rgb[3 * q + 1] + 0.0722 * rgb[3 * q + 2];
+        logsum += log(1e-4 + (isfinite(l) && l > 0 ? l : 0));
+    }
+    double exposure = 0.18 / exp(logsum / (double)n);
+    uint8_t *px = malloc(n * 3);
+    if (!px)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "render: out of memory");
+    for (size_t q = 0; q < n * 3; q++) {
+        double v = rgb[q] * exposure;
+        v = isfinite(v) && v > 0 ? v / (1.0 + v) : 0.0;
+        v = v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
+        px[q] = (uint8_t)fmin(255.0, floor(v * 255.0 + 0.5));
+    }
+    char tmp[2200];
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    int ok = stbi_write_png(tmp, (int)w, (int)h, 3, px, (int)w * 3);
+    free(px);
+    if (!ok || rename(tmp, path) != 0) {
+        remove(tmp);
+        return tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);
+    }
+    return TND_OK;
+}
+
+static tnd_result write_rgb_exr(const char *path, const float *rgb, uint32_t w, uint32_t h)
+{
+    const tnd_exr_channel_desc ch[3] = {{"R", TND_EXR_FLOAT, rgb, 3},
+                                        {"G", TND_EXR_FLOAT, rgb + 1, 3},
+                                        {"B", TND_EXR_FLOAT, rgb + 2, 3}};
+    return tnd_exr_write(path, w, h, ch, 3, NULL, 0, TND_EXR_ZIP);
+}
+
+static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int argc, char **argv)
+{
+    *o = (render_opts){.scene = TND_DATA_DIR "/scenes/cornell.gltf",
+                       .frontend = "embree",
+                       .precision = "float32",
+                       .frames = 8,
+                       .bounces = 1,
+                       .spp = 256,
+                       .size = {320, 180},
+                       .fps = 30.0};
+    const app_opt render_opts_tbl[] = {
+        {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},
+        {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"},
+        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", "embree (the Vulkan front-end: vk)"},
+        {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"},
+        {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"},
+        {"fps", APP_OPT_FLOAT, &o->fps, "R", "frames per second of the path (default 30)"},
+        {"size", APP_OPT_SIZE, o->size, "WxH", "image size (default 320x180)"},
+        {"camera", APP_OPT_UINT, &o->camera, "I", "scene camera (default 0)"},
+        {"threads", APP_OPT_UINT, &o->threads, "N", "CPU threads (default: all cores)"},
+        {"bounces", APP_OPT_UINT, &o->bounces, "N", "indirect bounces (default 1)"},
+        {"precision", APP_OPT_STRING, &o->precision, "P", "contract precision: float32 or packed"},
+        {"capture", APP_OPT_FLAG, &o->capture, NULL, "also write DIR/capture/frame_NNNN.exr"},
+        {0},
+    };
+    const app_opt ref_opts_tbl[] = {
+        {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},
+        {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"},
+        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", "embree"},
+        {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"},
+        {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"},
+        {"fps", APP_OPT_FLOAT, &o->fps, "R", "frames per second of the path (default 30)"},
+        {"size", APP_OPT_SIZE, o->size, "WxH", "image size (default 320x180)"},
+        {"camera", APP_OPT_UINT, &o->camera, "I", "scene camera (default 0)"},
+        {"threads", APP_OPT_UINT, &o->threads, "N", "CPU threads (default: all cores)"},
+        {"spp", APP_OPT_UINT, &o->spp, "K", "samples per pixel (default 256)"},
+        {0},
+    };
+    const char *pos[1];
+    int npos;
+    int rc = app_parse(cmd, reference ? ref_opts_tbl : render_opts_tbl, argc, argv, pos, 0, &npos);
+    if (rc >= 0)
+        return rc;
+    if (!o->out) {
+        fprintf(stderr, "tandem %s: --out DIR is required (see tandem %s --help)\n", cmd->name,
+                cmd->name);
+        return APP_EXIT_USAGE;
+    }
+    if (strcmp(o->frontend, "embree") != 0) {
+        fprintf(stderr,
+                "tandem %s: --frontend '%s': this build has the 'embree' front-end only (the "
+                "Vulkan front-end 'vk' is not written yet)\n",
+                cmd->name, o->frontend);
+        return APP_EXIT_USAGE;
+    }
+    if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0)) {
+        fprintf(stderr, "tandem %s: --frames, --fps and --spp must be positive\n", cmd->name);
+        return APP_EXIT_USAGE;
+    }
+    return -1;
+}
+
+typedef struct ref_progress {
+    app_progress *bar;
+    uint32_t frame, frames;
+} ref_progress;
+
+static void on_ref_progress(uint32_t done, uint32_t total, void *user)
+{
+    ref_progress *p = user;
+    app_progress_step(p->bar, p->frame * total + done);
+    (void)p->frames;
+}
+
+static int run(bool reference, int argc, char **argv)
+{
+    render_opts o;
+    int rc = parse_common(reference ? &reference_cmd : &render_cmd, &o, reference, argc, argv);
+    if (rc >= 0)
+        return rc;
+    const char *what = reference ? "reference" : "render";
+    tnd_precision prec = TND_PRECISION_F32;
+    tnd_result res = tnd_precision_parse(o.precision, &prec);
+    if (res != TND_OK)
+        return app_report(what, res);
+    tnd_scene *scene = NULL;
+    femb_context *fe = NULL;
+    tnd_scene_state st[2] = {{0}};
+    tnd_frame frame = {0};
+    float *rgb = NULL;
+    char path[2048], dir[1600];
+    if (strlen(o.out) > 1500)
+        return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
+    int status = APP_EXIT_FAIL;
+    TND_TRY(tnd_scene_load(o.scene, &scene));
+    TND_TRY(femb_create(scene, &(femb_desc){.threads = o.threads}, &fe));
+    TND_TRY(tnd_mkdirs(o.out));
+    snprintf(dir, sizeof dir, "%s/capture", o.out);
+    if (o.capture)
+        TND_TRY(tnd_mkdirs(dir));
+    rgb = malloc((size_t)o.size[0] * o.size[1] * 3 * sizeof(float));
+    if (!rgb) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
+        goto fail;
+    }
+    float aspect = (float)o.size[0] / (float)o.size[1];
+    app_progress bar;
+    app_progress_begin(&bar, what, reference ? o.frames * o.spp : o.frames);
+    double t0 = tnd_now();
+    for (unsigned i = 0; i < o.frames; i++) {
+        unsigned f = o.start + i;
+        tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
+        TND_TRY(tnd_scene_evaluate(scene, f / o.fps, o.camera, aspect, cur));
+        if (i == 0)
+            TND_TRY(tnd_scene_evaluate(scene, f > 0 ? (f - 1) / o.fps : 0.0, o.camera, aspect,
+                                       prev));
+        TND_TRY(femb_set_frame(fe, cur, prev, f, o.size[0], o.size[1]));
+        if (reference) {
+            double err = 0;
+            ref_progress rp = {&bar, i, o.frames};
+            TND_TRY(femb_reference(fe, o.spp, rgb, &err, on_ref_progress, &rp));
+            snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
+            TND_TRY(write_rgb_exr(path, rgb, o.size[0], o.size[1]));
+            snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
+            TND_TRY(write_preview(path, rgb, o.size[0], o.size[1]));
+            if (!app_quiet())
+                fprintf(stderr, "%sreference: frame %u: %u spp, remaining noise %.2f%% (mean "
+                                "relative standard error)\n",
+                        bar.enabled ? "\n" : "", f, o.spp, 100.0 * err);
+            continue;
+        }
+        TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
+        TND_TRY(femb_trace_primary(fe, &frame));
+        TND_TRY(femb_shade(fe, &(femb_params){.bounces = o.bounces}, &frame, NULL));
+        tnd_frame_quantize(&frame, prec);
+        if (o.capture) {
+            snprintf(path, sizeof path, "%s/frame_%04u.exr", dir, f);
+            TND_TRY(tnd_capture_write(path, &frame, TND_EXR_ZIP));
+        }
+        femb_composite(&frame, rgb);
+        snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
+        TND_TRY(write_rgb_exr(path, rgb, o.size[0], o.size[1]));
+        snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
+        TND_TRY(write_preview(path, rgb, o.size[0], o.size[1]));
+        tnd_frame_destroy(&frame);
+        app_progress_step(&bar, i + 1);
+    }
+    app_progress_end(&bar);
+    if (!app_quiet())
+        fprintf(stderr, "tandem: %s: %u frame%s of %s at %ux%u in %.1f s (%u threads) -> %s/\n",
+                what, o.frames, o.frames == 1 ? "" : "s", o.scene, o.size[0], o.size[1],
+                tnd_now() - t0, femb_thread_count(fe), o.out);
+    status = APP_EXIT_OK;
+fail:
+    if (status != APP_EXIT_OK)
+        app_report(what, res);
+    tnd_frame_destroy(&frame);
+    free(rgb);
+    tnd_scene_state_free(&st[0]);
+    tnd_scene_state_free(&st[1]);
+    femb_destroy(fe);
+    tnd_scene_destroy(scene);
+    return status;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    return run(false, argc, argv);
+}
+
+int cmd_reference(int argc, char **argv)
+{
+    return run(true, argc, argv);
+}

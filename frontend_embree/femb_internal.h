@@ -1,0 +1,61 @@
+/* frontend_embree/femb_internal.h: the context and the shared pieces of the Embree front-end. */
+#ifndef FEMB_INTERNAL_H
+#define FEMB_INTERNAL_H
+
+#include "frontend_embree/frontend_embree.h"
+
+#include <embree3/rtcore.h>
+
+typedef struct v3 {
+    float x, y, z;
+} v3;
+
+struct femb_context {
+    const tnd_scene *scene;
+    RTCDevice device;
+    RTCScene top;
+    RTCScene *meshes; /* one per tnd_mesh (NULL for meshes without triangles) */
+    uint32_t threads;
+    char error[256];
+    /* the frame */
+    uint32_t width, height, frame;
+    float jitter[2];
+    const tnd_scene_state *cur, *prev;
+    float cam_pos[3], prev_cam_pos[3];
+    float inv_proj[16], inv_view[16];
+    float pixel_spread; /* ray-cone spread angle per pixel (radians) */
+    tnd_light_list lights;
+};
+
+/* A surface point, reconstructed from (instance, primitive, barycentrics). */
+typedef struct femb_surface {
+    v3 p, ng, ns;  /* world position, geometric and shading normals (facing wo) */
+    v3 wo;         /* towards the viewer */
+    float base[3], metallic, roughness, specular;
+    float emission[3]; /* towards wo (0 for a back face of a one-sided emitter) */
+    uint32_t instance, primitive;
+    float u, v;
+    float obj[3]; /* object-space position (motion vectors) */
+} femb_surface;
+
+/* Evaluate the surface hit by a ray of direction `dir` (unit) at (instance, primitive, u, v);
+ * `cone_width` (world units at the hit) chooses the texture level of detail. */
+void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primitive, float u,
+                       float v, v3 dir, float cone_width, femb_surface *s);
+
+/* Closest hit (false on a miss) and occlusion. */
+bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax, uint32_t *instance,
+                    uint32_t *primitive, float *u, float *v, float *t);
+bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax);
+
+/* Parallel for over tiles of the image: fn(ctx, x0, y0, x1, y1, user) per 16x16 tile, FTZ/DAZ on
+ * in every worker, deterministic results whatever the thread count. */
+void femb_parallel_tiles(femb_context *c, void (*fn)(femb_context *c, uint32_t x0, uint32_t y0,
+                                                     uint32_t x1, uint32_t y1, void *user),
+                         void *user);
+
+/* Offset a ray origin off the surface along the geometric normal (Waechter and Binder, Ray
+ * Tracing Gems, ch. 6): integer ulps scaled with the normal, an absolute offset near zero. */
+v3 femb_offset_ray(v3 p, v3 n);
+
+#endif

@@ -1,0 +1,391 @@
+/* frontend_embree/femb_scene.c: Embree device and scenes (one scene per mesh, instanced in a top
+ * scene whose geometry ids are the tnd_scene instance indices), per-frame transforms, ray
+ * queries, surface reconstruction, the tile-parallel loop and the ray-offset rule.
+ * Entry points: femb_create, femb_destroy, femb_set_frame, femb_intersect, femb_occluded,
+ * femb_surface_eval, femb_parallel_tiles, femb_offset_ray. */
+#include "frontend_embree/femb_internal.h"
+#include "shaders/sampling.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#if defined(__SSE__) || defined(__x86_64__)
+#include <xmmintrin.h>
+#define FEMB_HAVE_SSE 1
+#endif
+
+static void on_embree_error(void *user, enum RTCError code, const char *str)
+{
+    femb_context *c = user;
+    if (!c->error[0])
+        snprintf(c->error, sizeof c->error, "embree error %d: %s", (int)code, str ? str : "");
+}
+
+void femb_destroy(femb_context *c)
+{
+    if (!c)
+        return;
+    if (c->top)
+        rtcReleaseScene(c->top);
+    for (uint32_t m = 0; c->meshes && m < c->scene->mesh_count; m++)
+        if (c->meshes[m])
+            rtcReleaseScene(c->meshes[m]);
+    free(c->meshes);
+    if (c->device)
+        rtcReleaseDevice(c->device);
+    tnd_lights_free(&c->lights);
+    free(c);
+}
+
+uint32_t femb_thread_count(const femb_context *c)
+{
+    return c->threads;
+}
+
+tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **out)
+{
+    *out = NULL;
+    femb_context *c = calloc(1, sizeof *c);
+    if (!c)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
+    c->scene = s;
+    long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
+    c->threads = d && d->threads ? d->threads : (uint32_t)(ncpu > 0 ? ncpu : 1);
+    char cfg[64];
+    snprintf(cfg, sizeof cfg, "threads=%u", c->threads);
+    c->device = rtcNewDevice(cfg);
+    if (!c->device) {
+        femb_destroy(c);
+        return tnd_fail(TND_ERR_UNSUPPORTED, "embree: cannot create a device (error %d)",
+                        (int)rtcGetDeviceError(NULL));
+    }
+    rtcSetDeviceErrorFunction(c->device, on_embree_error, c);
+    c->meshes = calloc(s->mesh_count + 1, sizeof *c->meshes);
+    if (!c->meshes) {
+        femb_destroy(c);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
+    }
+    for (uint32_t m = 0; m < s->mesh_count; m++) {
+        const tnd_mesh *me = &s->meshes[m];
+        if (!me->triangle_count)
+            continue;
+        RTCGeometry g = rtcNewGeometry(c->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        /* new buffers carry Embree's padding after the last vertex */
+        float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                            3 * sizeof(float), me->vertex_count);
+        uint32_t *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                               3 * sizeof(uint32_t), me->triangle_count);
+        if (!vb || !ib) {
+            rtcReleaseGeometry(g);
+            femb_destroy(c);
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: mesh '%s': out of memory", me->name);
+        }
+        memcpy(vb, s->positions + 3 * (size_t)me->first_vertex,
+               (size_t)me->vertex_count * 3 * sizeof(float));
+        memcpy(ib, s->indices + me->first_index, (size_t)me->triangle_count * 3 * sizeof(uint32_t));
+        rtcCommitGeometry(g);
+        c->meshes[m] = rtcNewScene(c->device);
+        rtcSetSceneBuildQuality(c->meshes[m], RTC_BUILD_QUALITY_HIGH);
+        rtcAttachGeometryByID(c->meshes[m], g, 0);
+        rtcReleaseGeometry(g);
+        rtcCommitScene(c->meshes[m]);
+    }
+    c->top = rtcNewScene(c->device);
+    rtcSetSceneFlags(c->top, RTC_SCENE_FLAG_DYNAMIC);
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        RTCGeometry g = rtcNewGeometry(c->device, RTC_GEOMETRY_TYPE_INSTANCE);
+        rtcSetGeometryInstancedScene(g, c->meshes[s->instances[i].mesh]);
+        rtcAttachGeometryByID(c->top, g, i);
+        rtcReleaseGeometry(g);
+    }
+    if (c->error[0]) {
+        tnd_result r = tnd_fail(TND_ERR_UNSUPPORTED, "embree: %s: %s", s->path, c->error);
+        femb_destroy(c);
+        return r;
+    }
+    *out = c;
+    return TND_OK;
+}
+
+tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
+                          const tnd_scene_state *prev, uint32_t frame, uint32_t width,
+                          uint32_t height)
+{
+    const tnd_scene *s = c->scene;
+    c->cur = cur;
+    c->prev = prev ? prev : cur;
+    c->frame = frame;
+    c->width = width;
+    c->height = height;
+    tnd_jitter(frame, c->jitter);
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        RTCGeometry g = rtcGetGeometry(c->top, i);
+        rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, cur->instance_xform + 12 * i);
+        rtcCommitGeometry(g);
+    }
+    rtcCommitScene(c->top);
+    if (c->error[0])
+        return tnd_fail(TND_ERR_UNSUPPORTED, "embree: %s: %s", s->path, c->error);
+    tnd_mat4_inverse(cur->camera.proj, c->inv_proj);
+    tnd_mat4_inverse(cur->camera.view, c->inv_view);
+    float ipv[16];
+    tnd_mat4_inverse(c->prev->camera.view, ipv);
+    for (int k = 0; k < 3; k++) {
+        c->cam_pos[k] = c->inv_view[12 + k];
+        c->prev_cam_pos[k] = ipv[12 + k];
+    }
+    /* vertical field of view from the projection: proj[5] = -1 / tan(yfov / 2) */
+    double tan_half = 1.0 / fabs((double)cur->camera.proj[5]);
+    c->pixel_spread = (float)(2.0 * tan_half / height);
+    return tnd_lights_build(s, cur, &c->lights);
+}
+
+bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax, uint32_t *instance,
+                    uint32_t *primitive, float *u, float *v, float *t)
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRayHit rh;
+    memset(&rh, 0, sizeof rh);
+    rh.ray.org_x = org.x, rh.ray.org_y = org.y, rh.ray.org_z = org.z;
+    rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
+    rh.ray.tnear = 0.0f;
+    rh.ray.tfar = tmax;
+    rh.ray.mask = 0xffffffffu;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(c->top, &ictx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+        return false;
+    *instance = rh.hit.instID[0];
+    *primitive = rh.hit.primID;
+    *u = rh.hit.u;
+    *v = rh.hit.v;
+    *t = rh.ray.tfar;
+    return true;
+}
+
+bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax)
+{
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRay r;
+    memset(&r, 0, sizeof r);
+    r.org_x = org.x, r.org_y = org.y, r.org_z = org.z;
+    r.dir_x = dir.x, r.dir_y = dir.y, r.dir_z = dir.z;
+    r.tnear = 0.0f;
+    r.tfar = tmax;
+    r.mask = 0xffffffffu;
+    rtcOccluded1(c->top, &ictx, &r);
+    return r.tfar < 0.0f;
+}
+
+/* ---- vectors ---------------------------------------------------------------------------------- */
+static inline v3 add(v3 a, v3 b) { return (v3){a.x + b.x, a.y + b.y, a.z + b.z}; }
+static inline v3 sub(v3 a, v3 b) { return (v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
+static inline v3 mul(v3 a, float s) { return (v3){a.x * s, a.y * s, a.z * s}; }
+static inline float dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline v3 cross(v3 a, v3 b)
+{
+    return (v3){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+static inline v3 norm(v3 a)
+{
+    float l = sqrtf(dot(a, a));
+    return l > 0 ? mul(a, 1.0f / l) : a;
+}
+
+v3 femb_offset_ray(v3 p, v3 n)
+{
+    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+    float pv[3] = {p.x, p.y, p.z}, nv[3] = {n.x, n.y, n.z}, o[3];
+    for (int i = 0; i < 3; i++) {
+        int32_t of = (int32_t)(int_scale * nv[i]);
+        int32_t bits;
+        memcpy(&bits, &pv[i], 4);
+        bits += (pv[i] < 0) ? -of : of;
+        float pi;
+        memcpy(&pi, &bits, 4);
+        o[i] = fabsf(pv[i]) < origin ? pv[i] + float_scale * nv[i] : pi;
+    }
+    return (v3){o[0], o[1], o[2]};
+}
+
+/* 3x4 row-major transform */
+static v3 xf_point(const float *x, const float *p)
+{
+    return (v3){x[0] * p[0] + x[1] * p[1] + x[2] * p[2] + x[3],
+                x[4] * p[0] + x[5] * p[1] + x[6] * p[2] + x[7],
+                x[8] * p[0] + x[9] * p[1] + x[10] * p[2] + x[11]};
+}
+static v3 xf_dir(const float *x, v3 d)
+{
+    return (v3){x[0] * d.x + x[1] * d.y + x[2] * d.z, x[4] * d.x + x[5] * d.y + x[6] * d.z,
+                x[8] * d.x + x[9] * d.y + x[10] * d.z};
+}
+/* normal transform: inverse transpose of the 3x3 = cofactor matrix (up to a positive scale
+ * when the determinant is positive; the sign is fixed by facing the viewer anyway) */
+static v3 xf_normal(const float *x, v3 n)
+{
+    v3 r0 = {x[0], x[1], x[2]}, r1 = {x[4], x[5], x[6]}, r2 = {x[8], x[9], x[10]};
+    v3 c0 = cross(r1, r2), c1 = cross(r2, r0), c2 = cross(r0, r1);
+    return (v3){c0.x * n.x + c1.x * n.y + c2.x * n.z, c0.y * n.x + c1.y * n.y + c2.y * n.z,
+                c0.z * n.x + c1.z * n.y + c2.z * n.z};
+}
+
+void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primitive, float u,
+                       float v, v3 dir, float cone_width, femb_surface *s)
+{
+    const tnd_scene *sc = c->scene;
+    const tnd_mesh *m = &sc->meshes[sc->instances[instance].mesh];
+    const tnd_material *mat = &sc->materials[m->material];
+    const uint32_t *ix = sc->indices + m->first_index + 3 * primitive;
+    const float *X = c->cur->instance_xform + 12 * instance;
+    uint32_t i0 = m->first_vertex + ix[0], i1 = m->first_vertex + ix[1], i2 = m->first_vertex + ix[2];
+    float w0 = 1.0f - u - v;
+    const float *p0 = sc->positions + 3 * (size_t)i0, *p1 = sc->positions + 3 * (size_t)i1,
+                *p2 = sc->positions + 3 * (size_t)i2;
+    for (int k = 0; k < 3; k++)
+        s->obj[k] = w0 * p0[k] + u * p1[k] + v * p2[k];
+    s->p = xf_point(X, s->obj);
+    v3 e1 = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+    v3 e2 = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+    v3 ng = norm(xf_normal(X, cross(e1, e2)));
+    const float *n0 = sc->normals + 3 * (size_t)i0, *n1 = sc->normals + 3 * (size_t)i1,
+                *n2 = sc->normals + 3 * (size_t)i2;
+    v3 ns = {w0 * n0[0] + u * n1[0] + v * n2[0], w0 * n0[1] + u * n1[1] + v * n2[1],
+             w0 * n0[2] + u * n1[2] + v * n2[2]};
+    ns = dot(ns, ns) > 1e-20f ? norm(xf_normal(X, ns)) : ng;
+    s->wo = mul(dir, -1.0f);
+    bool front = dot(ng, s->wo) >= 0.0f;
+    if (!front) {
+        ng = mul(ng, -1.0f);
+        ns = mul(ns, -1.0f);
+    }
+    /* texture coordinates and level of detail (ray cones, Akenine-Moller et al. 2019) */
+    const float *t0 = sc->uvs + 2 * (size_t)i0, *t1 = sc->uvs + 2 * (size_t)i1,
+                *t2 = sc->uvs + 2 * (size_t)i2;
+    float tu = w0 * t0[0] + u * t1[0] + v * t2[0], tv = w0 * t0[1] + u * t1[1] + v * t2[1];
+    float uv_area = fabsf((t1[0] - t0[0]) * (t2[1] - t0[1]) - (t2[0] - t0[0]) * (t1[1] - t0[1]));
+    v3 we1 = xf_dir(X, e1), we2 = xf_dir(X, e2);
+    float world_area = sqrtf(dot(cross(we1, we2), cross(we1, we2)));
+    float cosv = fabsf(dot(ng, dir));
+    float lod_base = uv_area > 0 && world_area > 0
+                         ? log2f(cone_width / fmaxf(cosv, 1e-3f)) + 0.5f * log2f(uv_area / world_area)
+                         : 0.0f;
+    float texel[4];
+    memcpy(s->base, mat->base_color, 3 * sizeof(float));
+    s->metallic = mat->metallic;
+    s->roughness = mat->roughness;
+    s->specular = mat->specular;
+    memcpy(s->emission, mat->emission, 3 * sizeof(float));
+#define LOD(t) (lod_base + 0.5f * log2f((float)(t)->width * (float)(t)->height))
+    if (mat->tex_base_color >= 0) {
+        const tnd_texture *t = &sc->textures[mat->tex_base_color];
+        tnd_texture_sample(t, tu, tv, LOD(t), texel);
+        for (int k = 0; k < 3; k++)
+            s->base[k] *= texel[k];
+    }
+    if (mat->tex_metal_rough >= 0) {
+        const tnd_texture *t = &sc->textures[mat->tex_metal_rough];
+        tnd_texture_sample(t, tu, tv, LOD(t), texel);
+        s->roughness *= texel[1];
+        s->metallic *= texel[2];
+    }
+    if (mat->tex_emission >= 0) {
+        const tnd_texture *t = &sc->textures[mat->tex_emission];
+        tnd_texture_sample(t, tu, tv, LOD(t), texel);
+        for (int k = 0; k < 3; k++)
+            s->emission[k] *= texel[k];
+    }
+    if (mat->tex_normal >= 0) {
+        const tnd_texture *t = &sc->textures[mat->tex_normal];
+        tnd_texture_sample(t, tu, tv, LOD(t), texel);
+        const float *tg0 = sc->tangents + 4 * (size_t)i0;
+        v3 T = {w0 * tg0[0] + u * sc->tangents[4 * (size_t)i1] + v * sc->tangents[4 * (size_t)i2],
+                w0 * tg0[1] + u * sc->tangents[4 * (size_t)i1 + 1] + v * sc->tangents[4 * (size_t)i2 + 1],
+                w0 * tg0[2] + u * sc->tangents[4 * (size_t)i1 + 2] + v * sc->tangents[4 * (size_t)i2 + 2]};
+        T = xf_dir(X, T);
+        T = norm(sub(T, mul(ns, dot(ns, T)))); /* Gram-Schmidt against the shading normal */
+        v3 B = mul(cross(ns, T), tg0[3] < 0 ? -1.0f : 1.0f);
+        float mx = (2 * texel[0] - 1) * mat->normal_scale, my = (2 * texel[1] - 1) * mat->normal_scale;
+        float mz = 2 * texel[2] - 1;
+        v3 nm = norm(add(add(mul(T, mx), mul(B, my)), mul(ns, mz)));
+        if (dot(T, T) > 0.5f && dot(nm, nm) > 0.5f)
+            ns = nm;
+    }
+#undef LOD
+    if (dot(ns, s->wo) <= 1e-4f) /* a normal-mapped or interpolated normal facing away */
+        ns = ng;
+    s->ng = ng;
+    s->ns = ns;
+    if (!front && !mat->double_sided)
+        s->emission[0] = s->emission[1] = s->emission[2] = 0.0f;
+    for (int k = 0; k < 3; k++)
+        s->base[k] = fminf(fmaxf(s->base[k], 0.0f), 1.0f);
+    s->metallic = fminf(fmaxf(s->metallic, 0.0f), 1.0f);
+    s->roughness = fminf(fmaxf(s->roughness, 0.0f), 1.0f);
+    s->instance = instance;
+    s->primitive = primitive;
+    s->u = u;
+    s->v = v;
+}
+
+/* ---- tiles over threads --------------------------------------------------------------------- */
+typedef struct tile_job {
+    femb_context *c;
+    void (*fn)(femb_context *, uint32_t, uint32_t, uint32_t, uint32_t, void *);
+    void *user;
+    atomic_uint next;
+    uint32_t tiles_x, tiles;
+} tile_job;
+
+enum { TILE = 16 };
+
+static void *tile_worker(void *arg)
+{
+    tile_job *j = arg;
+#ifdef FEMB_HAVE_SSE
+    unsigned csr = _mm_getcsr();
+    _mm_setcsr(csr | 0x8040); /* FTZ and DAZ: denormals are slow and never needed */
+#endif
+    for (;;) {
+        uint32_t t = atomic_fetch_add(&j->next, 1);
+        if (t >= j->tiles)
+            break;
+        uint32_t tx = t % j->tiles_x, ty = t / j->tiles_x;
+        uint32_t x0 = tx * TILE, y0 = ty * TILE;
+        uint32_t x1 = x0 + TILE < j->c->width ? x0 + TILE : j->c->width;
+        uint32_t y1 = y0 + TILE < j->c->height ? y0 + TILE : j->c->height;
+        j->fn(j->c, x0, y0, x1, y1, j->user);
+    }
+#ifdef FEMB_HAVE_SSE
+    _mm_setcsr(csr); /* restored: the calling thread works too */
+#endif
+    return NULL;
+}
+
+void femb_parallel_tiles(femb_context *c,
+                         void (*fn)(femb_context *, uint32_t, uint32_t, uint32_t, uint32_t, void *),
+                         void *user)
+{
+    tile_job j = {.c = c, .fn = fn, .user = user};
+    j.tiles_x = (c->width + TILE - 1) / TILE;
+    j.tiles = j.tiles_x * ((c->height + TILE - 1) / TILE);
+    atomic_init(&j.next, 0);
+    uint32_t n = c->threads > 1 ? c->threads : 1;
+    pthread_t th[256];
+    if (n > 256)
+        n = 256;
+    uint32_t started = 0;
+    for (uint32_t i = 1; i < n; i++)
+        if (pthread_create(&th[started], NULL, tile_worker, &j) == 0)
+            started++;
+    tile_worker(&j);
+    for (uint32_t i = 0; i < started; i++)
+        pthread_join(th[i], NULL);
+}

@@ -1,0 +1,72 @@
+/* frontend_embree: the CPU front-end on Embree 3. It fills the contract in host memory with the
+ * same estimator as frontend_vk (shared scalar code in shaders/brdf.h, shared random numbers in
+ * shaders/sampling.h, shared light list in shaders/lights.h), and renders references.
+ *
+ * Use: femb_create once per scene; per frame femb_set_frame (current and previous scene state),
+ * then femb_trace_primary (G-buffer, visibility, motion, rng keys) and femb_shade (hf, lf, spec),
+ * or femb_shade_gradients for the back-end's gradient samples; femb_reference for converged
+ * images. Depends on core/ only. */
+#ifndef FEMB_FRONTEND_EMBREE_H
+#define FEMB_FRONTEND_EMBREE_H
+
+#include "core/core.h"
+
+typedef struct femb_desc {
+    uint32_t threads; /* 0: one per core */
+} femb_desc;
+
+typedef struct femb_params {
+    uint32_t bounces; /* indirect bounces after the primary surface: 0 direct only, 1 (Q2RTX's
+                         default), more with Russian roulette from the second on */
+} femb_params;
+
+typedef struct femb_context femb_context;
+
+tnd_result femb_create(const tnd_scene *scene, const femb_desc *desc, femb_context **ctx);
+void femb_destroy(femb_context *ctx);
+uint32_t femb_thread_count(const femb_context *ctx);
+
+/* Set the frame: the scene at this frame and the previous one (for motion vectors; pass the
+ * same state twice for the first frame), the frame index (random-number key, jitter) and the
+ * image size. Refits instance transforms and rebuilds the light list. */
+tnd_result femb_set_frame(femb_context *ctx, const tnd_scene_state *cur,
+                          const tnd_scene_state *prev, uint32_t frame_index, uint32_t width,
+                          uint32_t height);
+
+/* Primary pass: fills albedo, normal, geo_normal, position, depth, motion, roughness, metallic,
+ * emission, vis_id, vis_bary, throughput and rng of `out` (created at the frame's size). */
+tnd_result femb_trace_primary(femb_context *ctx, tnd_frame *out);
+
+/* Shading pass: hf, lf_sh, lf_cocg, spec for every pixel, from the surface in the frame's
+ * visibility buffer and its rng key. `radiance` (optional, 3 floats per pixel) receives the
+ * same estimate computed without demodulation, for checking the composite. */
+tnd_result femb_shade(femb_context *ctx, const femb_params *p, tnd_frame *io, float *radiance);
+
+/* One gradient sample: re-shade pixel `pixel` on the surface (instance, primitive, u, v) seen
+ * there in the previous frame, with that frame's random-number key. */
+typedef struct femb_gradient_sample {
+    uint32_t pixel;
+    uint32_t rng_frame, rng_pixel;
+    uint32_t instance, primitive;
+    float u, v;
+} femb_gradient_sample;
+
+/* Patch the frame's visibility and rng at the samples' pixels (the surface is re-evaluated on
+ * the current geometry) and shade those pixels; other pixels are untouched. */
+tnd_result femb_shade_gradients(femb_context *ctx, const femb_params *p,
+                                const femb_gradient_sample *samples, uint32_t count,
+                                tnd_frame *io);
+
+/* Reference: unbiased progressive path tracing, spp samples per pixel (full paths with Russian
+ * roulette, next-event estimation with MIS, no clamping), radiance in rgb (3 floats per pixel).
+ * `rel_error` (optional) receives the mean relative standard error of the pixel means. Calls
+ * `progress(done, total, user)` after each sample pass when given. */
+tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, double *rel_error,
+                          void (*progress)(uint32_t done, uint32_t total, void *user),
+                          void *user);
+
+/* Composite of the demodulated signals (what the back-end's "off" mode computes):
+ * ((hf + E_N(lf)) x albedo x (1 - metallic) + spec x max(0.01, F0)) x throughput + emission. */
+void femb_composite(const tnd_frame *f, float *rgb);
+
+#endif
