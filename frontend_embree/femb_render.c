@@ -92,8 +92,7 @@ static v3 sample_vndf(v3 n, v3 wo, float alpha, float u1, float u2)
 
 /* ---- materials ------------------------------------------------------------------------------ */
 typedef struct lobe_info {
-    float f0[3];    /* physical F0 */
-    float f_nv[3];  /* Schlick at n.v */
+    float f_nv[3];  /* Fresnel at n.v */
     float alpha, a2, nv;
     float p_spec;   /* probability of the specular lobe */
 } lobe_info;
@@ -105,8 +104,7 @@ static void lobes(const femb_surface *s, lobe_info *L)
     L->a2 = L->alpha * L->alpha;
     float kd[3];
     for (int k = 0; k < 3; k++) {
-        L->f0[k] = 0.04f * s->specular * (1.0f - s->metallic) + s->base[k] * s->metallic;
-        L->f_nv[k] = tnd_schlick(L->f0[k], L->nv);
+        L->f_nv[k] = tnd_fresnel(s->metallic, s->specular, s->base[k], L->nv);
         kd[k] = s->base[k] * (1.0f - s->metallic) * (1.0f - L->f_nv[k]);
     }
     L->p_spec = tnd_spec_probability(tnd_luminance(L->f_nv[0], L->f_nv[1], L->f_nv[2]),
@@ -126,7 +124,7 @@ static bool eval_brdf(const femb_surface *s, const lobe_info *L, v3 wi, float di
     float g = tnd_ggx_spec_cos(nh, L->nv, nl, L->a2);
     for (int k = 0; k < 3; k++) {
         diff[k] = (1.0f - L->f_nv[k]) * nl * (float)TND_INV_PI;
-        spec[k] = tnd_schlick(L->f0[k], vh) * g;
+        spec[k] = tnd_fresnel(s->metallic, s->specular, s->base[k], vh) * g;
     }
     *pdf_brdf = L->p_spec * tnd_ggx_vndf_pdf(nh, L->nv, L->a2) +
                 (1.0f - L->p_spec) * nl * (float)TND_INV_PI;

@@ -60,6 +60,14 @@ TND_FN float tnd_schlick(float f0, float c)
     return f0 + (1.0f - f0) * m2 * m2 * m;
 }
 
+/* Fresnel of the glTF material for one channel at cos c: the dielectric part scaled by
+ * KHR_materials_specular's factor (which scales the whole Fresnel term, so specular 0 is pure
+ * Lambert), the metallic part with F0 = base colour. */
+TND_FN float tnd_fresnel(float metallic, float specular, float base, float c)
+{
+    return (1.0f - metallic) * specular * tnd_schlick(0.04f, c) + metallic * tnd_schlick(base, c);
+}
+
 /* Specular BRDF x cos(n, l) without F: D G2 / (4 nv) (one of the cosines cancels). */
 TND_FN float tnd_ggx_spec_cos(float nh, float nv, float nl, float a2)
 {
@@ -92,6 +100,8 @@ TND_FN float tnd_spec_probability(float lum_f, float lum_diffuse)
 {
     if (lum_diffuse <= 0.0f)
         return 1.0f;
+    if (lum_f <= 0.0f)
+        return 0.0f;
     float p = lum_f / (lum_f + lum_diffuse);
     return p < 0.1f ? 0.1f : p > 0.9f ? 0.9f : p;
 }

@@ -1,0 +1,460 @@
+/* tests/test_frontend_embree.c: the Embree front-end's estimator against analytic answers and
+ * its own invariants: white furnaces (Lambert: exactly the emitter; GGX: the single-scattering
+ * directional albedo, integrated independently here), the composite of the demodulated signals
+ * against the radiance computed directly, determinism over thread counts, gradient samples
+ * reproducing the previous frame, many-bounce convergence to the reference, and no NaN/Inf on the
+ * extremes scene. Label: unit (CPU only). */
+#include "frontend_embree/frontend_embree.h"
+#include "shaders/brdf.h"
+#include "tests/tnd_test.h"
+
+#define SCENES TND_SOURCE_DIR "/data/scenes/"
+
+/* A sphere of radius 1 (or, with `cube`, a flat-shaded cube rotated to show three faces) at the
+ * origin, seen by a camera at (0, 0, 4), inside a uniform sky of radiance 1. */
+static tnd_scene *furnace_scene(float metallic, float roughness, float specular, bool cube)
+{
+    tnd_scene *s = NULL;
+    if (tnd_scene_new("furnace", &s) != TND_OK)
+        return NULL;
+    enum { SEG = 64, RINGS = 32 };
+    static float pos[(SEG + 1) * (RINGS + 1) * 3], nrm[(SEG + 1) * (RINGS + 1) * 3];
+    static uint32_t idx[SEG * RINGS * 6];
+    uint32_t n = 0, t = 0;
+    for (int j = 0; j <= RINGS && cube; j++) {
+        /* six faces, 4 vertices each with the face normal */
+        static const float fn[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+        static const float fu[6][3] = {{0, 0, -1}, {0, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}, {-1, 0, 0}};
+        static const float fv[6][3] = {{0, 1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}, {0, 1, 0}, {0, 1, 0}};
+        for (int f = 0; f < 6; f++) {
+            const int ab[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+            for (int k = 0; k < 4; k++, n++)
+                for (int c = 0; c < 3; c++) {
+                    pos[3 * n + c] = 0.7f * (fn[f][c] + ab[k][0] * fu[f][c] + ab[k][1] * fv[f][c]);
+                    nrm[3 * n + c] = fn[f][c];
+                }
+            const uint32_t tri[6] = {0, 1, 2, 0, 2, 3};
+            for (int k = 0; k < 6; k++)
+                idx[t++] = n - 4 + tri[k];
+        }
+        break;
+    }
+    for (int j = 0; j <= RINGS && !cube; j++)
+        for (int i = 0; i <= SEG; i++, n++) {
+            double th = TND_PI * j / RINGS, ph = 2 * TND_PI * i / SEG;
+            double v[3] = {sin(th) * cos(ph), cos(th), sin(th) * sin(ph)};
+            for (int k = 0; k < 3; k++)
+                pos[3 * n + k] = nrm[3 * n + k] = (float)v[k];
+        }
+    for (int j = 0; j < RINGS && !cube; j++)
+        for (int i = 0; i < SEG; i++) {
+            uint32_t a = j * (SEG + 1) + i, b = (j + 1) * (SEG + 1) + i;
+            if (j != 0)
+                idx[t++] = a, idx[t++] = a + 1, idx[t++] = b;
+            if (j != RINGS - 1)
+                idx[t++] = a + 1, idx[t++] = b + 1, idx[t++] = b;
+        }
+    tnd_material m = tnd_material_default("furnace");
+    m.metallic = metallic;
+    m.roughness = roughness;
+    m.specular = specular;
+    int32_t mi = tnd_scene_add_material(s, &m);
+    int32_t me = tnd_scene_add_mesh(s, "sphere", pos, nrm, NULL, n, idx, t / 3, (uint32_t)mi);
+    /* the cube turned 30 degrees about y, then 25 about x: three faces face the camera */
+    const float rot[4] = {0.2113f, 0.2549f, -0.0566f, 0.9418f};
+    int32_t node = tnd_scene_add_node(s, "object", -1, NULL, cube ? rot : NULL, NULL);
+    const float cam_t[3] = {0, 0, 4};
+    int32_t cn = tnd_scene_add_node(s, "camera", -1, cam_t, NULL, NULL);
+    tnd_scene_add_instance(s, (uint32_t)me, (uint32_t)node);
+    tnd_scene_add_camera(s, (uint32_t)cn, 0.6f);
+    s->sky[0] = s->sky[1] = s->sky[2] = 1.0f;
+    if (tnd_scene_commit(s) != TND_OK) {
+        tnd_scene_destroy(s);
+        return NULL;
+    }
+    return s;
+}
+
+/* Directional albedo of the GGX specular lobe with F = 1 (single scattering), by quadrature in
+ * double over the hemisphere: E(mu) = integral of D G2 / (4 mu) dl. */
+static double ggx_albedo_exact(double mu, double alpha)
+{
+    double a2 = alpha * alpha, sum = 0;
+    const int NT = 800, NP = 256;
+    double v[3] = {sqrt(1 - mu * mu), 0, mu};
+    for (int i = 0; i < NT; i++) {
+        double th = (i + 0.5) / NT * TND_PI / 2, ct = cos(th), st = sin(th);
+        for (int j = 0; j < NP; j++) {
+            double ph = (j + 0.5) / NP * 2 * TND_PI;
+            double l[3] = {st * cos(ph), st * sin(ph), ct};
+            double h[3] = {v[0] + l[0], v[1] + l[1], v[2] + l[2]};
+            double hl = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+            double nh = h[2] / hl;
+            double d = nh * nh * (a2 - 1) + 1;
+            double D = a2 / (TND_PI * d * d);
+            double lv = 0.5 * (-1 + sqrt(1 + a2 * (1 - mu * mu) / (mu * mu)));
+            double ll = 0.5 * (-1 + sqrt(1 + a2 * (1 - ct * ct) / (ct * ct)));
+            double G2 = 1 / (1 + lv + ll);
+            sum += D * G2 / (4 * mu) * st * (TND_PI / 2 / NT) * (2 * TND_PI / NP);
+        }
+    }
+    return sum;
+}
+
+/* Tabulated over mu (the quadrature is slow): linear interpolation on 64 intervals of [0.25, 1],
+ * whose error (< 1e-4 for these roughnesses) is far inside the test's tolerance. */
+static double ggx_albedo(double mu, double alpha)
+{
+    static double table[65], table_alpha = -1;
+    if (alpha != table_alpha) {
+        for (int i = 0; i <= 64; i++)
+            table[i] = ggx_albedo_exact(0.25 + 0.75 * i / 64.0, alpha);
+        table_alpha = alpha;
+    }
+    double x = (fmin(fmax(mu, 0.25), 1.0) - 0.25) / 0.75 * 64.0;
+    int i = (int)x;
+    if (i >= 64)
+        return table[64];
+    return table[i] + (x - i) * (table[i + 1] - table[i]);
+}
+
+typedef struct furnace_result {
+    double mean_diff, se, max_abs;
+    int pixels;
+} furnace_result;
+
+/* Render the furnace with the reference mode; compare every sphere pixel with expected(mu). */
+static void furnace(float metallic, float roughness, float specular, bool cube, uint32_t spp,
+                    double (*expected)(double mu, double alpha), furnace_result *fr)
+{
+    memset(fr, 0, sizeof *fr);
+    tnd_scene *s = furnace_scene(metallic, roughness, specular, cube);
+    REQUIRE(s, "furnace scene: %s", tnd_error_detail());
+    femb_context *c = NULL;
+    tnd_scene_state st = {0};
+    tnd_frame f = {0};
+    enum { W = 40, H = 40 };
+    float *rgb = malloc(W * H * 3 * sizeof(float));
+    REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 2}, &c));
+    REQUIRE_OK(tnd_scene_evaluate(s, 0, 0, 1.0f, &st));
+    REQUIRE_OK(femb_set_frame(c, &st, &st, 0, W, H));
+    REQUIRE_OK(tnd_frame_create(W, H, &f));
+    REQUIRE_OK(femb_trace_primary(c, &f));
+    REQUIRE_OK(femb_reference(c, spp, rgb, NULL, NULL, NULL));
+    double sum = 0, sum2 = 0;
+    float cam[3] = {0, 0, 4};
+    for (int q = 0; q < W * H; q++) {
+        if (tnd_frame_u(&f, TND_CT_VIS_ID)[2 * q] == TND_VIS_NONE)
+            continue;
+        /* a pixel's reference averages over its footprint; the primary pass saw its centre
+         * (plus jitter): skip pixels on the silhouette, where mu changes fastest */
+        const float *p = tnd_frame_f(&f, TND_CT_POSITION) + 3 * q;
+        const float *n = tnd_frame_f(&f, TND_CT_NORMAL) + 3 * q;
+        double wo[3] = {cam[0] - p[0], cam[1] - p[1], cam[2] - p[2]};
+        double l = sqrt(wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2]);
+        double mu = (n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2]) / l;
+        if (mu < (cube ? 0.05 : 0.3))
+            continue;
+        double d = rgb[3 * q + 1] - expected(mu, fmax(roughness * roughness, TND_MIN_ALPHA));
+        sum += d;
+        sum2 += d * d;
+        fr->max_abs = fmax(fr->max_abs, fabs(d));
+        fr->pixels++;
+    }
+    if (fr->pixels > 1) {
+        fr->mean_diff = sum / fr->pixels;
+        double var = (sum2 - sum * sum / fr->pixels) / (fr->pixels - 1);
+        fr->se = sqrt(fmax(var, 0) / fr->pixels);
+    }
+cleanup:
+    free(rgb);
+    tnd_frame_destroy(&f);
+    tnd_scene_state_free(&st);
+    femb_destroy(c);
+    tnd_scene_destroy(s);
+}
+
+static double one(double mu, double alpha)
+{
+    (void)mu, (void)alpha;
+    return 1.0;
+}
+
+static void test_furnace_lambert(void)
+{
+    /* albedo 1, metallic 0, specular 0: a flat-shaded convex Lambertian object in a sky of 1
+     * returns exactly 1 on every path (cosine sampling makes each weight 1), so the bound is
+     * float rounding. (A smooth-shaded sphere loses the few cosine samples that fall between
+     * its interpolated normal's horizon and the flat triangle's: that loss is measured below.) */
+    furnace_result fr;
+    furnace(0.0f, 1.0f, 0.0f, true, 16, one, &fr);
+    printf("     Lambert furnace (cube): %d pixels, mean error %.2e, max %.2e\n", fr.pixels,
+           fr.mean_diff, fr.max_abs);
+    CHECK(fr.pixels > 300, "the cube covers the image (%d pixels)", fr.pixels);
+    CHECK(fr.max_abs < 1e-5, "every pixel returns the emitter's radiance: max error %.3g",
+          fr.max_abs);
+    furnace(0.0f, 1.0f, 0.0f, false, 16, one, &fr);
+    printf("     Lambert furnace (smooth sphere): mean error %.2e (normal-interpolation loss)\n",
+           fr.mean_diff);
+    CHECK(fr.mean_diff <= 0 && fr.mean_diff > -2e-3, "sphere loss %.3g stays below 0.2%%",
+          fr.mean_diff);
+}
+
+static void test_furnace_ggx(void)
+{
+    /* metallic 1 with base 1 (F = 1): the sphere returns the GGX single-scattering albedo
+     * E(mu, alpha) < 1; the loss grows with roughness. Bound: 5 standard errors of the mean over
+     * the sphere's pixels, plus 0.3% for the quadrature and the pixel-footprint average. */
+    const float rough[] = {0.2f, 0.5f, 0.8f, 1.0f};
+    for (int i = 0; i < 4; i++) {
+        furnace_result fr;
+        furnace(1.0f, rough[i], 1.0f, false, 64, ggx_albedo, &fr);
+        double e_half = ggx_albedo(0.7, fmax(rough[i] * rough[i], TND_MIN_ALPHA));
+        printf("     GGX furnace r=%.1f: E(0.7)=%.4f, %d pixels, mean error %.2e (se %.1e)\n",
+               rough[i], e_half, fr.pixels, fr.mean_diff, fr.se);
+        CHECK(fabs(fr.mean_diff) < 5 * fr.se + 3e-3,
+              "roughness %.1f: mean deviation from E(mu) %.4g (se %.2g)", rough[i], fr.mean_diff,
+              fr.se);
+        if (rough[i] >= 0.8f)
+            CHECK(e_half < 0.97, "rough GGX loses energy (E = %.3f)", e_half);
+    }
+}
+
+/* Render frame `frame` of a scene; the caller destroys everything. */
+typedef struct rig {
+    tnd_scene *s;
+    femb_context *c;
+    tnd_scene_state cur, prev;
+} rig;
+
+static tnd_result rig_open(rig *r, const char *path, uint32_t threads)
+{
+    memset(r, 0, sizeof *r);
+    tnd_result res = tnd_scene_load(path, &r->s);
+    if (res == TND_OK)
+        res = femb_create(r->s, &(femb_desc){.threads = threads}, &r->c);
+    return res;
+}
+
+static tnd_result rig_frame(rig *r, uint32_t frame, double t, double t_prev, uint32_t w,
+                            uint32_t h, tnd_frame *f)
+{
+    tnd_result res = tnd_scene_evaluate(r->s, t, 0, (float)w / h, &r->cur);
+    if (res == TND_OK)
+        res = tnd_scene_evaluate(r->s, t_prev, 0, (float)w / h, &r->prev);
+    if (res == TND_OK)
+        res = femb_set_frame(r->c, &r->cur, &r->prev, frame, w, h);
+    if (res == TND_OK)
+        res = tnd_frame_create(w, h, f);
+    if (res == TND_OK)
+        res = femb_trace_primary(r->c, f);
+    return res;
+}
+
+static void rig_close(rig *r)
+{
+    tnd_scene_state_free(&r->cur);
+    tnd_scene_state_free(&r->prev);
+    femb_destroy(r->c);
+    tnd_scene_destroy(r->s);
+}
+
+static void test_composite_equals_radiance(void)
+{
+    const char *scenes[] = {SCENES "cornell.gltf", SCENES "materials.gltf", SCENES "sun.gltf"};
+    for (int k = 0; k < 3; k++) {
+        rig r;
+        tnd_frame f = {0};
+        enum { W = 64, H = 36 };
+        float rad[W * H * 3], comp[W * H * 3];
+        REQUIRE_OK(rig_open(&r, scenes[k], 2));
+        REQUIRE_OK(rig_frame(&r, 3, 0.1, 0.1, W, H, &f));
+        REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 2}, &f, rad));
+        femb_composite(&f, comp);
+        int bad = 0;
+        double worst = 0;
+        for (int q = 0; q < W * H * 3; q++) {
+            /* float rounding of the YCoCg round trip, the SH evaluation and the F0 division */
+            double tol = 1e-4 * fabs(rad[q]) + 1e-6;
+            worst = fmax(worst, fabs(comp[q] - rad[q]) / (fabs(rad[q]) + 1e-6));
+            bad += !(fabs(comp[q] - rad[q]) <= tol);
+        }
+        printf("     %s: composite vs direct radiance, worst relative difference %.2e\n",
+               strrchr(scenes[k], '/') + 1, worst);
+        CHECK(bad == 0, "%s: %d channels differ", scenes[k], bad);
+    cleanup:
+        tnd_frame_destroy(&f);
+        rig_close(&r);
+    }
+}
+
+static void test_deterministic_threads(void)
+{
+    tnd_frame f[3] = {{0}};
+    const uint32_t threads[3] = {1, 2, 5};
+    for (int i = 0; i < 3; i++) {
+        rig r;
+        REQUIRE_OK(rig_open(&r, SCENES "materials.gltf", threads[i]));
+        REQUIRE_OK(rig_frame(&r, 7, 0.5, 0.45, 48, 30, &f[i]));
+        REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 1}, &f[i], NULL));
+        rig_close(&r);
+    }
+    for (int i = 1; i < 3; i++)
+        for (int e = 0; e < TND_CT_COUNT; e++) {
+            size_t n = (size_t)48 * 30 * tnd_ct_get((tnd_ct)e)->comps * 4;
+            CHECK(memcmp(f[0].data[e], f[i].data[e], n) == 0, "%u threads: '%s' differs from 1 thread",
+                  threads[i], tnd_ct_get((tnd_ct)e)->name);
+        }
+cleanup:
+    for (int i = 0; i < 3; i++)
+        tnd_frame_destroy(&f[i]);
+}
+
+/* An unchanged scene rendered as frame 5 and frame 6: gradient samples in frame 6 that carry
+ * frame 5's keys and surfaces reproduce frame 5's shading exactly. */
+static void test_gradient_samples_reproduce(void)
+{
+    rig r;
+    tnd_frame a = {0}, b = {0};
+    enum { W = 60, H = 34 };
+    femb_gradient_sample g[64];
+    uint32_t n = 0;
+    REQUIRE_OK(rig_open(&r, SCENES "cornell.gltf", 2));
+    REQUIRE_OK(rig_frame(&r, 5, 1.0, 1.0, W, H, &a));
+    REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 1}, &a, NULL));
+    REQUIRE_OK(rig_frame(&r, 6, 1.0, 1.0, W, H, &b));
+    REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 1}, &b, NULL));
+    int differ = 0, hits = 0;
+    for (uint32_t q = 0; q < W * H; q++) {
+        if (tnd_frame_u(&a, TND_CT_VIS_ID)[2 * q] == TND_VIS_NONE)
+            continue;
+        hits++;
+        differ += memcmp(tnd_frame_f(&a, TND_CT_HF) + 3 * q, tnd_frame_f(&b, TND_CT_HF) + 3 * q, 12) != 0;
+        if (q % 37 == 0 && n < 64) /* one sample every 37 pixels, like a sparse stratum choice */
+            g[n++] = (femb_gradient_sample){q, tnd_frame_u(&a, TND_CT_RNG)[2 * q],
+                                            tnd_frame_u(&a, TND_CT_RNG)[2 * q + 1],
+                                            tnd_frame_u(&a, TND_CT_VIS_ID)[2 * q],
+                                            tnd_frame_u(&a, TND_CT_VIS_ID)[2 * q + 1],
+                                            tnd_frame_f(&a, TND_CT_VIS_BARY)[2 * q],
+                                            tnd_frame_f(&a, TND_CT_VIS_BARY)[2 * q + 1]};
+    }
+    CHECK(differ > hits / 2, "new random numbers change most pixels (%d of %d)", differ, hits);
+    REQUIRE(n > 10, "enough samples");
+    REQUIRE_OK(femb_shade_gradients(r.c, &(femb_params){.bounces = 1}, g, n, &b));
+    int bad = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        size_t q = g[i].pixel;
+        bad += memcmp(tnd_frame_f(&a, TND_CT_HF) + 3 * q, tnd_frame_f(&b, TND_CT_HF) + 3 * q, 12) ||
+               memcmp(tnd_frame_f(&a, TND_CT_LF_SH) + 4 * q, tnd_frame_f(&b, TND_CT_LF_SH) + 4 * q, 16) ||
+               memcmp(tnd_frame_f(&a, TND_CT_LF_COCG) + 2 * q, tnd_frame_f(&b, TND_CT_LF_COCG) + 2 * q, 8) ||
+               memcmp(tnd_frame_f(&a, TND_CT_SPEC) + 3 * q, tnd_frame_f(&b, TND_CT_SPEC) + 3 * q, 12);
+        bad += tnd_frame_u(&b, TND_CT_RNG)[2 * q] != 5u;
+    }
+    CHECK(bad == 0, "%d of %u gradient samples differ from the previous frame", bad, n);
+    femb_gradient_sample wrong = g[0];
+    wrong.primitive = 1u << 30;
+    CHECK(femb_shade_gradients(r.c, NULL, &wrong, 1, &b) == TND_ERR_INVALID_ARGUMENT,
+          "bad sample rejected");
+cleanup:
+    tnd_frame_destroy(&a);
+    tnd_frame_destroy(&b);
+    rig_close(&r);
+}
+
+/* The real-time estimator with many bounces, averaged over frames, converges to the reference.
+ * Compared on interior pixels (not within one pixel of an emitter or of the background): there
+ * the pixel filters differ (16 Halton jitter positions against the reference's uniform jitter)
+ * and the bright emitter's edge pixels would dominate the difference. */
+static void test_many_bounces_converge(void)
+{
+    rig r;
+    tnd_frame f = {0};
+    enum { W = 48, H = 32, N = 512 };
+    static double acc[W * H], acc2[W * H];
+    static float ref[W * H * 3], tmp[W * H * 3];
+    static unsigned char edge[W * H];
+    memset(acc, 0, sizeof acc);
+    memset(acc2, 0, sizeof acc2);
+    memset(edge, 0, sizeof edge);
+    REQUIRE_OK(rig_open(&r, SCENES "cornell.gltf", 2));
+    for (uint32_t i = 0; i < N; i++) {
+        REQUIRE_OK(rig_frame(&r, i, 0.0, 0.0, W, H, &f));
+        REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 64}, &f, NULL));
+        femb_composite(&f, tmp);
+        for (int q = 0; q < W * H; q++) {
+            double l = tnd_luminance(tmp[3 * q], tmp[3 * q + 1], tmp[3 * q + 2]);
+            acc[q] += l;
+            acc2[q] += l * l;
+            const float *e = tnd_frame_f(&f, TND_CT_EMISSION) + 3 * q;
+            if (e[0] > 0 || tnd_frame_u(&f, TND_CT_VIS_ID)[2 * q] == TND_VIS_NONE)
+                edge[q] = 1;
+        }
+        tnd_frame_destroy(&f);
+    }
+    REQUIRE_OK(femb_reference(r.c, N, ref, NULL, NULL, NULL));
+    double mt = 0, mr = 0, var = 0;
+    int n = 0, outliers = 0;
+    for (int y = 1; y < H - 1; y++)
+        for (int x = 1; x < W - 1; x++) {
+            bool skip = false;
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++)
+                    skip |= edge[(y + dy) * W + x + dx];
+            if (skip)
+                continue;
+            int q = y * W + x;
+            double m = acc[q] / N, v = fmax(acc2[q] / N - m * m, 0) / N;
+            double rl = tnd_luminance(ref[3 * q], ref[3 * q + 1], ref[3 * q + 2]);
+            mt += m, mr += rl, var += v, n++;
+            /* each estimator's pixel mean has variance about v: the difference 2v */
+            outliers += fabs(m - rl) > 5 * sqrt(2 * v) + 1e-6;
+        }
+    mt /= n, mr /= n;
+    double se = sqrt(2 * var) / n;
+    printf("     %d interior pixels: real-time (64 bounces) %.5f, reference %.5f: %.2f%%, %.1f "
+           "standard errors; %d pixels beyond 5 sigma\n",
+           n, mt, mr, 100 * (mt - mr) / mr, fabs(mt - mr) / se, outliers);
+    CHECK(n > W * H / 3, "enough interior pixels (%d)", n);
+    CHECK(fabs(mt - mr) < 5 * se, "means differ by %.1f standard errors", fabs(mt - mr) / se);
+    CHECK(outliers <= n / 100, "%d pixels differ beyond 5 sigma", outliers);
+cleanup:
+    tnd_frame_destroy(&f);
+    rig_close(&r);
+}
+
+static void test_extremes_finite(void)
+{
+    rig r;
+    tnd_frame f = {0};
+    enum { W = 64, H = 36 };
+    static float rgb[W * H * 3];
+    REQUIRE_OK(rig_open(&r, SCENES "extremes.gltf", 2));
+    for (int fr = 0; fr < 3; fr++) {
+        REQUIRE_OK(rig_frame(&r, (uint32_t)fr, fr * 0.7, fr ? (fr - 1) * 0.7 : 0, W, H, &f));
+        REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 3}, &f, NULL));
+        int bad = 0;
+        for (int e = 0; e < TND_CT_COUNT; e++) {
+            const tnd_ct_info *ci = tnd_ct_get((tnd_ct)e);
+            if (ci->kind != TND_CT_FLOAT || e == TND_CT_DEPTH)
+                continue; /* depth holds the finite TND_DEPTH_MISS */
+            for (size_t k = 0; k < (size_t)W * H * ci->comps; k++)
+                bad += !isfinite(tnd_frame_f(&f, (tnd_ct)e)[k]);
+        }
+        for (size_t k = 0; k < (size_t)W * H; k++)
+            bad += !isfinite(tnd_frame_f(&f, TND_CT_DEPTH)[k]);
+        CHECK(bad == 0, "frame %d: %d non-finite values in the contract", fr, bad);
+        tnd_frame_destroy(&f);
+    }
+    REQUIRE_OK(femb_reference(r.c, 8, rgb, NULL, NULL, NULL));
+    int bad = 0;
+    for (int k = 0; k < W * H * 3; k++)
+        bad += !isfinite(rgb[k]) || rgb[k] < 0;
+    CHECK(bad == 0, "%d non-finite reference values", bad);
+cleanup:
+    tnd_frame_destroy(&f);
+    rig_close(&r);
+}
+
+TND_TEST_MAIN(T(test_furnace_lambert), T(test_furnace_ggx), T(test_composite_equals_radiance),
+              T(test_deterministic_threads), T(test_gradient_samples_reproduce),
+              T(test_many_bounces_converge), T(test_extremes_finite))
