@@ -29,9 +29,12 @@ build-asan: deps
 
 demo: build
 	$(BUILD)/tandem info
+	$(BUILD)/tandem render --scene data/scenes/cornell.gltf --frames 30 --size 320x180 \
+		--capture --out $(DEMO_OUT)
 	@echo
-	@echo "demo: Tandem is built; 'tandem info' above shows the device it renders on."
-	@echo "demo: the binary is $(BUILD)/tandem ('$(BUILD)/tandem --help' lists its commands)."
+	@echo "demo: pictures in $(DEMO_OUT)/: frame_NNNN.png (preview), frame_NNNN.exr (linear HDR),"
+	@echo "demo: capture/frame_NNNN.exr (the whole contract; try: exrheader $(DEMO_OUT)/capture/frame_0000.exr)"
+	@echo "demo: (Embree front-end, composite of the noisy signals: the denoiser comes next)"
 
 test-release: build
 	scripts/run-tests.sh $(BUILD)

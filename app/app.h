@@ -61,5 +61,6 @@ int cmd_info(int argc, char **argv);
 int cmd_contract(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_reference(int argc, char **argv);
+int cmd_bench(int argc, char **argv);
 
 #endif

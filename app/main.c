@@ -10,6 +10,8 @@ static const app_cmd commands[] = {
      "--out DIR [options]", cmd_render},
     {"reference", "Render converged reference frames (unbiased path tracing).",
      "--out DIR [options]", cmd_reference},
+    {"bench", "Measure a front-end: ms per pass, Mrays/s, and the raw ray-casting rate.",
+     "[--scene PATH] [--size WxH] [--repeats N] [--json]", cmd_bench},
     {"contract", "Print the buffer contract: every entry, its EXR channels, formats and meaning.",
      "[--json]", cmd_contract},
 };

@@ -5,10 +5,23 @@
 #include "frontend_embree/frontend_embree.h"
 
 #include <embree3/rtcore.h>
+#include <pthread.h>
 
 typedef struct v3 {
     float x, y, z;
 } v3;
+
+/* Rays traced while a log is attached (benchmarks replay them in a raw loop). */
+typedef struct femb_ray {
+    float org[3], dir[3], tmax;
+    uint32_t occlusion; /* 1: rtcOccluded1, 0: rtcIntersect1 */
+} femb_ray;
+
+typedef struct femb_ray_log {
+    pthread_mutex_t lock;
+    femb_ray *rays;
+    size_t count, cap;
+} femb_ray_log;
 
 struct femb_context {
     const tnd_scene *scene;
@@ -25,6 +38,7 @@ struct femb_context {
     float inv_proj[16], inv_view[16];
     float pixel_spread; /* ray-cone spread angle per pixel (radians) */
     tnd_light_list lights;
+    femb_ray_log *log; /* NULL except while recording */
 };
 
 /* A surface point, reconstructed from (instance, primitive, barycentrics). */
@@ -52,6 +66,11 @@ bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax);
  * in every worker, deterministic results whatever the thread count. */
 void femb_parallel_tiles(femb_context *c, void (*fn)(femb_context *c, uint32_t x0, uint32_t y0,
                                                      uint32_t x1, uint32_t y1, void *user),
+                         void *user);
+
+/* Parallel for over [0, count) in chunks, on the context's threads (FTZ/DAZ on). */
+void femb_parallel_range(femb_context *c, size_t count, size_t chunk,
+                         void (*fn)(femb_context *c, size_t begin, size_t end, void *user),
                          void *user);
 
 /* Offset a ray origin off the surface along the geometric normal (Waechter and Binder, Ray

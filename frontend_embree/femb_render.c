@@ -24,6 +24,8 @@
 #define SH_C0 0.282094791773878f /* Y00 */
 #define SH_C1 0.488602511902920f /* Y1m / direction component */
 
+static inline float fmx(float a, float b) { return a > b ? a : b; }
+static inline float fmn(float a, float b) { return a < b ? a : b; }
 static inline v3 add(v3 a, v3 b) { return (v3){a.x + b.x, a.y + b.y, a.z + b.z}; }
 static inline v3 sub(v3 a, v3 b) { return (v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
 static inline v3 mul(v3 a, float s) { return (v3){a.x * s, a.y * s, a.z * s}; }
@@ -67,7 +69,7 @@ static v3 sample_cosine(v3 n, float u1, float u2)
     v3 t, b;
     onb(n, &t, &b);
     float r = sqrtf(u1), phi = 2.0f * (float)TND_PI * u2;
-    v3 l = {r * cosf(phi), r * sinf(phi), sqrtf(fmaxf(0.0f, 1.0f - u1))};
+    v3 l = {r * cosf(phi), r * sinf(phi), sqrtf(fmx(0.0f, 1.0f - u1))};
     return norm(to_world(l, t, b, n));
 }
 
@@ -84,9 +86,9 @@ static v3 sample_vndf(v3 n, v3 wo, float alpha, float u1, float u2)
     float r = sqrtf(u1), phi = 2.0f * (float)TND_PI * u2;
     float p1 = r * cosf(phi), p2 = r * sinf(phi);
     float s = 0.5f * (1.0f + vh.z);
-    p2 = (1.0f - s) * sqrtf(fmaxf(0.0f, 1.0f - p1 * p1)) + s * p2;
-    v3 nh = add(add(mul(t1, p1), mul(t2, p2)), mul(vh, sqrtf(fmaxf(0.0f, 1.0f - p1 * p1 - p2 * p2))));
-    v3 ne = norm((v3){alpha * nh.x, alpha * nh.y, fmaxf(1e-6f, nh.z)});
+    p2 = (1.0f - s) * sqrtf(fmx(0.0f, 1.0f - p1 * p1)) + s * p2;
+    v3 nh = add(add(mul(t1, p1), mul(t2, p2)), mul(vh, sqrtf(fmx(0.0f, 1.0f - p1 * p1 - p2 * p2))));
+    v3 ne = norm((v3){alpha * nh.x, alpha * nh.y, fmx(1e-6f, nh.z)});
     return norm(to_world(ne, t, b, n));
 }
 
@@ -99,8 +101,8 @@ typedef struct lobe_info {
 
 static void lobes(const femb_surface *s, lobe_info *L)
 {
-    L->nv = fmaxf(dot(s->ns, s->wo), 1e-4f);
-    L->alpha = fmaxf(s->roughness * s->roughness, (float)TND_MIN_ALPHA);
+    L->nv = fmx(dot(s->ns, s->wo), 1e-4f);
+    L->alpha = fmx(s->roughness * s->roughness, (float)TND_MIN_ALPHA);
     L->a2 = L->alpha * L->alpha;
     float kd[3];
     for (int k = 0; k < 3; k++) {
@@ -120,7 +122,7 @@ static bool eval_brdf(const femb_surface *s, const lobe_info *L, v3 wi, float di
     if (nl <= 0.0f || dot(s->ng, wi) <= 0.0f)
         return false;
     v3 h = norm(add(wi, s->wo));
-    float nh = fmaxf(dot(s->ns, h), 0.0f), vh = fmaxf(dot(s->wo, h), 0.0f);
+    float nh = fmx(dot(s->ns, h), 0.0f), vh = fmx(dot(s->wo, h), 0.0f);
     float g = tnd_ggx_spec_cos(nh, L->nv, nl, L->a2);
     for (int k = 0; k < 3; k++) {
         diff[k] = (1.0f - L->f_nv[k]) * nl * (float)TND_INV_PI;
@@ -187,8 +189,8 @@ static void direct_light(const femb_context *c, rng_key key, uint32_t bounce,
         float fall = 1.0f / d2;
         if (kind == TND_LIGHT_KIND_SPOT) {
             float cd = -dot(wi, (v3){l->p1.x, l->p1.y, l->p1.z});
-            float t = (cd - l->p2.y) / fmaxf(l->p2.x - l->p2.y, 1e-6f);
-            t = fminf(fmaxf(t, 0.0f), 1.0f);
+            float t = (cd - l->p2.y) / fmx(l->p2.x - l->p2.y, 1e-6f);
+            t = fmn(fmx(t, 0.0f), 1.0f);
             fall *= t * t;
         }
         for (int k = 0; k < 3; k++)
@@ -227,7 +229,7 @@ static bool sample_brdf(const femb_surface *s, const lobe_info *L, rng_key key, 
         return false;
     /* one-sample MIS over the two lobes: weight = f cos / (mixture pdf) for the chosen lobe's
      * share of f; the lobe's own contribution only, so that lf and spec stay separate */
-    float pl = *specular ? L->p_spec * tnd_ggx_vndf_pdf(fmaxf(dot(s->ns, norm(add(*wi, s->wo))), 0.0f),
+    float pl = *specular ? L->p_spec * tnd_ggx_vndf_pdf(fmx(dot(s->ns, norm(add(*wi, s->wo))), 0.0f),
                                                        L->nv, L->a2)
                          : (1.0f - L->p_spec) * dot(s->ns, *wi) * (float)TND_INV_PI;
     if (!(pl > 0))
@@ -284,7 +286,7 @@ static void trace_path(const femb_context *c, rng_key key, v3 org, v3 dir, uint3
         for (int k = 0; k < 3; k++)
             beta[k] *= w[k];
         if (b + 1 >= rr_start) {
-            float q = fminf(fmaxf(fmaxf(beta[0], fmaxf(beta[1], beta[2])), 0.05f), 1.0f);
+            float q = fmn(fmx(fmx(beta[0], fmx(beta[1], beta[2])), 0.05f), 1.0f);
             if (rnd(key, b, TND_DIM_RR) >= q)
                 return;
             for (int k = 0; k < 3; k++)
@@ -319,6 +321,19 @@ static bool project(const tnd_camera_state *cam, const float *cam_pos, const dou
 }
 
 /* ---- primary pass ---------------------------------------------------------------------------- */
+/* Primary ray direction through pixel position (px, py), from the inverses computed once per
+ * frame (the same arithmetic as tnd_camera_ray: unproject in view space, then rotate). */
+static void camera_dir(const femb_context *c, float px, float py, float out[3])
+{
+    float ndc[3] = {2.0f * px / (float)c->width - 1.0f, 2.0f * py / (float)c->height - 1.0f, 0.5f};
+    float pv[3], d[3];
+    tnd_mat4_point(c->inv_proj, ndc, true, pv);
+    tnd_mat4_dir(c->inv_view, pv, d);
+    double n = sqrt((double)d[0] * d[0] + (double)d[1] * d[1] + (double)d[2] * d[2]);
+    for (int i = 0; i < 3; i++)
+        out[i] = n > 0 ? (float)(d[i] / n) : 0.0f;
+}
+
 static v3 surface_position(const femb_context *c, uint32_t inst, uint32_t prim, float u, float v)
 {
     const tnd_scene *sc = c->scene;
@@ -360,9 +375,8 @@ static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1,
     for (uint32_t y = y0; y < y1; y++)
         for (uint32_t x = x0; x < x1; x++) {
             size_t q = (size_t)y * W + x;
-            float o[3], dd[3];
-            tnd_camera_ray(&cam, W, H, (float)x + 0.5f + c->jitter[0],
-                           (float)y + 0.5f + c->jitter[1], o, dd);
+            float dd[3];
+            camera_dir(c, (float)x + 0.5f + c->jitter[0], (float)y + 0.5f + c->jitter[1], dd);
             v3 org = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]}, dir = {dd[0], dd[1], dd[2]};
             uint32_t inst, prim;
             float u, v, t;
@@ -478,7 +492,7 @@ static void shade_pixel(const femb_context *c, const femb_params *p, rng_key key
     lobes(&s, &L);
     float demod[3];
     for (int k = 0; k < 3; k++)
-        demod[k] = fmaxf(0.01f, 0.04f * (1.0f - s.metallic) + s.base[k] * s.metallic);
+        demod[k] = fmx(0.01f, 0.04f * (1.0f - s.metallic) + s.base[k] * s.metallic);
     float d[3], sp[3];
     direct_light(c, key, 0, &s, &L, d, sp);
     for (int k = 0; k < 3; k++) {
@@ -515,7 +529,7 @@ static void shade_pixel(const femb_context *c, const femb_params *p, rng_key key
     /* YCoCg, then the SH lobe scaled so that its value at the shading normal is exactly Y */
     float co = contrib[0] - contrib[2], t = contrib[2] + 0.5f * co, cg = contrib[1] - t;
     float Y = t + 0.5f * cg;
-    float k = 4.0f * (float)TND_PI / (1.0f + 2.0f * fmaxf(dot(wi, s.ns), 0.0f));
+    float k = 4.0f * (float)TND_PI / (1.0f + 2.0f * fmx(dot(wi, s.ns), 0.0f));
     sh[0] = k * Y * SH_C1 * wi.x;
     sh[1] = k * Y * SH_C1 * wi.y;
     sh[2] = k * Y * SH_C1 * wi.z;
@@ -638,15 +652,15 @@ static void reference_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x
                            void *user)
 {
     ref_job *j = user;
-    uint32_t W = c->width, H = c->height;
+    uint32_t W = c->width;
     for (uint32_t y = y0; y < y1; y++)
         for (uint32_t x = x0; x < x1; x++) {
             size_t q = (size_t)y * W + x;
             rng_key key = {(uint32_t)q, c->frame * 4096u + j->sample};
             float jx = tnd_rand(key.pixel, key.frame, TND_DIM_JITTER_X);
             float jy = tnd_rand(key.pixel, key.frame, TND_DIM_JITTER_Y);
-            float o[3], d[3];
-            tnd_camera_ray(&c->cur->camera, W, H, (float)x + jx, (float)y + jy, o, d);
+            float d[3];
+            camera_dir(c, (float)x + jx, (float)y + jy, d);
             v3 org = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
             float L[3];
             trace_path(c, key, org, (v3){d[0], d[1], d[2]}, 0, 64, 3, 0.0f, 0.0f, L);
@@ -715,14 +729,14 @@ void femb_composite(const tnd_frame *f, float *rgb)
         float m = tnd_frame_f(f, TND_CT_METALLIC)[q];
         /* SH evaluated at the shading normal: Y = C0 L0 + (2/3) C1 (n . L1) */
         float Y = SH_C0 * sh[3] + (2.0f / 3.0f) * SH_C1 * (nrm[0] * sh[0] + nrm[1] * sh[1] + nrm[2] * sh[2]);
-        Y = fmaxf(Y, 0.0f);
+        Y = fmx(Y, 0.0f);
         float s = sh[3] / SH_C0; /* the luma the chroma was scaled with */
         float r = s > 0 ? Y / s : 0.0f;
         float co = cc[0] * r, cg = cc[1] * r;
         float t = Y - 0.5f * cg, g = cg + t, b = t - 0.5f * co, rr = b + co;
-        float lf[3] = {fmaxf(rr, 0.0f), fmaxf(g, 0.0f), fmaxf(b, 0.0f)};
+        float lf[3] = {fmx(rr, 0.0f), fmx(g, 0.0f), fmx(b, 0.0f)};
         for (int k = 0; k < 3; k++) {
-            float demod = fmaxf(0.01f, 0.04f * (1.0f - m) + alb[k] * m);
+            float demod = fmx(0.01f, 0.04f * (1.0f - m) + alb[k] * m);
             rgb[3 * q + k] = ((hf[k] + lf[k]) * alb[k] * (1.0f - m) + sp[k] * demod) * thr[k] + em[k];
         }
     }

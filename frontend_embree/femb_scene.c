@@ -144,9 +144,29 @@ tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
     return tnd_lights_build(s, cur, &c->lights);
 }
 
+static void log_ray(femb_ray_log *log, v3 org, v3 dir, float tmax, uint32_t occlusion)
+{
+    pthread_mutex_lock(&log->lock);
+    if (log->count == log->cap) {
+        size_t cap = log->cap ? log->cap * 2 : 1 << 16;
+        femb_ray *n = realloc(log->rays, cap * sizeof *n);
+        if (!n) {
+            pthread_mutex_unlock(&log->lock);
+            return; /* the benchmark notices the short log */
+        }
+        log->rays = n;
+        log->cap = cap;
+    }
+    log->rays[log->count++] = (femb_ray){{org.x, org.y, org.z}, {dir.x, dir.y, dir.z}, tmax,
+                                         occlusion};
+    pthread_mutex_unlock(&log->lock);
+}
+
 bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax, uint32_t *instance,
                     uint32_t *primitive, float *u, float *v, float *t)
 {
+    if (c->log)
+        log_ray(c->log, org, dir, tmax, 0);
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
     struct RTCRayHit rh;
@@ -171,6 +191,8 @@ bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax, uint32_t 
 
 bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax)
 {
+    if (c->log)
+        log_ray(c->log, org, dir, tmax, 1);
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
     struct RTCRay r;
@@ -185,6 +207,8 @@ bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax)
 }
 
 /* ---- vectors ---------------------------------------------------------------------------------- */
+static inline float fmx(float a, float b) { return a > b ? a : b; }
+static inline float fmn(float a, float b) { return a < b ? a : b; }
 static inline v3 add(v3 a, v3 b) { return (v3){a.x + b.x, a.y + b.y, a.z + b.z}; }
 static inline v3 sub(v3 a, v3 b) { return (v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
 static inline v3 mul(v3 a, float s) { return (v3){a.x * s, a.y * s, a.z * s}; }
@@ -266,17 +290,22 @@ void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primit
         ng = mul(ng, -1.0f);
         ns = mul(ns, -1.0f);
     }
-    /* texture coordinates and level of detail (ray cones, Akenine-Moller et al. 2019) */
+    /* texture coordinates and level of detail (ray cones, Akenine-Moller et al. 2019): only
+     * for textured materials */
     const float *t0 = sc->uvs + 2 * (size_t)i0, *t1 = sc->uvs + 2 * (size_t)i1,
                 *t2 = sc->uvs + 2 * (size_t)i2;
     float tu = w0 * t0[0] + u * t1[0] + v * t2[0], tv = w0 * t0[1] + u * t1[1] + v * t2[1];
-    float uv_area = fabsf((t1[0] - t0[0]) * (t2[1] - t0[1]) - (t2[0] - t0[0]) * (t1[1] - t0[1]));
-    v3 we1 = xf_dir(X, e1), we2 = xf_dir(X, e2);
-    float world_area = sqrtf(dot(cross(we1, we2), cross(we1, we2)));
-    float cosv = fabsf(dot(ng, dir));
-    float lod_base = uv_area > 0 && world_area > 0
-                         ? log2f(cone_width / fmaxf(cosv, 1e-3f)) + 0.5f * log2f(uv_area / world_area)
-                         : 0.0f;
+    float lod_base = 0.0f;
+    bool textured = mat->tex_base_color >= 0 || mat->tex_metal_rough >= 0 ||
+                    mat->tex_emission >= 0 || mat->tex_normal >= 0;
+    if (textured) {
+        float uv_area = fabsf((t1[0] - t0[0]) * (t2[1] - t0[1]) - (t2[0] - t0[0]) * (t1[1] - t0[1]));
+        v3 we1 = xf_dir(X, e1), we2 = xf_dir(X, e2);
+        float world_area = sqrtf(dot(cross(we1, we2), cross(we1, we2)));
+        float cosv = fabsf(dot(ng, dir));
+        if (uv_area > 0 && world_area > 0)
+            lod_base = log2f(cone_width / fmx(cosv, 1e-3f)) + 0.5f * log2f(uv_area / world_area);
+    }
     float texel[4];
     memcpy(s->base, mat->base_color, 3 * sizeof(float));
     s->metallic = mat->metallic;
@@ -326,9 +355,9 @@ void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primit
     if (!front && !mat->double_sided)
         s->emission[0] = s->emission[1] = s->emission[2] = 0.0f;
     for (int k = 0; k < 3; k++)
-        s->base[k] = fminf(fmaxf(s->base[k], 0.0f), 1.0f);
-    s->metallic = fminf(fmaxf(s->metallic, 0.0f), 1.0f);
-    s->roughness = fminf(fmaxf(s->roughness, 0.0f), 1.0f);
+        s->base[k] = fmn(fmx(s->base[k], 0.0f), 1.0f);
+    s->metallic = fmn(fmx(s->metallic, 0.0f), 1.0f);
+    s->roughness = fmn(fmx(s->roughness, 0.0f), 1.0f);
     s->instance = instance;
     s->primitive = primitive;
     s->u = u;
@@ -386,6 +415,52 @@ void femb_parallel_tiles(femb_context *c,
         if (pthread_create(&th[started], NULL, tile_worker, &j) == 0)
             started++;
     tile_worker(&j);
+    for (uint32_t i = 0; i < started; i++)
+        pthread_join(th[i], NULL);
+}
+
+/* ---- ranges over threads -------------------------------------------------------------------- */
+typedef struct range_job {
+    femb_context *c;
+    void (*fn)(femb_context *, size_t, size_t, void *);
+    void *user;
+    atomic_size_t next;
+    size_t count, chunk;
+} range_job;
+
+static void *range_worker(void *arg)
+{
+    range_job *j = arg;
+#ifdef FEMB_HAVE_SSE
+    unsigned csr = _mm_getcsr();
+    _mm_setcsr(csr | 0x8040);
+#endif
+    for (;;) {
+        size_t b = atomic_fetch_add(&j->next, j->chunk);
+        if (b >= j->count)
+            break;
+        j->fn(j->c, b, b + j->chunk < j->count ? b + j->chunk : j->count, j->user);
+    }
+#ifdef FEMB_HAVE_SSE
+    _mm_setcsr(csr);
+#endif
+    return NULL;
+}
+
+void femb_parallel_range(femb_context *c, size_t count, size_t chunk,
+                         void (*fn)(femb_context *, size_t, size_t, void *), void *user)
+{
+    range_job j = {.c = c, .fn = fn, .user = user, .count = count, .chunk = chunk ? chunk : 1};
+    atomic_init(&j.next, 0);
+    uint32_t n = c->threads > 1 ? c->threads : 1;
+    pthread_t th[256];
+    if (n > 256)
+        n = 256;
+    uint32_t started = 0;
+    for (uint32_t i = 1; i < n; i++)
+        if (pthread_create(&th[started], NULL, range_worker, &j) == 0)
+            started++;
+    range_worker(&j);
     for (uint32_t i = 0; i < started; i++)
         pthread_join(th[i], NULL);
 }

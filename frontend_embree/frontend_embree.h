@@ -65,6 +65,17 @@ tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, double *r
                           void (*progress)(uint32_t done, uint32_t total, void *user),
                           void *user);
 
+/* Benchmark: the front-end's rays per frame and their raw rate. Records every ray of one
+ * primary + shading pass (untimed), then times `repeats` front-end passes and `repeats` replays
+ * of the recorded rays through bare rtcIntersect1/rtcOccluded1 on the same threads. */
+typedef struct femb_bench {
+    double primary_ms, shade_ms; /* medians over the repeats */
+    double raw_ms;               /* median replay time of the same rays */
+    uint64_t rays;               /* per frame: primary, shadow and bounce rays */
+} femb_bench;
+tnd_result femb_benchmark(femb_context *ctx, const femb_params *p, uint32_t repeats,
+                          femb_bench *out);
+
 /* Composite of the demodulated signals (what the back-end's "off" mode computes):
  * ((hf + E_N(lf)) x albedo x (1 - metallic) + spec x max(0.01, F0)) x throughput + emission. */
 void femb_composite(const tnd_frame *f, float *rgb);

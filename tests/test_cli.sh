@@ -67,5 +67,23 @@ check "a truncated scene exits 1 with a clear message" $?
 "$T" contract >"$tmp/out" 2>&1; rc=$?
 [ $rc -eq 0 ] && grep -q '`hf.R`' "$tmp/out"; check "contract prints the table" $?
 
+# render and reference, small
+"$T" render --scene "$SRC/data/scenes/cornell.gltf" --frames 2 --size 32x18 --capture --out "$tmp/r" --quiet
+rc=$?
+[ $rc -eq 0 ] && [ -f "$tmp/r/frame_0001.exr" ] && [ -f "$tmp/r/frame_0001.png" ] && [ -f "$tmp/r/capture/frame_0001.exr" ]
+check "render writes frames, previews and captures" $?
+"$T" reference --scene "$SRC/data/scenes/cornell.gltf" --frames 1 --size 16x9 --spp 4 --out "$tmp/ref" >/dev/null 2>"$tmp/err"
+rc=$?
+[ $rc -eq 0 ] && [ -f "$tmp/ref/frame_0000.exr" ] && grep -q "remaining noise" "$tmp/err"
+check "reference writes a frame and reports the remaining noise" $?
+"$T" render --scene "$tmp/trunc.gltf" --out "$tmp/bad" --quiet 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ] && grep -q "trunc.gltf" "$tmp/err" && [ ! -e "$tmp/bad/frame_0000.exr" ]
+check "render of a bad scene exits 1 with no output" $?
+"$T" render --out "$tmp/x" --size 0x5 2>/dev/null; rc=$?
+[ $rc -eq 2 ]; check "render --size 0x5 is a usage error" $?
+"$T" bench --size 32x32 --repeats 2 --json >"$tmp/bench.json" 2>/dev/null
+python3 -c "import json,sys; d=json.load(open(sys.argv[1])); assert d['rays_per_frame'] > 1024 and d['frontend_mrays_per_s'] > 0" "$tmp/bench.json"
+check "bench --json reports rays and rates" $?
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

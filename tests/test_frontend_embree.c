@@ -422,6 +422,70 @@ cleanup:
     rig_close(&r);
 }
 
+/* Motion vectors point to where the surface was: in the `dynamic` scene (moving camera and a
+ * moving cube), following a pixel's motion into the previous frame's render lands on the same
+ * instance, and the previous depth matches depth + motion.z. */
+static void test_motion_vectors(void)
+{
+    rig r;
+    tnd_frame a = {0}, b = {0};
+    enum { W = 96, H = 54 };
+    const double fps = 30.0;
+    REQUIRE_OK(rig_open(&r, SCENES "dynamic.gltf", 2));
+    uint32_t cube = UINT32_MAX;
+    for (uint32_t i = 0; i < r.s->instance_count; i++)
+        if (strcmp(r.s->meshes[r.s->instances[i].mesh].name, "moving_cube") == 0)
+            cube = i;
+    /* "previous" is 4 frames back, so that the camera moves by several pixels */
+    REQUIRE_OK(rig_frame(&r, 40, 40 / fps, 36 / fps, W, H, &b)); /* current */
+    REQUIRE_OK(rig_frame(&r, 36, 36 / fps, 35 / fps, W, H, &a)); /* previous */
+    int valid = 0, same = 0, cube_valid = 0, cube_same = 0, depth_ok = 0, moving = 0;
+    int cube_static = 0; /* control: cube pixels that land on the cube when motion is ignored */
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            size_t q = (size_t)y * W + x;
+            uint32_t inst = tnd_frame_u(&b, TND_CT_VIS_ID)[2 * q];
+            if (inst == TND_VIS_NONE)
+                continue;
+            const float *m = tnd_frame_f(&b, TND_CT_MOTION) + 3 * q;
+            moving += fabsf(m[0]) + fabsf(m[1]) > 0.5f;
+            double px = x + 0.5 + b.camera.jitter[0] + m[0];
+            double py = y + 0.5 + b.camera.jitter[1] + m[1];
+            long ix = lround(px - 0.5 - a.camera.jitter[0]), iy = lround(py - 0.5 - a.camera.jitter[1]);
+            if (ix < 1 || iy < 1 || ix >= W - 1 || iy >= H - 1)
+                continue;
+            size_t pq = (size_t)iy * W + (size_t)ix;
+            uint32_t pinst = tnd_frame_u(&a, TND_CT_VIS_ID)[2 * pq];
+            bool hit = pinst == inst;
+            valid++, same += hit;
+            if (inst == cube) {
+                cube_valid++, cube_same += hit;
+                cube_static += tnd_frame_u(&a, TND_CT_VIS_ID)[2 * q] == cube;
+            }
+            if (hit) {
+                float dprev = tnd_frame_f(&a, TND_CT_DEPTH)[pq];
+                float dcur = tnd_frame_f(&b, TND_CT_DEPTH)[q];
+                /* within a pixel's depth footprint: half a pixel of slope at grazing 80 deg */
+                depth_ok += fabsf(dprev - (dcur + m[2])) < 0.02f * dcur;
+            }
+        }
+    printf("     motion: %d of %d pixels land on the same instance (cube %d of %d; %d without "
+           "motion vectors), depth consistent for %d; %d pixels move by > 0.5 px\n",
+           same, valid, cube_same, cube_valid, cube_static, depth_ok, moving);
+    CHECK(moving > valid / 4, "the camera moves: many pixels have motion (%d)", moving);
+    CHECK(cube_static < 0.8 * cube_valid, "control: ignoring motion loses the cube (%d of %d)",
+          cube_static, cube_valid);
+    CHECK(same >= 0.97 * valid, "%d of %d reprojected pixels hit the same instance", same, valid);
+    CHECK(cube_valid > 20 && cube_same >= 0.9 * cube_valid,
+          "moving cube: %d of %d reproject onto it", cube_same, cube_valid);
+    CHECK(depth_ok >= 0.95 * same, "depth + motion.z matches the previous depth (%d of %d)",
+          depth_ok, same);
+cleanup:
+    tnd_frame_destroy(&a);
+    tnd_frame_destroy(&b);
+    rig_close(&r);
+}
+
 static void test_extremes_finite(void)
 {
     rig r;
@@ -457,4 +521,4 @@ cleanup:
 
 TND_TEST_MAIN(T(test_furnace_lambert), T(test_furnace_ggx), T(test_composite_equals_radiance),
               T(test_deterministic_threads), T(test_gradient_samples_reproduce),
-              T(test_many_bounces_converge), T(test_extremes_finite))
+              T(test_many_bounces_converge), T(test_motion_vectors), T(test_extremes_finite))
