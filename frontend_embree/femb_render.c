@@ -480,14 +480,40 @@ tnd_result femb_trace_primary(femb_context *c, tnd_frame *f)
 }
 
 /* ---- shading pass ---------------------------------------------------------------------------- */
-/* Shade one pixel whose surface is (inst, prim, u, v) with random key `key`. */
-static void shade_pixel(const femb_context *c, const femb_params *p, rng_key key, uint32_t inst,
-                        uint32_t prim, float u, float v, float hf[3], float sh[4], float cocg[2],
+/* The shading pass reads the surface from the G-buffer, as the GPU passes do (the primary pass
+ * and the gradient patches wrote it), plus the material's specular factor and emission. */
+static void surface_from_gbuffer(const femb_context *c, const tnd_frame *f, size_t q,
+                                 femb_surface *s, float *depth)
+{
+    const tnd_scene *sc = c->scene;
+    const float *p = tnd_frame_f(f, TND_CT_POSITION) + 3 * q;
+    const float *ns = tnd_frame_f(f, TND_CT_NORMAL) + 3 * q;
+    const float *ng = tnd_frame_f(f, TND_CT_GEO_NORMAL) + 3 * q;
+    uint32_t inst = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q];
+    const tnd_material *m = &sc->materials[sc->meshes[sc->instances[inst].mesh].material];
+    s->p = (v3){p[0], p[1], p[2]};
+    s->ns = (v3){ns[0], ns[1], ns[2]};
+    s->ng = (v3){ng[0], ng[1], ng[2]};
+    v3 d = sub((v3){c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]}, s->p);
+    *depth = sqrtf(dot(d, d));
+    s->wo = *depth > 0 ? mul(d, 1.0f / *depth) : s->ns;
+    memcpy(s->base, tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q, 3 * sizeof(float));
+    memcpy(s->emission, tnd_frame_f(f, TND_CT_EMISSION) + 3 * q, 3 * sizeof(float));
+    s->roughness = tnd_frame_f(f, TND_CT_ROUGHNESS)[q];
+    s->metallic = tnd_frame_f(f, TND_CT_METALLIC)[q];
+    s->specular = m->specular;
+    s->instance = inst;
+    s->primitive = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q + 1];
+}
+
+/* Shade pixel q of the frame (its surface in the G-buffer) with random key `key`. */
+static void shade_pixel(const femb_context *c, const femb_params *p, rng_key key,
+                        const tnd_frame *f, size_t q, float hf[3], float sh[4], float cocg[2],
                         float spec[3], float radiance[3])
 {
     femb_surface s;
     float depth;
-    surface_from_vis(c, inst, prim, u, v, &s, &depth);
+    surface_from_gbuffer(c, f, q, &s, &depth);
     lobe_info L;
     lobes(&s, &L);
     float demod[3];
@@ -564,15 +590,13 @@ static void shade_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1, u
         for (uint32_t x = x0; x < x1; x++) {
             size_t q = (size_t)y * c->width + x;
             const uint32_t *vis = tnd_frame_u(f, TND_CT_VIS_ID) + 2 * q;
-            const float *bary = tnd_frame_f(f, TND_CT_VIS_BARY) + 2 * q;
             const uint32_t *rng = tnd_frame_u(f, TND_CT_RNG) + 2 * q;
             float hf[3] = {0}, sh[4] = {0}, cocg[2] = {0}, spec[3] = {0}, rad[3];
             if (vis[0] == TND_VIS_NONE) {
                 memcpy(rad, tnd_frame_f(f, TND_CT_EMISSION) + 3 * q, sizeof rad);
             } else {
                 rng_key key = {rng[1], rng[0]};
-                shade_pixel(c, j->p, key, vis[0], vis[1], bary[0], bary[1], hf, sh, cocg, spec,
-                            rad);
+                shade_pixel(c, j->p, key, f, q, hf, sh, cocg, spec, rad);
             }
             write_shading(f, q, hf, sh, cocg, spec);
             if (j->radiance)
@@ -634,8 +658,8 @@ tnd_result femb_shade_gradients(femb_context *c, const femb_params *p,
         tnd_frame_f(f, TND_CT_METALLIC)[q] = s.metallic;
         float hf[3], sh[4], cocg[2], spec[3], rad[3];
         rng_key key = {g[i].rng_pixel, g[i].rng_frame};
-        shade_pixel(c, p, key, g[i].instance, g[i].primitive, g[i].u, g[i].v, hf, sh, cocg, spec,
-                    rad);
+        memcpy(tnd_frame_f(f, TND_CT_EMISSION) + 3 * q, s.emission, 3 * sizeof(float));
+        shade_pixel(c, p, key, f, q, hf, sh, cocg, spec, rad);
         write_shading(f, q, hf, sh, cocg, spec);
     }
     mark_shading(f);
