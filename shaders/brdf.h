@@ -18,9 +18,11 @@
 #endif
 #ifdef TND_GLSL
 #define TND_SQRTF(x) sqrt(x)
+#define TND_F(x) float(x)
 #else
 #include <math.h>
 #define TND_SQRTF(x) sqrtf(x)
+#define TND_F(x) ((float)(x))
 #endif
 
 #define TND_MIN_ALPHA 1.0e-3
@@ -30,7 +32,7 @@
 TND_FN float tnd_ggx_d(float nh, float a2)
 {
     float d = nh * nh * (a2 - 1.0f) + 1.0f;
-    return a2 * (float)TND_INV_PI / (d * d);
+    return a2 * TND_F(TND_INV_PI) / (d * d);
 }
 
 /* Smith Lambda for GGX, from cos(n, w). */

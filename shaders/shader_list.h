@@ -17,7 +17,14 @@
     X(timestamp_test_comp, "timestamp_test.comp", "") \
     X(encoding_test_f32,   "encoding_test.comp",  "TND_PACKED=0") \
     X(encoding_test_packed, "encoding_test.comp", "TND_PACKED=1") \
-    X(sampling_test,       "sampling_test.comp",  "")
+    X(sampling_test,       "sampling_test.comp",  "") \
+    X(pt_primary_f32,      "pt_primary.rgen",     "TND_PACKED=0") \
+    X(pt_primary_packed,   "pt_primary.rgen",     "TND_PACKED=1") \
+    X(pt_shade_f32,        "pt_shade.rgen",       "TND_PACKED=0") \
+    X(pt_shade_packed,     "pt_shade.rgen",       "TND_PACKED=1") \
+    X(pt_rchit,            "pt.rchit",            "") \
+    X(pt_rmiss,            "pt.rmiss",            "") \
+    X(pt_shadow_rmiss,     "pt_shadow.rmiss",     "")
 // clang-format on
 
 typedef enum tnd_shader {

@@ -1,0 +1,483 @@
+/* pt_common.glsl: the front-end's estimator in GLSL, the mirror of frontend_embree/femb_render.c
+ * and femb_scene.c (same functions, same order of random numbers, same scalar code from brdf.h),
+ * so that the two front-ends agree sample for sample. Included by the pt_*.rgen passes (ray-
+ * tracing pipeline) and, with TND_RAY_QUERY, by their compute twins (inline ray queries). */
+#extension GL_EXT_ray_tracing : require
+#extension GL_EXT_nonuniform_qualifier : require
+#extension GL_GOOGLE_include_directive : require
+#ifdef TND_RAY_QUERY
+#extension GL_EXT_ray_query : require
+#endif
+
+#include "brdf.h"
+#include "lights.h"
+#include "sampling.h"
+#include "scene_gpu.h"
+#include "encoding.h"
+
+layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
+layout(set = 0, binding = 1, std140) uniform Frame { tnd_gpu_frame fr; };
+layout(set = 0, binding = 2, std430) readonly buffer Positions { float positions[]; };
+layout(set = 0, binding = 3, std430) readonly buffer Normals { float normals[]; };
+layout(set = 0, binding = 4, std430) readonly buffer Uvs { float uvs[]; };
+layout(set = 0, binding = 5, std430) readonly buffer Tangents { float tangents[]; };
+layout(set = 0, binding = 6, std430) readonly buffer Indices { uint indices[]; };
+layout(set = 0, binding = 7, std430) readonly buffer Meshes { tnd_gpu_mesh meshes[]; };
+layout(set = 0, binding = 8, std430) readonly buffer Materials { tnd_gpu_material materials[]; };
+layout(set = 0, binding = 9, std430) readonly buffer Instances { tnd_gpu_instance instances[]; };
+layout(set = 0, binding = 10, std430) readonly buffer Lights { tnd_light_gpu lights[]; };
+layout(set = 0, binding = 11, std430) readonly buffer Gradients { tnd_gpu_gradient gradients[]; };
+layout(set = 0, binding = 12) uniform sampler2D textures[];
+
+#define TND_CONTRACT_SET 1
+#include "contract.h"
+TND_CONTRACT(TND_CT_DECLARE)
+
+const float PI = 3.14159265358979323846;
+
+/* ---- rays ---------------------------------------------------------------------------------- */
+struct hit_info {
+    float t;
+    uint inst;
+    uint prim;
+    vec2 bary;
+};
+
+#ifndef TND_RAY_QUERY
+layout(location = 0) rayPayloadEXT hit_info payload;
+layout(location = 1) rayPayloadEXT uint shadow_payload;
+
+bool trace_closest(vec3 org, vec3 dir, float tmax, out hit_info h)
+{
+    payload.t = -1.0;
+    traceRayEXT(tlas, gl_RayFlagsOpaqueEXT, 0xff, 0, 0, 0, org, 0.0, dir, tmax, 0);
+    h = payload;
+    return payload.t >= 0.0;
+}
+
+bool trace_occluded(vec3 org, vec3 dir, float tmax)
+{
+    shadow_payload = 1u;
+    traceRayEXT(tlas,
+                gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT |
+                    gl_RayFlagsSkipClosestHitShaderEXT,
+                0xff, 0, 0, 1, org, 0.0, dir, tmax, 1);
+    return shadow_payload != 0u;
+}
+#else
+bool trace_closest(vec3 org, vec3 dir, float tmax, out hit_info h)
+{
+    rayQueryEXT q;
+    rayQueryInitializeEXT(q, tlas, gl_RayFlagsOpaqueEXT, 0xff, org, 0.0, dir, tmax);
+    while (rayQueryProceedEXT(q)) {
+    }
+    if (rayQueryGetIntersectionTypeEXT(q, true) == gl_RayQueryCommittedIntersectionNoneEXT) {
+        h.t = -1.0;
+        return false;
+    }
+    h.t = rayQueryGetIntersectionTEXT(q, true);
+    h.inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(q, true));
+    h.prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(q, true));
+    h.bary = rayQueryGetIntersectionBarycentricsEXT(q, true);
+    return true;
+}
+
+bool trace_occluded(vec3 org, vec3 dir, float tmax)
+{
+    rayQueryEXT q;
+    rayQueryInitializeEXT(q, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xff,
+                          org, 0.0, dir, tmax);
+    while (rayQueryProceedEXT(q)) {
+    }
+    return rayQueryGetIntersectionTypeEXT(q, true) != gl_RayQueryCommittedIntersectionNoneEXT;
+}
+#endif
+
+/* Waechter and Binder's offset, as femb_offset_ray. */
+vec3 offset_ray(vec3 p, vec3 n)
+{
+    const float origin = 1.0 / 32.0, float_scale = 1.0 / 65536.0, int_scale = 256.0;
+    ivec3 of = ivec3(int_scale * n);
+    vec3 pi = vec3(intBitsToFloat(floatBitsToInt(p.x) + ((p.x < 0.0) ? -of.x : of.x)),
+                   intBitsToFloat(floatBitsToInt(p.y) + ((p.y < 0.0) ? -of.y : of.y)),
+                   intBitsToFloat(floatBitsToInt(p.z) + ((p.z < 0.0) ? -of.z : of.z)));
+    return vec3(abs(p.x) < origin ? p.x + float_scale * n.x : pi.x,
+                abs(p.y) < origin ? p.y + float_scale * n.y : pi.y,
+                abs(p.z) < origin ? p.z + float_scale * n.z : pi.z);
+}
+
+/* ---- surfaces ------------------------------------------------------------------------------ */
+struct surface {
+    vec3 p, ng, ns, wo;
+    vec3 base;
+    float metallic, roughness, specular;
+    vec3 emission;
+    vec3 obj;
+    uint inst, prim;
+};
+
+vec3 vpos(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
+vec3 vnrm(uint i) { return vec3(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]); }
+vec2 vuv(uint i) { return vec2(uvs[2 * i], uvs[2 * i + 1]); }
+vec4 vtan(uint i)
+{
+    return vec4(tangents[4 * i], tangents[4 * i + 1], tangents[4 * i + 2], tangents[4 * i + 3]);
+}
+
+vec3 xf_point(tnd_gpu_instance I, vec3 p)
+{
+    return vec3(dot(I.xform[0], vec4(p, 1.0)), dot(I.xform[1], vec4(p, 1.0)),
+                dot(I.xform[2], vec4(p, 1.0)));
+}
+vec3 xf_prev_point(tnd_gpu_instance I, vec3 p)
+{
+    return vec3(dot(I.prev_xform[0], vec4(p, 1.0)), dot(I.prev_xform[1], vec4(p, 1.0)),
+                dot(I.prev_xform[2], vec4(p, 1.0)));
+}
+vec3 xf_dir(tnd_gpu_instance I, vec3 d)
+{
+    return vec3(dot(I.xform[0].xyz, d), dot(I.xform[1].xyz, d), dot(I.xform[2].xyz, d));
+}
+vec3 xf_normal(tnd_gpu_instance I, vec3 n)
+{
+    vec3 r0 = I.xform[0].xyz, r1 = I.xform[1].xyz, r2 = I.xform[2].xyz;
+    vec3 c0 = cross(r1, r2), c1 = cross(r2, r0), c2 = cross(r0, r1);
+    return c0 * n.x + c1 * n.y + c2 * n.z;
+}
+
+vec3 safe_normalize(vec3 v)
+{
+    float l = sqrt(dot(v, v));
+    return l > 0.0 ? v / l : v;
+}
+
+vec4 sample_tex(int t, vec2 uv, float lod_base)
+{
+    vec2 size = vec2(textureSize(textures[nonuniformEXT(t)], 0));
+    float lod = lod_base + 0.5 * log2(size.x * size.y);
+    return textureLod(textures[nonuniformEXT(t)], uv, max(lod, 0.0));
+}
+
+surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width)
+{
+    surface s;
+    tnd_gpu_instance I = instances[inst];
+    tnd_gpu_mesh M = meshes[I.info.x];
+    tnd_gpu_material mat = materials[M.info.x];
+    uint fi = M.range.z + 3u * prim;
+    uint i0 = M.range.x + indices[fi], i1 = M.range.x + indices[fi + 1u],
+         i2 = M.range.x + indices[fi + 2u];
+    float u = bary.x, v = bary.y, w0 = 1.0 - u - v;
+    vec3 p0 = vpos(i0), p1 = vpos(i1), p2 = vpos(i2);
+    s.obj = w0 * p0 + u * p1 + v * p2;
+    s.p = xf_point(I, s.obj);
+    vec3 e1 = p1 - p0, e2 = p2 - p0;
+    vec3 ng = safe_normalize(xf_normal(I, cross(e1, e2)));
+    vec3 ns = w0 * vnrm(i0) + u * vnrm(i1) + v * vnrm(i2);
+    ns = dot(ns, ns) > 1e-20 ? safe_normalize(xf_normal(I, ns)) : ng;
+    s.wo = -dir;
+    bool front = dot(ng, s.wo) >= 0.0;
+    if (!front) {
+        ng = -ng;
+        ns = -ns;
+    }
+    vec2 t0 = vuv(i0), t1 = vuv(i1), t2 = vuv(i2);
+    vec2 tuv = w0 * t0 + u * t1 + v * t2;
+    float lod_base = 0.0;
+    bool textured = mat.tex.x >= 0 || mat.tex.y >= 0 || mat.tex.z >= 0 || mat.tex.w >= 0;
+    if (textured) {
+        float uv_area = abs((t1.x - t0.x) * (t2.y - t0.y) - (t2.x - t0.x) * (t1.y - t0.y));
+        vec3 we1 = xf_dir(I, e1), we2 = xf_dir(I, e2);
+        float world_area = length(cross(we1, we2));
+        float cosv = abs(dot(ng, dir));
+        if (uv_area > 0.0 && world_area > 0.0)
+            lod_base = log2(cone_width / max(cosv, 1e-3)) + 0.5 * log2(uv_area / world_area);
+    }
+    s.base = mat.base_color.rgb;
+    s.metallic = mat.emission.w;
+    s.roughness = mat.params.x;
+    s.specular = mat.params.y;
+    s.emission = mat.emission.rgb;
+    if (mat.tex.x >= 0)
+        s.base *= sample_tex(mat.tex.x, tuv, lod_base).rgb;
+    if (mat.tex.y >= 0) {
+        vec4 mr = sample_tex(mat.tex.y, tuv, lod_base);
+        s.roughness *= mr.g;
+        s.metallic *= mr.b;
+    }
+    if (mat.tex.w >= 0)
+        s.emission *= sample_tex(mat.tex.w, tuv, lod_base).rgb;
+    if (mat.tex.z >= 0) {
+        vec4 texel = sample_tex(mat.tex.z, tuv, lod_base);
+        vec4 tg0 = vtan(i0);
+        vec3 T = w0 * tg0.xyz + u * vtan(i1).xyz + v * vtan(i2).xyz;
+        T = xf_dir(I, T);
+        T = safe_normalize(T - ns * dot(ns, T));
+        vec3 B = cross(ns, T) * (tg0.w < 0.0 ? -1.0 : 1.0);
+        float mx = (2.0 * texel.x - 1.0) * mat.params.z, my = (2.0 * texel.y - 1.0) * mat.params.z;
+        float mz = 2.0 * texel.z - 1.0;
+        vec3 nm = safe_normalize(T * mx + B * my + ns * mz);
+        if (dot(T, T) > 0.5 && dot(nm, nm) > 0.5)
+            ns = nm;
+    }
+    if (dot(ns, s.wo) <= 1e-4)
+        ns = ng;
+    s.ng = ng;
+    s.ns = ns;
+    if (!front && mat.params.w == 0.0)
+        s.emission = vec3(0.0);
+    s.base = clamp(s.base, 0.0, 1.0);
+    s.metallic = clamp(s.metallic, 0.0, 1.0);
+    s.roughness = clamp(s.roughness, 0.0, 1.0);
+    s.inst = inst;
+    s.prim = prim;
+    return s;
+}
+
+vec3 surface_position(uint inst, uint prim, vec2 bary)
+{
+    tnd_gpu_instance I = instances[inst];
+    tnd_gpu_mesh M = meshes[I.info.x];
+    uint fi = M.range.z + 3u * prim;
+    vec3 o = (1.0 - bary.x - bary.y) * vpos(M.range.x + indices[fi]) +
+             bary.x * vpos(M.range.x + indices[fi + 1u]) + bary.y * vpos(M.range.x + indices[fi + 2u]);
+    return xf_point(I, o);
+}
+
+/* ---- the estimator ------------------------------------------------------------------------- */
+struct lobe_info {
+    vec3 f_nv;
+    float alpha, a2, nv, p_spec;
+};
+
+lobe_info lobes(surface s)
+{
+    lobe_info L;
+    L.nv = max(dot(s.ns, s.wo), 1e-4);
+    L.alpha = max(s.roughness * s.roughness, TND_MIN_ALPHA);
+    L.a2 = L.alpha * L.alpha;
+    vec3 kd;
+    for (int k = 0; k < 3; k++) {
+        L.f_nv[k] = tnd_fresnel(s.metallic, s.specular, s.base[k], L.nv);
+        kd[k] = s.base[k] * (1.0 - s.metallic) * (1.0 - L.f_nv[k]);
+    }
+    L.p_spec = tnd_spec_probability(tnd_luminance(L.f_nv.x, L.f_nv.y, L.f_nv.z),
+                                    tnd_luminance(kd.x, kd.y, kd.z));
+    return L;
+}
+
+bool eval_brdf(surface s, lobe_info L, vec3 wi, out vec3 diff, out vec3 spec, out float pdf_brdf)
+{
+    diff = vec3(0.0);
+    spec = vec3(0.0);
+    pdf_brdf = 0.0;
+    float nl = dot(s.ns, wi);
+    if (nl <= 0.0 || dot(s.ng, wi) <= 0.0)
+        return false;
+    vec3 h = safe_normalize(wi + s.wo);
+    float nh = max(dot(s.ns, h), 0.0), vh = max(dot(s.wo, h), 0.0);
+    float g = tnd_ggx_spec_cos(nh, L.nv, nl, L.a2);
+    for (int k = 0; k < 3; k++) {
+        diff[k] = (1.0 - L.f_nv[k]) * nl * TND_INV_PI;
+        spec[k] = tnd_fresnel(s.metallic, s.specular, s.base[k], vh) * g;
+    }
+    pdf_brdf = L.p_spec * tnd_ggx_vndf_pdf(nh, L.nv, L.a2) + (1.0 - L.p_spec) * nl * TND_INV_PI;
+    return true;
+}
+
+void onb(vec3 n, out vec3 t, out vec3 b)
+{
+    float sgn = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (sgn + n.z);
+    float bb = n.x * n.y * a;
+    t = vec3(1.0 + sgn * n.x * n.x * a, sgn * bb, -sgn * n.x);
+    b = vec3(bb, sgn + n.y * n.y * a, -n.y);
+}
+
+vec3 sample_cosine(vec3 n, float u1, float u2)
+{
+    vec3 t, b;
+    onb(n, t, b);
+    float r = sqrt(u1), phi = 2.0 * PI * u2;
+    vec3 l = vec3(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u1)));
+    return safe_normalize(t * l.x + b * l.y + n * l.z);
+}
+
+vec3 sample_vndf(vec3 n, vec3 wo, float alpha, float u1, float u2)
+{
+    vec3 t, b;
+    onb(n, t, b);
+    vec3 v = vec3(dot(wo, t), dot(wo, b), dot(wo, n));
+    vec3 vh = safe_normalize(vec3(alpha * v.x, alpha * v.y, v.z));
+    float lensq = vh.x * vh.x + vh.y * vh.y;
+    vec3 t1 = lensq > 0.0 ? vec3(-vh.y, vh.x, 0.0) * (1.0 / sqrt(lensq)) : vec3(1.0, 0.0, 0.0);
+    vec3 t2 = cross(vh, t1);
+    float r = sqrt(u1), phi = 2.0 * PI * u2;
+    float p1 = r * cos(phi), p2 = r * sin(phi);
+    float sv = 0.5 * (1.0 + vh.z);
+    p2 = (1.0 - sv) * sqrt(max(0.0, 1.0 - p1 * p1)) + sv * p2;
+    vec3 nh = t1 * p1 + t2 * p2 + vh * sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2));
+    vec3 ne = safe_normalize(vec3(alpha * nh.x, alpha * nh.y, max(1e-6, nh.z)));
+    return safe_normalize(t * ne.x + b * ne.y + n * ne.z);
+}
+
+float rnd(uvec2 key, uint bounce, uint which)
+{
+    return tnd_rand(key.x, key.y, tnd_dim(bounce, which));
+}
+
+uint pick_light(float u)
+{
+    uint lo = 0u, hi = fr.frame.w - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        if (lights[mid].cdf.x > u)
+            hi = mid;
+        else
+            lo = mid + 1u;
+    }
+    return lo;
+}
+
+float emitter_pdf(uint inst, uint prim, float d, vec3 wi, vec3 ng_light)
+{
+    uint first = instances[inst].info.y;
+    if (fr.frame.w == 0u || first == 0xffffffffu)
+        return 0.0;
+    tnd_light_gpu l = lights[first + prim];
+    float cosl = abs(dot(ng_light, wi));
+    return cosl > 0.0 ? l.radiance.w * d * d / (l.cdf.w * cosl) : 0.0;
+}
+
+void direct_light(uvec2 key, uint bounce, surface s, lobe_info L, out vec3 diff, out vec3 spec)
+{
+    diff = vec3(0.0);
+    spec = vec3(0.0);
+    if (fr.frame.w == 0u)
+        return;
+    tnd_light_gpu l = lights[pick_light(rnd(key, bounce, TND_DIM_LIGHT_PICK))];
+    uint kind = uint(l.p0.w);
+    float u1 = rnd(key, bounce, TND_DIM_LIGHT_U), u2 = rnd(key, bounce, TND_DIM_LIGHT_V);
+    vec3 wi, pos = l.p0.xyz;
+    float dist = 1e30, pdf = l.radiance.w;
+    vec3 Li = l.radiance.rgb;
+    bool area = false;
+    if (kind == TND_LIGHT_KIND_TRIANGLE) {
+        float su = sqrt(u1);
+        vec3 q = pos * (1.0 - su) + l.p1.xyz * (su * (1.0 - u2)) + l.p2.xyz * (su * u2);
+        vec3 nl = safe_normalize(cross(l.p1.xyz - pos, l.p2.xyz - pos));
+        vec3 d = q - s.p;
+        float d2 = dot(d, d);
+        dist = sqrt(d2);
+        if (!(dist > 0.0))
+            return;
+        wi = d * (1.0 / dist);
+        float cosl = -dot(nl, wi);
+        if (cosl <= 0.0)
+            return;
+        pdf *= d2 / (l.cdf.w * cosl);
+        area = true;
+    } else if (kind == TND_LIGHT_KIND_DIRECTIONAL) {
+        wi = -l.p1.xyz;
+    } else {
+        vec3 d = pos - s.p;
+        float d2 = dot(d, d);
+        dist = sqrt(d2);
+        if (!(dist > 0.0))
+            return;
+        wi = d * (1.0 / dist);
+        float fall = 1.0 / d2;
+        if (kind == TND_LIGHT_KIND_SPOT) {
+            float cd = -dot(wi, l.p1.xyz);
+            float t = (cd - l.p2.y) / max(l.p2.x - l.p2.y, 1e-6);
+            t = clamp(t, 0.0, 1.0);
+            fall *= t * t;
+        }
+        Li *= fall;
+    }
+    vec3 dd, sp;
+    float pdf_brdf;
+    if (!(pdf > 0.0) || !eval_brdf(s, L, wi, dd, sp, pdf_brdf))
+        return;
+    vec3 org = offset_ray(s.p, s.ng);
+    if (trace_occluded(org, wi, area || kind != TND_LIGHT_KIND_DIRECTIONAL ? dist * 0.999 : 1e30))
+        return;
+    float w = area ? tnd_mis_power(pdf, pdf_brdf) : 1.0;
+    diff = Li * dd * w / pdf;
+    spec = Li * sp * w / pdf;
+}
+
+bool sample_brdf(surface s, lobe_info L, uvec2 key, uint bounce, bool demod, out vec3 wi,
+                 out vec3 w, out float pdf, out bool is_spec)
+{
+    float u = rnd(key, bounce, TND_DIM_LOBE);
+    float u1 = rnd(key, bounce, TND_DIM_BRDF_U), u2 = rnd(key, bounce, TND_DIM_BRDF_V);
+    is_spec = u < L.p_spec;
+    w = vec3(0.0);
+    if (is_spec) {
+        vec3 h = sample_vndf(s.ns, s.wo, L.alpha, u1, u2);
+        wi = safe_normalize(h * (2.0 * dot(s.wo, h)) - s.wo);
+    } else {
+        wi = sample_cosine(s.ns, u1, u2);
+    }
+    vec3 d, sp;
+    if (!eval_brdf(s, L, wi, d, sp, pdf) || !(pdf > 0.0))
+        return false;
+    float pl = is_spec ? L.p_spec * tnd_ggx_vndf_pdf(max(dot(s.ns, safe_normalize(wi + s.wo)), 0.0),
+                                                     L.nv, L.a2)
+                       : (1.0 - L.p_spec) * dot(s.ns, wi) * TND_INV_PI;
+    if (!(pl > 0.0))
+        return false;
+    w = (is_spec ? sp : d * (demod ? vec3(1.0) : s.base * (1.0 - s.metallic))) / pl;
+    return true;
+}
+
+vec3 trace_path(uvec2 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uint rr_start,
+                float pdf_prev, float cone)
+{
+    vec3 beta = vec3(1.0), L_out = vec3(0.0);
+    for (uint b = bounce;; b++) {
+        hit_info h;
+        if (!trace_closest(org, dir, 1e30, h))
+            return L_out + beta * fr.sky.rgb;
+        cone += h.t * fr.jitter.z;
+        surface s = surface_eval(h.inst, h.prim, h.bary, dir, cone);
+        if (s.emission.r > 0.0 || s.emission.g > 0.0 || s.emission.b > 0.0) {
+            float w = 1.0;
+            if (pdf_prev > 0.0)
+                w = tnd_mis_power(pdf_prev, emitter_pdf(h.inst, h.prim, h.t, dir, s.ng));
+            L_out += beta * w * s.emission;
+        }
+        lobe_info L = lobes(s);
+        vec3 d, sp;
+        direct_light(key, b, s, L, d, sp);
+        L_out += beta * (d * s.base * (1.0 - s.metallic) + sp);
+        if (b >= max_bounce)
+            return L_out;
+        vec3 wi, w;
+        float pdf;
+        bool is_spec;
+        if (!sample_brdf(s, L, key, b, false, wi, w, pdf, is_spec))
+            return L_out;
+        beta *= w;
+        if (b + 1u >= rr_start) {
+            float q = clamp(max(beta.x, max(beta.y, beta.z)), 0.05, 1.0);
+            if (rnd(key, b, TND_DIM_RR) >= q)
+                return L_out;
+            beta /= q;
+        }
+        org = offset_ray(s.p, s.ng);
+        dir = wi;
+        pdf_prev = pdf;
+    }
+    return L_out;
+}
+
+/* Primary ray direction through pixel position px (as femb's camera_dir). */
+vec3 camera_dir(vec2 px)
+{
+    vec2 ndc = 2.0 * px / vec2(fr.frame.yz) - 1.0;
+    vec4 pv = fr.inv_proj * vec4(ndc, 0.5, 1.0);
+    vec3 d = mat3(fr.inv_view) * (pv.xyz / pv.w);
+    return safe_normalize(d);
+}

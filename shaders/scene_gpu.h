@@ -1,0 +1,73 @@
+/* GPU scene layout shared by frontend_vk (C) and its shaders (GLSL): std430 structs of vec4/uvec4
+ * members only, and the frame parameters (a uniform buffer, std140-compatible). */
+#ifndef TND_SCENE_GPU_H
+#define TND_SCENE_GPU_H
+
+#ifndef TND_GLSL
+#include <stdint.h>
+typedef struct { float x, y, z, w; } tnd_gvec4;
+typedef struct { uint32_t x, y, z, w; } tnd_guvec4;
+typedef struct { int32_t x, y, z, w; } tnd_givec4;
+typedef struct { float m[16]; } tnd_gmat4;
+#define vec4 tnd_gvec4
+#define uvec4 tnd_guvec4
+#define ivec4 tnd_givec4
+#define mat4 tnd_gmat4
+#endif
+
+struct tnd_gpu_mesh {
+    uvec4 range; /* first vertex, vertex count, first index, triangle count */
+    uvec4 info;  /* x: material */
+};
+
+struct tnd_gpu_material {
+    vec4 base_color;     /* rgb, a */
+    vec4 emission;       /* rgb (nits, strength applied), w: metallic */
+    vec4 params;         /* roughness, specular factor, normal scale, double-sided (0/1) */
+    ivec4 tex;           /* base colour, metal-rough, normal, emission texture index; -1 none */
+};
+
+struct tnd_gpu_instance {
+    vec4 xform[3];      /* object to world, 3x4 row-major, this frame */
+    vec4 prev_xform[3]; /* the previous frame's */
+    uvec4 info;         /* x: mesh, y: first light index of its emissive triangles or ~0 */
+};
+
+struct tnd_gpu_frame {
+    mat4 inv_view, inv_proj;
+    mat4 view, proj, prev_view, prev_proj;
+    vec4 cam_pos;        /* xyz */
+    vec4 prev_cam_pos;   /* xyz */
+    vec4 jitter;         /* xy: this frame's jitter (pixels), z: pixel spread angle */
+    vec4 sky;            /* rgb sky radiance */
+    uvec4 frame;         /* x: frame index, y: width, z: height, w: light count */
+    uvec4 params;        /* x: bounces, y: reference sample index, z: gradient count */
+};
+
+#ifndef TND_GLSL
+#undef vec4
+#undef uvec4
+#undef ivec4
+#undef mat4
+typedef struct tnd_gpu_mesh tnd_gpu_mesh;
+typedef struct tnd_gpu_material tnd_gpu_material;
+typedef struct tnd_gpu_instance tnd_gpu_instance;
+typedef struct tnd_gpu_frame tnd_gpu_frame;
+_Static_assert(sizeof(tnd_gpu_mesh) == 32, "mesh layout");
+_Static_assert(sizeof(tnd_gpu_material) == 64, "material layout");
+_Static_assert(sizeof(tnd_gpu_instance) == 112, "instance layout");
+_Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 6 * 16, "frame layout");
+#endif
+
+/* Gradient sample for the shading pass (matches femb_gradient_sample). */
+struct tnd_gpu_gradient {
+#ifdef TND_GLSL
+    uvec4 a; /* pixel, rng frame, rng pixel, instance */
+    uvec4 b; /* primitive, u bits, v bits, 0 */
+#else
+    uint32_t pixel, rng_frame, rng_pixel, instance;
+    uint32_t primitive, u_bits, v_bits, pad;
+#endif
+};
+
+#endif
