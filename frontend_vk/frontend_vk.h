@@ -51,4 +51,40 @@ tnd_result fvk_tlas_build(tnd_vk *vk, const fvk_blas *blas, uint32_t blas_count,
                           const fvk_instance *inst, uint32_t count, bool refit, fvk_tlas *tlas);
 void fvk_tlas_destroy(tnd_vk *vk, fvk_tlas *tlas);
 
+/* ---- the path-tracing front-end ------------------------------------------------------------ */
+typedef struct fvk_desc {
+    tnd_precision precision; /* contract storage the passes write */
+} fvk_desc;
+
+typedef struct fvk_params {
+    uint32_t bounces; /* as femb_params */
+} fvk_params;
+
+/* GPU times of the last fvk_render / fvk_shade_gradients, per pass. */
+typedef struct fvk_timings {
+    double primary_ms, shade_ms, gradient_ms, tlas_ms;
+} fvk_timings;
+
+typedef struct fvk_context fvk_context;
+
+/* Upload a scene (vertex data, materials, textures with mips), build its acceleration
+ * structures and the ray-tracing pipeline with its shader binding table. */
+tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc,
+                      fvk_context **ctx);
+void fvk_destroy(fvk_context *ctx);
+
+/* The frame: scene states (current, previous), frame index, size. Refits the TLAS when instances
+ * move, uploads the light list and the frame parameters. (Re)creates the contract images when
+ * the size changes. */
+tnd_result fvk_set_frame(fvk_context *ctx, const tnd_scene_state *cur, const tnd_scene_state *prev,
+                         uint32_t frame_index, uint32_t width, uint32_t height);
+/* Primary pass then shading pass into the contract images; blocks; times each pass. */
+tnd_result fvk_render(fvk_context *ctx, const fvk_params *p, fvk_timings *t);
+/* Shade gradient samples (layout of femb_gradient_sample: pixel, rng frame, rng pixel,
+ * instance, primitive, u, v) after fvk_render, patching the G-buffer at their pixels. */
+tnd_result fvk_shade_gradients(fvk_context *ctx, const fvk_params *p, const uint32_t *samples,
+                               uint32_t count, fvk_timings *t);
+/* The contract images of the last render. */
+const tnd_contract_gpu *fvk_contract(const fvk_context *ctx);
+
 #endif

@@ -69,5 +69,8 @@ struct tnd_gpu_gradient {
     uint32_t primitive, u_bits, v_bits, pad;
 #endif
 };
+#ifndef TND_GLSL
+typedef struct tnd_gpu_gradient tnd_gpu_gradient;
+#endif
 
 #endif

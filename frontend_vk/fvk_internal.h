@@ -1,0 +1,49 @@
+/* frontend_vk/fvk_internal.h: the context of the Vulkan path-tracing front-end. */
+#ifndef FVK_INTERNAL_H
+#define FVK_INTERNAL_H
+
+#include "frontend_vk/frontend_vk.h"
+#include "shaders/scene_gpu.h"
+
+typedef struct fvk_texture {
+    VkImage image;
+    VkDeviceMemory memory;
+    VkImageView view;
+} fvk_texture;
+
+struct fvk_context {
+    tnd_vk *vk;
+    const tnd_scene *scene;
+    tnd_precision precision;
+    /* scene */
+    tnd_buffer positions, normals, uvs, tangents, indices, meshes, materials, instances, lights,
+        frame_ubo, gradients;
+    uint32_t gradient_capacity;
+    fvk_texture *textures;
+    uint32_t texture_count;
+    VkSampler sampler;
+    fvk_blas *blas;
+    fvk_tlas tlas;
+    fvk_instance *inst;
+    tnd_light_list light_list;
+    double tlas_ms;
+    /* pipeline */
+    VkDescriptorSetLayout set_layout[2];
+    VkPipelineLayout layout;
+    VkPipeline pipeline;
+    tnd_sbt sbt;
+    VkDescriptorPool pool;
+    VkDescriptorSet sets[2];
+    tnd_timer timer;
+    /* frame */
+    tnd_contract_gpu contract;
+    uint32_t width, height, frame;
+    bool have_frame;
+};
+
+tnd_result fvk_scene_upload(fvk_context *c);
+void fvk_scene_free(fvk_context *c);
+tnd_result fvk_scene_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_scene_state *prev,
+                           bool first);
+
+#endif

@@ -1,0 +1,336 @@
+/* frontend_vk/fvk_pt.c: the ray-tracing pipeline of the Vulkan front-end (raygens: primary,
+ * shade; misses: closest, shadow; one hit group), its descriptor sets (set 0: scene, set 1: the
+ * contract images) and the passes, each bracketed by timestamps.
+ * Entry points: fvk_create, fvk_destroy, fvk_set_frame, fvk_render, fvk_shade_gradients,
+ * fvk_contract. */
+#include "frontend_vk/fvk_internal.h"
+#include "shaders/sampling.h"
+#include "shaders/shader_list.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+enum { SCENE_BINDINGS = 13 };
+
+static tnd_result create_layouts(fvk_context *c)
+{
+    tnd_result res = TND_OK;
+    tnd_vk *vk = c->vk;
+    const VkShaderStageFlags rt = VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT;
+    VkDescriptorSetLayoutBinding b0[SCENE_BINDINGS];
+    for (uint32_t i = 0; i < SCENE_BINDINGS; i++)
+        b0[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, rt, NULL};
+    b0[0].descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
+    b0[1].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    b0[12].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    b0[12].descriptorCount = c->texture_count;
+    VkDescriptorSetLayoutCreateInfo ci0 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                           .bindingCount = SCENE_BINDINGS,
+                                           .pBindings = b0};
+    TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci0, NULL, &c->set_layout[0]));
+    VkDescriptorSetLayoutBinding b1[TND_CT_COUNT];
+    for (uint32_t i = 0; i < TND_CT_COUNT; i++)
+        b1[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, rt, NULL};
+    VkDescriptorSetLayoutCreateInfo ci1 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                           .bindingCount = TND_CT_COUNT,
+                                           .pBindings = b1};
+    TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci1, NULL, &c->set_layout[1]));
+    VkPushConstantRange pcr = {rt, 0, 4};
+    VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+                                      .setLayoutCount = 2,
+                                      .pSetLayouts = c->set_layout,
+                                      .pushConstantRangeCount = 1,
+                                      .pPushConstantRanges = &pcr};
+    TND_VK_TRY(vkCreatePipelineLayout(vk->device, &pci, NULL, &c->layout));
+    VkDescriptorPoolSize ps[5] = {{VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1},
+                                  {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, SCENE_BINDINGS - 3},
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, c->texture_count},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, TND_CT_COUNT}};
+    VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+                                       .maxSets = 2,
+                                       .poolSizeCount = 5,
+                                       .pPoolSizes = ps};
+    TND_VK_TRY(vkCreateDescriptorPool(vk->device, &dpci, NULL, &c->pool));
+    VkDescriptorSetAllocateInfo ai = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+                                      .descriptorPool = c->pool,
+                                      .descriptorSetCount = 2,
+                                      .pSetLayouts = c->set_layout};
+    TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, c->sets));
+fail:
+    return res;
+}
+
+static tnd_result create_pipeline(fvk_context *c)
+{
+    bool packed = c->precision == TND_PRECISION_PACKED;
+    const tnd_shader ids[5] = {packed ? TND_SHADER_pt_primary_packed : TND_SHADER_pt_primary_f32,
+                               packed ? TND_SHADER_pt_shade_packed : TND_SHADER_pt_shade_f32,
+                               TND_SHADER_pt_rmiss, TND_SHADER_pt_shadow_rmiss,
+                               TND_SHADER_pt_rchit};
+    const VkShaderStageFlagBits kinds[5] = {
+        VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_RAYGEN_BIT_KHR,
+        VK_SHADER_STAGE_MISS_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
+        VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
+    tnd_rt_stage stages[5];
+    for (int i = 0; i < 5; i++) {
+        stages[i].code = tnd_spirv_code(ids[i], &stages[i].bytes, NULL);
+        stages[i].stage = kinds[i];
+    }
+    const uint32_t raygen[2] = {0, 1}, miss[2] = {2, 3};
+    const tnd_rt_hit_group hit = {.closest_hit = 4, .any_hit = -1};
+    return tnd_rt_pipeline_create(c->vk,
+                                  &(tnd_rt_desc){.stages = stages, .stage_count = 5,
+                                                 .raygen = raygen, .raygen_count = 2,
+                                                 .miss = miss, .miss_count = 2, .hit = &hit,
+                                                 .hit_count = 1, .max_recursion = 1,
+                                                 .layout = c->layout, .name = "frontend_vk.pt"},
+                                  &c->pipeline, &c->sbt);
+}
+
+static void write_scene_set(fvk_context *c)
+{
+    VkWriteDescriptorSetAccelerationStructureKHR as = {
+        .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR,
+        .accelerationStructureCount = 1,
+        .pAccelerationStructures = &c->tlas.as};
+    const tnd_buffer *bufs[SCENE_BINDINGS] = {NULL,           &c->frame_ubo, &c->positions,
+                                              &c->normals,    &c->uvs,       &c->tangents,
+                                              &c->indices,    &c->meshes,    &c->materials,
+                                              &c->instances,  &c->lights,    &c->gradients, NULL};
+    VkDescriptorBufferInfo bi[SCENE_BINDINGS];
+    VkWriteDescriptorSet w[SCENE_BINDINGS];
+    VkDescriptorImageInfo *ii = calloc(c->texture_count, sizeof *ii);
+    for (uint32_t i = 0; i < c->texture_count && ii; i++)
+        ii[i] = (VkDescriptorImageInfo){c->sampler, c->textures[i].view,
+                                        VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    for (uint32_t i = 0; i < SCENE_BINDINGS; i++) {
+        w[i] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                      .dstSet = c->sets[0],
+                                      .dstBinding = i,
+                                      .descriptorCount = 1,
+                                      .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER};
+        if (bufs[i]) {
+            bi[i] = (VkDescriptorBufferInfo){bufs[i]->buffer, 0, VK_WHOLE_SIZE};
+            w[i].pBufferInfo = &bi[i];
+        }
+    }
+    w[0].pNext = &as;
+    w[0].descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
+    w[1].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    w[12].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    w[12].descriptorCount = c->texture_count;
+    w[12].pImageInfo = ii;
+    vkUpdateDescriptorSets(c->vk->device, ii ? SCENE_BINDINGS : SCENE_BINDINGS - 1, w, 0, NULL);
+    free(ii);
+}
+
+static void write_contract_set(fvk_context *c)
+{
+    VkDescriptorImageInfo ii[TND_CT_COUNT];
+    VkWriteDescriptorSet w[TND_CT_COUNT];
+    for (uint32_t i = 0; i < TND_CT_COUNT; i++) {
+        ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->contract.images[i].view,
+                                        VK_IMAGE_LAYOUT_GENERAL};
+        w[i] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                      .dstSet = c->sets[1],
+                                      .dstBinding = i,
+                                      .descriptorCount = 1,
+                                      .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                      .pImageInfo = &ii[i]};
+    }
+    vkUpdateDescriptorSets(c->vk->device, TND_CT_COUNT, w, 0, NULL);
+}
+
+void fvk_destroy(fvk_context *c)
+{
+    if (!c)
+        return;
+    tnd_vk *vk = c->vk;
+    if (vk->device)
+        vkDeviceWaitIdle(vk->device);
+    tnd_timer_destroy(vk, &c->timer);
+    tnd_contract_gpu_destroy(vk, &c->contract);
+    tnd_sbt_destroy(vk, &c->sbt);
+    if (c->pipeline)
+        vkDestroyPipeline(vk->device, c->pipeline, NULL);
+    if (c->pool)
+        vkDestroyDescriptorPool(vk->device, c->pool, NULL);
+    if (c->layout)
+        vkDestroyPipelineLayout(vk->device, c->layout, NULL);
+    for (int i = 0; i < 2; i++)
+        if (c->set_layout[i])
+            vkDestroyDescriptorSetLayout(vk->device, c->set_layout[i], NULL);
+    fvk_scene_free(c);
+    free(c);
+}
+
+tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, fvk_context **out)
+{
+    tnd_result res = TND_OK;
+    *out = NULL;
+    if (!vk->ray_tracing)
+        return tnd_fail(TND_ERR_UNSUPPORTED,
+                        "frontend_vk: device '%s' has no ray-tracing pipelines", vk->info.name);
+    fvk_context *c = calloc(1, sizeof *c);
+    if (!c)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+    c->vk = vk;
+    c->scene = scene;
+    c->precision = desc ? desc->precision : TND_PRECISION_F32;
+    TND_TRY(fvk_scene_upload(c));
+    TND_TRY(create_layouts(c));
+    TND_TRY(create_pipeline(c));
+    TND_TRY(tnd_timer_create(vk, &c->timer));
+    *out = c;
+    return TND_OK;
+fail:
+    fvk_destroy(c);
+    return res;
+}
+
+const tnd_contract_gpu *fvk_contract(const fvk_context *c)
+{
+    return &c->contract;
+}
+
+tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_scene_state *prev,
+                         uint32_t frame, uint32_t width, uint32_t height)
+{
+    tnd_result res = TND_OK;
+    if (!prev)
+        prev = cur;
+    bool first = !c->have_frame;
+    if (!c->contract.images[0].image || c->width != width || c->height != height) {
+        vkDeviceWaitIdle(c->vk->device);
+        tnd_contract_gpu_destroy(c->vk, &c->contract);
+        TND_TRY(tnd_contract_gpu_create(c->vk, width, height, c->precision, &c->contract));
+        c->width = width;
+        c->height = height;
+        write_contract_set(c);
+    }
+    TND_TRY(fvk_scene_frame(c, cur, prev, first));
+    tnd_gpu_frame f;
+    memset(&f, 0, sizeof f);
+    float iv[16], ip[16], ipv[16], jit[2];
+    tnd_mat4_inverse(cur->camera.view, iv);
+    tnd_mat4_inverse(cur->camera.proj, ip);
+    tnd_mat4_inverse(prev->camera.view, ipv);
+    memcpy(f.inv_view.m, iv, sizeof iv);
+    memcpy(f.inv_proj.m, ip, sizeof ip);
+    memcpy(f.view.m, cur->camera.view, sizeof iv);
+    memcpy(f.proj.m, cur->camera.proj, sizeof iv);
+    memcpy(f.prev_view.m, prev->camera.view, sizeof iv);
+    memcpy(f.prev_proj.m, prev->camera.proj, sizeof iv);
+    f.cam_pos = (tnd_gvec4){iv[12], iv[13], iv[14], 0};
+    f.prev_cam_pos = (tnd_gvec4){ipv[12], ipv[13], ipv[14], 0};
+    tnd_jitter(frame, jit);
+    double tan_half = 1.0 / (cur->camera.proj[5] < 0 ? -cur->camera.proj[5] : cur->camera.proj[5]);
+    f.jitter = (tnd_gvec4){jit[0], jit[1], (float)(2.0 * tan_half / height), 0};
+    f.sky = (tnd_gvec4){c->scene->sky[0], c->scene->sky[1], c->scene->sky[2], 0};
+    f.frame = (tnd_guvec4){frame, width, height, c->light_list.count};
+    memcpy(c->frame_ubo.mapped, &f, sizeof f);
+    write_scene_set(c); /* the TLAS handle may be new */
+    c->frame = frame;
+    c->have_frame = true;
+fail:
+    return res;
+}
+
+static void set_params(fvk_context *c, const fvk_params *p)
+{
+    tnd_gpu_frame *f = c->frame_ubo.mapped;
+    f->params.x = p ? p->bounces : 1;
+}
+
+tnd_result fvk_render(fvk_context *c, const fvk_params *p, fvk_timings *t)
+{
+    tnd_result res = TND_OK;
+    if (!c->have_frame)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: render before set_frame");
+    set_params(c, p);
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+    tnd_timer_reset(cmd, &c->timer);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, c->pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, c->layout, 0, 2, c->sets,
+                            0, NULL);
+    uint32_t mode = 0;
+    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT,
+                       0, 4, &mode);
+    tnd_cmd_barrier(cmd);
+    int s0 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.primary");
+    c->vk->fn.vkCmdTraceRaysKHR(cmd, &c->sbt.raygen[0], &c->sbt.miss, &c->sbt.hit,
+                                &c->sbt.callable, c->width, c->height, 1);
+    tnd_timer_end(cmd, &c->timer, s0);
+    tnd_cmd_barrier(cmd);
+    int s1 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.shade");
+    c->vk->fn.vkCmdTraceRaysKHR(cmd, &c->sbt.raygen[1], &c->sbt.miss, &c->sbt.hit,
+                                &c->sbt.callable, c->width, c->height, 1);
+    tnd_timer_end(cmd, &c->timer, s1);
+    tnd_cmd_barrier(cmd);
+    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    if (t) {
+        double ms[2] = {0, 0};
+        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
+        *t = (fvk_timings){.primary_ms = ms[0], .shade_ms = ms[1], .tlas_ms = c->tlas_ms};
+    }
+fail:
+    return res;
+}
+
+tnd_result fvk_shade_gradients(fvk_context *c, const fvk_params *p, const uint32_t *samples,
+                               uint32_t count, fvk_timings *t)
+{
+    tnd_result res = TND_OK;
+    if (count == 0)
+        return TND_OK;
+    for (uint32_t i = 0; i < count; i++) {
+        const uint32_t *g = samples + 7 * i;
+        if (g[0] >= c->width * c->height || g[3] >= c->scene->instance_count ||
+            g[4] >= c->scene->meshes[c->scene->instances[g[3]].mesh].triangle_count)
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                            "frontend_vk: gradient sample %u: pixel %u, instance %u, primitive %u "
+                            "out of range",
+                            i, g[0], g[3], g[4]);
+    }
+    if (count > c->gradient_capacity) {
+        vkDeviceWaitIdle(c->vk->device);
+        tnd_buffer_destroy(c->vk, &c->gradients);
+        TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = count * sizeof(tnd_gpu_gradient),
+                                                            .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                            .mem = TND_MEM_UPLOAD, .name = "gradients"},
+                                  &c->gradients));
+        c->gradient_capacity = count;
+        write_scene_set(c);
+    }
+    tnd_gpu_gradient *g = c->gradients.mapped;
+    for (uint32_t i = 0; i < count; i++) {
+        const uint32_t *s = samples + 7 * i;
+        g[i] = (tnd_gpu_gradient){s[0], s[1], s[2], s[3], s[4], s[5], s[6], 0};
+    }
+    set_params(c, p);
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+    tnd_timer_reset(cmd, &c->timer);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, c->pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, c->layout, 0, 2, c->sets,
+                            0, NULL);
+    uint32_t mode = 1;
+    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT,
+                       0, 4, &mode);
+    tnd_cmd_barrier(cmd);
+    int s0 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.gradients");
+    c->vk->fn.vkCmdTraceRaysKHR(cmd, &c->sbt.raygen[1], &c->sbt.miss, &c->sbt.hit,
+                                &c->sbt.callable, count, 1, 1);
+    tnd_timer_end(cmd, &c->timer, s0);
+    tnd_cmd_barrier(cmd);
+    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    if (t) {
+        double ms[1] = {0};
+        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
+        t->gradient_ms = ms[0];
+    }
+fail:
+    return res;
+}

@@ -1,0 +1,263 @@
+/* frontend_vk/fvk_scene.c: the scene on the GPU: vertex and index buffers, meshes, materials,
+ * instances, light list, frame parameters, textures with their mip chains (linear float, as the
+ * CPU samples them), and the acceleration structures (one compacted BLAS per mesh; a TLAS whose
+ * custom indices are Tandem's instance indices, refitted when instances move).
+ * Entry points (internal): fvk_scene_upload, fvk_scene_free, fvk_scene_frame. */
+#include "frontend_vk/fvk_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static tnd_result upload_array(tnd_vk *vk, const void *data, size_t bytes, const char *name,
+                               tnd_buffer *b)
+{
+    tnd_result res = tnd_buffer_create(vk,
+                                       &(tnd_buffer_desc){.size = bytes ? bytes : 16,
+                                                          .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                          .name = name},
+                                       b);
+    if (res == TND_OK && bytes)
+        res = tnd_buffer_upload(vk, b, 0, data, bytes);
+    return res;
+}
+
+static void image_barrier(VkCommandBuffer cmd, VkImage img, uint32_t levels, VkImageLayout from,
+                          VkImageLayout to)
+{
+    VkImageMemoryBarrier b = {.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
+                              .srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT,
+                              .dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT,
+                              .oldLayout = from,
+                              .newLayout = to,
+                              .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+                              .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+                              .image = img,
+                              .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, 1}};
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT,
+                         0, 0, NULL, 0, NULL, 1, &b);
+}
+
+/* One texture: RGBA32F, every level of the CPU's mip chain, shader-read-only. */
+static tnd_result upload_texture(tnd_vk *vk, const tnd_texture *t, fvk_texture *out)
+{
+    tnd_result res = TND_OK;
+    tnd_buffer st = {0};
+    size_t total = 0;
+    for (uint32_t l = 0; l < t->levels; l++)
+        total += (size_t)t->level_w[l] * t->level_h[l] * 16;
+    VkImageCreateInfo ici = {.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
+                             .imageType = VK_IMAGE_TYPE_2D,
+                             .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                             .extent = {t->width, t->height, 1},
+                             .mipLevels = t->levels,
+                             .arrayLayers = 1,
+                             .samples = VK_SAMPLE_COUNT_1_BIT,
+                             .tiling = VK_IMAGE_TILING_OPTIMAL,
+                             .usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                             .initialLayout = VK_IMAGE_LAYOUT_UNDEFINED};
+    TND_VK_TRY(vkCreateImage(vk->device, &ici, NULL, &out->image));
+    TND_VK_NAME(vk, VK_OBJECT_TYPE_IMAGE, out->image, "texture '%s'", t->name);
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(vk->device, out->image, &req);
+    VkMemoryAllocateInfo ai = {
+        .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
+        .allocationSize = req.size,
+        .memoryTypeIndex =
+            tnd_vk_memory_type(vk, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT)};
+    TND_VK_TRY(vkAllocateMemory(vk->device, &ai, NULL, &out->memory));
+    TND_VK_TRY(vkBindImageMemory(vk->device, out->image, out->memory, 0));
+    VkImageViewCreateInfo vci = {.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
+                                 .image = out->image,
+                                 .viewType = VK_IMAGE_VIEW_TYPE_2D,
+                                 .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                 .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, t->levels, 0, 1}};
+    TND_VK_TRY(vkCreateImageView(vk->device, &vci, NULL, &out->view));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = total, .mem = TND_MEM_UPLOAD,
+                                                     .name = "texture.staging"},
+                              &st));
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(vk, &cmd));
+    image_barrier(cmd, out->image, t->levels, VK_IMAGE_LAYOUT_UNDEFINED,
+                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    size_t off = 0;
+    for (uint32_t l = 0; l < t->levels; l++) {
+        size_t bytes = (size_t)t->level_w[l] * t->level_h[l] * 16;
+        memcpy((char *)st.mapped + off, t->level[l], bytes);
+        VkBufferImageCopy r = {.bufferOffset = off,
+                               .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, l, 0, 1},
+                               .imageExtent = {t->level_w[l], t->level_h[l], 1}};
+        vkCmdCopyBufferToImage(cmd, st.buffer, out->image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
+                               &r);
+        off += bytes;
+    }
+    image_barrier(cmd, out->image, t->levels, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    TND_TRY(tnd_cmd_submit_wait(vk, cmd));
+fail:
+    tnd_buffer_destroy(vk, &st);
+    return res;
+}
+
+static void texture_destroy(tnd_vk *vk, fvk_texture *t)
+{
+    if (t->view)
+        vkDestroyImageView(vk->device, t->view, NULL);
+    if (t->image)
+        vkDestroyImage(vk->device, t->image, NULL);
+    if (t->memory)
+        vkFreeMemory(vk->device, t->memory, NULL);
+    memset(t, 0, sizeof *t);
+}
+
+void fvk_scene_free(fvk_context *c)
+{
+    tnd_vk *vk = c->vk;
+    tnd_buffer *bufs[] = {&c->positions, &c->normals, &c->uvs,      &c->tangents,
+                          &c->indices,   &c->meshes,  &c->materials, &c->instances,
+                          &c->lights,    &c->frame_ubo, &c->gradients};
+    for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
+        tnd_buffer_destroy(vk, bufs[i]);
+    for (uint32_t i = 0; c->textures && i < c->texture_count; i++)
+        texture_destroy(vk, &c->textures[i]);
+    free(c->textures);
+    c->textures = NULL;
+    if (c->sampler)
+        vkDestroySampler(vk->device, c->sampler, NULL);
+    c->sampler = VK_NULL_HANDLE;
+    fvk_tlas_destroy(vk, &c->tlas);
+    for (uint32_t i = 0; c->blas && i < c->scene->mesh_count; i++)
+        fvk_blas_destroy(vk, &c->blas[i]);
+    free(c->blas);
+    c->blas = NULL;
+    free(c->inst);
+    c->inst = NULL;
+    tnd_lights_free(&c->light_list);
+}
+
+tnd_result fvk_scene_upload(fvk_context *c)
+{
+    tnd_result res = TND_OK;
+    tnd_vk *vk = c->vk;
+    const tnd_scene *s = c->scene;
+    fvk_mesh_desc *md = NULL;
+    tnd_gpu_mesh *gm = NULL;
+    tnd_gpu_material *gmat = NULL;
+    TND_TRY(upload_array(vk, s->positions, (size_t)s->vertex_count * 12, "scene.positions",
+                         &c->positions));
+    TND_TRY(upload_array(vk, s->normals, (size_t)s->vertex_count * 12, "scene.normals",
+                         &c->normals));
+    TND_TRY(upload_array(vk, s->uvs, (size_t)s->vertex_count * 8, "scene.uvs", &c->uvs));
+    TND_TRY(upload_array(vk, s->tangents, (size_t)s->vertex_count * 16, "scene.tangents",
+                         &c->tangents));
+    TND_TRY(upload_array(vk, s->indices, (size_t)s->index_count * 4, "scene.indices", &c->indices));
+    gm = calloc(s->mesh_count + 1, sizeof *gm);
+    gmat = calloc(s->material_count + 1, sizeof *gmat);
+    md = calloc(s->mesh_count + 1, sizeof *md);
+    c->blas = calloc(s->mesh_count + 1, sizeof *c->blas);
+    c->inst = calloc(s->instance_count + 1, sizeof *c->inst);
+    if (!gm || !gmat || !md || !c->blas || !c->inst) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+        goto fail;
+    }
+    for (uint32_t m = 0; m < s->mesh_count; m++) {
+        const tnd_mesh *me = &s->meshes[m];
+        gm[m] = (tnd_gpu_mesh){{me->first_vertex, me->vertex_count, me->first_index,
+                                me->triangle_count},
+                               {me->material, 0, 0, 0}};
+        md[m] = (fvk_mesh_desc){s->positions + 3 * (size_t)me->first_vertex, me->vertex_count,
+                                s->indices + me->first_index, me->triangle_count, me->name};
+    }
+    for (uint32_t m = 0; m < s->material_count; m++) {
+        const tnd_material *mt = &s->materials[m];
+        gmat[m] = (tnd_gpu_material){
+            {mt->base_color[0], mt->base_color[1], mt->base_color[2], mt->base_color[3]},
+            {mt->emission[0], mt->emission[1], mt->emission[2], mt->metallic},
+            {mt->roughness, mt->specular, mt->normal_scale, mt->double_sided ? 1.0f : 0.0f},
+            {mt->tex_base_color, mt->tex_metal_rough, mt->tex_normal, mt->tex_emission}};
+    }
+    TND_TRY(upload_array(vk, gm, s->mesh_count * sizeof *gm, "scene.meshes", &c->meshes));
+    TND_TRY(upload_array(vk, gmat, s->material_count * sizeof *gmat, "scene.materials",
+                         &c->materials));
+    TND_TRY(fvk_blas_build(vk, md, s->mesh_count, c->blas));
+    TND_TRY(tnd_buffer_create(
+        vk, &(tnd_buffer_desc){.size = (s->instance_count + 1) * sizeof(tnd_gpu_instance),
+                               .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                               .mem = TND_MEM_UPLOAD, .name = "scene.instances"},
+        &c->instances));
+    TND_TRY(tnd_buffer_create(
+        vk, &(tnd_buffer_desc){.size = (s->emitter_count + s->light_count + 1) * sizeof(tnd_light_gpu),
+                               .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                               .mem = TND_MEM_UPLOAD, .name = "scene.lights"},
+        &c->lights));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(tnd_gpu_frame),
+                                                     .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                                                     .mem = TND_MEM_UPLOAD, .name = "frame"},
+                              &c->frame_ubo));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = 64 * sizeof(tnd_gpu_gradient),
+                                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                     .mem = TND_MEM_UPLOAD, .name = "gradients"},
+                              &c->gradients));
+    c->gradient_capacity = 64;
+    /* textures (a 1x1 white one when the scene has none: the binding is never empty) */
+    c->texture_count = s->texture_count ? s->texture_count : 1;
+    c->textures = calloc(c->texture_count, sizeof *c->textures);
+    if (!c->textures) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+        goto fail;
+    }
+    if (s->texture_count) {
+        for (uint32_t t = 0; t < s->texture_count; t++)
+            TND_TRY(upload_texture(vk, &s->textures[t], &c->textures[t]));
+    } else {
+        float white[4] = {1, 1, 1, 1};
+        tnd_texture w = {.name = "white", .width = 1, .height = 1, .levels = 1,
+                         .level_w = {1}, .level_h = {1}, .level = {white}};
+        TND_TRY(upload_texture(vk, &w, &c->textures[0]));
+    }
+    VkSamplerCreateInfo sci = {.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO,
+                               .magFilter = VK_FILTER_LINEAR,
+                               .minFilter = VK_FILTER_LINEAR,
+                               .mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR,
+                               .addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT,
+                               .addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT,
+                               .addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT,
+                               .maxLod = VK_LOD_CLAMP_NONE};
+    TND_VK_TRY(vkCreateSampler(vk->device, &sci, NULL, &c->sampler));
+fail:
+    free(gm);
+    free(gmat);
+    free(md);
+    return res;
+}
+
+tnd_result fvk_scene_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_scene_state *prev,
+                           bool first)
+{
+    tnd_result res = TND_OK;
+    const tnd_scene *s = c->scene;
+    TND_TRY(tnd_lights_build(s, cur, &c->light_list));
+    if (c->light_list.count)
+        memcpy(c->lights.mapped, c->light_list.lights,
+               c->light_list.count * sizeof(tnd_light_gpu));
+    tnd_gpu_instance *gi = c->instances.mapped;
+    bool moved = false;
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        const float *x = cur->instance_xform + 12 * i, *px = prev->instance_xform + 12 * i;
+        moved |= memcmp(c->inst[i].transform, x, 12 * sizeof(float)) != 0;
+        memcpy(c->inst[i].transform, x, 12 * sizeof(float));
+        c->inst[i].blas = s->instances[i].mesh;
+        c->inst[i].custom_index = i;
+        memcpy(gi[i].xform, x, 12 * sizeof(float));
+        memcpy(gi[i].prev_xform, px, 12 * sizeof(float));
+        gi[i].info = (tnd_guvec4){s->instances[i].mesh, c->light_list.instance_first[i], 0, 0};
+    }
+    if (first || moved) {
+        double t0 = tnd_now();
+        TND_TRY(fvk_tlas_build(c->vk, c->blas, s->mesh_count, c->inst, s->instance_count,
+                               !first, &c->tlas));
+        c->tlas_ms = 1e3 * (tnd_now() - t0);
+    }
+fail:
+    return res;
+}
