@@ -49,10 +49,12 @@ static inline float rnd(rng_key k, uint32_t bounce, uint32_t which)
     return tnd_rand(k.pixel, k.frame, tnd_dim(bounce, which));
 }
 
-/* Orthonormal basis around n (Duff et al. 2017). */
+/* Orthonormal basis around n (Duff et al. 2017). The sign test treats -0 as +0, as the GLSL
+ * mirror must (copysign would split them, and the two front-ends would sample different
+ * directions for normals with z = -0). */
 static void onb(v3 n, v3 *t, v3 *b)
 {
-    float sign = copysignf(1.0f, n.z);
+    float sign = n.z >= 0.0f ? 1.0f : -1.0f;
     float a = -1.0f / (sign + n.z);
     float bb = n.x * n.y * a;
     *t = (v3){1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x};

@@ -463,10 +463,12 @@ static void test_gbuffer_matches_embree(void)
     gpu_end();
 }
 
-/* The same path is traced: hf, lf and spec agree per pixel on most pixels. Where they do not, a
- * random decision fell on the other side of a threshold through float rounding (lobe choice,
- * light pick, Russian roulette) or a ray grazed an edge; 90% is the floor (measured: see the
- * printed fractions). Relative tolerance 1e-3: float rounding and GPU transcendentals. */
+/* The same path is traced: hf, lf and spec agree per pixel. Where they could not, a random
+ * decision fell on the other side of a threshold through float rounding (lobe choice, light
+ * pick, Russian roulette) or a ray grazed an edge. Measured: 100% on these scenes with one and
+ * with three bounces (after the two front-ends' orthonormal bases were made to agree on normals
+ * with z = -0, a divergence this test found); the floor is 99%. Relative tolerance 1e-3: float
+ * rounding and the GPU's transcendentals. */
 static void test_shading_matches_embree(void)
 {
     tnd_vk *vk = gpu_begin();
@@ -474,11 +476,12 @@ static void test_shading_matches_embree(void)
     const char *scenes[] = {TND_SOURCE_DIR "/data/scenes/cornell.gltf",
                             TND_SOURCE_DIR "/data/scenes/materials.gltf",
                             TND_SOURCE_DIR "/data/scenes/sun.gltf"};
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < 4; k++) {
         pair p;
         enum { W = 64, H = 36 };
-        REQUIRE_OK(pair_open(vk, &p, scenes[k]));
-        REQUIRE_OK(pair_frame(&p, 11, 0.3, 0.3, W, H, 1));
+        uint32_t bounces = k == 3 ? 3 : 1;
+        REQUIRE_OK(pair_open(vk, &p, scenes[k % 3]));
+        REQUIRE_OK(pair_frame(&p, 11, 0.3, 0.3, W, H, bounces));
         const tnd_ct ch[4] = {TND_CT_HF, TND_CT_LF_SH, TND_CT_LF_COCG, TND_CT_SPEC};
         int agree[4] = {0}, n = 0;
         for (int q = 0; q < W * H; q++) {
@@ -495,11 +498,13 @@ static void test_shading_matches_embree(void)
                 agree[c] += ok;
             }
         }
-        printf("     %s: same-path agreement hf %.1f%%, lf %.1f%% / %.1f%%, spec %.1f%%\n",
-               strrchr(scenes[k], '/') + 1, 100.0 * agree[0] / n, 100.0 * agree[1] / n,
-               100.0 * agree[2] / n, 100.0 * agree[3] / n);
+        printf("     %s, %u bounce%s: same-path agreement hf %.1f%%, lf %.1f%% / %.1f%%, spec "
+               "%.1f%%\n",
+               strrchr(scenes[k % 3], '/') + 1, bounces, bounces > 1 ? "s" : "",
+               100.0 * agree[0] / n, 100.0 * agree[1] / n, 100.0 * agree[2] / n,
+               100.0 * agree[3] / n);
         for (int c = 0; c < 4; c++)
-            CHECK(agree[c] >= 0.9 * n, "%s: %s agrees on %d of %d pixels", scenes[k],
+            CHECK(agree[c] >= 0.99 * n, "%s: %s agrees on %d of %d pixels", scenes[k % 3],
                   tnd_ct_get(ch[c])->name, agree[c], n);
     cleanup:
         pair_close(&p);
