@@ -3,6 +3,8 @@
  * composite of the noisy signals, plus a preview PNG. */
 #include "app/app.h"
 #include "frontend_embree/frontend_embree.h"
+#include "frontend_vk/frontend_vk.h"
+#include "shaders/sampling.h"
 
 #include <math.h>
 #include <stb/stb_image_write.h>
@@ -85,7 +87,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     const app_opt render_opts_tbl[] = {
         {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},
         {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"},
-        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", "embree (the Vulkan front-end: vk)"},
+        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", "embree (CPU) or vk (Vulkan ray tracing)"},
         {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"},
         {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"},
         {"fps", APP_OPT_FLOAT, &o->fps, "R", "frames per second of the path (default 30)"},
@@ -120,11 +122,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                 cmd->name);
         return APP_EXIT_USAGE;
     }
-    if (strcmp(o->frontend, "embree") != 0) {
-        fprintf(stderr,
-                "tandem %s: --frontend '%s': this build has the 'embree' front-end only (the "
-                "Vulkan front-end 'vk' is not written yet)\n",
-                cmd->name, o->frontend);
+    bool vk_ok = !reference && strcmp(o->frontend, "vk") == 0;
+    if (strcmp(o->frontend, "embree") != 0 && !vk_ok) {
+        fprintf(stderr, "tandem %s: --frontend '%s': expected embree%s\n", cmd->name, o->frontend,
+                reference ? " (the Vulkan reference mode is not written yet)" : " or vk");
         return APP_EXIT_USAGE;
     }
     if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0)) {
@@ -159,6 +160,10 @@ static int run(bool reference, int argc, char **argv)
         return app_report(what, res);
     tnd_scene *scene = NULL;
     femb_context *fe = NULL;
+    tnd_vk vk = {0};
+    fvk_context *gv = NULL;
+    bool use_vk = strcmp(o.frontend, "vk") == 0;
+    FILE *timings = NULL;
     tnd_scene_state st[2] = {{0}};
     tnd_frame frame = {0};
     float *rgb = NULL;
@@ -167,8 +172,23 @@ static int run(bool reference, int argc, char **argv)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
     int status = APP_EXIT_FAIL;
     TND_TRY(tnd_scene_load(o.scene, &scene));
-    TND_TRY(femb_create(scene, &(femb_desc){.threads = o.threads}, &fe));
+    if (use_vk) {
+        TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
+        TND_TRY(fvk_create(&vk, scene, &(fvk_desc){.precision = prec}, &gv));
+    } else {
+        TND_TRY(femb_create(scene, &(femb_desc){.threads = o.threads}, &fe));
+    }
     TND_TRY(tnd_mkdirs(o.out));
+    if (!reference) {
+        snprintf(path, sizeof path, "%s/timings.json", o.out);
+        timings = fopen(path, "w");
+        if (!timings) {
+            res = tnd_fail(TND_ERR_IO, "render: %s: cannot create", path);
+            goto fail;
+        }
+        fprintf(timings, "{\n  \"frontend\": \"%s\",\n  \"device\": \"%s\",\n  \"frames\": [",
+                o.frontend, use_vk ? vk.info.name : "CPU (Embree)");
+    }
     snprintf(dir, sizeof dir, "%s/capture", o.out);
     if (o.capture)
         TND_TRY(tnd_mkdirs(dir));
@@ -188,7 +208,8 @@ static int run(bool reference, int argc, char **argv)
         if (i == 0)
             TND_TRY(tnd_scene_evaluate(scene, f > 0 ? (f - 1) / o.fps : 0.0, o.camera, aspect,
                                        prev));
-        TND_TRY(femb_set_frame(fe, cur, prev, f, o.size[0], o.size[1]));
+        if (!use_vk)
+            TND_TRY(femb_set_frame(fe, cur, prev, f, o.size[0], o.size[1]));
         if (reference) {
             double err = 0;
             ref_progress rp = {&bar, i, o.frames};
@@ -204,14 +225,36 @@ static int run(bool reference, int argc, char **argv)
             continue;
         }
         TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
-        TND_TRY(femb_trace_primary(fe, &frame));
-        TND_TRY(femb_shade(fe, &(femb_params){.bounces = o.bounces}, &frame, NULL));
-        tnd_frame_quantize(&frame, prec);
+        double ms_primary = 0, ms_shade = 0, ms_tlas = 0;
+        if (use_vk) {
+            fvk_timings tm;
+            TND_TRY(fvk_set_frame(gv, cur, prev, f, o.size[0], o.size[1]));
+            TND_TRY(fvk_render(gv, &(fvk_params){.bounces = o.bounces}, &tm));
+            TND_TRY(tnd_contract_download(&vk, fvk_contract(gv), &frame));
+            frame.has_camera = true;
+            memcpy(frame.camera.view, cur->camera.view, sizeof frame.camera.view);
+            memcpy(frame.camera.proj, cur->camera.proj, sizeof frame.camera.proj);
+            memcpy(frame.camera.prev_view, prev->camera.view, sizeof frame.camera.prev_view);
+            memcpy(frame.camera.prev_proj, prev->camera.proj, sizeof frame.camera.prev_proj);
+            tnd_jitter(f, frame.camera.jitter);
+            frame.camera.frame_index = f;
+            ms_primary = tm.primary_ms, ms_shade = tm.shade_ms, ms_tlas = tm.tlas_ms;
+        } else {
+            double ta = tnd_now();
+            TND_TRY(femb_trace_primary(fe, &frame));
+            double tb = tnd_now();
+            TND_TRY(femb_shade(fe, &(femb_params){.bounces = o.bounces}, &frame, NULL));
+            ms_primary = 1e3 * (tb - ta), ms_shade = 1e3 * (tnd_now() - tb);
+            tnd_frame_quantize(&frame, prec);
+        }
+        fprintf(timings, "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
+                         "\"tlas_ms\": %.4f}",
+                i ? "," : "", f, ms_primary, ms_shade, ms_tlas);
         if (o.capture) {
             snprintf(path, sizeof path, "%s/frame_%04u.exr", dir, f);
             TND_TRY(tnd_capture_write(path, &frame, TND_EXR_ZIP));
         }
-        femb_composite(&frame, rgb);
+        tnd_frame_composite(&frame, rgb);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
@@ -220,10 +263,29 @@ static int run(bool reference, int argc, char **argv)
         app_progress_step(&bar, i + 1);
     }
     app_progress_end(&bar);
-    if (!app_quiet())
-        fprintf(stderr, "tandem: %s: %u frame%s of %s at %ux%u in %.1f s (%u threads) -> %s/\n",
-                what, o.frames, o.frames == 1 ? "" : "s", o.scene, o.size[0], o.size[1],
-                tnd_now() - t0, femb_thread_count(fe), o.out);
+    if (timings) {
+        fprintf(timings, "\n  ]\n}\n");
+        if (fclose(timings) != 0) {
+            timings = NULL;
+            res = tnd_fail(TND_ERR_IO, "render: %s/timings.json: write failed", o.out);
+            goto fail;
+        }
+        timings = NULL;
+    }
+    if (use_vk && vk.validation && tnd_vk_validation_errors(&vk)) {
+        res = tnd_fail(TND_ERR_VULKAN, "%u Vulkan validation error(s)", tnd_vk_validation_errors(&vk));
+        goto fail;
+    }
+    if (!app_quiet()) {
+        char who[300];
+        if (use_vk)
+            snprintf(who, sizeof who, "Vulkan on %s", vk.info.name);
+        else
+            snprintf(who, sizeof who, "Embree, %u threads", femb_thread_count(fe));
+        fprintf(stderr, "tandem: %s: %u frame%s of %s at %ux%u in %.1f s (%s) -> %s/\n", what,
+                o.frames, o.frames == 1 ? "" : "s", o.scene, o.size[0], o.size[1],
+                tnd_now() - t0, who, o.out);
+    }
     status = APP_EXIT_OK;
 fail:
     if (status != APP_EXIT_OK)
@@ -232,6 +294,10 @@ fail:
     free(rgb);
     tnd_scene_state_free(&st[0]);
     tnd_scene_state_free(&st[1]);
+    if (timings)
+        fclose(timings);
+    fvk_destroy(gv);
+    tnd_vk_destroy(&vk);
     femb_destroy(fe);
     tnd_scene_destroy(scene);
     return status;

@@ -464,6 +464,10 @@ static inline uint32_t *tnd_frame_u(const tnd_frame *f, tnd_ct id)
 /* Quantise every float entry in place as the given precision stores it (the exact C mirror of the
  * GPU's packed formats), after mapping NaN/Inf to defined values. */
 void tnd_frame_quantize(tnd_frame *f, tnd_precision p);
+/* Composite of the demodulated signals into linear RGB (3 floats per pixel), the back-end's
+ * "off" mode on the CPU: ((hf + E_n(lf)) x albedo x (1 - metallic) + spec x max(0.01, F0))
+ * x throughput + emission, with E_n the SH evaluated at the shading normal (docs/contract.md). */
+void tnd_frame_composite(const tnd_frame *f, float *rgb);
 /* Fill DERIVED entries that are not present: geo_normal = normal; position from depth and the
  * camera when the frame has one (else position stays absent). */
 tnd_result tnd_frame_derive(tnd_frame *f, const char *source);

@@ -739,31 +739,3 @@ tnd_result femb_reference(femb_context *c, uint32_t spp, float *rgb, double *rel
     return TND_OK;
 }
 
-/* ---- composite ------------------------------------------------------------------------------- */
-void femb_composite(const tnd_frame *f, float *rgb)
-{
-    size_t n = (size_t)f->width * f->height;
-    for (size_t q = 0; q < n; q++) {
-        const float *alb = tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q;
-        const float *nrm = tnd_frame_f(f, TND_CT_NORMAL) + 3 * q;
-        const float *hf = tnd_frame_f(f, TND_CT_HF) + 3 * q;
-        const float *sh = tnd_frame_f(f, TND_CT_LF_SH) + 4 * q;
-        const float *cc = tnd_frame_f(f, TND_CT_LF_COCG) + 2 * q;
-        const float *sp = tnd_frame_f(f, TND_CT_SPEC) + 3 * q;
-        const float *thr = tnd_frame_f(f, TND_CT_THROUGHPUT) + 3 * q;
-        const float *em = tnd_frame_f(f, TND_CT_EMISSION) + 3 * q;
-        float m = tnd_frame_f(f, TND_CT_METALLIC)[q];
-        /* SH evaluated at the shading normal: Y = C0 L0 + (2/3) C1 (n . L1) */
-        float Y = SH_C0 * sh[3] + (2.0f / 3.0f) * SH_C1 * (nrm[0] * sh[0] + nrm[1] * sh[1] + nrm[2] * sh[2]);
-        Y = fmx(Y, 0.0f);
-        float s = sh[3] / SH_C0; /* the luma the chroma was scaled with */
-        float r = s > 0 ? Y / s : 0.0f;
-        float co = cc[0] * r, cg = cc[1] * r;
-        float t = Y - 0.5f * cg, g = cg + t, b = t - 0.5f * co, rr = b + co;
-        float lf[3] = {fmx(rr, 0.0f), fmx(g, 0.0f), fmx(b, 0.0f)};
-        for (int k = 0; k < 3; k++) {
-            float demod = fmx(0.01f, 0.04f * (1.0f - m) + alb[k] * m);
-            rgb[3 * q + k] = ((hf[k] + lf[k]) * alb[k] * (1.0f - m) + sp[k] * demod) * thr[k] + em[k];
-        }
-    }
-}

@@ -76,8 +76,4 @@ typedef struct femb_bench {
 tnd_result femb_benchmark(femb_context *ctx, const femb_params *p, uint32_t repeats,
                           femb_bench *out);
 
-/* Composite of the demodulated signals (what the back-end's "off" mode computes):
- * ((hf + E_N(lf)) x albedo x (1 - metallic) + spec x max(0.01, F0)) x throughput + emission. */
-void femb_composite(const tnd_frame *f, float *rgb);
-
 #endif

@@ -270,7 +270,7 @@ static void test_composite_equals_radiance(void)
         REQUIRE_OK(rig_open(&r, scenes[k], 2));
         REQUIRE_OK(rig_frame(&r, 3, 0.1, 0.1, W, H, &f));
         REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 2}, &f, rad));
-        femb_composite(&f, comp);
+        tnd_frame_composite(&f, comp);
         int bad = 0;
         double worst = 0;
         for (int q = 0; q < W * H * 3; q++) {
@@ -380,7 +380,7 @@ static void test_many_bounces_converge(void)
     for (uint32_t i = 0; i < N; i++) {
         REQUIRE_OK(rig_frame(&r, i, 0.0, 0.0, W, H, &f));
         REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 64}, &f, NULL));
-        femb_composite(&f, tmp);
+        tnd_frame_composite(&f, tmp);
         for (int q = 0; q < W * H; q++) {
             double l = tnd_luminance(tmp[3 * q], tmp[3 * q + 1], tmp[3 * q + 2]);
             acc[q] += l;
