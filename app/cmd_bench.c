@@ -3,6 +3,7 @@
  * sweeps of the eval issue. */
 #include "app/app.h"
 #include "frontend_embree/frontend_embree.h"
+#include "frontend_vk/frontend_vk.h"
 
 #include <cjson/cJSON.h>
 #include <stdlib.h>
@@ -18,6 +19,51 @@ static const app_cmd bench_cmd = {
     "rate of a raw Embree loop over the same rays (medians over --repeats after a warm-up).",
     "[--scene PATH] [--frontend embree] [--size WxH] [--repeats N] [--json]", NULL};
 
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsigned frame,
+                           const unsigned size[2], unsigned bounces, unsigned repeats,
+                           femb_bench *b, double *t_build)
+{
+    tnd_result res = TND_OK;
+    tnd_vk vk = {0};
+    fvk_context *gv = NULL;
+    double *tp = calloc(repeats + 1, sizeof *tp), *ts = calloc(repeats + 1, sizeof *ts);
+    if (!tp || !ts) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+        goto fail;
+    }
+    TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
+    double t0 = tnd_now();
+    TND_TRY(fvk_create(&vk, s, &(fvk_desc){0}, &gv));
+    TND_TRY(fvk_set_frame(gv, st, st, frame, size[0], size[1]));
+    *t_build = tnd_now() - t0;
+    for (int w = 0; w < 3; w++)
+        TND_TRY(fvk_render(gv, &(fvk_params){.bounces = bounces}, NULL));
+    for (unsigned r = 0; r < repeats; r++) {
+        fvk_timings tm;
+        TND_TRY(fvk_render(gv, &(fvk_params){.bounces = bounces}, &tm));
+        tp[r] = tm.primary_ms;
+        ts[r] = tm.shade_ms;
+    }
+    qsort(tp, repeats, sizeof *tp, cmp_d);
+    qsort(ts, repeats, sizeof *ts, cmp_d);
+    b->primary_ms = tp[repeats / 2];
+    b->shade_ms = ts[repeats / 2];
+    b->raw_ms = 0;
+    printf("device: %s\n", vk.info.name);
+fail:
+    free(tp);
+    free(ts);
+    fvk_destroy(gv);
+    tnd_vk_destroy(&vk);
+    return res;
+}
+
 int cmd_bench(int argc, char **argv)
 {
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
@@ -25,7 +71,7 @@ int cmd_bench(int argc, char **argv)
     bool json = false;
     const app_opt opts[] = {
         {"scene", APP_OPT_STRING, &scene_path, "PATH", "glTF scene or stress:N (default: cornell)"},
-        {"frontend", APP_OPT_STRING, &frontend, "NAME", "embree"},
+        {"frontend", APP_OPT_STRING, &frontend, "NAME", "embree or vk (rays counted with Embree)"},
         {"size", APP_OPT_SIZE, size, "WxH", "image size (default 256x256)"},
         {"repeats", APP_OPT_UINT, &repeats, "N", "timed repetitions (default 10)"},
         {"threads", APP_OPT_UINT, &threads, "N", "CPU threads (default: all cores)"},
@@ -39,9 +85,9 @@ int cmd_bench(int argc, char **argv)
     int rc = app_parse(&bench_cmd, opts, argc, argv, pos, 0, &npos);
     if (rc >= 0)
         return rc;
-    if (strcmp(frontend, "embree") != 0) {
-        fprintf(stderr, "tandem bench: --frontend '%s': only 'embree' is benchmarked so far\n",
-                frontend);
+    bool use_vk = strcmp(frontend, "vk") == 0;
+    if (strcmp(frontend, "embree") != 0 && !use_vk) {
+        fprintf(stderr, "tandem bench: --frontend '%s': expected embree or vk\n", frontend);
         return APP_EXIT_USAGE;
     }
     tnd_result res = TND_OK;
@@ -58,12 +104,19 @@ int cmd_bench(int argc, char **argv)
     TND_TRY(tnd_scene_evaluate(s, frame / 30.0, 0, (float)size[0] / size[1], &st));
     TND_TRY(femb_set_frame(c, &st, &st, frame, size[0], size[1]));
     t_build = tnd_now() - t_build;
-    TND_TRY(femb_benchmark(c, &(femb_params){.bounces = bounces}, repeats, &b));
+    TND_TRY(femb_benchmark(c, &(femb_params){.bounces = use_vk ? bounces : bounces},
+                           use_vk ? 1 : repeats, &b));
+    if (use_vk) {
+        /* the GPU traces exactly the rays the Embree front-end counted (same random numbers,
+         * same decisions): time its passes with timestamps, medians after a warm-up */
+        TND_TRY(bench_vk(s, &st, frame, size, bounces, repeats, &b, &t_build));
+    }
     double frame_ms = b.primary_ms + b.shade_ms;
-    double fe_rate = b.rays / (frame_ms * 1e3), raw_rate = b.rays / (b.raw_ms * 1e3);
+    double fe_rate = b.rays / (frame_ms * 1e3);
+    double raw_rate = b.raw_ms > 0 ? b.rays / (b.raw_ms * 1e3) : 0;
     if (json) {
         cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "frontend", "embree");
+        cJSON_AddStringToObject(o, "frontend", frontend);
         cJSON_AddStringToObject(o, "scene", scene_path);
         cJSON_AddNumberToObject(o, "triangles", (double)tnd_scene_triangles(s));
         cJSON_AddNumberToObject(o, "width", size[0]);
@@ -77,25 +130,28 @@ int cmd_bench(int argc, char **argv)
         cJSON_AddNumberToObject(o, "frontend_mrays_per_s", fe_rate);
         cJSON_AddNumberToObject(o, "raw_ms", b.raw_ms);
         cJSON_AddNumberToObject(o, "raw_mrays_per_s", raw_rate);
-        cJSON_AddNumberToObject(o, "frontend_over_raw", fe_rate / raw_rate);
+        if (raw_rate > 0)
+            cJSON_AddNumberToObject(o, "frontend_over_raw", fe_rate / raw_rate);
         cJSON_AddNumberToObject(o, "build_s", t_build);
         char *txt = cJSON_Print(o);
         printf("%s\n", txt);
         free(txt);
         cJSON_Delete(o);
     } else {
-        printf("bench embree: %s, %llu triangles, %ux%u, 1 spp, %u bounce%s, %u threads\n",
+        printf("bench %s: %s, %llu triangles, %ux%u, 1 spp, %u bounce%s%s\n", frontend,
                scene_path, (unsigned long long)tnd_scene_triangles(s), size[0], size[1], bounces,
-               bounces == 1 ? "" : "s", femb_thread_count(c));
+               bounces == 1 ? "" : "s", use_vk ? " (GPU timestamps)" : "");
         printf("  scene load %.2f s, BVH build %.2f s\n", t_load, t_build);
         printf("  rays per frame    %llu (primary, shadow and bounce rays)\n",
                (unsigned long long)b.rays);
         printf("  primary pass      %8.2f ms\n  shading pass      %8.2f ms\n", b.primary_ms,
                b.shade_ms);
         printf("  front-end frame   %8.2f ms  %7.2f Mrays/s\n", frame_ms, fe_rate);
-        printf("  raw Embree loop   %8.2f ms  %7.2f Mrays/s (same rays, rtcIntersect1/rtcOccluded1)\n",
-               b.raw_ms, raw_rate);
-        printf("  front-end / raw   %7.1f%%  (goal: above 60%%)\n", 100.0 * fe_rate / raw_rate);
+        if (!use_vk) {
+            printf("  raw Embree loop   %8.2f ms  %7.2f Mrays/s (same rays, rtcIntersect1/rtcOccluded1)\n",
+                   b.raw_ms, raw_rate);
+            printf("  front-end / raw   %7.1f%%  (goal: above 60%%)\n", 100.0 * fe_rate / raw_rate);
+        }
         printf("  (medians of %u repetitions after a warm-up)\n", repeats);
     }
     status = APP_EXIT_OK;
