@@ -3,10 +3,14 @@
 # that they run on a machine that has a GPU driver but none of our Debian packages (the GPU
 # machine of docs/performance.md). Also bundles the Khronos validation layer.
 #
-#   scripts/gpu-bundle.sh [BUILD_DIR]      -> .gpu/bin, .gpu/lib, .gpu/layers, .gpu/env.sh
+#   scripts/gpu-bundle.sh [--no-validation] [BUILD_DIR]  -> .gpu/bin, lib, layers, env.sh
 # On the GPU machine:  . .gpu/env.sh && tandem info
+# The device tool carries at most 64 MiB: Embree is 42 MiB and the validation layer 22 MiB, so
+# performance runs leave the layer out (--no-validation).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+VALIDATION=1
+if [ "${1:-}" = "--no-validation" ]; then VALIDATION=0; shift; fi
 B=${1:-build}
 rm -rf .gpu
 mkdir -p .gpu/bin .gpu/lib .gpu/layers
@@ -15,12 +19,14 @@ for t in "$B"/tests/test_*; do [ -x "$t" ] && [ -f "$t" ] && bins+=("$t"); done
 cp "${bins[@]}" .gpu/bin/
 cp tests/*.sh .gpu/bin/ 2>/dev/null || true
 skip='^(libc|libm|libpthread|libdl|librt|ld-linux.*|libgcc_s|libstdc\+\+)\.so'
-for f in "${bins[@]}" /usr/lib/x86_64-linux-gnu/libVkLayer_khronos_validation.so; do
+LAYER=/usr/lib/x86_64-linux-gnu/libVkLayer_khronos_validation.so
+[ "$VALIDATION" -eq 1 ] || LAYER=
+for f in "${bins[@]}" $LAYER; do
     ldd "$f" | awk '/=> \//{print $1, $3}' | while read -r name path; do
         [[ "$name" =~ $skip ]] || cp -L "$path" .gpu/lib/
     done
 done
-if [ -f /usr/lib/x86_64-linux-gnu/libVkLayer_khronos_validation.so ]; then
+if [ -n "$LAYER" ] && [ -f "$LAYER" ]; then
     cp /usr/lib/x86_64-linux-gnu/libVkLayer_khronos_validation.so .gpu/layers/
     sed 's#"library_path": *"[^"]*"#"library_path": "./libVkLayer_khronos_validation.so"#' \
         /usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json \
