@@ -27,7 +27,7 @@ static int cmp_d(const void *a, const void *b)
 
 static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsigned frame,
                            const unsigned size[2], unsigned bounces, unsigned repeats,
-                           femb_bench *b, double *t_build)
+                           const char *rt_api, femb_bench *b, double *t_build)
 {
     tnd_result res = TND_OK;
     tnd_vk vk = {0};
@@ -39,7 +39,9 @@ static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsign
     }
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
     double t0 = tnd_now();
-    TND_TRY(fvk_create(&vk, s, &(fvk_desc){0}, &gv));
+    fvk_rt_api api;
+    TND_TRY(fvk_rt_api_parse(rt_api, &api));
+    TND_TRY(fvk_create(&vk, s, &(fvk_desc){.rt_api = api}, &gv));
     TND_TRY(fvk_set_frame(gv, st, st, frame, size[0], size[1]));
     *t_build = tnd_now() - t0;
     for (int w = 0; w < 3; w++)
@@ -55,7 +57,8 @@ static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsign
     b->primary_ms = tp[repeats / 2];
     b->shade_ms = ts[repeats / 2];
     b->raw_ms = 0;
-    printf("device: %s\n", vk.info.name);
+    printf("device: %s, %s\n", vk.info.name,
+           fvk_api(gv) == FVK_RT_QUERY ? "ray query" : "ray-tracing pipeline");
 fail:
     free(tp);
     free(ts);
@@ -69,7 +72,9 @@ int cmd_bench(int argc, char **argv)
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
     unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
     bool json = false;
+    const char *rt_api = "auto";
     const app_opt opts[] = {
+        {"rt-api", APP_OPT_STRING, &rt_api, "API", "vk: pipeline, query or auto"},
         {"scene", APP_OPT_STRING, &scene_path, "PATH", "glTF scene or stress:N (default: cornell)"},
         {"frontend", APP_OPT_STRING, &frontend, "NAME", "embree or vk (rays counted with Embree)"},
         {"size", APP_OPT_SIZE, size, "WxH", "image size (default 256x256)"},
@@ -109,7 +114,7 @@ int cmd_bench(int argc, char **argv)
     if (use_vk) {
         /* the GPU traces exactly the rays the Embree front-end counted (same random numbers,
          * same decisions): time its passes with timestamps, medians after a warm-up */
-        TND_TRY(bench_vk(s, &st, frame, size, bounces, repeats, &b, &t_build));
+        TND_TRY(bench_vk(s, &st, frame, size, bounces, repeats, rt_api, &b, &t_build));
     }
     double frame_ms = b.primary_ms + b.shade_ms;
     double fe_rate = b.rays / (frame_ms * 1e3);

@@ -16,7 +16,7 @@
 #endif
 
 typedef struct render_opts {
-    const char *scene, *frontend, *out, *precision;
+    const char *scene, *frontend, *out, *precision, *rt_api;
     unsigned frames, start, threads, bounces, spp, camera;
     unsigned size[2];
     double fps;
@@ -79,6 +79,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     *o = (render_opts){.scene = TND_DATA_DIR "/scenes/cornell.gltf",
                        .frontend = "embree",
                        .precision = "float32",
+                       .rt_api = "auto",
                        .frames = 8,
                        .bounces = 1,
                        .spp = 256,
@@ -97,6 +98,8 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"bounces", APP_OPT_UINT, &o->bounces, "N", "indirect bounces (default 1)"},
         {"precision", APP_OPT_STRING, &o->precision, "P", "contract precision: float32 or packed"},
         {"capture", APP_OPT_FLAG, &o->capture, NULL, "also write DIR/capture/frame_NNNN.exr"},
+        {"rt-api", APP_OPT_STRING, &o->rt_api, "API",
+         "vk: pipeline, query, or auto (query where the device has it)"},
         {0},
     };
     const app_opt ref_opts_tbl[] = {
@@ -174,7 +177,9 @@ static int run(bool reference, int argc, char **argv)
     TND_TRY(tnd_scene_load(o.scene, &scene));
     if (use_vk) {
         TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
-        TND_TRY(fvk_create(&vk, scene, &(fvk_desc){.precision = prec}, &gv));
+        fvk_rt_api api;
+        TND_TRY(fvk_rt_api_parse(o.rt_api, &api));
+        TND_TRY(fvk_create(&vk, scene, &(fvk_desc){.precision = prec, .rt_api = api}, &gv));
     } else {
         TND_TRY(femb_create(scene, &(femb_desc){.threads = o.threads}, &fe));
     }
@@ -279,7 +284,9 @@ static int run(bool reference, int argc, char **argv)
     if (!app_quiet()) {
         char who[300];
         if (use_vk)
-            snprintf(who, sizeof who, "Vulkan on %s", vk.info.name);
+            snprintf(who, sizeof who, "Vulkan %s on %s",
+                     fvk_api(gv) == FVK_RT_QUERY ? "ray query" : "ray-tracing pipeline",
+                     vk.info.name);
         else
             snprintf(who, sizeof who, "Embree, %u threads", femb_thread_count(fe));
         fprintf(stderr, "tandem: %s: %u frame%s of %s at %ux%u in %.1f s (%s) -> %s/\n", what,

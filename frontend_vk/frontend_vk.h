@@ -52,8 +52,16 @@ tnd_result fvk_tlas_build(tnd_vk *vk, const fvk_blas *blas, uint32_t blas_count,
 void fvk_tlas_destroy(tnd_vk *vk, fvk_tlas *tlas);
 
 /* ---- the path-tracing front-end ------------------------------------------------------------ */
+typedef enum fvk_rt_api {
+    FVK_RT_AUTO = 0,  /* ray query where the device has it, else the ray-tracing pipeline */
+    FVK_RT_PIPELINE,  /* ray-tracing pipeline with a shader binding table */
+    FVK_RT_QUERY,     /* compute shaders with inline ray queries (VK_KHR_ray_query) */
+} fvk_rt_api;
+tnd_result fvk_rt_api_parse(const char *s, fvk_rt_api *api);
+
 typedef struct fvk_desc {
     tnd_precision precision; /* contract storage the passes write */
+    fvk_rt_api rt_api;
 } fvk_desc;
 
 typedef struct fvk_params {
@@ -84,6 +92,8 @@ tnd_result fvk_render(fvk_context *ctx, const fvk_params *p, fvk_timings *t);
  * instance, primitive, u, v) after fvk_render, patching the G-buffer at their pixels. */
 tnd_result fvk_shade_gradients(fvk_context *ctx, const fvk_params *p, const uint32_t *samples,
                                uint32_t count, fvk_timings *t);
+/* The API the passes use (after AUTO was resolved). */
+fvk_rt_api fvk_api(const fvk_context *ctx);
 /* The contract images of the last render. */
 const tnd_contract_gpu *fvk_contract(const fvk_context *ctx);
 

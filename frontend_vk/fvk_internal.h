@@ -30,7 +30,9 @@ struct fvk_context {
     /* pipeline */
     VkDescriptorSetLayout set_layout[2];
     VkPipelineLayout layout;
-    VkPipeline pipeline;
+    VkPipeline pipeline;      /* ray-tracing pipeline (FVK_RT_PIPELINE) */
+    VkPipeline compute[2];    /* primary, shade (FVK_RT_QUERY) */
+    fvk_rt_api api;
     tnd_sbt sbt;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];

@@ -61,6 +61,45 @@ fail:
     return res;
 }
 
+tnd_result fvk_rt_api_parse(const char *s, fvk_rt_api *api)
+{
+    if (strcmp(s, "auto") == 0)
+        *api = FVK_RT_AUTO;
+    else if (strcmp(s, "pipeline") == 0)
+        *api = FVK_RT_PIPELINE;
+    else if (strcmp(s, "query") == 0)
+        *api = FVK_RT_QUERY;
+    else
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "frontend_vk: ray-tracing API '%s' (expected pipeline, query or auto)", s);
+    return TND_OK;
+}
+
+fvk_rt_api fvk_api(const fvk_context *c)
+{
+    return c->api;
+}
+
+static tnd_result create_compute(fvk_context *c)
+{
+    tnd_result res = TND_OK;
+    bool packed = c->precision == TND_PRECISION_PACKED;
+    const tnd_shader ids[2] = {packed ? TND_SHADER_pt_primary_rq_packed : TND_SHADER_pt_primary_rq_f32,
+                               packed ? TND_SHADER_pt_shade_rq_packed : TND_SHADER_pt_shade_rq_f32};
+    const char *names[2] = {"frontend_vk.primary_rq", "frontend_vk.shade_rq"};
+    for (int i = 0; i < 2; i++) {
+        size_t bytes;
+        const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
+        TND_TRY(tnd_compute_pipeline_create(c->vk,
+                                            &(tnd_compute_desc){.code = code, .bytes = bytes,
+                                                                .layout = c->layout,
+                                                                .name = names[i]},
+                                            &c->compute[i]));
+    }
+fail:
+    return res;
+}
+
 static tnd_result create_pipeline(fvk_context *c)
 {
     bool packed = c->precision == TND_PRECISION_PACKED;
@@ -154,6 +193,9 @@ void fvk_destroy(fvk_context *c)
     tnd_sbt_destroy(vk, &c->sbt);
     if (c->pipeline)
         vkDestroyPipeline(vk->device, c->pipeline, NULL);
+    for (int i = 0; i < 2; i++)
+        if (c->compute[i])
+            vkDestroyPipeline(vk->device, c->compute[i], NULL);
     if (c->pool)
         vkDestroyDescriptorPool(vk->device, c->pool, NULL);
     if (c->layout)
@@ -178,9 +220,22 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
     c->vk = vk;
     c->scene = scene;
     c->precision = desc ? desc->precision : TND_PRECISION_F32;
+    c->api = desc ? desc->rt_api : FVK_RT_AUTO;
+    if (c->api == FVK_RT_AUTO)
+        c->api = vk->ray_query ? FVK_RT_QUERY : FVK_RT_PIPELINE;
+    if (c->api == FVK_RT_QUERY && !vk->ray_query) {
+        res = tnd_fail(TND_ERR_UNSUPPORTED,
+                       "frontend_vk: --rt-api query: device '%s' has no VK_KHR_ray_query (use "
+                       "pipeline or auto)",
+                       vk->info.name);
+        goto fail;
+    }
     TND_TRY(fvk_scene_upload(c));
     TND_TRY(create_layouts(c));
-    TND_TRY(create_pipeline(c));
+    if (c->api == FVK_RT_QUERY)
+        TND_TRY(create_compute(c));
+    else
+        TND_TRY(create_pipeline(c));
     TND_TRY(tnd_timer_create(vk, &c->timer));
     *out = c;
     return TND_OK;
@@ -243,6 +298,34 @@ static void set_params(fvk_context *c, const fvk_params *p)
     f->params.x = p ? p->bounces : 1;
 }
 
+/* Bind the passes' pipeline(s) and sets, push the mode. */
+static void bind_all(fvk_context *c, VkCommandBuffer cmd, uint32_t mode)
+{
+    VkPipelineBindPoint bp = c->api == FVK_RT_QUERY ? VK_PIPELINE_BIND_POINT_COMPUTE
+                                                    : VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR;
+    if (c->api != FVK_RT_QUERY)
+        vkCmdBindPipeline(cmd, bp, c->pipeline);
+    vkCmdBindDescriptorSets(cmd, bp, c->layout, 0, 2, c->sets, 0, NULL);
+    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT,
+                       0, 4, &mode);
+}
+
+/* Pass `which` (0 primary, 1 shade) over w x h launches (or `w` linear ones for gradients). */
+static void launch(fvk_context *c, VkCommandBuffer cmd, int which, uint32_t w, uint32_t h,
+                   bool linear)
+{
+    if (c->api == FVK_RT_QUERY) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->compute[which]);
+        if (linear)
+            vkCmdDispatch(cmd, (w + 63) / 64, 1, 1);
+        else
+            vkCmdDispatch(cmd, (w + 7) / 8, (h + 7) / 8, 1);
+    } else {
+        c->vk->fn.vkCmdTraceRaysKHR(cmd, &c->sbt.raygen[which], &c->sbt.miss, &c->sbt.hit,
+                                    &c->sbt.callable, w, h, 1);
+    }
+}
+
 tnd_result fvk_render(fvk_context *c, const fvk_params *p, fvk_timings *t)
 {
     tnd_result res = TND_OK;
@@ -252,21 +335,14 @@ tnd_result fvk_render(fvk_context *c, const fvk_params *p, fvk_timings *t)
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(c->vk, &cmd));
     tnd_timer_reset(cmd, &c->timer);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, c->pipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, c->layout, 0, 2, c->sets,
-                            0, NULL);
-    uint32_t mode = 0;
-    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT,
-                       0, 4, &mode);
+    bind_all(c, cmd, 0);
     tnd_cmd_barrier(cmd);
     int s0 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.primary");
-    c->vk->fn.vkCmdTraceRaysKHR(cmd, &c->sbt.raygen[0], &c->sbt.miss, &c->sbt.hit,
-                                &c->sbt.callable, c->width, c->height, 1);
+    launch(c, cmd, 0, c->width, c->height, false);
     tnd_timer_end(cmd, &c->timer, s0);
     tnd_cmd_barrier(cmd);
     int s1 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.shade");
-    c->vk->fn.vkCmdTraceRaysKHR(cmd, &c->sbt.raygen[1], &c->sbt.miss, &c->sbt.hit,
-                                &c->sbt.callable, c->width, c->height, 1);
+    launch(c, cmd, 1, c->width, c->height, false);
     tnd_timer_end(cmd, &c->timer, s1);
     tnd_cmd_barrier(cmd);
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
@@ -310,19 +386,14 @@ tnd_result fvk_shade_gradients(fvk_context *c, const fvk_params *p, const uint32
         g[i] = (tnd_gpu_gradient){s[0], s[1], s[2], s[3], s[4], s[5], s[6], 0};
     }
     set_params(c, p);
+    ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.z = count;
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(c->vk, &cmd));
     tnd_timer_reset(cmd, &c->timer);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, c->pipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, c->layout, 0, 2, c->sets,
-                            0, NULL);
-    uint32_t mode = 1;
-    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT,
-                       0, 4, &mode);
+    bind_all(c, cmd, 1);
     tnd_cmd_barrier(cmd);
     int s0 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.gradients");
-    c->vk->fn.vkCmdTraceRaysKHR(cmd, &c->sbt.raygen[1], &c->sbt.miss, &c->sbt.hit,
-                                &c->sbt.callable, count, 1, 1);
+    launch(c, cmd, 1, count, 1, true);
     tnd_timer_end(cmd, &c->timer, s0);
     tnd_cmd_barrier(cmd);
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));

@@ -2,11 +2,12 @@
  * and femb_scene.c (same functions, same order of random numbers, same scalar code from brdf.h),
  * so that the two front-ends agree sample for sample. Included by the pt_*.rgen passes (ray-
  * tracing pipeline) and, with TND_RAY_QUERY, by their compute twins (inline ray queries). */
-#extension GL_EXT_ray_tracing : require
 #extension GL_EXT_nonuniform_qualifier : require
 #extension GL_GOOGLE_include_directive : require
 #ifdef TND_RAY_QUERY
 #extension GL_EXT_ray_query : require
+#else
+#extension GL_EXT_ray_tracing : require
 #endif
 
 #include "brdf.h"

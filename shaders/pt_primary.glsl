@@ -1,0 +1,70 @@
+/* pt_primary (body): the primary pass of the Vulkan front-end (mirror of femb_render.c
+ * primary_tile): camera ray, visibility buffer, G-buffer, motion vectors, rng keys. One launch
+ * per pixel; writes the contract images of set 1. */
+#include "pt_common.glsl"
+
+
+bool project_px(mat4 view, mat4 proj, vec3 cam, vec3 p, bool direction, out vec2 px)
+{
+    vec3 d = direction ? p : p - cam;
+    vec3 v = mat3(view) * d;
+    vec4 clip = proj * vec4(v, direction ? 0.0 : 1.0);
+    px = vec2(0.0);
+    if (!(abs(clip.w) > 1e-30))
+        return false;
+    px = (clip.xy / clip.w * 0.5 + 0.5) * vec2(fr.frame.yz);
+    return true;
+}
+
+void pt_primary_main(uvec2 launch)
+{
+    ivec2 ip = ivec2(launch);
+    uint W = fr.frame.y;
+    uint q = uint(ip.y) * W + uint(ip.x);
+    vec3 dir = camera_dir(vec2(ip) + 0.5 + fr.jitter.xy);
+    vec3 cam = fr.cam_pos.xyz;
+    imageStore(img_rng, ip, uvec4(fr.frame.x, q, 0u, 0u));
+    imageStore(img_throughput, ip, vec4(1.0));
+    hit_info h;
+    vec2 cur_px, prev_px;
+    if (!trace_closest(cam, dir, 1e30, h)) {
+        imageStore(img_albedo, ip, vec4(0.0));
+        imageStore(img_normal, ip, vec4(0.0));
+        imageStore(img_geo_normal, ip, vec4(0.0));
+        imageStore(img_position, ip, vec4(0.0));
+        imageStore(img_emission, ip, vec4(fr.sky.rgb, 0.0));
+        imageStore(img_depth, ip, vec4(TND_DEPTH_MISS));
+        imageStore(img_vis_id, ip, uvec4(TND_VIS_NONE, TND_VIS_NONE, 0u, 0u));
+        imageStore(img_vis_bary, ip, vec4(0.0));
+        imageStore(img_roughness, ip, vec4(1.0));
+        imageStore(img_metallic, ip, vec4(0.0));
+        vec3 mo = vec3(0.0);
+        if (project_px(fr.view, fr.proj, cam, dir, true, cur_px) &&
+            project_px(fr.prev_view, fr.prev_proj, fr.prev_cam_pos.xyz, dir, true, prev_px))
+            mo.xy = prev_px - cur_px;
+        imageStore(img_motion, ip, vec4(mo, 0.0));
+        return;
+    }
+    vec3 p = surface_position(h.inst, h.prim, h.bary);
+    vec3 dv = p - cam;
+    float dist = sqrt(dot(dv, dv));
+    surface s = surface_eval(h.inst, h.prim, h.bary, safe_normalize(dv), dist * fr.jitter.z);
+    imageStore(img_albedo, ip, vec4(s.base, 0.0));
+    imageStore(img_emission, ip, vec4(s.emission, 0.0));
+    imageStore(img_normal, ip, vec4(s.ns, 0.0));
+    imageStore(img_geo_normal, ip, vec4(s.ng, 0.0));
+    imageStore(img_position, ip, vec4(s.p, 0.0));
+    imageStore(img_depth, ip, vec4(dist));
+    imageStore(img_vis_id, ip, uvec4(h.inst, h.prim, 0u, 0u));
+    imageStore(img_vis_bary, ip, vec4(h.bary, 0.0, 0.0));
+    imageStore(img_roughness, ip, vec4(s.roughness));
+    imageStore(img_metallic, ip, vec4(s.metallic));
+    tnd_gpu_instance I = instances[h.inst];
+    vec3 pw = xf_prev_point(I, s.obj), cw = xf_point(I, s.obj);
+    vec3 mo = vec3(0.0);
+    if (project_px(fr.view, fr.proj, cam, cw, false, cur_px) &&
+        project_px(fr.prev_view, fr.prev_proj, fr.prev_cam_pos.xyz, pw, false, prev_px))
+        mo.xy = prev_px - cur_px;
+    mo.z = length(pw - fr.prev_cam_pos.xyz) - length(cw - cam);
+    imageStore(img_motion, ip, vec4(mo, 0.0));
+}

@@ -1,0 +1,26 @@
+/* pt_primary_rq.comp: the ray-query twin of pt_primary.rgen (same body, inline ray queries), for
+ * devices with VK_KHR_ray_query (--rt-api query). 8x8 groups over the image; gradient samples
+ * (shade mode 1) are numbered linearly over groups of 64. */
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#define TND_RAY_QUERY 1
+layout(local_size_x = 8, local_size_y = 8) in;
+#include "pt_primary.glsl"
+
+void main()
+{
+    uvec2 launch = gl_GlobalInvocationID.xy;
+#ifdef TND_SHADE_PASS
+    if (pc.mode == 1u) {
+        uint i = gl_WorkGroupID.x * 64u + gl_LocalInvocationIndex;
+        if (i >= fr.params.z)
+            return;
+        launch = uvec2(i, 0u);
+    } else if (launch.x >= fr.frame.y || launch.y >= fr.frame.z)
+        return;
+#else
+    if (launch.x >= fr.frame.y || launch.y >= fr.frame.z)
+        return;
+#endif
+    pt_primary_main(launch);
+}

@@ -1,0 +1,100 @@
+/* pt_shade (body): the shading pass of the Vulkan front-end (mirror of femb_render.c shade_pixel):
+ * direct light, one indirect bounce (or more), outputs hf, lf (SH + CoCg), spec. Mode 0 shades
+ * every pixel from the G-buffer; mode 1 shades the gradient samples (one launch each): it patches
+ * the G-buffer at the sample's pixel with the previous surface re-evaluated on this frame's
+ * geometry and shades it with the previous frame's key. */
+#include "pt_common.glsl"
+
+
+layout(push_constant) uniform Push { uint mode; } pc;
+
+#if TND_PACKED
+#define STORE_RGBE(img, p, v) imageStore(img, p, uvec4(tnd_rgbe_encode3(v), 0u, 0u, 0u))
+#else
+#define STORE_RGBE(img, p, v) imageStore(img, p, vec4(v, 0.0))
+#endif
+
+const float SH_C0 = 0.282094791773878;
+const float SH_C1 = 0.488602511902920;
+
+void pt_shade_main(uvec2 launch)
+{
+    ivec2 ip;
+    uvec2 key;
+    uint W = fr.frame.y;
+    if (pc.mode == 1u) {
+        tnd_gpu_gradient g = gradients[launch.x];
+        ip = ivec2(int(g.a.x % W), int(g.a.x / W));
+        vec2 bary = vec2(uintBitsToFloat(g.b.y), uintBitsToFloat(g.b.z));
+        uint inst = g.a.w, prim = g.b.x;
+        vec3 p = surface_position(inst, prim, bary);
+        vec3 dv = p - fr.cam_pos.xyz;
+        surface s = surface_eval(inst, prim, bary, safe_normalize(dv), length(dv) * fr.jitter.z);
+        imageStore(img_vis_id, ip, uvec4(inst, prim, 0u, 0u));
+        imageStore(img_vis_bary, ip, vec4(bary, 0.0, 0.0));
+        imageStore(img_rng, ip, uvec4(g.a.y, g.a.z, 0u, 0u));
+        imageStore(img_albedo, ip, vec4(s.base, 0.0));
+        imageStore(img_normal, ip, vec4(s.ns, 0.0));
+        imageStore(img_geo_normal, ip, vec4(s.ng, 0.0));
+        imageStore(img_position, ip, vec4(s.p, 0.0));
+        imageStore(img_roughness, ip, vec4(s.roughness));
+        imageStore(img_metallic, ip, vec4(s.metallic));
+        imageStore(img_emission, ip, vec4(s.emission, 0.0));
+        key = uvec2(g.a.z, g.a.y);
+    } else {
+        ip = ivec2(launch);
+        uvec2 r = imageLoad(img_rng, ip).xy;
+        key = uvec2(r.y, r.x);
+    }
+    vec3 hf = vec3(0.0), spec = vec3(0.0);
+    vec4 sh = vec4(0.0);
+    vec2 cocg = vec2(0.0);
+    uint inst = imageLoad(img_vis_id, ip).x;
+    if (inst != TND_VIS_NONE) {
+        /* the surface from the G-buffer (as femb's surface_from_gbuffer) */
+        surface s;
+        s.p = imageLoad(img_position, ip).xyz;
+        s.ns = imageLoad(img_normal, ip).xyz;
+        s.ng = imageLoad(img_geo_normal, ip).xyz;
+        vec3 d = fr.cam_pos.xyz - s.p;
+        float depth = sqrt(dot(d, d));
+        s.wo = depth > 0.0 ? d * (1.0 / depth) : s.ns;
+        s.base = imageLoad(img_albedo, ip).rgb;
+        s.roughness = imageLoad(img_roughness, ip).x;
+        s.metallic = imageLoad(img_metallic, ip).x;
+        s.specular = materials[meshes[instances[inst].info.x].info.x].params.y;
+        s.inst = inst;
+        lobe_info L = lobes(s);
+        vec3 demod;
+        for (int k = 0; k < 3; k++)
+            demod[k] = max(0.01, 0.04 * (1.0 - s.metallic) + s.base[k] * s.metallic);
+        vec3 dd, sp;
+        direct_light(key, 0u, s, L, dd, sp);
+        hf = dd;
+        spec = sp / demod;
+        vec3 wi, w;
+        float pdf;
+        bool is_spec;
+        if (fr.params.x > 0u && sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
+            vec3 Li = trace_path(key, offset_ray(s.p, s.ng), wi, 1u, fr.params.x, 2u, pdf,
+                                 depth * fr.jitter.z);
+            vec3 contrib = w * Li;
+            for (int k = 0; k < 3; k++)
+                if (tnd_nonfinite(contrib[k]) || contrib[k] < 0.0)
+                    contrib[k] = 0.0;
+            if (is_spec) {
+                spec += contrib / demod;
+            } else {
+                float co = contrib.r - contrib.b, t = contrib.b + 0.5 * co, cg = contrib.g - t;
+                float Y = t + 0.5 * cg;
+                float kk = 4.0 * PI / (1.0 + 2.0 * max(dot(wi, s.ns), 0.0));
+                sh = vec4(kk * Y * SH_C1 * wi, kk * Y * SH_C0);
+                cocg = vec2(kk * co, kk * cg);
+            }
+        }
+    }
+    STORE_RGBE(img_hf, ip, hf);
+    STORE_RGBE(img_spec, ip, spec);
+    imageStore(img_lf_sh, ip, sh);
+    imageStore(img_lf_cocg, ip, vec4(cocg, 0.0, 0.0));
+}
