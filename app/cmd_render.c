@@ -105,7 +105,8 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     const app_opt ref_opts_tbl[] = {
         {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},
         {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"},
-        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", "embree"},
+        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", "embree (CPU) or vk (Vulkan)"},
+        {"rt-api", APP_OPT_STRING, &o->rt_api, "API", "vk: pipeline, query or auto"},
         {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"},
         {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"},
         {"fps", APP_OPT_FLOAT, &o->fps, "R", "frames per second of the path (default 30)"},
@@ -125,10 +126,9 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                 cmd->name);
         return APP_EXIT_USAGE;
     }
-    bool vk_ok = !reference && strcmp(o->frontend, "vk") == 0;
-    if (strcmp(o->frontend, "embree") != 0 && !vk_ok) {
-        fprintf(stderr, "tandem %s: --frontend '%s': expected embree%s\n", cmd->name, o->frontend,
-                reference ? " (the Vulkan reference mode is not written yet)" : " or vk");
+    if (strcmp(o->frontend, "embree") != 0 && strcmp(o->frontend, "vk") != 0) {
+        fprintf(stderr, "tandem %s: --frontend '%s': expected embree or vk\n", cmd->name,
+                o->frontend);
         return APP_EXIT_USAGE;
     }
     if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0)) {
@@ -218,7 +218,12 @@ static int run(bool reference, int argc, char **argv)
         if (reference) {
             double err = 0;
             ref_progress rp = {&bar, i, o.frames};
-            TND_TRY(femb_reference(fe, o.spp, rgb, &err, on_ref_progress, &rp));
+            if (use_vk) {
+                TND_TRY(fvk_set_frame(gv, cur, prev, f, o.size[0], o.size[1]));
+                TND_TRY(fvk_reference(gv, o.spp, rgb, &err, on_ref_progress, &rp));
+            } else {
+                TND_TRY(femb_reference(fe, o.spp, rgb, &err, on_ref_progress, &rp));
+            }
             snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
             TND_TRY(write_rgb_exr(path, rgb, o.size[0], o.size[1]));
             snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);

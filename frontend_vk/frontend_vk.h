@@ -92,6 +92,11 @@ tnd_result fvk_render(fvk_context *ctx, const fvk_params *p, fvk_timings *t);
  * instance, primitive, u, v) after fvk_render, patching the G-buffer at their pixels. */
 tnd_result fvk_shade_gradients(fvk_context *ctx, const fvk_params *p, const uint32_t *samples,
                                uint32_t count, fvk_timings *t);
+/* Reference: unbiased progressive path tracing on the GPU, as femb_reference (same paths for
+ * the same keys): spp samples per pixel, radiance in rgb (3 floats per pixel), mean relative
+ * standard error in rel_error (optional), progress after each batch of samples. */
+tnd_result fvk_reference(fvk_context *ctx, uint32_t spp, float *rgb, double *rel_error,
+                         void (*progress)(uint32_t done, uint32_t total, void *user), void *user);
 /* The API the passes use (after AUTO was resolved). */
 fvk_rt_api fvk_api(const fvk_context *ctx);
 /* The contract images of the last render. */

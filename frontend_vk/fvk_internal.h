@@ -31,7 +31,8 @@ struct fvk_context {
     VkDescriptorSetLayout set_layout[2];
     VkPipelineLayout layout;
     VkPipeline pipeline;      /* ray-tracing pipeline (FVK_RT_PIPELINE) */
-    VkPipeline compute[2];    /* primary, shade (FVK_RT_QUERY) */
+    VkPipeline compute[3];    /* primary, shade, reference (FVK_RT_QUERY) */
+    tnd_image accum;          /* reference accumulation (rgb sum, luminance^2 sum) */
     fvk_rt_api api;
     tnd_sbt sbt;
     VkDescriptorPool pool;

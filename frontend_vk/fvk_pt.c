@@ -7,10 +7,13 @@
 #include "shaders/sampling.h"
 #include "shaders/shader_list.h"
 
+#include "shaders/brdf.h"
+
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-enum { SCENE_BINDINGS = 13 };
+enum { SCENE_BINDINGS = 14 };
 
 static tnd_result create_layouts(fvk_context *c)
 {
@@ -24,6 +27,7 @@ static tnd_result create_layouts(fvk_context *c)
     b0[1].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
     b0[12].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     b0[12].descriptorCount = c->texture_count;
+    b0[13].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
     VkDescriptorSetLayoutCreateInfo ci0 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
                                            .bindingCount = SCENE_BINDINGS,
                                            .pBindings = b0};
@@ -44,9 +48,9 @@ static tnd_result create_layouts(fvk_context *c)
     TND_VK_TRY(vkCreatePipelineLayout(vk->device, &pci, NULL, &c->layout));
     VkDescriptorPoolSize ps[5] = {{VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1},
                                   {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, SCENE_BINDINGS - 3},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, SCENE_BINDINGS - 4},
                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, c->texture_count},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, TND_CT_COUNT}};
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, TND_CT_COUNT + 1}};
     VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
                                        .maxSets = 2,
                                        .poolSizeCount = 5,
@@ -84,10 +88,12 @@ static tnd_result create_compute(fvk_context *c)
 {
     tnd_result res = TND_OK;
     bool packed = c->precision == TND_PRECISION_PACKED;
-    const tnd_shader ids[2] = {packed ? TND_SHADER_pt_primary_rq_packed : TND_SHADER_pt_primary_rq_f32,
-                               packed ? TND_SHADER_pt_shade_rq_packed : TND_SHADER_pt_shade_rq_f32};
-    const char *names[2] = {"frontend_vk.primary_rq", "frontend_vk.shade_rq"};
-    for (int i = 0; i < 2; i++) {
+    const tnd_shader ids[3] = {packed ? TND_SHADER_pt_primary_rq_packed : TND_SHADER_pt_primary_rq_f32,
+                               packed ? TND_SHADER_pt_shade_rq_packed : TND_SHADER_pt_shade_rq_f32,
+                               TND_SHADER_pt_reference_rq};
+    const char *names[3] = {"frontend_vk.primary_rq", "frontend_vk.shade_rq",
+                            "frontend_vk.reference_rq"};
+    for (int i = 0; i < 3; i++) {
         size_t bytes;
         const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
         TND_TRY(tnd_compute_pipeline_create(c->vk,
@@ -103,24 +109,25 @@ fail:
 static tnd_result create_pipeline(fvk_context *c)
 {
     bool packed = c->precision == TND_PRECISION_PACKED;
-    const tnd_shader ids[5] = {packed ? TND_SHADER_pt_primary_packed : TND_SHADER_pt_primary_f32,
+    const tnd_shader ids[6] = {packed ? TND_SHADER_pt_primary_packed : TND_SHADER_pt_primary_f32,
                                packed ? TND_SHADER_pt_shade_packed : TND_SHADER_pt_shade_f32,
+                               TND_SHADER_pt_reference,
                                TND_SHADER_pt_rmiss, TND_SHADER_pt_shadow_rmiss,
                                TND_SHADER_pt_rchit};
-    const VkShaderStageFlagBits kinds[5] = {
+    const VkShaderStageFlagBits kinds[6] = {
         VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_RAYGEN_BIT_KHR,
-        VK_SHADER_STAGE_MISS_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
-        VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
-    tnd_rt_stage stages[5];
-    for (int i = 0; i < 5; i++) {
+        VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
+        VK_SHADER_STAGE_MISS_BIT_KHR,   VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
+    tnd_rt_stage stages[6];
+    for (int i = 0; i < 6; i++) {
         stages[i].code = tnd_spirv_code(ids[i], &stages[i].bytes, NULL);
         stages[i].stage = kinds[i];
     }
-    const uint32_t raygen[2] = {0, 1}, miss[2] = {2, 3};
-    const tnd_rt_hit_group hit = {.closest_hit = 4, .any_hit = -1};
+    const uint32_t raygen[3] = {0, 1, 2}, miss[2] = {3, 4};
+    const tnd_rt_hit_group hit = {.closest_hit = 5, .any_hit = -1};
     return tnd_rt_pipeline_create(c->vk,
-                                  &(tnd_rt_desc){.stages = stages, .stage_count = 5,
-                                                 .raygen = raygen, .raygen_count = 2,
+                                  &(tnd_rt_desc){.stages = stages, .stage_count = 6,
+                                                 .raygen = raygen, .raygen_count = 3,
                                                  .miss = miss, .miss_count = 2, .hit = &hit,
                                                  .hit_count = 1, .max_recursion = 1,
                                                  .layout = c->layout, .name = "frontend_vk.pt"},
@@ -133,10 +140,12 @@ static void write_scene_set(fvk_context *c)
         .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR,
         .accelerationStructureCount = 1,
         .pAccelerationStructures = &c->tlas.as};
-    const tnd_buffer *bufs[SCENE_BINDINGS] = {NULL,           &c->frame_ubo, &c->positions,
-                                              &c->normals,    &c->uvs,       &c->tangents,
-                                              &c->indices,    &c->meshes,    &c->materials,
-                                              &c->instances,  &c->lights,    &c->gradients, NULL};
+    const tnd_buffer *bufs[SCENE_BINDINGS] = {NULL,          &c->frame_ubo, &c->positions,
+                                              &c->normals,   &c->uvs,       &c->tangents,
+                                              &c->indices,   &c->meshes,    &c->materials,
+                                              &c->instances, &c->lights,    &c->gradients,
+                                              NULL,          NULL};
+    VkDescriptorImageInfo acc = {VK_NULL_HANDLE, c->accum.view, VK_IMAGE_LAYOUT_GENERAL};
     VkDescriptorBufferInfo bi[SCENE_BINDINGS];
     VkWriteDescriptorSet w[SCENE_BINDINGS];
     VkDescriptorImageInfo *ii = calloc(c->texture_count, sizeof *ii);
@@ -160,7 +169,9 @@ static void write_scene_set(fvk_context *c)
     w[12].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     w[12].descriptorCount = c->texture_count;
     w[12].pImageInfo = ii;
-    vkUpdateDescriptorSets(c->vk->device, ii ? SCENE_BINDINGS : SCENE_BINDINGS - 1, w, 0, NULL);
+    w[13].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
+    w[13].pImageInfo = &acc;
+    vkUpdateDescriptorSets(c->vk->device, ii ? SCENE_BINDINGS : 12, w, 0, NULL);
     free(ii);
 }
 
@@ -193,9 +204,10 @@ void fvk_destroy(fvk_context *c)
     tnd_sbt_destroy(vk, &c->sbt);
     if (c->pipeline)
         vkDestroyPipeline(vk->device, c->pipeline, NULL);
-    for (int i = 0; i < 2; i++)
+    for (int i = 0; i < 3; i++)
         if (c->compute[i])
             vkDestroyPipeline(vk->device, c->compute[i], NULL);
+    tnd_image_destroy(vk, &c->accum);
     if (c->pool)
         vkDestroyDescriptorPool(vk->device, c->pool, NULL);
     if (c->layout)
@@ -260,6 +272,14 @@ tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_s
         vkDeviceWaitIdle(c->vk->device);
         tnd_contract_gpu_destroy(c->vk, &c->contract);
         TND_TRY(tnd_contract_gpu_create(c->vk, width, height, c->precision, &c->contract));
+        /* the reference's accumulation image: the pipeline's reference raygen uses it, so the
+         * descriptor must always be valid */
+        tnd_image_destroy(c->vk, &c->accum);
+        TND_TRY(tnd_image_create(c->vk,
+                                 &(tnd_image_desc){.width = width, .height = height,
+                                                   .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                   .name = "frontend_vk.accum"},
+                                 &c->accum));
         c->width = width;
         c->height = height;
         write_contract_set(c);
@@ -403,5 +423,59 @@ tnd_result fvk_shade_gradients(fvk_context *c, const fvk_params *p, const uint32
         t->gradient_ms = ms[0];
     }
 fail:
+    return res;
+}
+
+tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, double *rel_error,
+                         void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    tnd_result res = TND_OK;
+    tnd_buffer rb = {0};
+    if (!c->have_frame || spp == 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: reference needs a frame and spp > 0");
+    const uint32_t batch = 16;
+    for (uint32_t s0 = 0; s0 < spp; s0 += batch) {
+        VkCommandBuffer cmd;
+        TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+        bind_all(c, cmd, 0);
+        for (uint32_t s = s0; s < s0 + batch && s < spp; s++) {
+            vkCmdPushConstants(cmd, c->layout,
+                               VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &s);
+            launch(c, cmd, 2, c->width, c->height, false);
+            tnd_cmd_barrier(cmd);
+        }
+        TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+        if (progress)
+            progress(s0 + batch < spp ? s0 + batch : spp, spp, user);
+    }
+    size_t n = (size_t)c->width * c->height;
+    TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = n * 16, .mem = TND_MEM_READBACK,
+                                                        .name = "frontend_vk.accum.readback"},
+                              &rb));
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+    tnd_cmd_barrier(cmd);
+    VkBufferImageCopy r = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                           .imageExtent = {c->width, c->height, 1}};
+    vkCmdCopyImageToBuffer(cmd, c->accum.image, VK_IMAGE_LAYOUT_GENERAL, rb.buffer, 1, &r);
+    tnd_cmd_barrier(cmd);
+    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    const float *a = rb.mapped;
+    double err = 0;
+    uint32_t counted = 0;
+    for (size_t q = 0; q < n; q++) {
+        for (int k = 0; k < 3; k++)
+            rgb[3 * q + k] = a[4 * q + k] / (float)spp;
+        double ml = tnd_luminance(rgb[3 * q], rgb[3 * q + 1], rgb[3 * q + 2]);
+        double var = spp > 1 ? (a[4 * q + 3] / spp - ml * ml) * spp / (spp - 1) : 0;
+        if (ml > 1e-6 && spp > 1) {
+            err += sqrt(var > 0 ? var / spp : 0) / ml;
+            counted++;
+        }
+    }
+    if (rel_error)
+        *rel_error = counted ? err / counted : 0;
+fail:
+    tnd_buffer_destroy(c->vk, &rb);
     return res;
 }

@@ -26,6 +26,8 @@
     X(pt_primary_rq_packed, "pt_primary_rq.comp", "TND_PACKED=1") \
     X(pt_shade_rq_f32,     "pt_shade_rq.comp",    "TND_PACKED=0") \
     X(pt_shade_rq_packed,  "pt_shade_rq.comp",    "TND_PACKED=1") \
+    X(pt_reference,        "pt_reference.rgen",   "TND_PACKED=0") \
+    X(pt_reference_rq,     "pt_reference_rq.comp", "TND_PACKED=0") \
     X(pt_rchit,            "pt.rchit",            "") \
     X(pt_rmiss,            "pt.rmiss",            "") \
     X(pt_shadow_rmiss,     "pt_shadow.rmiss",     "")

@@ -4,6 +4,7 @@
  * the TLAS is refitted, and the comparison is repeated. Label: gpu. */
 #include "frontend_embree/frontend_embree.h"
 #include "frontend_vk/frontend_vk.h"
+#include "shaders/brdf.h"
 #include "shaders/shader_list.h"
 #include "shaders/trace_test_shared.h"
 #include "tests/gpu_common.h"
@@ -562,6 +563,48 @@ cleanup:
     gpu_end();
 }
 
+/* Over many frames the per-pixel means of both front-ends agree within their confidence bounds,
+ * and both reference modes converge to the same image. */
+static void test_means_and_references_agree(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    pair p;
+    enum { W = 32, H = 18, N = 24, SPP = 32 };
+    static double sa[W * H], sb[W * H], qa[W * H], qb[W * H];
+    static float ca[W * H * 3], cb[W * H * 3], ra[W * H * 3], rb[W * H * 3];
+    memset(sa, 0, sizeof sa), memset(sb, 0, sizeof sb), memset(qa, 0, sizeof qa), memset(qb, 0, sizeof qb);
+    REQUIRE_OK(pair_open(vk, &p, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
+    for (uint32_t i = 0; i < N; i++) {
+        REQUIRE_OK(pair_frame(&p, i, 0.0, 0.0, W, H, 2));
+        tnd_frame_composite(&p.cpu, ca);
+        tnd_frame_composite(&p.gpu, cb);
+        for (int q = 0; q < W * H; q++) {
+            double a = tnd_luminance(ca[3 * q], ca[3 * q + 1], ca[3 * q + 2]);
+            double b = tnd_luminance(cb[3 * q], cb[3 * q + 1], cb[3 * q + 2]);
+            sa[q] += a, qa[q] += a * a, sb[q] += b, qb[q] += b * b;
+        }
+    }
+    int outside = 0;
+    for (int q = 0; q < W * H; q++) {
+        double ma = sa[q] / N, mb = sb[q] / N;
+        double se = sqrt(fmax(qa[q] / N - ma * ma, 0) / N + fmax(qb[q] / N - mb * mb, 0) / N);
+        outside += fabs(ma - mb) > 4 * se + 1e-5 * fmax(ma, mb) + 1e-7;
+    }
+    CHECK(outside == 0, "%d pixel means differ beyond 4 standard errors", outside);
+    REQUIRE_OK(femb_reference(p.fe, SPP, ra, NULL, NULL, NULL));
+    REQUIRE_OK(fvk_reference(p.gv, SPP, rb, NULL, NULL, NULL));
+    double worst = 0;
+    for (int k = 0; k < W * H * 3; k++)
+        worst = fmax(worst, fabs(ra[k] - rb[k]) / (fabs(ra[k]) + 1e-3));
+    printf("     references (%d spp): worst relative difference %.2e (same paths)\n", SPP, worst);
+    /* the two references trace the same paths: only float rounding separates them */
+    CHECK(worst < 1e-3, "references differ by %.3g", worst);
+cleanup:
+    pair_close(&p);
+    gpu_end();
+}
+
 /* The ray-query compute twins give the same contract as the ray-tracing pipeline (lavapipe has
  * both; the NVIDIA datacenter driver has no ray query, so there auto picks the pipeline). */
 static void test_query_matches_pipeline(void)
@@ -601,4 +644,5 @@ static void test_shutdown(void)
 
 TND_TEST_MAIN(T(test_trace_against_cpu), T(test_blas_bad_input), T(test_gbuffer_matches_embree),
               T(test_shading_matches_embree), T(test_gpu_gradient_samples),
-              T(test_query_matches_pipeline), T(test_shutdown))
+              T(test_query_matches_pipeline), T(test_means_and_references_agree),
+              T(test_shutdown))

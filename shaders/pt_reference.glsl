@@ -1,0 +1,21 @@
+/* pt_reference (body): the reference mode on the GPU (mirror of femb_render.c reference_tile):
+ * one full path per pixel per dispatch, per-sample random pixel jitter, accumulated into `accum`
+ * (rgb sum, luminance^2 sum in alpha). */
+#include "pt_common.glsl"
+
+layout(set = 0, binding = 13, rgba32f) uniform image2D accum;
+layout(push_constant) uniform Push { uint sample_index; } pc;
+
+void pt_reference_main(uvec2 launch)
+{
+    ivec2 ip = ivec2(launch);
+    uint q = launch.y * fr.frame.y + launch.x;
+    uvec2 key = uvec2(q, fr.frame.x * 4096u + pc.sample_index);
+    float jx = tnd_rand(key.x, key.y, TND_DIM_JITTER_X);
+    float jy = tnd_rand(key.x, key.y, TND_DIM_JITTER_Y);
+    vec3 dir = camera_dir(vec2(launch) + vec2(jx, jy));
+    vec3 L = trace_path(key, fr.cam_pos.xyz, dir, 0u, 64u, 3u, 0.0, 0.0);
+    float lum = tnd_luminance(L.r, L.g, L.b);
+    vec4 a = pc.sample_index == 0u ? vec4(0.0) : imageLoad(accum, ip);
+    imageStore(accum, ip, a + vec4(L, lum * lum));
+}
