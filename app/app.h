@@ -62,5 +62,6 @@ int cmd_contract(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_reference(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
+int cmd_compare(int argc, char **argv);
 
 #endif

@@ -12,6 +12,8 @@ static const app_cmd commands[] = {
      "--out DIR [options]", cmd_reference},
     {"bench", "Measure a front-end: ms per pass, Mrays/s, and the raw ray-casting rate.",
      "[--scene PATH] [--size WxH] [--repeats N] [--json]", cmd_bench},
+    {"compare", "Compare two capture directories channel by channel (front-end cross-check).",
+     "A B [options]", cmd_compare},
     {"contract", "Print the buffer contract: every entry, its EXR channels, formats and meaning.",
      "[--json]", cmd_contract},
 };

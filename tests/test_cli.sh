@@ -85,5 +85,20 @@ check "render of a bad scene exits 1 with no output" $?
 python3 -c "import json,sys; d=json.load(open(sys.argv[1])); assert d['rays_per_frame'] > 1024 and d['frontend_mrays_per_s'] > 0" "$tmp/bench.json"
 check "bench --json reports rays and rates" $?
 
+# both front-ends, one capture each, compared
+for fe in embree vk; do
+    "$T" render --frontend $fe --scene "$SRC/data/scenes/cornell.gltf" --frames 2 --size 40x24 \
+        --capture --out "$tmp/$fe" --quiet || echo "render $fe failed"
+done
+"$T" compare "$tmp/embree" "$tmp/vk" >"$tmp/cmp" 2>&1; rc=$?
+[ $rc -eq 0 ] && grep -q "2 frames compared: agree" "$tmp/cmp"
+check "compare: the two front-ends' captures agree" $?
+"$T" render --frontend embree --scene "$SRC/data/scenes/dynamic.gltf" --frames 2 --size 40x24 \
+    --capture --out "$tmp/other" --quiet
+"$T" compare "$tmp/embree" "$tmp/other" >"$tmp/cmp" 2>&1; rc=$?
+[ $rc -eq 1 ] && grep -q "below the floor" "$tmp/cmp"
+check "compare: different scenes disagree and exit 1" $?
+grep -q '"primary_ms"' "$tmp/vk/timings.json"; check "render writes timings.json" $?
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]
