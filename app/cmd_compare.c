@@ -67,7 +67,7 @@ int cmd_compare(int argc, char **argv)
         unsigned f;
         char tail[8];
         if (sscanf(e->d_name, "frame_%u.ex%1s", &f, tail) == 2 && strlen(e->d_name) < 32)
-            snprintf(names[nf++], sizeof names[0], "%s", e->d_name);
+            snprintf(names[nf++], sizeof names[0], "%.31s", e->d_name);
     }
     closedir(d);
     qsort(names, (size_t)nf, sizeof names[0], (int (*)(const void *, const void *))strcmp);
