@@ -152,11 +152,53 @@ vec3 safe_normalize(vec3 v)
     return l > 0.0 ? v / l : v;
 }
 
+/* Trilinear filtering written out with texelFetch, the exact mirror of tnd_texture_sample (repeat
+ * wrap, texel centres at +0.5, linear blend of two levels): the hardware's fixed-point filter
+ * weights would make the two front-ends disagree on textured surfaces. */
+vec4 bilinear(int t, int level, ivec2 size0, vec2 uv)
+{
+    /* level sizes as the CPU builds them (halving down to 1), not textureSize(level): lavapipe
+     * answered that wrongly for a non-uniformly indexed sampler in this shader */
+    ivec2 size = max(size0 >> level, ivec2(1));
+    vec2 x = uv * vec2(size) - 0.5;
+    vec2 fl = floor(x);
+    vec2 a = x - fl;
+    /* uv is in [0, 1), so the taps lie in [-1, size]: wrap without % (GLSL leaves % of negative
+     * operands undefined) */
+    ivec2 p0 = ivec2(fl), p1 = p0 + 1;
+    p0 = ivec2(p0.x < 0 ? p0.x + size.x : p0.x, p0.y < 0 ? p0.y + size.y : p0.y);
+    p1 = ivec2(p1.x >= size.x ? p1.x - size.x : p1.x, p1.y >= size.y ? p1.y - size.y : p1.y);
+    vec4 t00 = texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p0.y), level);
+    vec4 t10 = texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p0.y), level);
+    vec4 t01 = texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p1.y), level);
+    vec4 t11 = texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p1.y), level);
+    /* the CPU's order of summation: (0,0), (1,0), (0,1), (1,1) */
+    vec4 r = ((1.0 - a.x) * (1.0 - a.y)) * t00;
+    r += (a.x * (1.0 - a.y)) * t10;
+    r += ((1.0 - a.x) * a.y) * t01;
+    r += (a.x * a.y) * t11;
+    return r;
+}
+
 vec4 sample_tex(int t, vec2 uv, float lod_base)
 {
     vec2 size = vec2(textureSize(textures[nonuniformEXT(t)], 0));
     float lod = lod_base + 0.5 * log2(size.x * size.y);
-    return textureLod(textures[nonuniformEXT(t)], uv, max(lod, 0.0));
+    if (tnd_nonfinite(uv.x) || tnd_nonfinite(uv.y))
+        uv = vec2(0.0);
+    uv -= floor(uv);
+    if (!(lod > 0.0))
+        lod = 0.0;
+    /* the CPU's chain halves down to 1x1 (at most TND_TEXTURE_MAX_LEVELS = 16 levels) */
+    ivec2 isz = ivec2(size);
+    float maxl = float(min(findMSB(max(isz.x, isz.y)) + 1, 16) - 1);
+    if (lod > maxl)
+        lod = maxl;
+    int l0 = int(lod);
+    int l1 = float(l0 + 1) <= maxl ? l0 + 1 : l0;
+    float f = lod - float(l0);
+    vec4 a = bilinear(t, l0, isz, uv), b = bilinear(t, l1, isz, uv);
+    return a + f * (b - a);
 }
 
 surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width)
