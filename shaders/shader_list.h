@@ -28,6 +28,12 @@
     X(pt_shade_rq_packed,  "pt_shade_rq.comp",    "TND_PACKED=1") \
     X(pt_reference,        "pt_reference.rgen",   "TND_PACKED=0") \
     X(pt_reference_rq,     "pt_reference_rq.comp", "TND_PACKED=0") \
+    X(dn_temporal_f32,     "dn_temporal.comp",    "TND_PACKED=0") \
+    X(dn_temporal_packed,  "dn_temporal.comp",    "TND_PACKED=1") \
+    X(dn_atrous_f32,       "dn_atrous.comp",      "TND_PACKED=0") \
+    X(dn_atrous_packed,    "dn_atrous.comp",      "TND_PACKED=1") \
+    X(dn_composite_f32,    "dn_composite.comp",   "TND_PACKED=0") \
+    X(dn_composite_packed, "dn_composite.comp",   "TND_PACKED=1") \
     X(pt_rchit,            "pt.rchit",            "") \
     X(pt_rmiss,            "pt.rmiss",            "") \
     X(pt_shadow_rmiss,     "pt_shadow.rmiss",     "")

@@ -1,0 +1,341 @@
+/* denoise/dn_context.c: the back-end's images (histories in two slots, a-trous ping-pong, the
+ * previous frame's geometry, the output), its pipelines and the per-frame recording with a
+ * timestamp around each pass.
+ * Entry points: dn_create, dn_destroy, dn_run, dn_download, dn_mode_parse, dn_mode_name. */
+#include "denoise/denoise.h"
+#include "shaders/denoise_shared.h"
+#include "shaders/shader_list.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { N_PAIRED = 9 }; /* hist hf, mom, lf sh, lf cocg, spec; at hf, lf sh, lf cocg, spec */
+static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF,   DN_B_HIST_MOM,   DN_B_HIST_LF_SH,
+                                                  DN_B_HIST_LF_COCG, DN_B_HIST_SPEC, DN_B_AT_HF,
+                                                  DN_B_AT_LF_SH,  DN_B_AT_LF_COCG, DN_B_AT_SPEC};
+static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_mom", "hist_lf_sh",
+                                                  "hist_lf_cocg", "hist_spec", "at_hf",
+                                                  "at_lf_sh", "at_lf_cocg", "at_spec"};
+
+struct dn_context {
+    tnd_vk *vk;
+    dn_desc desc;
+    uint32_t width, height, frame;
+    tnd_image paired[N_PAIRED][2];
+    tnd_image prev_gb, prev_vis, out;
+    tnd_buffer params;
+    VkDescriptorSetLayout layouts[2];
+    VkPipelineLayout layout;
+    VkDescriptorPool pool;
+    VkDescriptorSet sets[2];
+    VkPipeline temporal, atrous, composite;
+    tnd_timer timer;
+    bool have_history;
+};
+
+tnd_result dn_mode_parse(const char *s, dn_mode *mode)
+{
+    if (strcmp(s, "svgf") == 0)
+        *mode = DN_MODE_SVGF;
+    else if (strcmp(s, "off") == 0)
+        *mode = DN_MODE_OFF;
+    else if (strcmp(s, "asvgf") == 0)
+        return tnd_fail(TND_ERR_UNSUPPORTED,
+                        "denoise: 'asvgf' (gradient estimation) is not implemented yet; use svgf "
+                        "or off");
+    else
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: mode '%s' (expected svgf or off)", s);
+    return TND_OK;
+}
+
+const char *dn_mode_name(dn_mode mode)
+{
+    return mode == DN_MODE_OFF ? "off" : "svgf";
+}
+
+void dn_destroy(dn_context *c)
+{
+    if (!c)
+        return;
+    tnd_vk *vk = c->vk;
+    if (vk->device)
+        vkDeviceWaitIdle(vk->device);
+    tnd_timer_destroy(vk, &c->timer);
+    VkPipeline pipes[3] = {c->temporal, c->atrous, c->composite};
+    for (int i = 0; i < 3; i++)
+        if (pipes[i])
+            vkDestroyPipeline(vk->device, pipes[i], NULL);
+    if (c->pool)
+        vkDestroyDescriptorPool(vk->device, c->pool, NULL);
+    if (c->layout)
+        vkDestroyPipelineLayout(vk->device, c->layout, NULL);
+    for (int i = 0; i < 2; i++)
+        if (c->layouts[i])
+            vkDestroyDescriptorSetLayout(vk->device, c->layouts[i], NULL);
+    for (int k = 0; k < N_PAIRED; k++)
+        for (int s = 0; s < 2; s++)
+            tnd_image_destroy(vk, &c->paired[k][s]);
+    tnd_image_destroy(vk, &c->prev_gb);
+    tnd_image_destroy(vk, &c->prev_vis);
+    tnd_image_destroy(vk, &c->out);
+    tnd_buffer_destroy(vk, &c->params);
+    free(c);
+}
+
+static tnd_result create_pipelines(dn_context *c)
+{
+    tnd_result res = TND_OK;
+    tnd_vk *vk = c->vk;
+    VkDescriptorSetLayoutBinding b0[DN_BINDINGS];
+    for (uint32_t i = 0; i < DN_BINDINGS; i++)
+        b0[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
+                                               VK_SHADER_STAGE_COMPUTE_BIT, NULL};
+    b0[DN_B_PARAMS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    for (int k = 0; k < N_PAIRED; k++)
+        b0[paired_binding[k]].descriptorCount = 2;
+    VkDescriptorSetLayoutCreateInfo ci0 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                           .bindingCount = DN_BINDINGS,
+                                           .pBindings = b0};
+    TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci0, NULL, &c->layouts[0]));
+    VkDescriptorSetLayoutBinding b1[TND_CT_COUNT];
+    for (uint32_t i = 0; i < TND_CT_COUNT; i++)
+        b1[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
+                                               VK_SHADER_STAGE_COMPUTE_BIT, NULL};
+    VkDescriptorSetLayoutCreateInfo ci1 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                           .bindingCount = TND_CT_COUNT,
+                                           .pBindings = b1};
+    TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci1, NULL, &c->layouts[1]));
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 8};
+    VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+                                      .setLayoutCount = 2,
+                                      .pSetLayouts = c->layouts,
+                                      .pushConstantRangeCount = 1,
+                                      .pPushConstantRanges = &pcr};
+    TND_VK_TRY(vkCreatePipelineLayout(vk->device, &pci, NULL, &c->layout));
+    VkDescriptorPoolSize ps[2] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * N_PAIRED + 3 + TND_CT_COUNT}};
+    VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+                                       .maxSets = 2,
+                                       .poolSizeCount = 2,
+                                       .pPoolSizes = ps};
+    TND_VK_TRY(vkCreateDescriptorPool(vk->device, &dpci, NULL, &c->pool));
+    VkDescriptorSetAllocateInfo ai = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+                                      .descriptorPool = c->pool,
+                                      .descriptorSetCount = 2,
+                                      .pSetLayouts = c->layouts};
+    TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, c->sets));
+    bool packed = c->desc.precision == TND_PRECISION_PACKED;
+    const tnd_shader ids[3] = {packed ? TND_SHADER_dn_temporal_packed : TND_SHADER_dn_temporal_f32,
+                               packed ? TND_SHADER_dn_atrous_packed : TND_SHADER_dn_atrous_f32,
+                               packed ? TND_SHADER_dn_composite_packed : TND_SHADER_dn_composite_f32};
+    VkPipeline *out[3] = {&c->temporal, &c->atrous, &c->composite};
+    const char *names[3] = {"denoise.temporal", "denoise.atrous", "denoise.composite"};
+    for (int i = 0; i < 3; i++) {
+        size_t bytes;
+        const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
+        TND_TRY(tnd_compute_pipeline_create(vk,
+                                            &(tnd_compute_desc){.code = code, .bytes = bytes,
+                                                                .layout = c->layout,
+                                                                .name = names[i]},
+                                            out[i]));
+    }
+fail:
+    return res;
+}
+
+static void write_own_set(dn_context *c)
+{
+    VkDescriptorImageInfo ii[2 * N_PAIRED + 3];
+    VkWriteDescriptorSet w[N_PAIRED + 4];
+    uint32_t n = 0, k = 0;
+    for (int p = 0; p < N_PAIRED; p++) {
+        ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->paired[p][0].view, VK_IMAGE_LAYOUT_GENERAL};
+        ii[k + 1] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->paired[p][1].view, VK_IMAGE_LAYOUT_GENERAL};
+        w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                        .dstSet = c->sets[0], .dstBinding = paired_binding[p],
+                                        .descriptorCount = 2,
+                                        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                        .pImageInfo = &ii[k]};
+        k += 2;
+    }
+    const tnd_image *single[3] = {&c->prev_gb, &c->prev_vis, &c->out};
+    const uint32_t sb[3] = {DN_B_PREV_GB, DN_B_PREV_VIS, DN_B_OUT};
+    for (int s = 0; s < 3; s++) {
+        ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single[s]->view, VK_IMAGE_LAYOUT_GENERAL};
+        w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                        .dstSet = c->sets[0], .dstBinding = sb[s],
+                                        .descriptorCount = 1,
+                                        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                        .pImageInfo = &ii[k++]};
+    }
+    VkDescriptorBufferInfo bi = {c->params.buffer, 0, VK_WHOLE_SIZE};
+    w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                    .dstSet = c->sets[0], .dstBinding = DN_B_PARAMS,
+                                    .descriptorCount = 1,
+                                    .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
+                                    .pBufferInfo = &bi};
+    vkUpdateDescriptorSets(c->vk->device, n, w, 0, NULL);
+}
+
+tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc *desc,
+                     dn_context **out)
+{
+    tnd_result res = TND_OK;
+    *out = NULL;
+    dn_context *c = calloc(1, sizeof *c);
+    if (!c)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
+    c->vk = vk;
+    c->width = width;
+    c->height = height;
+    if (desc)
+        c->desc = *desc;
+    dn_desc *d = &c->desc;
+    d->iters_hf = d->iters_hf ? d->iters_hf : 4;
+    d->iters_lf = d->iters_lf ? d->iters_lf : 4;
+    d->iters_spec = d->iters_spec ? d->iters_spec : 3;
+    d->min_alpha_hf = d->min_alpha_hf > 0 ? d->min_alpha_hf : 0.02f;
+    d->min_alpha_lf = d->min_alpha_lf > 0 ? d->min_alpha_lf : 0.01f;
+    d->min_alpha_spec = d->min_alpha_spec > 0 ? d->min_alpha_spec : 0.01f;
+    d->min_alpha_moments = d->min_alpha_moments > 0 ? d->min_alpha_moments : 0.01f;
+    for (int k = 0; k < N_PAIRED; k++)
+        for (int s = 0; s < 2; s++) {
+            char name[64];
+            snprintf(name, sizeof name, "denoise.%s[%d]", paired_name[k], s);
+            TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                           .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                           .name = name},
+                                     &c->paired[k][s]));
+        }
+    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                   .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                   .name = "denoise.prev_gb"},
+                             &c->prev_gb));
+    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                   .format = VK_FORMAT_R32G32_UINT,
+                                                   .name = "denoise.prev_vis"},
+                             &c->prev_vis));
+    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                   .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                   .name = "denoise.out"},
+                             &c->out));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(dn_params),
+                                                     .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                                                     .mem = TND_MEM_UPLOAD, .name = "denoise.params"},
+                              &c->params));
+    TND_TRY(create_pipelines(c));
+    write_own_set(c);
+    TND_TRY(tnd_timer_create(vk, &c->timer));
+    *out = c;
+    return TND_OK;
+fail:
+    dn_destroy(c);
+    return res;
+}
+
+static void write_contract_set(dn_context *c, const tnd_contract_gpu *ct)
+{
+    VkDescriptorImageInfo ii[TND_CT_COUNT];
+    VkWriteDescriptorSet w[TND_CT_COUNT];
+    for (uint32_t i = 0; i < TND_CT_COUNT; i++) {
+        ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, ct->images[i].view, VK_IMAGE_LAYOUT_GENERAL};
+        w[i] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                      .dstSet = c->sets[1], .dstBinding = i,
+                                      .descriptorCount = 1,
+                                      .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                      .pImageInfo = &ii[i]};
+    }
+    vkUpdateDescriptorSets(c->vk->device, TND_CT_COUNT, w, 0, NULL);
+}
+
+static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32_t slot,
+                     uint32_t iteration)
+{
+    uint32_t pc[2] = {slot, iteration};
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
+    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, pc);
+    vkCmdDispatch(cmd, (c->width + 7) / 8, (c->height + 7) / 8, 1);
+    tnd_cmd_barrier(cmd);
+}
+
+tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, dn_timings *t)
+{
+    tnd_result res = TND_OK;
+    if (ct->width != c->width || ct->height != c->height || ct->precision != c->desc.precision)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "denoise: contract %ux%u (%s) does not match the back-end's %ux%u (%s)",
+                        ct->width, ct->height, tnd_precision_name(ct->precision), c->width,
+                        c->height, tnd_precision_name(c->desc.precision));
+    write_contract_set(c, ct);
+    bool history = c->have_history && !f->reset;
+    dn_params *P = c->params.mapped;
+    const dn_desc *d = &c->desc;
+    *P = (dn_params){
+        .size = {c->width, c->height, history ? 1u : 0u, d->mode == DN_MODE_OFF ? 1u : 0u},
+        .iters = {d->iters_hf, d->iters_lf, d->iters_spec, 0},
+        .alpha = {d->min_alpha_hf, d->min_alpha_lf, d->min_alpha_spec, d->min_alpha_moments},
+        .jitter = {f->jitter[0], f->jitter[1], f->prev_jitter[0], f->prev_jitter[1]},
+        .weights = {2.0f, 64.0f, 4.0f, 8.0f},
+        .misc = {f->pixel_spread, 256.0f, 1024.0f, 0.0f},
+    };
+    uint32_t slot = c->frame & 1u;
+    uint32_t iters = d->iters_hf;
+    if (d->iters_lf > iters)
+        iters = d->iters_lf;
+    if (d->iters_spec > iters)
+        iters = d->iters_spec;
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+    tnd_timer_reset(cmd, &c->timer);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
+    tnd_cmd_barrier(cmd);
+    int s_t = -1, s_a = -1;
+    if (d->mode != DN_MODE_OFF) {
+        s_t = tnd_timer_begin(cmd, &c->timer, "denoise.temporal");
+        dispatch(c, cmd, c->temporal, slot, 0);
+        tnd_timer_end(cmd, &c->timer, s_t);
+        s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
+        for (uint32_t i = 0; i < iters; i++)
+            dispatch(c, cmd, c->atrous, slot, i);
+        tnd_timer_end(cmd, &c->timer, s_a);
+    }
+    int s_c = tnd_timer_begin(cmd, &c->timer, "denoise.composite");
+    dispatch(c, cmd, c->composite, slot, iters & 1u);
+    tnd_timer_end(cmd, &c->timer, s_c);
+    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    if (t) {
+        double ms[3] = {0, 0, 0};
+        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
+        *t = d->mode == DN_MODE_OFF ? (dn_timings){0, 0, ms[0]} : (dn_timings){ms[0], ms[1], ms[2]};
+    }
+    c->have_history = true;
+    c->frame++;
+fail:
+    return res;
+}
+
+tnd_result dn_download(dn_context *c, float *rgb)
+{
+    tnd_result res = TND_OK;
+    tnd_buffer rb = {0};
+    size_t n = (size_t)c->width * c->height;
+    TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = n * 16, .mem = TND_MEM_READBACK,
+                                                        .name = "denoise.readback"},
+                              &rb));
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+    tnd_cmd_barrier(cmd);
+    VkBufferImageCopy r = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                           .imageExtent = {c->width, c->height, 1}};
+    vkCmdCopyImageToBuffer(cmd, c->out.image, VK_IMAGE_LAYOUT_GENERAL, rb.buffer, 1, &r);
+    tnd_cmd_barrier(cmd);
+    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    const float *src = rb.mapped;
+    for (size_t q = 0; q < n; q++)
+        for (int k = 0; k < 3; k++)
+            rgb[3 * q + k] = src[4 * q + k];
+fail:
+    tnd_buffer_destroy(c->vk, &rb);
+    return res;
+}

@@ -1,0 +1,45 @@
+/* Parameters of the denoising back-end, shared by denoise/ (C) and its shaders (GLSL). */
+#ifndef TND_DENOISE_SHARED_H
+#define TND_DENOISE_SHARED_H
+
+#ifndef TND_GLSL
+#include <stdint.h>
+typedef struct { float x, y, z, w; } dn_vec4;
+typedef struct { uint32_t x, y, z, w; } dn_uvec4;
+#define vec4 dn_vec4
+#define uvec4 dn_uvec4
+#endif
+
+struct dn_params {
+    uvec4 size;    /* x: width, y: height, z: history valid (0 after a reset), w: mode (0 svgf, 1 off) */
+    uvec4 iters;   /* a-trous iterations: x hf, y lf, z spec */
+    vec4 alpha;    /* minimum temporal alpha: x hf colour, y lf, z spec, w hf moments */
+    vec4 jitter;   /* xy: this frame's jitter, zw: the previous frame's (pixels) */
+    vec4 weights;  /* x: depth sigma, y: hf normal exponent, z: hf luminance sigma, w: lf normal exponent */
+    vec4 misc;     /* x: pixel spread angle (radians), y: history cap, z: spec normal exponent cap */
+};
+
+#ifndef TND_GLSL
+#undef vec4
+#undef uvec4
+typedef struct dn_params dn_params;
+_Static_assert(sizeof(dn_params) == 96, "dn_params layout");
+#endif
+
+/* Bindings of set 0 (the back-end's own images; set 1 is the contract). */
+#define DN_B_PARAMS 0
+#define DN_B_HIST_HF 1     /* [2] rgb colour, a: history length (hf) */
+#define DN_B_HIST_MOM 2    /* [2] x E[l], y E[l^2], z length lf, w length spec */
+#define DN_B_HIST_LF_SH 3  /* [2] */
+#define DN_B_HIST_LF_COCG 4 /* [2] xy */
+#define DN_B_HIST_SPEC 5   /* [2] rgb */
+#define DN_B_PREV_GB 6     /* x depth, yzw geometric normal of the previous frame */
+#define DN_B_PREV_VIS 7    /* xy instance, primitive of the previous frame */
+#define DN_B_AT_HF 8       /* [2] a-trous ping-pong: rgb, a variance */
+#define DN_B_AT_LF_SH 9    /* [2] */
+#define DN_B_AT_LF_COCG 10 /* [2] */
+#define DN_B_AT_SPEC 11    /* [2] */
+#define DN_B_OUT 12        /* linear HDR output */
+#define DN_BINDINGS 13
+
+#endif

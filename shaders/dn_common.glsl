@@ -1,0 +1,45 @@
+/* dn_common.glsl: declarations shared by the back-end's compute passes. Push constant: x = the
+ * history slot written this frame (0 or 1; the other holds the previous frame), y = a-trous
+ * iteration. */
+#extension GL_GOOGLE_include_directive : require
+#include "denoise_shared.h"
+#include "encoding.h"
+#define TND_CONTRACT_SET 1
+#include "contract.h"
+TND_CONTRACT(TND_CT_DECLARE)
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = DN_B_PARAMS, std140) uniform Params { dn_params P; };
+layout(set = 0, binding = DN_B_HIST_HF, rgba32f) uniform image2D hist_hf[2];
+layout(set = 0, binding = DN_B_HIST_MOM, rgba32f) uniform image2D hist_mom[2];
+layout(set = 0, binding = DN_B_HIST_LF_SH, rgba32f) uniform image2D hist_lf_sh[2];
+layout(set = 0, binding = DN_B_HIST_LF_COCG, rgba32f) uniform image2D hist_lf_cocg[2];
+layout(set = 0, binding = DN_B_HIST_SPEC, rgba32f) uniform image2D hist_spec[2];
+layout(set = 0, binding = DN_B_PREV_GB, rgba32f) uniform image2D prev_gb;
+layout(set = 0, binding = DN_B_PREV_VIS, rg32ui) uniform uimage2D prev_vis;
+layout(set = 0, binding = DN_B_AT_HF, rgba32f) uniform image2D at_hf[2];
+layout(set = 0, binding = DN_B_AT_LF_SH, rgba32f) uniform image2D at_lf_sh[2];
+layout(set = 0, binding = DN_B_AT_LF_COCG, rgba32f) uniform image2D at_lf_cocg[2];
+layout(set = 0, binding = DN_B_AT_SPEC, rgba32f) uniform image2D at_spec[2];
+layout(set = 0, binding = DN_B_OUT, rgba32f) uniform image2D out_img;
+layout(push_constant) uniform Push { uint slot; uint iteration; } pc;
+
+#if TND_PACKED
+vec3 load_hf(ivec2 p) { return tnd_rgbe_decode(imageLoad(img_hf, p).x); }
+vec3 load_spec(ivec2 p) { return tnd_rgbe_decode(imageLoad(img_spec, p).x); }
+#else
+vec3 load_hf(ivec2 p) { return imageLoad(img_hf, p).rgb; }
+vec3 load_spec(ivec2 p) { return imageLoad(img_spec, p).rgb; }
+#endif
+
+float luma(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
+bool inside(ivec2 p) { return all(greaterThanEqual(p, ivec2(0))) && p.x < int(P.size.x) && p.y < int(P.size.y); }
+
+/* Sanitise what enters a history: NaN/Inf never do (they would spread forever). */
+vec3 finite3(vec3 v)
+{
+    return vec3(tnd_nonfinite(v.x) ? 0.0 : v.x, tnd_nonfinite(v.y) ? 0.0 : v.y,
+                tnd_nonfinite(v.z) ? 0.0 : v.z);
+}
+vec4 finite4(vec4 v) { return vec4(finite3(v.xyz), tnd_nonfinite(v.w) ? 0.0 : v.w); }

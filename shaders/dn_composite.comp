@@ -1,0 +1,54 @@
+/* dn_composite.comp: remodulation and composite into linear HDR (docs/contract.md):
+ * ((hf + E_n(lf)) x albedo x (1 - metallic) + spec x max(0.01, F0)) x throughput + emission,
+ * E_n the SH at the shading normal, chroma rescaled with it. Inputs: the last a-trous slot
+ * (push constant iteration = that slot), or the raw contract in mode "off". Also saves this
+ * frame's depth, geometric normal and visibility for the next frame's reprojection. */
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "dn_common.glsl"
+
+const float SH_C0 = 0.282094791773878;
+const float SH_C1 = 0.488602511902920;
+
+void main()
+{
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (!inside(p))
+        return;
+    uvec2 vis = imageLoad(img_vis_id, p).xy;
+    vec3 gn = imageLoad(img_geo_normal, p).xyz;
+    float depth = imageLoad(img_depth, p).x;
+    imageStore(prev_gb, p, vec4(depth, gn));
+    imageStore(prev_vis, p, uvec4(vis, 0u, 0u));
+    vec3 em = imageLoad(img_emission, p).rgb;
+    if (vis.x == TND_VIS_NONE) {
+        imageStore(out_img, p, vec4(finite3(em), 1.0));
+        return;
+    }
+    vec3 hf, spec;
+    vec4 sh;
+    vec2 cocg;
+    if (P.size.w == 1u) {
+        hf = load_hf(p);
+        spec = load_spec(p);
+        sh = imageLoad(img_lf_sh, p);
+        cocg = imageLoad(img_lf_cocg, p).xy;
+    } else {
+        uint s = pc.iteration;
+        hf = imageLoad(at_hf[s], p).rgb;
+        spec = imageLoad(at_spec[s], p).rgb;
+        sh = imageLoad(at_lf_sh[s], p);
+        cocg = imageLoad(at_lf_cocg[s], p).xy;
+    }
+    vec3 n = imageLoad(img_normal, p).xyz, alb = imageLoad(img_albedo, p).rgb;
+    float m = imageLoad(img_metallic, p).x;
+    float Y = max(SH_C0 * sh.w + (2.0 / 3.0) * SH_C1 * dot(n, sh.xyz), 0.0);
+    float s0 = sh.w / SH_C0;
+    float r = s0 > 0.0 ? Y / s0 : 0.0;
+    float co = cocg.x * r, cg = cocg.y * r;
+    float t = Y - 0.5 * cg, g = cg + t, b = t - 0.5 * co, rr = b + co;
+    vec3 lf = max(vec3(rr, g, b), vec3(0.0));
+    vec3 demod = max(vec3(0.01), 0.04 * (1.0 - m) + alb * m);
+    vec3 c = ((hf + lf) * alb * (1.0 - m) + spec * demod) * imageLoad(img_throughput, p).rgb + em;
+    imageStore(out_img, p, vec4(finite3(c), 1.0));
+}

@@ -1,0 +1,102 @@
+/* dn_temporal.comp: temporal accumulation (SVGF, Schied et al. 2017; constants as Q2RTX's
+ * A-SVGF): each pixel's surface is found in the previous frame through its motion vector, the
+ * history is resampled with a 2x2 bilinear footprint whose taps are tested one by one (same
+ * instance in the visibility buffer, depth within 10% after the motion's depth delta, geometric
+ * normals within 25 degrees), then blended with alpha = max(min alpha, 1 / history length).
+ * Channels: hf (colour and luminance moments), lf (SH + CoCg), spec. Writes this frame's history
+ * slot and the first a-trous input (colour + variance). Where the history is shorter than 4
+ * frames, the variance comes from a 3x3 spatial estimate. */
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "dn_common.glsl"
+
+void main()
+{
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (!inside(p))
+        return;
+    uint cur = pc.slot, prev = 1u - pc.slot;
+    uvec2 vis = imageLoad(img_vis_id, p).xy;
+    vec3 hf = finite3(load_hf(p)), spec = finite3(load_spec(p));
+    vec4 sh = finite4(imageLoad(img_lf_sh, p));
+    vec2 cocg = finite3(vec3(imageLoad(img_lf_cocg, p).xy, 0.0)).xy;
+    float depth = imageLoad(img_depth, p).x;
+    vec3 gn = imageLoad(img_geo_normal, p).xyz;
+    vec3 motion = imageLoad(img_motion, p).xyz;
+    if (tnd_nonfinite(motion.x) || tnd_nonfinite(motion.y) || tnd_nonfinite(motion.z))
+        motion = vec3(0.0);
+
+    /* history */
+    vec4 h_hf = vec4(0.0), h_mom = vec4(0.0), h_sh = vec4(0.0), h_spec = vec4(0.0);
+    vec2 h_cocg = vec2(0.0);
+    float wsum = 0.0;
+    if (P.size.z != 0u && vis.x != TND_VIS_NONE) {
+        vec2 pp = vec2(p) + P.jitter.xy + motion.xy - P.jitter.zw;
+        ivec2 p0 = ivec2(floor(pp));
+        vec2 f = pp - vec2(p0);
+        for (int j = 0; j < 2; j++)
+            for (int i = 0; i < 2; i++) {
+                ivec2 q = p0 + ivec2(i, j);
+                if (!inside(q))
+                    continue;
+                if (imageLoad(prev_vis, q).x != vis.x)
+                    continue;
+                vec4 g = imageLoad(prev_gb, q);
+                if (abs(g.x - (depth + motion.z)) > 0.1 * depth || dot(g.yzw, gn) < 0.9)
+                    continue;
+                float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
+                h_hf += w * imageLoad(hist_hf[prev], q);
+                h_mom += w * imageLoad(hist_mom[prev], q);
+                h_sh += w * imageLoad(hist_lf_sh[prev], q);
+                h_cocg += w * imageLoad(hist_lf_cocg[prev], q).xy;
+                h_spec += w * imageLoad(hist_spec[prev], q);
+                wsum += w;
+            }
+    }
+    float l = luma(hf);
+    vec4 out_hf, out_mom, out_sh, out_spec;
+    vec2 out_cocg;
+    if (wsum > 1e-4) {
+        h_hf /= wsum, h_mom /= wsum, h_sh /= wsum, h_cocg /= wsum, h_spec /= wsum;
+        float cap = P.misc.y;
+        float len_hf = min(h_hf.a + 1.0, cap), len_lf = min(h_mom.z + 1.0, cap);
+        float len_spec = min(h_mom.w + 1.0, cap);
+        float a_hf = max(P.alpha.x, 1.0 / len_hf), a_m = max(P.alpha.w, 1.0 / len_hf);
+        float a_lf = max(P.alpha.y, 1.0 / len_lf), a_spec = max(P.alpha.z, 1.0 / len_spec);
+        out_hf = vec4(mix(h_hf.rgb, hf, a_hf), len_hf);
+        out_mom = vec4(mix(h_mom.xy, vec2(l, l * l), a_m), len_lf, len_spec);
+        out_sh = mix(h_sh, sh, a_lf);
+        out_cocg = mix(h_cocg, cocg, a_lf);
+        out_spec = vec4(mix(h_spec.rgb, spec, a_spec), 0.0);
+    } else {
+        out_hf = vec4(hf, 1.0);
+        out_mom = vec4(l, l * l, 1.0, 1.0);
+        out_sh = sh;
+        out_cocg = cocg;
+        out_spec = vec4(spec, 0.0);
+    }
+    /* variance: temporal moments, or a 3x3 spatial estimate on young histories */
+    float m1 = out_mom.x, m2 = out_mom.y;
+    if (out_hf.a < 4.0) {
+        float s1 = 0.0, s2 = 0.0, n = 0.0;
+        for (int j = -1; j <= 1; j++)
+            for (int i = -1; i <= 1; i++) {
+                ivec2 q = p + ivec2(i, j);
+                if (!inside(q) || imageLoad(img_vis_id, q).x != vis.x)
+                    continue;
+                float lq = luma(finite3(load_hf(q)));
+                s1 += lq, s2 += lq * lq, n += 1.0;
+            }
+        m1 = s1 / max(n, 1.0), m2 = s2 / max(n, 1.0);
+    }
+    float variance = max(m2 - m1 * m1, 0.0);
+    imageStore(hist_hf[cur], p, out_hf);
+    imageStore(hist_mom[cur], p, out_mom);
+    imageStore(hist_lf_sh[cur], p, out_sh);
+    imageStore(hist_lf_cocg[cur], p, vec4(out_cocg, 0.0, 0.0));
+    imageStore(hist_spec[cur], p, out_spec);
+    imageStore(at_hf[0], p, vec4(out_hf.rgb, variance));
+    imageStore(at_lf_sh[0], p, out_sh);
+    imageStore(at_lf_cocg[0], p, vec4(out_cocg, 0.0, 0.0));
+    imageStore(at_spec[0], p, out_spec);
+}
