@@ -2,6 +2,7 @@
  * `tandem reference` (converged images). Until the back-end exists, render writes the plain
  * composite of the noisy signals, plus a preview PNG. */
 #include "app/app.h"
+#include "denoise/denoise.h"
 #include "frontend_embree/frontend_embree.h"
 #include "frontend_vk/frontend_vk.h"
 #include "shaders/sampling.h"
@@ -16,7 +17,7 @@
 #endif
 
 typedef struct render_opts {
-    const char *scene, *frontend, *out, *precision, *rt_api;
+    const char *scene, *frontend, *out, *precision, *rt_api, *denoiser;
     unsigned frames, start, threads, bounces, spp, camera;
     unsigned size[2];
     double fps;
@@ -80,6 +81,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                        .frontend = "embree",
                        .precision = "float32",
                        .rt_api = "auto",
+                       .denoiser = "svgf",
                        .frames = 8,
                        .bounces = 1,
                        .spp = 256,
@@ -98,6 +100,8 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"bounces", APP_OPT_UINT, &o->bounces, "N", "indirect bounces (default 1)"},
         {"precision", APP_OPT_STRING, &o->precision, "P", "contract precision: float32 or packed"},
         {"capture", APP_OPT_FLAG, &o->capture, NULL, "also write DIR/capture/frame_NNNN.exr"},
+        {"denoiser", APP_OPT_STRING, &o->denoiser, "MODE",
+         "svgf (default) or off (composite of the noisy signals)"},
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API",
          "vk: pipeline, query, or auto (query where the device has it)"},
         {0},
@@ -165,7 +169,14 @@ static int run(bool reference, int argc, char **argv)
     femb_context *fe = NULL;
     tnd_vk vk = {0};
     fvk_context *gv = NULL;
+    dn_context *dn = NULL;
+    tnd_contract_gpu upload = {0};
     bool use_vk = strcmp(o.frontend, "vk") == 0;
+    dn_mode dmode = DN_MODE_SVGF;
+    if (!reference && (res = dn_mode_parse(o.denoiser, &dmode)) != TND_OK)
+        return app_report(what, res);
+    /* the back-end runs on Vulkan; only "embree + off" stays on the CPU */
+    bool use_dn = !reference && !(dmode == DN_MODE_OFF && !use_vk);
     FILE *timings = NULL;
     tnd_scene_state st[2] = {{0}};
     tnd_frame frame = {0};
@@ -175,8 +186,16 @@ static int run(bool reference, int argc, char **argv)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
     int status = APP_EXIT_FAIL;
     TND_TRY(tnd_scene_load(o.scene, &scene));
+    if (use_vk || use_dn) {
+        TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !use_vk}, &vk));
+    }
+    if (use_dn) {
+        TND_TRY(dn_create(&vk, o.size[0], o.size[1], &(dn_desc){.mode = dmode, .precision = prec},
+                          &dn));
+        if (!use_vk)
+            TND_TRY(tnd_contract_gpu_create(&vk, o.size[0], o.size[1], prec, &upload));
+    }
     if (use_vk) {
-        TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
         fvk_rt_api api;
         TND_TRY(fvk_rt_api_parse(o.rt_api, &api));
         TND_TRY(fvk_create(&vk, scene, &(fvk_desc){.precision = prec, .rt_api = api}, &gv));
@@ -191,8 +210,11 @@ static int run(bool reference, int argc, char **argv)
             res = tnd_fail(TND_ERR_IO, "render: %s: cannot create", path);
             goto fail;
         }
-        fprintf(timings, "{\n  \"frontend\": \"%s\",\n  \"device\": \"%s\",\n  \"frames\": [",
-                o.frontend, use_vk ? vk.info.name : "CPU (Embree)");
+        fprintf(timings,
+                "{\n  \"frontend\": \"%s\",\n  \"denoiser\": \"%s\",\n  \"device\": \"%s\",\n"
+                "  \"frames\": [",
+                o.frontend, use_dn ? dn_mode_name(dmode) : "off (CPU composite)",
+                use_vk || use_dn ? vk.info.name : "CPU (Embree)");
     }
     snprintf(dir, sizeof dir, "%s/capture", o.out);
     if (o.capture)
@@ -257,14 +279,30 @@ static int run(bool reference, int argc, char **argv)
             ms_primary = 1e3 * (tb - ta), ms_shade = 1e3 * (tnd_now() - tb);
             tnd_frame_quantize(&frame, prec);
         }
-        fprintf(timings, "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
-                         "\"tlas_ms\": %.4f}",
-                i ? "," : "", f, ms_primary, ms_shade, ms_tlas);
         if (o.capture) {
             snprintf(path, sizeof path, "%s/frame_%04u.exr", dir, f);
             TND_TRY(tnd_capture_write(path, &frame, TND_EXR_ZIP));
         }
-        tnd_frame_composite(&frame, rgb);
+        dn_timings dt = {0};
+        if (use_dn) {
+            dn_frame df = {.pixel_spread = (float)(2.0 / fabs((double)cur->camera.proj[5]) / o.size[1]),
+                           .reset = i == 0};
+            tnd_jitter(f, df.jitter);
+            tnd_jitter(f ? f - 1 : 0, df.prev_jitter);
+            if (!use_vk)
+                TND_TRY(tnd_contract_upload(&vk, &upload, &frame));
+            TND_TRY(dn_run(dn, use_vk ? fvk_contract(gv) : &upload, &df, &dt));
+            TND_TRY(dn_download(dn, rgb));
+        } else {
+            tnd_frame_composite(&frame, rgb);
+        }
+        /* front-end times: GPU timestamps (vk) or CPU wall clock (embree); back-end: GPU */
+        fprintf(timings,
+                "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
+                "\"tlas_ms\": %.4f, \"denoise_temporal_ms\": %.4f, \"denoise_atrous_ms\": %.4f, "
+                "\"composite_ms\": %.4f}",
+                i ? "," : "", f, ms_primary, ms_shade, ms_tlas, dt.temporal_ms, dt.atrous_ms,
+                dt.composite_ms);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
@@ -308,6 +346,8 @@ fail:
     tnd_scene_state_free(&st[1]);
     if (timings)
         fclose(timings);
+    dn_destroy(dn);
+    tnd_contract_gpu_destroy(&vk, &upload);
     fvk_destroy(gv);
     tnd_vk_destroy(&vk);
     femb_destroy(fe);
