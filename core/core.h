@@ -276,6 +276,9 @@ typedef struct tnd_image {
  * TND_ERR_LIMIT when the size is 0 or beyond the device's maxImageDimension2D. */
 tnd_result tnd_image_create(tnd_vk *vk, const tnd_image_desc *desc, tnd_image *img);
 void tnd_image_destroy(tnd_vk *vk, tnd_image *img);
+/* Copy a whole image (layout GENERAL) to host memory, texels tightly packed row by row;
+ * `bytes` must be width x height x the format's texel size. Blocks. */
+tnd_result tnd_image_download(tnd_vk *vk, const tnd_image *img, void *data, size_t bytes);
 
 /* Pick a memory type with `bits` allowed and all of `props`; UINT32_MAX when none. */
 uint32_t tnd_vk_memory_type(const tnd_vk *vk, uint32_t bits, VkMemoryPropertyFlags props);

@@ -238,6 +238,27 @@ void tnd_image_destroy(tnd_vk *vk, tnd_image *img)
     memset(img, 0, sizeof *img);
 }
 
+tnd_result tnd_image_download(tnd_vk *vk, const tnd_image *img, void *data, size_t bytes)
+{
+    tnd_result res = TND_OK;
+    tnd_buffer rb = {0};
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = bytes, .mem = TND_MEM_READBACK,
+                                                     .name = "image.readback"},
+                              &rb));
+    TND_TRY(tnd_cmd_begin(vk, &cmd));
+    tnd_cmd_barrier(cmd);
+    VkBufferImageCopy r = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                           .imageExtent = {img->width, img->height, 1}};
+    vkCmdCopyImageToBuffer(cmd, img->image, VK_IMAGE_LAYOUT_GENERAL, rb.buffer, 1, &r);
+    tnd_cmd_barrier(cmd);
+    TND_TRY(tnd_cmd_submit_wait(vk, cmd));
+    memcpy(data, rb.mapped, bytes);
+fail:
+    tnd_buffer_destroy(vk, &rb);
+    return res;
+}
+
 tnd_result tnd_cmd_begin(tnd_vk *vk, VkCommandBuffer *cmd)
 {
     tnd_result res = TND_OK;

@@ -317,25 +317,14 @@ fail:
 
 tnd_result dn_download(dn_context *c, float *rgb)
 {
-    tnd_result res = TND_OK;
-    tnd_buffer rb = {0};
     size_t n = (size_t)c->width * c->height;
-    TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = n * 16, .mem = TND_MEM_READBACK,
-                                                        .name = "denoise.readback"},
-                              &rb));
-    VkCommandBuffer cmd;
-    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
-    tnd_cmd_barrier(cmd);
-    VkBufferImageCopy r = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-                           .imageExtent = {c->width, c->height, 1}};
-    vkCmdCopyImageToBuffer(cmd, c->out.image, VK_IMAGE_LAYOUT_GENERAL, rb.buffer, 1, &r);
-    tnd_cmd_barrier(cmd);
-    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
-    const float *src = rb.mapped;
-    for (size_t q = 0; q < n; q++)
+    float *px = malloc(n * 16);
+    if (!px)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
+    tnd_result res = tnd_image_download(c->vk, &c->out, px, n * 16);
+    for (size_t q = 0; res == TND_OK && q < n; q++)
         for (int k = 0; k < 3; k++)
-            rgb[3 * q + k] = src[4 * q + k];
-fail:
-    tnd_buffer_destroy(c->vk, &rb);
+            rgb[3 * q + k] = px[4 * q + k];
+    free(px);
     return res;
 }

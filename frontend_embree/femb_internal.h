@@ -5,11 +5,30 @@
 #include "frontend_embree/frontend_embree.h"
 
 #include <embree3/rtcore.h>
+#include <math.h>
 #include <pthread.h>
 
 typedef struct v3 {
     float x, y, z;
 } v3;
+
+/* Small vector helpers (min/max written out: libm's fminf/fmaxf are calls without
+ * -ffinite-math-only). */
+static inline float fmx(float a, float b) { return a > b ? a : b; }
+static inline float fmn(float a, float b) { return a < b ? a : b; }
+static inline v3 add(v3 a, v3 b) { return (v3){a.x + b.x, a.y + b.y, a.z + b.z}; }
+static inline v3 sub(v3 a, v3 b) { return (v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
+static inline v3 mul(v3 a, float s) { return (v3){a.x * s, a.y * s, a.z * s}; }
+static inline float dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline v3 cross(v3 a, v3 b)
+{
+    return (v3){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+static inline v3 norm(v3 a)
+{
+    float l = sqrtf(dot(a, a));
+    return l > 0 ? mul(a, 1.0f / l) : a;
+}
 
 /* Rays traced while a log is attached (benchmarks replay them in a raw loop). */
 typedef struct femb_ray {

@@ -24,22 +24,6 @@
 #define SH_C0 0.282094791773878f /* Y00 */
 #define SH_C1 0.488602511902920f /* Y1m / direction component */
 
-static inline float fmx(float a, float b) { return a > b ? a : b; }
-static inline float fmn(float a, float b) { return a < b ? a : b; }
-static inline v3 add(v3 a, v3 b) { return (v3){a.x + b.x, a.y + b.y, a.z + b.z}; }
-static inline v3 sub(v3 a, v3 b) { return (v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
-static inline v3 mul(v3 a, float s) { return (v3){a.x * s, a.y * s, a.z * s}; }
-static inline float dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-static inline v3 cross(v3 a, v3 b)
-{
-    return (v3){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-static inline v3 norm(v3 a)
-{
-    float l = sqrtf(dot(a, a));
-    return l > 0 ? mul(a, 1.0f / l) : a;
-}
-
 typedef struct rng_key {
     uint32_t pixel, frame;
 } rng_key;

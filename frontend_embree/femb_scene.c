@@ -206,23 +206,6 @@ bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax)
     return r.tfar < 0.0f;
 }
 
-/* ---- vectors ---------------------------------------------------------------------------------- */
-static inline float fmx(float a, float b) { return a > b ? a : b; }
-static inline float fmn(float a, float b) { return a < b ? a : b; }
-static inline v3 add(v3 a, v3 b) { return (v3){a.x + b.x, a.y + b.y, a.z + b.z}; }
-static inline v3 sub(v3 a, v3 b) { return (v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
-static inline v3 mul(v3 a, float s) { return (v3){a.x * s, a.y * s, a.z * s}; }
-static inline float dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-static inline v3 cross(v3 a, v3 b)
-{
-    return (v3){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-static inline v3 norm(v3 a)
-{
-    float l = sqrtf(dot(a, a));
-    return l > 0 ? mul(a, 1.0f / l) : a;
-}
-
 v3 femb_offset_ray(v3 p, v3 n)
 {
     const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
@@ -364,59 +347,32 @@ void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primit
     s->v = v;
 }
 
-/* ---- tiles over threads --------------------------------------------------------------------- */
-typedef struct tile_job {
-    femb_context *c;
-    void (*fn)(femb_context *, uint32_t, uint32_t, uint32_t, uint32_t, void *);
-    void *user;
-    atomic_uint next;
-    uint32_t tiles_x, tiles;
-} tile_job;
-
+/* ---- tiles over threads: a range over tile indices ------------------------------------------ */
 enum { TILE = 16 };
 
-static void *tile_worker(void *arg)
+typedef struct tile_job {
+    void (*fn)(femb_context *, uint32_t, uint32_t, uint32_t, uint32_t, void *);
+    void *user;
+    uint32_t tiles_x;
+} tile_job;
+
+static void run_tiles(femb_context *c, size_t begin, size_t end, void *user)
 {
-    tile_job *j = arg;
-#ifdef FEMB_HAVE_SSE
-    unsigned csr = _mm_getcsr();
-    _mm_setcsr(csr | 0x8040); /* FTZ and DAZ: denormals are slow and never needed */
-#endif
-    for (;;) {
-        uint32_t t = atomic_fetch_add(&j->next, 1);
-        if (t >= j->tiles)
-            break;
-        uint32_t tx = t % j->tiles_x, ty = t / j->tiles_x;
-        uint32_t x0 = tx * TILE, y0 = ty * TILE;
-        uint32_t x1 = x0 + TILE < j->c->width ? x0 + TILE : j->c->width;
-        uint32_t y1 = y0 + TILE < j->c->height ? y0 + TILE : j->c->height;
-        j->fn(j->c, x0, y0, x1, y1, j->user);
+    const tile_job *j = user;
+    for (size_t t = begin; t < end; t++) {
+        uint32_t x0 = (uint32_t)(t % j->tiles_x) * TILE, y0 = (uint32_t)(t / j->tiles_x) * TILE;
+        uint32_t x1 = x0 + TILE < c->width ? x0 + TILE : c->width;
+        uint32_t y1 = y0 + TILE < c->height ? y0 + TILE : c->height;
+        j->fn(c, x0, y0, x1, y1, j->user);
     }
-#ifdef FEMB_HAVE_SSE
-    _mm_setcsr(csr); /* restored: the calling thread works too */
-#endif
-    return NULL;
 }
 
 void femb_parallel_tiles(femb_context *c,
                          void (*fn)(femb_context *, uint32_t, uint32_t, uint32_t, uint32_t, void *),
                          void *user)
 {
-    tile_job j = {.c = c, .fn = fn, .user = user};
-    j.tiles_x = (c->width + TILE - 1) / TILE;
-    j.tiles = j.tiles_x * ((c->height + TILE - 1) / TILE);
-    atomic_init(&j.next, 0);
-    uint32_t n = c->threads > 1 ? c->threads : 1;
-    pthread_t th[256];
-    if (n > 256)
-        n = 256;
-    uint32_t started = 0;
-    for (uint32_t i = 1; i < n; i++)
-        if (pthread_create(&th[started], NULL, tile_worker, &j) == 0)
-            started++;
-    tile_worker(&j);
-    for (uint32_t i = 0; i < started; i++)
-        pthread_join(th[i], NULL);
+    tile_job j = {fn, user, (c->width + TILE - 1) / TILE};
+    femb_parallel_range(c, (size_t)j.tiles_x * ((c->height + TILE - 1) / TILE), 1, run_tiles, &j);
 }
 
 /* ---- ranges over threads -------------------------------------------------------------------- */

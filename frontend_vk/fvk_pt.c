@@ -430,7 +430,7 @@ tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, double *rel_e
                          void (*progress)(uint32_t, uint32_t, void *), void *user)
 {
     tnd_result res = TND_OK;
-    tnd_buffer rb = {0};
+    float *acc = NULL;
     if (!c->have_frame || spp == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: reference needs a frame and spp > 0");
     const uint32_t batch = 16;
@@ -449,18 +449,13 @@ tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, double *rel_e
             progress(s0 + batch < spp ? s0 + batch : spp, spp, user);
     }
     size_t n = (size_t)c->width * c->height;
-    TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = n * 16, .mem = TND_MEM_READBACK,
-                                                        .name = "frontend_vk.accum.readback"},
-                              &rb));
-    VkCommandBuffer cmd;
-    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
-    tnd_cmd_barrier(cmd);
-    VkBufferImageCopy r = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-                           .imageExtent = {c->width, c->height, 1}};
-    vkCmdCopyImageToBuffer(cmd, c->accum.image, VK_IMAGE_LAYOUT_GENERAL, rb.buffer, 1, &r);
-    tnd_cmd_barrier(cmd);
-    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
-    const float *a = rb.mapped;
+    acc = malloc(n * 16);
+    if (!acc) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+        goto fail;
+    }
+    TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
+    const float *a = acc;
     double err = 0;
     uint32_t counted = 0;
     for (size_t q = 0; q < n; q++) {
@@ -476,6 +471,6 @@ tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, double *rel_e
     if (rel_error)
         *rel_error = counted ? err / counted : 0;
 fail:
-    tnd_buffer_destroy(c->vk, &rb);
+    free(acc);
     return res;
 }
