@@ -56,6 +56,13 @@ void app_progress_begin(app_progress *p, const char *label, unsigned total);
 void app_progress_step(app_progress *p, unsigned done);
 void app_progress_end(app_progress *p);
 
+/* ---- outputs ------------------------------------------------------------------------------ */
+/* Linear RGB (3 floats per pixel) as a float EXR with channels R, G, B (atomic write). */
+tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uint32_t h);
+/* A preview PNG: exposure from the log-average luminance (key 0.18), Reinhard, sRGB. The
+ * composite stage's tone mapping replaces it. */
+tnd_result app_write_preview(const char *path, const float *rgb, uint32_t w, uint32_t h);
+
 /* ---- commands ------------------------------------------------------------------------------- */
 int cmd_info(int argc, char **argv);
 int cmd_contract(int argc, char **argv);
@@ -63,5 +70,6 @@ int cmd_render(int argc, char **argv);
 int cmd_reference(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
+int cmd_denoise(int argc, char **argv);
 
 #endif

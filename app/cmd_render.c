@@ -8,7 +8,6 @@
 #include "shaders/sampling.h"
 
 #include <math.h>
-#include <stb/stb_image_write.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -35,45 +34,6 @@ static const app_cmd reference_cmd = {
     "Render converged reference frames (unbiased path tracing, --spp samples per pixel) of a\n"
     "scene's camera path: DIR/frame_NNNN.exr, linear HDR radiance.",
     "--out DIR [--scene PATH] [--frontend embree] [--frames N] [--size WxH] [--spp K]", NULL};
-
-/* Preview PNG: exposure from the frame's log-average luminance (key 0.18), Reinhard, sRGB. Real
- * tone mapping is the composite stage's. */
-static tnd_result write_preview(const char *path, const float *rgb, uint32_t w, uint32_t h)
-{
-    size_t n = (size_t)w * h;
-    double logsum = 0;
-    for (size_t q = 0; q < n; q++) {
-        double l = 0.2126 * rgb[3 * q] + 0.7152 * rgb[3 * q + 1] + 0.0722 * rgb[3 * q + 2];
-        logsum += log(1e-4 + (isfinite(l) && l > 0 ? l : 0));
-    }
-    double exposure = 0.18 / exp(logsum / (double)n);
-    uint8_t *px = malloc(n * 3);
-    if (!px)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "render: out of memory");
-    for (size_t q = 0; q < n * 3; q++) {
-        double v = rgb[q] * exposure;
-        v = isfinite(v) && v > 0 ? v / (1.0 + v) : 0.0;
-        v = v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
-        px[q] = (uint8_t)fmin(255.0, floor(v * 255.0 + 0.5));
-    }
-    char tmp[2200];
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    int ok = stbi_write_png(tmp, (int)w, (int)h, 3, px, (int)w * 3);
-    free(px);
-    if (!ok || rename(tmp, path) != 0) {
-        remove(tmp);
-        return tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);
-    }
-    return TND_OK;
-}
-
-static tnd_result write_rgb_exr(const char *path, const float *rgb, uint32_t w, uint32_t h)
-{
-    const tnd_exr_channel_desc ch[3] = {{"R", TND_EXR_FLOAT, rgb, 3},
-                                        {"G", TND_EXR_FLOAT, rgb + 1, 3},
-                                        {"B", TND_EXR_FLOAT, rgb + 2, 3}};
-    return tnd_exr_write(path, w, h, ch, 3, NULL, 0, TND_EXR_ZIP);
-}
 
 static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int argc, char **argv)
 {
@@ -247,9 +207,9 @@ static int run(bool reference, int argc, char **argv)
                 TND_TRY(femb_reference(fe, o.spp, rgb, &err, on_ref_progress, &rp));
             }
             snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
-            TND_TRY(write_rgb_exr(path, rgb, o.size[0], o.size[1]));
+            TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
             snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
-            TND_TRY(write_preview(path, rgb, o.size[0], o.size[1]));
+            TND_TRY(app_write_preview(path, rgb, o.size[0], o.size[1]));
             if (!app_quiet())
                 fprintf(stderr, "%sreference: frame %u: %u spp, remaining noise %.2f%% (mean "
                                 "relative standard error)\n",
@@ -304,9 +264,9 @@ static int run(bool reference, int argc, char **argv)
                 i ? "," : "", f, ms_primary, ms_shade, ms_tlas, dt.temporal_ms, dt.atrous_ms,
                 dt.composite_ms);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
-        TND_TRY(write_rgb_exr(path, rgb, o.size[0], o.size[1]));
+        TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
-        TND_TRY(write_preview(path, rgb, o.size[0], o.size[1]));
+        TND_TRY(app_write_preview(path, rgb, o.size[0], o.size[1]));
         tnd_frame_destroy(&frame);
         app_progress_step(&bar, i + 1);
     }

@@ -10,6 +10,8 @@ static const app_cmd commands[] = {
      "--out DIR [options]", cmd_render},
     {"reference", "Render converged reference frames (unbiased path tracing).",
      "--out DIR [options]", cmd_reference},
+    {"denoise", "Run the denoising back-end on a captured EXR sequence (Tandem's or another's).",
+     "--captures DIR --out DIR [--map JSON]", cmd_denoise},
     {"bench", "Measure a front-end: ms per pass, Mrays/s, and the raw ray-casting rate.",
      "[--scene PATH] [--size WxH] [--repeats N] [--json]", cmd_bench},
     {"compare", "Compare two capture directories channel by channel (front-end cross-check).",

@@ -100,5 +100,13 @@ check "compare: the two front-ends' captures agree" $?
 check "compare: different scenes disagree and exit 1" $?
 grep -q '"primary_ms"' "$tmp/vk/timings.json"; check "render writes timings.json" $?
 
+# captures back through the denoiser: the same pictures as render's own back-end
+"$T" denoise --captures "$tmp/embree" --out "$tmp/den" --quiet; rc=$?
+[ $rc -eq 0 ] && cmp -s "$tmp/den/frame_0001.exr" "$tmp/embree/frame_0001.exr"
+check "denoise --captures reproduces render's denoised frames exactly" $?
+"$T" denoise --captures "$tmp/nowhere" --out "$tmp/den2" 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ] && grep -q "nowhere" "$tmp/err" && [ ! -e "$tmp/den2" ]
+check "denoise of a missing directory exits 1 with no output" $?
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

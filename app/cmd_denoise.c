@@ -1,0 +1,179 @@
+/* app/cmd_denoise.c: `tandem denoise --captures DIR [--map MAPPING.json] --out DIR`: the back-end
+ * on an EXR sequence, Tandem's own captures or another renderer's through a channel mapping
+ * (docs/captures.md). Writes the same outputs as render: DIR/frame_NNNN.exr (linear HDR),
+ * DIR/frame_NNNN.png (preview), DIR/timings.json. */
+#include "app/app.h"
+#include "denoise/denoise.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+static const app_cmd denoise_cmd = {
+    "denoise",
+    "Run the denoising back-end on a captured EXR sequence (Tandem's captures, or another\n"
+    "renderer's through --map) and write the denoised frames.",
+    "--captures DIR --out DIR [--map MAPPING.json] [--denoiser svgf|off]", NULL};
+
+static int cmp_names(const void *a, const void *b)
+{
+    return strcmp(*(const char *const *)a, *(const char *const *)b);
+}
+
+int cmd_denoise(int argc, char **argv)
+{
+    const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "svgf";
+    double yfov_deg = 40.0;
+    const app_opt opts[] = {
+        {"captures", APP_OPT_STRING, &captures, "DIR", "directory of frame_NNNN.exr (or DIR/capture)"},
+        {"out", APP_OPT_STRING, &out, "DIR", "output directory (created)"},
+        {"map", APP_OPT_STRING, &map_path, "JSON", "channel mapping for other renderers' EXRs"},
+        {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "svgf (default) or off"},
+        {"yfov", APP_OPT_FLOAT, &yfov_deg, "DEG",
+         "vertical field of view for captures without camera matrices (default 40)"},
+        {0},
+    };
+    const char *pos[1];
+    int npos;
+    int rc = app_parse(&denoise_cmd, opts, argc, argv, pos, 0, &npos);
+    if (rc >= 0)
+        return rc;
+    if (!captures || !out) {
+        fprintf(stderr, "tandem denoise: --captures DIR and --out DIR are required\n");
+        return APP_EXIT_USAGE;
+    }
+    tnd_result res = TND_OK;
+    dn_mode mode;
+    if ((res = dn_mode_parse(denoiser, &mode)) != TND_OK)
+        return app_report("denoise", res);
+    char dir[1100], path[2300];
+    struct stat st;
+    snprintf(dir, sizeof dir, "%s/capture", captures);
+    if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
+        snprintf(dir, sizeof dir, "%s", captures);
+    DIR *d = opendir(dir);
+    if (!d)
+        return app_report("denoise", tnd_fail(TND_ERR_IO, "%s: cannot open directory", dir));
+    char **names = NULL;
+    size_t n = 0;
+    for (struct dirent *e; (e = readdir(d));) {
+        size_t l = strlen(e->d_name);
+        if (l > 4 && strcmp(e->d_name + l - 4, ".exr") == 0 && strncmp(e->d_name, "frame_", 6) == 0) {
+            char **nn = realloc(names, (n + 1) * sizeof *nn);
+            if (!nn || !(nn[n] = strdup(e->d_name))) {
+                free(nn ? nn : names);
+                closedir(d);
+                return app_report("denoise", tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory"));
+            }
+            names = nn;
+            n++;
+        }
+    }
+    closedir(d);
+    tnd_capture_map *map = NULL;
+    tnd_vk vk = {0};
+    dn_context *dn = NULL;
+    tnd_contract_gpu ct = {0};
+    tnd_frame f = {0};
+    float *rgb = NULL;
+    FILE *timings = NULL;
+    int status = APP_EXIT_FAIL;
+    uint32_t w = 0, h = 0;
+    float prev_jitter[2] = {0, 0};
+    if (n == 0) {
+        res = tnd_fail(TND_ERR_BAD_INPUT, "denoise: %s: no frame_NNNN.exr files", dir);
+        goto fail;
+    }
+    qsort(names, n, sizeof *names, cmp_names);
+    if (map_path)
+        TND_TRY(tnd_capture_map_load(map_path, &map));
+    app_progress bar;
+    app_progress_begin(&bar, "denoise", (unsigned)n);
+    bool said_svgf = false;
+    for (size_t i = 0; i < n; i++) {
+        snprintf(path, sizeof path, "%s/%s", dir, names[i]);
+        tnd_frame_destroy(&f);
+        TND_TRY(map ? tnd_capture_read_mapped(path, map, &f) : tnd_capture_read(path, &f));
+        if (i == 0) {
+            w = f.width, h = f.height;
+            TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
+            TND_TRY(dn_create(&vk, w, h, &(dn_desc){.mode = mode, .precision = f.precision}, &dn));
+            TND_TRY(tnd_contract_gpu_create(&vk, w, h, f.precision, &ct));
+            rgb = malloc((size_t)w * h * 3 * sizeof *rgb);
+            if (!rgb) {
+                res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
+                goto fail;
+            }
+            TND_TRY(tnd_mkdirs(out));
+            snprintf(path, sizeof path, "%s/timings.json", out);
+            if (!(timings = fopen(path, "w"))) {
+                res = tnd_fail(TND_ERR_IO, "denoise: %s: cannot create", path);
+                goto fail;
+            }
+            fprintf(timings, "{\n  \"denoiser\": \"%s\",\n  \"device\": \"%s\",\n  \"frames\": [",
+                    dn_mode_name(mode), vk.info.name);
+        } else if (f.width != w || f.height != h) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "denoise: %s: %ux%u, but the sequence is %ux%u",
+                           path, f.width, f.height, w, h);
+            goto fail;
+        }
+        if (!said_svgf && mode != DN_MODE_OFF && !app_quiet()) {
+            fprintf(stderr, "tandem: denoise: %s: running as svgf%s\n", names[i],
+                    f.present[TND_CT_RNG] ? "" : " (the captures carry no rng keys, so no gradient "
+                                                  "samples: A-SVGF could not run on them)");
+            said_svgf = true;
+        }
+        double tan_half = f.has_camera && f.camera.proj[5] != 0.0f
+                              ? 1.0 / fabs((double)f.camera.proj[5])
+                              : tan(0.5 * yfov_deg * TND_PI / 180.0);
+        dn_frame df = {.jitter = {f.camera.jitter[0], f.camera.jitter[1]},
+                       .prev_jitter = {prev_jitter[0], prev_jitter[1]},
+                       .pixel_spread = (float)(2.0 * tan_half / h),
+                       .reset = i == 0};
+        memcpy(prev_jitter, f.camera.jitter, sizeof prev_jitter);
+        dn_timings tm;
+        TND_TRY(tnd_contract_upload(&vk, &ct, &f));
+        TND_TRY(dn_run(dn, &ct, &df, &tm));
+        TND_TRY(dn_download(dn, rgb));
+        fprintf(timings,
+                "%s\n    {\"file\": \"%s\", \"denoise_temporal_ms\": %.4f, "
+                "\"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f}",
+                i ? "," : "", names[i], tm.temporal_ms, tm.atrous_ms, tm.composite_ms);
+        snprintf(path, sizeof path, "%s/%s", out, names[i]);
+        TND_TRY(app_write_rgb_exr(path, rgb, w, h));
+        size_t l = strlen(path);
+        memcpy(path + l - 4, ".png", 5);
+        TND_TRY(app_write_preview(path, rgb, w, h));
+        app_progress_step(&bar, (unsigned)i + 1);
+    }
+    app_progress_end(&bar);
+    fprintf(timings, "\n  ]\n}\n");
+    if (fclose(timings) != 0) {
+        timings = NULL;
+        res = tnd_fail(TND_ERR_IO, "denoise: %s/timings.json: write failed", out);
+        goto fail;
+    }
+    timings = NULL;
+    if (!app_quiet())
+        fprintf(stderr, "tandem: denoise: %zu frame%s (%s) -> %s/\n", n, n == 1 ? "" : "s",
+                dn_mode_name(mode), out);
+    status = APP_EXIT_OK;
+fail:
+    if (status != APP_EXIT_OK)
+        app_report("denoise", res);
+    if (timings)
+        fclose(timings);
+    free(rgb);
+    tnd_frame_destroy(&f);
+    tnd_contract_gpu_destroy(&vk, &ct);
+    dn_destroy(dn);
+    if (vk.device || vk.instance)
+        tnd_vk_destroy(&vk);
+    tnd_capture_map_destroy(map);
+    for (size_t i = 0; i < n; i++)
+        free(names[i]);
+    free(names);
+    return status;
+}
