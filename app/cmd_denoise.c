@@ -156,6 +156,10 @@ int cmd_denoise(int argc, char **argv)
         goto fail;
     }
     timings = NULL;
+    if (vk.validation && tnd_vk_validation_errors(&vk)) {
+        res = tnd_fail(TND_ERR_VULKAN, "%u Vulkan validation error(s)", tnd_vk_validation_errors(&vk));
+        goto fail;
+    }
     if (!app_quiet())
         fprintf(stderr, "tandem: denoise: %zu frame%s (%s) -> %s/\n", n, n == 1 ? "" : "s",
                 dn_mode_name(mode), out);

@@ -280,7 +280,7 @@ static int run(bool reference, int argc, char **argv)
         }
         timings = NULL;
     }
-    if (use_vk && vk.validation && tnd_vk_validation_errors(&vk)) {
+    if ((use_vk || use_dn) && vk.validation && tnd_vk_validation_errors(&vk)) {
         res = tnd_fail(TND_ERR_VULKAN, "%u Vulkan validation error(s)", tnd_vk_validation_errors(&vk));
         goto fail;
     }
