@@ -48,6 +48,11 @@ int cmd_denoise(int argc, char **argv)
     dn_mode mode;
     if ((res = dn_mode_parse(denoiser, &mode)) != TND_OK)
         return app_report("denoise", res);
+    if (mode == DN_MODE_ASVGF)
+        return app_report("denoise", tnd_fail(TND_ERR_UNSUPPORTED,
+                                              "denoise: asvgf re-shades gradient samples with a "
+                                              "front-end; captured sequences carry none (use svgf, "
+                                              "or tandem render --denoiser asvgf)"));
     char dir[1100], path[2300];
     struct stat st;
     snprintf(dir, sizeof dir, "%s/capture", captures);

@@ -61,7 +61,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"precision", APP_OPT_STRING, &o->precision, "P", "contract precision: float32 or packed"},
         {"capture", APP_OPT_FLAG, &o->capture, NULL, "also write DIR/capture/frame_NNNN.exr"},
         {"denoiser", APP_OPT_STRING, &o->denoiser, "MODE",
-         "svgf (default) or off (composite of the noisy signals)"},
+         "svgf (default), asvgf (with temporal gradients) or off (noisy composite)"},
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API",
          "vk: pipeline, query, or auto (query where the device has it)"},
         {0},
@@ -114,6 +114,13 @@ static void on_ref_progress(uint32_t done, uint32_t total, void *user)
     (void)p->frames;
 }
 
+static float bits_to_float(uint32_t bits)
+{
+    float f;
+    memcpy(&f, &bits, sizeof f);
+    return f;
+}
+
 static int run(bool reference, int argc, char **argv)
 {
     render_opts o;
@@ -141,6 +148,8 @@ static int run(bool reference, int argc, char **argv)
     tnd_scene_state st[2] = {{0}};
     tnd_frame frame = {0};
     float *rgb = NULL;
+    uint32_t *grads = NULL;             /* A-SVGF samples, DN_GRADIENT_WORDS each */
+    femb_gradient_sample *femb_grads = NULL;
     char path[2048], dir[1600];
     if (strlen(o.out) > 1500)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
@@ -154,6 +163,15 @@ static int run(bool reference, int argc, char **argv)
                           &dn));
         if (!use_vk)
             TND_TRY(tnd_contract_gpu_create(&vk, o.size[0], o.size[1], prec, &upload));
+    }
+    if (use_dn && dmode == DN_MODE_ASVGF) {
+        uint32_t cap = dn_gradient_capacity(dn);
+        grads = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *grads);
+        femb_grads = malloc((size_t)cap * sizeof *femb_grads);
+        if (!grads || !femb_grads) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
+            goto fail;
+        }
     }
     if (use_vk) {
         fvk_rt_api api;
@@ -217,7 +235,7 @@ static int run(bool reference, int argc, char **argv)
             continue;
         }
         TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
-        double ms_primary = 0, ms_shade = 0, ms_tlas = 0;
+        double ms_primary = 0, ms_shade = 0, ms_tlas = 0, ms_gradients = 0;
         if (use_vk) {
             fvk_timings tm;
             TND_TRY(fvk_set_frame(gv, cur, prev, f, o.size[0], o.size[1]));
@@ -249,9 +267,35 @@ static int run(bool reference, int argc, char **argv)
                            .reset = i == 0};
             tnd_jitter(f, df.jitter);
             tnd_jitter(f ? f - 1 : 0, df.prev_jitter);
+            const tnd_contract_gpu *ct = use_vk ? fvk_contract(gv) : &upload;
             if (!use_vk)
                 TND_TRY(tnd_contract_upload(&vk, &upload, &frame));
-            TND_TRY(dn_run(dn, use_vk ? fvk_contract(gv) : &upload, &df, &dt));
+            if (dmode == DN_MODE_ASVGF) {
+                /* A-SVGF: the back-end picks pixels, the front-end re-shades them with the
+                 * previous frame's random numbers on the surface seen there */
+                uint32_t n = 0;
+                TND_TRY(dn_select_gradients(dn, ct, &df, grads, &n));
+                if (use_vk) {
+                    fvk_timings tg;
+                    TND_TRY(fvk_shade_gradients(gv, &(fvk_params){.bounces = o.bounces}, grads, n,
+                                                &tg));
+                    ms_gradients = tg.gradient_ms;
+                } else if (n) {
+                    double ta = tnd_now();
+                    for (uint32_t k = 0; k < n; k++) {
+                        const uint32_t *w = grads + (size_t)k * DN_GRADIENT_WORDS;
+                        femb_grads[k] = (femb_gradient_sample){w[0], w[1], w[2], w[3], w[4],
+                                                               bits_to_float(w[5]),
+                                                               bits_to_float(w[6])};
+                    }
+                    TND_TRY(femb_shade_gradients(fe, &(femb_params){.bounces = o.bounces},
+                                                 femb_grads, n, &frame));
+                    ms_gradients = 1e3 * (tnd_now() - ta);
+                    tnd_frame_quantize(&frame, prec);
+                    TND_TRY(tnd_contract_upload(&vk, &upload, &frame));
+                }
+            }
+            TND_TRY(dn_run(dn, ct, &df, &dt));
             TND_TRY(dn_download(dn, rgb));
         } else {
             tnd_frame_composite(&frame, rgb);
@@ -259,10 +303,11 @@ static int run(bool reference, int argc, char **argv)
         /* front-end times: GPU timestamps (vk) or CPU wall clock (embree); back-end: GPU */
         fprintf(timings,
                 "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
-                "\"tlas_ms\": %.4f, \"denoise_temporal_ms\": %.4f, \"denoise_atrous_ms\": %.4f, "
+                "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_gradient_ms\": %.4f, "
+                "\"denoise_temporal_ms\": %.4f, \"denoise_atrous_ms\": %.4f, "
                 "\"composite_ms\": %.4f}",
-                i ? "," : "", f, ms_primary, ms_shade, ms_tlas, dt.temporal_ms, dt.atrous_ms,
-                dt.composite_ms);
+                i ? "," : "", f, ms_primary, ms_shade, ms_tlas, ms_gradients, dt.gradient_ms,
+                dt.temporal_ms, dt.atrous_ms, dt.composite_ms);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
@@ -302,6 +347,8 @@ fail:
         app_report(what, res);
     tnd_frame_destroy(&frame);
     free(rgb);
+    free(grads);
+    free(femb_grads);
     tnd_scene_state_free(&st[0]);
     tnd_scene_state_free(&st[1]);
     if (timings)

@@ -4,16 +4,19 @@
  * Today: SVGF (Schied et al. 2017) per channel with Q2RTX's constants: temporal accumulation of
  * hf (with luminance moments), lf (SH + CoCg) and spec with per-tap disocclusion tests, then
  * edge-avoiding a-trous (hf variance-guided, spec roughness-aware, lf geometry-guided), then the
- * composite. Mode "off" is the plain composite of the noisy signals. A-SVGF's gradients come next
- * (issue "denoise"). Prefix dn_; depends on core/ and shaders/ only. */
+ * composite. Mode "off" is the plain composite of the noisy signals. Mode "asvgf" adds A-SVGF
+ * (Schied et al. 2018): sparse gradient samples re-shaded with the previous frame's random
+ * numbers, a 1/3-resolution gradient image blurred by a-trous, and an antilag factor that
+ * shortens the history where the signal changed. Prefix dn_; depends on core/ and shaders/. */
 #ifndef DN_DENOISE_H
 #define DN_DENOISE_H
 
 #include "core/core.h"
 
 typedef enum dn_mode {
-    DN_MODE_SVGF = 0, /* temporal + a-trous, fixed minimum alpha (no gradients yet) */
+    DN_MODE_SVGF = 0, /* temporal + a-trous, fixed minimum alpha */
     DN_MODE_OFF,      /* composite of the noisy signals */
+    DN_MODE_ASVGF,    /* SVGF whose history length follows the temporal gradients */
 } dn_mode;
 tnd_result dn_mode_parse(const char *s, dn_mode *mode);
 const char *dn_mode_name(dn_mode mode);
@@ -23,6 +26,10 @@ typedef struct dn_desc {
     tnd_precision precision; /* of the contract images it reads */
     uint32_t iters_hf, iters_lf, iters_spec; /* a-trous iterations: 0 means 4 / 4 / 3 */
     float min_alpha_hf, min_alpha_lf, min_alpha_spec, min_alpha_moments; /* 0: .02 .01 .01 .01 */
+    /* A-SVGF: antilag = gain x filtered gradient (hf, spec, lf) + motion gain x pixels of
+     * motion (spec); history length scales by (1 - antilag)^10 and alpha moves towards 1 by
+     * antilag. 0 means Q2RTX's 1 / 2 / 0.004 / 0.2. */
+    float antilag_hf, antilag_spec, antilag_motion, antilag_lf;
 } dn_desc;
 
 typedef struct dn_frame {
@@ -32,7 +39,7 @@ typedef struct dn_frame {
 } dn_frame;
 
 typedef struct dn_timings {
-    double temporal_ms, atrous_ms, composite_ms;
+    double gradient_ms, temporal_ms, atrous_ms, composite_ms;
 } dn_timings;
 
 typedef struct dn_context dn_context;
@@ -43,6 +50,15 @@ void dn_destroy(dn_context *ctx);
 /* Denoise one frame (blocks): the contract images of this frame in, the output image out. */
 tnd_result dn_run(dn_context *ctx, const tnd_contract_gpu *contract, const dn_frame *frame,
                   dn_timings *t);
+/* A-SVGF (mode asvgf; count 0 otherwise): pick this frame's gradient samples, at most one per
+ * 3x3 stratum (dn_gradient_capacity), as DN_GRADIENT_WORDS words each: pixel, previous rng frame,
+ * previous rng pixel, previous instance, previous primitive, u and v bits (the layout of
+ * femb_gradient_sample and fvk_shade_gradients). Call after the front-end rendered the frame
+ * and before dn_run; the front-end re-shades the samples into the contract in between. */
+enum { DN_GRADIENT_WORDS = 7 };
+uint32_t dn_gradient_capacity(const dn_context *ctx);
+tnd_result dn_select_gradients(dn_context *ctx, const tnd_contract_gpu *contract,
+                               const dn_frame *frame, uint32_t *samples, uint32_t *count);
 /* The output as linear RGB floats (3 per pixel). */
 tnd_result dn_download(dn_context *ctx, float *rgb);
 

@@ -4,13 +4,14 @@
  * Entry points: dn_create, dn_destroy, dn_run, dn_download, dn_mode_parse, dn_mode_name. */
 #include "denoise/denoise.h"
 #include "shaders/denoise_shared.h"
+#include "shaders/scene_gpu.h"
 #include "shaders/shader_list.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-enum { N_PAIRED = 9 }; /* hist hf, mom, lf sh, lf cocg, spec; at hf, lf sh, lf cocg, spec */
+enum { N_PAIRED = 9, N_SINGLE = 6 }; /* hist hf, mom, lf sh, lf cocg, spec; at hf, lf sh, lf cocg, spec */
 static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF,   DN_B_HIST_MOM,   DN_B_HIST_LF_SH,
                                                   DN_B_HIST_LF_COCG, DN_B_HIST_SPEC, DN_B_AT_HF,
                                                   DN_B_AT_LF_SH,  DN_B_AT_LF_COCG, DN_B_AT_SPEC};
@@ -24,12 +25,15 @@ struct dn_context {
     uint32_t width, height, frame;
     tnd_image paired[N_PAIRED][2];
     tnd_image prev_gb, prev_vis, out;
-    tnd_buffer params;
+    tnd_image prev_lum, prev_bary, grad_flag, grad[2]; /* A-SVGF */
+    tnd_buffer params, samples;
+    uint32_t grad_w, grad_h;
+    uint32_t selected_frame; /* c->frame + 1 when dn_select_gradients ran for this frame */
     VkDescriptorSetLayout layouts[2];
     VkPipelineLayout layout;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
-    VkPipeline temporal, atrous, composite;
+    VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous;
     tnd_timer timer;
     bool have_history;
 };
@@ -41,17 +45,16 @@ tnd_result dn_mode_parse(const char *s, dn_mode *mode)
     else if (strcmp(s, "off") == 0)
         *mode = DN_MODE_OFF;
     else if (strcmp(s, "asvgf") == 0)
-        return tnd_fail(TND_ERR_UNSUPPORTED,
-                        "denoise: 'asvgf' (gradient estimation) is not implemented yet; use svgf "
-                        "or off");
+        *mode = DN_MODE_ASVGF;
     else
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: mode '%s' (expected svgf or off)", s);
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "denoise: mode '%s' (expected svgf, asvgf or off)", s);
     return TND_OK;
 }
 
 const char *dn_mode_name(dn_mode mode)
 {
-    return mode == DN_MODE_OFF ? "off" : "svgf";
+    return mode == DN_MODE_OFF ? "off" : mode == DN_MODE_ASVGF ? "asvgf" : "svgf";
 }
 
 void dn_destroy(dn_context *c)
@@ -62,8 +65,9 @@ void dn_destroy(dn_context *c)
     if (vk->device)
         vkDeviceWaitIdle(vk->device);
     tnd_timer_destroy(vk, &c->timer);
-    VkPipeline pipes[3] = {c->temporal, c->atrous, c->composite};
-    for (int i = 0; i < 3; i++)
+    VkPipeline pipes[6] = {c->temporal,    c->atrous,     c->composite,
+                           c->grad_select, c->grad_image, c->grad_atrous};
+    for (int i = 0; i < 6; i++)
         if (pipes[i])
             vkDestroyPipeline(vk->device, pipes[i], NULL);
     if (c->pool)
@@ -79,7 +83,13 @@ void dn_destroy(dn_context *c)
     tnd_image_destroy(vk, &c->prev_gb);
     tnd_image_destroy(vk, &c->prev_vis);
     tnd_image_destroy(vk, &c->out);
+    tnd_image_destroy(vk, &c->prev_lum);
+    tnd_image_destroy(vk, &c->prev_bary);
+    tnd_image_destroy(vk, &c->grad_flag);
+    tnd_image_destroy(vk, &c->grad[0]);
+    tnd_image_destroy(vk, &c->grad[1]);
     tnd_buffer_destroy(vk, &c->params);
+    tnd_buffer_destroy(vk, &c->samples);
     free(c);
 }
 
@@ -92,8 +102,10 @@ static tnd_result create_pipelines(dn_context *c)
         b0[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
                                                VK_SHADER_STAGE_COMPUTE_BIT, NULL};
     b0[DN_B_PARAMS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    b0[DN_B_SAMPLES].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     for (int k = 0; k < N_PAIRED; k++)
         b0[paired_binding[k]].descriptorCount = 2;
+    b0[DN_B_GRAD].descriptorCount = 2;
     VkDescriptorSetLayoutCreateInfo ci0 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
                                            .bindingCount = DN_BINDINGS,
                                            .pBindings = b0};
@@ -113,11 +125,13 @@ static tnd_result create_pipelines(dn_context *c)
                                       .pushConstantRangeCount = 1,
                                       .pPushConstantRanges = &pcr};
     TND_VK_TRY(vkCreatePipelineLayout(vk->device, &pci, NULL, &c->layout));
-    VkDescriptorPoolSize ps[2] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * N_PAIRED + 3 + TND_CT_COUNT}};
+    VkDescriptorPoolSize ps[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                   2 * N_PAIRED + N_SINGLE + 2 + TND_CT_COUNT}};
     VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
                                        .maxSets = 2,
-                                       .poolSizeCount = 2,
+                                       .poolSizeCount = 3,
                                        .pPoolSizes = ps};
     TND_VK_TRY(vkCreateDescriptorPool(vk->device, &dpci, NULL, &c->pool));
     VkDescriptorSetAllocateInfo ai = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
@@ -126,12 +140,16 @@ static tnd_result create_pipelines(dn_context *c)
                                       .pSetLayouts = c->layouts};
     TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, c->sets));
     bool packed = c->desc.precision == TND_PRECISION_PACKED;
-    const tnd_shader ids[3] = {packed ? TND_SHADER_dn_temporal_packed : TND_SHADER_dn_temporal_f32,
-                               packed ? TND_SHADER_dn_atrous_packed : TND_SHADER_dn_atrous_f32,
-                               packed ? TND_SHADER_dn_composite_packed : TND_SHADER_dn_composite_f32};
-    VkPipeline *out[3] = {&c->temporal, &c->atrous, &c->composite};
-    const char *names[3] = {"denoise.temporal", "denoise.atrous", "denoise.composite"};
-    for (int i = 0; i < 3; i++) {
+#define DN_PICK(name) (packed ? TND_SHADER_##name##_packed : TND_SHADER_##name##_f32)
+    const tnd_shader ids[6] = {DN_PICK(dn_temporal),    DN_PICK(dn_atrous),
+                               DN_PICK(dn_composite),   DN_PICK(dn_grad_select),
+                               DN_PICK(dn_grad_image),  DN_PICK(dn_grad_atrous)};
+#undef DN_PICK
+    VkPipeline *out[6] = {&c->temporal,    &c->atrous,     &c->composite,
+                          &c->grad_select, &c->grad_image, &c->grad_atrous};
+    const char *names[6] = {"denoise.temporal",    "denoise.atrous",     "denoise.composite",
+                            "denoise.grad_select", "denoise.grad_image", "denoise.grad_atrous"};
+    for (int i = 0; i < 6; i++) {
         size_t bytes;
         const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
         TND_TRY(tnd_compute_pipeline_create(vk,
@@ -146,8 +164,8 @@ fail:
 
 static void write_own_set(dn_context *c)
 {
-    VkDescriptorImageInfo ii[2 * N_PAIRED + 3];
-    VkWriteDescriptorSet w[N_PAIRED + 4];
+    VkDescriptorImageInfo ii[2 * N_PAIRED + N_SINGLE + 2];
+    VkWriteDescriptorSet w[N_PAIRED + N_SINGLE + 3];
     uint32_t n = 0, k = 0;
     for (int p = 0; p < N_PAIRED; p++) {
         ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->paired[p][0].view, VK_IMAGE_LAYOUT_GENERAL};
@@ -159,9 +177,19 @@ static void write_own_set(dn_context *c)
                                         .pImageInfo = &ii[k]};
         k += 2;
     }
-    const tnd_image *single[3] = {&c->prev_gb, &c->prev_vis, &c->out};
-    const uint32_t sb[3] = {DN_B_PREV_GB, DN_B_PREV_VIS, DN_B_OUT};
-    for (int s = 0; s < 3; s++) {
+    ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->grad[0].view, VK_IMAGE_LAYOUT_GENERAL};
+    ii[k + 1] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->grad[1].view, VK_IMAGE_LAYOUT_GENERAL};
+    w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                    .dstSet = c->sets[0], .dstBinding = DN_B_GRAD,
+                                    .descriptorCount = 2,
+                                    .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                    .pImageInfo = &ii[k]};
+    k += 2;
+    const tnd_image *single[N_SINGLE] = {&c->prev_gb,  &c->prev_vis,  &c->out,
+                                         &c->prev_lum, &c->prev_bary, &c->grad_flag};
+    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GB,  DN_B_PREV_VIS,  DN_B_OUT,
+                                   DN_B_PREV_LUM, DN_B_PREV_BARY, DN_B_GRAD_FLAG};
+    for (int s = 0; s < N_SINGLE; s++) {
         ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single[s]->view, VK_IMAGE_LAYOUT_GENERAL};
         w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
                                         .dstSet = c->sets[0], .dstBinding = sb[s],
@@ -175,6 +203,12 @@ static void write_own_set(dn_context *c)
                                     .descriptorCount = 1,
                                     .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
                                     .pBufferInfo = &bi};
+    VkDescriptorBufferInfo si = {c->samples.buffer, 0, VK_WHOLE_SIZE};
+    w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                    .dstSet = c->sets[0], .dstBinding = DN_B_SAMPLES,
+                                    .descriptorCount = 1,
+                                    .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                    .pBufferInfo = &si};
     vkUpdateDescriptorSets(c->vk->device, n, w, 0, NULL);
 }
 
@@ -199,6 +233,10 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     d->min_alpha_lf = d->min_alpha_lf > 0 ? d->min_alpha_lf : 0.01f;
     d->min_alpha_spec = d->min_alpha_spec > 0 ? d->min_alpha_spec : 0.01f;
     d->min_alpha_moments = d->min_alpha_moments > 0 ? d->min_alpha_moments : 0.01f;
+    d->antilag_hf = d->antilag_hf > 0 ? d->antilag_hf : 1.0f;
+    d->antilag_spec = d->antilag_spec > 0 ? d->antilag_spec : 2.0f;
+    d->antilag_motion = d->antilag_motion > 0 ? d->antilag_motion : 0.004f;
+    d->antilag_lf = d->antilag_lf > 0 ? d->antilag_lf : 0.2f;
     for (int k = 0; k < N_PAIRED; k++)
         for (int s = 0; s < 2; s++) {
             char name[64];
@@ -220,6 +258,32 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                    .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                    .name = "denoise.out"},
                              &c->out));
+    struct {
+        tnd_image *img;
+        uint32_t w, h;
+        VkFormat format;
+        const char *name;
+    } extra[5] = {
+        {&c->prev_lum, width, height, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.prev_lum"},
+        {&c->prev_bary, width, height, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.prev_bary"},
+        {&c->grad_flag, width, height, VK_FORMAT_R32_UINT, "denoise.grad_flag"},
+        {&c->grad[0], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[0]"},
+        {&c->grad[1], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[1]"},
+    };
+    c->grad_w = (width + DN_STRATUM - 1) / DN_STRATUM;
+    c->grad_h = (height + DN_STRATUM - 1) / DN_STRATUM;
+    for (int i = 0; i < 5; i++)
+        TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = extra[i].w ? extra[i].w : c->grad_w,
+                                                       .height = extra[i].h ? extra[i].h : c->grad_h,
+                                                       .format = extra[i].format,
+                                                       .name = extra[i].name},
+                                 extra[i].img));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = (VkDeviceSize)c->grad_w * c->grad_h *
+                                                             sizeof(tnd_gpu_gradient),
+                                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                     .mem = TND_MEM_READBACK,
+                                                     .name = "denoise.samples"},
+                              &c->samples));
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(dn_params),
                                                      .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                                      .mem = TND_MEM_UPLOAD, .name = "denoise.params"},
@@ -259,26 +323,93 @@ static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32
     tnd_cmd_barrier(cmd);
 }
 
-tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, dn_timings *t)
+static tnd_result check_contract(const dn_context *c, const tnd_contract_gpu *ct)
 {
-    tnd_result res = TND_OK;
     if (ct->width != c->width || ct->height != c->height || ct->precision != c->desc.precision)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT,
                         "denoise: contract %ux%u (%s) does not match the back-end's %ux%u (%s)",
                         ct->width, ct->height, tnd_precision_name(ct->precision), c->width,
                         c->height, tnd_precision_name(c->desc.precision));
-    write_contract_set(c, ct);
+    return TND_OK;
+}
+
+static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
+{
     bool history = c->have_history && !f->reset;
-    dn_params *P = c->params.mapped;
     const dn_desc *d = &c->desc;
-    *P = (dn_params){
-        .size = {c->width, c->height, history ? 1u : 0u, d->mode == DN_MODE_OFF ? 1u : 0u},
+    uint32_t mode = d->mode == DN_MODE_OFF ? 1u : d->mode == DN_MODE_ASVGF ? 2u : 0u;
+    *(dn_params *)c->params.mapped = (dn_params){
+        .size = {c->width, c->height, history ? 1u : 0u, mode},
         .iters = {d->iters_hf, d->iters_lf, d->iters_spec, 0},
         .alpha = {d->min_alpha_hf, d->min_alpha_lf, d->min_alpha_spec, d->min_alpha_moments},
         .jitter = {f->jitter[0], f->jitter[1], f->prev_jitter[0], f->prev_jitter[1]},
         .weights = {2.0f, 64.0f, 4.0f, 8.0f},
-        .misc = {f->pixel_spread, 256.0f, 1024.0f, 0.0f},
+        .misc = {f->pixel_spread, 256.0f, 1024.0f, gradients ? 1.0f : 0.0f},
+        .antilag = {d->antilag_hf, d->antilag_spec, d->antilag_motion, d->antilag_lf},
     };
+}
+
+static void dispatch_grad(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32_t iteration)
+{
+    uint32_t pc[2] = {c->frame & 1u, iteration};
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
+    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, pc);
+    vkCmdDispatch(cmd, (c->grad_w + 7) / 8, (c->grad_h + 7) / 8, 1);
+    tnd_cmd_barrier(cmd);
+}
+
+tnd_result dn_select_gradients(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f,
+                               uint32_t *samples, uint32_t *count)
+{
+    tnd_result res = TND_OK;
+    *count = 0;
+    if (c->desc.mode != DN_MODE_ASVGF)
+        return TND_OK;
+    TND_TRY(check_contract(c, ct));
+    write_contract_set(c, ct);
+    fill_params(c, f, false);
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
+    tnd_cmd_barrier(cmd);
+    dispatch_grad(c, cmd, c->grad_select, 0);
+    VkMemoryBarrier host = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
+                            .srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT,
+                            .dstAccessMask = VK_ACCESS_HOST_READ_BIT};
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &host, 0, NULL, 0, NULL);
+    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    const tnd_gpu_gradient *g = c->samples.mapped;
+    uint32_t n = 0, strata = c->grad_w * c->grad_h;
+    for (uint32_t i = 0; i < strata; i++) {
+        if (!g[i].pad) /* the selection's "valid" word */
+            continue;
+        const uint32_t v[DN_GRADIENT_WORDS] = {g[i].pixel,     g[i].rng_frame, g[i].rng_pixel,
+                                               g[i].instance,  g[i].primitive, g[i].u_bits,
+                                               g[i].v_bits};
+        memcpy(samples + (size_t)n * DN_GRADIENT_WORDS, v, sizeof v);
+        n++;
+    }
+    *count = n;
+    c->selected_frame = c->frame + 1;
+fail:
+    return res;
+}
+
+uint32_t dn_gradient_capacity(const dn_context *c)
+{
+    return c->grad_w * c->grad_h;
+}
+
+tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, dn_timings *t)
+{
+    tnd_result res = TND_OK;
+    TND_TRY(check_contract(c, ct));
+    write_contract_set(c, ct);
+    const dn_desc *d = &c->desc;
+    bool gradients = d->mode == DN_MODE_ASVGF && c->selected_frame == c->frame + 1 &&
+                     c->have_history && !f->reset;
+    fill_params(c, f, gradients);
     uint32_t slot = c->frame & 1u;
     uint32_t iters = d->iters_hf;
     if (d->iters_lf > iters)
@@ -290,7 +421,14 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     tnd_timer_reset(cmd, &c->timer);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
-    int s_t = -1, s_a = -1;
+    int s_g = -1, s_t = -1, s_a = -1;
+    if (gradients) {
+        s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
+        dispatch_grad(c, cmd, c->grad_image, 0);
+        for (uint32_t i = 0; i < 7; i++) /* 7 iterations: the result lands in slot 1 */
+            dispatch_grad(c, cmd, c->grad_atrous, i);
+        tnd_timer_end(cmd, &c->timer, s_g);
+    }
     if (d->mode != DN_MODE_OFF) {
         s_t = tnd_timer_begin(cmd, &c->timer, "denoise.temporal");
         dispatch(c, cmd, c->temporal, slot, 0);
@@ -305,9 +443,17 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     tnd_timer_end(cmd, &c->timer, s_c);
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
     if (t) {
-        double ms[3] = {0, 0, 0};
+        double ms[4] = {0, 0, 0, 0};
         TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
-        *t = d->mode == DN_MODE_OFF ? (dn_timings){0, 0, ms[0]} : (dn_timings){ms[0], ms[1], ms[2]};
+        *t = (dn_timings){0};
+        int k = 0;
+        if (s_g >= 0)
+            t->gradient_ms = ms[k++];
+        if (s_t >= 0) {
+            t->temporal_ms = ms[k++];
+            t->atrous_ms = ms[k++];
+        }
+        t->composite_ms = ms[k];
     }
     c->have_history = true;
     c->frame++;

@@ -3,6 +3,7 @@
  * iteration. */
 #extension GL_GOOGLE_include_directive : require
 #include "denoise_shared.h"
+#include "scene_gpu.h"
 #include "encoding.h"
 #define TND_CONTRACT_SET 1
 #include "contract.h"
@@ -22,6 +23,12 @@ layout(set = 0, binding = DN_B_AT_LF_SH, rgba32f) uniform image2D at_lf_sh[2];
 layout(set = 0, binding = DN_B_AT_LF_COCG, rgba32f) uniform image2D at_lf_cocg[2];
 layout(set = 0, binding = DN_B_AT_SPEC, rgba32f) uniform image2D at_spec[2];
 layout(set = 0, binding = DN_B_OUT, rgba32f) uniform image2D out_img;
+layout(set = 0, binding = DN_B_PREV_LUM, rgba32f) uniform image2D prev_lum;
+layout(set = 0, binding = DN_B_PREV_BARY, rgba32f) uniform image2D prev_bary;
+layout(set = 0, binding = DN_B_GRAD_FLAG, r32ui) uniform uimage2D grad_flag;
+layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
+layout(set = 0, binding = DN_B_SAMPLES, std430) buffer Samples { tnd_gpu_gradient samples[]; };
+ivec2 grad_size() { return (ivec2(P.size.xy) + DN_STRATUM - 1) / DN_STRATUM; }
 layout(push_constant) uniform Push { uint slot; uint iteration; } pc;
 
 #if TND_PACKED

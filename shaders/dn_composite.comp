@@ -20,6 +20,13 @@ void main()
     float depth = imageLoad(img_depth, p).x;
     imageStore(prev_gb, p, vec4(depth, gn));
     imageStore(prev_vis, p, uvec4(vis, 0u, 0u));
+    /* what the next frame's gradient samples need: raw luminances, rng key, barycentrics, and
+     * whether this pixel was a gradient sample (not reused twice in a row) */
+    uvec2 key = imageLoad(img_rng, p).xy;
+    imageStore(prev_lum, p, vec4(luma(finite3(load_hf(p))), luma(finite3(load_spec(p))),
+                                 uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
+    float was_sample = P.size.w == 2u && P.misc.w != 0.0 && imageLoad(grad_flag, p).x != 0u ? 1.0 : 0.0;
+    imageStore(prev_bary, p, vec4(imageLoad(img_vis_bary, p).xy, was_sample, 0.0));
     vec3 em = imageLoad(img_emission, p).rgb;
     if (vis.x == TND_VIS_NONE) {
         imageStore(out_img, p, vec4(finite3(em), 1.0));

@@ -61,8 +61,23 @@ void main()
         float cap = P.misc.y;
         float len_hf = min(h_hf.a + 1.0, cap), len_lf = min(h_mom.z + 1.0, cap);
         float len_spec = min(h_mom.w + 1.0, cap);
+        float anti_hf = 0.0, anti_lf = 0.0, anti_spec = 0.0;
+        if (P.size.w == 2u && P.misc.w != 0.0) {
+            /* A-SVGF: the filtered gradients (slot 1 after the blur) shorten the history */
+            vec3 g = clamp(imageLoad(grad[1], min(p / DN_STRATUM, grad_size() - 1)).xyz, 0.0, 1.0);
+            anti_hf = clamp(P.antilag.x * g.x, 0.0, 1.0);
+            anti_spec = clamp(P.antilag.y * g.y + P.antilag.z * length(motion.xy), 0.0, 1.0);
+            anti_lf = clamp(P.antilag.w * g.z, 0.0, 1.0);
+            len_hf = min(h_hf.a * pow(1.0 - anti_hf, 10.0) + 1.0, cap);
+            len_lf = min(h_mom.z * pow(1.0 - anti_lf, 10.0) + 1.0, cap);
+            len_spec = min(h_mom.w * pow(1.0 - anti_spec, 10.0) + 1.0, cap);
+        }
         float a_hf = max(P.alpha.x, 1.0 / len_hf), a_m = max(P.alpha.w, 1.0 / len_hf);
         float a_lf = max(P.alpha.y, 1.0 / len_lf), a_spec = max(P.alpha.z, 1.0 / len_spec);
+        a_hf = mix(a_hf, 1.0, anti_hf);
+        a_m = mix(a_m, 1.0, anti_hf);
+        a_spec = mix(a_spec, 1.0, anti_spec);
+        a_lf = mix(a_lf, 1.0, anti_lf);
         out_hf = vec4(mix(h_hf.rgb, hf, a_hf), len_hf);
         out_mom = vec4(mix(h_mom.xy, vec2(l, l * l), a_m), len_lf, len_spec);
         out_sh = mix(h_sh, sh, a_lf);

@@ -66,7 +66,7 @@ struct tnd_gpu_gradient {
     uvec4 b; /* primitive, u bits, v bits, 0 */
 #else
     uint32_t pixel, rng_frame, rng_pixel, instance;
-    uint32_t primitive, u_bits, v_bits, pad;
+    uint32_t primitive, u_bits, v_bits, pad; /* pad: 1 = valid in the back-end's selection */
 #endif
 };
 #ifndef TND_GLSL

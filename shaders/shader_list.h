@@ -34,6 +34,12 @@
     X(dn_atrous_packed,    "dn_atrous.comp",      "TND_PACKED=1") \
     X(dn_composite_f32,    "dn_composite.comp",   "TND_PACKED=0") \
     X(dn_composite_packed, "dn_composite.comp",   "TND_PACKED=1") \
+    X(dn_grad_select_f32,  "dn_grad_select.comp", "TND_PACKED=0") \
+    X(dn_grad_select_packed, "dn_grad_select.comp", "TND_PACKED=1") \
+    X(dn_grad_image_f32,   "dn_grad_image.comp",  "TND_PACKED=0") \
+    X(dn_grad_image_packed, "dn_grad_image.comp", "TND_PACKED=1") \
+    X(dn_grad_atrous_f32,  "dn_grad_atrous.comp", "TND_PACKED=0") \
+    X(dn_grad_atrous_packed, "dn_grad_atrous.comp", "TND_PACKED=1") \
     X(pt_rchit,            "pt.rchit",            "") \
     X(pt_rmiss,            "pt.rmiss",            "") \
     X(pt_shadow_rmiss,     "pt_shadow.rmiss",     "")

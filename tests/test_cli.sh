@@ -107,6 +107,25 @@ check "denoise --captures reproduces render's denoised frames exactly" $?
 "$T" denoise --captures "$tmp/nowhere" --out "$tmp/den2" 2>"$tmp/err"; rc=$?
 [ $rc -eq 1 ] && grep -q "nowhere" "$tmp/err" && [ ! -e "$tmp/den2" ]
 check "denoise of a missing directory exits 1 with no output" $?
+"$T" denoise --captures "$tmp/embree" --out "$tmp/den3" --denoiser asvgf 2>"$tmp/err"; rc=$?
+[ $rc -ne 0 ] && grep -q "gradient samples" "$tmp/err" && [ ! -e "$tmp/den3" ]
+check "denoise --denoiser asvgf on captures is refused with the reason" $?
+
+# A-SVGF: the back-end picks gradient samples, either front-end re-shades them
+for fe in embree vk; do
+    "$T" render --frontend $fe --scene "$SRC/data/scenes/dynamic.gltf" --frames 3 --size 40x24 \
+        --denoiser asvgf --out "$tmp/as_$fe" --quiet || echo "render asvgf $fe failed"
+done
+python3 - "$tmp" <<'PY'
+import json, sys
+for fe in ("embree", "vk"):
+    d = json.load(open(f"{sys.argv[1]}/as_{fe}/timings.json"))
+    assert d["denoiser"] == "asvgf", d["denoiser"]
+    f = d["frames"]
+    assert len(f) == 3 and f[0]["denoise_gradient_ms"] == 0, f[0]   # no history yet
+    assert all(x["denoise_gradient_ms"] > 0 for x in f[1:]), f      # gradients after that
+PY
+check "render --denoiser asvgf runs the gradient passes with both front-ends" $?
 
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

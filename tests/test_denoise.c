@@ -1,7 +1,8 @@
 /* tests/test_denoise.c: the back-end on lavapipe, fed by the Embree front-end: the "off" mode
  * equals the CPU composite; SVGF on a static cornell box reduces the error against a converged
  * reference at least tenfold over 32 frames; a NaN injected into the input neither reaches the
- * output nor the history; runs are deterministic. Label: gpu. */
+ * output nor the history; runs are deterministic; A-SVGF drops stale light after a switch with
+ * either front-end re-shading its gradient samples. Label: gpu. */
 #include "denoise/denoise.h"
 #include "frontend_embree/frontend_embree.h"
 #include "frontend_vk/frontend_vk.h"
@@ -324,6 +325,133 @@ cleanup:
     gpu_end();
 }
 
+static double mean_lum(const float *rgb, int n)
+{
+    double s = 0;
+    for (int q = 0; q < n; q++)
+        s += 0.2126 * rgb[3 * q] + 0.7152 * rgb[3 * q + 1] + 0.0722 * rgb[3 * q + 2];
+    return s / n;
+}
+
+/* A-SVGF against SVGF where the lighting changes: the dynamic scene's lamp goes off at frame 30.
+ * The image mean of one noisy frame is an unbiased estimate of the truth with small variance
+ * (thousands of pixels), so |denoised mean - noisy mean| / the mean before the switch measures
+ * the stale light each denoiser still shows. A-SVGF runs with both front-ends re-shading its
+ * gradient samples; they must agree as their plain frames do. */
+static void test_asvgf_follows_light_switch(void)
+{
+    enum { WD = 96, HD = 54, WH = WD * HD };
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    tnd_scene *s = NULL;
+    femb_context *fe = NULL;
+    fvk_context *gv = NULL;
+    dn_context *da = NULL, *db = NULL, *dc = NULL;
+    tnd_scene_state cur = {0}, prev = {0};
+    tnd_contract_gpu up = {0};
+    tnd_frame f = {0};
+    uint32_t *grads = NULL;
+    femb_gradient_sample *fg = NULL;
+    static float oa[WH * 3], ob[WH * 3], oc[WH * 3], noisy[WH * 3];
+    const double fps = 30.0;
+    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/dynamic.gltf", &s));
+    REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 2}, &fe));
+    REQUIRE_OK(fvk_create(vk, s, &(fvk_desc){.rt_api = FVK_RT_PIPELINE}, &gv));
+    REQUIRE_OK(dn_create(vk, WD, HD, &(dn_desc){.mode = DN_MODE_ASVGF}, &da));
+    REQUIRE_OK(dn_create(vk, WD, HD, &(dn_desc){.mode = DN_MODE_ASVGF}, &db));
+    REQUIRE_OK(dn_create(vk, WD, HD, &(dn_desc){.mode = DN_MODE_SVGF}, &dc));
+    REQUIRE_OK(tnd_contract_gpu_create(vk, WD, HD, TND_PRECISION_F32, &up));
+    uint32_t cap = dn_gradient_capacity(da);
+    CHECK(cap == 32 * 18, "one sample per 3x3 stratum: capacity %u", cap);
+    grads = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *grads);
+    fg = malloc((size_t)cap * sizeof *fg);
+    REQUIRE(grads && fg, "out of memory");
+    const uint32_t first = 14, last = 36;
+    double before = 0, err_a[40] = {0}, err_c[40] = {0};
+    uint32_t min_samples = UINT32_MAX;
+    for (uint32_t fr = first; fr <= last; fr++) {
+        REQUIRE_OK(tnd_scene_evaluate(s, fr / fps, 0, (float)WD / HD, &cur));
+        REQUIRE_OK(tnd_scene_evaluate(s, (fr - 1) / fps, 0, (float)WD / HD, &prev));
+        dn_frame df = {.pixel_spread = (float)(2.0 / fabs((double)cur.camera.proj[5]) / HD),
+                       .reset = fr == first};
+        tnd_jitter(fr, df.jitter);
+        tnd_jitter(fr - 1, df.prev_jitter);
+        tnd_frame_destroy(&f);
+        REQUIRE_OK(femb_set_frame(fe, &cur, &prev, fr, WD, HD));
+        REQUIRE_OK(tnd_frame_create(WD, HD, &f));
+        REQUIRE_OK(femb_trace_primary(fe, &f));
+        REQUIRE_OK(femb_shade(fe, &(femb_params){.bounces = 1}, &f, NULL));
+        tnd_frame_composite(&f, noisy);
+        REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
+        REQUIRE_OK(dn_run(dc, &up, &df, NULL));
+        uint32_t n = 0;
+        REQUIRE_OK(dn_select_gradients(da, &up, &df, grads, &n));
+        CHECK(fr != first || n == 0, "samples without history: %u", n);
+        if (fr > first && n < min_samples)
+            min_samples = n;
+        for (uint32_t k = 0; k < n; k++) {
+            const uint32_t *w = grads + (size_t)k * DN_GRADIENT_WORDS;
+            fg[k] = (femb_gradient_sample){w[0], w[1], w[2], w[3], w[4], 0, 0};
+            memcpy(&fg[k].u, &w[5], 4);
+            memcpy(&fg[k].v, &w[6], 4);
+        }
+        REQUIRE_OK(femb_shade_gradients(fe, &(femb_params){.bounces = 1}, fg, n, &f));
+        REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
+        REQUIRE_OK(dn_run(da, &up, &df, NULL));
+        REQUIRE_OK(fvk_set_frame(gv, &cur, &prev, fr, WD, HD));
+        REQUIRE_OK(fvk_render(gv, &(fvk_params){.bounces = 1}, NULL));
+        uint32_t nb = 0;
+        REQUIRE_OK(dn_select_gradients(db, fvk_contract(gv), &df, grads, &nb));
+        CHECK(nb == n, "frame %u: the two front-ends' frames give %u and %u samples", fr, n, nb);
+        REQUIRE_OK(fvk_shade_gradients(gv, &(fvk_params){.bounces = 1}, grads, nb, NULL));
+        REQUIRE_OK(dn_run(db, fvk_contract(gv), &df, NULL));
+        REQUIRE_OK(dn_download(da, oa));
+        REQUIRE_OK(dn_download(dc, oc));
+        double m = mean_lum(noisy, WH);
+        if (fr == 29)
+            before = m;
+        err_a[fr] = fabs(mean_lum(oa, WH) - m);
+        err_c[fr] = fabs(mean_lum(oc, WH) - m);
+    }
+    REQUIRE_OK(dn_download(db, ob));
+    int differ = 0;
+    for (int k = 0; k < WH * 3; k++)
+        differ += fabsf(oa[k] - ob[k]) > 1e-3f * fabsf(oa[k]) + 1e-5f;
+    CHECK(differ <= WH * 3 / 1000, "A-SVGF with either front-end: %d values differ", differ);
+    CHECK(min_samples >= cap / 4, "too few gradient samples on a moving camera: %u of %u",
+          min_samples, cap);
+    printf("     stale light (|denoised mean - noisy mean| / mean before the switch), "
+           "frames 28..36:\n       svgf ");
+    for (uint32_t fr = 28; fr <= last; fr++)
+        printf(" %.3f", err_c[fr] / before);
+    printf("\n       asvgf");
+    for (uint32_t fr = 28; fr <= last; fr++)
+        printf(" %.3f", err_a[fr] / before);
+    printf("\n");
+    /* Before the switch both track the mean; two frames after it SVGF still shows most of the
+     * old light (its history decays at alpha 0.02 / 0.01) while A-SVGF has dropped its history
+     * where the gradients fired: at most 5% of the old mean left, and 10x less than SVGF. */
+    CHECK(err_a[29] <= 0.05 * before, "A-SVGF is off before the switch: %.3f", err_a[29] / before);
+    CHECK(err_a[32] <= 0.05 * before, "A-SVGF lags two frames after the switch: %.3f",
+          err_a[32] / before);
+    CHECK(err_a[32] * 10 <= err_c[32], "A-SVGF %.3f is not 10x below SVGF %.3f", err_a[32] / before,
+          err_c[32] / before);
+cleanup:
+    free(grads);
+    free(fg);
+    tnd_frame_destroy(&f);
+    tnd_contract_gpu_destroy(vk, &up);
+    dn_destroy(da);
+    dn_destroy(db);
+    dn_destroy(dc);
+    fvk_destroy(gv);
+    femb_destroy(fe);
+    tnd_scene_state_free(&cur);
+    tnd_scene_state_free(&prev);
+    tnd_scene_destroy(s);
+    gpu_end();
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
@@ -331,4 +459,5 @@ static void test_shutdown(void)
 
 TND_TEST_MAIN(T(test_off_equals_cpu_composite), T(test_svgf_static_cornell),
               T(test_nan_does_not_spread), T(test_disocclusion_and_frontends),
+              T(test_asvgf_follows_light_switch),
               T(test_shutdown))
