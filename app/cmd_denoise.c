@@ -15,7 +15,7 @@ static const app_cmd denoise_cmd = {
     "denoise",
     "Run the denoising back-end on a captured EXR sequence (Tandem's captures, or another\n"
     "renderer's through --map) and write the denoised frames.",
-    "--captures DIR --out DIR [--map MAPPING.json] [--denoiser svgf|off]", NULL};
+    "--captures DIR --out DIR [--map MAPPING.json] [--denoiser asvgf|svgf|off]", NULL};
 
 static int cmp_names(const void *a, const void *b)
 {
@@ -24,13 +24,13 @@ static int cmp_names(const void *a, const void *b)
 
 int cmd_denoise(int argc, char **argv)
 {
-    const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "svgf";
+    const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf";
     double yfov_deg = 40.0;
     const app_opt opts[] = {
         {"captures", APP_OPT_STRING, &captures, "DIR", "directory of frame_NNNN.exr (or DIR/capture)"},
         {"out", APP_OPT_STRING, &out, "DIR", "output directory (created)"},
         {"map", APP_OPT_STRING, &map_path, "JSON", "channel mapping for other renderers' EXRs"},
-        {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "svgf (default) or off"},
+        {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "asvgf (default; runs as svgf on captures), svgf or off"},
         {"yfov", APP_OPT_FLOAT, &yfov_deg, "DEG",
          "vertical field of view for captures without camera matrices (default 40)"},
         {0},
@@ -48,11 +48,10 @@ int cmd_denoise(int argc, char **argv)
     dn_mode mode;
     if ((res = dn_mode_parse(denoiser, &mode)) != TND_OK)
         return app_report("denoise", res);
-    if (mode == DN_MODE_ASVGF)
-        return app_report("denoise", tnd_fail(TND_ERR_UNSUPPORTED,
-                                              "denoise: asvgf re-shades gradient samples with a "
-                                              "front-end; captured sequences carry none (use svgf, "
-                                              "or tandem render --denoiser asvgf)"));
+    /* A-SVGF re-shades its gradient samples with a front-end; a capture is only the contract */
+    bool asked_asvgf = mode == DN_MODE_ASVGF;
+    if (asked_asvgf)
+        mode = DN_MODE_SVGF;
     char dir[1100], path[2300];
     struct stat st;
     snprintf(dir, sizeof dir, "%s/capture", captures);
@@ -124,10 +123,11 @@ int cmd_denoise(int argc, char **argv)
                            path, f.width, f.height, w, h);
             goto fail;
         }
-        if (!said_svgf && mode != DN_MODE_OFF && !app_quiet()) {
-            fprintf(stderr, "tandem: denoise: %s: running as svgf%s\n", names[i],
-                    f.present[TND_CT_RNG] ? "" : " (the captures carry no rng keys, so no gradient "
-                                                  "samples: A-SVGF could not run on them)");
+        if (!said_svgf && asked_asvgf && !app_quiet()) {
+            fprintf(stderr,
+                    "tandem: denoise: %s: running as svgf: captures carry no gradient samples "
+                    "(A-SVGF needs a front-end to re-shade them: tandem render --denoiser asvgf)\n",
+                    names[i]);
             said_svgf = true;
         }
         double tan_half = f.has_camera && f.camera.proj[5] != 0.0f
