@@ -16,7 +16,7 @@
 #endif
 
 typedef struct render_opts {
-    const char *scene, *frontend, *out, *precision, *rt_api, *denoiser;
+    const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump;
     unsigned frames, start, threads, bounces, spp, camera;
     unsigned size[2];
     double fps;
@@ -60,6 +60,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"bounces", APP_OPT_UINT, &o->bounces, "N", "indirect bounces (default 1)"},
         {"precision", APP_OPT_STRING, &o->precision, "P", "contract precision: float32 or packed"},
         {"capture", APP_OPT_FLAG, &o->capture, NULL, "also write DIR/capture/frame_NNNN.exr"},
+        {"dump", APP_OPT_STRING, &o->dump, "LIST",
+         "also write back-end buffers to DIR/dump/NAME_NNNN.exr: comma-separated names, or all "
+         "(temporal.hf, temporal.moments, temporal.lf_sh, temporal.lf_cocg, temporal.spec, "
+         "atrous.hf, atrous.lf_sh, atrous.lf_cocg, atrous.spec, gradients, output)"},
         {"denoiser", APP_OPT_STRING, &o->denoiser, "MODE",
          "asvgf (default: with temporal gradients), svgf or off (noisy composite)"},
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API",
@@ -121,6 +125,68 @@ static float bits_to_float(uint32_t bits)
     return f;
 }
 
+/* --dump LIST: a bit per dn_dump index */
+static tnd_result parse_dump(const char *list, uint32_t *mask)
+{
+    *mask = 0;
+    if (!list)
+        return TND_OK;
+    const char *p = list;
+    while (*p) {
+        size_t n = strcspn(p, ",");
+        bool found = false;
+        if (n == 3 && strncmp(p, "all", 3) == 0) {
+            *mask = (1u << dn_dump_count()) - 1u;
+            found = true;
+        }
+        for (uint32_t i = 0; !found && i < dn_dump_count(); i++) {
+            const char *name = dn_dump_name(i, NULL);
+            if (strlen(name) == n && strncmp(p, name, n) == 0) {
+                *mask |= 1u << i;
+                found = true;
+            }
+        }
+        if (!found)
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                            "--dump: unknown buffer '%.*s' (see tandem render --help)", (int)n, p);
+        p += n;
+        if (*p == ',')
+            p++;
+    }
+    return TND_OK;
+}
+
+static tnd_result write_dumps(dn_context *dn, uint32_t mask, const char *dir, unsigned frame)
+{
+    tnd_result res = TND_OK;
+    float *px = NULL;
+    for (uint32_t i = 0; res == TND_OK && i < dn_dump_count(); i++) {
+        if (!(mask & (1u << i)))
+            continue;
+        uint32_t w = 0, h = 0;
+        const char *ch[4];
+        const char *name = dn_dump_name(i, ch);
+        TND_TRY(dn_dump_size(dn, i, &w, &h));
+        free(px);
+        px = malloc((size_t)w * h * 16);
+        if (!px) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "render: out of memory");
+            goto fail;
+        }
+        TND_TRY(dn_dump(dn, i, px));
+        char path[2300];
+        snprintf(path, sizeof path, "%s/%s_%04u.exr", dir, name, frame);
+        const tnd_exr_channel_desc cd[4] = {{ch[0], TND_EXR_FLOAT, px, 4},
+                                            {ch[1], TND_EXR_FLOAT, px + 1, 4},
+                                            {ch[2], TND_EXR_FLOAT, px + 2, 4},
+                                            {ch[3], TND_EXR_FLOAT, px + 3, 4}};
+        TND_TRY(tnd_exr_write(path, w, h, cd, 4, NULL, 0, TND_EXR_ZIP));
+    }
+fail:
+    free(px);
+    return res;
+}
+
 static int run(bool reference, int argc, char **argv)
 {
     render_opts o;
@@ -144,6 +210,13 @@ static int run(bool reference, int argc, char **argv)
         return app_report(what, res);
     /* the back-end runs on Vulkan; only "embree + off" stays on the CPU */
     bool use_dn = !reference && !(dmode == DN_MODE_OFF && !use_vk);
+    uint32_t dump_mask = 0;
+    if ((res = parse_dump(o.dump, &dump_mask)) != TND_OK)
+        return app_report(what, res);
+    if (dump_mask && !use_dn)
+        return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                                         "--dump needs the Vulkan back-end (embree with "
+                                         "--denoiser off composites on the CPU)"));
     FILE *timings = NULL;
     tnd_scene_state st[2] = {{0}};
     tnd_frame frame = {0};
@@ -197,6 +270,10 @@ static int run(bool reference, int argc, char **argv)
     snprintf(dir, sizeof dir, "%s/capture", o.out);
     if (o.capture)
         TND_TRY(tnd_mkdirs(dir));
+    char dump_dir[1700];
+    snprintf(dump_dir, sizeof dump_dir, "%s/dump", o.out);
+    if (dump_mask)
+        TND_TRY(tnd_mkdirs(dump_dir));
     rgb = malloc((size_t)o.size[0] * o.size[1] * 3 * sizeof(float));
     if (!rgb) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
@@ -296,6 +373,8 @@ static int run(bool reference, int argc, char **argv)
                 }
             }
             TND_TRY(dn_run(dn, ct, &df, &dt));
+            if (dump_mask)
+                TND_TRY(write_dumps(dn, dump_mask, dump_dir, f));
             TND_TRY(dn_download(dn, rgb));
         } else {
             tnd_frame_composite(&frame, rgb);

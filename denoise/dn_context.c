@@ -461,6 +461,72 @@ fail:
     return res;
 }
 
+/* Dumps: name, channel names, the image (slot: 0 this frame's history, 1 the final a-trous). */
+enum { DUMP_HIST, DUMP_ATROUS, DUMP_GRAD, DUMP_OUT };
+static const struct {
+    const char *name;
+    const char *channels[4];
+    int kind, index; /* index into paired[] */
+} dumps[] = {
+    {"temporal.hf", {"R", "G", "B", "history"}, DUMP_HIST, 0},
+    {"temporal.moments", {"m1", "m2", "history_lf", "history_spec"}, DUMP_HIST, 1},
+    {"temporal.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_HIST, 2},
+    {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST, 3},
+    {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, 4},
+    {"atrous.hf", {"R", "G", "B", "variance"}, DUMP_ATROUS, 5},
+    {"atrous.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_ATROUS, 6},
+    {"atrous.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_ATROUS, 7},
+    {"atrous.spec", {"R", "G", "B", "unused"}, DUMP_ATROUS, 8},
+    {"gradients", {"hf", "spec", "lf", "unused"}, DUMP_GRAD, 0},
+    {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
+};
+
+uint32_t dn_dump_count(void)
+{
+    return (uint32_t)(sizeof dumps / sizeof dumps[0]);
+}
+
+const char *dn_dump_name(uint32_t i, const char **channels)
+{
+    if (i >= dn_dump_count())
+        return NULL;
+    if (channels)
+        for (int k = 0; k < 4; k++)
+            channels[k] = dumps[i].channels[k];
+    return dumps[i].name;
+}
+
+tnd_result dn_dump_size(const dn_context *c, uint32_t i, uint32_t *w, uint32_t *h)
+{
+    if (i >= dn_dump_count())
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: dump %u does not exist", i);
+    bool third = dumps[i].kind == DUMP_GRAD;
+    *w = third ? c->grad_w : c->width;
+    *h = third ? c->grad_h : c->height;
+    return TND_OK;
+}
+
+tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
+{
+    uint32_t w = 0, h = 0;
+    tnd_result res = dn_dump_size(c, i, &w, &h);
+    if (res != TND_OK)
+        return res;
+    if (c->frame == 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: dump %s before the first frame",
+                        dumps[i].name);
+    uint32_t slot = (c->frame - 1) & 1u, iters = c->desc.iters_hf;
+    if (c->desc.iters_lf > iters)
+        iters = c->desc.iters_lf;
+    if (c->desc.iters_spec > iters)
+        iters = c->desc.iters_spec;
+    const tnd_image *img = dumps[i].kind == DUMP_HIST     ? &c->paired[dumps[i].index][slot]
+                           : dumps[i].kind == DUMP_ATROUS ? &c->paired[dumps[i].index][iters & 1u]
+                           : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]
+                                                          : &c->out;
+    return tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
+}
+
 tnd_result dn_download(dn_context *c, float *rgb)
 {
     size_t n = (size_t)c->width * c->height;

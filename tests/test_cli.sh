@@ -127,6 +127,13 @@ for fe in ("embree", "vk"):
     assert all(x["denoise_gradient_ms"] > 0 for x in f[1:]), f      # gradients after that
 PY
 check "render's default denoiser, asvgf, runs the gradient passes with both front-ends" $?
+"$T" render --frames 2 --size 24x12 --dump temporal.hf,gradients --out "$tmp/dump" --quiet; rc=$?
+[ $rc -eq 0 ] && [ -f "$tmp/dump/dump/temporal.hf_0001.exr" ] && [ -f "$tmp/dump/dump/gradients_0001.exr" ] &&
+    [ ! -e "$tmp/dump/dump/output_0001.exr" ]
+check "render --dump writes the named back-end buffers per frame" $?
+"$T" render --frames 1 --size 24x12 --dump temporal.hf,bogus --out "$tmp/dump2" 2>"$tmp/err"; rc=$?
+[ $rc -ne 0 ] && grep -q "bogus" "$tmp/err" && [ ! -e "$tmp/dump2" ]
+check "render --dump with an unknown buffer fails naming it, with no output" $?
 
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

@@ -508,6 +508,36 @@ static void test_asvgf_follows_light_switch(void)
         double m = mean_lum(noisy, WH);
         if (fr == 29)
             before = m;
+        if (fr == 29 || fr == 30) { /* the filtered gradients, through the debug dump */
+            uint32_t gi = UINT32_MAX, oi = UINT32_MAX, gw = 0, gh = 0;
+            for (uint32_t k = 0; k < dn_dump_count(); k++) {
+                gi = strcmp(dn_dump_name(k, NULL), "gradients") == 0 ? k : gi;
+                oi = strcmp(dn_dump_name(k, NULL), "output") == 0 ? k : oi;
+            }
+            REQUIRE(gi != UINT32_MAX && oi != UINT32_MAX, "dumps 'gradients' and 'output' exist");
+            REQUIRE_OK(dn_dump_size(da, gi, &gw, &gh));
+            CHECK(gw == 32 && gh == 18, "gradients at 1/3 resolution: %ux%u", gw, gh);
+            static float gd[WH * 4], od[WH * 4];
+            REQUIRE_OK(dn_dump(da, gi, gd));
+            REQUIRE_OK(dn_dump(da, oi, od));
+            double g[3] = {0, 0, 0};
+            for (uint32_t q = 0; q < gw * gh; q++)
+                for (int k = 0; k < 3; k++)
+                    g[k] += gd[4 * q + k] / (gw * gh);
+            int same = 0;
+            for (int q = 0; q < WH; q++)
+                same += od[4 * q] == oa[3 * q] && od[4 * q + 1] == oa[3 * q + 1] &&
+                        od[4 * q + 2] == oa[3 * q + 2];
+            printf("     frame %u: mean filtered gradient hf %.3f, spec %.3f, lf %.3f\n", fr, g[0],
+                   g[1], g[2]);
+            CHECK(same == WH, "the 'output' dump differs from dn_download at %d pixels", WH - same);
+            /* before the switch the lighting holds still (small gradients); at the switch the
+             * lamp's light is gone wherever it reached: hf and lf gradients jump */
+            if (fr == 29)
+                CHECK(g[0] < 0.1 && g[2] < 0.1, "gradients before the switch: %.3f %.3f", g[0], g[2]);
+            else
+                CHECK(g[0] > 0.3 && g[2] > 0.3, "gradients at the switch: %.3f %.3f", g[0], g[2]);
+        }
         err_a[fr] = fabs(mean_lum(oa, WH) - m);
         err_c[fr] = fabs(mean_lum(oc, WH) - m);
     }
