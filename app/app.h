@@ -58,6 +58,11 @@ void app_progress_end(app_progress *p);
 
 /* ---- outputs ------------------------------------------------------------------------------ */
 /* Linear RGB (3 floats per pixel) as a float EXR with channels R, G, B (atomic write). */
+/* --dump LIST (comma-separated dn_dump names, or all) as a bit per dump; then write the chosen
+ * dumps of the last frame to DIR/NAME_STEM.exr. */
+struct dn_context;
+tnd_result app_parse_dump(const char *list, uint32_t *mask);
+tnd_result app_write_dumps(struct dn_context *dn, uint32_t mask, const char *dir, const char *stem);
 tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uint32_t h);
 /* A preview PNG: exposure from the log-average luminance (key 0.18), Reinhard, sRGB. The
  * composite stage's tone mapping replaces it. */

@@ -15,7 +15,7 @@ static const app_cmd denoise_cmd = {
     "denoise",
     "Run the denoising back-end on a captured EXR sequence (Tandem's captures, or another\n"
     "renderer's through --map) and write the denoised frames.",
-    "--captures DIR --out DIR [--map MAPPING.json] [--denoiser asvgf|svgf|off]", NULL};
+    "--captures DIR --out DIR [--map MAPPING.json] [--denoiser asvgf|svgf|off] [--dump LIST]", NULL};
 
 static int cmp_names(const void *a, const void *b)
 {
@@ -24,12 +24,14 @@ static int cmp_names(const void *a, const void *b)
 
 int cmd_denoise(int argc, char **argv)
 {
-    const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf";
+    const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf", *dump = NULL;
     double yfov_deg = 40.0;
     const app_opt opts[] = {
         {"captures", APP_OPT_STRING, &captures, "DIR", "directory of frame_NNNN.exr (or DIR/capture)"},
         {"out", APP_OPT_STRING, &out, "DIR", "output directory (created)"},
         {"map", APP_OPT_STRING, &map_path, "JSON", "channel mapping for other renderers' EXRs"},
+        {"dump", APP_OPT_STRING, &dump, "LIST",
+         "also write back-end buffers to DIR/dump/NAME_NNNN.exr (names: see tandem render --help)"},
         {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "asvgf (default; runs as svgf on captures), svgf or off"},
         {"yfov", APP_OPT_FLOAT, &yfov_deg, "DEG",
          "vertical field of view for captures without camera matrices (default 40)"},
@@ -47,6 +49,12 @@ int cmd_denoise(int argc, char **argv)
     tnd_result res = TND_OK;
     dn_mode mode;
     if ((res = dn_mode_parse(denoiser, &mode)) != TND_OK)
+        return app_report("denoise", res);
+    if (strlen(out) > 1000 || strlen(captures) > 1000)
+        return app_report("denoise",
+                          tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out/--captures: path too long"));
+    uint32_t dump_mask = 0;
+    if ((res = app_parse_dump(dump, &dump_mask)) != TND_OK)
         return app_report("denoise", res);
     /* A-SVGF re-shades its gradient samples with a front-end; a capture is only the contract */
     bool asked_asvgf = mode == DN_MODE_ASVGF;
@@ -96,6 +104,7 @@ int cmd_denoise(int argc, char **argv)
     app_progress bar;
     app_progress_begin(&bar, "denoise", (unsigned)n);
     bool said_svgf = false;
+    char dump_dir[1100];
     for (size_t i = 0; i < n; i++) {
         snprintf(path, sizeof path, "%s/%s", dir, names[i]);
         tnd_frame_destroy(&f);
@@ -111,6 +120,10 @@ int cmd_denoise(int argc, char **argv)
                 goto fail;
             }
             TND_TRY(tnd_mkdirs(out));
+            if (dump_mask) {
+                snprintf(dump_dir, sizeof dump_dir, "%s/dump", out);
+                TND_TRY(tnd_mkdirs(dump_dir));
+            }
             snprintf(path, sizeof path, "%s/timings.json", out);
             if (!(timings = fopen(path, "w"))) {
                 res = tnd_fail(TND_ERR_IO, "denoise: %s: cannot create", path);
@@ -141,6 +154,14 @@ int cmd_denoise(int argc, char **argv)
         dn_timings tm;
         TND_TRY(tnd_contract_upload(&vk, &ct, &f));
         TND_TRY(dn_run(dn, &ct, &df, &tm));
+        if (dump_mask) {
+            char stem[1024];
+            snprintf(stem, sizeof stem, "%s", names[i]);
+            char *dot = strrchr(stem, '.');
+            if (dot)
+                *dot = '\0';
+            TND_TRY(app_write_dumps(dn, dump_mask, dump_dir, stem));
+        }
         TND_TRY(dn_download(dn, rgb));
         fprintf(timings,
                 "%s\n    {\"file\": \"%s\", \"denoise_temporal_ms\": %.4f, "

@@ -125,68 +125,6 @@ static float bits_to_float(uint32_t bits)
     return f;
 }
 
-/* --dump LIST: a bit per dn_dump index */
-static tnd_result parse_dump(const char *list, uint32_t *mask)
-{
-    *mask = 0;
-    if (!list)
-        return TND_OK;
-    const char *p = list;
-    while (*p) {
-        size_t n = strcspn(p, ",");
-        bool found = false;
-        if (n == 3 && strncmp(p, "all", 3) == 0) {
-            *mask = (1u << dn_dump_count()) - 1u;
-            found = true;
-        }
-        for (uint32_t i = 0; !found && i < dn_dump_count(); i++) {
-            const char *name = dn_dump_name(i, NULL);
-            if (strlen(name) == n && strncmp(p, name, n) == 0) {
-                *mask |= 1u << i;
-                found = true;
-            }
-        }
-        if (!found)
-            return tnd_fail(TND_ERR_INVALID_ARGUMENT,
-                            "--dump: unknown buffer '%.*s' (see tandem render --help)", (int)n, p);
-        p += n;
-        if (*p == ',')
-            p++;
-    }
-    return TND_OK;
-}
-
-static tnd_result write_dumps(dn_context *dn, uint32_t mask, const char *dir, unsigned frame)
-{
-    tnd_result res = TND_OK;
-    float *px = NULL;
-    for (uint32_t i = 0; res == TND_OK && i < dn_dump_count(); i++) {
-        if (!(mask & (1u << i)))
-            continue;
-        uint32_t w = 0, h = 0;
-        const char *ch[4];
-        const char *name = dn_dump_name(i, ch);
-        TND_TRY(dn_dump_size(dn, i, &w, &h));
-        free(px);
-        px = malloc((size_t)w * h * 16);
-        if (!px) {
-            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "render: out of memory");
-            goto fail;
-        }
-        TND_TRY(dn_dump(dn, i, px));
-        char path[2300];
-        snprintf(path, sizeof path, "%s/%s_%04u.exr", dir, name, frame);
-        const tnd_exr_channel_desc cd[4] = {{ch[0], TND_EXR_FLOAT, px, 4},
-                                            {ch[1], TND_EXR_FLOAT, px + 1, 4},
-                                            {ch[2], TND_EXR_FLOAT, px + 2, 4},
-                                            {ch[3], TND_EXR_FLOAT, px + 3, 4}};
-        TND_TRY(tnd_exr_write(path, w, h, cd, 4, NULL, 0, TND_EXR_ZIP));
-    }
-fail:
-    free(px);
-    return res;
-}
-
 static int run(bool reference, int argc, char **argv)
 {
     render_opts o;
@@ -211,7 +149,7 @@ static int run(bool reference, int argc, char **argv)
     /* the back-end runs on Vulkan; only "embree + off" stays on the CPU */
     bool use_dn = !reference && !(dmode == DN_MODE_OFF && !use_vk);
     uint32_t dump_mask = 0;
-    if ((res = parse_dump(o.dump, &dump_mask)) != TND_OK)
+    if ((res = app_parse_dump(o.dump, &dump_mask)) != TND_OK)
         return app_report(what, res);
     if (dump_mask && !use_dn)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT,
@@ -373,8 +311,11 @@ static int run(bool reference, int argc, char **argv)
                 }
             }
             TND_TRY(dn_run(dn, ct, &df, &dt));
-            if (dump_mask)
-                TND_TRY(write_dumps(dn, dump_mask, dump_dir, f));
+            if (dump_mask) {
+                char stem[16];
+                snprintf(stem, sizeof stem, "%04u", f);
+                TND_TRY(app_write_dumps(dn, dump_mask, dump_dir, stem));
+            }
             TND_TRY(dn_download(dn, rgb));
         } else {
             tnd_frame_composite(&frame, rgb);

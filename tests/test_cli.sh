@@ -134,6 +134,9 @@ check "render --dump writes the named back-end buffers per frame" $?
 "$T" render --frames 1 --size 24x12 --dump temporal.hf,bogus --out "$tmp/dump2" 2>"$tmp/err"; rc=$?
 [ $rc -ne 0 ] && grep -q "bogus" "$tmp/err" && [ ! -e "$tmp/dump2" ]
 check "render --dump with an unknown buffer fails naming it, with no output" $?
+"$T" denoise --captures "$tmp/embree" --out "$tmp/den4" --dump atrous.spec --quiet; rc=$?
+[ $rc -eq 0 ] && [ -f "$tmp/den4/dump/atrous.spec_frame_0001.exr" ]
+check "denoise --dump names the dumps after the input frames" $?
 
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]
