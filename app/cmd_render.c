@@ -323,11 +323,11 @@ static int run(bool reference, int argc, char **argv)
         /* front-end times: GPU timestamps (vk) or CPU wall clock (embree); back-end: GPU */
         fprintf(timings,
                 "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
-                "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_gradient_ms\": %.4f, "
-                "\"denoise_temporal_ms\": %.4f, \"denoise_atrous_ms\": %.4f, "
-                "\"composite_ms\": %.4f}",
-                i ? "," : "", f, ms_primary, ms_shade, ms_tlas, ms_gradients, dt.gradient_ms,
-                dt.temporal_ms, dt.atrous_ms, dt.composite_ms);
+                "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_select_ms\": %.4f, "
+                "\"denoise_gradient_ms\": %.4f, \"denoise_temporal_ms\": %.4f, "
+                "\"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f}",
+                i ? "," : "", f, ms_primary, ms_shade, ms_tlas, ms_gradients, dt.select_ms,
+                dt.gradient_ms, dt.temporal_ms, dt.atrous_ms, dt.composite_ms);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);

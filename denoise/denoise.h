@@ -39,7 +39,9 @@ typedef struct dn_frame {
 } dn_frame;
 
 typedef struct dn_timings {
-    double gradient_ms, temporal_ms, atrous_ms, composite_ms;
+    double select_ms;   /* the gradient selection of this frame (dn_select_gradients) */
+    double gradient_ms; /* gradient image and its blur */
+    double temporal_ms, atrous_ms, composite_ms;
 } dn_timings;
 
 typedef struct dn_context dn_context;

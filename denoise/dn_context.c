@@ -34,7 +34,8 @@ struct dn_context {
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
     VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous;
-    tnd_timer timer;
+    tnd_timer timer, select_timer;
+    double select_ms; /* GPU time of the last selection */
     bool have_history;
 };
 
@@ -65,6 +66,7 @@ void dn_destroy(dn_context *c)
     if (vk->device)
         vkDeviceWaitIdle(vk->device);
     tnd_timer_destroy(vk, &c->timer);
+    tnd_timer_destroy(vk, &c->select_timer);
     VkPipeline pipes[6] = {c->temporal,    c->atrous,     c->composite,
                            c->grad_select, c->grad_image, c->grad_atrous};
     for (int i = 0; i < 6; i++)
@@ -291,6 +293,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     TND_TRY(create_pipelines(c));
     write_own_set(c);
     TND_TRY(tnd_timer_create(vk, &c->timer));
+    TND_TRY(tnd_timer_create(vk, &c->select_timer));
     *out = c;
     return TND_OK;
 fail:
@@ -370,15 +373,19 @@ tnd_result dn_select_gradients(dn_context *c, const tnd_contract_gpu *ct, const 
     fill_params(c, f, false);
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+    tnd_timer_reset(cmd, &c->select_timer);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
+    int s_s = tnd_timer_begin(cmd, &c->select_timer, "denoise.grad_select");
     dispatch_grad(c, cmd, c->grad_select, 0);
+    tnd_timer_end(cmd, &c->select_timer, s_s);
     VkMemoryBarrier host = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
                             .srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT,
                             .dstAccessMask = VK_ACCESS_HOST_READ_BIT};
     vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
                          &host, 0, NULL, 0, NULL);
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    TND_TRY(tnd_timer_read(c->vk, &c->select_timer, &c->select_ms));
     const tnd_gpu_gradient *g = c->samples.mapped;
     uint32_t n = 0, strata = c->grad_w * c->grad_h;
     for (uint32_t i = 0; i < strata; i++) {
@@ -447,8 +454,10 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
         *t = (dn_timings){0};
         int k = 0;
-        if (s_g >= 0)
+        if (s_g >= 0) {
+            t->select_ms = c->select_ms;
             t->gradient_ms = ms[k++];
+        }
         if (s_t >= 0) {
             t->temporal_ms = ms[k++];
             t->atrous_ms = ms[k++];

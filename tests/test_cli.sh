@@ -124,7 +124,7 @@ for fe in ("embree", "vk"):
     assert d["denoiser"] == "asvgf", d["denoiser"]
     f = d["frames"]
     assert len(f) == 3 and f[0]["denoise_gradient_ms"] == 0, f[0]   # no history yet
-    assert all(x["denoise_gradient_ms"] > 0 for x in f[1:]), f      # gradients after that
+    assert all(x["denoise_gradient_ms"] > 0 and x["denoise_select_ms"] > 0 for x in f[1:]), f
 PY
 check "render's default denoiser, asvgf, runs the gradient passes with both front-ends" $?
 "$T" render --frames 2 --size 24x12 --dump temporal.hf,gradients --out "$tmp/dump" --quiet; rc=$?
