@@ -34,7 +34,7 @@ demo: build
 	@echo
 	@echo "demo: pictures in $(DEMO_OUT)/: frame_NNNN.png (preview), frame_NNNN.exr (linear HDR),"
 	@echo "demo: capture/frame_NNNN.exr (the whole contract; try: exrheader $(DEMO_OUT)/capture/frame_0000.exr)"
-	@echo "demo: (Embree front-end, SVGF back-end on Vulkan; TAA and tone mapping come next)"
+	@echo "demo: (Embree front-end, A-SVGF back-end on Vulkan; TAA and tone mapping come next)"
 
 test-release: build
 	scripts/run-tests.sh $(BUILD)
