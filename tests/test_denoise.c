@@ -348,9 +348,20 @@ cleanup:
     gpu_end();
 }
 
+/* The back-end's sample words (DN_GRADIENT_WORDS each) as the Embree front-end's samples. */
+static void to_femb(const uint32_t *grads, uint32_t n, femb_gradient_sample *fg)
+{
+    for (uint32_t k = 0; k < n; k++) {
+        const uint32_t *w = grads + (size_t)k * DN_GRADIENT_WORDS;
+        fg[k] = (femb_gradient_sample){w[0], w[1], w[2], w[3], w[4], 0.0f, 0.0f};
+        memcpy(&fg[k].u, &w[5], sizeof fg[k].u);
+        memcpy(&fg[k].v, &w[6], sizeof fg[k].v);
+    }
+}
+
 /* The premise of A-SVGF: a gradient sample re-shaded with the previous frame's key on the
  * previous frame's surface reproduces the previous value where nothing changed. Static cornell
- * (only the jitter moves): every selected sample's re-shaded hf and spec luminance must match the
+ * (only the jitter moves): every selected sample's re-shaded hf and spec values must match the
  * previous frame's at the pixel its key names, to float rounding (the surface point is rebuilt
  * from barycentrics instead of the ray's hit distance: 1e-3 relative covers that). */
 static void test_gradient_samples_reproduce_static(void)
@@ -384,14 +395,11 @@ static void test_gradient_samples_reproduce_static(void)
         REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f1));
         uint32_t n = 0;
         REQUIRE_OK(dn_select_gradients(dn, &r.ct, &df, grads, &n));
-        for (uint32_t k = 0; k < n; k++) {
-            const uint32_t *w = grads + (size_t)k * DN_GRADIENT_WORDS;
-            fg[k] = (femb_gradient_sample){w[0], w[1], w[2], w[3], w[4], 0, 0};
-            memcpy(&fg[k].u, &w[5], 4);
-            memcpy(&fg[k].v, &w[6], 4);
-            CHECK(w[1] == i - 1 && w[2] < W * H, "sample %u: key (%u, %u) is not frame %u's", k,
-                  w[1], w[2], i - 1);
-        }
+        to_femb(grads, n, fg);
+        for (uint32_t k = 0; k < n; k++)
+            CHECK(fg[k].rng_frame == i - 1 && fg[k].rng_pixel < W * H,
+                  "sample %u: key (%u, %u) is not frame %u's", k, fg[k].rng_frame,
+                  fg[k].rng_pixel, i - 1);
         REQUIRE_OK(femb_shade_gradients(r.fe, &(femb_params){.bounces = 2}, fg, n, &f1));
         for (uint32_t k = 0; k < n; k++) {
             uint32_t q = fg[k].pixel, pq = fg[k].rng_pixel;
@@ -487,12 +495,7 @@ static void test_asvgf_follows_light_switch(void)
         CHECK(fr != first || n == 0, "samples without history: %u", n);
         if (fr > first && n < min_samples)
             min_samples = n;
-        for (uint32_t k = 0; k < n; k++) {
-            const uint32_t *w = grads + (size_t)k * DN_GRADIENT_WORDS;
-            fg[k] = (femb_gradient_sample){w[0], w[1], w[2], w[3], w[4], 0, 0};
-            memcpy(&fg[k].u, &w[5], 4);
-            memcpy(&fg[k].v, &w[6], 4);
-        }
+        to_femb(grads, n, fg);
         REQUIRE_OK(femb_shade_gradients(fe, &(femb_params){.bounces = 1}, fg, n, &f));
         REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
         REQUIRE_OK(dn_run(da, &up, &df, NULL));
