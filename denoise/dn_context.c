@@ -1,7 +1,9 @@
 /* denoise/dn_context.c: the back-end's images (histories in two slots, a-trous ping-pong, the
- * previous frame's geometry, the output), its pipelines and the per-frame recording with a
- * timestamp around each pass.
- * Entry points: dn_create, dn_destroy, dn_run, dn_download, dn_mode_parse, dn_mode_name. */
+ * previous frame's geometry, luminances and barycentrics, the 1/3-res gradients, the output),
+ * the gradient sample buffer, its pipelines and the per-frame recording with a timestamp around
+ * each pass.
+ * Entry points: dn_create, dn_destroy, dn_select_gradients, dn_gradient_capacity, dn_run,
+ * dn_download, dn_dump_count, dn_dump_name, dn_dump_size, dn_dump, dn_mode_parse, dn_mode_name. */
 #include "denoise/denoise.h"
 #include "shaders/denoise_shared.h"
 #include "shaders/scene_gpu.h"
