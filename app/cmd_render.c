@@ -118,13 +118,6 @@ static void on_ref_progress(uint32_t done, uint32_t total, void *user)
     (void)p->frames;
 }
 
-static float bits_to_float(uint32_t bits)
-{
-    float f;
-    memcpy(&f, &bits, sizeof f);
-    return f;
-}
-
 static int run(bool reference, int argc, char **argv)
 {
     render_opts o;
@@ -278,10 +271,7 @@ static int run(bool reference, int argc, char **argv)
         }
         dn_timings dt = {0};
         if (use_dn) {
-            dn_frame df = {.pixel_spread = (float)(2.0 / fabs((double)cur->camera.proj[5]) / o.size[1]),
-                           .reset = i == 0};
-            tnd_jitter(f, df.jitter);
-            tnd_jitter(f ? f - 1 : 0, df.prev_jitter);
+            dn_frame df = dn_frame_for_camera(cur->camera.proj, o.size[1], f, i == 0);
             const tnd_contract_gpu *ct = use_vk ? fvk_contract(gv) : &upload;
             if (!use_vk)
                 TND_TRY(tnd_contract_upload(&vk, &upload, &frame));
@@ -297,12 +287,7 @@ static int run(bool reference, int argc, char **argv)
                     ms_gradients = tg.gradient_ms;
                 } else if (n) {
                     double ta = tnd_now();
-                    for (uint32_t k = 0; k < n; k++) {
-                        const uint32_t *w = grads + (size_t)k * DN_GRADIENT_WORDS;
-                        femb_grads[k] = (femb_gradient_sample){w[0], w[1], w[2], w[3], w[4],
-                                                               bits_to_float(w[5]),
-                                                               bits_to_float(w[6])};
-                    }
+                    femb_gradient_unpack(grads, n, femb_grads);
                     TND_TRY(femb_shade_gradients(fe, &(femb_params){.bounces = o.bounces},
                                                  femb_grads, n, &frame));
                     ms_gradients = 1e3 * (tnd_now() - ta);

@@ -38,6 +38,10 @@ typedef struct dn_frame {
     bool reset;                      /* drop the history (first frame, cut) */
 } dn_frame;
 
+/* The frame parameters of frame `frame` rendered by a Tandem front-end (Halton jitter of this and
+ * the previous frame, pixel spread from the projection's vertical scale proj[5]). */
+dn_frame dn_frame_for_camera(const float proj[16], uint32_t height, uint32_t frame, bool reset);
+
 typedef struct dn_timings {
     double select_ms;   /* the gradient selection of this frame (dn_select_gradients) */
     double gradient_ms; /* gradient image and its blur */

@@ -6,9 +6,11 @@
  * dn_download, dn_dump_count, dn_dump_name, dn_dump_size, dn_dump, dn_mode_parse, dn_mode_name. */
 #include "denoise/denoise.h"
 #include "shaders/denoise_shared.h"
+#include "shaders/sampling.h"
 #include "shaders/scene_gpu.h"
 #include "shaders/shader_list.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -328,6 +330,21 @@ static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32
     tnd_cmd_barrier(cmd);
 }
 
+/* a-trous passes run: the most any channel asks for (the others copy through) */
+static uint32_t atrous_iters(const dn_desc *d)
+{
+    uint32_t n = d->iters_hf > d->iters_lf ? d->iters_hf : d->iters_lf;
+    return d->iters_spec > n ? d->iters_spec : n;
+}
+
+dn_frame dn_frame_for_camera(const float proj[16], uint32_t height, uint32_t frame, bool reset)
+{
+    dn_frame f = {.pixel_spread = (float)(2.0 / fabs((double)proj[5]) / height), .reset = reset};
+    tnd_jitter(frame, f.jitter);
+    tnd_jitter(frame ? frame - 1 : 0, f.prev_jitter);
+    return f;
+}
+
 static tnd_result check_contract(const dn_context *c, const tnd_contract_gpu *ct)
 {
     if (ct->width != c->width || ct->height != c->height || ct->precision != c->desc.precision)
@@ -420,11 +437,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
                      c->have_history && !f->reset;
     fill_params(c, f, gradients);
     uint32_t slot = c->frame & 1u;
-    uint32_t iters = d->iters_hf;
-    if (d->iters_lf > iters)
-        iters = d->iters_lf;
-    if (d->iters_spec > iters)
-        iters = d->iters_spec;
+    uint32_t iters = atrous_iters(d);
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(c->vk, &cmd));
     tnd_timer_reset(cmd, &c->timer);
@@ -526,11 +539,7 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
     if (c->frame == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: dump %s before the first frame",
                         dumps[i].name);
-    uint32_t slot = (c->frame - 1) & 1u, iters = c->desc.iters_hf;
-    if (c->desc.iters_lf > iters)
-        iters = c->desc.iters_lf;
-    if (c->desc.iters_spec > iters)
-        iters = c->desc.iters_spec;
+    uint32_t slot = (c->frame - 1) & 1u, iters = atrous_iters(&c->desc);
     const tnd_image *img = dumps[i].kind == DUMP_HIST     ? &c->paired[dumps[i].index][slot]
                            : dumps[i].kind == DUMP_ATROUS ? &c->paired[dumps[i].index][iters & 1u]
                            : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]

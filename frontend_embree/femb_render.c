@@ -11,8 +11,8 @@
  *   scaled so that evaluating the SH at the shading normal returns the sample exactly:
  *   s = 4 pi Y / (1 + 2 d.n)), spec (specular / max(0.01, F0)).
  * Every random number comes from shaders/sampling.h keyed by the pixel's (frame, pixel) key.
- * Entry points: femb_trace_primary, femb_shade, femb_shade_gradients, femb_reference,
- * femb_composite. */
+ * Entry points: femb_trace_primary, femb_shade, femb_gradient_unpack, femb_shade_gradients,
+ * femb_reference, femb_composite. */
 #include "frontend_embree/femb_internal.h"
 #include "shaders/brdf.h"
 #include "shaders/sampling.h"
@@ -605,6 +605,17 @@ tnd_result femb_shade(femb_context *c, const femb_params *p, tnd_frame *f, float
     femb_parallel_tiles(c, shade_tile, &j);
     mark_shading(f);
     return TND_OK;
+}
+
+_Static_assert(sizeof(femb_gradient_sample) == 7 * sizeof(uint32_t), "7 words per sample");
+
+void femb_gradient_unpack(const uint32_t *w, uint32_t n, femb_gradient_sample *g)
+{
+    for (uint32_t k = 0; k < n; k++, w += 7) {
+        g[k] = (femb_gradient_sample){w[0], w[1], w[2], w[3], w[4], 0.0f, 0.0f};
+        memcpy(&g[k].u, &w[5], sizeof g[k].u);
+        memcpy(&g[k].v, &w[6], sizeof g[k].v);
+    }
 }
 
 tnd_result femb_shade_gradients(femb_context *c, const femb_params *p,

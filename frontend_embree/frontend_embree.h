@@ -51,6 +51,10 @@ typedef struct femb_gradient_sample {
     float u, v;
 } femb_gradient_sample;
 
+/* Samples from 7 words each (pixel, rng frame, rng pixel, instance, primitive, u bits, v bits:
+ * the back-end's dn_select_gradients and fvk_shade_gradients layout). */
+void femb_gradient_unpack(const uint32_t *words, uint32_t count, femb_gradient_sample *samples);
+
 /* Patch the frame's visibility and rng at the samples' pixels (the surface is re-evaluated on
  * the current geometry) and shade those pixels; other pixels are untouched. */
 tnd_result femb_shade_gradients(femb_context *ctx, const femb_params *p,

@@ -74,10 +74,7 @@ static tnd_result rig_frame(tnd_vk *vk, rig *r, uint32_t i, float *composite, dn
         }
     if (res == TND_OK)
         res = tnd_contract_upload(vk, &r->ct, &f);
-    tnd_jitter(i, df->jitter);
-    tnd_jitter(i ? i - 1 : 0, df->prev_jitter);
-    df->pixel_spread = (float)(2.0 / fabs((double)r->st.camera.proj[5]) / H);
-    df->reset = i == 0;
+    *df = dn_frame_for_camera(r->st.camera.proj, H, i, i == 0);
     tnd_frame_destroy(&f);
     return res;
 }
@@ -260,10 +257,7 @@ static void test_disocclusion_and_frontends(void)
     for (uint32_t fr = first; fr <= last; fr++) {
         REQUIRE_OK(tnd_scene_evaluate(s, fr / fps, 0, (float)WD / HD, &cur));
         REQUIRE_OK(tnd_scene_evaluate(s, (fr - 1) / fps, 0, (float)WD / HD, &prev));
-        dn_frame df = {.pixel_spread = (float)(2.0 / fabs((double)cur.camera.proj[5]) / HD),
-                       .reset = fr == first};
-        tnd_jitter(fr, df.jitter);
-        tnd_jitter(fr - 1, df.prev_jitter);
+        dn_frame df = dn_frame_for_camera(cur.camera.proj, HD, fr, fr == first);
         tnd_frame_destroy(&fp);
         fp = f;
         memset(&f, 0, sizeof f);
@@ -348,17 +342,6 @@ cleanup:
     gpu_end();
 }
 
-/* The back-end's sample words (DN_GRADIENT_WORDS each) as the Embree front-end's samples. */
-static void to_femb(const uint32_t *grads, uint32_t n, femb_gradient_sample *fg)
-{
-    for (uint32_t k = 0; k < n; k++) {
-        const uint32_t *w = grads + (size_t)k * DN_GRADIENT_WORDS;
-        fg[k] = (femb_gradient_sample){w[0], w[1], w[2], w[3], w[4], 0.0f, 0.0f};
-        memcpy(&fg[k].u, &w[5], sizeof fg[k].u);
-        memcpy(&fg[k].v, &w[6], sizeof fg[k].v);
-    }
-}
-
 /* The premise of A-SVGF: a gradient sample re-shaded with the previous frame's key on the
  * previous frame's surface reproduces the previous value where nothing changed. Static cornell
  * (only the jitter moves): every selected sample's re-shaded hf and spec values must match the
@@ -381,10 +364,7 @@ static void test_gradient_samples_reproduce_static(void)
     REQUIRE(grads && fg, "out of memory");
     uint32_t checked = 0, bad = 0;
     for (uint32_t i = 0; i < 4; i++) {
-        dn_frame df = {.pixel_spread = (float)(2.0 / fabs((double)r.st.camera.proj[5]) / H),
-                       .reset = i == 0};
-        tnd_jitter(i, df.jitter);
-        tnd_jitter(i ? i - 1 : 0, df.prev_jitter);
+        dn_frame df = dn_frame_for_camera(r.st.camera.proj, H, i, i == 0);
         tnd_frame_destroy(&f0);
         f0 = f1;
         memset(&f1, 0, sizeof f1);
@@ -395,7 +375,7 @@ static void test_gradient_samples_reproduce_static(void)
         REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f1));
         uint32_t n = 0;
         REQUIRE_OK(dn_select_gradients(dn, &r.ct, &df, grads, &n));
-        to_femb(grads, n, fg);
+        femb_gradient_unpack(grads, n, fg);
         for (uint32_t k = 0; k < n; k++)
             CHECK(fg[k].rng_frame == i - 1 && fg[k].rng_pixel < W * H,
                   "sample %u: key (%u, %u) is not frame %u's", k, fg[k].rng_frame,
@@ -478,10 +458,7 @@ static void test_asvgf_follows_light_switch(void)
     for (uint32_t fr = first; fr <= last; fr++) {
         REQUIRE_OK(tnd_scene_evaluate(s, fr / fps, 0, (float)WD / HD, &cur));
         REQUIRE_OK(tnd_scene_evaluate(s, (fr - 1) / fps, 0, (float)WD / HD, &prev));
-        dn_frame df = {.pixel_spread = (float)(2.0 / fabs((double)cur.camera.proj[5]) / HD),
-                       .reset = fr == first};
-        tnd_jitter(fr, df.jitter);
-        tnd_jitter(fr - 1, df.prev_jitter);
+        dn_frame df = dn_frame_for_camera(cur.camera.proj, HD, fr, fr == first);
         tnd_frame_destroy(&f);
         REQUIRE_OK(femb_set_frame(fe, &cur, &prev, fr, WD, HD));
         REQUIRE_OK(tnd_frame_create(WD, HD, &f));
@@ -495,7 +472,7 @@ static void test_asvgf_follows_light_switch(void)
         CHECK(fr != first || n == 0, "samples without history: %u", n);
         if (fr > first && n < min_samples)
             min_samples = n;
-        to_femb(grads, n, fg);
+        femb_gradient_unpack(grads, n, fg);
         REQUIRE_OK(femb_shade_gradients(fe, &(femb_params){.bounces = 1}, fg, n, &f));
         REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
         REQUIRE_OK(dn_run(da, &up, &df, NULL));
