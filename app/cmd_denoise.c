@@ -165,8 +165,8 @@ int cmd_denoise(int argc, char **argv)
         TND_TRY(dn_download(dn, rgb));
         fprintf(timings,
                 "%s\n    {\"file\": \"%s\", \"denoise_temporal_ms\": %.4f, "
-                "\"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f}",
-                i ? "," : "", names[i], tm.temporal_ms, tm.atrous_ms, tm.composite_ms);
+                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f}",
+                i ? "," : "", names[i], tm.temporal_ms, tm.lf_ms, tm.atrous_ms, tm.composite_ms);
         snprintf(path, sizeof path, "%s/%s", out, names[i]);
         TND_TRY(app_write_rgb_exr(path, rgb, w, h));
         size_t l = strlen(path);

@@ -63,7 +63,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"dump", APP_OPT_STRING, &o->dump, "LIST",
          "also write back-end buffers to DIR/dump/NAME_NNNN.exr: comma-separated names, or all "
          "(temporal.hf, temporal.moments, temporal.lf_sh, temporal.lf_cocg, temporal.spec, "
-         "atrous.hf, atrous.lf_sh, atrous.lf_cocg, atrous.spec, gradients, output)"},
+         "atrous.hf, atrous.spec, lf.sh, lf.cocg (1/3 res), gradients (1/3 res), output)"},
         {"denoiser", APP_OPT_STRING, &o->denoiser, "MODE",
          "asvgf (default: with temporal gradients), svgf or off (noisy composite)"},
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API",
@@ -310,9 +310,9 @@ static int run(bool reference, int argc, char **argv)
                 "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
                 "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_select_ms\": %.4f, "
                 "\"denoise_gradient_ms\": %.4f, \"denoise_temporal_ms\": %.4f, "
-                "\"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f}",
+                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f}",
                 i ? "," : "", f, ms_primary, ms_shade, ms_tlas, ms_gradients, dt.select_ms,
-                dt.gradient_ms, dt.temporal_ms, dt.atrous_ms, dt.composite_ms);
+                dt.gradient_ms, dt.temporal_ms, dt.lf_ms, dt.atrous_ms, dt.composite_ms);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);

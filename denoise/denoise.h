@@ -24,12 +24,17 @@ const char *dn_mode_name(dn_mode mode);
 typedef struct dn_desc {
     dn_mode mode;
     tnd_precision precision; /* of the contract images it reads */
-    uint32_t iters_hf, iters_lf, iters_spec; /* a-trous iterations: 0 means 4 / 4 / 3 */
+    uint32_t iters_hf, iters_lf, iters_spec; /* a-trous iterations: 0 means 4 / 3 / 3 (lf's at 1/3
+                                                resolution, steps 3, 6, 12 pixels) */
     float min_alpha_hf, min_alpha_lf, min_alpha_spec, min_alpha_moments; /* 0: .02 .01 .01 .01 */
     /* A-SVGF: antilag = gain x filtered gradient (hf, spec, lf) + motion gain x pixels of
      * motion (spec); history length scales by (1 - antilag)^10 and alpha moves towards 1 by
      * antilag. 0 means Q2RTX's 1 / 2 / 0.004 / 0.2. */
     float antilag_hf, antilag_spec, antilag_motion, antilag_lf;
+    /* lf filter (1/3 res): deflicker ratio (0 means Q2RTX's 2; negative turns it off), and the
+     * light-leak guard of the last iteration (on unless no_leak_guard) */
+    float lf_deflicker;
+    bool no_leak_guard;
 } dn_desc;
 
 typedef struct dn_frame {
@@ -45,7 +50,7 @@ dn_frame dn_frame_for_camera(const float proj[16], uint32_t height, uint32_t fra
 typedef struct dn_timings {
     double select_ms;   /* the gradient selection of this frame (dn_select_gradients) */
     double gradient_ms; /* gradient image and its blur */
-    double temporal_ms, atrous_ms, composite_ms;
+    double temporal_ms, lf_ms, atrous_ms, composite_ms; /* lf: the 1/3-res lf filter */
 } dn_timings;
 
 typedef struct dn_context dn_context;
@@ -67,8 +72,8 @@ tnd_result dn_select_gradients(dn_context *ctx, const tnd_contract_gpu *contract
                                const dn_frame *frame, uint32_t *samples, uint32_t *count);
 /* Debug dumps of the back-end's buffers after the last dn_run (tandem render --dump): dump i
  * (0 .. dn_dump_count() - 1) has a name such as "temporal.hf" and 4 channel names; dn_dump
- * writes its 4 floats per texel (dn_dump_size: full or, for "gradients", 1/3 resolution). The
- * a-trous dumps hold the last iteration; "gradients" (the filtered hf / spec / lf gradients) is
+ * writes its 4 floats per texel (dn_dump_size: full or, for "gradients" and "lf.*", 1/3 resolution). The
+ * a-trous dumps hold the last iteration, "lf.*" the 1/3-res lf filter's result; "gradients" (the filtered hf / spec / lf gradients) is
  * only meaningful on asvgf frames with history. */
 uint32_t dn_dump_count(void);
 const char *dn_dump_name(uint32_t i, const char **channels);

@@ -1,5 +1,6 @@
 /* denoise/dn_context.c: the back-end's images (histories in two slots, a-trous ping-pong, the
- * previous frame's geometry, luminances and barycentrics, the 1/3-res gradients, the output),
+ * previous frame's geometry, luminances and barycentrics, the 1/3-res gradients and lf filter,
+ * the output),
  * the gradient sample buffer, its pipelines and the per-frame recording with a timestamp around
  * each pass.
  * Entry points: dn_create, dn_destroy, dn_select_gradients, dn_gradient_capacity, dn_run,
@@ -30,6 +31,7 @@ struct dn_context {
     tnd_image paired[N_PAIRED][2];
     tnd_image prev_gb, prev_vis, out;
     tnd_image prev_lum, prev_bary, grad_flag, grad[2]; /* A-SVGF */
+    tnd_image lf_geo[2];                               /* 1/3-res lf anchors */
     tnd_buffer params, samples;
     uint32_t grad_w, grad_h;
     uint32_t selected_frame; /* c->frame + 1 when dn_select_gradients ran for this frame */
@@ -37,7 +39,7 @@ struct dn_context {
     VkPipelineLayout layout;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
-    VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous;
+    VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous, lf;
     tnd_timer timer, select_timer;
     double select_ms; /* GPU time of the last selection */
     bool have_history;
@@ -71,9 +73,9 @@ void dn_destroy(dn_context *c)
         vkDeviceWaitIdle(vk->device);
     tnd_timer_destroy(vk, &c->timer);
     tnd_timer_destroy(vk, &c->select_timer);
-    VkPipeline pipes[6] = {c->temporal,    c->atrous,     c->composite,
-                           c->grad_select, c->grad_image, c->grad_atrous};
-    for (int i = 0; i < 6; i++)
+    VkPipeline pipes[7] = {c->temporal,   c->atrous,      c->composite, c->grad_select,
+                           c->grad_image, c->grad_atrous, c->lf};
+    for (int i = 0; i < 7; i++)
         if (pipes[i])
             vkDestroyPipeline(vk->device, pipes[i], NULL);
     if (c->pool)
@@ -94,6 +96,8 @@ void dn_destroy(dn_context *c)
     tnd_image_destroy(vk, &c->grad_flag);
     tnd_image_destroy(vk, &c->grad[0]);
     tnd_image_destroy(vk, &c->grad[1]);
+    tnd_image_destroy(vk, &c->lf_geo[0]);
+    tnd_image_destroy(vk, &c->lf_geo[1]);
     tnd_buffer_destroy(vk, &c->params);
     tnd_buffer_destroy(vk, &c->samples);
     free(c);
@@ -112,6 +116,7 @@ static tnd_result create_pipelines(dn_context *c)
     for (int k = 0; k < N_PAIRED; k++)
         b0[paired_binding[k]].descriptorCount = 2;
     b0[DN_B_GRAD].descriptorCount = 2;
+    b0[DN_B_LF_GEO].descriptorCount = 2;
     VkDescriptorSetLayoutCreateInfo ci0 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
                                            .bindingCount = DN_BINDINGS,
                                            .pBindings = b0};
@@ -134,7 +139,7 @@ static tnd_result create_pipelines(dn_context *c)
     VkDescriptorPoolSize ps[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-                                   2 * N_PAIRED + N_SINGLE + 2 + TND_CT_COUNT}};
+                                   2 * N_PAIRED + N_SINGLE + 4 + TND_CT_COUNT}};
     VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
                                        .maxSets = 2,
                                        .poolSizeCount = 3,
@@ -147,15 +152,17 @@ static tnd_result create_pipelines(dn_context *c)
     TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, c->sets));
     bool packed = c->desc.precision == TND_PRECISION_PACKED;
 #define DN_PICK(name) (packed ? TND_SHADER_##name##_packed : TND_SHADER_##name##_f32)
-    const tnd_shader ids[6] = {DN_PICK(dn_temporal),    DN_PICK(dn_atrous),
-                               DN_PICK(dn_composite),   DN_PICK(dn_grad_select),
-                               DN_PICK(dn_grad_image),  DN_PICK(dn_grad_atrous)};
+    const tnd_shader ids[7] = {DN_PICK(dn_temporal),   DN_PICK(dn_atrous),
+                               DN_PICK(dn_composite),  DN_PICK(dn_grad_select),
+                               DN_PICK(dn_grad_image), DN_PICK(dn_grad_atrous),
+                               DN_PICK(dn_lf)};
 #undef DN_PICK
-    VkPipeline *out[6] = {&c->temporal,    &c->atrous,     &c->composite,
-                          &c->grad_select, &c->grad_image, &c->grad_atrous};
-    const char *names[6] = {"denoise.temporal",    "denoise.atrous",     "denoise.composite",
-                            "denoise.grad_select", "denoise.grad_image", "denoise.grad_atrous"};
-    for (int i = 0; i < 6; i++) {
+    VkPipeline *out[7] = {&c->temporal,   &c->atrous,      &c->composite, &c->grad_select,
+                          &c->grad_image, &c->grad_atrous, &c->lf};
+    const char *names[7] = {"denoise.temporal",    "denoise.atrous",     "denoise.composite",
+                            "denoise.grad_select", "denoise.grad_image", "denoise.grad_atrous",
+                            "denoise.lf"};
+    for (int i = 0; i < 7; i++) {
         size_t bytes;
         const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
         TND_TRY(tnd_compute_pipeline_create(vk,
@@ -170,8 +177,8 @@ fail:
 
 static void write_own_set(dn_context *c)
 {
-    VkDescriptorImageInfo ii[2 * N_PAIRED + N_SINGLE + 2];
-    VkWriteDescriptorSet w[N_PAIRED + N_SINGLE + 3];
+    VkDescriptorImageInfo ii[2 * N_PAIRED + N_SINGLE + 4];
+    VkWriteDescriptorSet w[N_PAIRED + N_SINGLE + 4];
     uint32_t n = 0, k = 0;
     for (int p = 0; p < N_PAIRED; p++) {
         ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->paired[p][0].view, VK_IMAGE_LAYOUT_GENERAL};
@@ -187,6 +194,14 @@ static void write_own_set(dn_context *c)
     ii[k + 1] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->grad[1].view, VK_IMAGE_LAYOUT_GENERAL};
     w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
                                     .dstSet = c->sets[0], .dstBinding = DN_B_GRAD,
+                                    .descriptorCount = 2,
+                                    .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                    .pImageInfo = &ii[k]};
+    k += 2;
+    ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->lf_geo[0].view, VK_IMAGE_LAYOUT_GENERAL};
+    ii[k + 1] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->lf_geo[1].view, VK_IMAGE_LAYOUT_GENERAL};
+    w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                    .dstSet = c->sets[0], .dstBinding = DN_B_LF_GEO,
                                     .descriptorCount = 2,
                                     .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
                                     .pImageInfo = &ii[k]};
@@ -233,7 +248,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
         c->desc = *desc;
     dn_desc *d = &c->desc;
     d->iters_hf = d->iters_hf ? d->iters_hf : 4;
-    d->iters_lf = d->iters_lf ? d->iters_lf : 4;
+    d->iters_lf = d->iters_lf ? d->iters_lf : 3;
     d->iters_spec = d->iters_spec ? d->iters_spec : 3;
     d->min_alpha_hf = d->min_alpha_hf > 0 ? d->min_alpha_hf : 0.02f;
     d->min_alpha_lf = d->min_alpha_lf > 0 ? d->min_alpha_lf : 0.01f;
@@ -243,11 +258,16 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     d->antilag_spec = d->antilag_spec > 0 ? d->antilag_spec : 2.0f;
     d->antilag_motion = d->antilag_motion > 0 ? d->antilag_motion : 0.004f;
     d->antilag_lf = d->antilag_lf > 0 ? d->antilag_lf : 0.2f;
+    d->lf_deflicker = d->lf_deflicker == 0 ? 2.0f : d->lf_deflicker < 0 ? 0.0f : d->lf_deflicker;
+    c->grad_w = (width + DN_STRATUM - 1) / DN_STRATUM;
+    c->grad_h = (height + DN_STRATUM - 1) / DN_STRATUM;
     for (int k = 0; k < N_PAIRED; k++)
         for (int s = 0; s < 2; s++) {
             char name[64];
             snprintf(name, sizeof name, "denoise.%s[%d]", paired_name[k], s);
-            TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+            bool third = paired_binding[k] == DN_B_AT_LF_SH || paired_binding[k] == DN_B_AT_LF_COCG;
+            TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = third ? c->grad_w : width,
+                                                           .height = third ? c->grad_h : height,
                                                            .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                            .name = name},
                                      &c->paired[k][s]));
@@ -269,16 +289,16 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
         uint32_t w, h;
         VkFormat format;
         const char *name;
-    } extra[5] = {
+    } extra[7] = {
         {&c->prev_lum, width, height, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.prev_lum"},
         {&c->prev_bary, width, height, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.prev_bary"},
         {&c->grad_flag, width, height, VK_FORMAT_R32_UINT, "denoise.grad_flag"},
         {&c->grad[0], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[0]"},
         {&c->grad[1], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[1]"},
+        {&c->lf_geo[0], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo[0]"},
+        {&c->lf_geo[1], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo[1]"},
     };
-    c->grad_w = (width + DN_STRATUM - 1) / DN_STRATUM;
-    c->grad_h = (height + DN_STRATUM - 1) / DN_STRATUM;
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i < 7; i++)
         TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = extra[i].w ? extra[i].w : c->grad_w,
                                                        .height = extra[i].h ? extra[i].h : c->grad_h,
                                                        .format = extra[i].format,
@@ -330,11 +350,10 @@ static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32
     tnd_cmd_barrier(cmd);
 }
 
-/* a-trous passes run: the most any channel asks for (the others copy through) */
+/* full-res a-trous passes run: the most hf or spec asks for (the other copies through) */
 static uint32_t atrous_iters(const dn_desc *d)
 {
-    uint32_t n = d->iters_hf > d->iters_lf ? d->iters_hf : d->iters_lf;
-    return d->iters_spec > n ? d->iters_spec : n;
+    return d->iters_hf > d->iters_spec ? d->iters_hf : d->iters_spec;
 }
 
 dn_frame dn_frame_for_camera(const float proj[16], uint32_t height, uint32_t frame, bool reset)
@@ -368,9 +387,11 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
         .weights = {2.0f, 64.0f, 4.0f, 8.0f},
         .misc = {f->pixel_spread, 256.0f, 1024.0f, gradients ? 1.0f : 0.0f},
         .antilag = {d->antilag_hf, d->antilag_spec, d->antilag_motion, d->antilag_lf},
+        .lf = {d->lf_deflicker, d->no_leak_guard ? 0.0f : 1.0f, 0.0f, 0.0f},
     };
 }
 
+/* a 1/3-resolution pass (one thread per 3x3 stratum) */
 static void dispatch_grad(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32_t iteration)
 {
     uint32_t pc[2] = {c->frame & 1u, iteration};
@@ -443,7 +464,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     tnd_timer_reset(cmd, &c->timer);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
-    int s_g = -1, s_t = -1, s_a = -1;
+    int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
         dispatch_grad(c, cmd, c->grad_image, 0);
@@ -455,6 +476,10 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         s_t = tnd_timer_begin(cmd, &c->timer, "denoise.temporal");
         dispatch(c, cmd, c->temporal, slot, 0);
         tnd_timer_end(cmd, &c->timer, s_t);
+        s_l = tnd_timer_begin(cmd, &c->timer, "denoise.lf");
+        for (uint32_t k = 0; k < d->iters_lf + 2; k++) /* downsample, deflicker, a-trous */
+            dispatch_grad(c, cmd, c->lf, k);
+        tnd_timer_end(cmd, &c->timer, s_l);
         s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
         for (uint32_t i = 0; i < iters; i++)
             dispatch(c, cmd, c->atrous, slot, i);
@@ -465,7 +490,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     tnd_timer_end(cmd, &c->timer, s_c);
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
     if (t) {
-        double ms[4] = {0, 0, 0, 0};
+        double ms[5] = {0, 0, 0, 0, 0};
         TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
         *t = (dn_timings){0};
         int k = 0;
@@ -475,6 +500,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         }
         if (s_t >= 0) {
             t->temporal_ms = ms[k++];
+            t->lf_ms = ms[k++];
             t->atrous_ms = ms[k++];
         }
         t->composite_ms = ms[k];
@@ -486,7 +512,7 @@ fail:
 }
 
 /* Dumps: name, channel names, the image (slot: 0 this frame's history, 1 the final a-trous). */
-enum { DUMP_HIST, DUMP_ATROUS, DUMP_GRAD, DUMP_OUT };
+enum { DUMP_HIST, DUMP_ATROUS, DUMP_LF, DUMP_GRAD, DUMP_OUT };
 static const struct {
     const char *name;
     const char *channels[4];
@@ -498,8 +524,8 @@ static const struct {
     {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST, 3},
     {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, 4},
     {"atrous.hf", {"R", "G", "B", "variance"}, DUMP_ATROUS, 5},
-    {"atrous.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_ATROUS, 6},
-    {"atrous.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_ATROUS, 7},
+    {"lf.sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_LF, 6},
+    {"lf.cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_LF, 7},
     {"atrous.spec", {"R", "G", "B", "unused"}, DUMP_ATROUS, 8},
     {"gradients", {"hf", "spec", "lf", "unused"}, DUMP_GRAD, 0},
     {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
@@ -524,7 +550,7 @@ tnd_result dn_dump_size(const dn_context *c, uint32_t i, uint32_t *w, uint32_t *
 {
     if (i >= dn_dump_count())
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: dump %u does not exist", i);
-    bool third = dumps[i].kind == DUMP_GRAD;
+    bool third = dumps[i].kind == DUMP_GRAD || dumps[i].kind == DUMP_LF;
     *w = third ? c->grad_w : c->width;
     *h = third ? c->grad_h : c->height;
     return TND_OK;
@@ -542,6 +568,8 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
     uint32_t slot = (c->frame - 1) & 1u, iters = atrous_iters(&c->desc);
     const tnd_image *img = dumps[i].kind == DUMP_HIST     ? &c->paired[dumps[i].index][slot]
                            : dumps[i].kind == DUMP_ATROUS ? &c->paired[dumps[i].index][iters & 1u]
+                           : dumps[i].kind == DUMP_LF
+                               ? &c->paired[dumps[i].index][(c->desc.iters_lf + 1) & 1u]
                            : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]
                                                           : &c->out;
     return tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);

@@ -13,20 +13,21 @@ typedef struct { uint32_t x, y, z, w; } dn_uvec4;
 struct dn_params {
     uvec4 size;    /* x: width, y: height, z: history valid (0 after a reset), w: mode (0 svgf, 1 off,
                       2 asvgf) */
-    uvec4 iters;   /* a-trous iterations: x hf, y lf, z spec */
+    uvec4 iters;   /* a-trous iterations: x hf, y lf (at 1/3 resolution), z spec */
     vec4 alpha;    /* minimum temporal alpha: x hf colour, y lf, z spec, w hf moments */
     vec4 jitter;   /* xy: this frame's jitter, zw: the previous frame's (pixels) */
     vec4 weights;  /* x: depth sigma, y: hf normal exponent, z: hf luminance sigma, w: lf normal exponent */
     vec4 misc;     /* x: pixel spread angle (radians), y: history cap, z: spec normal exponent cap,
                       w: 1 when this frame has gradient samples */
     vec4 antilag;  /* x: hf gain, y: spec gain, z: spec motion gain (per pixel of motion), w: lf gain */
+    vec4 lf;       /* x: deflicker ratio (0: off), y: 1 when the light-leak guard is on */
 };
 
 #ifndef TND_GLSL
 #undef vec4
 #undef uvec4
 typedef struct dn_params dn_params;
-_Static_assert(sizeof(dn_params) == 112, "dn_params layout");
+_Static_assert(sizeof(dn_params) == 128, "dn_params layout");
 #endif
 
 /* Bindings of set 0 (the back-end's own images; set 1 is the contract). */
@@ -39,17 +40,20 @@ _Static_assert(sizeof(dn_params) == 112, "dn_params layout");
 #define DN_B_PREV_GB 6     /* x depth, yzw geometric normal of the previous frame */
 #define DN_B_PREV_VIS 7    /* xy instance, primitive of the previous frame */
 #define DN_B_AT_HF 8       /* [2] a-trous ping-pong: rgb, a variance */
-#define DN_B_AT_LF_SH 9    /* [2] */
-#define DN_B_AT_LF_COCG 10 /* [2] */
+#define DN_B_AT_LF_SH 9    /* [2] 1/3 res: the lf filter's ping-pong (dn_lf.comp) */
+#define DN_B_AT_LF_COCG 10 /* [2] 1/3 res, xy */
 #define DN_B_AT_SPEC 11    /* [2] */
 #define DN_B_OUT 12        /* linear HDR output */
 #define DN_B_PREV_LUM 13   /* previous frame: x lum(raw hf), y lum(raw spec), zw rng key (bits) */
-#define DN_B_PREV_BARY 14  /* previous frame: xy barycentrics, z 1 where it was a gradient sample */
+#define DN_B_PREV_BARY 14  /* previous frame: xy barycentrics, z 1 where it was a gradient sample,
+                              w shading normal (octahedral, packSnorm2x16 bits) */
 #define DN_B_GRAD_FLAG 15  /* this frame's gradient sample pixels (1) */
 #define DN_B_GRAD 16       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
                               after the selection zw hold the sample's previous lum hf / spec */
 #define DN_B_SAMPLES 17    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
-#define DN_BINDINGS 18
+#define DN_B_LF_GEO 18     /* [2] 1/3 res: the lf anchors: [0] xyz position, w 1 (0: sky);
+                              [1] xyz geometric normal, w depth */
+#define DN_BINDINGS 19
 #define DN_STRATUM 3
 
 #endif

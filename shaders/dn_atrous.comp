@@ -5,8 +5,8 @@
  * - hf: luminance against the centre's standard deviation (variance-guided; the variance is
  *   filtered with squared weights for the next iteration);
  * - spec: normals with a roughness-derived exponent, and similar roughness; none below roughness
- *   0.05 (mirror-like surfaces stay sharp);
- * - lf: geometry only (the signal is too sparse for luminance guidance).
+ *   0.05 (mirror-like surfaces stay sharp).
+ * lf is filtered at 1/3 resolution (dn_lf.comp).
  * Iteration 0's hf output is fed back as the hf history (SVGF). Reads ping-pong slot i & 1,
  * writes the other. */
 #version 460
@@ -21,14 +21,11 @@ void main()
     uint i = pc.iteration, src = i & 1u, dst = 1u - src;
     int step = 1 << int(i);
     vec4 c_hf = imageLoad(at_hf[src], p), c_spec = imageLoad(at_spec[src], p);
-    vec4 c_sh = imageLoad(at_lf_sh[src], p), c_cocg = imageLoad(at_lf_cocg[src], p);
     uint inst = imageLoad(img_vis_id, p).x;
-    bool do_hf = i < P.iters.x, do_lf = i < P.iters.y, do_spec = i < P.iters.z;
-    if (inst == TND_VIS_NONE || !(do_hf || do_lf || do_spec)) {
+    bool do_hf = i < P.iters.x, do_spec = i < P.iters.z;
+    if (inst == TND_VIS_NONE || !(do_hf || do_spec)) {
         imageStore(at_hf[dst], p, c_hf);
         imageStore(at_spec[dst], p, c_spec);
-        imageStore(at_lf_sh[dst], p, c_sh);
-        imageStore(at_lf_cocg[dst], p, c_cocg);
         return;
     }
     vec3 n = imageLoad(img_normal, p).xyz, pos = imageLoad(img_position, p).xyz;
@@ -39,8 +36,8 @@ void main()
     float a2 = max(rough * rough, 1e-3);
     a2 *= a2;
     float spec_exp = clamp(2.0 / a2 - 2.0, 8.0, P.misc.z);
-    vec4 s_hf = vec4(0.0), s_spec = vec4(0.0), s_sh = vec4(0.0), s_cocg = vec4(0.0);
-    float w_hf = 0.0, w_spec = 0.0, w_lf = 0.0, var_acc = 0.0;
+    vec4 s_hf = vec4(0.0), s_spec = vec4(0.0);
+    float w_hf = 0.0, w_spec = 0.0, var_acc = 0.0;
     const float k[3] = float[3](0.25, 0.5, 1.0);
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
@@ -59,12 +56,6 @@ void main()
                 var_acc += w * w * q_hf.a;
                 w_hf += w;
             }
-            if (do_lf) {
-                float w = h * wz * pow(nn, P.weights.w);
-                s_sh += w * imageLoad(at_lf_sh[src], q);
-                s_cocg += w * imageLoad(at_lf_cocg[src], q);
-                w_lf += w;
-            }
             if (do_spec && rough >= 0.05) {
                 float rq = imageLoad(img_roughness, q).x;
                 float w = h * wz * pow(nn, spec_exp) * max(0.0, 1.0 - 10.0 * abs(rough - rq));
@@ -74,12 +65,8 @@ void main()
         }
     vec4 o_hf = do_hf && w_hf > 1e-8 ? vec4(s_hf.rgb / w_hf, var_acc / (w_hf * w_hf)) : c_hf;
     vec4 o_spec = do_spec && w_spec > 1e-8 ? s_spec / w_spec : c_spec;
-    vec4 o_sh = do_lf && w_lf > 1e-8 ? s_sh / w_lf : c_sh;
-    vec4 o_cocg = do_lf && w_lf > 1e-8 ? s_cocg / w_lf : c_cocg;
     imageStore(at_hf[dst], p, o_hf);
     imageStore(at_spec[dst], p, o_spec);
-    imageStore(at_lf_sh[dst], p, o_sh);
-    imageStore(at_lf_cocg[dst], p, o_cocg);
     if (i == 0u) /* SVGF's feedback: the first iteration becomes the hf history */
         imageStore(hist_hf[pc.slot], p, vec4(o_hf.rgb, imageLoad(hist_hf[pc.slot], p).a));
 }

@@ -27,6 +27,7 @@ layout(set = 0, binding = DN_B_PREV_LUM, rgba32f) uniform image2D prev_lum;
 layout(set = 0, binding = DN_B_PREV_BARY, rgba32f) uniform image2D prev_bary;
 layout(set = 0, binding = DN_B_GRAD_FLAG, r32ui) uniform uimage2D grad_flag;
 layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
+layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo[2];
 layout(set = 0, binding = DN_B_SAMPLES, std430) buffer Samples { tnd_gpu_gradient samples[]; };
 ivec2 grad_size() { return (ivec2(P.size.xy) + DN_STRATUM - 1) / DN_STRATUM; }
 layout(push_constant) uniform Push { uint slot; uint iteration; } pc;
@@ -38,6 +39,22 @@ vec3 load_spec(ivec2 p) { return tnd_rgbe_decode(imageLoad(img_spec, p).x); }
 vec3 load_hf(ivec2 p) { return imageLoad(img_hf, p).rgb; }
 vec3 load_spec(ivec2 p) { return imageLoad(img_spec, p).rgb; }
 #endif
+
+/* Octahedral unit-vector encoding in 2 x 16 bits (Cigolle et al. 2014). */
+uint oct_encode(vec3 n)
+{
+    n /= abs(n.x) + abs(n.y) + abs(n.z);
+    vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
+    return packSnorm2x16(e);
+}
+vec3 oct_decode(uint bits)
+{
+    vec2 e = unpackSnorm2x16(bits);
+    vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
+    float t = max(-n.z, 0.0);
+    n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
+    return normalize(n);
+}
 
 float luma(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 

@@ -1,14 +1,54 @@
 /* dn_composite.comp: remodulation and composite into linear HDR (docs/contract.md):
  * ((hf + E_n(lf)) x albedo x (1 - metallic) + spec x max(0.01, F0)) x throughput + emission,
  * E_n the SH at the shading normal, chroma rescaled with it. Inputs: the last a-trous slot
- * (push constant iteration = that slot), or the raw contract in mode "off". Also saves this
- * frame's depth, geometric normal and visibility for the next frame's reprojection. */
+ * (push constant iteration = that slot), or the raw contract in mode "off". lf comes from the
+ * 1/3-resolution filter (dn_lf.comp), upsampled with geometry-aware weights: the 4 bilinear
+ * taps on the low-res grid (anchors at full-res pixel 3i + 1) weighted by the tangent-plane
+ * test against the footprint and max(n . n_anchor, 0)^8 (geometric normals); where no tap
+ * passes (a thin object between anchors), the pixel's own temporal lf history. Also saves this
+ * frame's depth, geometric and shading normals and visibility for the next frame's
+ * reprojection. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
 
 const float SH_C0 = 0.282094791773878;
 const float SH_C1 = 0.488602511902920;
+
+/* The filtered lf at full-res pixel p (surface position pos, geometric normal gn, depth). */
+void upsample_lf(ivec2 p, vec3 pos, vec3 gn, float depth, out vec4 sh, out vec2 cocg)
+{
+    uint slot = (P.iters.y + 1u) & 1u;
+    ivec2 gs = grad_size();
+    vec2 x = (vec2(p) - 1.0) / float(DN_STRATUM); /* low-res coordinates of the pixel */
+    ivec2 s0 = ivec2(floor(x));
+    vec2 f = x - vec2(s0);
+    float footprint = max(depth * P.misc.x * float(DN_STRATUM), 1e-6);
+    sh = vec4(0.0);
+    cocg = vec2(0.0);
+    float wsum = 0.0;
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 2; i++) {
+            ivec2 s = clamp(s0 + ivec2(i, j), ivec2(0), gs - 1);
+            vec4 g0 = imageLoad(lf_geo[0], s);
+            if (g0.w == 0.0)
+                continue;
+            vec3 na = imageLoad(lf_geo[1], s).xyz;
+            float plane = abs(dot(gn, g0.xyz - pos));
+            float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
+            w *= exp(-plane / (P.weights.x * footprint)) * pow(max(dot(gn, na), 0.0), P.weights.w);
+            sh += w * imageLoad(at_lf_sh[slot], s);
+            cocg += w * imageLoad(at_lf_cocg[slot], s).xy;
+            wsum += w;
+        }
+    if (wsum > 1e-6) {
+        sh /= wsum;
+        cocg /= wsum;
+    } else {
+        sh = imageLoad(hist_lf_sh[pc.slot], p);
+        cocg = imageLoad(hist_lf_cocg[pc.slot], p).xy;
+    }
+}
 
 void main()
 {
@@ -26,7 +66,9 @@ void main()
     imageStore(prev_lum, p, vec4(luma(finite3(load_hf(p))), luma(finite3(load_spec(p))),
                                  uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
     float was_sample = P.size.w == 2u && P.misc.w != 0.0 && imageLoad(grad_flag, p).x != 0u ? 1.0 : 0.0;
-    imageStore(prev_bary, p, vec4(imageLoad(img_vis_bary, p).xy, was_sample, 0.0));
+    vec3 n = imageLoad(img_normal, p).xyz;
+    imageStore(prev_bary, p, vec4(imageLoad(img_vis_bary, p).xy, was_sample,
+                                  uintBitsToFloat(oct_encode(vis.x == TND_VIS_NONE ? vec3(0, 0, 1) : n))));
     vec3 em = imageLoad(img_emission, p).rgb;
     if (vis.x == TND_VIS_NONE) {
         imageStore(out_img, p, vec4(finite3(em), 1.0));
@@ -44,10 +86,9 @@ void main()
         uint s = pc.iteration;
         hf = imageLoad(at_hf[s], p).rgb;
         spec = imageLoad(at_spec[s], p).rgb;
-        sh = imageLoad(at_lf_sh[s], p);
-        cocg = imageLoad(at_lf_cocg[s], p).xy;
+        upsample_lf(p, imageLoad(img_position, p).xyz, gn, depth, sh, cocg);
     }
-    vec3 n = imageLoad(img_normal, p).xyz, alb = imageLoad(img_albedo, p).rgb;
+    vec3 alb = imageLoad(img_albedo, p).rgb;
     float m = imageLoad(img_metallic, p).x;
     float Y = max(SH_C0 * sh.w + (2.0 / 3.0) * SH_C1 * dot(n, sh.xyz), 0.0);
     float s0 = sh.w / SH_C0;

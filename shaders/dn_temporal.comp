@@ -3,9 +3,13 @@
  * history is resampled with a 2x2 bilinear footprint whose taps are tested one by one (same
  * instance in the visibility buffer, depth within 10% after the motion's depth delta, geometric
  * normals within 25 degrees), then blended with alpha = max(min alpha, 1 / history length).
- * Channels: hf (colour and luminance moments), lf (SH + CoCg), spec. Writes this frame's history
- * slot and the first a-trous input (colour + variance). Where the history is shorter than 4
- * frames, the variance comes from a 3x3 spatial estimate. */
+ * Channels: hf (colour and luminance moments), lf (SH + CoCg), spec. Specular-aware weights: a
+ * spec tap also weighs max(n . n_prev, 0)^s with the shading normals and s = clamp(2 / r^4 - 2,
+ * 0, 32) (r the roughness; Q2RTX's lobe-width proxy), so that a glossy reflection does not take
+ * history from a texel whose normal, hence whose reflected direction, differs; with no such tap
+ * the spec history restarts. Writes this frame's history slot and the first a-trous input
+ * (colour + variance). Where the history is shorter than 4 frames, the variance comes from a
+ * 3x3 spatial estimate. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
@@ -23,13 +27,17 @@ void main()
     float depth = imageLoad(img_depth, p).x;
     vec3 gn = imageLoad(img_geo_normal, p).xyz;
     vec3 motion = imageLoad(img_motion, p).xyz;
+    vec3 n = imageLoad(img_normal, p).xyz;
+    float r2 = imageLoad(img_roughness, p).x;
+    r2 *= r2;
+    float shininess = clamp(2.0 / max(r2 * r2, 1e-6) - 2.0, 0.0, 32.0);
     if (tnd_nonfinite(motion.x) || tnd_nonfinite(motion.y) || tnd_nonfinite(motion.z))
         motion = vec3(0.0);
 
     /* history */
     vec4 h_hf = vec4(0.0), h_mom = vec4(0.0), h_sh = vec4(0.0), h_spec = vec4(0.0);
     vec2 h_cocg = vec2(0.0);
-    float wsum = 0.0;
+    float wsum = 0.0, wsum_spec = 0.0;
     if (P.size.z != 0u && vis.x != TND_VIS_NONE) {
         vec2 pp = vec2(p) + P.jitter.xy + motion.xy - P.jitter.zw;
         ivec2 p0 = ivec2(floor(pp));
@@ -49,15 +57,21 @@ void main()
                 h_mom += w * imageLoad(hist_mom[prev], q);
                 h_sh += w * imageLoad(hist_lf_sh[prev], q);
                 h_cocg += w * imageLoad(hist_lf_cocg[prev], q).xy;
-                h_spec += w * imageLoad(hist_spec[prev], q);
+                vec3 n_prev = oct_decode(floatBitsToUint(imageLoad(prev_bary, q).w));
+                float ws = shininess > 0.0 ? w * pow(max(dot(n, n_prev), 0.0), shininess) : w;
+                h_spec += ws * imageLoad(hist_spec[prev], q);
                 wsum += w;
+                wsum_spec += ws;
             }
     }
     float l = luma(hf);
     vec4 out_hf, out_mom, out_sh, out_spec;
     vec2 out_cocg;
     if (wsum > 1e-4) {
-        h_hf /= wsum, h_mom /= wsum, h_sh /= wsum, h_cocg /= wsum, h_spec /= wsum;
+        h_hf /= wsum, h_mom /= wsum, h_sh /= wsum, h_cocg /= wsum;
+        bool spec_ok = wsum_spec > 1e-4;
+        h_spec = spec_ok ? h_spec / wsum_spec : vec4(0.0);
+        h_mom.w = spec_ok ? h_mom.w : 0.0; /* no spec history: alpha 1 below */
         float cap = P.misc.y;
         float len_hf = min(h_hf.a + 1.0, cap), len_lf = min(h_mom.z + 1.0, cap);
         float len_spec = min(h_mom.w + 1.0, cap);
@@ -111,7 +125,5 @@ void main()
     imageStore(hist_lf_cocg[cur], p, vec4(out_cocg, 0.0, 0.0));
     imageStore(hist_spec[cur], p, out_spec);
     imageStore(at_hf[0], p, vec4(out_hf.rgb, variance));
-    imageStore(at_lf_sh[0], p, out_sh);
-    imageStore(at_lf_cocg[0], p, vec4(out_cocg, 0.0, 0.0));
     imageStore(at_spec[0], p, out_spec);
 }

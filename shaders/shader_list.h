@@ -40,6 +40,8 @@
     X(dn_grad_image_packed, "dn_grad_image.comp", "TND_PACKED=1") \
     X(dn_grad_atrous_f32,  "dn_grad_atrous.comp", "TND_PACKED=0") \
     X(dn_grad_atrous_packed, "dn_grad_atrous.comp", "TND_PACKED=1") \
+    X(dn_lf_f32,           "dn_lf.comp",          "TND_PACKED=0") \
+    X(dn_lf_packed,        "dn_lf.comp",          "TND_PACKED=1") \
     X(pt_rchit,            "pt.rchit",            "") \
     X(pt_rmiss,            "pt.rmiss",            "") \
     X(pt_shadow_rmiss,     "pt_shadow.rmiss",     "")
