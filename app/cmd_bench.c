@@ -1,7 +1,9 @@
 /* app/cmd_bench.c: `tandem bench`: front-end throughput on one scene (Mrays/s, ms per frame)
- * beside a raw ray-casting loop over the same rays. Later it grows into the speed/accuracy
- * sweeps of the eval issue. */
+ * beside a raw ray-casting loop over the same rays; with --denoiser, the whole real-time frame
+ * (Vulkan front-end, gradient round trip, back-end) back to back, each pass against the
+ * memory-bandwidth floor. Later it grows into the speed/accuracy sweeps of the eval issue. */
 #include "app/app.h"
+#include "denoise/denoise.h"
 #include "frontend_embree/frontend_embree.h"
 #include "frontend_vk/frontend_vk.h"
 
@@ -16,8 +18,13 @@
 static const app_cmd bench_cmd = {
     "bench",
     "Measure a front-end on a scene: ms per frame per pass, rays per frame, Mrays/s, and the\n"
-    "rate of a raw Embree loop over the same rays (medians over --repeats after a warm-up).",
-    "[--scene PATH] [--frontend embree] [--size WxH] [--repeats N] [--json]", NULL};
+    "rate of a raw Embree loop over the same rays (medians over --repeats after a warm-up).\n"
+    "With --frontend vk --denoiser MODE: the real-time frame back to back over the camera\n"
+    "path (front-end, gradient samples, back-end), GPU ms per pass, the bytes each pass must\n"
+    "move and the fraction of the device's measured copy bandwidth it reaches.",
+    "[--scene PATH] [--frontend embree|vk] [--denoiser asvgf|svgf|off] [--size WxH] "
+    "[--repeats N] [--json]",
+    NULL};
 
 static int cmp_d(const void *a, const void *b)
 {
@@ -67,13 +74,165 @@ fail:
     return res;
 }
 
+static double median(double *v, unsigned n)
+{
+    qsort(v, n, sizeof *v, cmp_d);
+    return n ? v[n / 2] : 0.0;
+}
+
+enum { BP_PRIMARY, BP_SHADE, BP_GSHADE, BP_SELECT, BP_GRAD, BP_TEMPORAL, BP_LF, BP_ATROUS,
+       BP_COMPOSITE, BP_WALL, BP_COUNT };
+static const char *const bp_name[BP_COUNT] = {
+    "primary", "shade", "gradient_shade", "denoise_select", "denoise_gradient",
+    "denoise_temporal", "denoise_lf", "denoise_atrous", "composite", "frame_wall"};
+
+/* The real-time frame back to back: no file is written between frames, so the GPU stays busy
+ * (and its clocks up) as in an application. */
+static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, unsigned frame,
+                                 const unsigned size[2], unsigned bounces, unsigned repeats,
+                                 const char *rt_api, dn_mode mode, tnd_precision prec, bool json)
+{
+    tnd_result res = TND_OK;
+    tnd_vk vk = {0};
+    fvk_context *gv = NULL;
+    dn_context *dn = NULL;
+    tnd_scene_state st[2] = {{0}};
+    uint32_t *grads = NULL;
+    enum { WARM = 3 };
+    double *v[BP_COUNT] = {0};
+    for (int k = 0; k < BP_COUNT; k++)
+        if (!(v[k] = calloc(repeats, sizeof(double)))) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+            goto fail;
+        }
+    TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
+    fvk_rt_api api;
+    TND_TRY(fvk_rt_api_parse(rt_api, &api));
+    TND_TRY(fvk_create(&vk, s, &(fvk_desc){.precision = prec, .rt_api = api}, &gv));
+    TND_TRY(dn_create(&vk, size[0], size[1], &(dn_desc){.mode = mode, .precision = prec}, &dn));
+    grads = malloc((size_t)dn_gradient_capacity(dn) * DN_GRADIENT_WORDS * sizeof *grads);
+    if (!grads) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+        goto fail;
+    }
+    double bandwidth = 0;
+    TND_TRY(tnd_copy_bandwidth(&vk, 256u << 20, 9, &bandwidth));
+    float aspect = (float)size[0] / size[1];
+    fvk_params fp = {.bounces = bounces};
+    for (unsigned i = 0; i < WARM + repeats; i++) {
+        unsigned f = frame + i;
+        tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
+        TND_TRY(tnd_scene_evaluate(s, f / 30.0, 0, aspect, cur));
+        if (i == 0)
+            TND_TRY(tnd_scene_evaluate(s, f ? (f - 1) / 30.0 : 0.0, 0, aspect, prev));
+        double t0 = tnd_now();
+        fvk_timings tm = {0}, tg = {0};
+        dn_timings dt = {0};
+        TND_TRY(fvk_set_frame(gv, cur, prev, f, size[0], size[1]));
+        TND_TRY(fvk_render(gv, &fp, &tm));
+        dn_frame df = dn_frame_for_camera(cur->camera.proj, size[1], f, i == 0);
+        uint32_t n = 0;
+        TND_TRY(dn_select_gradients(dn, fvk_contract(gv), &df, grads, &n));
+        if (n)
+            TND_TRY(fvk_shade_gradients(gv, &fp, grads, n, &tg));
+        TND_TRY(dn_run(dn, fvk_contract(gv), &df, &dt));
+        double wall = 1e3 * (tnd_now() - t0);
+        if (i < WARM)
+            continue;
+        const double x[BP_COUNT] = {tm.primary_ms,   tm.shade_ms,    tg.gradient_ms, dt.select_ms,
+                                    dt.gradient_ms,  dt.temporal_ms, dt.lf_ms,       dt.atrous_ms,
+                                    dt.composite_ms, wall};
+        for (int k = 0; k < BP_COUNT; k++)
+            v[k][i - WARM] = x[k];
+    }
+    double med[BP_COUNT];
+    for (int k = 0; k < BP_COUNT; k++)
+        med[k] = median(v[k], repeats);
+    dn_traffic tr;
+    dn_traffic_of(dn, &tr);
+    const double bytes[BP_COUNT] = {0, 0, 0, tr.select, tr.gradient, tr.temporal, tr.lf,
+                                    tr.atrous, tr.composite, 0};
+    double backend = 0, backend_bytes = 0;
+    for (int k = BP_SELECT; k <= BP_COMPOSITE; k++)
+        backend += med[k], backend_bytes += bytes[k];
+    /* floor: bytes / bandwidth, in ms */
+#define FLOOR(b) (bandwidth > 0 ? (b) / (bandwidth * 1e9) * 1e3 : 0.0)
+    if (json) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "frontend", "vk");
+        cJSON_AddStringToObject(o, "denoiser", dn_mode_name(mode));
+        cJSON_AddStringToObject(o, "precision", tnd_precision_name(prec));
+        cJSON_AddStringToObject(o, "scene", scene_path);
+        cJSON_AddStringToObject(o, "device", vk.info.name);
+        cJSON_AddNumberToObject(o, "width", size[0]);
+        cJSON_AddNumberToObject(o, "height", size[1]);
+        cJSON_AddNumberToObject(o, "bounces", bounces);
+        cJSON_AddNumberToObject(o, "frames", repeats);
+        cJSON_AddNumberToObject(o, "copy_bandwidth_gb_per_s", bandwidth);
+        cJSON *passes = cJSON_AddObjectToObject(o, "passes");
+        for (int k = 0; k < BP_COUNT; k++) {
+            cJSON *q = cJSON_AddObjectToObject(passes, bp_name[k]);
+            cJSON_AddNumberToObject(q, "median_ms", med[k]);
+            if (bytes[k] > 0) {
+                cJSON_AddNumberToObject(q, "bytes", bytes[k]);
+                cJSON_AddNumberToObject(q, "floor_ms", FLOOR(bytes[k]));
+            }
+        }
+        cJSON_AddNumberToObject(o, "backend_ms", backend);
+        cJSON_AddNumberToObject(o, "backend_bytes", backend_bytes);
+        cJSON_AddNumberToObject(o, "backend_floor_ms", FLOOR(backend_bytes));
+        char *txt = cJSON_Print(o);
+        printf("%s\n", txt);
+        free(txt);
+        cJSON_Delete(o);
+    } else {
+        printf("bench vk + %s (%s contract): %s, %ux%u, 1 spp, %u bounce%s, %u frames back to "
+               "back\n", dn_mode_name(mode), tnd_precision_name(prec), scene_path, size[0],
+               size[1], bounces, bounces == 1 ? "" : "s", repeats);
+        printf("  device %s; copy bandwidth %.0f GB/s (vkCmdCopyBuffer of 256 MiB, read + "
+               "written)\n", vk.info.name, bandwidth);
+        printf("  %-18s %9s %10s %9s %8s\n", "pass", "GPU ms", "MB moved", "floor ms",
+               "of floor");
+        for (int k = 0; k < BP_COUNT; k++) {
+            if (k == BP_WALL)
+                printf("  %-18s %9.3f   (wall clock per frame, host work and the gradient "
+                       "round trip included)\n", "frame", med[k]);
+            else if (bytes[k] > 0)
+                printf("  %-18s %9.3f %10.1f %9.3f %7.0f%%\n", bp_name[k], med[k],
+                       bytes[k] / 1e6, FLOOR(bytes[k]),
+                       med[k] > 0 ? 100.0 * FLOOR(bytes[k]) / med[k] : 0.0);
+            else
+                printf("  %-18s %9.3f\n", bp_name[k], med[k]);
+        }
+        printf("  %-18s %9.3f %10.1f %9.3f %7.0f%%\n", "back-end total", backend,
+               backend_bytes / 1e6, FLOOR(backend_bytes),
+               backend > 0 ? 100.0 * FLOOR(backend_bytes) / backend : 0.0);
+        printf("  (GPU timestamps; medians of %u frames after %d warm-up frames; \"of floor\" = "
+               "floor / measured)\n", repeats, WARM);
+    }
+#undef FLOOR
+fail:
+    for (int k = 0; k < BP_COUNT; k++)
+        free(v[k]);
+    free(grads);
+    tnd_scene_state_free(&st[0]);
+    tnd_scene_state_free(&st[1]);
+    dn_destroy(dn);
+    fvk_destroy(gv);
+    tnd_vk_destroy(&vk);
+    return res;
+}
+
 int cmd_bench(int argc, char **argv)
 {
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
     unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
     bool json = false;
-    const char *rt_api = "auto";
+    const char *rt_api = "auto", *denoiser = NULL, *precision = "float32";
     const app_opt opts[] = {
+        {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
+         "with --frontend vk: time the whole frame with this back-end (asvgf, svgf or off)"},
+        {"precision", APP_OPT_STRING, &precision, "P", "contract precision: float32 or packed"},
         {"rt-api", APP_OPT_STRING, &rt_api, "API", "vk: pipeline, query or auto"},
         {"scene", APP_OPT_STRING, &scene_path, "PATH", "glTF scene or stress:N (default: cornell)"},
         {"frontend", APP_OPT_STRING, &frontend, "NAME", "embree or vk (rays counted with Embree)"},
@@ -96,6 +255,31 @@ int cmd_bench(int argc, char **argv)
         return APP_EXIT_USAGE;
     }
     tnd_result res = TND_OK;
+    if (denoiser) {
+        dn_mode mode;
+        tnd_precision prec;
+        if (!use_vk) {
+            fprintf(stderr, "tandem bench: --denoiser needs --frontend vk (the back-end runs on the "
+                            "GPU; back-to-back timings of the CPU front-end are `tandem bench`'s)\n");
+            return APP_EXIT_USAGE;
+        }
+        if ((res = dn_mode_parse(denoiser, &mode)) != TND_OK ||
+            (res = tnd_precision_parse(precision, &prec)) != TND_OK) {
+            app_report("bench", res);
+            return APP_EXIT_USAGE;
+        }
+        tnd_scene *sc = NULL;
+        res = tnd_scene_load(scene_path, &sc);
+        if (res == TND_OK)
+            res = bench_pipeline(sc, scene_path, frame, size, bounces, repeats, rt_api, mode,
+                                 prec, json);
+        tnd_scene_destroy(sc);
+        if (res != TND_OK) {
+            app_report("bench", res);
+            return APP_EXIT_FAIL;
+        }
+        return APP_EXIT_OK;
+    }
     tnd_scene *s = NULL;
     femb_context *c = NULL;
     tnd_scene_state st = {0};

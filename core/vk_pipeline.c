@@ -307,3 +307,46 @@ tnd_result tnd_timer_read(tnd_vk *vk, const tnd_timer *t, double *ms)
 fail:
     return res;
 }
+
+tnd_result tnd_copy_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double *gb_per_s)
+{
+    tnd_result res = TND_OK;
+    tnd_buffer a = {0}, b = {0};
+    tnd_timer t = {0};
+    double *ms = calloc(repeats ? repeats : 1, sizeof *ms);
+    *gb_per_s = 0;
+    if (!ms)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "copy bandwidth: out of memory");
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = bytes, .name = "bandwidth.src"}, &a));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = bytes, .name = "bandwidth.dst"}, &b));
+    TND_TRY(tnd_timer_create(vk, &t));
+    for (unsigned r = 0; r <= repeats; r++) { /* r = 0 warms up */
+        VkCommandBuffer cmd;
+        TND_TRY(tnd_cmd_begin(vk, &cmd));
+        tnd_timer_reset(cmd, &t);
+        int s = tnd_timer_begin(cmd, &t, "bandwidth.copy");
+        vkCmdCopyBuffer(cmd, r & 1 ? b.buffer : a.buffer, r & 1 ? a.buffer : b.buffer, 1,
+                        &(VkBufferCopy){0, 0, bytes});
+        tnd_timer_end(cmd, &t, s);
+        TND_TRY(tnd_cmd_submit_wait(vk, cmd));
+        double m = 0;
+        TND_TRY(tnd_timer_read(vk, &t, &m));
+        if (r > 0)
+            ms[r - 1] = m;
+    }
+    /* median; a copy reads and writes every byte */
+    for (unsigned i = 1; i < repeats; i++)
+        for (unsigned j = i; j > 0 && ms[j - 1] > ms[j]; j--) {
+            double x = ms[j];
+            ms[j] = ms[j - 1];
+            ms[j - 1] = x;
+        }
+    double med = repeats ? ms[repeats / 2] : 0;
+    *gb_per_s = med > 0 ? 2.0 * (double)bytes / (med * 1e-3) / 1e9 : 0;
+fail:
+    free(ms);
+    tnd_timer_destroy(vk, &t);
+    tnd_buffer_destroy(vk, &a);
+    tnd_buffer_destroy(vk, &b);
+    return res;
+}

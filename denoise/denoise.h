@@ -55,6 +55,13 @@ typedef struct dn_timings {
 
 typedef struct dn_context dn_context;
 
+/* The bytes each pass must move at the least (every texel it reads or writes, once), for the
+ * bandwidth floor of `tandem bench`: time >= bytes / copy bandwidth. Fields as dn_timings. */
+typedef struct dn_traffic {
+    double select, gradient, temporal, lf, atrous, composite;
+} dn_traffic;
+void dn_traffic_of(const dn_context *ctx, dn_traffic *t);
+
 tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc *desc,
                      dn_context **ctx);
 void dn_destroy(dn_context *ctx);

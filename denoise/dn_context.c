@@ -511,6 +511,47 @@ fail:
     return res;
 }
 
+void dn_traffic_of(const dn_context *c, dn_traffic *t)
+{
+    /* per pixel (full res) or per stratum (1/3 res) bytes, from the shaders' loads and stores;
+     * the back-end's own images are RGBA32F (16 bytes), the visibility pairs 8, flags 4 */
+    tnd_precision p = c->desc.precision;
+#define CT(id) ((double)tnd_ct_texel_bytes(TND_CT_##id, p))
+    const dn_desc *d = &c->desc;
+    double n = (double)c->width * c->height, n3 = (double)c->grad_w * c->grad_h;
+    bool asvgf = d->mode == DN_MODE_ASVGF, filter = d->mode != DN_MODE_OFF;
+    *t = (dn_traffic){0};
+    if (asvgf) {
+        /* the stratum's 9 pixels: vis, motion, depth, geometric normal now; previous vis,
+         * barycentrics, geometry, luminances at the reprojection; flag written; one sample
+         * (32 bytes) and one gradient texel per stratum */
+        t->select = n * (CT(VIS_ID) + CT(MOTION) + CT(DEPTH) + CT(GEO_NORMAL) + 8 + 16 + 16 + 16 + 4) +
+                    n3 * (32 + 16);
+        /* gradient image: vis, motion, lf now, lf history; the blur: 7 x (read + write) */
+        t->gradient = n * (CT(VIS_ID) + CT(MOTION) + CT(LF_SH) + 16) + n3 * (32 + 16 + 16 * 2 * 7);
+    }
+    if (filter) {
+        t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +
+                           CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
+                           8 + 16 + 16 + 5 * 16 /* previous vis, geometry, normal, histories */
+                           + 5 * 16 + 2 * 16 /* histories and a-trous inputs written */) +
+                      (asvgf ? n3 * 16 : 0);
+        /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
+        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 2 * 16) +
+                n3 * (4 * 16 + (double)(d->iters_lf + 1) * (4 * 16 + 2 * 16));
+        double per_iter = n * (2 * 16 + CT(VIS_ID) + CT(NORMAL) + CT(POSITION) + CT(DEPTH) +
+                               CT(ROUGHNESS) + 2 * 16);
+        t->atrous = (double)atrous_iters(d) * per_iter + n * 2 * 16; /* + the hf feedback */
+    }
+    t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(RNG) + CT(HF) + CT(SPEC) +
+                        CT(VIS_BARY) + CT(NORMAL) + CT(EMISSION) + CT(ALBEDO) + CT(METALLIC) +
+                        CT(THROUGHPUT) + CT(POSITION) + 4 /* flag */ +
+                        (filter ? 2 * 16 : CT(LF_SH) + CT(LF_COCG)) +
+                        16 + 8 + 16 + 16 + 16 /* previous geometry, vis, lum, bary; output */) +
+                   (filter ? n3 * 4 * 16 : 0);
+#undef CT
+}
+
 /* Dumps: name, channel names, the image (slot: 0 this frame's history, 1 the final a-trous). */
 enum { DUMP_HIST, DUMP_ATROUS, DUMP_LF, DUMP_GRAD, DUMP_OUT };
 static const struct {
