@@ -279,12 +279,15 @@ static int run(bool reference, int argc, char **argv)
                 /* A-SVGF: the back-end picks pixels, the front-end re-shades them with the
                  * previous frame's random numbers on the surface seen there */
                 uint32_t n = 0;
-                TND_TRY(dn_select_gradients(dn, ct, &df, grads, &n));
-                if (use_vk) {
-                    fvk_timings tg;
-                    TND_TRY(fvk_shade_gradients(gv, &(fvk_params){.bounces = o.bounces}, grads, n,
-                                                &tg));
+                if (use_vk) { /* the sample list stays on the GPU */
+                    fvk_timings tg = {0};
+                    VkBuffer slots_buf;
+                    TND_TRY(dn_select_gradients_gpu(dn, ct, &df, &slots_buf, &n));
+                    TND_TRY(fvk_shade_gradient_slots(gv, &(fvk_params){.bounces = o.bounces},
+                                                     slots_buf, n, &tg));
                     ms_gradients = tg.gradient_ms;
+                } else if ((res = dn_select_gradients(dn, ct, &df, grads, &n)) != TND_OK) {
+                    goto fail;
                 } else if (n) {
                     double ta = tnd_now();
                     femb_gradient_unpack(grads, n, femb_grads);

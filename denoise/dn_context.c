@@ -32,7 +32,7 @@ struct dn_context {
     tnd_image prev_gb, prev_vis, out;
     tnd_image prev_lum, prev_bary, grad_flag, grad[2]; /* A-SVGF */
     tnd_image lf_geo[2];                               /* 1/3-res lf anchors */
-    tnd_buffer params, samples;
+    tnd_buffer params, samples, samples_host; /* samples: device-local; _host: its read-back */
     uint32_t grad_w, grad_h;
     uint32_t selected_frame; /* c->frame + 1 when dn_select_gradients ran for this frame */
     VkDescriptorSetLayout layouts[2];
@@ -100,6 +100,7 @@ void dn_destroy(dn_context *c)
     tnd_image_destroy(vk, &c->lf_geo[1]);
     tnd_buffer_destroy(vk, &c->params);
     tnd_buffer_destroy(vk, &c->samples);
+    tnd_buffer_destroy(vk, &c->samples_host);
     free(c);
 }
 
@@ -304,12 +305,15 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                        .format = extra[i].format,
                                                        .name = extra[i].name},
                                  extra[i].img));
-    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = (VkDeviceSize)c->grad_w * c->grad_h *
-                                                             sizeof(tnd_gpu_gradient),
+    VkDeviceSize sample_bytes = (VkDeviceSize)c->grad_w * c->grad_h * sizeof(tnd_gpu_gradient);
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sample_bytes,
                                                      .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                                     .mem = TND_MEM_READBACK,
                                                      .name = "denoise.samples"},
                               &c->samples));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sample_bytes,
+                                                     .mem = TND_MEM_READBACK,
+                                                     .name = "denoise.samples_host"},
+                              &c->samples_host));
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(dn_params),
                                                      .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                                      .mem = TND_MEM_UPLOAD, .name = "denoise.params"},
@@ -401,13 +405,11 @@ static void dispatch_grad(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, u
     tnd_cmd_barrier(cmd);
 }
 
-tnd_result dn_select_gradients(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f,
-                               uint32_t *samples, uint32_t *count)
+/* The selection pass; `host`: also copy the list to the read-back buffer. */
+static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f,
+                              bool host)
 {
     tnd_result res = TND_OK;
-    *count = 0;
-    if (c->desc.mode != DN_MODE_ASVGF)
-        return TND_OK;
     TND_TRY(check_contract(c, ct));
     write_contract_set(c, ct);
     fill_params(c, f, false);
@@ -419,17 +421,49 @@ tnd_result dn_select_gradients(dn_context *c, const tnd_contract_gpu *ct, const 
     int s_s = tnd_timer_begin(cmd, &c->select_timer, "denoise.grad_select");
     dispatch_grad(c, cmd, c->grad_select, 0);
     tnd_timer_end(cmd, &c->select_timer, s_s);
-    VkMemoryBarrier host = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
-                            .srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT,
-                            .dstAccessMask = VK_ACCESS_HOST_READ_BIT};
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
-                         &host, 0, NULL, 0, NULL);
+    if (host) {
+        vkCmdCopyBuffer(cmd, c->samples.buffer, c->samples_host.buffer, 1,
+                        &(VkBufferCopy){0, 0, c->samples.size});
+        VkMemoryBarrier hb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
+                              .srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
+                              .dstAccessMask = VK_ACCESS_HOST_READ_BIT};
+        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                             &hb, 0, NULL, 0, NULL);
+    }
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
     TND_TRY(tnd_timer_read(c->vk, &c->select_timer, &c->select_ms));
-    const tnd_gpu_gradient *g = c->samples.mapped;
+    c->selected_frame = c->frame + 1;
+fail:
+    return res;
+}
+
+tnd_result dn_select_gradients_gpu(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f,
+                                   VkBuffer *buffer, uint32_t *slots)
+{
+    *buffer = VK_NULL_HANDLE;
+    *slots = 0;
+    if (c->desc.mode != DN_MODE_ASVGF)
+        return TND_OK;
+    tnd_result res = select_pass(c, ct, f, false);
+    if (res == TND_OK) {
+        *buffer = c->samples.buffer;
+        *slots = c->grad_w * c->grad_h;
+    }
+    return res;
+}
+
+tnd_result dn_select_gradients(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f,
+                               uint32_t *samples, uint32_t *count)
+{
+    tnd_result res = TND_OK;
+    *count = 0;
+    if (c->desc.mode != DN_MODE_ASVGF)
+        return TND_OK;
+    TND_TRY(select_pass(c, ct, f, true));
+    const tnd_gpu_gradient *g = c->samples_host.mapped;
     uint32_t n = 0, strata = c->grad_w * c->grad_h;
     for (uint32_t i = 0; i < strata; i++) {
-        if (!g[i].pad) /* the selection's "valid" word */
+        if (g[i].pixel == TND_GRADIENT_NONE)
             continue;
         const uint32_t v[DN_GRADIENT_WORDS] = {g[i].pixel,     g[i].rng_frame, g[i].rng_pixel,
                                                g[i].instance,  g[i].primitive, g[i].u_bits,
@@ -438,7 +472,6 @@ tnd_result dn_select_gradients(dn_context *c, const tnd_contract_gpu *ct, const 
         n++;
     }
     *count = n;
-    c->selected_frame = c->frame + 1;
 fail:
     return res;
 }

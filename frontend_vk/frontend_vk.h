@@ -92,6 +92,12 @@ tnd_result fvk_render(fvk_context *ctx, const fvk_params *p, fvk_timings *t);
  * instance, primitive, u, v) after fvk_render, patching the G-buffer at their pixels. */
 tnd_result fvk_shade_gradients(fvk_context *ctx, const fvk_params *p, const uint32_t *samples,
                                uint32_t count, fvk_timings *t);
+/* The same, reading the back-end's per-stratum list where it lies on the GPU
+ * (dn_select_gradients_gpu: `slots` tnd_gpu_gradient entries, TND_GRADIENT_NONE skipped): no
+ * read-back and no upload. The entries come from the back-end's own pass over the contract,
+ * so they are trusted (no range check). */
+tnd_result fvk_shade_gradient_slots(fvk_context *ctx, const fvk_params *p, VkBuffer slots_buffer,
+                                    uint32_t slots, fvk_timings *t);
 /* Reference: unbiased progressive path tracing on the GPU, as femb_reference (same paths for
  * the same keys): spp samples per pixel, radiance in rgb (3 floats per pixel), mean relative
  * standard error in rel_error (optional), progress after each batch of samples. */

@@ -2,7 +2,7 @@
  * shade; misses: closest, shadow; one hit group), its descriptor sets (set 0: scene, set 1: the
  * contract images) and the passes, each bracketed by timestamps.
  * Entry points: fvk_create, fvk_destroy, fvk_set_frame, fvk_render, fvk_shade_gradients,
- * fvk_contract. */
+ * fvk_shade_gradient_slots, fvk_contract. */
 #include "frontend_vk/fvk_internal.h"
 #include "shaders/sampling.h"
 #include "shaders/shader_list.h"
@@ -375,6 +375,45 @@ fail:
     return res;
 }
 
+/* Point the scene set's gradient binding (11) at `buffer`. */
+static void bind_gradient_buffer(fvk_context *c, VkBuffer buffer)
+{
+    VkDescriptorBufferInfo bi = {buffer, 0, VK_WHOLE_SIZE};
+    VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                              .dstSet = c->sets[0],
+                              .dstBinding = 11,
+                              .descriptorCount = 1,
+                              .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                              .pBufferInfo = &bi};
+    vkUpdateDescriptorSets(c->vk->device, 1, &w, 0, NULL);
+}
+
+/* One launch per entry of the bound gradient list (`count` entries). */
+static tnd_result launch_gradients(fvk_context *c, const fvk_params *p, uint32_t count,
+                                   fvk_timings *t)
+{
+    tnd_result res = TND_OK;
+    set_params(c, p);
+    ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.z = count;
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+    tnd_timer_reset(cmd, &c->timer);
+    bind_all(c, cmd, 1);
+    tnd_cmd_barrier(cmd);
+    int s0 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.gradients");
+    launch(c, cmd, 1, count, 1, true);
+    tnd_timer_end(cmd, &c->timer, s0);
+    tnd_cmd_barrier(cmd);
+    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    if (t) {
+        double ms[1] = {0};
+        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
+        t->gradient_ms = ms[0];
+    }
+fail:
+    return res;
+}
+
 tnd_result fvk_shade_gradients(fvk_context *c, const fvk_params *p, const uint32_t *samples,
                                uint32_t count, fvk_timings *t)
 {
@@ -405,24 +444,20 @@ tnd_result fvk_shade_gradients(fvk_context *c, const fvk_params *p, const uint32
         const uint32_t *s = samples + 7 * i;
         g[i] = (tnd_gpu_gradient){s[0], s[1], s[2], s[3], s[4], s[5], s[6], 0};
     }
-    set_params(c, p);
-    ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.z = count;
-    VkCommandBuffer cmd;
-    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
-    tnd_timer_reset(cmd, &c->timer);
-    bind_all(c, cmd, 1);
-    tnd_cmd_barrier(cmd);
-    int s0 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.gradients");
-    launch(c, cmd, 1, count, 1, true);
-    tnd_timer_end(cmd, &c->timer, s0);
-    tnd_cmd_barrier(cmd);
-    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
-    if (t) {
-        double ms[1] = {0};
-        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
-        t->gradient_ms = ms[0];
-    }
+    bind_gradient_buffer(c, c->gradients.buffer);
+    return launch_gradients(c, p, count, t);
 fail:
+    return res;
+}
+
+tnd_result fvk_shade_gradient_slots(fvk_context *c, const fvk_params *p, VkBuffer slots_buffer,
+                                    uint32_t slots, fvk_timings *t)
+{
+    if (slots == 0 || slots_buffer == VK_NULL_HANDLE)
+        return TND_OK;
+    bind_gradient_buffer(c, slots_buffer);
+    tnd_result res = launch_gradients(c, p, slots, t);
+    bind_gradient_buffer(c, c->gradients.buffer);
     return res;
 }
 

@@ -47,7 +47,7 @@ void main()
             }
         }
     tnd_gpu_gradient smp;
-    smp.a = uvec4(0u);
+    smp.a = uvec4(TND_GRADIENT_NONE, 0u, 0u, 0u);
     smp.b = uvec4(0u);
     vec4 gout = vec4(0.0);
     if (best > 0.0) {

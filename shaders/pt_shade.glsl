@@ -24,6 +24,8 @@ void pt_shade_main(uvec2 launch)
     uint W = fr.frame.y;
     if (pc.mode == 1u) {
         tnd_gpu_gradient g = gradients[launch.x];
+        if (g.a.x == TND_GRADIENT_NONE) /* a stratum without a sample */
+            return;
         ip = ivec2(int(g.a.x % W), int(g.a.x / W));
         vec2 bary = vec2(uintBitsToFloat(g.b.y), uintBitsToFloat(g.b.z));
         uint inst = g.a.w, prim = g.b.x;

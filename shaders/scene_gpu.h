@@ -59,7 +59,10 @@ _Static_assert(sizeof(tnd_gpu_instance) == 112, "instance layout");
 _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 6 * 16, "frame layout");
 #endif
 
-/* Gradient sample for the shading pass (matches femb_gradient_sample). */
+/* Gradient sample for the shading pass (matches femb_gradient_sample). In the back-end's
+ * per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a sample has
+ * pixel TND_GRADIENT_NONE and is skipped. */
+#define TND_GRADIENT_NONE 0xFFFFFFFFu
 struct tnd_gpu_gradient {
 #ifdef TND_GLSL
     uvec4 a; /* pixel, rng frame, rng pixel, instance */

@@ -182,9 +182,8 @@ static void test_nan_does_not_spread(void)
     REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_SVGF}, &a));
     REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_SVGF}, &b));
     const float nan4[4] = {NAN, INFINITY, NAN, NAN};
-    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = 16, .mem = TND_MEM_UPLOAD,
-                                                        .name = "nan"},
-                                 &nanbuf));
+    REQUIRE_OK(tnd_buffer_create(
+        vk, &(tnd_buffer_desc){.size = 16, .mem = TND_MEM_UPLOAD, .name = "nan"}, &nanbuf));
     memcpy(nanbuf.mapped, nan4, 16);
     int nonfinite = 0, far_diff = 0;
     for (uint32_t i = 0; i < 12; i++) {
@@ -267,18 +266,18 @@ static void test_lf_firefly_is_deflickered(void)
     REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_SVGF}, &b));
     REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_SVGF, .lf_deflicker = -1}, &c));
     const float sh[4] = {0.0f, 0.0f, 0.0f, 200.0f};
-    REQUIRE_OK(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = 16, .mem = TND_MEM_UPLOAD,
-                                                        .name = "firefly"},
-                                 &fly));
+    REQUIRE_OK(tnd_buffer_create(
+        vk, &(tnd_buffer_desc){.size = 16, .mem = TND_MEM_UPLOAD, .name = "firefly"}, &fly));
     memcpy(fly.mapped, sh, 16);
     for (uint32_t i = 0; i < 10; i++) {
         REQUIRE_OK(rig_frame(vk, &r, i, NULL, &df));
         REQUIRE_OK(dn_run(b, &r.ct, &df, NULL));
         VkCommandBuffer cmd;
         REQUIRE_OK(tnd_cmd_begin(vk, &cmd));
-        VkBufferImageCopy rg = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-                                .imageOffset = {8 + (int32_t)(i * 13) % 48, 6 + (int32_t)(i * 7) % 24, 0},
-                                .imageExtent = {1, 1, 1}};
+        VkBufferImageCopy rg = {
+            .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+            .imageOffset = {8 + (int32_t)(i * 13) % 48, 6 + (int32_t)(i * 7) % 24, 0},
+            .imageExtent = {1, 1, 1}};
         vkCmdCopyBufferToImage(cmd, fly.buffer, r.ct.images[TND_CT_LF_SH].image,
                                VK_IMAGE_LAYOUT_GENERAL, 1, &rg);
         tnd_cmd_barrier(cmd);
@@ -367,7 +366,8 @@ static void test_disocclusion_and_frontends(void)
         bool d = false;
         for (int c = 0; c < 3; c++)
             for (int k = 0; k < nc[c]; k++) {
-                float a = tnd_frame_f(&f, ch[c])[nc[c] * q + k], b = tnd_frame_f(&fv, ch[c])[nc[c] * q + k];
+                float a = tnd_frame_f(&f, ch[c])[nc[c] * q + k],
+                      b = tnd_frame_f(&fv, ch[c])[nc[c] * q + k];
                 d |= fabsf(a - b) > 1e-3f * fabsf(a) + 1e-5f;
             }
         px_differ += d;
@@ -460,14 +460,15 @@ static void test_gradient_samples_reproduce_static(void)
         femb_gradient_unpack(grads, n, fg);
         for (uint32_t k = 0; k < n; k++)
             CHECK(fg[k].rng_frame == i - 1 && fg[k].rng_pixel < W * H,
-                  "sample %u: key (%u, %u) is not frame %u's", k, fg[k].rng_frame,
-                  fg[k].rng_pixel, i - 1);
+                  "sample %u: key (%u, %u) is not frame %u's", k, fg[k].rng_frame, fg[k].rng_pixel,
+                  i - 1);
         REQUIRE_OK(femb_shade_gradients(r.fe, &(femb_params){.bounces = 2}, fg, n, &f1));
         for (uint32_t k = 0; k < n; k++) {
             uint32_t q = fg[k].pixel, pq = fg[k].rng_pixel;
             const tnd_ct ch[2] = {TND_CT_HF, TND_CT_SPEC};
             for (int c = 0; c < 2; c++) {
-                const float *a = tnd_frame_f(&f1, ch[c]) + 3 * q, *b = tnd_frame_f(&f0, ch[c]) + 3 * pq;
+                const float *a = tnd_frame_f(&f1, ch[c]) + 3 * q,
+                            *b = tnd_frame_f(&f0, ch[c]) + 3 * pq;
                 for (int j = 0; j < 3; j++)
                     bad += fabsf(a[j] - b[j]) > 1e-3f * fabsf(b[j]) + 1e-6f;
             }
@@ -514,20 +515,22 @@ static void test_asvgf_follows_light_switch(void)
     tnd_scene *s = NULL;
     femb_context *fe = NULL;
     fvk_context *gv = NULL;
-    dn_context *da = NULL, *db = NULL, *dc = NULL;
+    dn_context *da = NULL, *db = NULL, *dc = NULL, *dd = NULL;
     tnd_scene_state cur = {0}, prev = {0};
     tnd_contract_gpu up = {0};
     tnd_frame f = {0};
     uint32_t *grads = NULL;
     femb_gradient_sample *fg = NULL;
-    static float oa[WH * 3], ob[WH * 3], oc[WH * 3], noisy[WH * 3];
+    static float oa[WH * 3], ob[WH * 3], oc[WH * 3], oh[WH * 3], noisy[WH * 3];
     const double fps = 30.0;
+    int handover_differ = 0;
     REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/dynamic.gltf", &s));
     REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 2}, &fe));
     REQUIRE_OK(fvk_create(vk, s, &(fvk_desc){.rt_api = FVK_RT_PIPELINE}, &gv));
     REQUIRE_OK(dn_create(vk, WD, HD, &(dn_desc){.mode = DN_MODE_ASVGF}, &da));
     REQUIRE_OK(dn_create(vk, WD, HD, &(dn_desc){.mode = DN_MODE_ASVGF}, &db));
     REQUIRE_OK(dn_create(vk, WD, HD, &(dn_desc){.mode = DN_MODE_SVGF}, &dc));
+    REQUIRE_OK(dn_create(vk, WD, HD, &(dn_desc){.mode = DN_MODE_ASVGF}, &dd));
     REQUIRE_OK(tnd_contract_gpu_create(vk, WD, HD, TND_PRECISION_F32, &up));
     uint32_t cap = dn_gradient_capacity(da);
     CHECK(cap == 32 * 18, "one sample per 3x3 stratum: capacity %u", cap);
@@ -565,6 +568,22 @@ static void test_asvgf_follows_light_switch(void)
         CHECK(nb == n, "frame %u: the two front-ends' frames give %u and %u samples", fr, n, nb);
         REQUIRE_OK(fvk_shade_gradients(gv, &(fvk_params){.bounces = 1}, grads, nb, NULL));
         REQUIRE_OK(dn_run(db, fvk_contract(gv), &df, NULL));
+        /* the same frame again, with the sample list handed over on the GPU: same image
+         * (the first 8 frames: the extra render is slow on lavapipe) */
+        if (fr < first + 8) {
+            REQUIRE_OK(fvk_render(gv, &(fvk_params){.bounces = 1}, NULL));
+            VkBuffer slots_buf;
+            uint32_t slots = 0;
+            REQUIRE_OK(dn_select_gradients_gpu(dd, fvk_contract(gv), &df, &slots_buf, &slots));
+            CHECK(slots == cap, "GPU hand-over: %u slots, expected %u", slots, cap);
+            REQUIRE_OK(
+                fvk_shade_gradient_slots(gv, &(fvk_params){.bounces = 1}, slots_buf, slots, NULL));
+            REQUIRE_OK(dn_run(dd, fvk_contract(gv), &df, NULL));
+            REQUIRE_OK(dn_download(db, ob));
+            REQUIRE_OK(dn_download(dd, oh));
+            for (int k = 0; k < WH * 3; k++)
+                handover_differ += ob[k] != oh[k];
+        }
         REQUIRE_OK(dn_download(da, oa));
         REQUIRE_OK(dn_download(dc, oc));
         double m = mean_lum(noisy, WH);
@@ -596,7 +615,8 @@ static void test_asvgf_follows_light_switch(void)
             /* before the switch the lighting holds still (small gradients); at the switch the
              * lamp's light is gone wherever it reached: hf and lf gradients jump */
             if (fr == 29)
-                CHECK(g[0] < 0.1 && g[2] < 0.1, "gradients before the switch: %.3f %.3f", g[0], g[2]);
+                CHECK(g[0] < 0.1 && g[2] < 0.1, "gradients before the switch: %.3f %.3f", g[0],
+                      g[2]);
             else
                 CHECK(g[0] > 0.3 && g[2] > 0.3, "gradients at the switch: %.3f %.3f", g[0], g[2]);
         }
@@ -607,7 +627,10 @@ static void test_asvgf_follows_light_switch(void)
     int differ = 0;
     for (int k = 0; k < WH * 3; k++)
         differ += fabsf(oa[k] - ob[k]) > 1e-3f * fabsf(oa[k]) + 1e-5f;
-    printf("     A-SVGF with either front-end: %d of %d values differ\n", differ, WH * 3);
+    printf("     A-SVGF with either front-end: %d of %d values differ; GPU against host hand-over "
+           "of the samples: %d values differ over 8 frames\n",
+           differ, WH * 3, handover_differ);
+    CHECK(handover_differ == 0, "the GPU hand-over changes %d values", handover_differ);
     CHECK(differ <= WH * 3 / 100, "A-SVGF with either front-end: %d values differ", differ);
     CHECK(min_samples >= cap / 4, "too few gradient samples on a moving camera: %u of %u",
           min_samples, cap);
@@ -649,6 +672,7 @@ cleanup:
     dn_destroy(da);
     dn_destroy(db);
     dn_destroy(dc);
+    dn_destroy(dd);
     fvk_destroy(gv);
     femb_destroy(fe);
     tnd_scene_state_free(&cur);
@@ -664,7 +688,5 @@ static void test_shutdown(void)
 
 TND_TEST_MAIN(T(test_off_equals_cpu_composite), T(test_svgf_static_cornell),
               T(test_nan_does_not_spread), T(test_lf_firefly_is_deflickered),
-              T(test_disocclusion_and_frontends),
-              T(test_gradient_samples_reproduce_static),
-              T(test_asvgf_follows_light_switch),
-              T(test_shutdown))
+              T(test_disocclusion_and_frontends), T(test_gradient_samples_reproduce_static),
+              T(test_asvgf_follows_light_switch), T(test_shutdown))
