@@ -63,6 +63,10 @@ void app_progress_end(app_progress *p);
 struct dn_context;
 tnd_result app_parse_dump(const char *list, uint32_t *mask);
 tnd_result app_write_dumps(struct dn_context *dn, uint32_t mask, const char *dir, const char *stem);
+/* Device bandwidth (GB/s, bytes read + written) of a vkCmdCopyBuffer and of a compute copy of
+ * `bytes` between device-local buffers: medians of `repeats` after a warm-up (app/bandwidth.c). */
+tnd_result app_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double *transfer_gbs,
+                         double *compute_gbs);
 tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uint32_t h);
 /* A preview PNG: exposure from the log-average luminance (key 0.18), Reinhard, sRGB. The
  * composite stage's tone mapping replaces it. */

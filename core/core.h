@@ -389,10 +389,6 @@ int tnd_timer_begin(VkCommandBuffer cmd, tnd_timer *t, const char *name);
 void tnd_timer_end(VkCommandBuffer cmd, tnd_timer *t, int slot);
 /* After the command buffer completed: ms[i] for each recorded pass i < t->count. */
 tnd_result tnd_timer_read(tnd_vk *vk, const tnd_timer *t, double *ms);
-/* The device's copy bandwidth: median over `repeats` (after one warm-up) of a timed
- * vkCmdCopyBuffer of `bytes` between two device-local buffers, counting the bytes read and
- * written (2 x bytes): the floor any memory-bound pass can reach. 0 without timestamps. */
-tnd_result tnd_copy_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double *gb_per_s);
 
 /* ---------------------------------------------------------------------------------------------
  * The buffer contract, C side (the table itself is shaders/contract.h)

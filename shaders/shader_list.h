@@ -40,6 +40,7 @@
     X(dn_grad_image_packed, "dn_grad_image.comp", "TND_PACKED=1") \
     X(dn_grad_atrous_f32,  "dn_grad_atrous.comp", "TND_PACKED=0") \
     X(dn_grad_atrous_packed, "dn_grad_atrous.comp", "TND_PACKED=1") \
+    X(bandwidth_copy,      "bandwidth_copy.comp", "") \
     X(dn_lf_f32,           "dn_lf.comp",          "TND_PACKED=0") \
     X(dn_lf_packed,        "dn_lf.comp",          "TND_PACKED=1") \
     X(pt_rchit,            "pt.rchit",            "") \

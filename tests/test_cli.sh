@@ -84,6 +84,21 @@ check "render of a bad scene exits 1 with no output" $?
 "$T" bench --size 32x32 --repeats 2 --json >"$tmp/bench.json" 2>/dev/null
 python3 -c "import json,sys; d=json.load(open(sys.argv[1])); assert d['rays_per_frame'] > 1024 and d['frontend_mrays_per_s'] > 0" "$tmp/bench.json"
 check "bench --json reports rays and rates" $?
+"$T" bench --frontend vk --denoiser asvgf --scene "$SRC/data/scenes/dynamic.gltf" --size 48x27 --repeats 3 --json >"$tmp/bench_dn.json" 2>/dev/null
+python3 - "$tmp/bench_dn.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+p = d["passes"]
+assert d["compute_copy_gb_per_s"] > 0 and d["transfer_copy_gb_per_s"] > 0, d
+for k in ("denoise_select", "denoise_gradient", "denoise_temporal", "denoise_lf", "denoise_atrous", "composite"):
+    assert p[k]["bytes"] > 0 and p[k]["floor_ms"] > 0, k
+# the floor of the whole back-end is the sum of its passes'
+assert abs(sum(p[k]["bytes"] for k in p if "bytes" in p[k]) - d["backend_bytes"]) < 1, d
+PY
+check "bench --denoiser times every pass against the bandwidth floor" $?
+"$T" bench --frontend embree --denoiser asvgf >/dev/null 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "needs --frontend vk" "$tmp/err"
+check "bench --denoiser without the Vulkan front-end is a usage error" $?
 
 # both front-ends, one capture each, compared
 for fe in embree vk; do
