@@ -279,6 +279,8 @@ void tnd_image_destroy(tnd_vk *vk, tnd_image *img);
 /* Copy a whole image (layout GENERAL) to host memory, texels tightly packed row by row;
  * `bytes` must be width x height x the format's texel size. Blocks. */
 tnd_result tnd_image_download(tnd_vk *vk, const tnd_image *img, void *data, size_t bytes);
+/* The whole image from `data` (tightly packed texels, `bytes` of them); blocks. */
+tnd_result tnd_image_upload(tnd_vk *vk, const tnd_image *img, const void *data, size_t bytes);
 
 /* Pick a memory type with `bits` allowed and all of `props`; UINT32_MAX when none. */
 uint32_t tnd_vk_memory_type(const tnd_vk *vk, uint32_t bits, VkMemoryPropertyFlags props);

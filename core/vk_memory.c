@@ -3,7 +3,7 @@
  * One allocation per resource: Tandem creates a few dozen resources per run, far below
  * maxMemoryAllocationCount, and dedicated allocations keep lifetimes obvious.
  * Entry points: tnd_buffer_create/destroy/upload/download, tnd_image_create/destroy,
- * tnd_cmd_begin, tnd_cmd_submit_wait, tnd_cmd_barrier. */
+ * tnd_image_upload, tnd_cmd_begin, tnd_cmd_submit_wait, tnd_cmd_barrier. */
 #include "core/core.h"
 
 #include <stdio.h>
@@ -256,6 +256,27 @@ tnd_result tnd_image_download(tnd_vk *vk, const tnd_image *img, void *data, size
     memcpy(data, rb.mapped, bytes);
 fail:
     tnd_buffer_destroy(vk, &rb);
+    return res;
+}
+
+tnd_result tnd_image_upload(tnd_vk *vk, const tnd_image *img, const void *data, size_t bytes)
+{
+    tnd_result res = TND_OK;
+    tnd_buffer up = {0};
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = bytes, .mem = TND_MEM_UPLOAD,
+                                                     .name = "image.upload"},
+                              &up));
+    memcpy(up.mapped, data, bytes);
+    TND_TRY(tnd_cmd_begin(vk, &cmd));
+    tnd_cmd_barrier(cmd);
+    VkBufferImageCopy r = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                           .imageExtent = {img->width, img->height, 1}};
+    vkCmdCopyBufferToImage(cmd, up.buffer, img->image, VK_IMAGE_LAYOUT_GENERAL, 1, &r);
+    tnd_cmd_barrier(cmd);
+    TND_TRY(tnd_cmd_submit_wait(vk, cmd));
+fail:
+    tnd_buffer_destroy(vk, &up);
     return res;
 }
 

@@ -92,6 +92,8 @@ uint32_t dn_dump_count(void);
 const char *dn_dump_name(uint32_t i, const char **channels);
 tnd_result dn_dump_size(const dn_context *ctx, uint32_t i, uint32_t *w, uint32_t *h);
 tnd_result dn_dump(dn_context *ctx, uint32_t i, float *rgba);
+/* The output image (RGBA32F linear HDR) of the last dn_run, for the post chain (composite/). */
+const tnd_image *dn_output(const dn_context *ctx);
 /* The output as linear RGB floats (3 per pixel). */
 tnd_result dn_download(dn_context *ctx, float *rgb);
 

@@ -649,6 +649,11 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
     return tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
 }
 
+const tnd_image *dn_output(const dn_context *c)
+{
+    return &c->out;
+}
+
 tnd_result dn_download(dn_context *c, float *rgb)
 {
     size_t n = (size_t)c->width * c->height;

@@ -41,6 +41,12 @@
     X(dn_grad_atrous_f32,  "dn_grad_atrous.comp", "TND_PACKED=0") \
     X(dn_grad_atrous_packed, "dn_grad_atrous.comp", "TND_PACKED=1") \
     X(bandwidth_copy,      "bandwidth_copy.comp", "") \
+    X(post_taa_f32,        "post_taa.comp",       "TND_PACKED=0") \
+    X(post_taa_packed,     "post_taa.comp",       "TND_PACKED=1") \
+    X(post_histogram,      "post_histogram.comp", "TND_PACKED=0") \
+    X(post_exposure,       "post_exposure.comp",  "TND_PACKED=0") \
+    X(post_bloom,          "post_bloom.comp",     "TND_PACKED=0") \
+    X(post_tonemap,        "post_tonemap.comp",   "TND_PACKED=0") \
     X(dn_lf_f32,           "dn_lf.comp",          "TND_PACKED=0") \
     X(dn_lf_packed,        "dn_lf.comp",          "TND_PACKED=1") \
     X(pt_rchit,            "pt.rchit",            "") \

@@ -1,0 +1,406 @@
+/* composite/cmp_context.c: the post chain's images (TAA history in two slots, bloom ping-pong at
+ * 1/4 resolution, the display image), the histogram buffer, the pipelines, and the per-frame
+ * recording with a timestamp around each pass. Passes not asked for are not dispatched (TAA off,
+ * bloom off, fixed exposure: no histogram).
+ * Entry points: cmp_create, cmp_destroy, cmp_run, cmp_download_hdr, cmp_download_display,
+ * cmp_exposure, cmp_passes, cmp_curve_parse, cmp_curve_name. */
+#include "composite/composite.h"
+#include "shaders/post_shared.h"
+#include "shaders/shader_list.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { P_TAA, P_HIST, P_EXPOSURE, P_BLOOM, P_TONEMAP, P_COUNT };
+
+struct cmp_context {
+    tnd_vk *vk;
+    cmp_desc desc;
+    uint32_t width, height, frame;
+    tnd_image taa[2], bloom[2], display;
+    tnd_buffer params, hist, hist_host; /* hist: device-local (atomics); _host: its read-back */
+    VkDescriptorSetLayout layouts[2];
+    VkPipelineLayout layout;
+    VkDescriptorPool pool;
+    VkDescriptorSet sets[2];
+    VkPipeline pipes[P_COUNT];
+    tnd_timer timer;
+    const tnd_image *bound_in; /* the input image the set points at */
+    const tnd_contract_gpu *bound_ct;
+    bool have_history;
+    char passes[128];
+};
+
+static const char *const curve_names[] = {"aces", "agx", "reinhard", "linear"};
+
+tnd_result cmp_curve_parse(const char *s, cmp_curve *c)
+{
+    for (int i = 0; i < 4; i++)
+        if (strcmp(s, curve_names[i]) == 0) {
+            *c = (cmp_curve)i;
+            return TND_OK;
+        }
+    return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                    "composite: tone curve '%s' (expected aces, agx, reinhard or linear)", s);
+}
+
+const char *cmp_curve_name(cmp_curve c)
+{
+    return (unsigned)c < 4 ? curve_names[c] : "?";
+}
+
+void cmp_destroy(cmp_context *c)
+{
+    if (!c)
+        return;
+    tnd_vk *vk = c->vk;
+    if (vk->device)
+        vkDeviceWaitIdle(vk->device);
+    tnd_timer_destroy(vk, &c->timer);
+    for (int i = 0; i < P_COUNT; i++)
+        if (c->pipes[i])
+            vkDestroyPipeline(vk->device, c->pipes[i], NULL);
+    if (c->pool)
+        vkDestroyDescriptorPool(vk->device, c->pool, NULL);
+    if (c->layout)
+        vkDestroyPipelineLayout(vk->device, c->layout, NULL);
+    for (int i = 0; i < 2; i++) {
+        if (c->layouts[i])
+            vkDestroyDescriptorSetLayout(vk->device, c->layouts[i], NULL);
+        tnd_image_destroy(vk, &c->taa[i]);
+        tnd_image_destroy(vk, &c->bloom[i]);
+    }
+    tnd_image_destroy(vk, &c->display);
+    tnd_buffer_destroy(vk, &c->params);
+    tnd_buffer_destroy(vk, &c->hist);
+    tnd_buffer_destroy(vk, &c->hist_host);
+    free(c);
+}
+
+static tnd_result create_pipelines(cmp_context *c, tnd_precision prec)
+{
+    tnd_result res = TND_OK;
+    tnd_vk *vk = c->vk;
+    VkDescriptorSetLayoutBinding b0[CP_BINDINGS];
+    for (uint32_t i = 0; i < CP_BINDINGS; i++)
+        b0[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
+                                               VK_SHADER_STAGE_COMPUTE_BIT, NULL};
+    b0[CP_B_PARAMS].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    b0[CP_B_HIST].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    b0[CP_B_TAA].descriptorCount = 2;
+    b0[CP_B_BLOOM].descriptorCount = 2;
+    TND_VK_TRY(vkCreateDescriptorSetLayout(
+        vk->device,
+        &(VkDescriptorSetLayoutCreateInfo){.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                           .bindingCount = CP_BINDINGS,
+                                           .pBindings = b0},
+        NULL, &c->layouts[0]));
+    VkDescriptorSetLayoutBinding b1[TND_CT_COUNT];
+    for (uint32_t i = 0; i < TND_CT_COUNT; i++)
+        b1[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
+                                               VK_SHADER_STAGE_COMPUTE_BIT, NULL};
+    TND_VK_TRY(vkCreateDescriptorSetLayout(
+        vk->device,
+        &(VkDescriptorSetLayoutCreateInfo){.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                           .bindingCount = TND_CT_COUNT,
+                                           .pBindings = b1},
+        NULL, &c->layouts[1]));
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 8};
+    TND_VK_TRY(vkCreatePipelineLayout(
+        vk->device,
+        &(VkPipelineLayoutCreateInfo){.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+                                      .setLayoutCount = 2,
+                                      .pSetLayouts = c->layouts,
+                                      .pushConstantRangeCount = 1,
+                                      .pPushConstantRanges = &pcr},
+        NULL, &c->layout));
+    VkDescriptorPoolSize ps[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 6 + TND_CT_COUNT}};
+    TND_VK_TRY(vkCreateDescriptorPool(
+        vk->device,
+        &(VkDescriptorPoolCreateInfo){.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+                                      .maxSets = 2,
+                                      .poolSizeCount = 3,
+                                      .pPoolSizes = ps},
+        NULL, &c->pool));
+    TND_VK_TRY(vkAllocateDescriptorSets(
+        vk->device,
+        &(VkDescriptorSetAllocateInfo){.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+                                       .descriptorPool = c->pool,
+                                       .descriptorSetCount = 2,
+                                       .pSetLayouts = c->layouts},
+        c->sets));
+    const tnd_shader ids[P_COUNT] = {
+        prec == TND_PRECISION_PACKED ? TND_SHADER_post_taa_packed : TND_SHADER_post_taa_f32,
+        TND_SHADER_post_histogram, TND_SHADER_post_exposure, TND_SHADER_post_bloom,
+        TND_SHADER_post_tonemap};
+    const char *names[P_COUNT] = {"composite.taa", "composite.histogram", "composite.exposure",
+                                  "composite.bloom", "composite.tonemap"};
+    for (int i = 0; i < P_COUNT; i++) {
+        size_t bytes;
+        const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
+        TND_TRY(tnd_compute_pipeline_create(vk,
+                                            &(tnd_compute_desc){.code = code, .bytes = bytes,
+                                                                .layout = c->layout,
+                                                                .name = names[i]},
+                                            &c->pipes[i]));
+    }
+fail:
+    return res;
+}
+
+static void write_set(cmp_context *c, const tnd_image *in, const tnd_contract_gpu *ct)
+{
+    VkDescriptorImageInfo ii[6];
+    VkWriteDescriptorSet w[6 + TND_CT_COUNT];
+    uint32_t n = 0;
+#define IMG(i, img) (ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, (img)->view, VK_IMAGE_LAYOUT_GENERAL})
+    IMG(0, in);
+    IMG(1, &c->taa[0]);
+    IMG(2, &c->taa[1]);
+    IMG(3, &c->bloom[0]);
+    IMG(4, &c->bloom[1]);
+    IMG(5, &c->display);
+#undef IMG
+    const uint32_t bind[4] = {CP_B_IN, CP_B_TAA, CP_B_BLOOM, CP_B_DISPLAY};
+    const uint32_t first[4] = {0, 1, 3, 5}, count[4] = {1, 2, 2, 1};
+    for (int k = 0; k < 4; k++)
+        w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                        .dstSet = c->sets[0], .dstBinding = bind[k],
+                                        .descriptorCount = count[k],
+                                        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                        .pImageInfo = &ii[first[k]]};
+    VkDescriptorBufferInfo bp = {c->params.buffer, 0, VK_WHOLE_SIZE};
+    VkDescriptorBufferInfo bh = {c->hist.buffer, 0, VK_WHOLE_SIZE};
+    w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                    .dstSet = c->sets[0], .dstBinding = CP_B_PARAMS,
+                                    .descriptorCount = 1,
+                                    .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
+                                    .pBufferInfo = &bp};
+    w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                    .dstSet = c->sets[0], .dstBinding = CP_B_HIST,
+                                    .descriptorCount = 1,
+                                    .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                    .pBufferInfo = &bh};
+    VkDescriptorImageInfo ci[TND_CT_COUNT];
+    for (uint32_t i = 0; i < TND_CT_COUNT; i++) {
+        ci[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, ct->images[i].view, VK_IMAGE_LAYOUT_GENERAL};
+        w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                        .dstSet = c->sets[1], .dstBinding = i,
+                                        .descriptorCount = 1,
+                                        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                        .pImageInfo = &ci[i]};
+    }
+    vkUpdateDescriptorSets(c->vk->device, n, w, 0, NULL);
+    c->bound_in = in;
+    c->bound_ct = ct;
+}
+
+tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision prec,
+                      const cmp_desc *desc, cmp_context **out)
+{
+    tnd_result res = TND_OK;
+    *out = NULL;
+    cmp_context *c = calloc(1, sizeof *c);
+    if (!c)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "composite: out of memory");
+    c->vk = vk;
+    c->width = width;
+    c->height = height;
+    if (desc)
+        c->desc = *desc;
+    cmp_desc *d = &c->desc;
+    d->taa_weight = d->taa_weight > 0 ? d->taa_weight : 0.1f;
+    d->taa_clip = d->taa_clip > 0 ? d->taa_clip : 1.0f;
+    d->taa_sparkle = d->taa_sparkle > 0 ? d->taa_sparkle : 4.0f;
+    d->bloom_sigma = d->bloom_sigma > 0 ? d->bloom_sigma : 0.037f;
+    if (!(d->low > 0 || d->high > 0))
+        d->low = 0.5f, d->high = 0.95f;
+    d->speed_up = d->speed_up > 0 ? d->speed_up : 3.0f;
+    d->speed_down = d->speed_down > 0 ? d->speed_down : 1.0f;
+    uint32_t qw = (width + 3) / 4, qh = (height + 3) / 4;
+    for (int i = 0; i < 2; i++) {
+        TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                       .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                       .name = i ? "composite.taa[1]" : "composite.taa[0]"},
+                                 &c->taa[i]));
+        TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = qw, .height = qh,
+                                                       .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                       .name = i ? "composite.bloom[1]" : "composite.bloom[0]"},
+                                 &c->bloom[i]));
+    }
+    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                   .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                   .name = "composite.display"},
+                             &c->display));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(cp_params),
+                                                     .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                                                     .mem = TND_MEM_UPLOAD, .name = "composite.params"},
+                              &c->params));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(cp_histogram),
+                                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                     .name = "composite.histogram"},
+                              &c->hist));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(cp_histogram),
+                                                     .mem = TND_MEM_READBACK,
+                                                     .name = "composite.histogram_host"},
+                              &c->hist_host));
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(vk, &cmd));
+    vkCmdFillBuffer(cmd, c->hist.buffer, 0, VK_WHOLE_SIZE, 0);
+    tnd_cmd_barrier(cmd);
+    TND_TRY(tnd_cmd_submit_wait(vk, cmd));
+    TND_TRY(create_pipelines(c, prec));
+    TND_TRY(tnd_timer_create(vk, &c->timer));
+    *out = c;
+    return TND_OK;
+fail:
+    cmp_destroy(c);
+    return res;
+}
+
+static void dispatch(cmp_context *c, VkCommandBuffer cmd, int pass, uint32_t w, uint32_t h,
+                     uint32_t index)
+{
+    uint32_t pc[2] = {c->frame & 1u, index};
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipes[pass]);
+    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, pc);
+    vkCmdDispatch(cmd, (w + 7) / 8, (h + 7) / 8, 1);
+    tnd_cmd_barrier(cmd);
+}
+
+tnd_result cmp_run(cmp_context *c, const tnd_image *hdr, const tnd_contract_gpu *ct,
+                   const cmp_frame *f, cmp_timings *t)
+{
+    tnd_result res = TND_OK;
+    if (hdr->width != c->width || hdr->height != c->height || ct->width != c->width ||
+        ct->height != c->height)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "composite: input %ux%u, expected %ux%u",
+                        hdr->width, hdr->height, c->width, c->height);
+    if (c->bound_in != hdr || c->bound_ct != ct)
+        write_set(c, hdr, ct);
+    const cmp_desc *d = &c->desc;
+    bool history = c->have_history && !f->reset;
+    bool bloom = d->bloom > 0;
+    float sigma = fminf(100.0f, fmaxf(1.0f, 0.25f * d->bloom_sigma * (float)c->height));
+    uint32_t flags = (d->taa ? CP_F_TAA : 0u) | (history ? CP_F_HISTORY : 0u) |
+                     (bloom ? CP_F_BLOOM : 0u) | (d->fixed_exposure ? 0u : CP_F_AUTO) |
+                     (d->no_dither ? 0u : CP_F_DITHER);
+    *(cp_params *)c->params.mapped = (cp_params){
+        .size = {c->width, c->height, c->frame, flags},
+        .taa = {d->taa_weight, d->taa_clip, d->taa_sparkle, 0},
+        .bloom = {d->bloom, sigma, ceilf(3.0f * sigma), 0},
+        .tm = {(float)d->curve, d->ev100, d->low, d->high},
+        .adapt = {f->dt > 0 ? f->dt : 1.0f / 30.0f, d->speed_up, d->speed_down, d->bias},
+    };
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+    tnd_timer_reset(cmd, &c->timer);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
+    tnd_cmd_barrier(cmd);
+    int s[4] = {-1, -1, -1, -1};
+    c->passes[0] = '\0';
+    if (d->taa) {
+        s[0] = tnd_timer_begin(cmd, &c->timer, "composite.taa");
+        dispatch(c, cmd, P_TAA, c->width, c->height, 0);
+        tnd_timer_end(cmd, &c->timer, s[0]);
+        strcat(c->passes, "taa,");
+    }
+    if (bloom) {
+        uint32_t qw = (c->width + 3) / 4, qh = (c->height + 3) / 4;
+        s[1] = tnd_timer_begin(cmd, &c->timer, "composite.bloom");
+        for (uint32_t i = 0; i < 3; i++)
+            dispatch(c, cmd, P_BLOOM, qw, qh, i);
+        tnd_timer_end(cmd, &c->timer, s[1]);
+        strcat(c->passes, "bloom,");
+    }
+    s[2] = tnd_timer_begin(cmd, &c->timer, "composite.exposure");
+    if (!d->fixed_exposure) {
+        dispatch(c, cmd, P_HIST, c->width, c->height, 0);
+        strcat(c->passes, "histogram,");
+    }
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipes[P_EXPOSURE]);
+    vkCmdDispatch(cmd, 1, 1, 1);
+    tnd_cmd_barrier(cmd);
+    tnd_timer_end(cmd, &c->timer, s[2]);
+    strcat(c->passes, "exposure,");
+    s[3] = tnd_timer_begin(cmd, &c->timer, "composite.tonemap");
+    dispatch(c, cmd, P_TONEMAP, c->width, c->height, 0);
+    tnd_timer_end(cmd, &c->timer, s[3]);
+    strcat(c->passes, "tonemap");
+    vkCmdCopyBuffer(cmd, c->hist.buffer, c->hist_host.buffer, 1,
+                    &(VkBufferCopy){0, 0, sizeof(cp_histogram)});
+    VkMemoryBarrier hb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
+                          .srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
+                          .dstAccessMask = VK_ACCESS_HOST_READ_BIT};
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &hb, 0, NULL, 0, NULL);
+    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    if (t) {
+        double ms[4] = {0, 0, 0, 0};
+        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
+        *t = (cmp_timings){0};
+        int k = 0;
+        if (s[0] >= 0)
+            t->taa_ms = ms[k++];
+        if (s[1] >= 0)
+            t->bloom_ms = ms[k++];
+        t->exposure_ms = ms[k++];
+        t->tonemap_ms = ms[k];
+    }
+    c->have_history = true;
+    c->frame++;
+fail:
+    return res;
+}
+
+static tnd_result download_rgb(cmp_context *c, const tnd_image *img, float *rgb, uint8_t *rgb8)
+{
+    size_t n = (size_t)c->width * c->height;
+    float *px = malloc(n * 16);
+    if (!px)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "composite: out of memory");
+    tnd_result res = tnd_image_download(c->vk, img, px, n * 16);
+    for (size_t q = 0; res == TND_OK && q < n; q++)
+        for (int k = 0; k < 3; k++) {
+            float v = px[4 * q + k];
+            if (rgb)
+                rgb[3 * q + k] = v;
+            else
+                rgb8[3 * q + k] = (uint8_t)fminf(255.0f, floorf(fmaxf(v, 0.0f) * 255.0f + 0.5f));
+        }
+    free(px);
+    return res;
+}
+
+tnd_result cmp_download_hdr(cmp_context *c, float *rgb)
+{
+    if (c->frame == 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "composite: no frame yet");
+    if (!c->desc.taa) /* the input itself: nothing changed it */
+        return download_rgb(c, c->bound_in, rgb, NULL);
+    return download_rgb(c, &c->taa[(c->frame - 1) & 1u], rgb, NULL);
+}
+
+tnd_result cmp_download_display(cmp_context *c, uint8_t *rgb8)
+{
+    if (c->frame == 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "composite: no frame yet");
+    return download_rgb(c, &c->display, NULL, rgb8);
+}
+
+tnd_result cmp_exposure(cmp_context *c, float *exposure, float *log2_luminance)
+{
+    const cp_histogram *h = c->hist_host.mapped;
+    *exposure = h->exposure;
+    *log2_luminance = h->adapted_log_lum;
+    return TND_OK;
+}
+
+const char *cmp_passes(const cmp_context *c)
+{
+    return c->passes;
+}

@@ -1,0 +1,57 @@
+/* composite: everything after the denoiser, on the GPU: TAA, bloom, auto exposure from a
+ * luminance histogram, tone mapping to a dithered sRGB display image. Reads the back-end's linear
+ * HDR image and the contract's motion vectors. (The checkerboard interleave arrives with the
+ * specular-paths issue: no scene has a reflect/refract split yet, so nothing is built for it.)
+ * Prefix cmp_; depends on core/ and shaders/. */
+#ifndef CMP_COMPOSITE_H
+#define CMP_COMPOSITE_H
+
+#include "core/core.h"
+
+typedef enum cmp_curve { CMP_ACES = 0, CMP_AGX, CMP_REINHARD, CMP_LINEAR } cmp_curve;
+tnd_result cmp_curve_parse(const char *s, cmp_curve *c);
+const char *cmp_curve_name(cmp_curve c);
+
+typedef struct cmp_desc {
+    bool taa;             /* temporal anti-aliasing */
+    float taa_weight;     /* weight of the new frame (0 means 0.1) */
+    float taa_clip;       /* clip box half-width in standard deviations (0 means 1) */
+    float taa_sparkle;    /* anti-sparkle: centre luma at most this x the neighbours' (0 means 4) */
+    float bloom;          /* bloom intensity, 0 = off (the default: evaluation runs want none) */
+    float bloom_sigma;    /* blur sigma as a fraction of the image height (0 means 0.037) */
+    cmp_curve curve;
+    bool fixed_exposure;  /* use ev100 instead of auto exposure */
+    float ev100;
+    float low, high;      /* auto exposure's percentile window (0, 0 means 0.5 .. 0.95) */
+    float speed_up, speed_down; /* adaptation rates, 1/s (0 means 3 and 1) */
+    float bias;           /* exposure bias in stops */
+    bool no_dither;
+} cmp_desc;
+
+typedef struct cmp_frame {
+    float dt;   /* seconds since the previous frame (adaptation) */
+    bool reset; /* drop the TAA history and adapt at once */
+} cmp_frame;
+
+typedef struct cmp_timings {
+    double taa_ms, bloom_ms, exposure_ms, tonemap_ms;
+} cmp_timings;
+
+typedef struct cmp_context cmp_context;
+
+tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision contract_precision,
+                      const cmp_desc *desc, cmp_context **ctx);
+void cmp_destroy(cmp_context *ctx);
+/* One frame (blocks): `hdr` is the back-end's output (RGBA32F, width x height). */
+tnd_result cmp_run(cmp_context *ctx, const tnd_image *hdr, const tnd_contract_gpu *contract,
+                   const cmp_frame *frame, cmp_timings *t);
+/* After cmp_run: the linear HDR image after TAA (3 floats per pixel), and the display image
+ * (3 bytes per pixel, sRGB). */
+tnd_result cmp_download_hdr(cmp_context *ctx, float *rgb);
+tnd_result cmp_download_display(cmp_context *ctx, uint8_t *rgb8);
+/* The exposure applied to the last frame (scale before the curve) and its adapted log2 mean. */
+tnd_result cmp_exposure(cmp_context *ctx, float *exposure, float *log2_luminance);
+/* The passes of the last frame, comma-separated (for run.json). */
+const char *cmp_passes(const cmp_context *ctx);
+
+#endif

@@ -1,0 +1,219 @@
+/* tests/test_composite.c: the post chain on lavapipe. Tone mapping: auto exposure makes a scene
+ * whose light is 1000x brighter look the same; black, white and NaN inputs give defined output.
+ * TAA: on a static scene whose primary rays are jittered, the accumulated image is closer to the
+ * supersampled image than one frame is (edges converge). Label: gpu. */
+#include "composite/composite.h"
+#include "frontend_embree/frontend_embree.h"
+#include "tests/gpu_common.h"
+
+enum { W = 64, H = 36, N = W * H };
+
+/* one frame of cornell through the Embree front-end (frame index i: its jitter) */
+static tnd_result cornell_frame(femb_context *fe, const tnd_scene_state *st, uint32_t i,
+                                tnd_frame *f)
+{
+    tnd_result res = femb_set_frame(fe, st, st, i, W, H);
+    if (res == TND_OK)
+        res = tnd_frame_create(W, H, f);
+    if (res == TND_OK)
+        res = femb_trace_primary(fe, f);
+    if (res == TND_OK)
+        res = femb_shade(fe, &(femb_params){.bounces = 1}, f, NULL);
+    return res;
+}
+
+static tnd_result upload_rgb(tnd_vk *vk, const tnd_image *img, const float *rgb, float scale)
+{
+    static float px[N * 4];
+    for (int q = 0; q < N; q++) {
+        for (int k = 0; k < 3; k++)
+            px[4 * q + k] = rgb[3 * q + k] * scale;
+        px[4 * q + 3] = 1.0f;
+    }
+    return tnd_image_upload(vk, img, px, sizeof px);
+}
+
+static double mean_display(const uint8_t *d)
+{
+    double s = 0;
+    for (int q = 0; q < N * 3; q++)
+        s += d[q] / 255.0;
+    return s / (N * 3);
+}
+
+static void test_tonemap_exposure(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    tnd_scene *s = NULL;
+    femb_context *fe = NULL;
+    tnd_scene_state st = {0};
+    tnd_frame f = {0};
+    tnd_contract_gpu ct = {0};
+    tnd_image in = {0};
+    cmp_context *c = NULL;
+    static float rgb[N * 3];
+    static uint8_t d1[N * 3], d1000[N * 3];
+    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/cornell.gltf", &s));
+    REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 2}, &fe));
+    REQUIRE_OK(tnd_scene_evaluate(s, 0.0, 0, (float)W / H, &st));
+    REQUIRE_OK(cornell_frame(fe, &st, 0, &f));
+    tnd_frame_composite(&f, rgb);
+    REQUIRE_OK(tnd_contract_gpu_create(vk, W, H, TND_PRECISION_F32, &ct));
+    REQUIRE_OK(tnd_contract_upload(vk, &ct, &f));
+    REQUIRE_OK(tnd_image_create(vk, &(tnd_image_desc){.width = W, .height = H,
+                                                      .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                      .name = "test.hdr"},
+                                &in));
+    for (int curve = 0; curve < 3; curve++) {
+        REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){.curve = (cmp_curve)curve},
+                              &c));
+        /* adapted to the plain scene, then the light x1000: adaptation (3 stops per second up)
+         * takes a few seconds of frames to catch up */
+        REQUIRE_OK(upload_rgb(vk, &in, rgb, 1.0f));
+        for (int i = 0; i < 3; i++)
+            REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.dt = 1.0f / 30, .reset = i == 0}, NULL));
+        REQUIRE_OK(cmp_download_display(c, d1));
+        REQUIRE_OK(upload_rgb(vk, &in, rgb, 1000.0f));
+        REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.dt = 1.0f / 30}, NULL));
+        REQUIRE_OK(cmp_download_display(c, d1000));
+        double first = mean_display(d1000);
+        for (int i = 0; i < 300; i++)
+            REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.dt = 1.0f / 30}, NULL));
+        REQUIRE_OK(cmp_download_display(c, d1000));
+        double m1 = mean_display(d1), m1000 = mean_display(d1000);
+        printf("     %s: mean display value %.4f; light x1000: %.4f on the first frame, %.4f "
+               "after 10 s (%.2f%% off)\n",
+               cmp_curve_name((cmp_curve)curve), m1, first, m1000, 100.0 * fabs(m1000 / m1 - 1));
+        CHECK(first > m1 + 0.05, "%s: the first frame after the change is not brighter (%.3f)",
+              cmp_curve_name((cmp_curve)curve), first);
+        /* exact log averaging: only the dither and 8-bit rounding differ */
+        CHECK(fabs(m1000 / m1 - 1) < 0.02, "%s: adapted x1000 scene %.4f against %.4f",
+              cmp_curve_name((cmp_curve)curve), m1000, m1);
+        cmp_destroy(c);
+        c = NULL;
+    }
+    /* black, white, NaN: defined output */
+    REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){0}, &c));
+    static float special[N * 3];
+    for (int q = 0; q < N * 3; q++)
+        special[q] = 0.0f;
+    REQUIRE_OK(upload_rgb(vk, &in, special, 1.0f));
+    REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.reset = true}, NULL));
+    REQUIRE_OK(cmp_download_display(c, d1));
+    int nonzero = 0;
+    for (int q = 0; q < N * 3; q++)
+        nonzero += d1[q] != 0;
+    CHECK(nonzero == 0, "a black image gives %d non-black values", nonzero);
+    float e = 0, l = 0;
+    REQUIRE_OK(cmp_exposure(c, &e, &l));
+    CHECK(isfinite(e) && e > 0, "exposure after a black image: %g", e);
+    cmp_destroy(c); /* with TAA, whose history must stay finite */
+    c = NULL;
+    REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){.taa = true}, &c));
+    for (int q = 0; q < N * 3; q++)
+        special[q] = q % 7 == 0 ? NAN : q % 11 == 0 ? INFINITY : 1e30f;
+    REQUIRE_OK(upload_rgb(vk, &in, special, 1.0f));
+    for (int i = 0; i < 3; i++)
+        REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.reset = i == 0}, NULL));
+    REQUIRE_OK(cmp_download_display(c, d1));
+    static float hdr[N * 3];
+    REQUIRE_OK(cmp_download_hdr(c, hdr));
+    REQUIRE_OK(cmp_exposure(c, &e, &l));
+    int bad = 0;
+    for (int q = 0; q < N * 3; q++)
+        bad += !isfinite(hdr[q]);
+    CHECK(isfinite(e) && isfinite(l), "exposure after NaN / huge input: %g (log2 %g)", e, l);
+    CHECK(bad == 0, "%d non-finite HDR values after NaN / Inf input", bad);
+    printf("     black -> all 0; NaN / Inf / 1e30 -> finite, exposure %g\n", e);
+cleanup:
+    cmp_destroy(c);
+    tnd_image_destroy(vk, &in);
+    tnd_contract_gpu_destroy(vk, &ct);
+    tnd_frame_destroy(&f);
+    tnd_scene_state_free(&st);
+    femb_destroy(fe);
+    tnd_scene_destroy(s);
+    gpu_end();
+}
+
+/* TAA on the albedo (noise-free, so only the pixel filter differs): the reference is the mean
+ * of 256 jittered frames, the pixel-area average a supersampled render gives. */
+static void test_taa_converges_at_edges(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    tnd_scene *s = NULL;
+    femb_context *fe = NULL;
+    tnd_scene_state st = {0};
+    tnd_frame f = {0};
+    tnd_contract_gpu ct = {0};
+    tnd_image in = {0};
+    cmp_context *c = NULL;
+    static float ref[N * 3], one[N * 3], taa[N * 3], alb[N * 3];
+    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/cornell.gltf", &s));
+    REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 2}, &fe));
+    REQUIRE_OK(tnd_scene_evaluate(s, 0.0, 0, (float)W / H, &st));
+    REQUIRE_OK(tnd_contract_gpu_create(vk, W, H, TND_PRECISION_F32, &ct));
+    REQUIRE_OK(tnd_image_create(vk, &(tnd_image_desc){.width = W, .height = H,
+                                                      .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                      .name = "test.hdr"},
+                                &in));
+    REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){.taa = true}, &c));
+    const int frames = 256, taa_frames = 48;
+    for (int i = 0; i < frames; i++) {
+        tnd_frame_destroy(&f);
+        REQUIRE_OK(cornell_frame(fe, &st, (uint32_t)i, &f));
+        const float *a = tnd_frame_f(&f, TND_CT_ALBEDO);
+        for (int q = 0; q < N * 3; q++) {
+            alb[q] = a[q];
+            ref[q] += a[q] / frames;
+        }
+        if (i == taa_frames - 1)
+            memcpy(one, alb, sizeof one);
+        if (i < taa_frames) {
+            REQUIRE_OK(tnd_contract_upload(vk, &ct, &f));
+            REQUIRE_OK(upload_rgb(vk, &in, alb, 1.0f));
+            REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.reset = i == 0}, NULL));
+        }
+    }
+    REQUIRE_OK(cmp_download_hdr(c, taa));
+    /* edge pixels: where the reference is not what one frame gives (partial coverage) */
+    double e_one = 0, e_taa = 0;
+    int edges = 0;
+    for (int q = 0; q < N; q++) {
+        double d1 = 0, d2 = 0, dr = 0;
+        for (int k = 0; k < 3; k++) {
+            d1 += fabs(one[3 * q + k] - ref[3 * q + k]);
+            d2 += fabs(taa[3 * q + k] - ref[3 * q + k]);
+            dr += fabs(ref[3 * q + k]);
+        }
+        if (d1 > 0.02 * (dr + 0.01)) {
+            e_one += d1;
+            e_taa += d2;
+            edges++;
+        }
+    }
+    printf("     %d edge pixels: mean abs error against 256 jittered frames: one frame %.4f, "
+           "TAA after %d frames %.4f\n",
+           edges, e_one / edges, taa_frames, e_taa / edges);
+    CHECK(edges > 50, "only %d edge pixels", edges);
+    CHECK(e_taa < 0.5 * e_one, "TAA %.4f is not below half of one frame's %.4f", e_taa / edges,
+          e_one / edges);
+cleanup:
+    cmp_destroy(c);
+    tnd_image_destroy(vk, &in);
+    tnd_contract_gpu_destroy(vk, &ct);
+    tnd_frame_destroy(&f);
+    tnd_scene_state_free(&st);
+    femb_destroy(fe);
+    tnd_scene_destroy(s);
+    gpu_end();
+}
+
+static void test_shutdown(void)
+{
+    gpu_shutdown();
+}
+
+TND_TEST_MAIN(T(test_tonemap_exposure), T(test_taa_converges_at_edges), T(test_shutdown))
