@@ -67,6 +67,8 @@ tnd_result app_write_dumps(struct dn_context *dn, uint32_t mask, const char *dir
  * `bytes` between device-local buffers: medians of `repeats` after a warm-up (app/bandwidth.c). */
 tnd_result app_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double *transfer_gbs,
                          double *compute_gbs);
+/* 8-bit sRGB RGB as PNG (written to PATH.tmp, then renamed: no partial file). */
+tnd_result app_write_png(const char *path, const uint8_t *rgb8, uint32_t w, uint32_t h);
 tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uint32_t h);
 /* A preview PNG: exposure from the log-average luminance (key 0.18), Reinhard, sRGB. The
  * composite stage's tone mapping replaces it. */

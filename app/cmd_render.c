@@ -1,12 +1,15 @@
-/* app/cmd_render.c: `tandem render` (the real-time pipeline over a camera path) and
- * `tandem reference` (converged images). Until the back-end exists, render writes the plain
- * composite of the noisy signals, plus a preview PNG. */
+/* app/cmd_render.c: `tandem render` (the real-time pipeline over a camera path: front-end,
+ * back-end, post chain) and `tandem reference` (converged images). Writes DIR/frame_NNNN.exr
+ * (linear HDR after TAA, before tone mapping), DIR/frame_NNNN.png (display), timings.json and
+ * run.json. */
 #include "app/app.h"
+#include "composite/composite.h"
 #include "denoise/denoise.h"
 #include "frontend_embree/frontend_embree.h"
 #include "frontend_vk/frontend_vk.h"
 #include "shaders/sampling.h"
 
+#include <cjson/cJSON.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,6 +20,8 @@
 
 typedef struct render_opts {
     const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump;
+    const char *taa, *tonemap, *exposure;
+    double bloom;
     unsigned frames, start, threads, bounces, spp, camera;
     unsigned size[2];
     double fps;
@@ -42,6 +47,9 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                        .precision = "float32",
                        .rt_api = "auto",
                        .denoiser = "asvgf",
+                       .taa = "on",
+                       .tonemap = "aces",
+                       .exposure = "auto",
                        .frames = 8,
                        .bounces = 1,
                        .spp = 256,
@@ -68,6 +76,11 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
          "asvgf (default: with temporal gradients), svgf or off (noisy composite)"},
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API",
          "vk: pipeline, query, or auto (query where the device has it)"},
+        {"taa", APP_OPT_STRING, &o->taa, "on|off|W", "temporal anti-aliasing (on: new-frame weight 0.1)"},
+        {"tonemap", APP_OPT_STRING, &o->tonemap, "CURVE", "aces (default), agx, reinhard or linear"},
+        {"exposure", APP_OPT_STRING, &o->exposure, "auto|EV100",
+         "auto exposure from the luminance histogram (default), or a fixed EV100"},
+        {"bloom", APP_OPT_FLOAT, &o->bloom, "I", "bloom intensity (default 0: off)"},
         {0},
     };
     const app_opt ref_opts_tbl[] = {
@@ -118,6 +131,102 @@ static void on_ref_progress(uint32_t done, uint32_t total, void *user)
     (void)p->frames;
 }
 
+/* the post chain's settings from the options */
+static tnd_result post_desc(const render_opts *o, cmp_desc *d)
+{
+    tnd_result res = cmp_curve_parse(o->tonemap, &d->curve);
+    if (res != TND_OK)
+        return res;
+    char *end;
+    if (strcmp(o->taa, "on") == 0) {
+        d->taa = true;
+    } else if (strcmp(o->taa, "off") == 0) {
+        d->taa = false;
+    } else {
+        double w = strtod(o->taa, &end);
+        if (*end || !(w > 0 && w <= 1))
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                            "--taa '%s': expected on, off or a new-frame weight in (0, 1]", o->taa);
+        d->taa = true;
+        d->taa_weight = (float)w;
+    }
+    if (strcmp(o->exposure, "auto") != 0) {
+        double ev = strtod(o->exposure, &end);
+        if (*end || !isfinite(ev))
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--exposure '%s': expected auto or an EV100",
+                            o->exposure);
+        d->fixed_exposure = true;
+        d->ev100 = (float)ev;
+    }
+    if (!(o->bloom >= 0 && o->bloom <= 1))
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--bloom %g: expected an intensity in [0, 1]",
+                        o->bloom);
+    return TND_OK;
+}
+
+/* DIR/run.json: what reproduces the run (scene, front-end, device, every parameter) and which
+ * post passes ran, and why the others did not. */
+static tnd_result write_run_json(const render_opts *o, const char *device, const char *dn_mode_s,
+                                 const cmp_desc *pd, const char *passes)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddNumberToObject(j, "contract_version", TND_CONTRACT_VERSION);
+    cJSON_AddStringToObject(j, "scene", o->scene);
+    cJSON_AddStringToObject(j, "frontend", o->frontend);
+    cJSON_AddStringToObject(j, "device", device);
+    cJSON_AddStringToObject(j, "rt_api", o->rt_api);
+    cJSON_AddNumberToObject(j, "width", o->size[0]);
+    cJSON_AddNumberToObject(j, "height", o->size[1]);
+    cJSON_AddNumberToObject(j, "frames", o->frames);
+    cJSON_AddNumberToObject(j, "start", o->start);
+    cJSON_AddNumberToObject(j, "fps", o->fps);
+    cJSON_AddNumberToObject(j, "camera", o->camera);
+    cJSON_AddNumberToObject(j, "bounces", o->bounces);
+    cJSON_AddStringToObject(j, "precision", o->precision);
+    cJSON_AddStringToObject(j, "denoiser", dn_mode_s);
+    cJSON *post = cJSON_AddObjectToObject(j, "post");
+    if (passes) {
+        cJSON_AddBoolToObject(post, "taa", pd->taa);
+        cJSON_AddNumberToObject(post, "taa_weight", pd->taa_weight);
+        cJSON_AddNumberToObject(post, "taa_clip_sigma", pd->taa_clip);
+        cJSON_AddNumberToObject(post, "taa_anti_sparkle", pd->taa_sparkle);
+        cJSON_AddNumberToObject(post, "bloom", pd->bloom);
+        cJSON_AddNumberToObject(post, "bloom_sigma", pd->bloom_sigma);
+        cJSON_AddStringToObject(post, "tonemap", cmp_curve_name(pd->curve));
+        cJSON_AddStringToObject(post, "exposure", pd->fixed_exposure ? "fixed" : "auto");
+        if (pd->fixed_exposure)
+            cJSON_AddNumberToObject(post, "ev100", pd->ev100);
+        else {
+            cJSON_AddNumberToObject(post, "percentile_low", pd->low);
+            cJSON_AddNumberToObject(post, "percentile_high", pd->high);
+            cJSON_AddNumberToObject(post, "speed_up", pd->speed_up);
+            cJSON_AddNumberToObject(post, "speed_down", pd->speed_down);
+        }
+        cJSON_AddStringToObject(post, "passes", passes);
+        cJSON *why = cJSON_AddObjectToObject(post, "not_run");
+        cJSON_AddStringToObject(why, "interleave",
+                                "no checkerboard reflect/refract split exists (specular-paths issue)");
+        if (!pd->taa)
+            cJSON_AddStringToObject(why, "taa", "--taa off");
+        if (!(pd->bloom > 0))
+            cJSON_AddStringToObject(why, "bloom", "off by default (--bloom I turns it on)");
+        if (pd->fixed_exposure)
+            cJSON_AddStringToObject(why, "histogram", "fixed exposure");
+    } else {
+        cJSON_AddStringToObject(post, "passes", "none: CPU composite and preview (embree + --denoiser off)");
+    }
+    char path[2048];
+    snprintf(path, sizeof path, "%s/run.json", o->out);
+    char *txt = cJSON_Print(j);
+    cJSON_Delete(j);
+    FILE *fp = txt ? fopen(path, "w") : NULL;
+    bool ok = fp && fprintf(fp, "%s\n", txt) > 0;
+    free(txt);
+    if (fp && fclose(fp) != 0)
+        ok = false;
+    return ok ? TND_OK : tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);
+}
+
 static int run(bool reference, int argc, char **argv)
 {
     render_opts o;
@@ -134,6 +243,8 @@ static int run(bool reference, int argc, char **argv)
     tnd_vk vk = {0};
     fvk_context *gv = NULL;
     dn_context *dn = NULL;
+    cmp_context *post = NULL;
+    uint8_t *display = NULL;
     tnd_contract_gpu upload = {0};
     bool use_vk = strcmp(o.frontend, "vk") == 0;
     dn_mode dmode = DN_MODE_SVGF;
@@ -168,6 +279,11 @@ static int run(bool reference, int argc, char **argv)
         if (!use_vk)
             TND_TRY(tnd_contract_gpu_create(&vk, o.size[0], o.size[1], prec, &upload));
     }
+    cmp_desc pd = {.bloom = (float)o.bloom};
+    if (use_dn && (res = post_desc(&o, &pd)) != TND_OK)
+        goto fail;
+    if (use_dn)
+        TND_TRY(cmp_create(&vk, o.size[0], o.size[1], prec, &pd, &post));
     if (use_dn && dmode == DN_MODE_ASVGF) {
         uint32_t cap = dn_gradient_capacity(dn);
         grads = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *grads);
@@ -206,7 +322,8 @@ static int run(bool reference, int argc, char **argv)
     if (dump_mask)
         TND_TRY(tnd_mkdirs(dump_dir));
     rgb = malloc((size_t)o.size[0] * o.size[1] * 3 * sizeof(float));
-    if (!rgb) {
+    display = malloc((size_t)o.size[0] * o.size[1] * 3);
+    if (!rgb || !display) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
         goto fail;
     }
@@ -270,6 +387,7 @@ static int run(bool reference, int argc, char **argv)
             TND_TRY(tnd_capture_write(path, &frame, TND_EXR_ZIP));
         }
         dn_timings dt = {0};
+        cmp_timings pt = {0};
         if (use_dn) {
             dn_frame df = dn_frame_for_camera(cur->camera.proj, o.size[1], f, i == 0);
             const tnd_contract_gpu *ct = use_vk ? fvk_contract(gv) : &upload;
@@ -304,7 +422,10 @@ static int run(bool reference, int argc, char **argv)
                 snprintf(stem, sizeof stem, "%04u", f);
                 TND_TRY(app_write_dumps(dn, dump_mask, dump_dir, stem));
             }
-            TND_TRY(dn_download(dn, rgb));
+            TND_TRY(cmp_run(post, dn_output(dn), ct,
+                            &(cmp_frame){.dt = (float)(1.0 / o.fps), .reset = i == 0}, &pt));
+            TND_TRY(cmp_download_hdr(post, rgb));
+            TND_TRY(cmp_download_display(post, display));
         } else {
             tnd_frame_composite(&frame, rgb);
         }
@@ -313,13 +434,19 @@ static int run(bool reference, int argc, char **argv)
                 "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
                 "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_select_ms\": %.4f, "
                 "\"denoise_gradient_ms\": %.4f, \"denoise_temporal_ms\": %.4f, "
-                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f}",
+                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f, "
+                "\"taa_ms\": %.4f, \"bloom_ms\": %.4f, \"exposure_ms\": %.4f, "
+                "\"tonemap_ms\": %.4f}",
                 i ? "," : "", f, ms_primary, ms_shade, ms_tlas, ms_gradients, dt.select_ms,
-                dt.gradient_ms, dt.temporal_ms, dt.lf_ms, dt.atrous_ms, dt.composite_ms);
+                dt.gradient_ms, dt.temporal_ms, dt.lf_ms, dt.atrous_ms, dt.composite_ms,
+                pt.taa_ms, pt.bloom_ms, pt.exposure_ms, pt.tonemap_ms);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
-        TND_TRY(app_write_preview(path, rgb, o.size[0], o.size[1]));
+        if (use_dn)
+            TND_TRY(app_write_png(path, display, o.size[0], o.size[1]));
+        else
+            TND_TRY(app_write_preview(path, rgb, o.size[0], o.size[1]));
         tnd_frame_destroy(&frame);
         app_progress_step(&bar, i + 1);
     }
@@ -333,6 +460,11 @@ static int run(bool reference, int argc, char **argv)
         }
         timings = NULL;
     }
+    if (!reference)
+        TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
+                               use_dn ? dn_mode_name(dmode) : "off (CPU composite)",
+                               post ? cmp_settings(post) : &pd,
+                               post ? cmp_passes(post) : NULL));
     if ((use_vk || use_dn) && vk.validation && tnd_vk_validation_errors(&vk)) {
         res = tnd_fail(TND_ERR_VULKAN, "%u Vulkan validation error(s)", tnd_vk_validation_errors(&vk));
         goto fail;
@@ -361,6 +493,8 @@ fail:
     tnd_scene_state_free(&st[1]);
     if (timings)
         fclose(timings);
+    cmp_destroy(post);
+    free(display);
     dn_destroy(dn);
     tnd_contract_gpu_destroy(&vk, &upload);
     fvk_destroy(gv);

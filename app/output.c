@@ -26,10 +26,16 @@ tnd_result app_write_preview(const char *path, const float *rgb, uint32_t w, uin
         v = v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
         px[q] = (uint8_t)fmin(255.0, floor(v * 255.0 + 0.5));
     }
+    tnd_result res = app_write_png(path, px, w, h);
+    free(px);
+    return res;
+}
+
+tnd_result app_write_png(const char *path, const uint8_t *rgb8, uint32_t w, uint32_t h)
+{
     char tmp[2200];
     snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    int ok = stbi_write_png(tmp, (int)w, (int)h, 3, px, (int)w * 3);
-    free(px);
+    int ok = stbi_write_png(tmp, (int)w, (int)h, 3, rgb8, (int)w * 3);
     if (!ok || rename(tmp, path) != 0) {
         remove(tmp);
         return tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);

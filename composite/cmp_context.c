@@ -3,7 +3,7 @@
  * recording with a timestamp around each pass. Passes not asked for are not dispatched (TAA off,
  * bloom off, fixed exposure: no histogram).
  * Entry points: cmp_create, cmp_destroy, cmp_run, cmp_download_hdr, cmp_download_display,
- * cmp_exposure, cmp_passes, cmp_curve_parse, cmp_curve_name. */
+ * cmp_exposure, cmp_settings, cmp_passes, cmp_curve_parse, cmp_curve_name. */
 #include "composite/composite.h"
 #include "shaders/post_shared.h"
 #include "shaders/shader_list.h"
@@ -398,6 +398,11 @@ tnd_result cmp_exposure(cmp_context *c, float *exposure, float *log2_luminance)
     *exposure = h->exposure;
     *log2_luminance = h->adapted_log_lum;
     return TND_OK;
+}
+
+const cmp_desc *cmp_settings(const cmp_context *c)
+{
+    return &c->desc;
 }
 
 const char *cmp_passes(const cmp_context *c)
