@@ -3,6 +3,7 @@
  * (docs/captures.md). Writes the same outputs as render: DIR/frame_NNNN.exr (linear HDR),
  * DIR/frame_NNNN.png (preview), DIR/timings.json. */
 #include "app/app.h"
+#include "composite/composite.h"
 #include "denoise/denoise.h"
 
 #include <dirent.h>
@@ -90,6 +91,8 @@ int cmd_denoise(int argc, char **argv)
     tnd_contract_gpu ct = {0};
     tnd_frame f = {0};
     float *rgb = NULL;
+    uint8_t *display = NULL;
+    cmp_context *post = NULL;
     FILE *timings = NULL;
     int status = APP_EXIT_FAIL;
     uint32_t w = 0, h = 0;
@@ -114,8 +117,11 @@ int cmd_denoise(int argc, char **argv)
             TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
             TND_TRY(dn_create(&vk, w, h, &(dn_desc){.mode = mode, .precision = f.precision}, &dn));
             TND_TRY(tnd_contract_gpu_create(&vk, w, h, f.precision, &ct));
+            /* the post chain with render's defaults (TAA, auto exposure, ACES) */
+            TND_TRY(cmp_create(&vk, w, h, f.precision, &(cmp_desc){.taa = true}, &post));
             rgb = malloc((size_t)w * h * 3 * sizeof *rgb);
-            if (!rgb) {
+            display = malloc((size_t)w * h * 3);
+            if (!rgb || !display) {
                 res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
                 goto fail;
             }
@@ -162,16 +168,22 @@ int cmd_denoise(int argc, char **argv)
                 *dot = '\0';
             TND_TRY(app_write_dumps(dn, dump_mask, dump_dir, stem));
         }
-        TND_TRY(dn_download(dn, rgb));
+        cmp_timings pt = {0};
+        TND_TRY(cmp_run(post, dn_output(dn), &ct, &(cmp_frame){.dt = 1.0f / 30, .reset = i == 0},
+                        &pt));
+        TND_TRY(cmp_download_hdr(post, rgb));
+        TND_TRY(cmp_download_display(post, display));
         fprintf(timings,
                 "%s\n    {\"file\": \"%s\", \"denoise_temporal_ms\": %.4f, "
-                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f}",
-                i ? "," : "", names[i], tm.temporal_ms, tm.lf_ms, tm.atrous_ms, tm.composite_ms);
+                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f, "
+                "\"taa_ms\": %.4f, \"exposure_ms\": %.4f, \"tonemap_ms\": %.4f}",
+                i ? "," : "", names[i], tm.temporal_ms, tm.lf_ms, tm.atrous_ms, tm.composite_ms,
+                pt.taa_ms, pt.exposure_ms, pt.tonemap_ms);
         snprintf(path, sizeof path, "%s/%s", out, names[i]);
         TND_TRY(app_write_rgb_exr(path, rgb, w, h));
         size_t l = strlen(path);
         memcpy(path + l - 4, ".png", 5);
-        TND_TRY(app_write_preview(path, rgb, w, h));
+        TND_TRY(app_write_png(path, display, w, h));
         app_progress_step(&bar, (unsigned)i + 1);
     }
     app_progress_end(&bar);
@@ -196,6 +208,8 @@ fail:
     if (timings)
         fclose(timings);
     free(rgb);
+    free(display);
+    cmp_destroy(post);
     tnd_frame_destroy(&f);
     tnd_contract_gpu_destroy(&vk, &ct);
     dn_destroy(dn);
