@@ -63,6 +63,8 @@ void app_progress_end(app_progress *p);
 struct dn_context;
 tnd_result app_parse_dump(const char *list, uint32_t *mask);
 tnd_result app_write_dumps(struct dn_context *dn, uint32_t mask, const char *dir, const char *stem);
+/* The median of v[0..n) (sorts v in place; 0 when n is 0). */
+double app_median(double *v, unsigned n);
 /* Device bandwidth (GB/s, bytes read + written) of a vkCmdCopyBuffer and of a compute copy of
  * `bytes` between device-local buffers: medians of `repeats` after a warm-up (app/bandwidth.c). */
 tnd_result app_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double *transfer_gbs,

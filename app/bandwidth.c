@@ -1,4 +1,5 @@
-/* app/bandwidth.c: the device's memory bandwidth for `tandem bench`'s floors: a timed
+/* app/bandwidth.c: measurement helpers of `tandem bench`: app_median, and the device's memory
+ * bandwidth for the floors (app_bandwidth): a timed
  * vkCmdCopyBuffer (the transfer path) and a STREAM-style compute copy (shaders/
  * bandwidth_copy.comp, the path the back-end's passes take), both between two device-local
  * buffers, medians after a warm-up, counting the bytes read and written. */
@@ -7,10 +8,16 @@
 
 #include <stdlib.h>
 
-static int cmp_ms(const void *a, const void *b)
+static int cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
     return x < y ? -1 : x > y;
+}
+
+double app_median(double *v, unsigned n)
+{
+    qsort(v, n, sizeof *v, cmp_double);
+    return n ? v[n / 2] : 0.0;
 }
 
 tnd_result app_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double *transfer_gbs,
@@ -109,9 +116,7 @@ tnd_result app_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, doubl
             ms[r - 1] = m[0], ms[repeats + r - 1] = m[1];
     }
     if (repeats) {
-        qsort(ms, repeats, sizeof *ms, cmp_ms);
-        qsort(ms + repeats, repeats, sizeof *ms, cmp_ms);
-        double a = ms[repeats / 2], c = ms[repeats + repeats / 2];
+        double a = app_median(ms, repeats), c = app_median(ms + repeats, repeats);
         *transfer_gbs = a > 0 ? 2.0 * (double)bytes / (a * 1e-3) / 1e9 : 0;
         *compute_gbs = c > 0 ? 2.0 * (double)bytes / (c * 1e-3) / 1e9 : 0;
     }

@@ -27,12 +27,6 @@ static const app_cmd bench_cmd = {
     "[--repeats N] [--json]",
     NULL};
 
-static int cmp_d(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
 static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsigned frame,
                            const unsigned size[2], unsigned bounces, unsigned repeats,
                            const char *rt_api, femb_bench *b, double *t_build)
@@ -60,10 +54,8 @@ static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsign
         tp[r] = tm.primary_ms;
         ts[r] = tm.shade_ms;
     }
-    qsort(tp, repeats, sizeof *tp, cmp_d);
-    qsort(ts, repeats, sizeof *ts, cmp_d);
-    b->primary_ms = tp[repeats / 2];
-    b->shade_ms = ts[repeats / 2];
+    b->primary_ms = app_median(tp, repeats);
+    b->shade_ms = app_median(ts, repeats);
     b->raw_ms = 0;
     printf("device: %s, %s\n", vk.info.name,
            fvk_api(gv) == FVK_RT_QUERY ? "ray query" : "ray-tracing pipeline");
@@ -73,12 +65,6 @@ fail:
     fvk_destroy(gv);
     tnd_vk_destroy(&vk);
     return res;
-}
-
-static double median(double *v, unsigned n)
-{
-    qsort(v, n, sizeof *v, cmp_d);
-    return n ? v[n / 2] : 0.0;
 }
 
 enum { BP_PRIMARY, BP_SHADE, BP_GSHADE, BP_SELECT, BP_GRAD, BP_TEMPORAL, BP_LF, BP_ATROUS,
@@ -149,7 +135,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
     double bandwidth = fmax(transfer_bw, compute_bw); /* the floor: the faster of the two */
     double med[BP_COUNT];
     for (int k = 0; k < BP_COUNT; k++)
-        med[k] = median(v[k], repeats);
+        med[k] = app_median(v[k], repeats);
     const double bytes[BP_COUNT] = {0, 0, 0, tr.select, tr.gradient, tr.temporal, tr.lf,
                                     tr.atrous, tr.composite, 0};
     double backend = 0, backend_bytes = 0;

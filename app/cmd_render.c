@@ -284,7 +284,7 @@ static int run(bool reference, int argc, char **argv)
         goto fail;
     if (use_dn)
         TND_TRY(cmp_create(&vk, o.size[0], o.size[1], prec, &pd, &post));
-    if (use_dn && dmode == DN_MODE_ASVGF) {
+    if (use_dn && dmode == DN_MODE_ASVGF && !use_vk) { /* the Vulkan front-end reads the GPU list */
         uint32_t cap = dn_gradient_capacity(dn);
         grads = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *grads);
         femb_grads = malloc((size_t)cap * sizeof *femb_grads);

@@ -27,8 +27,7 @@ struct cmp_context {
     VkDescriptorSet sets[2];
     VkPipeline pipes[P_COUNT];
     tnd_timer timer;
-    const tnd_image *bound_in; /* the input image the set points at */
-    const tnd_contract_gpu *bound_ct;
+    const tnd_image *last_in; /* the input of the last frame (the HDR output with TAA off) */
     bool have_history;
     char passes[128];
 };
@@ -97,16 +96,7 @@ static tnd_result create_pipelines(cmp_context *c, tnd_precision prec)
                                            .bindingCount = CP_BINDINGS,
                                            .pBindings = b0},
         NULL, &c->layouts[0]));
-    VkDescriptorSetLayoutBinding b1[TND_CT_COUNT];
-    for (uint32_t i = 0; i < TND_CT_COUNT; i++)
-        b1[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
-                                               VK_SHADER_STAGE_COMPUTE_BIT, NULL};
-    TND_VK_TRY(vkCreateDescriptorSetLayout(
-        vk->device,
-        &(VkDescriptorSetLayoutCreateInfo){.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-                                           .bindingCount = TND_CT_COUNT,
-                                           .pBindings = b1},
-        NULL, &c->layouts[1]));
+    TND_TRY(tnd_contract_set_layout(vk, VK_SHADER_STAGE_COMPUTE_BIT, &c->layouts[1]));
     VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 8};
     TND_VK_TRY(vkCreatePipelineLayout(
         vk->device,
@@ -152,51 +142,61 @@ fail:
     return res;
 }
 
-static void write_set(cmp_context *c, const tnd_image *in, const tnd_contract_gpu *ct)
+/* The set's own images and buffers (once). */
+static void write_own_set(cmp_context *c)
 {
-    VkDescriptorImageInfo ii[6];
-    VkWriteDescriptorSet w[6 + TND_CT_COUNT];
-    uint32_t n = 0;
+    VkDescriptorImageInfo ii[5];
 #define IMG(i, img) (ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, (img)->view, VK_IMAGE_LAYOUT_GENERAL})
-    IMG(0, in);
-    IMG(1, &c->taa[0]);
-    IMG(2, &c->taa[1]);
-    IMG(3, &c->bloom[0]);
-    IMG(4, &c->bloom[1]);
-    IMG(5, &c->display);
+    IMG(0, &c->taa[0]);
+    IMG(1, &c->taa[1]);
+    IMG(2, &c->bloom[0]);
+    IMG(3, &c->bloom[1]);
+    IMG(4, &c->display);
 #undef IMG
-    const uint32_t bind[4] = {CP_B_IN, CP_B_TAA, CP_B_BLOOM, CP_B_DISPLAY};
-    const uint32_t first[4] = {0, 1, 3, 5}, count[4] = {1, 2, 2, 1};
-    for (int k = 0; k < 4; k++)
-        w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                        .dstSet = c->sets[0], .dstBinding = bind[k],
-                                        .descriptorCount = count[k],
-                                        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-                                        .pImageInfo = &ii[first[k]]};
+    VkWriteDescriptorSet w[5];
+    const uint32_t bind[3] = {CP_B_TAA, CP_B_BLOOM, CP_B_DISPLAY};
+    const uint32_t first[3] = {0, 2, 4}, count[3] = {2, 2, 1};
+    for (int k = 0; k < 3; k++)
+        w[k] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                      .dstSet = c->sets[0], .dstBinding = bind[k],
+                                      .descriptorCount = count[k],
+                                      .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                      .pImageInfo = &ii[first[k]]};
     VkDescriptorBufferInfo bp = {c->params.buffer, 0, VK_WHOLE_SIZE};
     VkDescriptorBufferInfo bh = {c->hist.buffer, 0, VK_WHOLE_SIZE};
-    w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                    .dstSet = c->sets[0], .dstBinding = CP_B_PARAMS,
-                                    .descriptorCount = 1,
-                                    .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
-                                    .pBufferInfo = &bp};
-    w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                    .dstSet = c->sets[0], .dstBinding = CP_B_HIST,
-                                    .descriptorCount = 1,
-                                    .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                                    .pBufferInfo = &bh};
-    VkDescriptorImageInfo ci[TND_CT_COUNT];
-    for (uint32_t i = 0; i < TND_CT_COUNT; i++) {
-        ci[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, ct->images[i].view, VK_IMAGE_LAYOUT_GENERAL};
-        w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                        .dstSet = c->sets[1], .dstBinding = i,
-                                        .descriptorCount = 1,
-                                        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-                                        .pImageInfo = &ci[i]};
-    }
-    vkUpdateDescriptorSets(c->vk->device, n, w, 0, NULL);
-    c->bound_in = in;
-    c->bound_ct = ct;
+    w[3] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                  .dstSet = c->sets[0], .dstBinding = CP_B_PARAMS,
+                                  .descriptorCount = 1,
+                                  .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
+                                  .pBufferInfo = &bp};
+    w[4] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                  .dstSet = c->sets[0], .dstBinding = CP_B_HIST,
+                                  .descriptorCount = 1,
+                                  .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                  .pBufferInfo = &bh};
+    vkUpdateDescriptorSets(c->vk->device, 5, w, 0, NULL);
+}
+
+/* This frame's inputs: the back-end's image and the contract (motion). */
+static void write_inputs(cmp_context *c, const tnd_image *in, const tnd_contract_gpu *ct)
+{
+    VkDescriptorImageInfo ii = {VK_NULL_HANDLE, in->view, VK_IMAGE_LAYOUT_GENERAL};
+    VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                              .dstSet = c->sets[0], .dstBinding = CP_B_IN,
+                              .descriptorCount = 1,
+                              .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                              .pImageInfo = &ii};
+    vkUpdateDescriptorSets(c->vk->device, 1, &w, 0, NULL);
+    tnd_contract_write_set(c->vk, c->sets[1], ct);
+    c->last_in = in;
+}
+
+/* The passes the settings dispatch, for run.json. */
+static void describe_passes(cmp_context *c)
+{
+    const cmp_desc *d = &c->desc;
+    snprintf(c->passes, sizeof c->passes, "%s%s%sexposure,tonemap", d->taa ? "taa," : "",
+             d->bloom > 0 ? "bloom," : "", d->fixed_exposure ? "" : "histogram,");
 }
 
 tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision prec,
@@ -254,6 +254,8 @@ tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision
     tnd_cmd_barrier(cmd);
     TND_TRY(tnd_cmd_submit_wait(vk, cmd));
     TND_TRY(create_pipelines(c, prec));
+    write_own_set(c);
+    describe_passes(c);
     TND_TRY(tnd_timer_create(vk, &c->timer));
     *out = c;
     return TND_OK;
@@ -280,8 +282,7 @@ tnd_result cmp_run(cmp_context *c, const tnd_image *hdr, const tnd_contract_gpu 
         ct->height != c->height)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "composite: input %ux%u, expected %ux%u",
                         hdr->width, hdr->height, c->width, c->height);
-    if (c->bound_in != hdr || c->bound_ct != ct)
-        write_set(c, hdr, ct);
+    write_inputs(c, hdr, ct);
     const cmp_desc *d = &c->desc;
     bool history = c->have_history && !f->reset;
     bool bloom = d->bloom > 0;
@@ -302,12 +303,10 @@ tnd_result cmp_run(cmp_context *c, const tnd_image *hdr, const tnd_contract_gpu 
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
     int s[4] = {-1, -1, -1, -1};
-    c->passes[0] = '\0';
     if (d->taa) {
         s[0] = tnd_timer_begin(cmd, &c->timer, "composite.taa");
         dispatch(c, cmd, P_TAA, c->width, c->height, 0);
         tnd_timer_end(cmd, &c->timer, s[0]);
-        strcat(c->passes, "taa,");
     }
     if (bloom) {
         uint32_t qw = (c->width + 3) / 4, qh = (c->height + 3) / 4;
@@ -315,22 +314,17 @@ tnd_result cmp_run(cmp_context *c, const tnd_image *hdr, const tnd_contract_gpu 
         for (uint32_t i = 0; i < 3; i++)
             dispatch(c, cmd, P_BLOOM, qw, qh, i);
         tnd_timer_end(cmd, &c->timer, s[1]);
-        strcat(c->passes, "bloom,");
     }
     s[2] = tnd_timer_begin(cmd, &c->timer, "composite.exposure");
-    if (!d->fixed_exposure) {
+    if (!d->fixed_exposure)
         dispatch(c, cmd, P_HIST, c->width, c->height, 0);
-        strcat(c->passes, "histogram,");
-    }
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipes[P_EXPOSURE]);
     vkCmdDispatch(cmd, 1, 1, 1);
     tnd_cmd_barrier(cmd);
     tnd_timer_end(cmd, &c->timer, s[2]);
-    strcat(c->passes, "exposure,");
     s[3] = tnd_timer_begin(cmd, &c->timer, "composite.tonemap");
     dispatch(c, cmd, P_TONEMAP, c->width, c->height, 0);
     tnd_timer_end(cmd, &c->timer, s[3]);
-    strcat(c->passes, "tonemap");
     vkCmdCopyBuffer(cmd, c->hist.buffer, c->hist_host.buffer, 1,
                     &(VkBufferCopy){0, 0, sizeof(cp_histogram)});
     VkMemoryBarrier hb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
@@ -381,7 +375,7 @@ tnd_result cmp_download_hdr(cmp_context *c, float *rgb)
     if (c->frame == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "composite: no frame yet");
     if (!c->desc.taa) /* the input itself: nothing changed it */
-        return download_rgb(c, c->bound_in, rgb, NULL);
+        return download_rgb(c, c->last_in, rgb, NULL);
     return download_rgb(c, &c->taa[(c->frame - 1) & 1u], rgb, NULL);
 }
 

@@ -53,7 +53,7 @@ tnd_result cmp_download_display(cmp_context *ctx, uint8_t *rgb8);
 tnd_result cmp_exposure(cmp_context *ctx, float *exposure, float *log2_luminance);
 /* The settings in force (defaults filled in). */
 const cmp_desc *cmp_settings(const cmp_context *ctx);
-/* The passes of the last frame, comma-separated (for run.json). */
+/* The passes each frame dispatches with these settings, comma-separated (for run.json). */
 const char *cmp_passes(const cmp_context *ctx);
 
 #endif

@@ -220,3 +220,34 @@ fail:
     tnd_buffer_destroy(vk, &st);
     return res;
 }
+
+tnd_result tnd_contract_set_layout(tnd_vk *vk, VkShaderStageFlags stages,
+                                   VkDescriptorSetLayout *layout)
+{
+    tnd_result res = TND_OK;
+    VkDescriptorSetLayoutBinding b[TND_CT_COUNT];
+    for (uint32_t i = 0; i < TND_CT_COUNT; i++)
+        b[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, stages, NULL};
+    VkDescriptorSetLayoutCreateInfo ci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+                                          .bindingCount = TND_CT_COUNT,
+                                          .pBindings = b};
+    TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci, NULL, layout));
+fail:
+    return res;
+}
+
+void tnd_contract_write_set(tnd_vk *vk, VkDescriptorSet set, const tnd_contract_gpu *c)
+{
+    VkDescriptorImageInfo ii[TND_CT_COUNT];
+    VkWriteDescriptorSet w[TND_CT_COUNT];
+    for (uint32_t i = 0; i < TND_CT_COUNT; i++) {
+        ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->images[i].view, VK_IMAGE_LAYOUT_GENERAL};
+        w[i] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                      .dstSet = set,
+                                      .dstBinding = i,
+                                      .descriptorCount = 1,
+                                      .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                      .pImageInfo = &ii[i]};
+    }
+    vkUpdateDescriptorSets(vk->device, TND_CT_COUNT, w, 0, NULL);
+}

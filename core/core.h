@@ -783,6 +783,11 @@ uint32_t tnd_ct_texel_bytes(tnd_ct id, tnd_precision p);
 tnd_result tnd_contract_gpu_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision p,
                                    tnd_contract_gpu *c);
 void tnd_contract_gpu_destroy(tnd_vk *vk, tnd_contract_gpu *c);
+/* The descriptor set every contract reader and writer binds: one storage image per entry,
+ * binding = entry index (shaders/contract.h, TND_CT_DECLARE). */
+tnd_result tnd_contract_set_layout(tnd_vk *vk, VkShaderStageFlags stages,
+                                   VkDescriptorSetLayout *layout);
+void tnd_contract_write_set(tnd_vk *vk, VkDescriptorSet set, const tnd_contract_gpu *c);
 /* Host frame -> images (packed on the CPU with shaders/encoding.h, so the GPU holds exactly
  * what tnd_frame_quantize computes). Sizes must match. Blocks. */
 tnd_result tnd_contract_upload(tnd_vk *vk, tnd_contract_gpu *c, const tnd_frame *f);

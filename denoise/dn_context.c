@@ -122,14 +122,7 @@ static tnd_result create_pipelines(dn_context *c)
                                            .bindingCount = DN_BINDINGS,
                                            .pBindings = b0};
     TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci0, NULL, &c->layouts[0]));
-    VkDescriptorSetLayoutBinding b1[TND_CT_COUNT];
-    for (uint32_t i = 0; i < TND_CT_COUNT; i++)
-        b1[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
-                                               VK_SHADER_STAGE_COMPUTE_BIT, NULL};
-    VkDescriptorSetLayoutCreateInfo ci1 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-                                           .bindingCount = TND_CT_COUNT,
-                                           .pBindings = b1};
-    TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci1, NULL, &c->layouts[1]));
+    TND_TRY(tnd_contract_set_layout(vk, VK_SHADER_STAGE_COMPUTE_BIT, &c->layouts[1]));
     VkPushConstantRange pcr = {VK_SHADER_STAGE_COMPUTE_BIT, 0, 8};
     VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
                                       .setLayoutCount = 2,
@@ -329,21 +322,6 @@ fail:
     return res;
 }
 
-static void write_contract_set(dn_context *c, const tnd_contract_gpu *ct)
-{
-    VkDescriptorImageInfo ii[TND_CT_COUNT];
-    VkWriteDescriptorSet w[TND_CT_COUNT];
-    for (uint32_t i = 0; i < TND_CT_COUNT; i++) {
-        ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, ct->images[i].view, VK_IMAGE_LAYOUT_GENERAL};
-        w[i] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                      .dstSet = c->sets[1], .dstBinding = i,
-                                      .descriptorCount = 1,
-                                      .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-                                      .pImageInfo = &ii[i]};
-    }
-    vkUpdateDescriptorSets(c->vk->device, TND_CT_COUNT, w, 0, NULL);
-}
-
 static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32_t slot,
                      uint32_t iteration)
 {
@@ -396,7 +374,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
 }
 
 /* a 1/3-resolution pass (one thread per 3x3 stratum) */
-static void dispatch_grad(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32_t iteration)
+static void dispatch_third(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32_t iteration)
 {
     uint32_t pc[2] = {c->frame & 1u, iteration};
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
@@ -411,7 +389,7 @@ static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const d
 {
     tnd_result res = TND_OK;
     TND_TRY(check_contract(c, ct));
-    write_contract_set(c, ct);
+    tnd_contract_write_set(c->vk, c->sets[1], ct);
     fill_params(c, f, false);
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(c->vk, &cmd));
@@ -419,7 +397,7 @@ static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const d
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
     int s_s = tnd_timer_begin(cmd, &c->select_timer, "denoise.grad_select");
-    dispatch_grad(c, cmd, c->grad_select, 0);
+    dispatch_third(c, cmd, c->grad_select, 0);
     tnd_timer_end(cmd, &c->select_timer, s_s);
     if (host) {
         vkCmdCopyBuffer(cmd, c->samples.buffer, c->samples_host.buffer, 1,
@@ -485,7 +463,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
 {
     tnd_result res = TND_OK;
     TND_TRY(check_contract(c, ct));
-    write_contract_set(c, ct);
+    tnd_contract_write_set(c->vk, c->sets[1], ct);
     const dn_desc *d = &c->desc;
     bool gradients = d->mode == DN_MODE_ASVGF && c->selected_frame == c->frame + 1 &&
                      c->have_history && !f->reset;
@@ -500,9 +478,9 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
-        dispatch_grad(c, cmd, c->grad_image, 0);
+        dispatch_third(c, cmd, c->grad_image, 0);
         for (uint32_t i = 0; i < 7; i++) /* 7 iterations: the result lands in slot 1 */
-            dispatch_grad(c, cmd, c->grad_atrous, i);
+            dispatch_third(c, cmd, c->grad_atrous, i);
         tnd_timer_end(cmd, &c->timer, s_g);
     }
     if (d->mode != DN_MODE_OFF) {
@@ -511,7 +489,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         tnd_timer_end(cmd, &c->timer, s_t);
         s_l = tnd_timer_begin(cmd, &c->timer, "denoise.lf");
         for (uint32_t k = 0; k < d->iters_lf + 2; k++) /* downsample, deflicker, a-trous */
-            dispatch_grad(c, cmd, c->lf, k);
+            dispatch_third(c, cmd, c->lf, k);
         tnd_timer_end(cmd, &c->timer, s_l);
         s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
         for (uint32_t i = 0; i < iters; i++)

@@ -32,13 +32,7 @@ static tnd_result create_layouts(fvk_context *c)
                                            .bindingCount = SCENE_BINDINGS,
                                            .pBindings = b0};
     TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci0, NULL, &c->set_layout[0]));
-    VkDescriptorSetLayoutBinding b1[TND_CT_COUNT];
-    for (uint32_t i = 0; i < TND_CT_COUNT; i++)
-        b1[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, rt, NULL};
-    VkDescriptorSetLayoutCreateInfo ci1 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-                                           .bindingCount = TND_CT_COUNT,
-                                           .pBindings = b1};
-    TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci1, NULL, &c->set_layout[1]));
+    TND_TRY(tnd_contract_set_layout(vk, rt, &c->set_layout[1]));
     VkPushConstantRange pcr = {rt, 0, 4};
     VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
                                       .setLayoutCount = 2,
@@ -175,23 +169,6 @@ static void write_scene_set(fvk_context *c)
     free(ii);
 }
 
-static void write_contract_set(fvk_context *c)
-{
-    VkDescriptorImageInfo ii[TND_CT_COUNT];
-    VkWriteDescriptorSet w[TND_CT_COUNT];
-    for (uint32_t i = 0; i < TND_CT_COUNT; i++) {
-        ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->contract.images[i].view,
-                                        VK_IMAGE_LAYOUT_GENERAL};
-        w[i] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                      .dstSet = c->sets[1],
-                                      .dstBinding = i,
-                                      .descriptorCount = 1,
-                                      .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-                                      .pImageInfo = &ii[i]};
-    }
-    vkUpdateDescriptorSets(c->vk->device, TND_CT_COUNT, w, 0, NULL);
-}
-
 void fvk_destroy(fvk_context *c)
 {
     if (!c)
@@ -282,7 +259,7 @@ tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_s
                                  &c->accum));
         c->width = width;
         c->height = height;
-        write_contract_set(c);
+        tnd_contract_write_set(c->vk, c->sets[1], &c->contract);
     }
     TND_TRY(fvk_scene_frame(c, cur, prev, first));
     tnd_gpu_frame f;
@@ -455,10 +432,8 @@ tnd_result fvk_shade_gradient_slots(fvk_context *c, const fvk_params *p, VkBuffe
 {
     if (slots == 0 || slots_buffer == VK_NULL_HANDLE)
         return TND_OK;
-    bind_gradient_buffer(c, slots_buffer);
-    tnd_result res = launch_gradients(c, p, slots, t);
-    bind_gradient_buffer(c, c->gradients.buffer);
-    return res;
+    bind_gradient_buffer(c, slots_buffer); /* each launch binds its own list */
+    return launch_gradients(c, p, slots, t);
 }
 
 tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, double *rel_error,

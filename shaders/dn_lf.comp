@@ -23,11 +23,12 @@
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
 
-bool lf_valid(ivec2 s)
+bool in_grid(ivec2 s)
 {
     ivec2 gs = grad_size();
-    return s.x >= 0 && s.y >= 0 && s.x < gs.x && s.y < gs.y && imageLoad(lf_geo[0], s).w != 0.0;
+    return s.x >= 0 && s.y >= 0 && s.x < gs.x && s.y < gs.y;
 }
+bool lf_valid(ivec2 s) { return in_grid(s) && imageLoad(lf_geo[0], s).w != 0.0; }
 
 void downsample(ivec2 s)
 {
@@ -133,10 +134,13 @@ void main()
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
             ivec2 q = s + ivec2(x, y) * step;
-            if (!lf_valid(q))
+            if (!in_grid(q))
+                continue;
+            vec4 q0 = imageLoad(lf_geo[0], q);
+            if (q0.w == 0.0)
                 continue;
             float h = kw[abs(x) + abs(y) == 0 ? 2 : (abs(x) + abs(y) == 1 ? 1 : 0)];
-            float plane = abs(dot(n, imageLoad(lf_geo[0], q).xyz - pos));
+            float plane = abs(dot(n, q0.xyz - pos));
             float nn = max(dot(n, imageLoad(lf_geo[1], q).xyz), 0.0);
             float w = h * exp(-plane / (P.weights.x * footprint)) * pow(nn, P.weights.w);
             vec4 q_sh = imageLoad(at_lf_sh[src], q);

@@ -70,15 +70,18 @@ void main()
     float nb_luma = 0.0;
     vec2 motion = vec2(0.0);
     float longest = -1.0;
-    vec3 centre = fetch_in(p);
+    vec3 centre = vec3(0.0);
     for (int j = -1; j <= 1; j++)
         for (int i = -1; i <= 1; i++) {
             ivec2 q = p + ivec2(i, j);
-            vec3 y = rgb_to_ycocg(fetch_in(q));
+            vec3 c = fetch_in(q);
+            vec3 y = rgb_to_ycocg(c);
             m1 += y;
             m2 += y * y;
             if (i != 0 || j != 0)
                 nb_luma += y.x;
+            else
+                centre = c;
             if (inside(q)) {
                 vec2 mv = imageLoad(img_motion, q).xy;
                 if (!(tnd_nonfinite(mv.x) || tnd_nonfinite(mv.y)) && dot(mv, mv) > longest) {

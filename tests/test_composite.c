@@ -22,6 +22,42 @@ static tnd_result cornell_frame(femb_context *fe, const tnd_scene_state *st, uin
     return res;
 }
 
+/* cornell through the Embree front-end, a contract for the motion vectors and an HDR input */
+typedef struct rig {
+    tnd_scene *s;
+    femb_context *fe;
+    tnd_scene_state st;
+    tnd_contract_gpu ct;
+    tnd_image in;
+} rig;
+
+static tnd_result rig_open(tnd_vk *vk, rig *r)
+{
+    memset(r, 0, sizeof *r);
+    tnd_result res = tnd_scene_load(TND_SOURCE_DIR "/data/scenes/cornell.gltf", &r->s);
+    if (res == TND_OK)
+        res = femb_create(r->s, &(femb_desc){.threads = 2}, &r->fe);
+    if (res == TND_OK)
+        res = tnd_scene_evaluate(r->s, 0.0, 0, (float)W / H, &r->st);
+    if (res == TND_OK)
+        res = tnd_contract_gpu_create(vk, W, H, TND_PRECISION_F32, &r->ct);
+    if (res == TND_OK)
+        res = tnd_image_create(vk, &(tnd_image_desc){.width = W, .height = H,
+                                                     .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                     .name = "test.hdr"},
+                               &r->in);
+    return res;
+}
+
+static void rig_close(tnd_vk *vk, rig *r)
+{
+    tnd_image_destroy(vk, &r->in);
+    tnd_contract_gpu_destroy(vk, &r->ct);
+    tnd_scene_state_free(&r->st);
+    femb_destroy(r->fe);
+    tnd_scene_destroy(r->s);
+}
+
 static tnd_result upload_rgb(tnd_vk *vk, const tnd_image *img, const float *rgb, float scale)
 {
     static float px[N * 4];
@@ -45,41 +81,30 @@ static void test_tonemap_exposure(void)
 {
     tnd_vk *vk = gpu_begin();
     REQUIRE(vk, "no context");
-    tnd_scene *s = NULL;
-    femb_context *fe = NULL;
-    tnd_scene_state st = {0};
+    rig r;
     tnd_frame f = {0};
-    tnd_contract_gpu ct = {0};
-    tnd_image in = {0};
     cmp_context *c = NULL;
     static float rgb[N * 3];
     static uint8_t d1[N * 3], d1000[N * 3];
-    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/cornell.gltf", &s));
-    REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 2}, &fe));
-    REQUIRE_OK(tnd_scene_evaluate(s, 0.0, 0, (float)W / H, &st));
-    REQUIRE_OK(cornell_frame(fe, &st, 0, &f));
+    REQUIRE_OK(rig_open(vk, &r));
+    REQUIRE_OK(cornell_frame(r.fe, &r.st, 0, &f));
     tnd_frame_composite(&f, rgb);
-    REQUIRE_OK(tnd_contract_gpu_create(vk, W, H, TND_PRECISION_F32, &ct));
-    REQUIRE_OK(tnd_contract_upload(vk, &ct, &f));
-    REQUIRE_OK(tnd_image_create(vk, &(tnd_image_desc){.width = W, .height = H,
-                                                      .format = VK_FORMAT_R32G32B32A32_SFLOAT,
-                                                      .name = "test.hdr"},
-                                &in));
+    REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f));
     for (int curve = 0; curve < 3; curve++) {
         REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){.curve = (cmp_curve)curve},
                               &c));
         /* adapted to the plain scene, then the light x1000: adaptation (3 stops per second up)
          * takes a few seconds of frames to catch up */
-        REQUIRE_OK(upload_rgb(vk, &in, rgb, 1.0f));
+        REQUIRE_OK(upload_rgb(vk, &r.in, rgb, 1.0f));
         for (int i = 0; i < 3; i++)
-            REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.dt = 1.0f / 30, .reset = i == 0}, NULL));
+            REQUIRE_OK(cmp_run(c, &r.in, &r.ct, &(cmp_frame){.dt = 1.0f / 30, .reset = i == 0}, NULL));
         REQUIRE_OK(cmp_download_display(c, d1));
-        REQUIRE_OK(upload_rgb(vk, &in, rgb, 1000.0f));
-        REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.dt = 1.0f / 30}, NULL));
+        REQUIRE_OK(upload_rgb(vk, &r.in, rgb, 1000.0f));
+        REQUIRE_OK(cmp_run(c, &r.in, &r.ct, &(cmp_frame){.dt = 1.0f / 30}, NULL));
         REQUIRE_OK(cmp_download_display(c, d1000));
         double first = mean_display(d1000);
         for (int i = 0; i < 300; i++)
-            REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.dt = 1.0f / 30}, NULL));
+            REQUIRE_OK(cmp_run(c, &r.in, &r.ct, &(cmp_frame){.dt = 1.0f / 30}, NULL));
         REQUIRE_OK(cmp_download_display(c, d1000));
         double m1 = mean_display(d1), m1000 = mean_display(d1000);
         printf("     %s: mean display value %.4f; light x1000: %.4f on the first frame, %.4f "
@@ -98,8 +123,8 @@ static void test_tonemap_exposure(void)
     static float special[N * 3];
     for (int q = 0; q < N * 3; q++)
         special[q] = 0.0f;
-    REQUIRE_OK(upload_rgb(vk, &in, special, 1.0f));
-    REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.reset = true}, NULL));
+    REQUIRE_OK(upload_rgb(vk, &r.in, special, 1.0f));
+    REQUIRE_OK(cmp_run(c, &r.in, &r.ct, &(cmp_frame){.reset = true}, NULL));
     REQUIRE_OK(cmp_download_display(c, d1));
     int nonzero = 0;
     for (int q = 0; q < N * 3; q++)
@@ -113,9 +138,9 @@ static void test_tonemap_exposure(void)
     REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){.taa = true}, &c));
     for (int q = 0; q < N * 3; q++)
         special[q] = q % 7 == 0 ? NAN : q % 11 == 0 ? INFINITY : 1e30f;
-    REQUIRE_OK(upload_rgb(vk, &in, special, 1.0f));
+    REQUIRE_OK(upload_rgb(vk, &r.in, special, 1.0f));
     for (int i = 0; i < 3; i++)
-        REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.reset = i == 0}, NULL));
+        REQUIRE_OK(cmp_run(c, &r.in, &r.ct, &(cmp_frame){.reset = i == 0}, NULL));
     REQUIRE_OK(cmp_download_display(c, d1));
     static float hdr[N * 3];
     REQUIRE_OK(cmp_download_hdr(c, hdr));
@@ -128,12 +153,8 @@ static void test_tonemap_exposure(void)
     printf("     black -> all 0; NaN / Inf / 1e30 -> finite, exposure %g\n", e);
 cleanup:
     cmp_destroy(c);
-    tnd_image_destroy(vk, &in);
-    tnd_contract_gpu_destroy(vk, &ct);
     tnd_frame_destroy(&f);
-    tnd_scene_state_free(&st);
-    femb_destroy(fe);
-    tnd_scene_destroy(s);
+    rig_close(vk, &r);
     gpu_end();
 }
 
@@ -143,27 +164,16 @@ static void test_taa_converges_at_edges(void)
 {
     tnd_vk *vk = gpu_begin();
     REQUIRE(vk, "no context");
-    tnd_scene *s = NULL;
-    femb_context *fe = NULL;
-    tnd_scene_state st = {0};
+    rig r;
     tnd_frame f = {0};
-    tnd_contract_gpu ct = {0};
-    tnd_image in = {0};
     cmp_context *c = NULL;
     static float ref[N * 3], one[N * 3], taa[N * 3], alb[N * 3];
-    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/cornell.gltf", &s));
-    REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 2}, &fe));
-    REQUIRE_OK(tnd_scene_evaluate(s, 0.0, 0, (float)W / H, &st));
-    REQUIRE_OK(tnd_contract_gpu_create(vk, W, H, TND_PRECISION_F32, &ct));
-    REQUIRE_OK(tnd_image_create(vk, &(tnd_image_desc){.width = W, .height = H,
-                                                      .format = VK_FORMAT_R32G32B32A32_SFLOAT,
-                                                      .name = "test.hdr"},
-                                &in));
+    REQUIRE_OK(rig_open(vk, &r));
     REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){.taa = true}, &c));
     const int frames = 256, taa_frames = 48;
     for (int i = 0; i < frames; i++) {
         tnd_frame_destroy(&f);
-        REQUIRE_OK(cornell_frame(fe, &st, (uint32_t)i, &f));
+        REQUIRE_OK(cornell_frame(r.fe, &r.st, (uint32_t)i, &f));
         const float *a = tnd_frame_f(&f, TND_CT_ALBEDO);
         for (int q = 0; q < N * 3; q++) {
             alb[q] = a[q];
@@ -172,9 +182,9 @@ static void test_taa_converges_at_edges(void)
         if (i == taa_frames - 1)
             memcpy(one, alb, sizeof one);
         if (i < taa_frames) {
-            REQUIRE_OK(tnd_contract_upload(vk, &ct, &f));
-            REQUIRE_OK(upload_rgb(vk, &in, alb, 1.0f));
-            REQUIRE_OK(cmp_run(c, &in, &ct, &(cmp_frame){.reset = i == 0}, NULL));
+            REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f));
+            REQUIRE_OK(upload_rgb(vk, &r.in, alb, 1.0f));
+            REQUIRE_OK(cmp_run(c, &r.in, &r.ct, &(cmp_frame){.reset = i == 0}, NULL));
         }
     }
     REQUIRE_OK(cmp_download_hdr(c, taa));
@@ -202,12 +212,8 @@ static void test_taa_converges_at_edges(void)
           e_one / edges);
 cleanup:
     cmp_destroy(c);
-    tnd_image_destroy(vk, &in);
-    tnd_contract_gpu_destroy(vk, &ct);
     tnd_frame_destroy(&f);
-    tnd_scene_state_free(&st);
-    femb_destroy(fe);
-    tnd_scene_destroy(s);
+    rig_close(vk, &r);
     gpu_end();
 }
 

@@ -79,6 +79,25 @@ static tnd_result rig_frame(tnd_vk *vk, rig *r, uint32_t i, float *composite, dn
     return res;
 }
 
+/* Overwrite one texel of contract entries ids[0..n) with the 16 bytes in `src` (NaN, a
+ * firefly): what a front-end bug or a rare path would write. */
+static tnd_result inject_texel(tnd_vk *vk, const tnd_contract_gpu *ct, const tnd_ct *ids, int n,
+                               int32_t x, int32_t y, const tnd_buffer *src)
+{
+    VkCommandBuffer cmd;
+    tnd_result res = tnd_cmd_begin(vk, &cmd);
+    if (res != TND_OK)
+        return res;
+    VkBufferImageCopy rg = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                            .imageOffset = {x, y, 0},
+                            .imageExtent = {1, 1, 1}};
+    for (int i = 0; i < n; i++)
+        vkCmdCopyBufferToImage(cmd, src->buffer, ct->images[ids[i]].image, VK_IMAGE_LAYOUT_GENERAL,
+                               1, &rg);
+    tnd_cmd_barrier(cmd);
+    return tnd_cmd_submit_wait(vk, cmd);
+}
+
 /* relMSE (epsilon 0.01) over the interior pixels */
 static double relmse(const float *x, const float *ref)
 {
@@ -190,19 +209,8 @@ static void test_nan_does_not_spread(void)
         REQUIRE_OK(rig_frame(vk, &r, i, NULL, &df));
         REQUIRE_OK(dn_run(b, &r.ct, &df, NULL));
         if (i == 5) { /* poison hf, spec and lf of pixel (32, 18) */
-            VkCommandBuffer cmd;
-            REQUIRE_OK(tnd_cmd_begin(vk, &cmd));
-            VkBufferImageCopy rg = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-                                    .imageOffset = {32, 18, 0},
-                                    .imageExtent = {1, 1, 1}};
-            vkCmdCopyBufferToImage(cmd, nanbuf.buffer, r.ct.images[TND_CT_HF].image,
-                                   VK_IMAGE_LAYOUT_GENERAL, 1, &rg);
-            vkCmdCopyBufferToImage(cmd, nanbuf.buffer, r.ct.images[TND_CT_SPEC].image,
-                                   VK_IMAGE_LAYOUT_GENERAL, 1, &rg);
-            vkCmdCopyBufferToImage(cmd, nanbuf.buffer, r.ct.images[TND_CT_LF_SH].image,
-                                   VK_IMAGE_LAYOUT_GENERAL, 1, &rg);
-            tnd_cmd_barrier(cmd);
-            REQUIRE_OK(tnd_cmd_submit_wait(vk, cmd));
+            const tnd_ct ids[3] = {TND_CT_HF, TND_CT_SPEC, TND_CT_LF_SH};
+            REQUIRE_OK(inject_texel(vk, &r.ct, ids, 3, 32, 18, &nanbuf));
         }
         REQUIRE_OK(dn_run(a, &r.ct, &df, NULL));
         REQUIRE_OK(dn_download(a, oa));
@@ -272,16 +280,9 @@ static void test_lf_firefly_is_deflickered(void)
     for (uint32_t i = 0; i < 10; i++) {
         REQUIRE_OK(rig_frame(vk, &r, i, NULL, &df));
         REQUIRE_OK(dn_run(b, &r.ct, &df, NULL));
-        VkCommandBuffer cmd;
-        REQUIRE_OK(tnd_cmd_begin(vk, &cmd));
-        VkBufferImageCopy rg = {
-            .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-            .imageOffset = {8 + (int32_t)(i * 13) % 48, 6 + (int32_t)(i * 7) % 24, 0},
-            .imageExtent = {1, 1, 1}};
-        vkCmdCopyBufferToImage(cmd, fly.buffer, r.ct.images[TND_CT_LF_SH].image,
-                               VK_IMAGE_LAYOUT_GENERAL, 1, &rg);
-        tnd_cmd_barrier(cmd);
-        REQUIRE_OK(tnd_cmd_submit_wait(vk, cmd));
+        const tnd_ct lf = TND_CT_LF_SH;
+        REQUIRE_OK(inject_texel(vk, &r.ct, &lf, 1, 8 + (int32_t)(i * 13) % 48,
+                                6 + (int32_t)(i * 7) % 24, &fly));
         REQUIRE_OK(dn_run(a, &r.ct, &df, NULL));
         REQUIRE_OK(dn_run(c, &r.ct, &df, NULL));
     }
