@@ -93,7 +93,8 @@ void main()
     m1 /= 9.0;
     vec3 sigma = sqrt(max(m2 / 9.0 - m1 * m1, vec3(0.0)));
     /* anti-sparkle: the centre's luma at most ratio x the mean of its 8 neighbours */
-    float cap = P.taa.z * nb_luma / 8.0, lc = luma(centre);
+    /* both in YCoCg's Y (0.25, 0.5, 0.25): a Rec.709 luma here would compare unlike things */
+    float cap = P.taa.z * nb_luma / 8.0, lc = rgb_to_ycocg(centre).x;
     if (lc > cap && lc > 0.0)
         centre *= cap / lc;
     vec3 result = centre;
