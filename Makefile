@@ -29,12 +29,12 @@ build-asan: deps
 
 demo: build
 	$(BUILD)/tandem info
-	$(BUILD)/tandem render --scene data/scenes/cornell.gltf --frames 30 --size 320x180 \
+	$(BUILD)/tandem render --frontend vk --scene data/scenes/cornell.gltf --frames 30 --size 640x360 \
 		--capture --out $(DEMO_OUT)
 	@echo
 	@echo "demo: pictures in $(DEMO_OUT)/: frame_NNNN.png (display), frame_NNNN.exr (linear HDR after TAA),"
 	@echo "demo: capture/frame_NNNN.exr (the whole contract; try: exrheader $(DEMO_OUT)/capture/frame_0000.exr)"
-	@echo "demo: (Embree front-end, A-SVGF back-end, TAA, auto exposure and ACES tone mapping on Vulkan; run.json and timings.json beside them)"
+	@echo "demo: (Vulkan ray-tracing front-end (lavapipe without a GPU), A-SVGF back-end, TAA, auto exposure and ACES tone mapping on Vulkan; run.json and timings.json beside them)"
 
 test-release: build
 	scripts/run-tests.sh $(BUILD)

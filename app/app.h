@@ -71,6 +71,9 @@ tnd_result app_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, doubl
                          double *compute_gbs);
 /* 8-bit sRGB RGB as PNG (written to PATH.tmp, then renamed: no partial file). */
 tnd_result app_write_png(const char *path, const uint8_t *rgb8, uint32_t w, uint32_t h);
+bool app_have_program(const char *prog);
+/* DIR/video.mp4 from DIR/frame_NNNN.png, frames first .. first+count-1 (needs ffmpeg). */
+tnd_result app_write_video(const char *dir, unsigned first, unsigned count, double fps);
 tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uint32_t h);
 /* A preview PNG: exposure from the log-average luminance (key 0.18), Reinhard, sRGB. The
  * composite stage's tone mapping replaces it. */

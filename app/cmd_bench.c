@@ -29,7 +29,7 @@ static const app_cmd bench_cmd = {
 
 static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsigned frame,
                            const unsigned size[2], unsigned bounces, unsigned repeats,
-                           const char *rt_api, femb_bench *b, double *t_build)
+                           const char *rt_api, bool full, femb_bench *b, double *t_build)
 {
     tnd_result res = TND_OK;
     tnd_vk vk = {0};
@@ -43,7 +43,7 @@ static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsign
     double t0 = tnd_now();
     fvk_rt_api api;
     TND_TRY(fvk_rt_api_parse(rt_api, &api));
-    TND_TRY(fvk_create(&vk, s, &(fvk_desc){.rt_api = api}, &gv));
+    TND_TRY(fvk_create(&vk, s, &(fvk_desc){.rt_api = api, .full_pipeline = full}, &gv));
     TND_TRY(fvk_set_frame(gv, st, st, frame, size[0], size[1]));
     *t_build = tnd_now() - t0;
     for (int w = 0; w < 3; w++)
@@ -77,7 +77,8 @@ static const char *const bp_name[BP_COUNT] = {
  * (and its clocks up) as in an application. */
 static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, unsigned frame,
                                  const unsigned size[2], unsigned bounces, unsigned repeats,
-                                 const char *rt_api, dn_mode mode, tnd_precision prec, bool json)
+                                 const char *rt_api, bool full, dn_mode mode, tnd_precision prec,
+                                 bool json)
 {
     tnd_result res = TND_OK;
     tnd_vk vk = {0};
@@ -94,7 +95,8 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
     fvk_rt_api api;
     TND_TRY(fvk_rt_api_parse(rt_api, &api));
-    TND_TRY(fvk_create(&vk, s, &(fvk_desc){.precision = prec, .rt_api = api}, &gv));
+    TND_TRY(fvk_create(&vk, s, &(fvk_desc){.precision = prec, .rt_api = api, .full_pipeline = full},
+                       &gv));
     TND_TRY(dn_create(&vk, size[0], size[1], &(dn_desc){.mode = mode, .precision = prec}, &dn));
     float aspect = (float)size[0] / size[1];
     fvk_params fp = {.bounces = bounces};
@@ -149,6 +151,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         cJSON_AddStringToObject(o, "denoiser", dn_mode_name(mode));
         cJSON_AddStringToObject(o, "precision", tnd_precision_name(prec));
         cJSON_AddStringToObject(o, "scene", scene_path);
+        cJSON_AddStringToObject(o, "frontend_models", fvk_variant(gv));
         cJSON_AddStringToObject(o, "device", vk.info.name);
         cJSON_AddNumberToObject(o, "width", size[0]);
         cJSON_AddNumberToObject(o, "height", size[1]);
@@ -181,6 +184,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         printf("  device %s; copy bandwidth (%.0f MiB, bytes read + written): compute copy %.0f "
                "GB/s, vkCmdCopyBuffer %.0f GB/s\n",
                vk.info.name, copy_mib, compute_bw, transfer_bw);
+        printf("  front-end shaders model: %s\n", fvk_variant(gv));
         printf("  %-18s %9s %10s %9s %8s\n", "pass", "GPU ms", "MB moved", "floor ms",
                "of floor");
         for (int k = 0; k < BP_COUNT; k++) {
@@ -217,12 +221,14 @@ int cmd_bench(int argc, char **argv)
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
     unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
     bool json = false;
-    const char *rt_api = "auto", *denoiser = NULL, *precision = "float32";
+    const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
     const app_opt opts[] = {
         {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
          "with --frontend vk: time the whole frame with this back-end (asvgf, svgf or off)"},
         {"precision", APP_OPT_STRING, &precision, "P", "contract precision: float32 or packed"},
         {"rt-api", APP_OPT_STRING, &rt_api, "API", "vk: pipeline, query or auto"},
+        {"pipeline", APP_OPT_STRING, &pipeline, "scene|full",
+         "vk: shaders model only what the scene requires (default) or everything"},
         {"scene", APP_OPT_STRING, &scene_path, "PATH", "glTF scene or stress:N (default: cornell)"},
         {"frontend", APP_OPT_STRING, &frontend, "NAME", "embree or vk (rays counted with Embree)"},
         {"size", APP_OPT_SIZE, size, "WxH", "image size (default 256x256)"},
@@ -243,6 +249,11 @@ int cmd_bench(int argc, char **argv)
         fprintf(stderr, "tandem bench: --frontend '%s': expected embree or vk\n", frontend);
         return APP_EXIT_USAGE;
     }
+    if (strcmp(pipeline, "scene") != 0 && strcmp(pipeline, "full") != 0) {
+        fprintf(stderr, "tandem bench: --pipeline %s: expected scene or full\n", pipeline);
+        return APP_EXIT_USAGE;
+    }
+    bool full = strcmp(pipeline, "full") == 0;
     tnd_result res = TND_OK;
     if (denoiser) {
         dn_mode mode;
@@ -260,8 +271,8 @@ int cmd_bench(int argc, char **argv)
         tnd_scene *sc = NULL;
         res = tnd_scene_load(scene_path, &sc);
         if (res == TND_OK)
-            res = bench_pipeline(sc, scene_path, frame, size, bounces, repeats, rt_api, mode,
-                                 prec, json);
+            res = bench_pipeline(sc, scene_path, frame, size, bounces, repeats, rt_api, full,
+                                 mode, prec, json);
         tnd_scene_destroy(sc);
         if (res != TND_OK) {
             app_report("bench", res);
@@ -287,7 +298,7 @@ int cmd_bench(int argc, char **argv)
     if (use_vk) {
         /* the GPU traces exactly the rays the Embree front-end counted (same random numbers,
          * same decisions): time its passes with timestamps, medians after a warm-up */
-        TND_TRY(bench_vk(s, &st, frame, size, bounces, repeats, rt_api, &b, &t_build));
+        TND_TRY(bench_vk(s, &st, frame, size, bounces, repeats, rt_api, full, &b, &t_build));
     }
     double frame_ms = b.primary_ms + b.shade_ms;
     double fe_rate = b.rays / (frame_ms * 1e3);

@@ -19,13 +19,13 @@
 #endif
 
 typedef struct render_opts {
-    const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump;
+    const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump, *pipeline;
     const char *taa, *tonemap, *exposure;
     double bloom;
     unsigned frames, start, threads, bounces, spp, camera;
     unsigned size[2];
     double fps;
-    bool capture;
+    bool capture, video;
 } render_opts;
 
 static const app_cmd render_cmd = {
@@ -46,6 +46,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                        .frontend = "embree",
                        .precision = "float32",
                        .rt_api = "auto",
+                       .pipeline = "scene",
                        .denoiser = "asvgf",
                        .taa = "on",
                        .tonemap = "aces",
@@ -76,11 +77,15 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
          "asvgf (default: with temporal gradients), svgf or off (noisy composite)"},
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API",
          "vk: pipeline, query, or auto (query where the device has it)"},
+        {"pipeline", APP_OPT_STRING, &o->pipeline, "scene|full",
+         "vk: compile only what the scene requires (default), or every light type, textures, "
+         "normal maps and sky (same images; for comparison)"},
         {"taa", APP_OPT_STRING, &o->taa, "on|off|W", "temporal anti-aliasing (on: new-frame weight 0.1)"},
         {"tonemap", APP_OPT_STRING, &o->tonemap, "CURVE", "aces (default), agx, reinhard or linear"},
         {"exposure", APP_OPT_STRING, &o->exposure, "auto|EV100",
          "auto exposure from the luminance histogram (default), or a fixed EV100"},
         {"bloom", APP_OPT_FLOAT, &o->bloom, "I", "bloom intensity (default 0: off)"},
+        {"video", APP_OPT_FLAG, &o->video, NULL, "also write DIR/video.mp4 from the PNGs (needs ffmpeg)"},
         {0},
     };
     const app_opt ref_opts_tbl[] = {
@@ -107,9 +112,18 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                 cmd->name);
         return APP_EXIT_USAGE;
     }
+    if (strcmp(o->pipeline, "scene") != 0 && strcmp(o->pipeline, "full") != 0) {
+        fprintf(stderr, "tandem %s: --pipeline %s: expected scene or full\n", cmd->name, o->pipeline);
+        return APP_EXIT_USAGE;
+    }
     if (strcmp(o->frontend, "embree") != 0 && strcmp(o->frontend, "vk") != 0) {
         fprintf(stderr, "tandem %s: --frontend '%s': expected embree or vk\n", cmd->name,
                 o->frontend);
+        return APP_EXIT_USAGE;
+    }
+    if (o->video && !app_have_program("ffmpeg")) {
+        fprintf(stderr, "tandem %s: --video needs ffmpeg on PATH (Debian package ffmpeg)\n",
+                cmd->name);
         return APP_EXIT_USAGE;
     }
     if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0)) {
@@ -167,7 +181,8 @@ static tnd_result post_desc(const render_opts *o, cmp_desc *d)
 /* DIR/run.json: what reproduces the run (scene, front-end, device, every parameter) and which
  * post passes ran, and why the others did not. */
 static tnd_result write_run_json(const render_opts *o, const char *device, const char *dn_mode_s,
-                                 const cmp_desc *pd, const char *passes)
+                                 const cmp_desc *pd, const char *passes, const tnd_scene *scene,
+                                 const fvk_context *gv)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddNumberToObject(j, "contract_version", TND_CONTRACT_VERSION);
@@ -175,6 +190,14 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     cJSON_AddStringToObject(j, "frontend", o->frontend);
     cJSON_AddStringToObject(j, "device", device);
     cJSON_AddStringToObject(j, "rt_api", o->rt_api);
+    cJSON_AddStringToObject(j, "pipeline", o->pipeline);
+    cJSON_AddBoolToObject(j, "video", o->video);
+    cJSON *feat = cJSON_AddArrayToObject(j, "scene_features");
+    for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
+        if (scene->features & (1u << b))
+            cJSON_AddItemToArray(feat, cJSON_CreateString(tnd_feature_name(b)));
+    /* what the front-end's shaders model (Embree's CPU code has no variants) */
+    cJSON_AddStringToObject(j, "frontend_models", gv ? fvk_variant(gv) : "everything (CPU code, no variants)");
     cJSON_AddNumberToObject(j, "width", o->size[0]);
     cJSON_AddNumberToObject(j, "height", o->size[1]);
     cJSON_AddNumberToObject(j, "frames", o->frames);
@@ -205,7 +228,12 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
         cJSON_AddStringToObject(post, "passes", passes);
         cJSON *why = cJSON_AddObjectToObject(post, "not_run");
         cJSON_AddStringToObject(why, "interleave",
-                                "no checkerboard reflect/refract split exists (specular-paths issue)");
+                                scene->features & TND_FEATURE(SPLIT)
+                                    ? "the checkerboard reflect/refract split is not built yet "
+                                      "(specular-paths issue)"
+                                    : "the scene has no surface that both reflects and refracts");
+        if (!(scene->features & (TND_FEATURE(MIRROR) | TND_FEATURE(GLASS) | TND_FEATURE(THIN_GLASS))))
+            cJSON_AddStringToObject(why, "reflect_refract", "the scene has no mirror or glass");
         if (!pd->taa)
             cJSON_AddStringToObject(why, "taa", "--taa off");
         if (!(pd->bloom > 0))
@@ -296,7 +324,10 @@ static int run(bool reference, int argc, char **argv)
     if (use_vk) {
         fvk_rt_api api;
         TND_TRY(fvk_rt_api_parse(o.rt_api, &api));
-        TND_TRY(fvk_create(&vk, scene, &(fvk_desc){.precision = prec, .rt_api = api}, &gv));
+        TND_TRY(fvk_create(&vk, scene,
+                           &(fvk_desc){.precision = prec, .rt_api = api,
+                                       .full_pipeline = strcmp(o.pipeline, "full") == 0},
+                           &gv));
     } else {
         TND_TRY(femb_create(scene, &(femb_desc){.threads = o.threads}, &fe));
     }
@@ -464,7 +495,9 @@ static int run(bool reference, int argc, char **argv)
         TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
                                use_dn ? dn_mode_name(dmode) : "off (CPU composite)",
                                post ? cmp_settings(post) : &pd,
-                               post ? cmp_passes(post) : NULL));
+                               post ? cmp_passes(post) : NULL, scene, gv));
+    if (o.video)
+        TND_TRY(app_write_video(o.out, o.start, o.frames, o.fps));
     if ((use_vk || use_dn) && vk.validation && tnd_vk_validation_errors(&vk)) {
         res = tnd_fail(TND_ERR_VULKAN, "%u Vulkan validation error(s)", tnd_vk_validation_errors(&vk));
         goto fail;

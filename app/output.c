@@ -1,10 +1,15 @@
-/* app/output.c: the image files every command writes: linear HDR EXR (RGB float) and a preview
- * PNG. */
+/* app/output.c: the image files every command writes: linear HDR EXR (RGB float), a preview
+ * PNG, and the MP4 of a run's PNGs (ffmpeg). */
 #include "app/app.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stb/stb_image_write.h>
+#include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 /* Preview PNG: exposure from the frame's log-average luminance (key 0.18), Reinhard, sRGB. Real
  * tone mapping is the composite stage's. */
@@ -51,3 +56,60 @@ tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uin
     return tnd_exr_write(path, w, h, ch, 3, NULL, 0, TND_EXR_ZIP);
 }
 
+
+/* Is `prog` an executable on PATH? */
+bool app_have_program(const char *prog)
+{
+    const char *path = getenv("PATH");
+    char buf[4096];
+    while (path && *path) {
+        const char *end = strchr(path, ':');
+        size_t n = end ? (size_t)(end - path) : strlen(path);
+        if (n > 0 && n + strlen(prog) + 2 < sizeof buf) {
+            memcpy(buf, path, n);
+            snprintf(buf + n, sizeof buf - n, "/%s", prog);
+            if (access(buf, X_OK) == 0)
+                return true;
+        }
+        path = end ? end + 1 : NULL;
+    }
+    return false;
+}
+
+/* DIR/video.mp4 from DIR/frame_NNNN.png (first, first+1, ...) with ffmpeg: H.264, yuv420p (what
+ * players expect; odd sizes padded by one black row or column), constant quality CRF 18. Written
+ * under a temporary name and renamed, so a failed encode leaves no file. */
+tnd_result app_write_video(const char *dir, unsigned first, unsigned count, double fps)
+{
+    char pattern[2100], out[2100], tmp[2200], rate[32], start[32], frames[32];
+    snprintf(pattern, sizeof pattern, "%s/frame_%%04d.png", dir);
+    snprintf(out, sizeof out, "%s/video.mp4", dir);
+    snprintf(tmp, sizeof tmp, "%s/video.mp4.tmp", dir);
+    snprintf(rate, sizeof rate, "%.6g", fps);
+    snprintf(start, sizeof start, "%u", first);
+    snprintf(frames, sizeof frames, "%u", count);
+    char *const argv[] = {"ffmpeg", "-nostdin", "-y", "-loglevel", "error", "-framerate", rate,
+                          "-start_number", start, "-i", pattern, "-frames:v", frames,
+                          "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264",
+                          "-pix_fmt", "yuv420p", "-crf", "18", "-f", "mp4", tmp, NULL};
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid < 0)
+        return tnd_fail(TND_ERR_IO, "render: --video: cannot start ffmpeg");
+    if (pid == 0) {
+        execvp("ffmpeg", argv);
+        _exit(127);
+    }
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0)
+        if (errno != EINTR) {
+            status = -1;
+            break;
+        }
+    if (status != 0 || rename(tmp, out) != 0) {
+        remove(tmp);
+        return tnd_fail(TND_ERR_IO, "render: --video: ffmpeg could not encode %s (exit status %d)",
+                        out, WIFEXITED(status) ? WEXITSTATUS(status) : -1);
+    }
+    return TND_OK;
+}

@@ -62,6 +62,8 @@ tnd_result fvk_rt_api_parse(const char *s, fvk_rt_api *api);
 typedef struct fvk_desc {
     tnd_precision precision; /* contract storage the passes write */
     fvk_rt_api rt_api;
+    bool full_pipeline;      /* compile every light type, textures, normal maps and sky in, whatever
+                                the scene holds (default: only what the scene requires) */
 } fvk_desc;
 
 typedef struct fvk_params {
@@ -80,6 +82,10 @@ typedef struct fvk_context fvk_context;
 tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc,
                       fvk_context **ctx);
 void fvk_destroy(fvk_context *ctx);
+/* The shader variant in use: TND_USES_* bits (shaders/scene_gpu.h), and its description
+ * ("area lights, textures" or "everything (--pipeline full)"). */
+uint32_t fvk_uses(const fvk_context *ctx);
+const char *fvk_variant(const fvk_context *ctx);
 
 /* The frame: scene states (current, previous), frame index, size. Refits the TLAS when instances
  * move, uploads the light list and the frame parameters. (Re)creates the contract images when

@@ -34,6 +34,8 @@ struct fvk_context {
     VkPipeline compute[3];    /* primary, shade, reference (FVK_RT_QUERY) */
     tnd_image accum;          /* reference accumulation (rgb sum, luminance^2 sum) */
     fvk_rt_api api;
+    uint32_t uses;            /* TND_USES_*: the specialization of every pass */
+    char variant[160];
     tnd_sbt sbt;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];

@@ -10,6 +10,7 @@
 #include "shaders/brdf.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -87,12 +88,15 @@ static tnd_result create_compute(fvk_context *c)
                                TND_SHADER_pt_reference_rq};
     const char *names[3] = {"frontend_vk.primary_rq", "frontend_vk.shade_rq",
                             "frontend_vk.reference_rq"};
+    const VkSpecializationMapEntry entry = {0, 0, sizeof(uint32_t)};
+    const VkSpecializationInfo spec = {1, &entry, sizeof(uint32_t), &c->uses};
     for (int i = 0; i < 3; i++) {
         size_t bytes;
         const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
         TND_TRY(tnd_compute_pipeline_create(c->vk,
                                             &(tnd_compute_desc){.code = code, .bytes = bytes,
                                                                 .layout = c->layout,
+                                                                .spec = &spec,
                                                                 .name = names[i]},
                                             &c->compute[i]));
     }
@@ -118,13 +122,16 @@ static tnd_result create_pipeline(fvk_context *c)
         stages[i].stage = kinds[i];
     }
     const uint32_t raygen[3] = {0, 1, 2}, miss[2] = {3, 4};
+    const VkSpecializationMapEntry entry = {0, 0, sizeof(uint32_t)};
+    const VkSpecializationInfo spec = {1, &entry, sizeof(uint32_t), &c->uses};
     const tnd_rt_hit_group hit = {.closest_hit = 5, .any_hit = -1};
     return tnd_rt_pipeline_create(c->vk,
                                   &(tnd_rt_desc){.stages = stages, .stage_count = 6,
                                                  .raygen = raygen, .raygen_count = 3,
                                                  .miss = miss, .miss_count = 2, .hit = &hit,
                                                  .hit_count = 1, .max_recursion = 1,
-                                                 .layout = c->layout, .name = "frontend_vk.pt"},
+                                                 .layout = c->layout, .spec = &spec,
+                                                 .name = "frontend_vk.pt"},
                                   &c->pipeline, &c->sbt);
 }
 
@@ -196,6 +203,45 @@ void fvk_destroy(fvk_context *c)
     free(c);
 }
 
+/* The shaders' specialization from the scene's features (or everything when forced). */
+static void choose_variant(fvk_context *c, bool full)
+{
+    static const struct {
+        uint32_t feature, use;
+        const char *name;
+    } map[] = {{TND_FEATURE(LIGHT_AREA), TND_USES_AREA, "area lights"},
+               {TND_FEATURE(LIGHT_POINT), TND_USES_POINT, "point lights"},
+               {TND_FEATURE(LIGHT_SPOT), TND_USES_SPOT, "spot lights"},
+               {TND_FEATURE(LIGHT_DIRECTIONAL), TND_USES_DIRECTIONAL, "directional lights"},
+               {TND_FEATURE(TEXTURES), TND_USES_TEXTURES, "textures"},
+               {TND_FEATURE(NORMAL_MAPS), TND_USES_NORMAL_MAPS, "normal maps"},
+               {TND_FEATURE(SKY), TND_USES_SKY, "sky"}};
+    c->uses = full ? TND_USES_ALL : 0u;
+    c->variant[0] = 0;
+    size_t n = 0;
+    for (size_t i = 0; i < sizeof map / sizeof map[0]; i++) {
+        if (!full && !(c->scene->features & map[i].feature))
+            continue;
+        c->uses |= map[i].use;
+        n += (size_t)snprintf(c->variant + n, sizeof c->variant - n, "%s%s", n ? ", " : "",
+                              map[i].name);
+    }
+    if (full)
+        snprintf(c->variant + n, sizeof c->variant - n, " (--pipeline full)");
+    else if (!n)
+        snprintf(c->variant, sizeof c->variant, "no lights, no textures");
+}
+
+uint32_t fvk_uses(const fvk_context *c)
+{
+    return c->uses;
+}
+
+const char *fvk_variant(const fvk_context *c)
+{
+    return c->variant;
+}
+
 tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, fvk_context **out)
 {
     tnd_result res = TND_OK;
@@ -219,6 +265,7 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
                        vk->info.name);
         goto fail;
     }
+    choose_variant(c, desc && desc->full_pipeline);
     TND_TRY(fvk_scene_upload(c));
     TND_TRY(create_layouts(c));
     if (c->api == FVK_RT_QUERY)

@@ -21,7 +21,7 @@ PKGS=(
     build-essential cmake pkg-config git
     libvulkan-dev glslang-tools vulkan-validationlayers vulkan-tools
     libembree-dev libtbb-dev libopenexr-dev libassimp-dev libcjson-dev libstb-dev
-    openexr openimageio-tools python3
+    openexr openimageio-tools python3 ffmpeg
 )
 
 missing=()

@@ -36,6 +36,10 @@ TND_CONTRACT(TND_CT_DECLARE)
 
 const float PI = 3.14159265358979323846;
 
+/* What this scene needs (TND_USES_*, scene_gpu.h); branches for anything else fold away. */
+layout(constant_id = 0) const uint TND_USES = TND_USES_ALL;
+#define USES(bit) ((TND_USES & (bit)) != 0u)
+
 /* ---- rays ---------------------------------------------------------------------------------- */
 struct hit_info {
     float t;
@@ -227,7 +231,8 @@ surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width
     vec2 t0 = vuv(i0), t1 = vuv(i1), t2 = vuv(i2);
     vec2 tuv = w0 * t0 + u * t1 + v * t2;
     float lod_base = 0.0;
-    bool textured = mat.tex.x >= 0 || mat.tex.y >= 0 || mat.tex.z >= 0 || mat.tex.w >= 0;
+    bool textured = USES(TND_USES_TEXTURES) &&
+                    (mat.tex.x >= 0 || mat.tex.y >= 0 || mat.tex.z >= 0 || mat.tex.w >= 0);
     if (textured) {
         float uv_area = abs((t1.x - t0.x) * (t2.y - t0.y) - (t2.x - t0.x) * (t1.y - t0.y));
         vec3 we1 = xf_dir(I, e1), we2 = xf_dir(I, e2);
@@ -241,16 +246,16 @@ surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width
     s.roughness = mat.params.x;
     s.specular = mat.params.y;
     s.emission = mat.emission.rgb;
-    if (mat.tex.x >= 0)
+    if (textured && mat.tex.x >= 0)
         s.base *= sample_tex(mat.tex.x, tuv, lod_base).rgb;
-    if (mat.tex.y >= 0) {
+    if (textured && mat.tex.y >= 0) {
         vec4 mr = sample_tex(mat.tex.y, tuv, lod_base);
         s.roughness *= mr.g;
         s.metallic *= mr.b;
     }
-    if (mat.tex.w >= 0)
+    if (textured && mat.tex.w >= 0)
         s.emission *= sample_tex(mat.tex.w, tuv, lod_base).rgb;
-    if (mat.tex.z >= 0) {
+    if (USES(TND_USES_NORMAL_MAPS) && mat.tex.z >= 0) {
         vec4 texel = sample_tex(mat.tex.z, tuv, lod_base);
         vec4 tg0 = vtan(i0);
         vec3 T = w0 * tg0.xyz + u * vtan(i1).xyz + v * vtan(i2).xyz;
@@ -385,7 +390,7 @@ uint pick_light(float u)
 float emitter_pdf(uint inst, uint prim, float d, vec3 wi, vec3 ng_light)
 {
     uint first = instances[inst].info.y;
-    if (fr.frame.w == 0u || first == 0xffffffffu)
+    if (!USES(TND_USES_AREA) || fr.frame.w == 0u || first == 0xffffffffu)
         return 0.0;
     tnd_light_gpu l = lights[first + prim];
     float cosl = abs(dot(ng_light, wi));
@@ -405,7 +410,7 @@ void direct_light(uvec2 key, uint bounce, surface s, lobe_info L, out vec3 diff,
     float dist = 1e30, pdf = l.radiance.w;
     vec3 Li = l.radiance.rgb;
     bool area = false;
-    if (kind == TND_LIGHT_KIND_TRIANGLE) {
+    if (USES(TND_USES_AREA) && kind == TND_LIGHT_KIND_TRIANGLE) {
         float su = sqrt(u1);
         vec3 q = pos * (1.0 - su) + l.p1.xyz * (su * (1.0 - u2)) + l.p2.xyz * (su * u2);
         vec3 nl = safe_normalize(cross(l.p1.xyz - pos, l.p2.xyz - pos));
@@ -420,9 +425,9 @@ void direct_light(uvec2 key, uint bounce, surface s, lobe_info L, out vec3 diff,
             return;
         pdf *= d2 / (l.cdf.w * cosl);
         area = true;
-    } else if (kind == TND_LIGHT_KIND_DIRECTIONAL) {
+    } else if (USES(TND_USES_DIRECTIONAL) && kind == TND_LIGHT_KIND_DIRECTIONAL) {
         wi = -l.p1.xyz;
-    } else {
+    } else if (USES(TND_USES_POINT | TND_USES_SPOT)) {
         vec3 d = pos - s.p;
         float d2 = dot(d, d);
         dist = sqrt(d2);
@@ -430,13 +435,15 @@ void direct_light(uvec2 key, uint bounce, surface s, lobe_info L, out vec3 diff,
             return;
         wi = d * (1.0 / dist);
         float fall = 1.0 / d2;
-        if (kind == TND_LIGHT_KIND_SPOT) {
+        if (USES(TND_USES_SPOT) && kind == TND_LIGHT_KIND_SPOT) {
             float cd = -dot(wi, l.p1.xyz);
             float t = (cd - l.p2.y) / max(l.p2.x - l.p2.y, 1e-6);
             t = clamp(t, 0.0, 1.0);
             fall *= t * t;
         }
         Li *= fall;
+    } else {
+        return; /* a light kind this scene has not got (cannot be picked) */
     }
     vec3 dd, sp;
     float pdf_brdf;
@@ -482,7 +489,7 @@ vec3 trace_path(uvec2 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uin
     for (uint b = bounce;; b++) {
         hit_info h;
         if (!trace_closest(org, dir, 1e30, h))
-            return L_out + beta * fr.sky.rgb;
+            return USES(TND_USES_SKY) ? L_out + beta * fr.sky.rgb : L_out;
         cone += h.t * fr.jitter.z;
         surface s = surface_eval(h.inst, h.prim, h.bary, dir, cone);
         if (s.emission.r > 0.0 || s.emission.g > 0.0 || s.emission.b > 0.0) {

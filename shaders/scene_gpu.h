@@ -59,6 +59,20 @@ _Static_assert(sizeof(tnd_gpu_instance) == 112, "instance layout");
 _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 6 * 16, "frame layout");
 #endif
 
+/* What the front-end's shaders model (specialization constant 0 of every pass, a bit mask):
+ * fvk_create derives it from the scene's features so that code for light types, textures,
+ * normal maps and sky the scene lacks is not compiled in ("model only what a scene requires");
+ * TND_USES_ALL forces every branch in (`--pipeline full`). Either way the images are identical:
+ * a branch left out is one no pixel of that scene can take. */
+#define TND_USES_AREA 1u        /* emissive triangles */
+#define TND_USES_POINT 2u
+#define TND_USES_SPOT 4u
+#define TND_USES_DIRECTIONAL 8u
+#define TND_USES_TEXTURES 16u
+#define TND_USES_NORMAL_MAPS 32u
+#define TND_USES_SKY 64u
+#define TND_USES_ALL 127u
+
 /* Gradient sample for the shading pass (matches femb_gradient_sample). In the back-end's
  * per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a sample has
  * pixel TND_GRADIENT_NONE and is skipped. */

@@ -115,6 +115,60 @@ check "compare: the two front-ends' captures agree" $?
 check "compare: different scenes disagree and exit 1" $?
 grep -q '"primary_ms"' "$tmp/vk/timings.json"; check "render writes timings.json" $?
 
+# the outputs open in independent tools with the expected sizes and channels
+oiiotool --info "$tmp/vk/frame_0001.png" "$tmp/vk/frame_0001.exr" >"$tmp/oiio" 2>&1
+grep -q "frame_0001.png *: *40 x *24, 3 channel, uint8 png" "$tmp/oiio" &&
+    grep -q "frame_0001.exr *: *40 x *24, 3 channel, float openexr" "$tmp/oiio"
+check "oiiotool reads render's PNG (40x24 RGB8) and EXR (40x24 RGB float)" $?
+exrheader "$tmp/vk/frame_0001.exr" >"$tmp/hdr" 2>&1 &&
+    grep -q "dataWindow (type box2i): (0 0) - (39 23)" "$tmp/hdr" &&
+    [ "$(grep -c ', 32-bit floating-point' "$tmp/hdr")" -eq 3 ]
+check "exrheader: the linear EXR is 40x24 with three float channels" $?
+exrheader "$tmp/vk/capture/frame_0001.exr" >"$tmp/hdr" 2>&1
+"$T" contract --json >"$tmp/contract.json"
+python3 - "$tmp/hdr" "$tmp/contract.json" <<'PY'
+import json, re, sys
+txt = open(sys.argv[1]).read()
+have = set(re.findall(r"^    (\S+), (?:32|16)-bit", txt, re.M))
+want = {c for e in json.load(open(sys.argv[2]))["entries"] for c in e["exr_channels"]}
+assert have == want, (sorted(have ^ want))
+assert "dataWindow (type box2i): (0 0) - (39 23)" in txt
+PY
+check "exrheader: a capture holds exactly the contract's channels (tandem contract --json)" $?
+
+# model only what the scene requires: the forced full pipeline gives the same pictures
+for p in scene full; do
+    "$T" render --frontend vk --scene "$SRC/data/scenes/cornell.gltf" --frames 2 --size 32x18 \
+        --pipeline $p --out "$tmp/pipe_$p" --quiet || echo "render --pipeline $p failed"
+done
+cmp -s "$tmp/pipe_scene/frame_0001.exr" "$tmp/pipe_full/frame_0001.exr" &&
+    cmp -s "$tmp/pipe_scene/frame_0001.png" "$tmp/pipe_full/frame_0001.png"
+check "--pipeline full and scene-driven shaders give identical frames on cornell" $?
+python3 - "$tmp" <<'PY'
+import json, sys
+s = json.load(open(f"{sys.argv[1]}/pipe_scene/run.json"))
+f = json.load(open(f"{sys.argv[1]}/pipe_full/run.json"))
+assert s["pipeline"] == "scene" and f["pipeline"] == "full"
+assert s["frontend_models"] == "area lights", s["frontend_models"]
+assert f["frontend_models"].count(",") == 6 and "textures" in f["frontend_models"], f["frontend_models"]
+assert "area lights (emissive triangles)" in s["scene_features"]
+assert "reflect_refract" in s["post"]["not_run"] and "interleave" in s["post"]["not_run"]
+PY
+check "run.json: cornell models area lights only; --pipeline full everything; no reflect/refract, no interleave" $?
+"$T" render --frames 1 --size 24x12 --pipeline most --out "$tmp/pipe_bad" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "most" "$tmp/err" && [ ! -e "$tmp/pipe_bad" ]
+check "--pipeline with an unknown value is a usage error, no output" $?
+
+# --video: the PNGs as an MP4 (ffmpeg, installed by the set-up)
+"$T" render --frames 4 --start 2 --size 41x23 --video --out "$tmp/video" --quiet; rc=$?
+[ $rc -eq 0 ] && ffprobe -v error -show_entries stream=codec_name,width,height,nb_frames \
+    -of compact=p=0 "$tmp/video/video.mp4" >"$tmp/probe" 2>&1 &&
+    grep -q "codec_name=h264|width=42|height=24|nb_frames=4" "$tmp/probe"
+check "render --video writes a 4-frame H.264 MP4 (odd size padded to 42x24)" $?
+PATH=/nonexistent "$T" render --frames 1 --size 24x12 --video --out "$tmp/video2" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "ffmpeg" "$tmp/err" && [ ! -e "$tmp/video2" ]
+check "render --video without ffmpeg is a usage error naming it, no output" $?
+
 # captures back through the denoiser: the same pictures as render's own back-end
 "$T" denoise --captures "$tmp/embree" --out "$tmp/den" --denoiser svgf --quiet; rc=$?
 [ $rc -eq 0 ] && cmp -s "$tmp/den/frame_0001.exr" "$tmp/embree/frame_0001.exr"

@@ -1,7 +1,8 @@
 /* tests/test_composite.c: the post chain on lavapipe. Tone mapping: auto exposure makes a scene
  * whose light is 1000x brighter look the same; black, white and NaN inputs give defined output.
  * TAA: on a static scene whose primary rays are jittered, the accumulated image is closer to the
- * supersampled image than one frame is (edges converge). Label: gpu. */
+ * supersampled image than one frame is (edges converge); under camera and object motion, no
+ * ghost trail outlives 2 frames. Label: gpu. */
 #include "composite/composite.h"
 #include "frontend_embree/frontend_embree.h"
 #include "tests/gpu_common.h"
@@ -31,10 +32,10 @@ typedef struct rig {
     tnd_image in;
 } rig;
 
-static tnd_result rig_open(tnd_vk *vk, rig *r)
+static tnd_result rig_open_scene(tnd_vk *vk, const char *scene, rig *r)
 {
     memset(r, 0, sizeof *r);
-    tnd_result res = tnd_scene_load(TND_SOURCE_DIR "/data/scenes/cornell.gltf", &r->s);
+    tnd_result res = tnd_scene_load(scene, &r->s);
     if (res == TND_OK)
         res = femb_create(r->s, &(femb_desc){.threads = 2}, &r->fe);
     if (res == TND_OK)
@@ -47,6 +48,11 @@ static tnd_result rig_open(tnd_vk *vk, rig *r)
                                                      .name = "test.hdr"},
                                &r->in);
     return res;
+}
+
+static tnd_result rig_open(tnd_vk *vk, rig *r)
+{
+    return rig_open_scene(vk, TND_SOURCE_DIR "/data/scenes/cornell.gltf", r);
 }
 
 static void rig_close(tnd_vk *vk, rig *r)
@@ -217,9 +223,97 @@ cleanup:
     gpu_end();
 }
 
+/* TAA under motion on `dynamic` (camera and objects move), on the noise-free albedo with the
+ * scene's motion vectors. A ghost is a pixel whose TAA output differs from this frame's input
+ * by more than 0.05 where this frame is flat (its 3x3 neighbourhood spans less than 0.02): no
+ * edge, so neither jitter nor anti-aliasing can explain the difference; only history from
+ * another surface (a disocclusion, an object that moved on) can. The trail is the longest run of
+ * consecutive frames a pixel stays a ghost. With clipping it must stay within 2 frames; the same
+ * run with clipping off (history trusted as it is) must show trails, so the measure can fail. */
+static void ghost_run(tnd_vk *vk, rig *r, bool clip, int frames, int *max_trail, double *ghosts)
+{
+    cmp_context *c = NULL;
+    tnd_frame f = {0};
+    tnd_scene_state prev = {0};
+    static float alb[N * 3], taa[N * 3];
+    static int trail[N];
+    memset(trail, 0, sizeof trail);
+    *max_trail = 0;
+    *ghosts = 0;
+    cmp_desc d = {.taa = true};
+    if (!clip)
+        d.taa_clip = 1e6f, d.taa_sparkle = 1e6f;
+    REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &d, &c));
+    for (int i = 0; i < frames; i++) {
+        double t = i / 30.0;
+        REQUIRE_OK(tnd_scene_evaluate(r->s, i ? (i - 1) / 30.0 : 0.0, 0, (float)W / H, &prev));
+        REQUIRE_OK(tnd_scene_evaluate(r->s, t, 0, (float)W / H, &r->st));
+        tnd_frame_destroy(&f);
+        REQUIRE_OK(femb_set_frame(r->fe, &r->st, &prev, (uint32_t)i, W, H));
+        REQUIRE_OK(tnd_frame_create(W, H, &f));
+        REQUIRE_OK(femb_trace_primary(r->fe, &f));
+        memcpy(alb, tnd_frame_f(&f, TND_CT_ALBEDO), sizeof alb);
+        REQUIRE_OK(tnd_contract_upload(vk, &r->ct, &f));
+        REQUIRE_OK(upload_rgb(vk, &r->in, alb, 1.0f));
+        REQUIRE_OK(cmp_run(c, &r->in, &r->ct, &(cmp_frame){.reset = i == 0}, NULL));
+        REQUIRE_OK(cmp_download_hdr(c, taa));
+        int n = 0;
+        for (int y = 1; y < H - 1; y++)
+            for (int x = 1; x < W - 1; x++) {
+                int q = y * W + x;
+                bool flat = true;
+                for (int k = 0; k < 3 && flat; k++) {
+                    float lo = alb[3 * q + k], hi = lo;
+                    for (int dy = -1; dy <= 1; dy++)
+                        for (int dx = -1; dx <= 1; dx++) {
+                            float v = alb[3 * (q + dy * W + dx) + k];
+                            lo = fminf(lo, v);
+                            hi = fmaxf(hi, v);
+                        }
+                    flat = hi - lo < 0.02f;
+                }
+                float e = 0;
+                for (int k = 0; k < 3; k++)
+                    e = fmaxf(e, fabsf(taa[3 * q + k] - alb[3 * q + k]));
+                trail[q] = flat && e > 0.05f ? trail[q] + 1 : 0;
+                n += trail[q] > 0;
+                if (trail[q] > *max_trail)
+                    *max_trail = trail[q];
+            }
+        *ghosts += (double)n / ((W - 2) * (H - 2)) / frames;
+    }
+cleanup:
+    tnd_scene_state_free(&prev);
+    tnd_frame_destroy(&f);
+    cmp_destroy(c);
+}
+
+static void test_taa_no_ghosting_under_motion(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    rig r;
+    REQUIRE_OK(rig_open_scene(vk, TND_SOURCE_DIR "/data/scenes/dynamic.gltf", &r));
+    int trail_clip = 0, trail_off = 0;
+    double g_clip = 0, g_off = 0;
+    const int frames = 40;
+    ghost_run(vk, &r, true, frames, &trail_clip, &g_clip);
+    ghost_run(vk, &r, false, frames, &trail_off, &g_off);
+    printf("     dynamic, %d frames: ghost pixels %.3f%% (longest trail %d frames) with clipping, "
+           "%.3f%% (%d frames) with clipping off\n",
+           frames, 100 * g_clip, trail_clip, 100 * g_off, trail_off);
+    CHECK(trail_off > 4, "the measure sees no ghosts even without clipping (trail %d)", trail_off);
+    CHECK(trail_clip <= 2, "ghost trails of %d frames with clipping", trail_clip);
+    CHECK(g_clip < 0.25 * g_off, "ghosts %.4f with clipping vs %.4f without", g_clip, g_off);
+cleanup:
+    rig_close(vk, &r);
+    gpu_end();
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
 }
 
-TND_TEST_MAIN(T(test_tonemap_exposure), T(test_taa_converges_at_edges), T(test_shutdown))
+TND_TEST_MAIN(T(test_tonemap_exposure), T(test_taa_converges_at_edges),
+              T(test_taa_no_ghosting_under_motion), T(test_shutdown))
