@@ -1,0 +1,142 @@
+/* eval: image metrics against a converged reference (relMSE, SMAPE, RMSE on linear radiance;
+ * PSNR, SSIM and LDR-FLIP on the tone-mapped sRGB image; temporal error and lag over a
+ * sequence), and the report (metrics.json, metrics.csv, a static HTML page with PNGs and SVG
+ * plots). docs/metrics.md gives every definition. Prefix ev_; depends on core/. */
+#ifndef EV_EVAL_H
+#define EV_EVAL_H
+
+#include "core/core.h"
+
+#define EV_RELMSE_EPS 0.01   /* relMSE denominator r^2 + eps */
+#define EV_SMAPE_EPS 0.01    /* SMAPE denominator |o| + |r| + eps */
+#define EV_FLIP_PPD 67.0206  /* 0.7 m wide 3840-pixel monitor seen from 0.7 m */
+
+/* ---- images ---------------------------------------------------------------------------- */
+typedef struct ev_image {
+    uint32_t width, height;
+    float *rgb; /* 3 floats per pixel, row-major, top row first */
+} ev_image;
+
+tnd_result ev_image_alloc(uint32_t width, uint32_t height, ev_image *img);
+void ev_image_free(ev_image *img);
+/* Linear RGB EXR (channels R, G, B; A and others ignored). Missing channels: an error naming
+ * the file and the channel. */
+tnd_result ev_image_read_exr(const char *path, ev_image *img);
+/* Non-finite values replaced by 0; returns how many there were. */
+uint64_t ev_image_sanitize(ev_image *img);
+
+/* ---- tone mapping (the display image the LDR metrics see) ------------------------------- */
+/* Exposure that maps the geometric-mean luminance (0.2126, 0.7152, 0.0722; floor 1e-4) of the
+ * given images to 0.18. */
+double ev_auto_exposure(const ev_image *imgs, uint32_t count);
+/* out = sRGB(ACES fit(exposure x in)), in [0, 1] (3 floats per pixel). */
+void ev_tonemap(const ev_image *in, double exposure, float *out);
+
+/* ---- per-image metrics ------------------------------------------------------------------ */
+double ev_mse(const float *o, const float *r, size_t n);           /* n floats */
+double ev_relmse(const float *o, const float *r, size_t n);
+double ev_smape(const float *o, const float *r, size_t n);
+double ev_psnr(double mse); /* peak 1; 100 dB at most (MSE floored at 1e-10) */
+/* Mean SSIM over the three channels of two [0,1] images (11x11 Gaussian window, sigma 1.5, C1 =
+ * 0.01^2, C2 = 0.03^2, windows that fit inside the image). Needs width, height >= 11. */
+tnd_result ev_ssim(const float *o, const float *r, uint32_t w, uint32_t h, double *ssim);
+/* LDR-FLIP (Andersson et al. 2020) of two sRGB [0,1] images at `ppd` pixels per degree: the
+ * per-pixel error map in `map` (w x h floats, may be NULL) and its mean. */
+tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, double ppd,
+                   float *map, double *mean);
+
+/* ---- sequences -------------------------------------------------------------------------- */
+typedef struct ev_frame_metrics {
+    uint32_t frame;
+    double relmse, smape, rmse, psnr, ssim, flip;
+    double temporal;    /* vs the previous frame of the sequence; < 0 for the first */
+    uint64_t nonfinite; /* NaN/Inf values in the output (counted as 0 in the metrics) */
+} ev_frame_metrics;
+
+typedef struct ev_summary {
+    double relmse, smape, rmse, psnr, ssim, flip, temporal; /* means over frames */
+    double lag;          /* mean lag over the lighting changes, frames; < 0: none measured */
+    uint32_t changes;    /* lighting changes found in the reference */
+    uint64_t nonfinite;
+} ev_summary;
+
+/* Per frame: `out` and `ref` linear images (count frames, same size), tone-mapped with
+ * `exposure` for PSNR/SSIM/FLIP. `flip_maps` (count x w x h floats) may be NULL. */
+tnd_result ev_sequence(const ev_image *out, const ev_image *ref, const uint32_t *frames,
+                       uint32_t count, double exposure, double ppd, ev_frame_metrics *m,
+                       float *flip_maps, ev_summary *s);
+/* Lighting changes: frames t whose reference mean luminance differs from frame t-1's by more
+ * than 20%. The lag of a change is the number of frames from t until the output's mean
+ * absolute luminance error is back within 10% of the change's size above the error before the
+ * change (docs/metrics.md). */
+uint32_t ev_lag(const ev_image *out, const ev_image *ref, uint32_t count, double *mean_lag);
+
+/* ---- outputs ---------------------------------------------------------------------------- */
+typedef struct ev_series {
+    const char *name;          /* "denoised", "noisy", "embree", ... */
+    const ev_frame_metrics *m; /* `count` frames (ev_report's / ev_write_metrics' count) */
+    ev_summary summary;
+} ev_series;
+
+/* DIR/metrics.json ({"settings": ..., "series": [{"name", "summary", "frames": [...]}]}) and
+ * DIR/metrics.csv (one row per series and frame, then one "mean" row per series). `settings`:
+ * JSON object text (may be NULL). Written under temporary names, then renamed. */
+tnd_result ev_write_metrics(const char *dir, const ev_series *s, uint32_t nseries, uint32_t count,
+                            const char *settings);
+
+/* Images for the report. */
+tnd_result ev_write_png(const char *path, const float *rgb01, uint32_t w, uint32_t h);
+/* The FLIP map in a perceptually ordered colour map (black - purple - orange - pale yellow). */
+void ev_colormap(const float *err, size_t n, float *rgb01);
+
+/* Line plot of one metric per frame, one line per series (SVG, self-contained). metric:
+ * "relmse", "smape", "rmse", "psnr", "ssim", "flip" or "temporal". */
+tnd_result ev_plot_metric(const char *path, const char *metric, const ev_series *s,
+                          uint32_t nseries, uint32_t count);
+/* Scatter plot of (x, y) points with labels; points on the lower-left Pareto front joined and
+ * highlighted (pareto[i] true). Log-scaled axes when log_x / log_y. */
+tnd_result ev_plot_pareto(const char *path, const char *title, const char *xlabel,
+                          const char *ylabel, const double *x, const double *y,
+                          const char *const *labels, const bool *pareto, uint32_t n, bool log_x,
+                          bool log_y);
+/* pareto[i] = no other point is at least as good on both axes and better on one (lower is
+ * better on both). */
+void ev_pareto(const double *x, const double *y, uint32_t n, bool *pareto);
+
+typedef struct ev_panel {
+    const char *caption;
+    char file[128]; /* relative to the report directory */
+} ev_panel;
+
+typedef struct ev_row {
+    char title[160];
+    ev_panel panels[16];
+    uint32_t count;
+} ev_row;
+
+typedef struct ev_report {
+    const char *dir, *title;
+    const char *settings;       /* JSON text shown as it is (may be NULL) */
+    const ev_series *series;    /* summary table (may be NULL) */
+    uint32_t nseries;
+    const char *const *plots;   /* SVG files in dir */
+    uint32_t nplots;
+    const ev_row *rows;         /* image rows (side by side, crops) */
+    uint32_t nrows;
+    const char *html;           /* extra HTML inserted after the summary (may be NULL) */
+} ev_report;
+
+/* DIR/index.html: works offline from the file system; its script marks <body data-status="ok">
+ * once every image has loaded (data-images: how many), "error" otherwise (headless checks). */
+tnd_result ev_report_write(const ev_report *r);
+/* Text with <, >, & and quotes escaped, appended to a growing buffer. */
+typedef struct ev_text {
+    char *s;
+    size_t len, cap;
+    bool failed;
+} ev_text;
+void ev_text_add(ev_text *t, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+void ev_text_escaped(ev_text *t, const char *raw);
+void ev_text_free(ev_text *t);
+
+#endif

@@ -1,0 +1,533 @@
+/* eval/metrics.c: image metrics (docs/metrics.md): relMSE, SMAPE, MSE/RMSE, PSNR, SSIM, LDR-FLIP,
+ * the tone mapping the LDR metrics see, sequences (temporal error) and lag.
+ * Entry points: ev_image_*, ev_auto_exposure, ev_tonemap, ev_mse, ev_relmse, ev_smape, ev_psnr,
+ * ev_ssim, ev_flip, ev_sequence, ev_lag. */
+#include "eval/eval.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+tnd_result ev_image_alloc(uint32_t w, uint32_t h, ev_image *img)
+{
+    img->width = w;
+    img->height = h;
+    img->rgb = calloc((size_t)w * h * 3, sizeof(float));
+    return img->rgb ? TND_OK : tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+}
+
+void ev_image_free(ev_image *img)
+{
+    free(img->rgb);
+    img->rgb = NULL;
+}
+
+tnd_result ev_image_read_exr(const char *path, ev_image *img)
+{
+    tnd_exr_file f;
+    memset(img, 0, sizeof *img);
+    tnd_result res = tnd_exr_read(path, &f);
+    if (res != TND_OK)
+        return res;
+    const char *names[3] = {"R", "G", "B"};
+    const tnd_exr_channel *ch[3];
+    for (int k = 0; k < 3; k++)
+        if (!(ch[k] = tnd_exr_find(&f, names[k])) || ch[k]->type == TND_EXR_UINT) {
+            tnd_exr_close(&f);
+            return tnd_fail(TND_ERR_BAD_INPUT, "eval: %s: no %s channel of floats (expected linear RGB)",
+                            path, names[k]);
+        }
+    res = ev_image_alloc(f.width, f.height, img);
+    if (res == TND_OK) {
+        size_t n = (size_t)f.width * f.height;
+        for (size_t q = 0; q < n; q++)
+            for (int k = 0; k < 3; k++)
+                img->rgb[3 * q + k] = ((const float *)ch[k]->data)[q];
+    }
+    tnd_exr_close(&f);
+    return res;
+}
+
+uint64_t ev_image_sanitize(ev_image *img)
+{
+    uint64_t bad = 0;
+    size_t n = (size_t)img->width * img->height * 3;
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(img->rgb[i])) {
+            img->rgb[i] = 0.0f;
+            bad++;
+        }
+    return bad;
+}
+
+static double luma(const float *c)
+{
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+}
+
+double ev_auto_exposure(const ev_image *imgs, uint32_t count)
+{
+    double sum = 0;
+    size_t n = 0;
+    for (uint32_t i = 0; i < count; i++) {
+        size_t px = (size_t)imgs[i].width * imgs[i].height;
+        for (size_t q = 0; q < px; q++) {
+            double l = luma(imgs[i].rgb + 3 * q);
+            sum += log(fmax(isfinite(l) ? l : 0.0, 1e-4));
+        }
+        n += px;
+    }
+    return n ? 0.18 / exp(sum / (double)n) : 1.0;
+}
+
+static float srgb_oetf(double v)
+{
+    v = v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
+    return (float)fmin(fmax(v, 0.0), 1.0);
+}
+
+void ev_tonemap(const ev_image *in, double exposure, float *out)
+{
+    size_t n = (size_t)in->width * in->height * 3;
+    for (size_t i = 0; i < n; i++) {
+        double x = fmax(in->rgb[i] * exposure, 0.0);
+        double y = isfinite(x) ? x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14) : 1.0;
+        out[i] = srgb_oetf(fmin(fmax(y, 0.0), 1.0));
+    }
+}
+
+/* ---- per-image metrics ------------------------------------------------------------------ */
+double ev_mse(const float *o, const float *r, size_t n)
+{
+    double s = 0;
+    for (size_t i = 0; i < n; i++) {
+        double d = (double)o[i] - r[i];
+        s += d * d;
+    }
+    return n ? s / (double)n : 0.0;
+}
+
+double ev_relmse(const float *o, const float *r, size_t n)
+{
+    double s = 0;
+    for (size_t i = 0; i < n; i++) {
+        double d = (double)o[i] - r[i];
+        s += d * d / ((double)r[i] * r[i] + EV_RELMSE_EPS);
+    }
+    return n ? s / (double)n : 0.0;
+}
+
+double ev_smape(const float *o, const float *r, size_t n)
+{
+    double s = 0;
+    for (size_t i = 0; i < n; i++)
+        s += fabs((double)o[i] - r[i]) / (fabs((double)o[i]) + fabs((double)r[i]) + EV_SMAPE_EPS);
+    return n ? s / (double)n : 0.0;
+}
+
+double ev_psnr(double mse)
+{
+    return 10.0 * log10(1.0 / fmax(mse, 1e-10)); /* at most 100 dB (identical images) */
+}
+
+/* Separable correlation of `src` (w x h) with the 1-D kernels kx (horizontal) and ky
+ * (vertical), radius r each, clamped borders; `tmp` and `dst` hold w x h values. One version per
+ * storage type: float for FLIP's planes, double for SSIM's moments (whose differences
+ * E[x^2] - E[x]^2 cancel). */
+#define EV_SEP_FILTER(NAME, T)                                                                   \
+    static void NAME(const T *src, uint32_t w, uint32_t h, const double *kx, const double *ky,   \
+                     int r, T *tmp, T *dst)                                                      \
+    {                                                                                            \
+        for (uint32_t y = 0; y < h; y++)                                                         \
+            for (uint32_t x = 0; x < w; x++) {                                                   \
+                double s = 0;                                                                    \
+                for (int i = -r; i <= r; i++) {                                                  \
+                    int xx = (int)x + i;                                                         \
+                    xx = xx < 0 ? 0 : xx >= (int)w ? (int)w - 1 : xx;                            \
+                    s += kx[i + r] * src[(size_t)y * w + (size_t)xx];                            \
+                }                                                                                \
+                tmp[(size_t)y * w + x] = (T)s;                                                   \
+            }                                                                                    \
+        for (uint32_t y = 0; y < h; y++)                                                         \
+            for (uint32_t x = 0; x < w; x++) {                                                   \
+                double s = 0;                                                                    \
+                for (int i = -r; i <= r; i++) {                                                  \
+                    int yy = (int)y + i;                                                         \
+                    yy = yy < 0 ? 0 : yy >= (int)h ? (int)h - 1 : yy;                            \
+                    s += ky[i + r] * tmp[(size_t)yy * w + x];                                    \
+                }                                                                                \
+                dst[(size_t)y * w + x] = (T)s;                                                   \
+            }                                                                                    \
+    }
+EV_SEP_FILTER(sep_filter, float)
+EV_SEP_FILTER(sep_filter_d, double)
+
+/* ---- SSIM ----------------------------------------------------------------------------------- */
+tnd_result ev_ssim(const float *o, const float *r, uint32_t w, uint32_t h, double *ssim)
+{
+    enum { R = 5 };
+    if (w < 2 * R + 1 || h < 2 * R + 1)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: SSIM needs at least 11x11 pixels (got %ux%u)",
+                        w, h);
+    double g[2 * R + 1], gs = 0;
+    for (int i = -R; i <= R; i++)
+        gs += g[i + R] = exp(-(double)(i * i) / (2.0 * 1.5 * 1.5));
+    for (int i = 0; i < 2 * R + 1; i++)
+        g[i] /= gs;
+    const double c1 = 0.01 * 0.01, c2 = 0.03 * 0.03;
+    size_t n = (size_t)w * h;
+    double *buf = malloc(n * 7 * sizeof(double));
+    if (!buf)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+    double *in[5] = {buf, buf + n, buf + 2 * n, buf + 3 * n, buf + 4 * n};
+    double *tmp = buf + 5 * n, *mo = buf + 6 * n;
+    double total = 0;
+    uint64_t count = 0;
+    for (int k = 0; k < 3; k++) {
+        for (size_t q = 0; q < n; q++) {
+            double a = o[3 * q + k], b = r[3 * q + k];
+            in[0][q] = a, in[1][q] = b, in[2][q] = a * a, in[3][q] = b * b, in[4][q] = a * b;
+        }
+        /* filter each moment in place (the windows that fit are the only ones read) */
+        for (int m = 0; m < 5; m++) {
+            sep_filter_d(in[m], w, h, g, g, R, tmp, mo);
+            memcpy(in[m], mo, n * sizeof(double));
+        }
+        for (uint32_t y = R; y < h - R; y++)
+            for (uint32_t x = R; x < w - R; x++) {
+                size_t q = (size_t)y * w + x;
+                double mu_o = in[0][q], mu_r = in[1][q];
+                double vo = in[2][q] - mu_o * mu_o, vr = in[3][q] - mu_r * mu_r;
+                double cov = in[4][q] - mu_o * mu_r;
+                total += (2 * mu_o * mu_r + c1) * (2 * cov + c2) /
+                         ((mu_o * mu_o + mu_r * mu_r + c1) * (vo + vr + c2));
+                count++;
+            }
+    }
+    free(buf);
+    *ssim = total / (double)count;
+    return TND_OK;
+}
+
+/* ---- FLIP ------------------------------------------------------------------------------------
+ * Colour: sRGB -> linear -> XYZ -> YCxCz; CSF filters per channel (sums of Gaussians, applied as
+ * separable passes); back to linear RGB clamped to [0,1]; CIELAB with the Hunt adjustment; HyAB
+ * distance^0.7 remapped with the knee (0.4 cmax -> 0.95). Features: edge and point detectors
+ * (first and second Gaussian derivatives, sd = 0.5 x 0.082 x ppd) on the luminance; the larger
+ * difference of their magnitudes, /sqrt(2), ^0.5. Error = colour^(1 - feature). */
+static const double D65[3] = {0.950428545, 1.0, 1.088900371};
+
+static void srgb_to_xyz(const float *c, double xyz[3])
+{
+    double l[3];
+    for (int k = 0; k < 3; k++)
+        l[k] = c[k] > 0.04045 ? pow((c[k] + 0.055) / 1.055, 2.4) : c[k] / 12.92;
+    xyz[0] = (10135552.0 * l[0] + 8788810.0 * l[1] + 4435075.0 * l[2]) / 24577794.0;
+    xyz[1] = (2613072.0 * l[0] + 8788810.0 * l[1] + 887015.0 * l[2]) / 12288897.0;
+    xyz[2] = (1425312.0 * l[0] + 8788810.0 * l[1] + 70074185.0 * l[2]) / 73733382.0;
+}
+
+static void xyz_to_linrgb(const double xyz[3], double rgb[3])
+{
+    rgb[0] = 3.241003275 * xyz[0] - 1.537398934 * xyz[1] - 0.498615861 * xyz[2];
+    rgb[1] = -0.969224334 * xyz[0] + 1.875930071 * xyz[1] + 0.041554224 * xyz[2];
+    rgb[2] = 0.055639423 * xyz[0] - 0.204011202 * xyz[1] + 1.057148933 * xyz[2];
+}
+
+/* Hunt-adjusted CIELAB of a linear RGB colour */
+static void linrgb_to_hunt_lab(const double rgb[3], double lab[3])
+{
+    double xyz[3], f[3];
+    xyz[0] = (10135552.0 * rgb[0] + 8788810.0 * rgb[1] + 4435075.0 * rgb[2]) / 24577794.0;
+    xyz[1] = (2613072.0 * rgb[0] + 8788810.0 * rgb[1] + 887015.0 * rgb[2]) / 12288897.0;
+    xyz[2] = (1425312.0 * rgb[0] + 8788810.0 * rgb[1] + 70074185.0 * rgb[2]) / 73733382.0;
+    const double d = 6.0 / 29.0;
+    for (int k = 0; k < 3; k++) {
+        double t = xyz[k] / D65[k];
+        f[k] = t > d * d * d ? cbrt(t) : t / (3 * d * d) + 4.0 / 29.0;
+    }
+    double L = 116 * f[1] - 16;
+    lab[0] = L;
+    lab[1] = 0.01 * L * 500 * (f[0] - f[1]);
+    lab[2] = 0.01 * L * 200 * (f[1] - f[2]);
+}
+
+static double hyab(const double a[3], const double b[3])
+{
+    return fabs(a[0] - b[0]) + sqrt((a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+/* CSF: a1 sqrt(pi/b1) exp(-pi^2 d^2/b1) + a2 sqrt(pi/b2) exp(-pi^2 d^2/b2), d in degrees,
+ * normalised to unit sum over the (2r+1)^2 grid. As separable terms: weights[i] x (g_i (x) g_i). */
+typedef struct csf {
+    int terms, r;
+    double weight[2];
+    double *g[2];
+} csf;
+
+static tnd_result csf_make(double ppd, double a1, double b1, double a2, double b2, csf *c)
+{
+    c->r = (int)ceil(3.0 * sqrt(0.04 / (2.0 * M_PI * M_PI)) * ppd); /* widest CSF (b = 0.04) */
+    c->terms = a2 > 0 ? 2 : 1;
+    double a[2] = {a1, a2}, b[2] = {b1, b2}, total = 0;
+    for (int t = 0; t < c->terms; t++) {
+        c->g[t] = malloc((size_t)(2 * c->r + 1) * sizeof(double));
+        if (!c->g[t])
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+        double s1 = 0;
+        for (int i = -c->r; i <= c->r; i++) {
+            double d = i / ppd;
+            s1 += c->g[t][i + c->r] = exp(-M_PI * M_PI * d * d / b[t]);
+        }
+        c->weight[t] = a[t] * sqrt(M_PI / b[t]);
+        total += c->weight[t] * s1 * s1;
+    }
+    for (int t = 0; t < c->terms; t++)
+        c->weight[t] /= total;
+    return TND_OK;
+}
+
+static void csf_free(csf *c)
+{
+    for (int t = 0; t < c->terms; t++)
+        free(c->g[t]);
+}
+
+/* Gaussian-derivative detector pair (edge: -x g; point: (x^2/sd^2 - 1) g), normalised so that
+ * positive weights sum to 1 and negative ones to -1 (as 2-D kernels), as separable factors:
+ * d (along the derivative) and s (across, unit sum). */
+static void feature_kernels(double ppd, int *radius, double **edge, double **point, double **s)
+{
+    double sd = 0.5 * 0.082 * ppd;
+    int r = (int)ceil(3 * sd);
+    *radius = r;
+    *edge = malloc((size_t)(2 * r + 1) * sizeof(double));
+    *point = malloc((size_t)(2 * r + 1) * sizeof(double));
+    *s = malloc((size_t)(2 * r + 1) * sizeof(double));
+    if (!*edge || !*point || !*s)
+        return;
+    double gs = 0, ep = 0, en = 0, pp = 0, pn = 0;
+    for (int i = -r; i <= r; i++) {
+        double g = exp(-(double)(i * i) / (2 * sd * sd));
+        (*s)[i + r] = g;
+        gs += g;
+        double e = -i * g, p = ((double)(i * i) / (sd * sd) - 1) * g;
+        (*edge)[i + r] = e;
+        (*point)[i + r] = p;
+        if (e > 0) ep += e; else en -= e;
+        if (p > 0) pp += p; else pn -= p;
+    }
+    for (int i = 0; i < 2 * r + 1; i++) {
+        (*s)[i] /= gs;
+        (*edge)[i] /= (*edge)[i] > 0 ? ep : en;
+        (*point)[i] /= (*point)[i] > 0 ? pp : pn;
+    }
+}
+
+tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, double ppd,
+                   float *map, double *mean)
+{
+    tnd_result res = TND_OK;
+    size_t n = (size_t)w * h;
+    csf c[3] = {{0}};
+    double *ke = NULL, *kp = NULL, *ks = NULL;
+    float *buf = malloc(n * 16 * sizeof(float));
+    if (!buf)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+    /* [0..5] YCxCz of ref and test (plane per channel), [6..11] filtered, [12] tmp, [13] acc,
+     * [14] luminance, [15] scratch */
+    float *P[16];
+    for (int i = 0; i < 16; i++)
+        P[i] = buf + (size_t)i * n;
+    TND_TRY(csf_make(ppd, 1, 0.0047, 0, 1e-5, &c[0]));
+    TND_TRY(csf_make(ppd, 1, 0.0053, 0, 1e-5, &c[1]));
+    TND_TRY(csf_make(ppd, 34.1, 0.04, 13.5, 0.025, &c[2]));
+    const float *img[2] = {ref, test};
+    for (int m = 0; m < 2; m++)
+        for (size_t q = 0; q < n; q++) {
+            double xyz[3];
+            srgb_to_xyz(img[m] + 3 * q, xyz);
+            double x = xyz[0] / D65[0], y = xyz[1] / D65[1], z = xyz[2] / D65[2];
+            P[3 * m + 0][q] = (float)(116 * y - 16);
+            P[3 * m + 1][q] = (float)(500 * (x - y));
+            P[3 * m + 2][q] = (float)(200 * (y - z));
+        }
+    for (int m = 0; m < 2; m++)
+        for (int k = 0; k < 3; k++) {
+            float *dst = P[6 + 3 * m + k];
+            memset(dst, 0, n * sizeof(float));
+            for (int t = 0; t < c[k].terms; t++) {
+                sep_filter(P[3 * m + k], w, h, c[k].g[t], c[k].g[t], c[k].r, P[12], P[13]);
+                for (size_t q = 0; q < n; q++)
+                    dst[q] += (float)(c[k].weight[t] * P[13][q]);
+            }
+        }
+    /* colour difference */
+    double lab_g[3], lab_b[3];
+    linrgb_to_hunt_lab((const double[3]){0, 1, 0}, lab_g);
+    linrgb_to_hunt_lab((const double[3]){0, 0, 1}, lab_b);
+    const double qc = 0.7, qf = 0.5, pc = 0.4, pt = 0.95;
+    double cmax = pow(hyab(lab_g, lab_b), qc);
+    float *color = P[15];
+    for (size_t q = 0; q < n; q++) {
+        double lab[2][3];
+        for (int m = 0; m < 2; m++) {
+            double yc[3] = {P[6 + 3 * m][q], P[7 + 3 * m][q], P[8 + 3 * m][q]}, xyz[3], rgb[3];
+            double y = (yc[0] + 16) / 116;
+            xyz[0] = (y + yc[1] / 500) * D65[0];
+            xyz[1] = y * D65[1];
+            xyz[2] = (y - yc[2] / 200) * D65[2];
+            xyz_to_linrgb(xyz, rgb);
+            for (int k = 0; k < 3; k++)
+                rgb[k] = fmin(fmax(rgb[k], 0.0), 1.0);
+            linrgb_to_hunt_lab(rgb, lab[m]);
+        }
+        double e = pow(hyab(lab[0], lab[1]), qc);
+        color[q] = (float)(e < pc * cmax ? pt / (pc * cmax) * e
+                                         : pt + (e - pc * cmax) / (cmax - pc * cmax) * (1 - pt));
+    }
+    /* features on the normalised luminance, (Y' + 16) / 116 of the unfiltered images */
+    int r;
+    feature_kernels(ppd, &r, &ke, &kp, &ks);
+    if (!ke || !kp || !ks) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+        goto fail;
+    }
+    /* P[6..11] are free now: [6+2m] edge magnitude, [7+2m] point magnitude of image m */
+    for (int m = 0; m < 2; m++) {
+        for (size_t q = 0; q < n; q++)
+            P[14][q] = (P[3 * m][q] + 16) / 116;
+        const double *kd[2] = {ke, kp};
+        for (int f = 0; f < 2; f++) {
+            float *mag = P[6 + 2 * m + f];
+            sep_filter(P[14], w, h, kd[f], ks, r, P[12], P[13]); /* d/dx */
+            sep_filter(P[14], w, h, ks, kd[f], r, P[12], P[10 + f]); /* d/dy (P[10..11] scratch) */
+            for (size_t q = 0; q < n; q++)
+                mag[q] = hypotf(P[13][q], P[10 + f][q]);
+        }
+        if (m == 0) { /* keep image 0's magnitudes out of the scratch planes used for image 1 */
+            memcpy(P[4], P[6], n * sizeof(float));
+            memcpy(P[5], P[7], n * sizeof(float));
+        }
+    }
+    double sum = 0;
+    for (size_t q = 0; q < n; q++) {
+        double de = fabs((double)P[4][q] - P[8][q]), dp = fabs((double)P[5][q] - P[9][q]);
+        double f = pow(fmax(de, dp) / sqrt(2.0), qf);
+        double e = pow(color[q], 1.0 - f);
+        if (map)
+            map[q] = (float)e;
+        sum += e;
+    }
+    *mean = sum / (double)n;
+fail:
+    for (int k = 0; k < 3; k++)
+        csf_free(&c[k]);
+    free(ke);
+    free(kp);
+    free(ks);
+    free(buf);
+    return res;
+}
+
+/* ---- sequences ------------------------------------------------------------------------------ */
+static double mean_luma(const ev_image *img)
+{
+    double s = 0;
+    size_t n = (size_t)img->width * img->height;
+    for (size_t q = 0; q < n; q++)
+        s += luma(img->rgb + 3 * q);
+    return n ? s / (double)n : 0.0;
+}
+
+static double mean_abs_luma_diff(const ev_image *a, const ev_image *b)
+{
+    double s = 0;
+    size_t n = (size_t)a->width * a->height;
+    for (size_t q = 0; q < n; q++)
+        s += fabs(luma(a->rgb + 3 * q) - luma(b->rgb + 3 * q));
+    return n ? s / (double)n : 0.0;
+}
+
+uint32_t ev_lag(const ev_image *out, const ev_image *ref, uint32_t count, double *mean_lag)
+{
+    uint32_t changes = 0;
+    double total = 0;
+    for (uint32_t t = 1; t < count; t++) {
+        double m0 = mean_luma(&ref[t - 1]), m1 = mean_luma(&ref[t]);
+        if (!(fabs(m1 - m0) > 0.2 * fmax(m0, 1e-6)))
+            continue;
+        double step = mean_abs_luma_diff(&ref[t], &ref[t - 1]);
+        double before = mean_abs_luma_diff(&out[t - 1], &ref[t - 1]);
+        uint32_t k = t;
+        while (k < count && mean_abs_luma_diff(&out[k], &ref[k]) > before + 0.1 * step)
+            k++;
+        total += k - t; /* a change that never settles counts until the end of the sequence */
+        changes++;
+    }
+    *mean_lag = changes ? total / changes : -1.0;
+    return changes;
+}
+
+tnd_result ev_sequence(const ev_image *out, const ev_image *ref, const uint32_t *frames,
+                       uint32_t count, double exposure, double ppd, ev_frame_metrics *m,
+                       float *flip_maps, ev_summary *s)
+{
+    tnd_result res = TND_OK;
+    memset(s, 0, sizeof *s);
+    if (count == 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: no frames");
+    uint32_t w = ref[0].width, h = ref[0].height;
+    size_t n = (size_t)w * h;
+    float *to = malloc(n * 3 * sizeof(float)), *tr = malloc(n * 3 * sizeof(float));
+    float *po = malloc(n * 3 * sizeof(float)), *pr = malloc(n * 3 * sizeof(float));
+    if (!to || !tr || !po || !pr) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+        goto fail;
+    }
+    uint32_t temporal_count = 0;
+    for (uint32_t i = 0; i < count; i++) {
+        ev_frame_metrics *f = &m[i];
+        memset(f, 0, sizeof *f);
+        f->frame = frames ? frames[i] : i;
+        const float *o = out[i].rgb, *r = ref[i].rgb;
+        f->relmse = ev_relmse(o, r, n * 3);
+        f->smape = ev_smape(o, r, n * 3);
+        f->rmse = sqrt(ev_mse(o, r, n * 3));
+        ev_tonemap(&out[i], exposure, to);
+        ev_tonemap(&ref[i], exposure, tr);
+        f->psnr = ev_psnr(ev_mse(to, tr, n * 3));
+        TND_TRY(ev_ssim(to, tr, w, h, &f->ssim));
+        TND_TRY(ev_flip(tr, to, w, h, ppd, flip_maps ? flip_maps + (size_t)i * n : NULL, &f->flip));
+        f->temporal = -1.0;
+        if (i > 0) {
+            double t = 0;
+            for (size_t k = 0; k < n * 3; k++)
+                t += fabs(((double)to[k] - po[k]) - ((double)tr[k] - pr[k]));
+            f->temporal = t / (double)(n * 3);
+            s->temporal += f->temporal;
+            temporal_count++;
+        }
+        memcpy(po, to, n * 3 * sizeof(float));
+        memcpy(pr, tr, n * 3 * sizeof(float));
+        s->relmse += f->relmse / count;
+        s->smape += f->smape / count;
+        s->rmse += f->rmse / count;
+        s->psnr += f->psnr / count;
+        s->ssim += f->ssim / count;
+        s->flip += f->flip / count;
+    }
+    s->temporal = temporal_count ? s->temporal / temporal_count : -1.0;
+    s->changes = ev_lag(out, ref, count, &s->lag);
+fail:
+    free(to);
+    free(tr);
+    free(po);
+    free(pr);
+    return res;
+}
