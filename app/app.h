@@ -7,6 +7,7 @@
 #include <stdio.h>
 
 #include "core/core.h"
+#include "eval/eval.h"
 
 enum { APP_EXIT_OK = 0, APP_EXIT_FAIL = 1, APP_EXIT_USAGE = 2 };
 
@@ -79,6 +80,40 @@ tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uin
  * composite stage's tone mapping replaces it. */
 tnd_result app_write_preview(const char *path, const float *rgb, uint32_t w, uint32_t h);
 
+/* ---- evaluation (app/evaluate.c) ------------------------------------------------------------ */
+#define APP_EVAL_MAX_SERIES 4
+typedef struct app_eval_series {
+    char name[64];
+    char dir[1100];      /* where its frame_NNNN.exr are */
+    bool noisy;          /* dir is a capture directory: composite without denoising */
+    ev_frame_metrics *m; /* per frame (app_eval_run) */
+    ev_summary summary;
+} app_eval_series;
+
+typedef struct app_eval {
+    char ref[1100];          /* the reference's frame_NNNN.exr */
+    double exposure;         /* <= 0: from the reference (geometric mean luminance -> 0.18) */
+    double ppd;              /* FLIP pixels per degree (<= 0: 67) */
+    struct app_progress *progress; /* optional: stepped once per frame */
+    /* filled by app_eval_run */
+    bool auto_exposure;
+    uint32_t *frames, count, width, height;
+    app_eval_series series[APP_EVAL_MAX_SERIES];
+    uint32_t nseries;
+} app_eval;
+
+/* frame numbers of DIR/frame_NNNN.exr, sorted */
+tnd_result app_list_frames(const char *dir, uint32_t **frames, uint32_t *count);
+/* A series: DIR's frames (noisy: DIR/capture's, composited). */
+tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, bool noisy);
+/* Metrics of every series on the frames they all share with the reference. */
+tnd_result app_eval_run(app_eval *e);
+/* DIR/metrics.json, metrics.csv, plots, images of the first, worst and last frames with crops,
+ * and index.html. `settings`: JSON object text; `html`: extra section (may be NULL). */
+tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, const char *settings,
+                           const char *html);
+void app_eval_free(app_eval *e);
+
 /* ---- commands ------------------------------------------------------------------------------- */
 int cmd_info(int argc, char **argv);
 int cmd_contract(int argc, char **argv);
@@ -87,5 +122,6 @@ int cmd_reference(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_denoise(int argc, char **argv);
+int cmd_eval(int argc, char **argv);
 
 #endif

@@ -16,6 +16,8 @@ static const app_cmd commands[] = {
      "[--scene PATH] [--size WxH] [--repeats N] [--json]", cmd_bench},
     {"compare", "Compare two capture directories channel by channel (front-end cross-check).",
      "A B [options]", cmd_compare},
+    {"eval", "Evaluate a run against converged references: metrics, JSON/CSV, HTML report.",
+     "--out DIR --reference REFDIR [--report REPORTDIR]", cmd_eval},
     {"contract", "Print the buffer contract: every entry, its EXR channels, formats and meaning.",
      "[--json]", cmd_contract},
 };

@@ -60,11 +60,18 @@ typedef struct ev_summary {
     uint64_t nonfinite;
 } ev_summary;
 
-/* Per frame: `out` and `ref` linear images (count frames, same size), tone-mapped with
- * `exposure` for PSNR/SSIM/FLIP. `flip_maps` (count x w x h floats) may be NULL. */
-tnd_result ev_sequence(const ev_image *out, const ev_image *ref, const uint32_t *frames,
-                       uint32_t count, double exposure, double ppd, ev_frame_metrics *m,
-                       float *flip_maps, ev_summary *s);
+/* A sequence evaluated frame by frame (no frame kept but the previous one): `exposure` is the
+ * tone mapping's scale for PSNR/SSIM/FLIP/temporal, the same for every frame. */
+typedef struct ev_sequence ev_sequence;
+tnd_result ev_sequence_create(uint32_t width, uint32_t height, double exposure, double ppd,
+                              ev_sequence **seq);
+void ev_sequence_destroy(ev_sequence *seq);
+/* The next frame (sanitised images, same size): its metrics, and its FLIP map (w x h floats)
+ * when flip_map is not NULL. */
+tnd_result ev_sequence_add(ev_sequence *seq, uint32_t frame, const ev_image *out,
+                           const ev_image *ref, ev_frame_metrics *m, float *flip_map);
+/* Means over the frames so far, and the lag (nonfinite is left 0 for the caller). */
+void ev_sequence_summary(const ev_sequence *seq, ev_summary *s);
 /* Lighting changes: frames t whose reference mean luminance differs from frame t-1's by more
  * than 20%. The lag of a change is the number of frames from t until the output's mean
  * absolute luminance error is back within 10% of the change's size above the error before the
@@ -105,7 +112,8 @@ void ev_pareto(const double *x, const double *y, uint32_t n, bool *pareto);
 
 typedef struct ev_panel {
     const char *caption;
-    char file[128]; /* relative to the report directory */
+    char file[128];         /* relative to the report directory */
+    uint32_t display_width; /* CSS pixels (small images are shown enlarged); 0: natural */
 } ev_panel;
 
 typedef struct ev_row {

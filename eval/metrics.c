@@ -454,18 +454,23 @@ static double mean_abs_luma_diff(const ev_image *a, const ev_image *b)
     return n ? s / (double)n : 0.0;
 }
 
-uint32_t ev_lag(const ev_image *out, const ev_image *ref, uint32_t count, double *mean_lag)
+/* per frame: the reference's mean luminance, its change from the previous frame (mean absolute
+ * luminance difference), and the output's mean absolute luminance error */
+typedef struct lag_stats {
+    double mean, step, err;
+} lag_stats;
+
+static uint32_t lag_of(const lag_stats *st, uint32_t count, double *mean_lag)
 {
     uint32_t changes = 0;
     double total = 0;
     for (uint32_t t = 1; t < count; t++) {
-        double m0 = mean_luma(&ref[t - 1]), m1 = mean_luma(&ref[t]);
+        double m0 = st[t - 1].mean, m1 = st[t].mean;
         if (!(fabs(m1 - m0) > 0.2 * fmax(m0, 1e-6)))
             continue;
-        double step = mean_abs_luma_diff(&ref[t], &ref[t - 1]);
-        double before = mean_abs_luma_diff(&out[t - 1], &ref[t - 1]);
+        double limit = st[t - 1].err + 0.1 * st[t].step;
         uint32_t k = t;
-        while (k < count && mean_abs_luma_diff(&out[k], &ref[k]) > before + 0.1 * step)
+        while (k < count && st[k].err > limit)
             k++;
         total += k - t; /* a change that never settles counts until the end of the sequence */
         changes++;
@@ -474,60 +479,131 @@ uint32_t ev_lag(const ev_image *out, const ev_image *ref, uint32_t count, double
     return changes;
 }
 
-tnd_result ev_sequence(const ev_image *out, const ev_image *ref, const uint32_t *frames,
-                       uint32_t count, double exposure, double ppd, ev_frame_metrics *m,
-                       float *flip_maps, ev_summary *s)
+uint32_t ev_lag(const ev_image *out, const ev_image *ref, uint32_t count, double *mean_lag)
+{
+    lag_stats *st = calloc(count + 1, sizeof *st);
+    if (!st) {
+        *mean_lag = -1;
+        return 0;
+    }
+    for (uint32_t t = 0; t < count; t++) {
+        st[t].mean = mean_luma(&ref[t]);
+        st[t].step = t ? mean_abs_luma_diff(&ref[t], &ref[t - 1]) : 0.0;
+        st[t].err = mean_abs_luma_diff(&out[t], &ref[t]);
+    }
+    uint32_t n = lag_of(st, count, mean_lag);
+    free(st);
+    return n;
+}
+
+struct ev_sequence {
+    uint32_t w, h, count, cap;
+    double exposure, ppd;
+    float *to, *tr, *po, *pr; /* tone-mapped output and reference, this and the previous frame */
+    ev_image prev_ref;        /* linear, for the lag's reference change */
+    lag_stats *lag;
+    ev_summary sum;
+    uint32_t temporal_count;
+};
+
+void ev_sequence_destroy(ev_sequence *s)
+{
+    if (!s)
+        return;
+    free(s->to);
+    free(s->tr);
+    free(s->po);
+    free(s->pr);
+    ev_image_free(&s->prev_ref);
+    free(s->lag);
+    free(s);
+}
+
+tnd_result ev_sequence_create(uint32_t w, uint32_t h, double exposure, double ppd, ev_sequence **out)
+{
+    *out = NULL;
+    ev_sequence *s = calloc(1, sizeof *s);
+    size_t n = (size_t)w * h * 3;
+    if (!s || !(s->to = malloc(n * sizeof(float))) || !(s->tr = malloc(n * sizeof(float))) ||
+        !(s->po = malloc(n * sizeof(float))) || !(s->pr = malloc(n * sizeof(float))) ||
+        ev_image_alloc(w, h, &s->prev_ref) != TND_OK) {
+        ev_sequence_destroy(s);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+    }
+    s->w = w;
+    s->h = h;
+    s->exposure = exposure;
+    s->ppd = ppd;
+    *out = s;
+    return TND_OK;
+}
+
+tnd_result ev_sequence_add(ev_sequence *s, uint32_t frame, const ev_image *out, const ev_image *ref,
+                           ev_frame_metrics *f, float *flip_map)
 {
     tnd_result res = TND_OK;
-    memset(s, 0, sizeof *s);
-    if (count == 0)
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: no frames");
-    uint32_t w = ref[0].width, h = ref[0].height;
-    size_t n = (size_t)w * h;
-    float *to = malloc(n * 3 * sizeof(float)), *tr = malloc(n * 3 * sizeof(float));
-    float *po = malloc(n * 3 * sizeof(float)), *pr = malloc(n * 3 * sizeof(float));
-    if (!to || !tr || !po || !pr) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
-        goto fail;
+    if (out->width != s->w || out->height != s->h || ref->width != s->w || ref->height != s->h)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: frame %u is %ux%u against %ux%u, expected %ux%u",
+                        frame, out->width, out->height, ref->width, ref->height, s->w, s->h);
+    if (s->count == s->cap) {
+        uint32_t cap = s->cap ? 2 * s->cap : 64;
+        lag_stats *l = realloc(s->lag, cap * sizeof *l);
+        if (!l)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+        s->lag = l;
+        s->cap = cap;
     }
-    uint32_t temporal_count = 0;
-    for (uint32_t i = 0; i < count; i++) {
-        ev_frame_metrics *f = &m[i];
-        memset(f, 0, sizeof *f);
-        f->frame = frames ? frames[i] : i;
-        const float *o = out[i].rgb, *r = ref[i].rgb;
-        f->relmse = ev_relmse(o, r, n * 3);
-        f->smape = ev_smape(o, r, n * 3);
-        f->rmse = sqrt(ev_mse(o, r, n * 3));
-        ev_tonemap(&out[i], exposure, to);
-        ev_tonemap(&ref[i], exposure, tr);
-        f->psnr = ev_psnr(ev_mse(to, tr, n * 3));
-        TND_TRY(ev_ssim(to, tr, w, h, &f->ssim));
-        TND_TRY(ev_flip(tr, to, w, h, ppd, flip_maps ? flip_maps + (size_t)i * n : NULL, &f->flip));
-        f->temporal = -1.0;
-        if (i > 0) {
-            double t = 0;
-            for (size_t k = 0; k < n * 3; k++)
-                t += fabs(((double)to[k] - po[k]) - ((double)tr[k] - pr[k]));
-            f->temporal = t / (double)(n * 3);
-            s->temporal += f->temporal;
-            temporal_count++;
-        }
-        memcpy(po, to, n * 3 * sizeof(float));
-        memcpy(pr, tr, n * 3 * sizeof(float));
-        s->relmse += f->relmse / count;
-        s->smape += f->smape / count;
-        s->rmse += f->rmse / count;
-        s->psnr += f->psnr / count;
-        s->ssim += f->ssim / count;
-        s->flip += f->flip / count;
+    size_t n = (size_t)s->w * s->h;
+    memset(f, 0, sizeof *f);
+    f->frame = frame;
+    const float *o = out->rgb, *r = ref->rgb;
+    f->relmse = ev_relmse(o, r, n * 3);
+    f->smape = ev_smape(o, r, n * 3);
+    f->rmse = sqrt(ev_mse(o, r, n * 3));
+    ev_tonemap(out, s->exposure, s->to);
+    ev_tonemap(ref, s->exposure, s->tr);
+    f->psnr = ev_psnr(ev_mse(s->to, s->tr, n * 3));
+    TND_TRY(ev_ssim(s->to, s->tr, s->w, s->h, &f->ssim));
+    TND_TRY(ev_flip(s->tr, s->to, s->w, s->h, s->ppd, flip_map, &f->flip));
+    f->temporal = -1.0;
+    if (s->count > 0) {
+        double t = 0;
+        for (size_t k = 0; k < n * 3; k++)
+            t += fabs(((double)s->to[k] - s->po[k]) - ((double)s->tr[k] - s->pr[k]));
+        f->temporal = t / (double)(n * 3);
+        s->sum.temporal += f->temporal;
+        s->temporal_count++;
     }
-    s->temporal = temporal_count ? s->temporal / temporal_count : -1.0;
-    s->changes = ev_lag(out, ref, count, &s->lag);
+    lag_stats *l = &s->lag[s->count];
+    l->mean = mean_luma(ref);
+    l->step = s->count ? mean_abs_luma_diff(ref, &s->prev_ref) : 0.0;
+    l->err = mean_abs_luma_diff(out, ref);
+    memcpy(s->prev_ref.rgb, ref->rgb, n * 3 * sizeof(float));
+    float *swap = s->po;
+    s->po = s->to, s->to = swap;
+    swap = s->pr;
+    s->pr = s->tr, s->tr = swap;
+    s->sum.relmse += f->relmse;
+    s->sum.smape += f->smape;
+    s->sum.rmse += f->rmse;
+    s->sum.psnr += f->psnr;
+    s->sum.ssim += f->ssim;
+    s->sum.flip += f->flip;
+    s->count++;
 fail:
-    free(to);
-    free(tr);
-    free(po);
-    free(pr);
     return res;
+}
+
+void ev_sequence_summary(const ev_sequence *s, ev_summary *out)
+{
+    *out = s->sum;
+    double k = s->count ? 1.0 / s->count : 0.0;
+    out->relmse *= k;
+    out->smape *= k;
+    out->rmse *= k;
+    out->psnr *= k;
+    out->ssim *= k;
+    out->flip *= k;
+    out->temporal = s->temporal_count ? s->sum.temporal / s->temporal_count : -1.0;
+    out->changes = lag_of(s->lag, s->count, &out->lag);
 }

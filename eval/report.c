@@ -255,7 +255,7 @@ static void axis_fit(axis *a, const double *v, size_t n, bool log_scale)
     }
 }
 
-enum { PW = 560, PH = 320, ML = 70, MR = 20, MT = 30, MB = 45 };
+enum { PW = 680, PH = 320, ML = 70, MR = 150, MT = 30, MB = 45 }; /* legend in the right margin */
 
 static void svg_frame(ev_text *t, const char *title, const char *xlabel, const char *ylabel,
                       const axis *ax, const axis *ay)
@@ -286,7 +286,7 @@ static void svg_frame(ev_text *t, const char *title, const char *xlabel, const c
             if (span / step > 10)
                 step *= 2.5;
             for (double v = ceil(a->lo / step) * step; v <= a->hi && nt < 16; v += step)
-                ticks[nt++] = v;
+                ticks[nt++] = fabs(v) < 1e-9 * step ? 0.0 : v; /* no "-0" */
         }
         for (int i = 0; i < nt; i++) {
             if (d == 0) {
@@ -375,7 +375,7 @@ tnd_result ev_plot_metric(const char *path, const char *metric, const ev_series 
         }
         ev_text_add(&t, "\n<rect x=\"%d\" y=\"%u\" width=\"10\" height=\"10\" fill=\"%s\"/>"
                         "<text x=\"%d\" y=\"%u\">",
-                    x1 - 130, (unsigned)(y1 + 6 + 14 * i), col, x1 - 115, (unsigned)(y1 + 15 + 14 * i));
+                    x1 + 8, (unsigned)(y1 + 2 + 14 * i), col, x1 + 22, (unsigned)(y1 + 11 + 14 * i));
         ev_text_escaped(&t, s[i].name);
         ev_text_add(&t, "</text>\n");
     }
@@ -508,7 +508,7 @@ tnd_result ev_report_write(const ev_report *r)
             ev_text_escaped(&t, r->plots[i]);
             ev_text_add(&t, "\" alt=\"");
             ev_text_escaped(&t, r->plots[i]);
-            ev_text_add(&t, "\" width=\"560\" height=\"320\">\n");
+            ev_text_add(&t, "\" width=\"%d\" height=\"%d\">\n", PW, PH);
         }
         ev_text_add(&t, "</div>\n");
     }
@@ -520,6 +520,8 @@ tnd_result ev_report_write(const ev_report *r)
         for (uint32_t k = 0; k < row->count; k++) {
             ev_text_add(&t, "<figure><img class=\"px\" src=\"");
             ev_text_escaped(&t, row->panels[k].file);
+            if (row->panels[k].display_width)
+                ev_text_add(&t, "\" width=\"%u", row->panels[k].display_width);
             ev_text_add(&t, "\" alt=\"");
             ev_text_escaped(&t, row->panels[k].caption);
             ev_text_add(&t, "\"><figcaption>");

@@ -22,6 +22,7 @@ PKGS=(
     libvulkan-dev glslang-tools vulkan-validationlayers vulkan-tools
     libembree-dev libtbb-dev libopenexr-dev libassimp-dev libcjson-dev libstb-dev
     openexr openimageio-tools python3 ffmpeg
+    python3-numpy python3-openimageio chromium
 )
 
 missing=()

@@ -169,6 +169,45 @@ PATH=/nonexistent "$T" render --frames 1 --size 24x12 --video --out "$tmp/video2
 [ $rc -eq 2 ] && grep -q "ffmpeg" "$tmp/err" && [ ! -e "$tmp/video2" ]
 check "render --video without ffmpeg is a usage error naming it, no output" $?
 
+# eval: metrics against references, checked by an independent numpy implementation, and the
+# report opened in headless Chromium
+PY=python3; [ -x /usr/bin/python3 ] && PY=/usr/bin/python3   # Debian's, with numpy and OpenImageIO
+"$T" render --frontend vk --scene "$SRC/data/scenes/dynamic.gltf" --frames 6 --size 48x27 --capture \
+    --out "$tmp/ev_run" --quiet || echo "render for eval failed"
+"$T" reference --scene "$SRC/data/scenes/dynamic.gltf" --frames 6 --size 48x27 --spp 16 \
+    --out "$tmp/ev_ref" --quiet || echo "reference for eval failed"
+"$T" eval --out "$tmp/ev_run" --reference "$tmp/ev_ref" --report "$tmp/ev_report" >"$tmp/ev_out" 2>&1; rc=$?
+[ $rc -eq 0 ] && [ -f "$tmp/ev_run/metrics.json" ] && [ -f "$tmp/ev_run/metrics.csv" ] &&
+    grep -q "^denoised,mean," "$tmp/ev_run/metrics.csv" && grep -q "^noisy (1 spp),3," "$tmp/ev_run/metrics.csv"
+check "eval writes metrics.json and metrics.csv (denoised and noisy series)" $?
+$PY "$SRC/tests/metrics_reference.py" "$tmp/ev_run" "$tmp/ev_ref" 0 3 5 >"$tmp/ev_py.json" 2>"$tmp/err" &&
+$PY - "$tmp/ev_py.json" "$tmp/ev_run/metrics.json" <<'PY'
+import json, sys
+py = json.load(open(sys.argv[1]))
+c = json.load(open(sys.argv[2]))
+assert abs(py["exposure"] - c["settings"]["exposure"]) <= 1e-6 * py["exposure"]
+den = {f["frame"]: f for f in c["series"][0]["frames"]}
+assert c["series"][0]["name"] == "denoised" and len(den) == 6
+for p in py["frames"]:
+    for k in ("relmse", "smape", "rmse", "psnr", "ssim", "flip"):
+        a, b = p[k], den[p["frame"]][k]
+        assert abs(a - b) <= 1e-3 * abs(a), (p["frame"], k, a, b)
+s = c["series"]
+assert s[0]["summary"]["relmse"] < s[1]["summary"]["relmse"], "denoised must beat noisy"
+PY
+check "eval's relMSE, SMAPE, RMSE, PSNR, SSIM and FLIP match numpy + OpenImageIO within 1e-3" $?
+chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom \
+    "file://$tmp/ev_report/index.html" >"$tmp/dom" 2>/dev/null
+n_img=$(grep -o '<img ' "$tmp/ev_report/index.html" | wc -l)
+grep -q "data-images=\"$n_img\" data-broken=\"\" data-status=\"ok\"" "$tmp/dom" && [ "$n_img" -ge 20 ]
+check "the eval report loads in headless Chromium with all $n_img images" $?
+"$T" eval --out "$tmp/ev_run" --reference "$tmp/nowhere" 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ] && grep -q "nowhere" "$tmp/err"
+check "eval with a missing reference directory exits 1 naming it" $?
+"$T" eval --out "$tmp/ev_run" --reference "$tmp/embree" --report "$tmp/ev_bad" 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ] && grep -q "40x24" "$tmp/err" && grep -q "48x27" "$tmp/err" && [ ! -e "$tmp/ev_bad" ]
+check "eval of frames of another size exits 1 with both sizes, no report" $?
+
 # captures back through the denoiser: the same pictures as render's own back-end
 "$T" denoise --captures "$tmp/embree" --out "$tmp/den" --denoiser svgf --quiet; rc=$?
 [ $rc -eq 0 ] && cmp -s "$tmp/den/frame_0001.exr" "$tmp/embree/frame_0001.exr"

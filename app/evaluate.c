@@ -1,0 +1,364 @@
+/* app/evaluate.c: sequences of frames on disk against a reference directory, and the report
+ * (shared by `tandem eval`, `tandem compare --reference` and `tandem bench --sweep`).
+ * A series is a directory's frame_NNNN.exr (a run's linear output) or its capture/frame_NNNN.exr
+ * composited without denoising (the noisy input). Entry points: app_eval_add, app_eval_run,
+ * app_eval_report, app_eval_free, app_list_frames. */
+#include "app/app.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+static int cmp_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+tnd_result app_list_frames(const char *dir, uint32_t **frames, uint32_t *count)
+{
+    *frames = NULL;
+    *count = 0;
+    DIR *d = opendir(dir);
+    if (!d)
+        return tnd_fail(TND_ERR_IO, "eval: %s: cannot open directory", dir);
+    uint32_t cap = 0;
+    for (struct dirent *e; (e = readdir(d));) {
+        unsigned f;
+        int end = 0;
+        if (sscanf(e->d_name, "frame_%u.exr%n", &f, &end) != 1 || end == 0 ||
+            e->d_name[end] != 0)
+            continue;
+        if (*count == cap) {
+            cap = cap ? 2 * cap : 64;
+            uint32_t *p = realloc(*frames, cap * sizeof *p);
+            if (!p) {
+                closedir(d);
+                free(*frames);
+                *frames = NULL;
+                return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+            }
+            *frames = p;
+        }
+        (*frames)[(*count)++] = f;
+    }
+    closedir(d);
+    if (*count)
+        qsort(*frames, *count, sizeof **frames, cmp_u32);
+    return TND_OK;
+}
+
+tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, bool noisy)
+{
+    if (e->nseries >= APP_EVAL_MAX_SERIES)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: at most %d series", APP_EVAL_MAX_SERIES);
+    app_eval_series *s = &e->series[e->nseries++];
+    memset(s, 0, sizeof *s);
+    snprintf(s->name, sizeof s->name, "%s", name);
+    if (noisy)
+        snprintf(s->dir, sizeof s->dir, "%s/capture", dir);
+    else
+        snprintf(s->dir, sizeof s->dir, "%s", dir);
+    s->noisy = noisy;
+    return TND_OK;
+}
+
+/* One frame of a series (noisy: the capture composited) or of the reference (s NULL). */
+static tnd_result load(const app_eval *e, const app_eval_series *s, uint32_t frame, ev_image *img,
+                       uint64_t *nonfinite)
+{
+    char path[1300];
+    snprintf(path, sizeof path, "%s/frame_%04u.exr", s ? s->dir : e->ref, frame);
+    tnd_result res;
+    if (s && s->noisy) {
+        tnd_frame f = {0};
+        res = tnd_capture_read(path, &f);
+        if (res == TND_OK)
+            res = ev_image_alloc(f.width, f.height, img);
+        if (res == TND_OK)
+            tnd_frame_composite(&f, img->rgb);
+        tnd_frame_destroy(&f);
+    } else {
+        res = ev_image_read_exr(path, img);
+    }
+    if (res == TND_OK) {
+        uint64_t bad = ev_image_sanitize(img);
+        if (nonfinite)
+            *nonfinite = bad;
+    }
+    return res;
+}
+
+void app_eval_free(app_eval *e)
+{
+    for (uint32_t i = 0; i < e->nseries; i++)
+        free(e->series[i].m);
+    free(e->frames);
+    e->frames = NULL;
+    e->nseries = 0;
+}
+
+/* The frames the reference and every series have. */
+static tnd_result common_frames(app_eval *e)
+{
+    uint32_t *ref = NULL, nref = 0;
+    tnd_result res = app_list_frames(e->ref, &ref, &nref);
+    if (res != TND_OK)
+        return res;
+    e->count = 0;
+    e->frames = malloc((nref + 1) * sizeof *e->frames);
+    if (!e->frames) {
+        free(ref);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+    }
+    uint32_t *have[APP_EVAL_MAX_SERIES] = {0}, nhave[APP_EVAL_MAX_SERIES] = {0};
+    for (uint32_t i = 0; i < e->nseries && res == TND_OK; i++)
+        res = app_list_frames(e->series[i].dir, &have[i], &nhave[i]);
+    for (uint32_t k = 0; res == TND_OK && k < nref; k++) {
+        bool all = true;
+        for (uint32_t i = 0; i < e->nseries && all; i++)
+            all = bsearch(&ref[k], have[i], nhave[i], sizeof(uint32_t), cmp_u32) != NULL;
+        if (all)
+            e->frames[e->count++] = ref[k];
+    }
+    if (res == TND_OK && e->count == 0)
+        res = tnd_fail(TND_ERR_BAD_INPUT,
+                       "eval: no frame_NNNN.exr is in both the reference %s (%u frames) and %s "
+                       "(%u frames)",
+                       e->ref, nref, e->nseries ? e->series[0].dir : "?", e->nseries ? nhave[0] : 0);
+    for (uint32_t i = 0; i < e->nseries; i++)
+        free(have[i]);
+    free(ref);
+    return res;
+}
+
+tnd_result app_eval_run(app_eval *e)
+{
+    tnd_result res = common_frames(e);
+    ev_image img = {0}, ref = {0};
+    ev_sequence *seq[APP_EVAL_MAX_SERIES] = {0};
+    if (res != TND_OK)
+        return res;
+    if (!(e->ppd > 0))
+        e->ppd = EV_FLIP_PPD;
+    /* the exposure: geometric-mean luminance of all reference frames -> 0.18 (or given) */
+    if (!(e->exposure > 0)) {
+        double logsum = 0;
+        size_t n = 0;
+        for (uint32_t k = 0; k < e->count; k++) {
+            TND_TRY(load(e, NULL, e->frames[k], &ref, NULL));
+            double x = ev_auto_exposure(&ref, 1);
+            size_t px = (size_t)ref.width * ref.height;
+            logsum += log(0.18 / x) * (double)px;
+            n += px;
+            ev_image_free(&ref);
+        }
+        e->exposure = 0.18 / exp(logsum / (double)n);
+        e->auto_exposure = true;
+    }
+    for (uint32_t i = 0; i < e->nseries; i++) {
+        e->series[i].m = calloc(e->count, sizeof(ev_frame_metrics));
+        if (!e->series[i].m) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+            goto fail;
+        }
+    }
+    for (uint32_t k = 0; k < e->count; k++) {
+        TND_TRY(load(e, NULL, e->frames[k], &ref, NULL));
+        if (k == 0) {
+            e->width = ref.width;
+            e->height = ref.height;
+            for (uint32_t i = 0; i < e->nseries; i++)
+                TND_TRY(ev_sequence_create(ref.width, ref.height, e->exposure, e->ppd, &seq[i]));
+        } else if (ref.width != e->width || ref.height != e->height) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "eval: %s/frame_%04u.exr is %ux%u, frame %u was %ux%u",
+                           e->ref, e->frames[k], ref.width, ref.height, e->frames[0], e->width,
+                           e->height);
+            goto fail;
+        }
+        for (uint32_t i = 0; i < e->nseries; i++) {
+            uint64_t bad = 0;
+            TND_TRY(load(e, &e->series[i], e->frames[k], &img, &bad));
+            if (img.width != ref.width || img.height != ref.height) {
+                res = tnd_fail(TND_ERR_BAD_INPUT,
+                               "eval: %s/frame_%04u.exr is %ux%u, the reference is %ux%u",
+                               e->series[i].dir, e->frames[k], img.width, img.height, ref.width,
+                               ref.height);
+                goto fail;
+            }
+            TND_TRY(ev_sequence_add(seq[i], e->frames[k], &img, &ref, &e->series[i].m[k], NULL));
+            e->series[i].m[k].nonfinite = bad;
+            e->series[i].summary.nonfinite += bad;
+            ev_image_free(&img);
+        }
+        ev_image_free(&ref);
+        if (e->progress)
+            app_progress_step(e->progress, k + 1);
+    }
+    for (uint32_t i = 0; i < e->nseries; i++) {
+        uint64_t bad = e->series[i].summary.nonfinite;
+        ev_sequence_summary(seq[i], &e->series[i].summary);
+        e->series[i].summary.nonfinite = bad;
+    }
+fail:
+    for (uint32_t i = 0; i < e->nseries; i++)
+        ev_sequence_destroy(seq[i]);
+    ev_image_free(&img);
+    ev_image_free(&ref);
+    return res;
+}
+
+/* ---- report -------------------------------------------------------------------------------- */
+static tnd_result png(const char *dir, const char *name, const float *rgb, uint32_t w, uint32_t h)
+{
+    char path[1400];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    return ev_write_png(path, rgb, w, h);
+}
+
+/* nearest-neighbour crop (x0, y0, size c) scaled by s */
+static void crop(const float *rgb, uint32_t w, uint32_t x0, uint32_t y0, uint32_t c, uint32_t s,
+                 float *out)
+{
+    for (uint32_t y = 0; y < c * s; y++)
+        for (uint32_t x = 0; x < c * s; x++)
+            for (int k = 0; k < 3; k++)
+                out[3 * ((size_t)y * c * s + x) + k] =
+                    rgb[3 * ((size_t)(y0 + y / s) * w + x0 + x / s) + k];
+}
+
+tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, const char *settings,
+                           const char *html)
+{
+    tnd_result res = TND_OK;
+    uint32_t w = e->width, h = e->height, ns = e->nseries;
+    size_t n = (size_t)w * h;
+    ev_series series[APP_EVAL_MAX_SERIES];
+    for (uint32_t i = 0; i < ns; i++)
+        series[i] = (ev_series){e->series[i].name, e->series[i].m, e->series[i].summary};
+    float *tm = NULL, *tr = NULL, *tmp = NULL, *map = NULL, *cr = NULL;
+    ev_image img = {0}, ref = {0};
+    ev_row *rows = NULL;
+    TND_TRY(tnd_mkdirs(dir));
+    TND_TRY(ev_write_metrics(dir, series, ns, e->count, settings));
+    static const char *const metrics[7] = {"relmse", "smape", "rmse", "psnr", "ssim", "flip",
+                                           "temporal"};
+    char plot_names[7][32];
+    const char *plots[7];
+    for (int k = 0; k < 7; k++) {
+        snprintf(plot_names[k], sizeof plot_names[k], "plot_%s.svg", metrics[k]);
+        plots[k] = plot_names[k];
+        char path[1400];
+        snprintf(path, sizeof path, "%s/%s", dir, plot_names[k]);
+        TND_TRY(ev_plot_metric(path, metrics[k], series, ns, e->count));
+    }
+    /* frames shown: the first, the one with the worst FLIP of the first series, the last */
+    uint32_t pick[3], npick = 0, worst = 0;
+    for (uint32_t k = 0; k < e->count; k++)
+        if (ns && e->series[0].m[k].flip > e->series[0].m[worst].flip)
+            worst = k;
+    const uint32_t cand[3] = {0, worst, e->count - 1};
+    for (int c = 0; c < 3; c++) {
+        bool dup = false;
+        for (uint32_t j = 0; j < npick; j++)
+            dup |= pick[j] == cand[c];
+        if (!dup)
+            pick[npick++] = cand[c];
+    }
+    rows = calloc(2 * npick, sizeof *rows);
+    tm = malloc(n * 3 * sizeof(float));
+    tr = malloc(n * 3 * sizeof(float));
+    tmp = malloc(n * 3 * sizeof(float));
+    map = malloc(n * sizeof(float));
+    uint32_t c = w < h ? w : h;
+    c = c / 4 < 16 ? (c < 16 ? c : 16) : c / 4;
+    uint32_t scale = (192 + c - 1) / c;
+    scale = scale < 1 ? 1 : scale > 8 ? 8 : scale;
+    cr = malloc((size_t)c * scale * c * scale * 3 * sizeof(float));
+    if (!rows || !tm || !tr || !tmp || !map || !cr) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+        goto fail;
+    }
+    uint32_t nrows = 0, shown = w >= 240 ? w : w * ((240 + w - 1) / w);
+    for (uint32_t p = 0; p < npick; p++) {
+        uint32_t k = pick[p], f = e->frames[k];
+        ev_row *row = &rows[nrows++], *crow = &rows[nrows++];
+        snprintf(row->title, sizeof row->title, "Frame %u%s", f,
+                 k == worst && ns ? " (the worst FLIP of the first series)" : "");
+        TND_TRY(load(e, NULL, f, &ref, NULL));
+        ev_tonemap(&ref, e->exposure, tr);
+        snprintf(row->panels[row->count].file, sizeof row->panels[0].file, "f%04u_reference.png", f);
+        row->panels[row->count].caption = "reference";
+        row->panels[row->count].display_width = shown;
+        TND_TRY(png(dir, row->panels[row->count++].file, tr, w, h));
+        /* crop centre: the largest 16x16 box sum of the first series' FLIP */
+        uint32_t cx = 0, cy = 0;
+        for (uint32_t i = 0; i < ns; i++) {
+            TND_TRY(load(e, &e->series[i], f, &img, NULL));
+            ev_tonemap(&img, e->exposure, tm);
+            double mean;
+            TND_TRY(ev_flip(tr, tm, w, h, e->ppd, map, &mean));
+            ev_panel *pn = &row->panels[row->count++];
+            snprintf(pn->file, sizeof pn->file, "f%04u_s%u.png", f, i);
+            pn->caption = e->series[i].name;
+            pn->display_width = shown;
+            TND_TRY(png(dir, pn->file, tm, w, h));
+            for (size_t q = 0; q < n * 3; q++)
+                tmp[q] = fminf(1.0f, 4.0f * fabsf(tm[q] - tr[q]));
+            pn = &row->panels[row->count++];
+            snprintf(pn->file, sizeof pn->file, "f%04u_s%u_diff.png", f, i);
+            pn->caption = "|difference| x4 (tone-mapped)";
+            pn->display_width = shown;
+            TND_TRY(png(dir, pn->file, tmp, w, h));
+            ev_colormap(map, n, tmp);
+            pn = &row->panels[row->count++];
+            snprintf(pn->file, sizeof pn->file, "f%04u_s%u_flip.png", f, i);
+            pn->caption = "FLIP error";
+            pn->display_width = shown;
+            TND_TRY(png(dir, pn->file, tmp, w, h));
+            if (i == 0) {
+                double best = -1;
+                for (uint32_t y = 0; y + c <= h; y += c / 4 ? c / 4 : 1)
+                    for (uint32_t x = 0; x + c <= w; x += c / 4 ? c / 4 : 1) {
+                        double sum = 0;
+                        for (uint32_t yy = y; yy < y + c; yy++)
+                            for (uint32_t xx = x; xx < x + c; xx++)
+                                sum += map[(size_t)yy * w + xx];
+                        if (sum > best)
+                            best = sum, cx = x, cy = y;
+                    }
+            }
+            /* crops of this series (the reference's below, after the loop) */
+            crop(tm, w, cx, cy, c, scale, cr);
+            pn = &crow->panels[crow->count + 1 + i];
+            snprintf(pn->file, sizeof pn->file, "f%04u_s%u_crop.png", f, i);
+            pn->caption = e->series[i].name;
+            TND_TRY(png(dir, pn->file, cr, c * scale, c * scale));
+            ev_image_free(&img);
+        }
+        snprintf(crow->title, sizeof crow->title, "Frame %u, crop %ux%u at (%u, %u), x%u", f, c, c,
+                 cx, cy, scale);
+        crop(tr, w, cx, cy, c, scale, cr);
+        snprintf(crow->panels[0].file, sizeof crow->panels[0].file, "f%04u_reference_crop.png", f);
+        crow->panels[0].caption = "reference";
+        TND_TRY(png(dir, crow->panels[0].file, cr, c * scale, c * scale));
+        crow->count = 1 + ns;
+        ev_image_free(&ref);
+    }
+    TND_TRY(ev_report_write(&(ev_report){.dir = dir, .title = title, .settings = settings,
+                                         .series = series, .nseries = ns, .plots = plots,
+                                         .nplots = 7, .rows = rows, .nrows = nrows, .html = html}));
+fail:
+    ev_image_free(&img);
+    ev_image_free(&ref);
+    free(rows);
+    free(tm);
+    free(tr);
+    free(tmp);
+    free(map);
+    free(cr);
+    return res;
+}
