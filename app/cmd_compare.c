@@ -15,8 +15,12 @@
 static const app_cmd compare_cmd = {
     "compare",
     "Compare two capture directories (DIR or DIR/capture with frame_NNNN.exr) entry by entry:\n"
-    "the fraction of pixels that agree, per frame and channel; exit 1 below the floors.",
-    "A B [--min-gbuffer F] [--min-signal F] [--json]", NULL};
+    "the fraction of pixels that agree, per frame and channel; exit 1 below the floors. With\n"
+    "--reference, also the metrics of both runs' denoised frames against it (and --report).\n"
+    "With --scene, first render the scene with both front-ends through one back-end.",
+    "A B [--min-gbuffer F] [--min-signal F] [--json] [--reference REFDIR [--report DIR]]\n"
+    "       tandem compare --scene PATH --out DIR [--frames N] [--size WxH] [--reference REFDIR]",
+    NULL};
 
 /* The directory that holds the frames: DIR/capture when it exists, else DIR. */
 static void frames_dir(const char *d, char *out, size_t cap)
@@ -32,33 +36,16 @@ static bool is_signal(tnd_ct e)
     return e == TND_CT_HF || e == TND_CT_LF_SH || e == TND_CT_LF_COCG || e == TND_CT_SPEC;
 }
 
-int cmd_compare(int argc, char **argv)
+/* The agreement of the captures in da and db, frame by frame: per entry, the fraction of
+ * (same-surface, for the signals) pixels that agree; printed unless json; into root ("frames",
+ * "worst", "pass"). Returns APP_EXIT_OK, APP_EXIT_FAIL (below a floor, or an error: *res). */
+static int agreement(const char *da, const char *db, double min_gbuffer, double min_signal,
+                     bool json, cJSON *root, tnd_result *res)
 {
-    double min_gbuffer = 0.99, min_signal = 0.9;
-    bool json = false;
-    const app_opt opts[] = {
-        {"min-gbuffer", APP_OPT_FLOAT, &min_gbuffer, "F",
-         "G-buffer entries: fraction of pixels that must agree (default 0.99)"},
-        {"min-signal", APP_OPT_FLOAT, &min_signal, "F",
-         "hf, lf, spec: fraction of same-surface pixels that must agree (default 0.9)"},
-        {"json", APP_OPT_FLAG, &json, NULL, "print the figures as JSON"},
-        {0},
-    };
-    const char *pos[2];
-    int npos;
-    int rc = app_parse(&compare_cmd, opts, argc, argv, pos, 2, &npos);
-    if (rc >= 0)
-        return rc;
-    if (npos != 2) {
-        fprintf(stderr, "tandem compare: two directories expected (see tandem compare --help)\n");
-        return APP_EXIT_USAGE;
-    }
-    char da[1100], db[1100];
-    frames_dir(pos[0], da, sizeof da);
-    frames_dir(pos[1], db, sizeof db);
+    *res = TND_OK;
     DIR *d = opendir(da);
     if (!d) {
-        fprintf(stderr, "tandem: compare: %s: cannot open directory\n", da);
+        *res = tnd_fail(TND_ERR_IO, "compare: %s: cannot open directory", da);
         return APP_EXIT_FAIL;
     }
     char names[4096][32];
@@ -75,7 +62,7 @@ int cmd_compare(int argc, char **argv)
     double worst[TND_CT_COUNT];
     for (int i = 0; i < TND_CT_COUNT; i++)
         worst[i] = 1.0;
-    cJSON *root = cJSON_CreateObject(), *frames = cJSON_AddArrayToObject(root, "frames");
+    cJSON *frames = cJSON_AddArrayToObject(root, "frames");
     for (int k = 0; k < nf; k++) {
         char pa[1200], pb[1200];
         snprintf(pa, sizeof pa, "%.1000s/%.31s", da, names[k]);
@@ -93,8 +80,8 @@ int cmd_compare(int argc, char **argv)
         if (r != TND_OK) {
             tnd_frame_destroy(&a);
             tnd_frame_destroy(&b);
-            cJSON_Delete(root);
-            return app_report("compare", r);
+            *res = r;
+            return APP_EXIT_FAIL;
         }
         size_t n = (size_t)a.width * a.height;
         cJSON *fo = cJSON_CreateObject();
@@ -154,22 +141,189 @@ int cmd_compare(int argc, char **argv)
         tnd_frame_destroy(&b);
     }
     if (compared == 0) {
-        cJSON_Delete(root);
-        fprintf(stderr, "tandem: compare: no frame_NNNN.exr in both %s and %s\n", da, db);
+        *res = tnd_fail(TND_ERR_BAD_INPUT, "compare: no frame_NNNN.exr in both %s and %s", da, db);
         return APP_EXIT_FAIL;
     }
     cJSON *w = cJSON_AddObjectToObject(root, "worst");
     for (int e = 0; e < TND_CT_COUNT; e++)
-        if (worst[e] < 1.0 || 1)
-            cJSON_AddNumberToObject(w, tnd_ct_get((tnd_ct)e)->name, worst[e]);
+        cJSON_AddNumberToObject(w, tnd_ct_get((tnd_ct)e)->name, worst[e]);
     cJSON_AddBoolToObject(root, "pass", status == APP_EXIT_OK);
+    cJSON_AddNumberToObject(root, "compared", compared);
+    if (!json)
+        printf("%d frame%s compared: %s\n", compared, compared == 1 ? "" : "s",
+               status == APP_EXIT_OK ? "agree" : "DISAGREE");
+    return status;
+}
+
+/* The agreement table for the report. */
+static void agreement_html(const cJSON *root, double min_gbuffer, double min_signal, ev_text *t)
+{
+    const cJSON *w = cJSON_GetObjectItem(root, "worst");
+    const cJSON *n = cJSON_GetObjectItem(root, "compared");
+    ev_text_add(t,
+                "<h2>Contract agreement (embree vs vk captures)</h2>\n<p>%d frames; the worst "
+                "frame's fraction of agreeing pixels per entry (signals: of the pixels that see "
+                "the same surface). Floors: G-buffer %.3g, signals %.3g.</p>\n<table><tr><th>entry"
+                "</th><th>agree (worst frame)</th><th>floor</th><th>verdict</th></tr>\n",
+                n ? n->valueint : 0, min_gbuffer, min_signal);
+    for (int e = 0; e < TND_CT_COUNT; e++) {
+        const char *name = tnd_ct_get((tnd_ct)e)->name;
+        const cJSON *v = cJSON_GetObjectItem(w, name);
+        if (!v)
+            continue;
+        double floor = is_signal((tnd_ct)e) ? min_signal : min_gbuffer;
+        ev_text_add(t, "<tr><td>%s</td><td>%.2f%%</td><td>%.1f%%</td><td>%s</td></tr>\n", name,
+                    100.0 * v->valuedouble, 100.0 * floor, v->valuedouble >= floor ? "agree" : "DISAGREE");
+    }
+    ev_text_add(t, "</table>\n");
+}
+
+/* `tandem render` in this process (argv as the command line after "tandem"). */
+static tnd_result run_render(const char *const *args, int n)
+{
+    char *argv[40];
+    for (int i = 0; i < n && i < 40; i++)
+        argv[i] = (char *)args[i];
+    int rc = strcmp(args[0], "reference") == 0 ? cmd_reference(n, argv) : cmd_render(n, argv);
+    return rc == APP_EXIT_OK ? TND_OK
+                             : tnd_fail(TND_ERR_IO, "compare: tandem %s --out %s failed", args[0],
+                                        args[n - 2]);
+}
+
+int cmd_compare(int argc, char **argv)
+{
+    double min_gbuffer = 0.99, min_signal = 0.9;
+    bool json = false;
+    const char *reference = NULL, *report = NULL, *scene = NULL, *out = NULL, *denoiser = "asvgf";
+    unsigned frames = 8, spp = 64, size[2] = {160, 90};
+    const app_opt opts[] = {
+        {"min-gbuffer", APP_OPT_FLOAT, &min_gbuffer, "F",
+         "G-buffer entries: fraction of pixels that must agree (default 0.99)"},
+        {"min-signal", APP_OPT_FLOAT, &min_signal, "F",
+         "hf, lf, spec: fraction of same-surface pixels that must agree (default 0.9)"},
+        {"json", APP_OPT_FLAG, &json, NULL, "print the figures as JSON"},
+        {"reference", APP_OPT_STRING, &reference, "REFDIR",
+         "also evaluate both runs' denoised frames against these references"},
+        {"report", APP_OPT_STRING, &report, "DIR", "with two runs and --reference: the HTML report"},
+        {"scene", APP_OPT_STRING, &scene, "PATH",
+         "render the scene with both front-ends through one back-end, then compare (needs --out)"},
+        {"out", APP_OPT_STRING, &out, "DIR",
+         "with --scene: DIR/embree, DIR/vk, DIR/reference (unless --reference), DIR/report"},
+        {"frames", APP_OPT_UINT, &frames, "N", "with --scene: frames (default 8)"},
+        {"size", APP_OPT_SIZE, size, "WxH", "with --scene: image size (default 160x90)"},
+        {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "with --scene: the back-end (default asvgf)"},
+        {"spp", APP_OPT_UINT, &spp, "K", "with --scene and no --reference: reference samples (default 64)"},
+        {0},
+    };
+    const char *pos[2];
+    int npos;
+    int rc = app_parse(&compare_cmd, opts, argc, argv, pos, 2, &npos);
+    if (rc >= 0)
+        return rc;
+    if (scene ? (npos != 0 || !out) : npos != 2) {
+        fprintf(stderr, "tandem compare: two directories, or --scene PATH --out DIR, expected (see "
+                        "tandem compare --help)\n");
+        return APP_EXIT_USAGE;
+    }
+    if (!scene && report && !reference) {
+        fprintf(stderr, "tandem compare: --report needs --reference REFDIR\n");
+        return APP_EXIT_USAGE;
+    }
+    if ((out && strlen(out) > 900) || (reference && strlen(reference) > 900)) {
+        fprintf(stderr, "tandem compare: path too long\n");
+        return APP_EXIT_USAGE;
+    }
+    tnd_result res = TND_OK;
+    char run_a[1000], run_b[1000], refdir[1000], report_dir[1000];
+    if (scene) {
+        char fr[16], sz[32], sp[16];
+        snprintf(fr, sizeof fr, "%u", frames);
+        snprintf(sz, sizeof sz, "%ux%u", size[0], size[1]);
+        snprintf(sp, sizeof sp, "%u", spp);
+        snprintf(run_a, sizeof run_a, "%s/embree", out);
+        snprintf(run_b, sizeof run_b, "%s/vk", out);
+        const char *fe[2] = {"embree", "vk"}, *dirs[2] = {run_a, run_b};
+        for (int i = 0; i < 2 && res == TND_OK; i++) {
+            const char *args[] = {"render", "--frontend", fe[i], "--scene", scene, "--frames", fr,
+                                  "--size", sz, "--capture", "--denoiser", denoiser, "--out", dirs[i]};
+            res = run_render(args, (int)(sizeof args / sizeof args[0]));
+        }
+        if (reference) {
+            snprintf(refdir, sizeof refdir, "%s", reference);
+        } else if (res == TND_OK) {
+            snprintf(refdir, sizeof refdir, "%s/reference", out);
+            const char *args[] = {"reference", "--scene", scene, "--frames", fr, "--size", sz,
+                                  "--spp", sp, "--out", refdir};
+            res = run_render(args, (int)(sizeof args / sizeof args[0]));
+        }
+        snprintf(report_dir, sizeof report_dir, "%s/report", out);
+        reference = refdir;
+        report = report_dir;
+        if (res != TND_OK)
+            return app_report("compare", res);
+    } else {
+        snprintf(run_a, sizeof run_a, "%s", pos[0]);
+        snprintf(run_b, sizeof run_b, "%s", pos[1]);
+    }
+    char da[1100], db[1100];
+    frames_dir(run_a, da, sizeof da);
+    frames_dir(run_b, db, sizeof db);
+    cJSON *root = cJSON_CreateObject();
+    int status = agreement(da, db, min_gbuffer, min_signal, json && !reference, root, &res);
+    if (res != TND_OK) {
+        cJSON_Delete(root);
+        return app_report("compare", res);
+    }
+    if (reference) {
+        app_eval e = {0};
+        snprintf(e.ref, sizeof e.ref, "%s", reference);
+        res = app_eval_add(&e, scene ? "embree" : run_a, run_a, false);
+        if (res == TND_OK)
+            res = app_eval_add(&e, scene ? "vk" : run_b, run_b, false);
+        if (res == TND_OK)
+            res = app_eval_run(&e);
+        cJSON *ev = cJSON_AddArrayToObject(root, "eval");
+        for (uint32_t i = 0; res == TND_OK && i < e.nseries; i++) {
+            const ev_summary *s = &e.series[i].summary;
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddStringToObject(o, "name", e.series[i].name);
+            cJSON_AddNumberToObject(o, "relmse", s->relmse);
+            cJSON_AddNumberToObject(o, "smape", s->smape);
+            cJSON_AddNumberToObject(o, "psnr", s->psnr);
+            cJSON_AddNumberToObject(o, "ssim", s->ssim);
+            cJSON_AddNumberToObject(o, "flip", s->flip);
+            cJSON_AddNumberToObject(o, "temporal", s->temporal);
+            cJSON_AddItemToArray(ev, o);
+            if (!json)
+                printf("  %s against %s: relMSE %.4g, SMAPE %.4f, PSNR %.2f dB, SSIM %.4f, FLIP %.4f, "
+                       "temporal %.4g\n",
+                       e.series[i].name, reference, s->relmse, s->smape, s->psnr, s->ssim, s->flip,
+                       s->temporal);
+        }
+        if (res == TND_OK && report) {
+            ev_text html = {0};
+            agreement_html(root, min_gbuffer, min_signal, &html);
+            char *settings = cJSON_Print(root);
+            char title[3200];
+            snprintf(title, sizeof title, "Tandem compare: %s and %s against %s", run_a, run_b,
+                     reference);
+            res = html.failed ? tnd_fail(TND_ERR_OUT_OF_MEMORY, "compare: out of memory")
+                              : app_eval_report(&e, report, title, settings, html.s);
+            free(settings);
+            ev_text_free(&html);
+            if (res == TND_OK && !json)
+                printf("  report: %s/index.html\n", report);
+        }
+        app_eval_free(&e);
+        if (res != TND_OK) {
+            cJSON_Delete(root);
+            return app_report("compare", res);
+        }
+    }
     if (json) {
         char *t = cJSON_Print(root);
         printf("%s\n", t);
         free(t);
-    } else {
-        printf("%d frame%s compared: %s\n", compared, compared == 1 ? "" : "s",
-               status == APP_EXIT_OK ? "agree" : "DISAGREE");
     }
     cJSON_Delete(root);
     return status;

@@ -201,6 +201,22 @@ chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --
 n_img=$(grep -o '<img ' "$tmp/ev_report/index.html" | wc -l)
 grep -q "data-images=\"$n_img\" data-broken=\"\" data-status=\"ok\"" "$tmp/dom" && [ "$n_img" -ge 20 ]
 check "the eval report loads in headless Chromium with all $n_img images" $?
+"$T" compare --scene "$SRC/data/scenes/cornell.gltf" --out "$tmp/cmpx" --frames 3 --size 40x24 \
+    --spp 8 --json >"$tmp/cmpx.json" 2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && $PY - "$tmp/cmpx.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+assert d["pass"] and d["compared"] == 3
+e = {x["name"]: x for x in d["eval"]}
+assert set(e) == {"embree", "vk"}
+for k in ("relmse", "flip", "ssim"):   # the same paths: the same denoised pictures, nearly
+    assert abs(e["embree"][k] - e["vk"][k]) <= 0.02 * abs(e["embree"][k]) + 1e-4, (k, e)
+PY
+check "compare --scene: both front-ends through one back-end agree, and score alike against one reference" $?
+chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom \
+    "file://$tmp/cmpx/report/index.html" >"$tmp/dom" 2>/dev/null
+grep -q 'data-status="ok"' "$tmp/dom" && grep -q "Contract agreement" "$tmp/cmpx/report/index.html"
+check "the compare report (agreement table, both series) loads in Chromium" $?
 "$T" eval --out "$tmp/ev_run" --reference "$tmp/nowhere" 2>"$tmp/err"; rc=$?
 [ $rc -eq 1 ] && grep -q "nowhere" "$tmp/err"
 check "eval with a missing reference directory exits 1 naming it" $?
