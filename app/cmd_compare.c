@@ -269,7 +269,7 @@ int cmd_compare(int argc, char **argv)
     frames_dir(run_a, da, sizeof da);
     frames_dir(run_b, db, sizeof db);
     cJSON *root = cJSON_CreateObject();
-    int status = agreement(da, db, min_gbuffer, min_signal, json && !reference, root, &res);
+    int status = agreement(da, db, min_gbuffer, min_signal, json, root, &res);
     if (res != TND_OK) {
         cJSON_Delete(root);
         return app_report("compare", res);
