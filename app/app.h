@@ -19,7 +19,14 @@ typedef enum app_opt_kind {
     APP_OPT_UINT,     /* unsigned */
     APP_OPT_FLOAT,    /* double */
     APP_OPT_SIZE,     /* unsigned[2], "WxH" */
+    APP_OPT_LIST,     /* app_list: the option may repeat */
 } app_opt_kind;
+
+#define APP_LIST_MAX 8
+typedef struct app_list {
+    const char *v[APP_LIST_MAX];
+    int n;
+} app_list;
 
 typedef struct app_opt {
     const char *name; /* without the leading "--" */
@@ -95,6 +102,8 @@ typedef struct app_eval {
     double exposure;         /* <= 0: from the reference (geometric mean luminance -> 0.18) */
     double ppd;              /* FLIP pixels per degree (<= 0: 67) */
     struct app_progress *progress; /* optional: stepped once per frame */
+    uint32_t min_frame;      /* frames before it are left out (a warm-up) */
+    bool resample;           /* series of another size are resampled to the reference's */
     /* filled by app_eval_run */
     bool auto_exposure;
     uint32_t *frames, count, width, height;
@@ -123,5 +132,8 @@ int cmd_bench(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_denoise(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
+/* `tandem bench --sweep` (app/cmd_sweep.c) */
+int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
+              unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup);
 
 #endif

@@ -222,6 +222,9 @@ int cmd_bench(int argc, char **argv)
     unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
     bool json = false;
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
+    const char *out = NULL, *reference = NULL;
+    app_list sweeps = {0};
+    unsigned frames = 12, warmup = 4, spp = 64;
     const app_opt opts[] = {
         {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
          "with --frontend vk: time the whole frame with this back-end (asvgf, svgf or off)"},
@@ -237,6 +240,15 @@ int cmd_bench(int argc, char **argv)
         {"bounces", APP_OPT_UINT, &bounces, "N", "indirect bounces (default 1)"},
         {"frame", APP_OPT_UINT, &frame, "F", "frame of the camera path (default 0)"},
         {"json", APP_OPT_FLAG, &json, NULL, "print the results as JSON"},
+        {"sweep", APP_OPT_LIST, &sweeps, "KEY=V1,V2,...",
+         "run the pipeline over every combination of knob values (repeatable; keys: bounces, "
+         "atrous, alpha, gradient, denoiser, precision, taa, scale, frontend); needs --out"},
+        {"out", APP_OPT_STRING, &out, "DIR", "--sweep, --extremes: where runs, tables and the report go"},
+        {"reference", APP_OPT_STRING, &reference, "REFDIR",
+         "--sweep: references (default: rendered into DIR/reference with --spp)"},
+        {"spp", APP_OPT_UINT, &spp, "K", "--sweep: samples per pixel of the reference (default 64)"},
+        {"frames", APP_OPT_UINT, &frames, "N", "--sweep: frames per run (default 12)"},
+        {"warmup", APP_OPT_UINT, &warmup, "W", "--sweep: frames left out of times and metrics (default 4)"},
         {0},
     };
     const char *pos[1];
@@ -255,6 +267,8 @@ int cmd_bench(int argc, char **argv)
     }
     bool full = strcmp(pipeline, "full") == 0;
     tnd_result res = TND_OK;
+    if (sweeps.n)
+        return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup);
     if (denoiser) {
         dn_mode mode;
         tnd_precision prec;

@@ -21,8 +21,8 @@
 typedef struct render_opts {
     const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump, *pipeline;
     const char *taa, *tonemap, *exposure;
-    double bloom;
-    unsigned frames, start, threads, bounces, spp, camera;
+    double bloom, min_alpha;
+    unsigned frames, start, threads, bounces, spp, camera, atrous;
     unsigned size[2];
     double fps;
     bool capture, video;
@@ -75,6 +75,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
          "atrous.hf, atrous.spec, lf.sh, lf.cocg (1/3 res), gradients (1/3 res), output)"},
         {"denoiser", APP_OPT_STRING, &o->denoiser, "MODE",
          "asvgf (default: with temporal gradients), svgf or off (noisy composite)"},
+        {"atrous", APP_OPT_UINT, &o->atrous, "N",
+         "a-trous iterations of hf and spec (default 4 and 3; 1 to 5)"},
+        {"min-alpha", APP_OPT_FLOAT, &o->min_alpha, "A",
+         "temporal accumulation: the smallest weight of the new frame, hf/lf/spec (default .02/.01/.01)"},
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API",
          "vk: pipeline, query, or auto (query where the device has it)"},
         {"pipeline", APP_OPT_STRING, &o->pipeline, "scene|full",
@@ -119,6 +123,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     if (strcmp(o->frontend, "embree") != 0 && strcmp(o->frontend, "vk") != 0) {
         fprintf(stderr, "tandem %s: --frontend '%s': expected embree or vk\n", cmd->name,
                 o->frontend);
+        return APP_EXIT_USAGE;
+    }
+    if (o->atrous > 5 || (o->min_alpha != 0 && !(o->min_alpha > 0 && o->min_alpha <= 1))) {
+        fprintf(stderr, "tandem %s: --atrous is 1 to 5, --min-alpha in (0, 1]\n", cmd->name);
         return APP_EXIT_USAGE;
     }
     if (o->video && !app_have_program("ffmpeg")) {
@@ -207,6 +215,10 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     cJSON_AddNumberToObject(j, "bounces", o->bounces);
     cJSON_AddStringToObject(j, "precision", o->precision);
     cJSON_AddStringToObject(j, "denoiser", dn_mode_s);
+    if (o->atrous)
+        cJSON_AddNumberToObject(j, "atrous", o->atrous);
+    if (o->min_alpha > 0)
+        cJSON_AddNumberToObject(j, "min_alpha", o->min_alpha);
     cJSON *post = cJSON_AddObjectToObject(j, "post");
     if (passes) {
         cJSON_AddBoolToObject(post, "taa", pd->taa);
@@ -302,7 +314,11 @@ static int run(bool reference, int argc, char **argv)
         TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !use_vk}, &vk));
     }
     if (use_dn) {
-        TND_TRY(dn_create(&vk, o.size[0], o.size[1], &(dn_desc){.mode = dmode, .precision = prec},
+        float ma = (float)o.min_alpha;
+        TND_TRY(dn_create(&vk, o.size[0], o.size[1],
+                          &(dn_desc){.mode = dmode, .precision = prec, .iters_hf = o.atrous,
+                                     .iters_spec = o.atrous, .min_alpha_hf = ma,
+                                     .min_alpha_lf = ma, .min_alpha_spec = ma},
                           &dn));
         if (!use_vk)
             TND_TRY(tnd_contract_gpu_create(&vk, o.size[0], o.size[1], prec, &upload));

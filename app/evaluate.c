@@ -89,6 +89,13 @@ static tnd_result load(const app_eval *e, const app_eval_series *s, uint32_t fra
         if (nonfinite)
             *nonfinite = bad;
     }
+    if (res == TND_OK && s && e->resample && e->width &&
+        (img->width != e->width || img->height != e->height)) {
+        ev_image big;
+        res = ev_image_resize(img, e->width, e->height, &big);
+        ev_image_free(img);
+        *img = big;
+    }
     return res;
 }
 
@@ -121,7 +128,7 @@ static tnd_result common_frames(app_eval *e)
         bool all = true;
         for (uint32_t i = 0; i < e->nseries && all; i++)
             all = bsearch(&ref[k], have[i], nhave[i], sizeof(uint32_t), cmp_u32) != NULL;
-        if (all)
+        if (all && ref[k] >= e->min_frame)
             e->frames[e->count++] = ref[k];
     }
     if (res == TND_OK && e->count == 0)

@@ -37,6 +37,15 @@ static int parse_value(const app_cmd *cmd, const app_opt *o, const char *v)
     case APP_OPT_STRING:
         *(const char **)o->dest = v;
         return 0;
+    case APP_OPT_LIST: {
+        app_list *l = o->dest;
+        if (l->n >= APP_LIST_MAX) {
+            fprintf(stderr, "tandem %s: --%s: at most %d times\n", cmd->name, o->name, APP_LIST_MAX);
+            return -1;
+        }
+        l->v[l->n++] = v;
+        return 0;
+    }
     case APP_OPT_INT: {
         long x = strtol(v, &end, 10);
         if (errno || !*v || *end || x < -2147483647L || x > 2147483647L)

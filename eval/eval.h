@@ -22,6 +22,9 @@ void ev_image_free(ev_image *img);
 /* Linear RGB EXR (channels R, G, B; A and others ignored). Missing channels: an error naming
  * the file and the channel. */
 tnd_result ev_image_read_exr(const char *path, ev_image *img);
+/* Bilinear resampling to w x h (pixel centres aligned): a run at a reduced resolution scale
+ * compared with a full-size reference. */
+tnd_result ev_image_resize(const ev_image *in, uint32_t w, uint32_t h, ev_image *out);
 /* Non-finite values replaced by 0; returns how many there were. */
 uint64_t ev_image_sanitize(ev_image *img);
 

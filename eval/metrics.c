@@ -53,6 +53,32 @@ tnd_result ev_image_read_exr(const char *path, ev_image *img)
     return res;
 }
 
+tnd_result ev_image_resize(const ev_image *in, uint32_t w, uint32_t h, ev_image *out)
+{
+    tnd_result res = ev_image_alloc(w, h, out);
+    if (res != TND_OK)
+        return res;
+    double sx = (double)in->width / w, sy = (double)in->height / h;
+    for (uint32_t y = 0; y < h; y++) {
+        double fy = fmin(fmax((y + 0.5) * sy - 0.5, 0.0), in->height - 1.0);
+        uint32_t y0 = (uint32_t)fy, y1 = y0 + 1 < in->height ? y0 + 1 : y0;
+        double ty = fy - y0;
+        for (uint32_t x = 0; x < w; x++) {
+            double fx = fmin(fmax((x + 0.5) * sx - 0.5, 0.0), in->width - 1.0);
+            uint32_t x0 = (uint32_t)fx, x1 = x0 + 1 < in->width ? x0 + 1 : x0;
+            double tx = fx - x0;
+            for (int k = 0; k < 3; k++) {
+#define PX(xx, yy) in->rgb[3 * ((size_t)(yy) * in->width + (xx)) + k]
+                double a = PX(x0, y0) + (PX(x1, y0) - PX(x0, y0)) * tx;
+                double b = PX(x0, y1) + (PX(x1, y1) - PX(x0, y1)) * tx;
+#undef PX
+                out->rgb[3 * ((size_t)y * w + x) + k] = (float)(a + (b - a) * ty);
+            }
+        }
+    }
+    return TND_OK;
+}
+
 uint64_t ev_image_sanitize(ev_image *img)
 {
     uint64_t bad = 0;

@@ -217,6 +217,35 @@ chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --
     "file://$tmp/cmpx/report/index.html" >"$tmp/dom" 2>/dev/null
 grep -q 'data-status="ok"' "$tmp/dom" && grep -q "Contract agreement" "$tmp/cmpx/report/index.html"
 check "the compare report (agreement table, both series) loads in Chromium" $?
+
+# speed/accuracy sweep: 3 knobs, 8 runs, Pareto fronts; the report opens in Chromium
+"$T" bench --scene "$SRC/data/scenes/cornell.gltf" --size 40x24 --frames 5 --warmup 2 --spp 8 \
+    --sweep atrous=1,4 --sweep taa=on,off --sweep gradient=on,off --out "$tmp/sweep" --quiet >"$tmp/sw_out" 2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && $PY - "$tmp/sweep/sweep.json" "$tmp/sweep/sweep.csv" <<'PY'
+import json, math, sys
+d = json.load(open(sys.argv[1]))
+runs = d["runs"]
+assert d["knobs"] == ["atrous", "taa", "gradient"] and len(runs) == 8
+assert len({tuple(sorted(r["knobs"].items())) for r in runs}) == 8
+for r in runs:
+    assert r["total_ms"] > 0 and r["pass_ms"]["denoise_atrous_ms"] > 0, r
+    assert math.isfinite(r["relmse"]) and 0 < r["flip"] < 1, r
+    assert (r["pass_ms"]["denoise_gradient_ms"] > 0) == (r["knobs"]["gradient"] == "on"), r
+    assert (r["pass_ms"]["taa_ms"] > 0) == (r["knobs"]["taa"] == "on"), r
+assert any(r["pareto_relmse"] for r in runs) and any(r["pareto_flip"] for r in runs)
+assert len(open(sys.argv[2]).read().strip().split("\n")) == 9
+PY
+check "bench --sweep over 3 knobs: 8 runs with pass times, metrics and Pareto fronts" $?
+chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom \
+    "file://$tmp/sweep/report/index.html" >"$tmp/dom" 2>/dev/null
+grep -q 'data-images="2" data-broken="" data-status="ok"' "$tmp/dom"
+check "the sweep report (Pareto plots and table) loads in Chromium" $?
+"$T" bench --sweep spp=1,4 --out "$tmp/sw2" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "one sample per pixel" "$tmp/err" && [ ! -e "$tmp/sw2" ]
+check "bench --sweep spp explains why it is not a real-time knob (usage error, no output)" $?
+"$T" bench --sweep colour=red --out "$tmp/sw3" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "atrous" "$tmp/err" && [ ! -e "$tmp/sw3" ]
+check "bench --sweep with an unknown key lists the keys" $?
 "$T" eval --out "$tmp/ev_run" --reference "$tmp/nowhere" 2>"$tmp/err"; rc=$?
 [ $rc -eq 1 ] && grep -q "nowhere" "$tmp/err"
 check "eval with a missing reference directory exits 1 naming it" $?
