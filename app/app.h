@@ -135,5 +135,7 @@ int cmd_eval(int argc, char **argv);
 /* `tandem bench --sweep` (app/cmd_sweep.c) */
 int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
               unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup);
+/* `tandem bench --extremes` (app/cmd_extremes.c) */
+int app_extremes(const char *scene, const char *out, const unsigned size[2], unsigned frames);
 
 #endif

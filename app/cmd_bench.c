@@ -220,7 +220,7 @@ int cmd_bench(int argc, char **argv)
 {
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
     unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
-    bool json = false;
+    bool json = false, extremes = false, scene_given = false;
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
     const char *out = NULL, *reference = NULL;
     app_list sweeps = {0};
@@ -248,6 +248,8 @@ int cmd_bench(int argc, char **argv)
          "--sweep: references (default: rendered into DIR/reference with --spp)"},
         {"spp", APP_OPT_UINT, &spp, "K", "--sweep: samples per pixel of the reference (default 64)"},
         {"frames", APP_OPT_UINT, &frames, "N", "--sweep: frames per run (default 12)"},
+        {"extremes", APP_OPT_FLAG, &extremes, NULL,
+         "numerical stability report: the extremes scene (or --scene) through every mode; needs --out"},
         {"warmup", APP_OPT_UINT, &warmup, "W", "--sweep: frames left out of times and metrics (default 4)"},
         {0},
     };
@@ -267,6 +269,10 @@ int cmd_bench(int argc, char **argv)
     }
     bool full = strcmp(pipeline, "full") == 0;
     tnd_result res = TND_OK;
+    scene_given = strcmp(scene_path, TND_DATA_DIR "/scenes/cornell.gltf") != 0;
+    if (extremes)
+        return app_extremes(scene_given ? scene_path : TND_DATA_DIR "/scenes/extremes.gltf", out,
+                            size, frames);
     if (sweeps.n)
         return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup);
     if (denoiser) {

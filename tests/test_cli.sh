@@ -246,6 +246,37 @@ check "bench --sweep spp explains why it is not a real-time knob (usage error, n
 "$T" bench --sweep colour=red --out "$tmp/sw3" 2>"$tmp/err"; rc=$?
 [ $rc -eq 2 ] && grep -q "atrous" "$tmp/err" && [ ! -e "$tmp/sw3" ]
 check "bench --sweep with an unknown key lists the keys" $?
+
+# numerical stability report: extremes through every mode
+"$T" bench --extremes --size 64x36 --frames 4 --out "$tmp/ext" --quiet >"$tmp/ext_out" 2>"$tmp/err"; rc=$?
+$PY - "$tmp/ext/extremes.json" $rc <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+rc = int(sys.argv[2])
+runs = d["runs"]
+assert len(runs) == 12 and len({(r["frontend"], r["denoiser"], r["precision"]) for r in runs}) == 12
+assert rc == (1 if d["nonfinite"] else 0), (rc, d["nonfinite"])   # exit status says it
+for r in runs:
+    b = r["buffers"]
+    # what users get is finite in every mode: the frames, and every contract entry
+    assert b["output"]["nonfinite"] == 0, r
+    assert all(v["nonfinite"] == 0 for k, v in b.items() if k.startswith("contract.")), r
+    # the scene's 1e5 emitter is above half's range: the report sees the packed clamp coming
+    if r["precision"] == "float32":
+        assert b["contract.emission"]["over_half_max"] > 0 and b["contract.emission"]["max_abs"] >= 1e5
+    if r["denoiser"] != "off" or r["frontend"] == "vk":
+        assert any(k.startswith("denoise.") for k in b), r
+for p in d["packed_vs_float32"]:
+    e = p["entries"]
+    assert e["albedo"]["max_relative"] < 1e-3 and e["normal"]["max_relative"] < 1e-3, p  # half: 2^-11
+    assert e["emission"]["max_relative"] > 0.3, p   # 1e5 clamped to 65504: the cost, measured
+print("     extremes: %d NaN/Inf inside the back-end's buffers" % d["nonfinite"])
+PY
+check "bench --extremes: 12 modes, finite frames and contracts, packed clamps found and measured" $?
+chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom \
+    "file://$tmp/ext/report/index.html" >"$tmp/dom" 2>/dev/null
+grep -q 'data-status="ok"' "$tmp/dom" && grep -q "Packed against float32" "$tmp/ext/report/index.html"
+check "the stability report loads in Chromium" $?
 "$T" eval --out "$tmp/ev_run" --reference "$tmp/nowhere" 2>"$tmp/err"; rc=$?
 [ $rc -eq 1 ] && grep -q "nowhere" "$tmp/err"
 check "eval with a missing reference directory exits 1 naming it" $?
