@@ -192,8 +192,8 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
         snprintf(refdir, sizeof refdir, "%s", reference);
     } else {
         snprintf(refdir, sizeof refdir, "%s/reference", out);
-        char *args[] = {"reference", "--scene", (char *)scene, "--frames", fr, "--size", sz,
-                        "--spp", sp, "--out", refdir};
+        char *args[] = {"reference", "--frontend", "vk", "--scene", (char *)scene, "--frames", fr,
+                        "--size", sz, "--spp", sp, "--out", refdir, "--quiet"};
         if (cmd_reference((int)(sizeof args / sizeof args[0]), args) != APP_EXIT_OK) {
             res = tnd_fail(TND_ERR_IO, "bench: the reference (%s) failed", refdir);
             goto fail;

@@ -169,6 +169,7 @@ double ev_psnr(double mse)
     static void NAME(const T *src, uint32_t w, uint32_t h, const double *kx, const double *ky,   \
                      int r, T *tmp, T *dst)                                                      \
     {                                                                                            \
+        _Pragma("omp parallel for schedule(static)")                                             \
         for (uint32_t y = 0; y < h; y++)                                                         \
             for (uint32_t x = 0; x < w; x++) {                                                   \
                 double s = 0;                                                                    \
@@ -179,6 +180,7 @@ double ev_psnr(double mse)
                 }                                                                                \
                 tmp[(size_t)y * w + x] = (T)s;                                                   \
             }                                                                                    \
+        _Pragma("omp parallel for schedule(static)")                                             \
         for (uint32_t y = 0; y < h; y++)                                                         \
             for (uint32_t x = 0; x < w; x++) {                                                   \
                 double s = 0;                                                                    \
@@ -400,6 +402,7 @@ tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, 
     const double qc = 0.7, qf = 0.5, pc = 0.4, pt = 0.95;
     double cmax = pow(hyab(lab_g, lab_b), qc);
     float *color = P[15];
+#pragma omp parallel for schedule(static)
     for (size_t q = 0; q < n; q++) {
         double lab[2][3];
         for (int m = 0; m < 2; m++) {
