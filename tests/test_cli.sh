@@ -247,6 +247,26 @@ check "bench --sweep spp explains why it is not a real-time knob (usage error, n
 [ $rc -eq 2 ] && grep -q "atrous" "$tmp/err" && [ ! -e "$tmp/sw3" ]
 check "bench --sweep with an unknown key lists the keys" $?
 
+# lag after the scripted light switch of `dynamic` (its lamp goes off at frame 30)
+for d in asvgf svgf; do
+    "$T" render --frontend vk --scene "$SRC/data/scenes/dynamic.gltf" --start 24 --frames 14 \
+        --size 48x27 --denoiser $d --out "$tmp/lag_$d" --quiet || echo "render lag $d failed"
+done
+"$T" reference --scene "$SRC/data/scenes/dynamic.gltf" --start 24 --frames 14 --size 48x27 \
+    --spp 32 --out "$tmp/lag_ref" --quiet
+for d in asvgf svgf; do
+    "$T" eval --out "$tmp/lag_$d" --reference "$tmp/lag_ref" --json --quiet >"$tmp/lag_$d.json"
+done
+$PY - "$tmp/lag_asvgf.json" "$tmp/lag_svgf.json" "$tmp/lag_asvgf/metrics.json" <<'PY'
+import json, sys
+a, s = (json.load(open(f))[0] for f in sys.argv[1:3])
+m = json.load(open(sys.argv[3]))["series"][0]["summary"]
+assert m["lighting_changes"] == 1, m
+assert 0 <= a["lag"] <= 2 and s["lag"] >= 4, (a["lag"], s["lag"])
+print("     lag after the light switch: asvgf %g frames, svgf %g" % (a["lag"], s["lag"]))
+PY
+check "eval finds dynamic's light switch and measures the lag: A-SVGF <= 2 frames, SVGF >= 4" $?
+
 # numerical stability report: extremes through every mode
 "$T" bench --extremes --size 64x36 --frames 4 --out "$tmp/ext" --quiet >"$tmp/ext_out" 2>"$tmp/err"; rc=$?
 $PY - "$tmp/ext/extremes.json" $rc <<'PY'
