@@ -594,6 +594,10 @@ typedef enum tnd_material_kind {
 } tnd_material_kind;
 #define TND_MIRROR_ROUGHNESS 0.05f
 const char *tnd_material_kind_name(tnd_material_kind k);
+struct tnd_material;
+/* Beer-Lambert absorption coefficient per channel (1/m) of a glass volume:
+ * -ln(attenuation colour) / attenuation distance (0 without a distance or a colour below 1). */
+void tnd_material_sigma(const struct tnd_material *m, float sigma[3]);
 
 typedef struct tnd_material {
     char name[64];

@@ -10,6 +10,16 @@
 #include <stdlib.h>
 #include <string.h>
 
+void tnd_material_sigma(const tnd_material *m, float sigma[3])
+{
+    for (int k = 0; k < 3; k++) {
+        float c = m->attenuation_color[k];
+        sigma[k] = m->kind == TND_MAT_GLASS && m->attenuation_distance > 0 && c < 1.0f
+                       ? -logf(c > 1e-6f ? c : 1e-6f) / m->attenuation_distance
+                       : 0.0f;
+    }
+}
+
 const char *tnd_material_kind_name(tnd_material_kind k)
 {
     static const char *const n[] = {"opaque", "mirror", "thin glass", "glass"};

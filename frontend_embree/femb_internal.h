@@ -69,6 +69,9 @@ typedef struct femb_surface {
     uint32_t instance, primitive;
     float u, v;
     float obj[3]; /* object-space position (motion vectors) */
+    uint32_t kind; /* TND_KIND_* (shaders/specular.h) */
+    float ior, sigma[3]; /* glass: index of refraction, absorption inside (1/m) */
+    bool front;    /* the ray arrived on the side the geometric normal points to */
 } femb_surface;
 
 /* Evaluate the surface hit by a ray of direction `dir` (unit) at (instance, primitive, u, v);

@@ -16,6 +16,7 @@
 #include "frontend_embree/femb_internal.h"
 #include "shaders/brdf.h"
 #include "shaders/sampling.h"
+#include "shaders/specular.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -230,11 +231,56 @@ static bool sample_brdf(const femb_surface *s, const lobe_info *L, rng_key key, 
 /* Radiance arriving along (org, dir) from path vertex `bounce` on: emission (MIS-weighted
  * against the light list when pdf_prev > 0), NEE at each hit, more vertices up to max_bounce with
  * Russian roulette from rr_start. */
+/* The specular vertex of surface s (mirror, thin glass, glass) hit by a ray along `dir`: the
+ * new direction, the throughput factor, and whether the ray is inside a glass volume after it.
+ * The event comes from tnd_dielectric_event with u (TND_DIM_SPLIT of the vertex); shaders/
+ * specular.h says why the weights are 1. */
+static v3 specular_direction(const femb_surface *s, v3 n, v3 dir, float u, float f[3],
+                             uint32_t *event, bool *enter)
+{
+    float cos_i = fmx(-dot(n, dir), 1e-6f);
+    v3 refl = sub(dir, mul(n, 2.0f * dot(dir, n)));
+    f[0] = f[1] = f[2] = 1.0f;
+    *enter = false;
+    if (s->kind == TND_KIND_MIRROR) {
+        for (int k = 0; k < 3; k++)
+            f[k] = tnd_mirror_fresnel(s->base[k], cos_i);
+        *event = TND_EVENT_REFLECT;
+        return refl;
+    }
+    *event = tnd_dielectric_event(s->kind, s->front, cos_i, s->ior, u);
+    if (*event == TND_EVENT_REFLECT)
+        return refl;
+    if (*event == TND_EVENT_TRANSMIT)
+        return dir;
+    float eta = s->front ? s->ior : 1.0f / s->ior;
+    float cos_t = tnd_refract_cos(cos_i, eta);
+    *enter = s->front;
+    return norm(add(mul(dir, 1.0f / eta), mul(n, cos_i / eta - cos_t)));
+}
+
+/* The specular vertex of surface s hit along `dir`: the new direction, the throughput factor,
+ * the event (u: TND_DIM_SPLIT of the vertex) and whether the ray enters a glass volume. With
+ * the shading normal a reflection can point below the geometric surface or a refraction above
+ * it (near the silhouette of a smooth-shaded mesh); that vertex then uses the geometric normal,
+ * so the ray always leaves on the side its event says. */
+static v3 specular_vertex(const femb_surface *s, v3 dir, float u, float f[3], uint32_t *event,
+                          bool *enter)
+{
+    v3 wi = specular_direction(s, s->ns, dir, u, f, event, enter);
+    float side = dot(wi, s->ng); /* ng faces the incoming ray */
+    if (*event == TND_EVENT_REFLECT ? side <= 0.0f : side >= 0.0f)
+        wi = specular_direction(s, s->ng, dir, u, f, event, enter);
+    return wi;
+}
+
 static void trace_path(const femb_context *c, rng_key key, v3 org, v3 dir, uint32_t bounce,
                        uint32_t max_bounce, uint32_t rr_start, float pdf_prev, float cone,
                        float L_out[3])
 {
-    float beta[3] = {1, 1, 1};
+    float beta[3] = {1, 1, 1}, sigma[3] = {0, 0, 0};
+    bool inside = false;
+    uint32_t specular = 0; /* specular vertices so far: they do not count as bounces */
     L_out[0] = L_out[1] = L_out[2] = 0.0f;
     for (uint32_t b = bounce;; b++) {
         uint32_t inst, prim;
@@ -244,6 +290,9 @@ static void trace_path(const femb_context *c, rng_key key, v3 org, v3 dir, uint3
                 L_out[k] += beta[k] * c->scene->sky[k];
             return;
         }
+        if (inside) /* Beer-Lambert over the segment inside the glass */
+            for (int k = 0; k < 3; k++)
+                beta[k] *= expf(-sigma[k] * t);
         femb_surface s;
         cone += t * c->pixel_spread;
         femb_surface_eval(c, inst, prim, hu, hv, dir, cone, &s);
@@ -256,13 +305,32 @@ static void trace_path(const femb_context *c, rng_key key, v3 org, v3 dir, uint3
             for (int k = 0; k < 3; k++)
                 L_out[k] += beta[k] * w * s.emission[k];
         }
+        if (s.kind != TND_KIND_OPAQUE) {
+            if (++specular > TND_MAX_SPECULAR_DEPTH)
+                return;
+            float f[3];
+            uint32_t ev;
+            bool enter;
+            v3 wi = specular_vertex(&s, dir, rnd(key, b, TND_DIM_SPLIT), f, &ev, &enter);
+            if (ev == TND_EVENT_REFRACT) { /* into the volume, or out of it */
+                inside = enter;
+                memcpy(sigma, s.sigma, sizeof sigma);
+            }
+            for (int k = 0; k < 3; k++)
+                beta[k] *= f[k];
+            org = femb_offset_ray(s.p, dot(wi, s.ng) >= 0 ? s.ng : mul(s.ng, -1.0f));
+            dir = wi;
+            pdf_prev = 0.0f; /* a delta lobe: an emitter seen through it gets the full weight */
+            continue;
+        }
+        uint32_t nb = b - specular; /* bounces that count */
         lobe_info L;
         lobes(&s, &L);
         float d[3], sp[3];
         direct_light(c, key, b, &s, &L, d, sp);
         for (int k = 0; k < 3; k++)
             L_out[k] += beta[k] * (d[k] * s.base[k] * (1.0f - s.metallic) + sp[k]);
-        if (b >= max_bounce)
+        if (nb >= max_bounce)
             return;
         v3 wi;
         float w[3], pdf;
@@ -271,7 +339,7 @@ static void trace_path(const femb_context *c, rng_key key, v3 org, v3 dir, uint3
             return;
         for (int k = 0; k < 3; k++)
             beta[k] *= w[k];
-        if (b + 1 >= rr_start) {
+        if (nb + 1 >= rr_start) {
             float q = fmn(fmx(fmx(beta[0], fmx(beta[1], beta[2])), 0.05f), 1.0f);
             if (rnd(key, b, TND_DIM_RR) >= q)
                 return;

@@ -234,14 +234,14 @@ static v3 xf_dir(const float *x, v3 d)
     return (v3){x[0] * d.x + x[1] * d.y + x[2] * d.z, x[4] * d.x + x[5] * d.y + x[6] * d.z,
                 x[8] * d.x + x[9] * d.y + x[10] * d.z};
 }
-/* normal transform: inverse transpose of the 3x3 = cofactor matrix (up to a positive scale
- * when the determinant is positive; the sign is fixed by facing the viewer anyway) */
+/* normal transform: inverse transpose of the 3x3 = its cofactor matrix C / det; C's rows are
+ * r1 x r2, r2 x r0, r0 x r1 (r_i the rows), and n' = C n (up to a positive scale when the
+ * determinant is positive; the sign is fixed by facing the viewer anyway). For a rotation C = R. */
 static v3 xf_normal(const float *x, v3 n)
 {
     v3 r0 = {x[0], x[1], x[2]}, r1 = {x[4], x[5], x[6]}, r2 = {x[8], x[9], x[10]};
     v3 c0 = cross(r1, r2), c1 = cross(r2, r0), c2 = cross(r0, r1);
-    return (v3){c0.x * n.x + c1.x * n.y + c2.x * n.z, c0.y * n.x + c1.y * n.y + c2.y * n.z,
-                c0.z * n.x + c1.z * n.y + c2.z * n.z};
+    return (v3){dot(c0, n), dot(c1, n), dot(c2, n)};
 }
 
 void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primitive, float u,
@@ -269,6 +269,10 @@ void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primit
     ns = dot(ns, ns) > 1e-20f ? norm(xf_normal(X, ns)) : ng;
     s->wo = mul(dir, -1.0f);
     bool front = dot(ng, s->wo) >= 0.0f;
+    s->front = front;
+    s->kind = (uint32_t)mat->kind;
+    s->ior = mat->ior > 0 ? mat->ior : 1.5f;
+    tnd_material_sigma(mat, s->sigma);
     if (!front) {
         ng = mul(ng, -1.0f);
         ns = mul(ns, -1.0f);

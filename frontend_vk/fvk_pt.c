@@ -215,7 +215,9 @@ static void choose_variant(fvk_context *c, bool full)
                {TND_FEATURE(LIGHT_DIRECTIONAL), TND_USES_DIRECTIONAL, "directional lights"},
                {TND_FEATURE(TEXTURES), TND_USES_TEXTURES, "textures"},
                {TND_FEATURE(NORMAL_MAPS), TND_USES_NORMAL_MAPS, "normal maps"},
-               {TND_FEATURE(SKY), TND_USES_SKY, "sky"}};
+               {TND_FEATURE(SKY), TND_USES_SKY, "sky"},
+               {TND_FEATURE(MIRROR) | TND_FEATURE(GLASS) | TND_FEATURE(THIN_GLASS),
+                TND_USES_SPECULAR, "mirrors and glass"}};
     c->uses = full ? TND_USES_ALL : 0u;
     c->variant[0] = 0;
     size_t n = 0;

@@ -170,11 +170,15 @@ tnd_result fvk_scene_upload(fvk_context *c)
     }
     for (uint32_t m = 0; m < s->material_count; m++) {
         const tnd_material *mt = &s->materials[m];
+        float sigma[3];
+        tnd_material_sigma(mt, sigma);
         gmat[m] = (tnd_gpu_material){
             {mt->base_color[0], mt->base_color[1], mt->base_color[2], mt->base_color[3]},
             {mt->emission[0], mt->emission[1], mt->emission[2], mt->metallic},
             {mt->roughness, mt->specular, mt->normal_scale, mt->double_sided ? 1.0f : 0.0f},
-            {mt->tex_base_color, mt->tex_metal_rough, mt->tex_normal, mt->tex_emission}};
+            {mt->tex_base_color, mt->tex_metal_rough, mt->tex_normal, mt->tex_emission},
+            {sigma[0], sigma[1], sigma[2], mt->ior > 0 ? mt->ior : 1.5f},
+            {(uint32_t)mt->kind, 0, 0, 0}};
     }
     TND_TRY(upload_array(vk, gm, s->mesh_count * sizeof *gm, "scene.meshes", &c->meshes));
     TND_TRY(upload_array(vk, gmat, s->material_count * sizeof *gmat, "scene.materials",

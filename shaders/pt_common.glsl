@@ -15,6 +15,7 @@
 #include "sampling.h"
 #include "scene_gpu.h"
 #include "encoding.h"
+#include "specular.h"
 
 layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
 layout(set = 0, binding = 1, std140) uniform Frame { tnd_gpu_frame fr; };
@@ -119,6 +120,10 @@ struct surface {
     vec3 emission;
     vec3 obj;
     uint inst, prim;
+    uint kind;   /* TND_KIND_* */
+    float ior;
+    vec3 sigma;  /* glass absorption (1/m) */
+    bool front;  /* arrived on the side the geometric normal points to */
 };
 
 vec3 vpos(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
@@ -147,7 +152,7 @@ vec3 xf_normal(tnd_gpu_instance I, vec3 n)
 {
     vec3 r0 = I.xform[0].xyz, r1 = I.xform[1].xyz, r2 = I.xform[2].xyz;
     vec3 c0 = cross(r1, r2), c1 = cross(r2, r0), c2 = cross(r0, r1);
-    return c0 * n.x + c1 * n.y + c2 * n.z;
+    return vec3(dot(c0, n), dot(c1, n), dot(c2, n)); /* the cofactor matrix times n */
 }
 
 vec3 safe_normalize(vec3 v)
@@ -224,6 +229,7 @@ surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width
     ns = dot(ns, ns) > 1e-20 ? safe_normalize(xf_normal(I, ns)) : ng;
     s.wo = -dir;
     bool front = dot(ng, s.wo) >= 0.0;
+    s.front = front;
     if (!front) {
         ng = -ng;
         ns = -ns;
@@ -246,6 +252,9 @@ surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width
     s.roughness = mat.params.x;
     s.specular = mat.params.y;
     s.emission = mat.emission.rgb;
+    s.kind = mat.info.x;
+    s.ior = mat.vol.w;
+    s.sigma = mat.vol.xyz;
     if (textured && mat.tex.x >= 0)
         s.base *= sample_tex(mat.tex.x, tuv, lod_base).rgb;
     if (textured && mat.tex.y >= 0) {
@@ -482,14 +491,53 @@ bool sample_brdf(surface s, lobe_info L, uvec2 key, uint bounce, bool demod, out
     return true;
 }
 
+/* The specular vertex (mirror, thin glass, glass): femb_render.c's specular_direction and
+ * specular_vertex, the same decisions with the same numbers. */
+vec3 specular_direction(surface s, vec3 n, vec3 dir, float u, out vec3 f, out uint event,
+                        out bool enter)
+{
+    float cos_i = max(-dot(n, dir), 1e-6);
+    vec3 refl = dir - n * (2.0 * dot(dir, n));
+    f = vec3(1.0);
+    enter = false;
+    if (s.kind == TND_KIND_MIRROR) {
+        f = vec3(tnd_mirror_fresnel(s.base.r, cos_i), tnd_mirror_fresnel(s.base.g, cos_i),
+                 tnd_mirror_fresnel(s.base.b, cos_i));
+        event = TND_EVENT_REFLECT;
+        return refl;
+    }
+    event = tnd_dielectric_event(s.kind, s.front, cos_i, s.ior, u);
+    if (event == TND_EVENT_REFLECT)
+        return refl;
+    if (event == TND_EVENT_TRANSMIT)
+        return dir;
+    float eta = s.front ? s.ior : 1.0 / s.ior;
+    float cos_t = tnd_refract_cos(cos_i, eta);
+    enter = s.front;
+    return safe_normalize(dir * (1.0 / eta) + n * (cos_i / eta - cos_t));
+}
+
+vec3 specular_vertex(surface s, vec3 dir, float u, out vec3 f, out uint event, out bool enter)
+{
+    vec3 wi = specular_direction(s, s.ns, dir, u, f, event, enter);
+    float side = dot(wi, s.ng);
+    if (event == TND_EVENT_REFLECT ? side <= 0.0 : side >= 0.0)
+        wi = specular_direction(s, s.ng, dir, u, f, event, enter);
+    return wi;
+}
+
 vec3 trace_path(uvec2 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uint rr_start,
                 float pdf_prev, float cone)
 {
-    vec3 beta = vec3(1.0), L_out = vec3(0.0);
+    vec3 beta = vec3(1.0), L_out = vec3(0.0), sigma = vec3(0.0);
+    bool inside = false;
+    uint specular = 0u; /* specular vertices so far: they do not count as bounces */
     for (uint b = bounce;; b++) {
         hit_info h;
         if (!trace_closest(org, dir, 1e30, h))
             return USES(TND_USES_SKY) ? L_out + beta * fr.sky.rgb : L_out;
+        if (inside) /* Beer-Lambert over the segment inside the glass */
+            beta *= vec3(exp(-sigma.x * h.t), exp(-sigma.y * h.t), exp(-sigma.z * h.t));
         cone += h.t * fr.jitter.z;
         surface s = surface_eval(h.inst, h.prim, h.bary, dir, cone);
         if (s.emission.r > 0.0 || s.emission.g > 0.0 || s.emission.b > 0.0) {
@@ -498,11 +546,29 @@ vec3 trace_path(uvec2 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uin
                 w = tnd_mis_power(pdf_prev, emitter_pdf(h.inst, h.prim, h.t, dir, s.ng));
             L_out += beta * w * s.emission;
         }
+        if (USES(TND_USES_SPECULAR) && s.kind != TND_KIND_OPAQUE) {
+            if (++specular > TND_MAX_SPECULAR_DEPTH)
+                return L_out;
+            vec3 f;
+            uint ev;
+            bool enter;
+            vec3 wi = specular_vertex(s, dir, rnd(key, b, TND_DIM_SPLIT), f, ev, enter);
+            if (ev == TND_EVENT_REFRACT) { /* into the volume, or out of it */
+                inside = enter;
+                sigma = s.sigma;
+            }
+            beta *= f;
+            org = offset_ray(s.p, dot(wi, s.ng) >= 0.0 ? s.ng : -s.ng);
+            dir = wi;
+            pdf_prev = 0.0; /* a delta lobe: an emitter seen through it gets the full weight */
+            continue;
+        }
+        uint nb = b - specular; /* bounces that count */
         lobe_info L = lobes(s);
         vec3 d, sp;
         direct_light(key, b, s, L, d, sp);
         L_out += beta * (d * s.base * (1.0 - s.metallic) + sp);
-        if (b >= max_bounce)
+        if (nb >= max_bounce)
             return L_out;
         vec3 wi, w;
         float pdf;
@@ -510,7 +576,7 @@ vec3 trace_path(uvec2 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uin
         if (!sample_brdf(s, L, key, b, false, wi, w, pdf, is_spec))
             return L_out;
         beta *= w;
-        if (b + 1u >= rr_start) {
+        if (nb + 1u >= rr_start) {
             float q = clamp(max(beta.x, max(beta.y, beta.z)), 0.05, 1.0);
             if (rnd(key, b, TND_DIM_RR) >= q)
                 return L_out;

@@ -25,6 +25,8 @@ struct tnd_gpu_material {
     vec4 emission;       /* rgb (nits, strength applied), w: metallic */
     vec4 params;         /* roughness, specular factor, normal scale, double-sided (0/1) */
     ivec4 tex;           /* base colour, metal-rough, normal, emission texture index; -1 none */
+    vec4 vol;            /* glass: Beer-Lambert sigma_a rgb (1/m), w: index of refraction */
+    uvec4 info;          /* x: kind (TND_KIND_*, specular.h) */
 };
 
 struct tnd_gpu_instance {
@@ -54,7 +56,7 @@ typedef struct tnd_gpu_material tnd_gpu_material;
 typedef struct tnd_gpu_instance tnd_gpu_instance;
 typedef struct tnd_gpu_frame tnd_gpu_frame;
 _Static_assert(sizeof(tnd_gpu_mesh) == 32, "mesh layout");
-_Static_assert(sizeof(tnd_gpu_material) == 64, "material layout");
+_Static_assert(sizeof(tnd_gpu_material) == 96, "material layout");
 _Static_assert(sizeof(tnd_gpu_instance) == 112, "instance layout");
 _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 6 * 16, "frame layout");
 #endif
@@ -71,7 +73,8 @@ _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 6 * 16, "frame layout");
 #define TND_USES_TEXTURES 16u
 #define TND_USES_NORMAL_MAPS 32u
 #define TND_USES_SKY 64u
-#define TND_USES_ALL 127u
+#define TND_USES_SPECULAR 128u  /* mirrors and glass */
+#define TND_USES_ALL 255u
 
 /* Gradient sample for the shading pass (matches femb_gradient_sample). In the back-end's
  * per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a sample has
