@@ -41,15 +41,20 @@ vec3 load_spec(ivec2 p) { return imageLoad(img_spec, p).rgb; }
 #endif
 
 /* Octahedral unit-vector encoding in 2 x 16 bits (Cigolle et al. 2014). */
-uint oct_encode(vec3 n)
+/* Octahedral normal, 12 bits per axis, as an integer-valued float in [0, 2^24): exact in a
+ * 32-bit float channel. (Raw packSnorm2x16 bits stored as a float make NaN and Inf patterns for
+ * common normals, which a driver may canonicalise on the way through an image.) */
+float oct_encode(vec3 n)
 {
     n /= abs(n.x) + abs(n.y) + abs(n.z);
     vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
-    return packSnorm2x16(e);
+    uvec2 q = uvec2(round(clamp(e * 0.5 + 0.5, 0.0, 1.0) * 4095.0));
+    return float(q.x + q.y * 4096u);
 }
-vec3 oct_decode(uint bits)
+vec3 oct_decode(float f)
 {
-    vec2 e = unpackSnorm2x16(bits);
+    uint v = uint(clamp(f, 0.0, 16777215.0));
+    vec2 e = vec2(v & 4095u, v >> 12u) * (2.0 / 4095.0) - 1.0;
     vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
     float t = max(-n.z, 0.0);
     n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);

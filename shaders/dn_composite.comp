@@ -68,7 +68,7 @@ void main()
     float was_sample = P.size.w == 2u && P.misc.w != 0.0 && imageLoad(grad_flag, p).x != 0u ? 1.0 : 0.0;
     vec3 n = imageLoad(img_normal, p).xyz;
     imageStore(prev_bary, p, vec4(imageLoad(img_vis_bary, p).xy, was_sample,
-                                  uintBitsToFloat(oct_encode(vis.x == TND_VIS_NONE ? vec3(0, 0, 1) : n))));
+                                  oct_encode(vis.x == TND_VIS_NONE ? vec3(0, 0, 1) : n)));
     vec3 em = imageLoad(img_emission, p).rgb;
     if (vis.x == TND_VIS_NONE) {
         imageStore(out_img, p, vec4(finite3(em), 1.0));

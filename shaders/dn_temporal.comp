@@ -57,7 +57,7 @@ void main()
                 h_mom += w * imageLoad(hist_mom[prev], q);
                 h_sh += w * imageLoad(hist_lf_sh[prev], q);
                 h_cocg += w * imageLoad(hist_lf_cocg[prev], q).xy;
-                vec3 n_prev = oct_decode(floatBitsToUint(imageLoad(prev_bary, q).w));
+                vec3 n_prev = oct_decode(imageLoad(prev_bary, q).w);
                 float ws = shininess > 0.0 ? w * pow(max(dot(n, n_prev), 0.0), shininess) : w;
                 h_spec += ws * imageLoad(hist_spec[prev], q);
                 wsum += w;
