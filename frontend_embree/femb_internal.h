@@ -56,6 +56,7 @@ struct femb_context {
     float cam_pos[3], prev_cam_pos[3];
     float inv_proj[16], inv_view[16];
     float pixel_spread; /* ray-cone spread angle per pixel (radians) */
+    bool specular;      /* the scene has mirrors or glass: the primary pass follows them */
     tnd_light_list lights;
     femb_ray_log *log; /* NULL except while recording */
 };

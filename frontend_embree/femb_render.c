@@ -415,6 +415,80 @@ static void surface_from_vis(const femb_context *c, uint32_t inst, uint32_t prim
     femb_surface_eval(c, inst, prim, u, v, norm(d), *depth * c->pixel_spread, s);
 }
 
+/* The real-time reflect/refract chain of pixel position (px, py): from the camera through up to
+ * TND_REFLECT_DEPTH specular vertices (mirror: reflect, x Schlick; glass: refract unless total
+ * internal reflection, x (1 - F); Beer-Lambert inside) to the surface the G-buffer shows. */
+typedef struct chain_result {
+    bool hit;
+    uint32_t inst, prim, vertices; /* vertices: specular vertices followed */
+    float u, v, length;            /* length: from the camera along the whole chain */
+    float thr[3];
+    v3 dir, dir0;                  /* the last segment's direction, the camera ray's */
+} chain_result;
+
+static void specular_chain(const femb_context *c, float px, float py, bool follow,
+                           chain_result *r)
+{
+    float dd[3];
+    camera_dir(c, px, py, dd);
+    v3 org = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]}, dir = {dd[0], dd[1], dd[2]};
+    float sigma[3] = {0, 0, 0};
+    bool inside = false;
+    memset(r, 0, sizeof *r);
+    r->thr[0] = r->thr[1] = r->thr[2] = 1.0f;
+    r->dir0 = dir;
+    for (;;) {
+        float t;
+        r->dir = dir;
+        if (!femb_intersect(c, org, dir, 1e30f, &r->inst, &r->prim, &r->u, &r->v, &t)) {
+            r->hit = false;
+            return;
+        }
+        r->hit = true;
+        r->length += t;
+        if (inside)
+            for (int k = 0; k < 3; k++)
+                r->thr[k] *= expf(-sigma[k] * t);
+        if (!follow || r->vertices >= TND_REFLECT_DEPTH)
+            return;
+        const tnd_scene *sc = c->scene;
+        const tnd_material *m =
+            &sc->materials[sc->meshes[sc->instances[r->inst].mesh].material];
+        if (m->kind == TND_MAT_OPAQUE)
+            return;
+        femb_surface s;
+        femb_surface_eval(c, r->inst, r->prim, r->u, r->v, dir, r->length * c->pixel_spread, &s);
+        v3 n = s.ns;
+        float cos_i = fmx(-dot(n, dir), 1e-6f), f[3] = {1, 1, 1};
+        v3 wi;
+        if (s.kind == TND_KIND_MIRROR) {
+            for (int k = 0; k < 3; k++)
+                f[k] = tnd_mirror_fresnel(s.base[k], cos_i);
+            wi = sub(dir, mul(n, 2.0f * dot(dir, n)));
+        } else {
+            bool refl;
+            f[0] = f[1] = f[2] = tnd_chain_dielectric(s.kind, s.front, cos_i, s.ior, &refl);
+            uint32_t ev = refl ? TND_EVENT_REFLECT
+                               : (s.kind == TND_KIND_THIN_GLASS ? TND_EVENT_TRANSMIT : TND_EVENT_REFRACT);
+            float uu = ev == TND_EVENT_REFLECT ? 0.0f : 0.99999994f;
+            float f2[3];
+            bool enter;
+            uint32_t ev2;
+            /* the direction as the path tracer computes it (the same geometric-normal rule) */
+            wi = specular_vertex(&s, dir, uu, f2, &ev2, &enter);
+            if (ev2 == TND_EVENT_REFRACT) {
+                inside = enter;
+                memcpy(sigma, s.sigma, sizeof sigma);
+            }
+        }
+        for (int k = 0; k < 3; k++)
+            r->thr[k] *= f[k];
+        r->vertices++;
+        org = femb_offset_ray(s.p, dot(wi, s.ng) >= 0 ? s.ng : mul(s.ng, -1.0f));
+        dir = wi;
+    }
+}
+
 typedef struct primary_job {
     tnd_frame *f;
 } primary_job;
@@ -429,11 +503,12 @@ static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1,
     for (uint32_t y = y0; y < y1; y++)
         for (uint32_t x = x0; x < x1; x++) {
             size_t q = (size_t)y * W + x;
-            float dd[3];
-            camera_dir(c, (float)x + 0.5f + c->jitter[0], (float)y + 0.5f + c->jitter[1], dd);
-            v3 org = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]}, dir = {dd[0], dd[1], dd[2]};
-            uint32_t inst, prim;
-            float u, v, t;
+            chain_result ch;
+            specular_chain(c, (float)x + 0.5f + c->jitter[0], (float)y + 0.5f + c->jitter[1],
+                           c->specular, &ch);
+            float dd[3] = {ch.dir0.x, ch.dir0.y, ch.dir0.z};
+            uint32_t inst = ch.inst, prim = ch.prim;
+            float u = ch.u, v = ch.v;
             float *alb = tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q, *n = tnd_frame_f(f, TND_CT_NORMAL) + 3 * q;
             float *gn = tnd_frame_f(f, TND_CT_GEO_NORMAL) + 3 * q;
             float *pos = tnd_frame_f(f, TND_CT_POSITION) + 3 * q, *depth = tnd_frame_f(f, TND_CT_DEPTH) + q;
@@ -445,12 +520,12 @@ static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1,
             uint32_t *rng = tnd_frame_u(f, TND_CT_RNG) + 2 * q;
             rng[0] = c->frame;
             rng[1] = (uint32_t)q;
-            thr[0] = thr[1] = thr[2] = 1.0f;
+            memcpy(thr, ch.thr, 3 * sizeof(float));
             double cur_px[2], prev_px[2];
-            if (!femb_intersect(c, org, dir, 1e30f, &inst, &prim, &u, &v, &t)) {
+            if (!ch.hit) {
                 for (int k = 0; k < 3; k++) {
                     alb[k] = n[k] = gn[k] = pos[k] = 0.0f;
-                    em[k] = sc->sky[k];
+                    em[k] = sc->sky[k] * ch.thr[k];
                 }
                 n[2] = gn[2] = 0.0f;
                 *depth = (float)TND_DEPTH_MISS;
@@ -469,10 +544,15 @@ static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1,
             }
             femb_surface s;
             float dist;
-            surface_from_vis(c, inst, prim, u, v, &s, &dist);
+            if (ch.vertices == 0) {
+                surface_from_vis(c, inst, prim, u, v, &s, &dist);
+            } else { /* seen in a mirror or through glass: the surface at the chain's end */
+                dist = ch.length;
+                femb_surface_eval(c, inst, prim, u, v, ch.dir, dist * c->pixel_spread, &s);
+            }
             for (int k = 0; k < 3; k++) {
                 alb[k] = s.base[k];
-                em[k] = s.emission[k];
+                em[k] = s.emission[k] * ch.thr[k];
             }
             n[0] = s.ns.x, n[1] = s.ns.y, n[2] = s.ns.z;
             gn[0] = s.ng.x, gn[1] = s.ng.y, gn[2] = s.ng.z;
@@ -484,6 +564,24 @@ static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1,
             bary[1] = v;
             tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = s.roughness;
             tnd_frame_f(f, TND_CT_METALLIC)[q] = s.metallic;
+            mo[0] = mo[1] = mo[2] = 0.0f;
+            if (ch.vertices > 0) {
+                /* the virtual point (what a planar mirror shows: along the camera ray at the
+                 * chain's length), the mirror and the glass assumed still */
+                double vp[3];
+                for (int r = 0; r < 3; r++)
+                    vp[r] = c->cam_pos[r] + (double)dd[r] * ch.length;
+                if (project(&cam, c->cam_pos, vp, false, W, H, cur_px) &&
+                    project(&c->prev->camera, c->prev_cam_pos, vp, false, W, H, prev_px)) {
+                    mo[0] = (float)(prev_px[0] - cur_px[0]);
+                    mo[1] = (float)(prev_px[1] - cur_px[1]);
+                }
+                double dp = 0;
+                for (int r = 0; r < 3; r++)
+                    dp += (vp[r] - c->prev_cam_pos[r]) * (vp[r] - c->prev_cam_pos[r]);
+                mo[2] = (float)(sqrt(dp) - ch.length);
+                continue;
+            }
             /* motion: the same object-space point through this and the previous frame's
              * instance transform and camera (both unjittered) */
             const float *PX = c->prev->instance_xform + 12 * inst, *X = c->cur->instance_xform + 12 * inst;
@@ -494,7 +592,6 @@ static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1,
                 cw[r] = (double)X[4 * r] * s.obj[0] + (double)X[4 * r + 1] * s.obj[1] +
                         (double)X[4 * r + 2] * s.obj[2] + X[4 * r + 3];
             }
-            mo[0] = mo[1] = mo[2] = 0.0f;
             if (project(&cam, c->cam_pos, cw, false, W, H, cur_px) &&
                 project(&c->prev->camera, c->prev_cam_pos, pw, false, W, H, prev_px)) {
                 mo[0] = (float)(prev_px[0] - cur_px[0]);
@@ -568,6 +665,18 @@ static void shade_pixel(const femb_context *c, const femb_params *p, rng_key key
     femb_surface s;
     float depth;
     surface_from_gbuffer(c, f, q, &s, &depth);
+    if (c->specular) {
+        /* a surface seen in a mirror or through glass is lit towards the chain's last segment,
+         * not towards the camera: the primary pass's chain again (same jitter, same geometry) */
+        chain_result ch;
+        specular_chain(c, (float)(q % c->width) + 0.5f + c->jitter[0],
+                       (float)(q / c->width) + 0.5f + c->jitter[1], true, &ch);
+        if (ch.hit && ch.vertices > 0 && ch.inst == s.instance && ch.prim == s.primitive) {
+            s.wo = mul(ch.dir, -1.0f);
+            depth = ch.length;
+        }
+    }
+    const float *thr = tnd_frame_f(f, TND_CT_THROUGHPUT) + 3 * q;
     lobe_info L;
     lobes(&s, &L);
     float demod[3];
@@ -578,7 +687,7 @@ static void shade_pixel(const femb_context *c, const femb_params *p, rng_key key
     for (int k = 0; k < 3; k++) {
         hf[k] = d[k];
         spec[k] = sp[k] / demod[k];
-        radiance[k] = s.emission[k] + d[k] * s.base[k] * (1.0f - s.metallic) + sp[k];
+        radiance[k] = s.emission[k] + thr[k] * (d[k] * s.base[k] * (1.0f - s.metallic) + sp[k]);
     }
     sh[0] = sh[1] = sh[2] = sh[3] = cocg[0] = cocg[1] = 0.0f;
     if (p->bounces == 0)
@@ -600,12 +709,12 @@ static void shade_pixel(const femb_context *c, const femb_params *p, rng_key key
     if (is_spec) {
         for (int k = 0; k < 3; k++) {
             spec[k] += contrib[k] / demod[k];
-            radiance[k] += contrib[k];
+            radiance[k] += thr[k] * contrib[k];
         }
         return;
     }
     for (int k = 0; k < 3; k++)
-        radiance[k] += contrib[k] * s.base[k] * (1.0f - s.metallic);
+        radiance[k] += thr[k] * contrib[k] * s.base[k] * (1.0f - s.metallic);
     /* YCoCg, then the SH lobe scaled so that its value at the shading normal is exactly Y */
     float co = contrib[0] - contrib[2], t = contrib[2] + 0.5f * co, cg = contrib[1] - t;
     float Y = t + 0.5f * cg;

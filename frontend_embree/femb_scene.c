@@ -53,6 +53,8 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
     if (!c)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
     c->scene = s;
+    c->specular = (s->features & (TND_FEATURE(MIRROR) | TND_FEATURE(GLASS) |
+                                      TND_FEATURE(THIN_GLASS))) != 0;
     long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
     c->threads = d && d->threads ? d->threads : (uint32_t)(ncpu > 0 ? ncpu : 1);
     char cfg[64];

@@ -597,3 +597,75 @@ vec3 camera_dir(vec2 px)
     vec3 d = mat3(fr.inv_view) * (pv.xyz / pv.w);
     return safe_normalize(d);
 }
+
+/* The real-time reflect/refract chain (femb_render.c specular_chain): from the camera through up
+ * to TND_REFLECT_DEPTH specular vertices to the surface the G-buffer shows. */
+struct chain_result {
+    bool hit;
+    uint inst, prim, vertices;
+    vec2 bary;
+    float len;
+    vec3 thr, dir, dir0;
+};
+
+chain_result specular_chain(vec2 px, bool follow)
+{
+    chain_result r;
+    vec3 org = fr.cam_pos.xyz, dir = camera_dir(px);
+    vec3 sigma = vec3(0.0);
+    bool inside = false;
+    r.hit = false;
+    r.inst = TND_VIS_NONE;
+    r.prim = 0u;
+    r.vertices = 0u;
+    r.bary = vec2(0.0);
+    r.len = 0.0;
+    r.thr = vec3(1.0);
+    r.dir0 = dir;
+    for (;;) {
+        r.dir = dir;
+        hit_info h;
+        if (!trace_closest(org, dir, 1e30, h)) {
+            r.hit = false;
+            return r;
+        }
+        r.hit = true;
+        r.inst = h.inst;
+        r.prim = h.prim;
+        r.bary = h.bary;
+        r.len += h.t;
+        if (inside)
+            r.thr *= vec3(exp(-sigma.x * h.t), exp(-sigma.y * h.t), exp(-sigma.z * h.t));
+        if (!follow || r.vertices >= TND_REFLECT_DEPTH)
+            return r;
+        if (materials[meshes[instances[h.inst].info.x].info.x].info.x == TND_KIND_OPAQUE)
+            return r;
+        surface s = surface_eval(h.inst, h.prim, h.bary, dir, r.len * fr.jitter.z);
+        vec3 n = s.ns;
+        float cos_i = max(-dot(n, dir), 1e-6);
+        vec3 f = vec3(1.0), wi;
+        if (s.kind == TND_KIND_MIRROR) {
+            f = vec3(tnd_mirror_fresnel(s.base.r, cos_i), tnd_mirror_fresnel(s.base.g, cos_i),
+                     tnd_mirror_fresnel(s.base.b, cos_i));
+            wi = dir - n * (2.0 * dot(dir, n));
+        } else {
+            bool refl;
+            f = vec3(tnd_chain_dielectric(s.kind, s.front, cos_i, s.ior, refl));
+            float uu = refl ? 0.0 : 0.99999994;
+            vec3 f2;
+            bool enter;
+            uint ev2;
+            wi = specular_vertex(s, dir, uu, f2, ev2, enter);
+            if (ev2 == TND_EVENT_REFRACT) {
+                inside = enter;
+                sigma = s.sigma;
+            }
+        }
+        r.thr *= f;
+        r.vertices++;
+        org = offset_ray(s.p, dot(wi, s.ng) >= 0.0 ? s.ng : -s.ng);
+        dir = wi;
+    }
+    return r;
+}
+

@@ -21,18 +21,22 @@ void pt_primary_main(uvec2 launch)
     ivec2 ip = ivec2(launch);
     uint W = fr.frame.y;
     uint q = uint(ip.y) * W + uint(ip.x);
-    vec3 dir = camera_dir(vec2(ip) + 0.5 + fr.jitter.xy);
+    chain_result ch = specular_chain(vec2(ip) + 0.5 + fr.jitter.xy, USES(TND_USES_SPECULAR));
+    vec3 dir = ch.dir0;
     vec3 cam = fr.cam_pos.xyz;
     imageStore(img_rng, ip, uvec4(fr.frame.x, q, 0u, 0u));
-    imageStore(img_throughput, ip, vec4(1.0));
+    imageStore(img_throughput, ip, vec4(ch.thr, 0.0));
     hit_info h;
+    h.inst = ch.inst;
+    h.prim = ch.prim;
+    h.bary = ch.bary;
     vec2 cur_px, prev_px;
-    if (!trace_closest(cam, dir, 1e30, h)) {
+    if (!ch.hit) {
         imageStore(img_albedo, ip, vec4(0.0));
         imageStore(img_normal, ip, vec4(0.0));
         imageStore(img_geo_normal, ip, vec4(0.0));
         imageStore(img_position, ip, vec4(0.0));
-        imageStore(img_emission, ip, vec4(fr.sky.rgb, 0.0));
+        imageStore(img_emission, ip, vec4(fr.sky.rgb * ch.thr, 0.0));
         imageStore(img_depth, ip, vec4(TND_DEPTH_MISS));
         imageStore(img_vis_id, ip, uvec4(TND_VIS_NONE, TND_VIS_NONE, 0u, 0u));
         imageStore(img_vis_bary, ip, vec4(0.0));
@@ -45,12 +49,19 @@ void pt_primary_main(uvec2 launch)
         imageStore(img_motion, ip, vec4(mo, 0.0));
         return;
     }
-    vec3 p = surface_position(h.inst, h.prim, h.bary);
-    vec3 dv = p - cam;
-    float dist = sqrt(dot(dv, dv));
-    surface s = surface_eval(h.inst, h.prim, h.bary, safe_normalize(dv), dist * fr.jitter.z);
+    surface s;
+    float dist;
+    if (ch.vertices == 0u) {
+        vec3 p = surface_position(h.inst, h.prim, h.bary);
+        vec3 dv = p - cam;
+        dist = sqrt(dot(dv, dv));
+        s = surface_eval(h.inst, h.prim, h.bary, safe_normalize(dv), dist * fr.jitter.z);
+    } else { /* seen in a mirror or through glass: the surface at the chain's end */
+        dist = ch.len;
+        s = surface_eval(h.inst, h.prim, h.bary, ch.dir, dist * fr.jitter.z);
+    }
     imageStore(img_albedo, ip, vec4(s.base, 0.0));
-    imageStore(img_emission, ip, vec4(s.emission, 0.0));
+    imageStore(img_emission, ip, vec4(s.emission * ch.thr, 0.0));
     imageStore(img_normal, ip, vec4(s.ns, 0.0));
     imageStore(img_geo_normal, ip, vec4(s.ng, 0.0));
     imageStore(img_position, ip, vec4(s.p, 0.0));
@@ -59,9 +70,19 @@ void pt_primary_main(uvec2 launch)
     imageStore(img_vis_bary, ip, vec4(h.bary, 0.0, 0.0));
     imageStore(img_roughness, ip, vec4(s.roughness));
     imageStore(img_metallic, ip, vec4(s.metallic));
+    vec3 mo = vec3(0.0);
+    if (ch.vertices > 0u) {
+        /* the virtual point along the camera ray at the chain's length (mirror, glass still) */
+        vec3 vp = cam + dir * ch.len;
+        if (project_px(fr.view, fr.proj, cam, vp, false, cur_px) &&
+            project_px(fr.prev_view, fr.prev_proj, fr.prev_cam_pos.xyz, vp, false, prev_px))
+            mo.xy = prev_px - cur_px;
+        mo.z = length(vp - fr.prev_cam_pos.xyz) - ch.len;
+        imageStore(img_motion, ip, vec4(mo, 0.0));
+        return;
+    }
     tnd_gpu_instance I = instances[h.inst];
     vec3 pw = xf_prev_point(I, s.obj), cw = xf_point(I, s.obj);
-    vec3 mo = vec3(0.0);
     if (project_px(fr.view, fr.proj, cam, cw, false, cur_px) &&
         project_px(fr.prev_view, fr.prev_proj, fr.prev_cam_pos.xyz, pw, false, prev_px))
         mo.xy = prev_px - cur_px;

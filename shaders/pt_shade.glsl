@@ -61,6 +61,16 @@ void pt_shade_main(uvec2 launch)
         vec3 d = fr.cam_pos.xyz - s.p;
         float depth = sqrt(dot(d, d));
         s.wo = depth > 0.0 ? d * (1.0 / depth) : s.ns;
+        if (USES(TND_USES_SPECULAR)) {
+            /* seen in a mirror or through glass: lit towards the chain's last segment (the
+             * primary pass's chain again: same jitter, same geometry) */
+            chain_result ch = specular_chain(vec2(ip) + 0.5 + fr.jitter.xy, true);
+            if (ch.hit && ch.vertices > 0u && ch.inst == inst &&
+                ch.prim == imageLoad(img_vis_id, ip).y) {
+                s.wo = -ch.dir;
+                depth = ch.len;
+            }
+        }
         s.base = imageLoad(img_albedo, ip).rgb;
         s.roughness = imageLoad(img_roughness, ip).x;
         s.metallic = imageLoad(img_metallic, ip).x;

@@ -32,12 +32,16 @@
 #ifdef TND_GLSL
 #define TND_SP_SQRT(x) sqrt(x)
 #define TND_SP_UINT uint
+#define TND_SP_INOUT_BOOL out bool
+#define TND_SP_SET(p, v) p = (v)
 #else
 #include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
 #define TND_SP_SQRT(x) sqrtf(x)
 #define TND_SP_UINT uint32_t
+#define TND_SP_INOUT_BOOL bool *
+#define TND_SP_SET(p, v) (*(p) = (v))
 #endif
 
 /* material kinds on the GPU (tnd_material_kind's values) */
@@ -97,6 +101,25 @@ TND_FN float tnd_mirror_fresnel(float f0, float cos_i)
     float m = 1.0f - cos_i;
     float m2 = m * m;
     return f0 + (1.0f - f0) * m2 * m2 * m;
+}
+
+/* The real-time reflect/refract chain (the primary pass): at most this many specular vertices
+ * between the camera and the surface the G-buffer shows. */
+#define TND_REFLECT_DEPTH 4u
+
+/* The chain's event at a dielectric: refraction (or straight transmission) unless total internal
+ * reflection; returns the throughput factor 1 - F (thin: 1 - R), or 1 for TIR (reflect).
+ * *is_reflect tells which. The light the surface reflects is not followed in real time: a bias of F
+ * per interface (docs/specular.md); the reference mode follows both. */
+TND_FN float tnd_chain_dielectric(TND_SP_UINT kind, bool front, float cos_i, float ior,
+                                  TND_SP_INOUT_BOOL is_reflect)
+{
+    float eta = kind == TND_KIND_THIN_GLASS ? ior : (front ? ior : 1.0f / ior);
+    float F = tnd_fresnel_dielectric(cos_i, eta);
+    if (kind == TND_KIND_THIN_GLASS)
+        F = tnd_thin_reflectance(F);
+    TND_SP_SET(is_reflect, F >= 1.0f);
+    return F >= 1.0f ? 1.0f : 1.0f - F;
 }
 
 #endif
