@@ -118,7 +118,12 @@ int cmd_denoise(int argc, char **argv)
             TND_TRY(dn_create(&vk, w, h, &(dn_desc){.mode = mode, .precision = f.precision}, &dn));
             TND_TRY(tnd_contract_gpu_create(&vk, w, h, f.precision, &ct));
             /* the post chain with render's defaults (TAA, auto exposure, ACES) */
-            TND_TRY(cmp_create(&vk, w, h, f.precision, &(cmp_desc){.taa = true}, &post));
+            /* the interleave when the captures carry split paths (checked on the first frame) */
+            bool split = false;
+            for (size_t q = 0; f.present[TND_CT_PATH] && q < (size_t)w * h && !split; q++)
+                split = (tnd_frame_u(&f, TND_CT_PATH)[q] & TND_PATH_SPLIT) != 0;
+            TND_TRY(cmp_create(&vk, w, h, f.precision, &(cmp_desc){.taa = true, .interleave = split},
+                               &post));
             rgb = malloc((size_t)w * h * 3 * sizeof *rgb);
             display = malloc((size_t)w * h * 3);
             if (!rgb || !display) {

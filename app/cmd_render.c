@@ -239,11 +239,9 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
         }
         cJSON_AddStringToObject(post, "passes", passes);
         cJSON *why = cJSON_AddObjectToObject(post, "not_run");
-        cJSON_AddStringToObject(why, "interleave",
-                                scene->features & TND_FEATURE(SPLIT)
-                                    ? "the checkerboard reflect/refract split is not built yet "
-                                      "(specular-paths issue)"
-                                    : "the scene has no surface that both reflects and refracts");
+        if (!pd->interleave)
+            cJSON_AddStringToObject(why, "interleave",
+                                    "the scene has no surface that both reflects and refracts");
         if (!(scene->features & (TND_FEATURE(MIRROR) | TND_FEATURE(GLASS) | TND_FEATURE(THIN_GLASS))))
             cJSON_AddStringToObject(why, "reflect_refract", "the scene has no mirror or glass");
         if (!pd->taa)
@@ -323,7 +321,10 @@ static int run(bool reference, int argc, char **argv)
         if (!use_vk)
             TND_TRY(tnd_contract_gpu_create(&vk, o.size[0], o.size[1], prec, &upload));
     }
-    cmp_desc pd = {.bloom = (float)o.bloom};
+    /* the interleave where the scene has surfaces that both reflect and refract (or forced) */
+    cmp_desc pd = {.bloom = (float)o.bloom,
+                   .interleave = (scene->features & TND_FEATURE(SPLIT)) != 0 ||
+                                 strcmp(o.pipeline, "full") == 0};
     if (use_dn && (res = post_desc(&o, &pd)) != TND_OK)
         goto fail;
     if (use_dn)
@@ -475,6 +476,7 @@ static int run(bool reference, int argc, char **argv)
             TND_TRY(cmp_download_display(post, display));
         } else {
             tnd_frame_composite(&frame, rgb);
+            tnd_frame_interleave(&frame, rgb);
         }
         /* front-end times: GPU timestamps (vk) or CPU wall clock (embree); back-end: GPU */
         fprintf(timings,
@@ -482,11 +484,11 @@ static int run(bool reference, int argc, char **argv)
                 "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_select_ms\": %.4f, "
                 "\"denoise_gradient_ms\": %.4f, \"denoise_temporal_ms\": %.4f, "
                 "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f, "
-                "\"taa_ms\": %.4f, \"bloom_ms\": %.4f, \"exposure_ms\": %.4f, "
-                "\"tonemap_ms\": %.4f}",
+                "\"interleave_ms\": %.4f, \"taa_ms\": %.4f, \"bloom_ms\": %.4f, "
+                "\"exposure_ms\": %.4f, \"tonemap_ms\": %.4f}",
                 i ? "," : "", f, ms_primary, ms_shade, ms_tlas, ms_gradients, dt.select_ms,
                 dt.gradient_ms, dt.temporal_ms, dt.lf_ms, dt.atrous_ms, dt.composite_ms,
-                pt.taa_ms, pt.bloom_ms, pt.exposure_ms, pt.tonemap_ms);
+                pt.interleave_ms, pt.taa_ms, pt.bloom_ms, pt.exposure_ms, pt.tonemap_ms);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);

@@ -78,8 +78,10 @@ static tnd_result load(const app_eval *e, const app_eval_series *s, uint32_t fra
         res = tnd_capture_read(path, &f);
         if (res == TND_OK)
             res = ev_image_alloc(f.width, f.height, img);
-        if (res == TND_OK)
+        if (res == TND_OK) {
             tnd_frame_composite(&f, img->rgb);
+            tnd_frame_interleave(&f, img->rgb);
+        }
         tnd_frame_destroy(&f);
     } else {
         res = ev_image_read_exr(path, img);

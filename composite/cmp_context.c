@@ -13,18 +13,19 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { P_TAA, P_HIST, P_EXPOSURE, P_BLOOM, P_TONEMAP, P_COUNT };
+enum { P_TAA, P_HIST, P_EXPOSURE, P_BLOOM, P_TONEMAP, P_INTERLEAVE, P_COUNT };
 
 struct cmp_context {
     tnd_vk *vk;
     cmp_desc desc;
     uint32_t width, height, frame;
-    tnd_image taa[2], bloom[2], display;
+    tnd_image taa[2], bloom[2], display, flat; /* flat: the interleave's output */
     tnd_buffer params, hist, hist_host; /* hist: device-local (atomics); _host: its read-back */
     VkDescriptorSetLayout layouts[2];
     VkPipelineLayout layout;
     VkDescriptorPool pool;
-    VkDescriptorSet sets[2];
+    VkDescriptorSet sets[3]; /* [0] set 0 reading the input, [1] the contract, [2] set 0
+                                reading the interleaved image */
     VkPipeline pipes[P_COUNT];
     tnd_timer timer;
     const tnd_image *last_in; /* the input of the last frame (the HDR output with TAA off) */
@@ -72,6 +73,7 @@ void cmp_destroy(cmp_context *c)
         tnd_image_destroy(vk, &c->bloom[i]);
     }
     tnd_image_destroy(vk, &c->display);
+    tnd_image_destroy(vk, &c->flat);
     tnd_buffer_destroy(vk, &c->params);
     tnd_buffer_destroy(vk, &c->hist);
     tnd_buffer_destroy(vk, &c->hist_host);
@@ -106,29 +108,32 @@ static tnd_result create_pipelines(cmp_context *c, tnd_precision prec)
                                       .pushConstantRangeCount = 1,
                                       .pPushConstantRanges = &pcr},
         NULL, &c->layout));
-    VkDescriptorPoolSize ps[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 6 + TND_CT_COUNT}};
+    VkDescriptorPoolSize ps[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 8 + TND_CT_COUNT}};
     TND_VK_TRY(vkCreateDescriptorPool(
         vk->device,
         &(VkDescriptorPoolCreateInfo){.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
-                                      .maxSets = 2,
+                                      .maxSets = 3,
                                       .poolSizeCount = 3,
                                       .pPoolSizes = ps},
         NULL, &c->pool));
+    const VkDescriptorSetLayout three[3] = {c->layouts[0], c->layouts[1], c->layouts[0]};
     TND_VK_TRY(vkAllocateDescriptorSets(
         vk->device,
         &(VkDescriptorSetAllocateInfo){.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
                                        .descriptorPool = c->pool,
-                                       .descriptorSetCount = 2,
-                                       .pSetLayouts = c->layouts},
+                                       .descriptorSetCount = 3,
+                                       .pSetLayouts = three},
         c->sets));
     const tnd_shader ids[P_COUNT] = {
         prec == TND_PRECISION_PACKED ? TND_SHADER_post_taa_packed : TND_SHADER_post_taa_f32,
         TND_SHADER_post_histogram, TND_SHADER_post_exposure, TND_SHADER_post_bloom,
-        TND_SHADER_post_tonemap};
+        TND_SHADER_post_tonemap,
+        prec == TND_PRECISION_PACKED ? TND_SHADER_post_interleave_packed
+                                     : TND_SHADER_post_interleave_f32};
     const char *names[P_COUNT] = {"composite.taa", "composite.histogram", "composite.exposure",
-                                  "composite.bloom", "composite.tonemap"};
+                                  "composite.bloom", "composite.tonemap", "composite.interleave"};
     for (int i = 0; i < P_COUNT; i++) {
         size_t bytes;
         const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
@@ -142,39 +147,45 @@ fail:
     return res;
 }
 
-/* The set's own images and buffers (once). */
+/* The sets' own images and buffers (once): both set-0s; the second reads the interleaved image. */
 static void write_own_set(cmp_context *c)
 {
-    VkDescriptorImageInfo ii[5];
+    for (int set = 0; set < 2; set++) {
+        VkDescriptorSet ds = c->sets[set ? 2 : 0];
+        VkDescriptorImageInfo ii[7];
 #define IMG(i, img) (ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, (img)->view, VK_IMAGE_LAYOUT_GENERAL})
-    IMG(0, &c->taa[0]);
-    IMG(1, &c->taa[1]);
-    IMG(2, &c->bloom[0]);
-    IMG(3, &c->bloom[1]);
-    IMG(4, &c->display);
+        IMG(0, &c->taa[0]);
+        IMG(1, &c->taa[1]);
+        IMG(2, &c->bloom[0]);
+        IMG(3, &c->bloom[1]);
+        IMG(4, &c->display);
+        IMG(5, &c->flat);
+        IMG(6, &c->flat); /* the second set's input */
 #undef IMG
-    VkWriteDescriptorSet w[5];
-    const uint32_t bind[3] = {CP_B_TAA, CP_B_BLOOM, CP_B_DISPLAY};
-    const uint32_t first[3] = {0, 2, 4}, count[3] = {2, 2, 1};
-    for (int k = 0; k < 3; k++)
-        w[k] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                      .dstSet = c->sets[0], .dstBinding = bind[k],
-                                      .descriptorCount = count[k],
-                                      .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-                                      .pImageInfo = &ii[first[k]]};
-    VkDescriptorBufferInfo bp = {c->params.buffer, 0, VK_WHOLE_SIZE};
-    VkDescriptorBufferInfo bh = {c->hist.buffer, 0, VK_WHOLE_SIZE};
-    w[3] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                  .dstSet = c->sets[0], .dstBinding = CP_B_PARAMS,
-                                  .descriptorCount = 1,
-                                  .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
-                                  .pBufferInfo = &bp};
-    w[4] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                  .dstSet = c->sets[0], .dstBinding = CP_B_HIST,
-                                  .descriptorCount = 1,
-                                  .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                                  .pBufferInfo = &bh};
-    vkUpdateDescriptorSets(c->vk->device, 5, w, 0, NULL);
+        VkWriteDescriptorSet w[7];
+        const uint32_t bind[5] = {CP_B_TAA, CP_B_BLOOM, CP_B_DISPLAY, CP_B_FLAT, CP_B_IN};
+        const uint32_t first[5] = {0, 2, 4, 5, 6}, count[5] = {2, 2, 1, 1, 1};
+        uint32_t nw = 0;
+        for (int k = 0; k < (set ? 5 : 4); k++)
+            w[nw++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                             .dstSet = ds, .dstBinding = bind[k],
+                                             .descriptorCount = count[k],
+                                             .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                             .pImageInfo = &ii[first[k]]};
+        VkDescriptorBufferInfo bp = {c->params.buffer, 0, VK_WHOLE_SIZE};
+        VkDescriptorBufferInfo bh = {c->hist.buffer, 0, VK_WHOLE_SIZE};
+        w[nw++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                         .dstSet = ds, .dstBinding = CP_B_PARAMS,
+                                         .descriptorCount = 1,
+                                         .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
+                                         .pBufferInfo = &bp};
+        w[nw++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                         .dstSet = ds, .dstBinding = CP_B_HIST,
+                                         .descriptorCount = 1,
+                                         .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                                         .pBufferInfo = &bh};
+        vkUpdateDescriptorSets(c->vk->device, nw, w, 0, NULL);
+    }
 }
 
 /* This frame's inputs: the back-end's image and the contract (motion). */
@@ -195,8 +206,9 @@ static void write_inputs(cmp_context *c, const tnd_image *in, const tnd_contract
 static void describe_passes(cmp_context *c)
 {
     const cmp_desc *d = &c->desc;
-    snprintf(c->passes, sizeof c->passes, "%s%s%sexposure,tonemap", d->taa ? "taa," : "",
-             d->bloom > 0 ? "bloom," : "", d->fixed_exposure ? "" : "histogram,");
+    snprintf(c->passes, sizeof c->passes, "%s%s%s%sexposure,tonemap",
+             d->interleave ? "interleave," : "", d->taa ? "taa," : "", d->bloom > 0 ? "bloom," : "",
+             d->fixed_exposure ? "" : "histogram,");
 }
 
 tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision prec,
@@ -236,6 +248,10 @@ tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision
                                                    .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                    .name = "composite.display"},
                              &c->display));
+    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                   .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                   .name = "composite.flat"},
+                             &c->flat));
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(cp_params),
                                                      .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                                      .mem = TND_MEM_UPLOAD, .name = "composite.params"},
@@ -302,7 +318,15 @@ tnd_result cmp_run(cmp_context *c, const tnd_image *hdr, const tnd_contract_gpu 
     tnd_timer_reset(cmd, &c->timer);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
-    int s[4] = {-1, -1, -1, -1};
+    int s[5] = {-1, -1, -1, -1, -1};
+    if (d->interleave) {
+        s[4] = tnd_timer_begin(cmd, &c->timer, "composite.interleave");
+        dispatch(c, cmd, P_INTERLEAVE, c->width, c->height, 0);
+        tnd_timer_end(cmd, &c->timer, s[4]);
+        /* the later passes read the interleaved image */
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 1, &c->sets[2],
+                                0, NULL);
+    }
     if (d->taa) {
         s[0] = tnd_timer_begin(cmd, &c->timer, "composite.taa");
         dispatch(c, cmd, P_TAA, c->width, c->height, 0);
@@ -334,10 +358,12 @@ tnd_result cmp_run(cmp_context *c, const tnd_image *hdr, const tnd_contract_gpu 
                          &hb, 0, NULL, 0, NULL);
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
     if (t) {
-        double ms[4] = {0, 0, 0, 0};
+        double ms[5] = {0, 0, 0, 0, 0};
         TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
         *t = (cmp_timings){0};
         int k = 0;
+        if (s[4] >= 0)
+            t->interleave_ms = ms[k++];
         if (s[0] >= 0)
             t->taa_ms = ms[k++];
         if (s[1] >= 0)
@@ -374,8 +400,8 @@ tnd_result cmp_download_hdr(cmp_context *c, float *rgb)
 {
     if (c->frame == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "composite: no frame yet");
-    if (!c->desc.taa) /* the input itself: nothing changed it */
-        return download_rgb(c, c->last_in, rgb, NULL);
+    if (!c->desc.taa) /* the input itself (interleaved when the fields were merged) */
+        return download_rgb(c, c->desc.interleave ? &c->flat : c->last_in, rgb, NULL);
     return download_rgb(c, &c->taa[(c->frame - 1) & 1u], rgb, NULL);
 }
 

@@ -1,8 +1,7 @@
-/* composite: everything after the denoiser, on the GPU: TAA, bloom, auto exposure from a
- * luminance histogram, tone mapping to a dithered sRGB display image. Reads the back-end's linear
- * HDR image and the contract's motion vectors. (The checkerboard interleave arrives with the
- * specular-paths issue: no scene has a reflect/refract split yet, so nothing is built for it.)
- * Prefix cmp_; depends on core/ and shaders/. */
+/* composite: everything after the denoiser, on the GPU: the checkerboard interleave (where the
+ * primary paths split at glass), TAA, bloom, auto exposure from a luminance histogram, tone
+ * mapping to a dithered sRGB display image. Reads the back-end's linear HDR image and the
+ * contract's motion vectors and path flags. Prefix cmp_; depends on core/ and shaders/. */
 #ifndef CMP_COMPOSITE_H
 #define CMP_COMPOSITE_H
 
@@ -13,6 +12,7 @@ tnd_result cmp_curve_parse(const char *s, cmp_curve *c);
 const char *cmp_curve_name(cmp_curve c);
 
 typedef struct cmp_desc {
+    bool interleave;      /* merge the checkerboard fields (the scene has split surfaces) */
     bool taa;             /* temporal anti-aliasing */
     float taa_weight;     /* weight of the new frame (0 means 0.1) */
     float taa_clip;       /* clip box half-width in standard deviations (0 means 1) */
@@ -34,7 +34,7 @@ typedef struct cmp_frame {
 } cmp_frame;
 
 typedef struct cmp_timings {
-    double taa_ms, bloom_ms, exposure_ms, tonemap_ms;
+    double interleave_ms, taa_ms, bloom_ms, exposure_ms, tonemap_ms;
 } cmp_timings;
 
 typedef struct cmp_context cmp_context;

@@ -120,11 +120,12 @@ tnd_result tnd_capture_read(const char *path, tnd_frame *f)
                         "renderers' files need a mapping: --map)",
                         path);
     }
-    if (version != TND_CONTRACT_VERSION) {
+    /* version 1 lacks only the path flags (a DEFAULT entry: 0, no specular chain) */
+    if (version < 1 || version > TND_CONTRACT_VERSION) {
         tnd_exr_close(&x);
         return tnd_fail(TND_ERR_UNSUPPORTED,
-                        "capture: %s: contract version %d (this Tandem reads %d)", path, version,
-                        TND_CONTRACT_VERSION);
+                        "capture: %s: contract version %d (this Tandem reads 1 to %d)", path,
+                        version, TND_CONTRACT_VERSION);
     }
     TND_TRY(tnd_frame_create(x.width, x.height, f));
     char prec[32] = "float32";

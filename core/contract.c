@@ -220,6 +220,42 @@ size_t tnd_ct_markdown(char *buf, size_t cap)
 #define SH_C1 0.488602511902920f
 
 /* ---- composite (the back-end's "off" mode, on the CPU) ------------------------------------------------------------------------------- */
+void tnd_frame_interleave(const tnd_frame *f, float *rgb)
+{
+    if (!f->present[TND_CT_PATH])
+        return;
+    uint32_t w = f->width, h = f->height;
+    const uint32_t *path = tnd_frame_u(f, TND_CT_PATH);
+    float *src = malloc((size_t)w * h * 3 * sizeof(float));
+    if (!src)
+        return; /* left as it is: each pixel its own field */
+    memcpy(src, rgb, (size_t)w * h * 3 * sizeof(float));
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t q = (size_t)y * w + x;
+            if (!(path[q] & TND_PATH_SPLIT))
+                continue;
+            uint32_t field = path[q] & TND_PATH_REFRACT;
+            const int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
+            float sum[3] = {0, 0, 0}, n = 0;
+            for (int k = 0; k < 4; k++) {
+                int xx = (int)x + dx[k], yy = (int)y + dy[k];
+                if (xx < 0 || yy < 0 || xx >= (int)w || yy >= (int)h)
+                    continue;
+                size_t r = (size_t)yy * w + (size_t)xx;
+                if ((path[r] & TND_PATH_SPLIT) && (path[r] & TND_PATH_REFRACT) != field) {
+                    for (int c = 0; c < 3; c++)
+                        sum[c] += src[3 * r + c];
+                    n += 1;
+                }
+            }
+            if (n > 0)
+                for (int c = 0; c < 3; c++)
+                    rgb[3 * q + c] = 0.5f * src[3 * q + c] + 0.5f * (sum[c] / n);
+        }
+    free(src);
+}
+
 void tnd_frame_composite(const tnd_frame *f, float *rgb)
 {
     size_t n = (size_t)f->width * f->height;

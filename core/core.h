@@ -473,6 +473,10 @@ void tnd_frame_quantize(tnd_frame *f, tnd_precision p);
  * "off" mode on the CPU: ((hf + E_n(lf)) x albedo x (1 - metallic) + spec x max(0.01, F0))
  * x throughput + emission, with E_n the SH evaluated at the shading normal (docs/contract.md). */
 void tnd_frame_composite(const tnd_frame *f, float *rgb);
+/* The checkerboard interleave on the CPU (composite/'s post_interleave.comp): where the path
+ * flags say the pixels split at a surface that reflects and refracts, each becomes 0.5 x its own
+ * + 0.5 x the mean of its cross neighbours of the other field. */
+void tnd_frame_interleave(const tnd_frame *f, float *rgb);
 /* Fill DERIVED entries that are not present: geo_normal = normal; position from depth and the
  * camera when the frame has one (else position stays absent). */
 tnd_result tnd_frame_derive(tnd_frame *f, const char *source);

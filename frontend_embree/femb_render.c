@@ -421,14 +421,17 @@ static void surface_from_vis(const femb_context *c, uint32_t inst, uint32_t prim
 typedef struct chain_result {
     bool hit;
     uint32_t inst, prim, vertices; /* vertices: specular vertices followed */
+    uint32_t path;                 /* TND_PATH_* (the contract's path flags) */
     float u, v, length;            /* length: from the camera along the whole chain */
     float thr[3];
     v3 dir, dir0;                  /* the last segment's direction, the camera ray's */
 } chain_result;
 
-static void specular_chain(const femb_context *c, float px, float py, bool follow,
+static void specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool follow,
                            chain_result *r)
 {
+    float px = (float)x + 0.5f + c->jitter[0], py = (float)y + 0.5f + c->jitter[1];
+    uint32_t field = (x + y) & 1u;
     float dd[3];
     camera_dir(c, px, py, dd);
     v3 org = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]}, dir = {dd[0], dd[1], dd[2]};
@@ -465,9 +468,16 @@ static void specular_chain(const femb_context *c, float px, float py, bool follo
             for (int k = 0; k < 3; k++)
                 f[k] = tnd_mirror_fresnel(s.base[k], cos_i);
             wi = sub(dir, mul(n, 2.0f * dot(dir, n)));
+            r->path |= TND_PATH_MIRROR;
         } else {
-            bool refl;
-            f[0] = f[1] = f[2] = tnd_chain_dielectric(s.kind, s.front, cos_i, s.ior, &refl);
+            bool refl, split;
+            f[0] = f[1] = f[2] = tnd_chain_dielectric(s.kind, s.front, cos_i, s.ior,
+                                                      !(r->path & TND_PATH_SPLIT), field, &refl,
+                                                      &split);
+            if (split)
+                r->path |= TND_PATH_SPLIT | (field ? TND_PATH_REFRACT : 0u);
+            if (!refl)
+                r->path |= TND_PATH_GLASS;
             uint32_t ev = refl ? TND_EVENT_REFLECT
                                : (s.kind == TND_KIND_THIN_GLASS ? TND_EVENT_TRANSMIT : TND_EVENT_REFRACT);
             float uu = ev == TND_EVENT_REFLECT ? 0.0f : 0.99999994f;
@@ -504,8 +514,8 @@ static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1,
         for (uint32_t x = x0; x < x1; x++) {
             size_t q = (size_t)y * W + x;
             chain_result ch;
-            specular_chain(c, (float)x + 0.5f + c->jitter[0], (float)y + 0.5f + c->jitter[1],
-                           c->specular, &ch);
+            specular_chain(c, x, y, c->specular, &ch);
+            tnd_frame_u(f, TND_CT_PATH)[q] = ch.path;
             float dd[3] = {ch.dir0.x, ch.dir0.y, ch.dir0.z};
             uint32_t inst = ch.inst, prim = ch.prim;
             float u = ch.u, v = ch.v;
@@ -616,7 +626,7 @@ tnd_result femb_trace_primary(femb_context *c, tnd_frame *f)
     const tnd_ct gbuf[] = {TND_CT_ALBEDO,    TND_CT_NORMAL,   TND_CT_GEO_NORMAL, TND_CT_POSITION,
                            TND_CT_DEPTH,     TND_CT_MOTION,   TND_CT_ROUGHNESS,  TND_CT_METALLIC,
                            TND_CT_EMISSION,  TND_CT_VIS_ID,   TND_CT_VIS_BARY,   TND_CT_THROUGHPUT,
-                           TND_CT_RNG};
+                           TND_CT_RNG,       TND_CT_PATH};
     for (size_t i = 0; i < sizeof gbuf / sizeof *gbuf; i++)
         f->present[gbuf[i]] = true;
     f->has_camera = true;
@@ -669,8 +679,7 @@ static void shade_pixel(const femb_context *c, const femb_params *p, rng_key key
         /* a surface seen in a mirror or through glass is lit towards the chain's last segment,
          * not towards the camera: the primary pass's chain again (same jitter, same geometry) */
         chain_result ch;
-        specular_chain(c, (float)(q % c->width) + 0.5f + c->jitter[0],
-                       (float)(q / c->width) + 0.5f + c->jitter[1], true, &ch);
+        specular_chain(c, (uint32_t)(q % c->width), (uint32_t)(q / c->width), true, &ch);
         if (ch.hit && ch.vertices > 0 && ch.inst == s.instance && ch.prim == s.primitive) {
             s.wo = mul(ch.dir, -1.0f);
             depth = ch.length;

@@ -29,6 +29,8 @@ void main()
         return;
     }
     vec3 n = imageLoad(img_normal, p).xyz, pos = imageLoad(img_position, p).xyz;
+    /* the two checkerboard fields of a split surface are filtered apart */
+    uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
     float depth = imageLoad(img_depth, p).x, rough = imageLoad(img_roughness, p).x;
     float footprint = max(depth * P.misc.x * float(step), 1e-6);
     float l = luma(c_hf.rgb);
@@ -42,7 +44,8 @@ void main()
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
             ivec2 q = p + ivec2(x, y) * step;
-            if (!inside(q) || imageLoad(img_vis_id, q).x == TND_VIS_NONE)
+            if (!inside(q) || imageLoad(img_vis_id, q).x == TND_VIS_NONE ||
+                (imageLoad(img_path, q).x & (TND_PATH_SPLIT | TND_PATH_REFRACT)) != field)
                 continue;
             float h = k[abs(x) + abs(y) == 0 ? 2 : (abs(x) + abs(y) == 1 ? 1 : 0)];
             vec3 nq = imageLoad(img_normal, q).xyz;

@@ -67,7 +67,9 @@ void main()
                                  uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
     float was_sample = P.size.w == 2u && P.misc.w != 0.0 && imageLoad(grad_flag, p).x != 0u ? 1.0 : 0.0;
     vec3 n = imageLoad(img_normal, p).xyz;
-    imageStore(prev_bary, p, vec4(imageLoad(img_vis_bary, p).xy, was_sample,
+    /* z: was a gradient sample (bit 0) and the checkerboard field (bits 1-2), as an exact float */
+    uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
+    imageStore(prev_bary, p, vec4(imageLoad(img_vis_bary, p).xy, was_sample + 2.0 * float(field),
                                   oct_encode(vis.x == TND_VIS_NONE ? vec3(0, 0, 1) : n)));
     vec3 em = imageLoad(img_emission, p).rgb;
     if (vis.x == TND_VIS_NONE) {

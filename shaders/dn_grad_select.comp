@@ -31,7 +31,11 @@ void main()
                 continue;
             vec3 m = imageLoad(img_motion, p).xyz;
             ivec2 pp = ivec2(floor(vec2(p) + P.jitter.xy + m.xy - P.jitter.zw + 0.5));
-            if (!inside(pp) || imageLoad(prev_vis, pp).x != vis.x || imageLoad(prev_bary, pp).z != 0.0)
+            if (!inside(pp) || imageLoad(prev_vis, pp).x != vis.x)
+                continue;
+            uint pz = uint(imageLoad(prev_bary, pp).z); /* bit 0 was a sample, bits 1-2 field */
+            if ((pz & 1u) != 0u ||
+                (pz >> 1u) != (imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT)))
                 continue;
             vec4 g = imageLoad(prev_gb, pp);
             float depth = imageLoad(img_depth, p).x;

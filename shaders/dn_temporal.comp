@@ -25,6 +25,7 @@ void main()
     vec4 sh = finite4(imageLoad(img_lf_sh, p));
     vec2 cocg = finite3(vec3(imageLoad(img_lf_cocg, p).xy, 0.0)).xy;
     float depth = imageLoad(img_depth, p).x;
+    uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
     vec3 gn = imageLoad(img_geo_normal, p).xyz;
     vec3 motion = imageLoad(img_motion, p).xyz;
     vec3 n = imageLoad(img_normal, p).xyz;
@@ -47,7 +48,8 @@ void main()
                 ivec2 q = p0 + ivec2(i, j);
                 if (!inside(q))
                     continue;
-                if (imageLoad(prev_vis, q).x != vis.x)
+                if (imageLoad(prev_vis, q).x != vis.x ||
+                    (uint(imageLoad(prev_bary, q).z) >> 1u) != field) /* the same field */
                     continue;
                 vec4 g = imageLoad(prev_gb, q);
                 if (abs(g.x - (depth + motion.z)) > 0.1 * depth || dot(g.yzw, gn) < 0.9)

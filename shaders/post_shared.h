@@ -65,6 +65,7 @@ _Static_assert(sizeof(cp_params) == 80, "cp_params layout");
 #define CP_B_BLOOM 3    /* [2] 1/4 res */
 #define CP_B_DISPLAY 4  /* display-referred sRGB-encoded [0,1], dithered */
 #define CP_B_HIST 5     /* cp_histogram */
-#define CP_BINDINGS 6
+#define CP_B_FLAT 6     /* the interleave's output: the later passes' input when it runs */
+#define CP_BINDINGS 7
 
 #endif

@@ -602,15 +602,18 @@ vec3 camera_dir(vec2 px)
  * to TND_REFLECT_DEPTH specular vertices to the surface the G-buffer shows. */
 struct chain_result {
     bool hit;
-    uint inst, prim, vertices;
+    uint inst, prim, vertices, path;
     vec2 bary;
     float len;
     vec3 thr, dir, dir0;
 };
 
-chain_result specular_chain(vec2 px, bool follow)
+chain_result specular_chain(uvec2 ipx, bool follow)
 {
     chain_result r;
+    vec2 px = vec2(ipx) + 0.5 + fr.jitter.xy;
+    uint field = (ipx.x + ipx.y) & 1u;
+    r.path = 0u;
     vec3 org = fr.cam_pos.xyz, dir = camera_dir(px);
     vec3 sigma = vec3(0.0);
     bool inside = false;
@@ -648,9 +651,15 @@ chain_result specular_chain(vec2 px, bool follow)
             f = vec3(tnd_mirror_fresnel(s.base.r, cos_i), tnd_mirror_fresnel(s.base.g, cos_i),
                      tnd_mirror_fresnel(s.base.b, cos_i));
             wi = dir - n * (2.0 * dot(dir, n));
+            r.path |= TND_PATH_MIRROR;
         } else {
-            bool refl;
-            f = vec3(tnd_chain_dielectric(s.kind, s.front, cos_i, s.ior, refl));
+            bool refl, split;
+            f = vec3(tnd_chain_dielectric(s.kind, s.front, cos_i, s.ior,
+                                          (r.path & TND_PATH_SPLIT) == 0u, field, refl, split));
+            if (split)
+                r.path |= TND_PATH_SPLIT | (field != 0u ? TND_PATH_REFRACT : 0u);
+            if (!refl)
+                r.path |= TND_PATH_GLASS;
             float uu = refl ? 0.0 : 0.99999994;
             vec3 f2;
             bool enter;

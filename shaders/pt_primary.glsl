@@ -21,7 +21,8 @@ void pt_primary_main(uvec2 launch)
     ivec2 ip = ivec2(launch);
     uint W = fr.frame.y;
     uint q = uint(ip.y) * W + uint(ip.x);
-    chain_result ch = specular_chain(vec2(ip) + 0.5 + fr.jitter.xy, USES(TND_USES_SPECULAR));
+    chain_result ch = specular_chain(uvec2(ip), USES(TND_USES_SPECULAR));
+    imageStore(img_path, ip, uvec4(ch.path, 0u, 0u, 0u));
     vec3 dir = ch.dir0;
     vec3 cam = fr.cam_pos.xyz;
     imageStore(img_rng, ip, uvec4(fr.frame.x, q, 0u, 0u));

@@ -64,7 +64,7 @@ void pt_shade_main(uvec2 launch)
         if (USES(TND_USES_SPECULAR)) {
             /* seen in a mirror or through glass: lit towards the chain's last segment (the
              * primary pass's chain again: same jitter, same geometry) */
-            chain_result ch = specular_chain(vec2(ip) + 0.5 + fr.jitter.xy, true);
+            chain_result ch = specular_chain(uvec2(ip), true);
             if (ch.hit && ch.vertices > 0u && ch.inst == inst &&
                 ch.prim == imageLoad(img_vis_id, ip).y) {
                 s.wo = -ch.dir;

@@ -46,6 +46,8 @@
     X(post_histogram,      "post_histogram.comp", "TND_PACKED=0") \
     X(post_exposure,       "post_exposure.comp",  "TND_PACKED=0") \
     X(post_bloom,          "post_bloom.comp",     "TND_PACKED=0") \
+    X(post_interleave_f32, "post_interleave.comp", "TND_PACKED=0") \
+    X(post_interleave_packed, "post_interleave.comp", "TND_PACKED=1") \
     X(post_tonemap,        "post_tonemap.comp",   "TND_PACKED=0") \
     X(dn_lf_f32,           "dn_lf.comp",          "TND_PACKED=0") \
     X(dn_lf_packed,        "dn_lf.comp",          "TND_PACKED=1") \

@@ -107,19 +107,30 @@ TND_FN float tnd_mirror_fresnel(float f0, float cos_i)
  * between the camera and the surface the G-buffer shows. */
 #define TND_REFLECT_DEPTH 4u
 
-/* The chain's event at a dielectric: refraction (or straight transmission) unless total internal
- * reflection; returns the throughput factor 1 - F (thin: 1 - R), or 1 for TIR (reflect).
- * *is_reflect tells which. The light the surface reflects is not followed in real time: a bias of F
- * per interface (docs/specular.md); the reference mode follows both. */
+/* The chain's event at a dielectric. The first surface on the chain that both reflects and
+ * refracts (0 < F < 1) splits the pixels into two fields (checkerboard): `field` 0 (even x + y)
+ * takes the reflection with weight 2F, field 1 the refraction with 2(1 - F); *split tells that
+ * it happened (the caller passes `may_split` false afterwards). At later surfaces the chain
+ * refracts with 1 - F (the reflection there is not followed: a bias of F per extra interface,
+ * docs/specular.md). Total internal reflection: reflection, weight 1, in both fields. Returns
+ * the weight; *is_reflect tells the event. */
 TND_FN float tnd_chain_dielectric(TND_SP_UINT kind, bool front, float cos_i, float ior,
-                                  TND_SP_INOUT_BOOL is_reflect)
+                                  bool may_split, TND_SP_UINT field,
+                                  TND_SP_INOUT_BOOL is_reflect, TND_SP_INOUT_BOOL split)
 {
     float eta = kind == TND_KIND_THIN_GLASS ? ior : (front ? ior : 1.0f / ior);
     float F = tnd_fresnel_dielectric(cos_i, eta);
     if (kind == TND_KIND_THIN_GLASS)
         F = tnd_thin_reflectance(F);
-    TND_SP_SET(is_reflect, F >= 1.0f);
-    return F >= 1.0f ? 1.0f : 1.0f - F;
+    bool tir = F >= 1.0f;
+    bool sp = may_split && !tir && F > 0.0f;
+    TND_SP_SET(split, sp);
+    TND_SP_SET(is_reflect, tir || (sp && field == 0u));
+    if (tir)
+        return 1.0f;
+    if (sp)
+        return field == 0u ? 2.0f * F : 2.0f * (1.0f - F);
+    return 1.0f - F;
 }
 
 #endif

@@ -310,10 +310,80 @@ cleanup:
     gpu_end();
 }
 
+/* The interleave on `materials` (its glass splits the pixels into a reflection and a refraction
+ * field): the GPU pass equals the CPU reference (core's tnd_frame_interleave) to float rounding,
+ * changes the split pixels only, and a split pixel becomes the mean of its own field and the
+ * other field's neighbours. */
+static void test_interleave(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    rig r;
+    tnd_frame f = {0};
+    cmp_context *c = NULL;
+    static float rgb[N * 3], cpu[N * 3], gpu[N * 3];
+    REQUIRE_OK(rig_open_scene(vk, TND_SOURCE_DIR "/data/scenes/materials.gltf", &r));
+    REQUIRE_OK(femb_set_frame(r.fe, &r.st, &r.st, 0, W, H));
+    REQUIRE_OK(tnd_frame_create(W, H, &f));
+    REQUIRE_OK(femb_trace_primary(r.fe, &f));
+    REQUIRE_OK(femb_shade(r.fe, &(femb_params){.bounces = 1}, &f, NULL));
+    tnd_frame_composite(&f, rgb);
+    memcpy(cpu, rgb, sizeof cpu);
+    tnd_frame_interleave(&f, cpu);
+    REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f));
+    REQUIRE_OK(upload_rgb(vk, &r.in, rgb, 1.0f));
+    REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){.interleave = true}, &c));
+    REQUIRE_OK(cmp_run(c, &r.in, &r.ct, &(cmp_frame){.reset = true}, NULL));
+    REQUIRE_OK(cmp_download_hdr(c, gpu));
+    int split = 0, changed_outside = 0;
+    double worst = 0;
+    for (int q = 0; q < N; q++) {
+        bool sp = (tnd_frame_u(&f, TND_CT_PATH)[q] & TND_PATH_SPLIT) != 0;
+        split += sp;
+        for (int k = 0; k < 3; k++) {
+            worst = fmax(worst, fabs(gpu[3 * q + k] - cpu[3 * q + k]) /
+                                    fmax(fabs(cpu[3 * q + k]), 1e-3));
+            changed_outside += !sp && gpu[3 * q + k] != rgb[3 * q + k];
+        }
+    }
+    printf("     materials %dx%d: %d split pixels; GPU against CPU interleave: worst relative "
+           "difference %.2e\n", W, H, split, worst);
+    CHECK(split > 10, "%d split pixels", split);
+    CHECK(worst < 1e-5, "GPU and CPU differ by %.3g", worst);
+    CHECK(changed_outside == 0, "%d values changed outside split pixels", changed_outside);
+    /* one interior split pixel by hand */
+    for (int y = 1; y < H - 1; y++)
+        for (int x = 1; x < W - 1; x++) {
+            int q = y * W + x;
+            uint32_t pq = tnd_frame_u(&f, TND_CT_PATH)[q];
+            if (!(pq & TND_PATH_SPLIT))
+                continue;
+            double sum = 0;
+            int n = 0;
+            const int nb[4] = {q - 1, q + 1, q - W, q + W};
+            for (int k = 0; k < 4; k++) {
+                uint32_t o = tnd_frame_u(&f, TND_CT_PATH)[nb[k]];
+                if ((o & TND_PATH_SPLIT) && (o & TND_PATH_REFRACT) != (pq & TND_PATH_REFRACT))
+                    sum += rgb[3 * nb[k] + 1], n++;
+            }
+            if (n == 4) {
+                CHECK_NEAR(gpu[3 * q + 1], 0.5 * rgb[3 * q + 1] + 0.5 * sum / 4,
+                           1e-5 * fmax(1.0, fabs(sum)), "a split pixel by hand");
+                y = H; /* one is enough */
+                break;
+            }
+        }
+cleanup:
+    cmp_destroy(c);
+    tnd_frame_destroy(&f);
+    rig_close(vk, &r);
+    gpu_end();
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
 }
 
 TND_TEST_MAIN(T(test_tonemap_exposure), T(test_taa_converges_at_edges),
-              T(test_taa_no_ghosting_under_motion), T(test_shutdown))
+              T(test_taa_no_ghosting_under_motion), T(test_interleave), T(test_shutdown))

@@ -162,8 +162,8 @@ static void furnace(float metallic, float roughness, float specular, bool cube, 
     double sum = 0, sum2 = 0;
     float cam[3] = {0, 0, 4};
     for (int q = 0; q < W * H; q++) {
-        /* glass: the primary pass looks through it (the throughput tells) */
-        bool through = tnd_frame_f(&f, TND_CT_THROUGHPUT)[3 * q] < 1.0f;
+        /* glass: the primary pass looks through it or at its reflection (the path flags tell) */
+        bool through = tnd_frame_u(&f, TND_CT_PATH)[q] != 0u;
         if (tnd_frame_u(&f, TND_CT_VIS_ID)[2 * q] == TND_VIS_NONE && !through)
             continue;
         if (through) {
@@ -670,13 +670,16 @@ static void test_mirror_gbuffer(void)
     enum { W = 96, H = 54 };
     REQUIRE_OK(rig_frame(&r, 0, 0.0, 0.0, W, H, &f));
     const tnd_scene *s = r.s;
-    int chained = 0, opaque_end = 0, longer = 0, shorter = 0, mirror_seen = 0;
+    int chained = 0, opaque_end = 0, longer = 0, shorter = 0, mirror_seen = 0, split = 0,
+        refract_field = 0;
     const float *cam = r.cur.camera_position;
     for (int q = 0; q < W * H; q++) {
-        const float *thr = tnd_frame_f(&f, TND_CT_THROUGHPUT) + 3 * q;
         uint32_t inst = tnd_frame_u(&f, TND_CT_VIS_ID)[2 * q];
-        if (!(thr[0] < 1.0f || thr[1] < 1.0f || thr[2] < 1.0f) || inst == TND_VIS_NONE)
+        uint32_t path = tnd_frame_u(&f, TND_CT_PATH)[q];
+        if (path == 0u || inst == TND_VIS_NONE)
             continue;
+        split += (path & TND_PATH_SPLIT) != 0u;
+        refract_field += (path & TND_PATH_REFRACT) != 0u;
         chained++;
         const tnd_material *m = &s->materials[s->meshes[s->instances[inst].mesh].material];
         opaque_end += m->kind == TND_MAT_OPAQUE;
@@ -699,6 +702,10 @@ static void test_mirror_gbuffer(void)
     CHECK(shorter == 0, "%d pixels nearer than the straight line", shorter);
     CHECK(longer > 50, "only %d pixels seen by a detour (the mirror)", longer);
     CHECK(mirror_seen > 0, "the albedo is the reflected material's");
+    /* the glass splits its pixels: both fields present, about half each */
+    printf("     %d split pixels, %d of them in the refraction field\n", split, refract_field);
+    CHECK(split > 20 && refract_field > split / 4 && refract_field < split * 3 / 4,
+          "%d split pixels, %d refracting", split, refract_field);
 cleanup:
     tnd_frame_destroy(&f);
     rig_close(&r);
