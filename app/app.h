@@ -89,12 +89,23 @@ tnd_result app_write_preview(const char *path, const float *rgb, uint32_t w, uin
 
 /* ---- evaluation (app/evaluate.c) ------------------------------------------------------------ */
 #define APP_EVAL_MAX_SERIES 4
+/* Error inside a region of the image (pixels the run's path flags mark: seen in a mirror, at
+ * glass), over all frames: relMSE, mean FLIP, and sharpness = the sum of the tone-mapped image's
+ * absolute forward differences inside the region over the reference's (below 1: blurrier than
+ * the reference; noise makes it larger than 1). */
+enum { APP_REGION_MIRROR, APP_REGION_GLASS, APP_REGIONS };
+typedef struct app_region {
+    uint64_t pixels, values, pairs;
+    double rel_sq, flip, grad_out, grad_ref;
+} app_region;
+
 typedef struct app_eval_series {
     char name[64];
     char dir[1100];      /* where its frame_NNNN.exr are */
     bool noisy;          /* dir is a capture directory: composite without denoising */
     ev_frame_metrics *m; /* per frame (app_eval_run) */
     ev_summary summary;
+    app_region regions[APP_REGIONS];
 } app_eval_series;
 
 typedef struct app_eval {
@@ -103,6 +114,7 @@ typedef struct app_eval {
     double ppd;              /* FLIP pixels per degree (<= 0: 67) */
     struct app_progress *progress; /* optional: stepped once per frame */
     uint32_t min_frame;      /* frames before it are left out (a warm-up) */
+    char regions_from[1100]; /* captures whose path flags define the regions ("" : none) */
     bool resample;           /* series of another size are resampled to the reference's */
     /* filled by app_eval_run */
     bool auto_exposure;
@@ -122,6 +134,10 @@ tnd_result app_eval_run(app_eval *e);
 tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, const char *settings,
                            const char *html);
 void app_eval_free(app_eval *e);
+/* The regions of series i as JSON object text (malloc'd; NULL when none was measured), and as
+ * an HTML table for the report (appended to t). */
+char *app_eval_regions_json(const app_eval *e, uint32_t i);
+void app_eval_regions_html(const app_eval *e, ev_text *t);
 
 /* ---- commands ------------------------------------------------------------------------------- */
 int cmd_info(int argc, char **argv);

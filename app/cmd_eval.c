@@ -120,8 +120,10 @@ int cmd_eval(int argc, char **argv)
     tnd_result res = app_eval_add(&e, "denoised", out, false);
     char cap[1200];
     snprintf(cap, sizeof cap, "%s/capture", out);
-    if (res == TND_OK && is_dir(cap))
+    if (res == TND_OK && is_dir(cap)) {
         res = app_eval_add(&e, "noisy (1 spp)", out, true);
+        snprintf(e.regions_from, sizeof e.regions_from, "%.1000s/capture", out); /* the masks */
+    }
     app_progress bar;
     uint32_t *list = NULL, nlist = 0;
     if (res == TND_OK && (res = app_list_frames(refdir, &list, &nlist)) == TND_OK) {
@@ -135,15 +137,21 @@ int cmd_eval(int argc, char **argv)
     if (res == TND_OK && !(settings = settings_json(&e, out, exposure)))
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
     ev_series series[APP_EVAL_MAX_SERIES];
-    for (uint32_t i = 0; i < e.nseries; i++)
-        series[i] = (ev_series){e.series[i].name, e.series[i].m, e.series[i].summary};
+    char *regions[APP_EVAL_MAX_SERIES] = {0};
+    for (uint32_t i = 0; i < e.nseries; i++) {
+        regions[i] = res == TND_OK ? app_eval_regions_json(&e, i) : NULL;
+        series[i] = (ev_series){e.series[i].name, e.series[i].m, e.series[i].summary, regions[i]};
+    }
     if (res == TND_OK)
         res = ev_write_metrics(out, series, e.nseries, e.count, settings);
     bool made_report = report && !is_dir(report);
     if (res == TND_OK && report) {
         char title[1200];
         snprintf(title, sizeof title, "Tandem eval: %s against %s", out, refdir);
-        res = app_eval_report(&e, report, title, settings, NULL);
+        ev_text html = {0};
+        app_eval_regions_html(&e, &html);
+        res = app_eval_report(&e, report, title, settings, html.s);
+        ev_text_free(&html);
         if (res != TND_OK && made_report) { /* no partial report */
             char cmd[1300];
             snprintf(cmd, sizeof cmd, "rm -rf '%s'", report);
@@ -167,6 +175,9 @@ int cmd_eval(int argc, char **argv)
                 cJSON_AddNumberToObject(o, "flip", s->flip);
                 cJSON_AddNumberToObject(o, "temporal", s->temporal);
                 cJSON_AddNumberToObject(o, "lag", s->lag);
+                cJSON *reg = regions[i] ? cJSON_Parse(regions[i]) : NULL;
+                if (reg)
+                    cJSON_AddItemToObject(o, "regions", reg);
                 cJSON_AddItemToArray(j, o);
             }
             char *txt = cJSON_Print(j);
@@ -190,11 +201,23 @@ int cmd_eval(int argc, char **argv)
                        e.series[i].name, s->relmse, s->smape, s->rmse, s->psnr, s->ssim, s->flip,
                        s->temporal, lag);
             }
+            for (uint32_t i = 0; i < e.nseries; i++)
+                for (int b = 0; b < APP_REGIONS; b++) {
+                    const app_region *r = &e.series[i].regions[b];
+                    if (r->pixels)
+                        printf("  %-28s %s: %llu pixels, relMSE %.4g, FLIP %.4f, sharpness %.3f\n",
+                               e.series[i].name, b == APP_REGION_MIRROR ? "mirror" : "glass",
+                               (unsigned long long)r->pixels, r->rel_sq / (double)r->values,
+                               r->flip / (double)r->pixels,
+                               r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0);
+                }
             printf("  -> %s/metrics.json, %s/metrics.csv%s%s%s\n", out, out,
                    report ? ", " : "", report ? report : "", report ? "/index.html" : "");
         }
     }
     free(settings);
+    for (uint32_t i = 0; i < APP_EVAL_MAX_SERIES; i++)
+        free(regions[i]);
     app_eval_free(&e);
     if (res != TND_OK)
         return app_report("eval", res);

@@ -144,11 +144,68 @@ static tnd_result common_frames(app_eval *e)
     return res;
 }
 
+/* The region masks of frame `frame` from the run's capture (path flags), or false. */
+static bool region_masks(const app_eval *e, uint32_t frame, uint32_t w, uint32_t h, uint8_t *mask)
+{
+    if (!e->regions_from[0])
+        return false;
+    char path[1300];
+    snprintf(path, sizeof path, "%s/frame_%04u.exr", e->regions_from, frame);
+    tnd_frame f = {0};
+    bool ok = tnd_capture_read(path, &f) == TND_OK && f.width == w && f.height == h &&
+              f.present[TND_CT_PATH];
+    if (ok) {
+        const uint32_t *p = tnd_frame_u(&f, TND_CT_PATH);
+        for (size_t q = 0; q < (size_t)w * h; q++)
+            mask[q] = (uint8_t)(((p[q] & TND_PATH_MIRROR) ? 1u << APP_REGION_MIRROR : 0u) |
+                                ((p[q] & (TND_PATH_GLASS | TND_PATH_SPLIT)) ? 1u << APP_REGION_GLASS
+                                                                             : 0u));
+    }
+    tnd_frame_destroy(&f);
+    tnd_error_clear();
+    return ok;
+}
+
+static void region_add(app_region *r, int bit, const uint8_t *mask, const ev_image *out,
+                       const ev_image *ref, const float *flip, double exposure, float *to,
+                       float *tr)
+{
+    uint32_t w = ref->width, h = ref->height;
+    ev_tonemap(out, exposure, to);
+    ev_tonemap(ref, exposure, tr);
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t q = (size_t)y * w + x;
+            if (!(mask[q] & (1u << bit)))
+                continue;
+            r->pixels++;
+            r->flip += flip[q];
+            for (int k = 0; k < 3; k++) {
+                double d = (double)out->rgb[3 * q + k] - ref->rgb[3 * q + k];
+                r->rel_sq += d * d / ((double)ref->rgb[3 * q + k] * ref->rgb[3 * q + k] + EV_RELMSE_EPS);
+                r->values++;
+            }
+            const size_t nb[2] = {x + 1 < w ? q + 1 : q, y + 1 < h ? q + w : q};
+            for (int a = 0; a < 2; a++) {
+                size_t o = nb[a];
+                if (o == q || !(mask[o] & (1u << bit)))
+                    continue;
+                for (int k = 0; k < 3; k++) {
+                    r->grad_out += fabs((double)to[3 * o + k] - to[3 * q + k]);
+                    r->grad_ref += fabs((double)tr[3 * o + k] - tr[3 * q + k]);
+                }
+                r->pairs++;
+            }
+        }
+}
+
 tnd_result app_eval_run(app_eval *e)
 {
     tnd_result res = common_frames(e);
     ev_image img = {0}, ref = {0};
     ev_sequence *seq[APP_EVAL_MAX_SERIES] = {0};
+    uint8_t *mask = NULL;
+    float *flip = NULL, *to = NULL, *tr = NULL;
     if (res != TND_OK)
         return res;
     if (!(e->ppd > 0))
@@ -180,6 +237,15 @@ tnd_result app_eval_run(app_eval *e)
         if (k == 0) {
             e->width = ref.width;
             e->height = ref.height;
+            size_t n = (size_t)ref.width * ref.height;
+            mask = malloc(n);
+            flip = malloc(n * sizeof(float));
+            to = malloc(3 * n * sizeof(float));
+            tr = malloc(3 * n * sizeof(float));
+            if (!mask || !flip || !to || !tr) {
+                res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+                goto fail;
+            }
             for (uint32_t i = 0; i < e->nseries; i++)
                 TND_TRY(ev_sequence_create(ref.width, ref.height, e->exposure, e->ppd, &seq[i]));
         } else if (ref.width != e->width || ref.height != e->height) {
@@ -188,6 +254,7 @@ tnd_result app_eval_run(app_eval *e)
                            e->height);
             goto fail;
         }
+        bool regions = region_masks(e, e->frames[k], ref.width, ref.height, mask);
         for (uint32_t i = 0; i < e->nseries; i++) {
             uint64_t bad = 0;
             TND_TRY(load(e, &e->series[i], e->frames[k], &img, &bad));
@@ -198,7 +265,10 @@ tnd_result app_eval_run(app_eval *e)
                                ref.height);
                 goto fail;
             }
-            TND_TRY(ev_sequence_add(seq[i], e->frames[k], &img, &ref, &e->series[i].m[k], NULL));
+            TND_TRY(ev_sequence_add(seq[i], e->frames[k], &img, &ref, &e->series[i].m[k],
+                                    regions ? flip : NULL));
+            for (int b = 0; regions && b < APP_REGIONS; b++)
+                region_add(&e->series[i].regions[b], b, mask, &img, &ref, flip, e->exposure, to, tr);
             e->series[i].m[k].nonfinite = bad;
             e->series[i].summary.nonfinite += bad;
             ev_image_free(&img);
@@ -217,7 +287,64 @@ fail:
         ev_sequence_destroy(seq[i]);
     ev_image_free(&img);
     ev_image_free(&ref);
+    free(mask);
+    free(flip);
+    free(to);
+    free(tr);
     return res;
+}
+
+static const char *const region_names[APP_REGIONS] = {"mirror", "glass"};
+
+char *app_eval_regions_json(const app_eval *e, uint32_t i)
+{
+    ev_text t = {0};
+    int any = 0;
+    ev_text_add(&t, "{");
+    for (int b = 0; b < APP_REGIONS; b++) {
+        const app_region *r = &e->series[i].regions[b];
+        if (!r->pixels)
+            continue;
+        ev_text_add(&t, "%s\"%s\": {\"pixels\": %llu, \"relmse\": %.9g, \"flip\": %.9g, "
+                        "\"sharpness\": %.9g}",
+                    any++ ? ", " : "", region_names[b], (unsigned long long)r->pixels,
+                    r->rel_sq / (double)r->values, r->flip / (double)r->pixels,
+                    r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0);
+    }
+    ev_text_add(&t, "}");
+    if (!any || t.failed) {
+        ev_text_free(&t);
+        return NULL;
+    }
+    return t.s;
+}
+
+void app_eval_regions_html(const app_eval *e, ev_text *t)
+{
+    bool any = false;
+    for (uint32_t i = 0; i < e->nseries; i++)
+        for (int b = 0; b < APP_REGIONS; b++)
+            any |= e->series[i].regions[b].pixels > 0;
+    if (!any)
+        return;
+    ev_text_add(t, "<h2>Regions (from the run's path flags)</h2>\n<p>Pixels seen in a mirror or at "
+                   "glass, over all frames. Sharpness: the tone-mapped image's summed absolute "
+                   "pixel differences inside the region over the reference's (below 1: blurrier "
+                   "than the reference; noise raises it).</p>\n<table><tr><th>series</th><th>region"
+                   "</th><th>pixels</th><th>relMSE</th><th>FLIP</th><th>sharpness</th></tr>\n");
+    for (uint32_t i = 0; i < e->nseries; i++)
+        for (int b = 0; b < APP_REGIONS; b++) {
+            const app_region *r = &e->series[i].regions[b];
+            if (!r->pixels)
+                continue;
+            ev_text_add(t, "<tr><td>");
+            ev_text_escaped(t, e->series[i].name);
+            ev_text_add(t, "</td><td>%s</td><td>%llu</td><td>%.4g</td><td>%.4f</td><td>%.3f</td></tr>\n",
+                        region_names[b], (unsigned long long)r->pixels,
+                        r->rel_sq / (double)r->values, r->flip / (double)r->pixels,
+                        r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0);
+        }
+    ev_text_add(t, "</table>\n");
 }
 
 /* ---- report -------------------------------------------------------------------------------- */
@@ -246,8 +373,11 @@ tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, cons
     uint32_t w = e->width, h = e->height, ns = e->nseries;
     size_t n = (size_t)w * h;
     ev_series series[APP_EVAL_MAX_SERIES];
-    for (uint32_t i = 0; i < ns; i++)
-        series[i] = (ev_series){e->series[i].name, e->series[i].m, e->series[i].summary};
+    char *regions[APP_EVAL_MAX_SERIES] = {0};
+    for (uint32_t i = 0; i < ns; i++) {
+        regions[i] = app_eval_regions_json(e, i);
+        series[i] = (ev_series){e->series[i].name, e->series[i].m, e->series[i].summary, regions[i]};
+    }
     float *tm = NULL, *tr = NULL, *tmp = NULL, *map = NULL, *cr = NULL;
     ev_image img = {0}, ref = {0};
     ev_row *rows = NULL;
@@ -361,6 +491,8 @@ tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, cons
                                          .series = series, .nseries = ns, .plots = plots,
                                          .nplots = 7, .rows = rows, .nrows = nrows, .html = html}));
 fail:
+    for (uint32_t i = 0; i < ns; i++)
+        free(regions[i]);
     ev_image_free(&img);
     ev_image_free(&ref);
     free(rows);

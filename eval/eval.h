@@ -86,6 +86,7 @@ typedef struct ev_series {
     const char *name;          /* "denoised", "noisy", "embree", ... */
     const ev_frame_metrics *m; /* `count` frames (ev_report's / ev_write_metrics' count) */
     ev_summary summary;
+    const char *regions;       /* JSON object text for metrics.json's "regions" (may be NULL) */
 } ev_series;
 
 /* DIR/metrics.json ({"settings": ..., "series": [{"name", "summary", "frames": [...]}]}) and

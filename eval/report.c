@@ -126,6 +126,9 @@ tnd_result ev_write_metrics(const char *dir, const ev_series *s, uint32_t nserie
         cJSON_AddNumberToObject(sum, "lag", s[i].summary.lag);
         cJSON_AddNumberToObject(sum, "lighting_changes", s[i].summary.changes);
         cJSON_AddNumberToObject(sum, "nonfinite", (double)s[i].summary.nonfinite);
+        cJSON *reg = s[i].regions ? cJSON_Parse(s[i].regions) : NULL;
+        if (reg)
+            cJSON_AddItemToObject(o, "regions", reg);
         cJSON *fr = cJSON_AddArrayToObject(o, "frames");
         for (uint32_t f = 0; f < count; f++) {
             const ev_frame_metrics *m = &s[i].m[f];

@@ -267,6 +267,29 @@ print("     lag after the light switch: asvgf %g frames, svgf %g" % (a["lag"], s
 PY
 check "eval finds dynamic's light switch and measures the lag: A-SVGF <= 2 frames, SVGF >= 4" $?
 
+# materials: the mirror and glass regions (from the path flags) are measured per region
+"$T" render --frontend vk --scene "$SRC/data/scenes/materials.gltf" --frames 6 --size 64x36 \
+    --capture --out "$tmp/mat_run" --quiet || echo "render materials failed"
+"$T" reference --frontend vk --scene "$SRC/data/scenes/materials.gltf" --frames 6 --size 64x36 \
+    --spp 64 --out "$tmp/mat_ref" --quiet || echo "reference materials failed"
+"$T" eval --out "$tmp/mat_run" --reference "$tmp/mat_ref" --json --quiet >"$tmp/mat.json"; rc=$?
+[ $rc -eq 0 ] && $PY - "$tmp/mat.json" "$tmp/mat_run/metrics.json" "$tmp/mat_run/run.json" <<'PY'
+import json, sys
+den, noisy = json.load(open(sys.argv[1]))
+m = json.load(open(sys.argv[2]))
+run = json.load(open(sys.argv[3]))
+assert "interleave" in run["post"]["passes"], run["post"]["passes"]   # materials has split glass
+for region in ("mirror", "glass"):
+    d, n = den["regions"][region], noisy["regions"][region]
+    assert d["pixels"] > 100 and d["pixels"] == n["pixels"], (region, d, n)
+    # denoising helps there, and does not blur below 70% of the reference's detail
+    assert d["flip"] < n["flip"], (region, d, n)
+    assert d["sharpness"] > 0.7, (region, d)
+    print("     %s: denoised FLIP %.3f (noisy %.3f), sharpness %.2f" % (region, d["flip"], n["flip"], d["sharpness"]))
+assert "regions" in m["series"][0]
+PY
+check "eval on materials: mirror and glass regions, denoised better than noisy and not over-blurred; interleave ran" $?
+
 # numerical stability report: extremes through every mode
 "$T" bench --extremes --size 64x36 --frames 4 --out "$tmp/ext" --quiet >"$tmp/ext_out" 2>"$tmp/err"; rc=$?
 $PY - "$tmp/ext/extremes.json" $rc <<'PY'
