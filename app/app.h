@@ -92,11 +92,13 @@ tnd_result app_write_preview(const char *path, const float *rgb, uint32_t w, uin
 /* Error inside a region of the image (pixels the run's path flags mark: seen in a mirror, at
  * glass), over all frames: relMSE, mean FLIP, and sharpness = the sum of the tone-mapped image's
  * absolute forward differences inside the region over the reference's (below 1: blurrier than
- * the reference; noise makes it larger than 1). */
+ * the reference; noise makes it larger than 1), and bias = the region's mean linear luminance
+ * over the reference's, minus 1 (what the estimator leaves out or adds). */
 enum { APP_REGION_MIRROR, APP_REGION_GLASS, APP_REGIONS };
 typedef struct app_region {
     uint64_t pixels, values, pairs;
     double rel_sq, flip, grad_out, grad_ref;
+    double lum_out, lum_ref; /* bias = lum_out / lum_ref - 1 (linear luminance) */
 } app_region;
 
 typedef struct app_eval_series {

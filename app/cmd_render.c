@@ -3,6 +3,7 @@
  * (linear HDR after TAA, before tone mapping), DIR/frame_NNNN.png (display), timings.json and
  * run.json. */
 #include "app/app.h"
+#include "shaders/specular.h"
 #include "composite/composite.h"
 #include "denoise/denoise.h"
 #include "frontend_embree/frontend_embree.h"
@@ -22,7 +23,7 @@ typedef struct render_opts {
     const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump, *pipeline;
     const char *taa, *tonemap, *exposure;
     double bloom, min_alpha;
-    unsigned frames, start, threads, bounces, spp, camera, atrous;
+    unsigned frames, start, threads, bounces, spp, camera, atrous, reflect_depth;
     unsigned size[2];
     double fps;
     bool capture, video;
@@ -67,6 +68,8 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"camera", APP_OPT_UINT, &o->camera, "I", "scene camera (default 0)"},
         {"threads", APP_OPT_UINT, &o->threads, "N", "CPU threads (default: all cores)"},
         {"bounces", APP_OPT_UINT, &o->bounces, "N", "indirect bounces (default 1)"},
+        {"reflect-depth", APP_OPT_UINT, &o->reflect_depth, "N",
+         "mirrors and glass the primary pass looks through (default 4, 1 to 16)"},
         {"precision", APP_OPT_STRING, &o->precision, "P", "contract precision: float32 or packed"},
         {"capture", APP_OPT_FLAG, &o->capture, NULL, "also write DIR/capture/frame_NNNN.exr"},
         {"dump", APP_OPT_STRING, &o->dump, "LIST",
@@ -123,6 +126,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     if (strcmp(o->frontend, "embree") != 0 && strcmp(o->frontend, "vk") != 0) {
         fprintf(stderr, "tandem %s: --frontend '%s': expected embree or vk\n", cmd->name,
                 o->frontend);
+        return APP_EXIT_USAGE;
+    }
+    if (o->reflect_depth > 16) {
+        fprintf(stderr, "tandem %s: --reflect-depth is 1 to 16\n", cmd->name);
         return APP_EXIT_USAGE;
     }
     if (o->atrous > 5 || (o->min_alpha != 0 && !(o->min_alpha > 0 && o->min_alpha <= 1))) {
@@ -213,6 +220,7 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     cJSON_AddNumberToObject(j, "fps", o->fps);
     cJSON_AddNumberToObject(j, "camera", o->camera);
     cJSON_AddNumberToObject(j, "bounces", o->bounces);
+    cJSON_AddNumberToObject(j, "reflect_depth", o->reflect_depth ? o->reflect_depth : TND_REFLECT_DEPTH);
     cJSON_AddStringToObject(j, "precision", o->precision);
     cJSON_AddStringToObject(j, "denoiser", dn_mode_s);
     if (o->atrous)
@@ -343,10 +351,13 @@ static int run(bool reference, int argc, char **argv)
         TND_TRY(fvk_rt_api_parse(o.rt_api, &api));
         TND_TRY(fvk_create(&vk, scene,
                            &(fvk_desc){.precision = prec, .rt_api = api,
-                                       .full_pipeline = strcmp(o.pipeline, "full") == 0},
+                                       .full_pipeline = strcmp(o.pipeline, "full") == 0,
+                                       .reflect_depth = o.reflect_depth},
                            &gv));
     } else {
-        TND_TRY(femb_create(scene, &(femb_desc){.threads = o.threads}, &fe));
+        TND_TRY(femb_create(scene, &(femb_desc){.threads = o.threads,
+                                                 .reflect_depth = o.reflect_depth},
+                            &fe));
     }
     TND_TRY(tnd_mkdirs(o.out));
     if (!reference) {

@@ -180,6 +180,9 @@ static void region_add(app_region *r, int bit, const uint8_t *mask, const ev_ima
                 continue;
             r->pixels++;
             r->flip += flip[q];
+            const float *o3 = out->rgb + 3 * q, *r3 = ref->rgb + 3 * q;
+            r->lum_out += 0.2126 * o3[0] + 0.7152 * o3[1] + 0.0722 * o3[2];
+            r->lum_ref += 0.2126 * r3[0] + 0.7152 * r3[1] + 0.0722 * r3[2];
             for (int k = 0; k < 3; k++) {
                 double d = (double)out->rgb[3 * q + k] - ref->rgb[3 * q + k];
                 r->rel_sq += d * d / ((double)ref->rgb[3 * q + k] * ref->rgb[3 * q + k] + EV_RELMSE_EPS);
@@ -306,10 +309,11 @@ char *app_eval_regions_json(const app_eval *e, uint32_t i)
         if (!r->pixels)
             continue;
         ev_text_add(&t, "%s\"%s\": {\"pixels\": %llu, \"relmse\": %.9g, \"flip\": %.9g, "
-                        "\"sharpness\": %.9g}",
+                        "\"sharpness\": %.9g, \"bias\": %.9g}",
                     any++ ? ", " : "", region_names[b], (unsigned long long)r->pixels,
                     r->rel_sq / (double)r->values, r->flip / (double)r->pixels,
-                    r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0);
+                    r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0,
+                    r->lum_ref > 0 ? r->lum_out / r->lum_ref - 1.0 : 0.0);
     }
     ev_text_add(&t, "}");
     if (!any || t.failed) {
@@ -331,7 +335,7 @@ void app_eval_regions_html(const app_eval *e, ev_text *t)
                    "glass, over all frames. Sharpness: the tone-mapped image's summed absolute "
                    "pixel differences inside the region over the reference's (below 1: blurrier "
                    "than the reference; noise raises it).</p>\n<table><tr><th>series</th><th>region"
-                   "</th><th>pixels</th><th>relMSE</th><th>FLIP</th><th>sharpness</th></tr>\n");
+                   "</th><th>pixels</th><th>relMSE</th><th>FLIP</th><th>sharpness</th><th>bias</th></tr>\n");
     for (uint32_t i = 0; i < e->nseries; i++)
         for (int b = 0; b < APP_REGIONS; b++) {
             const app_region *r = &e->series[i].regions[b];
@@ -339,10 +343,12 @@ void app_eval_regions_html(const app_eval *e, ev_text *t)
                 continue;
             ev_text_add(t, "<tr><td>");
             ev_text_escaped(t, e->series[i].name);
-            ev_text_add(t, "</td><td>%s</td><td>%llu</td><td>%.4g</td><td>%.4f</td><td>%.3f</td></tr>\n",
+            ev_text_add(t, "</td><td>%s</td><td>%llu</td><td>%.4g</td><td>%.4f</td><td>%.3f</td>"
+                           "<td>%+.1f%%</td></tr>\n",
                         region_names[b], (unsigned long long)r->pixels,
                         r->rel_sq / (double)r->values, r->flip / (double)r->pixels,
-                        r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0);
+                        r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0,
+                        r->lum_ref > 0 ? 100.0 * (r->lum_out / r->lum_ref - 1.0) : 0.0);
         }
     ev_text_add(t, "</table>\n");
 }

@@ -57,6 +57,7 @@ struct femb_context {
     float inv_proj[16], inv_view[16];
     float pixel_spread; /* ray-cone spread angle per pixel (radians) */
     bool specular;      /* the scene has mirrors or glass: the primary pass follows them */
+    uint32_t reflect_depth; /* at most this many specular vertices in the primary chain */
     tnd_light_list lights;
     femb_ray_log *log; /* NULL except while recording */
 };

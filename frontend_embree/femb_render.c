@@ -452,7 +452,7 @@ static void specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool f
         if (inside)
             for (int k = 0; k < 3; k++)
                 r->thr[k] *= expf(-sigma[k] * t);
-        if (!follow || r->vertices >= TND_REFLECT_DEPTH)
+        if (!follow || r->vertices >= c->reflect_depth)
             return;
         const tnd_scene *sc = c->scene;
         const tnd_material *m =

@@ -5,6 +5,7 @@
  * femb_surface_eval, femb_parallel_tiles, femb_offset_ray. */
 #include "frontend_embree/femb_internal.h"
 #include "shaders/sampling.h"
+#include "shaders/specular.h"
 
 #include <math.h>
 #include <pthread.h>
@@ -57,6 +58,9 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
                                       TND_FEATURE(THIN_GLASS))) != 0;
     long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
     c->threads = d && d->threads ? d->threads : (uint32_t)(ncpu > 0 ? ncpu : 1);
+    c->reflect_depth = d && d->reflect_depth ? d->reflect_depth : TND_REFLECT_DEPTH;
+    if (c->reflect_depth > TND_MAX_SPECULAR_DEPTH)
+        c->reflect_depth = TND_MAX_SPECULAR_DEPTH;
     char cfg[64];
     snprintf(cfg, sizeof cfg, "threads=%u", c->threads);
     c->device = rtcNewDevice(cfg);

@@ -12,7 +12,9 @@
 #include "core/core.h"
 
 typedef struct femb_desc {
-    uint32_t threads; /* 0: one per core */
+    uint32_t threads;       /* 0: one per core */
+    uint32_t reflect_depth; /* specular vertices the primary pass follows (0: TND_REFLECT_DEPTH,
+                               4; at most TND_MAX_SPECULAR_DEPTH) */
 } femb_desc;
 
 typedef struct femb_params {

@@ -64,6 +64,7 @@ typedef struct fvk_desc {
     fvk_rt_api rt_api;
     bool full_pipeline;      /* compile every light type, textures, normal maps and sky in, whatever
                                 the scene holds (default: only what the scene requires) */
+    uint32_t reflect_depth;  /* as femb_desc */
 } fvk_desc;
 
 typedef struct fvk_params {

@@ -35,6 +35,7 @@ struct fvk_context {
     tnd_image accum;          /* reference accumulation (rgb sum, luminance^2 sum) */
     fvk_rt_api api;
     uint32_t uses;            /* TND_USES_*: the specialization of every pass */
+    uint32_t reflect_depth;   /* specular vertices of the primary chain (frame params.w) */
     char variant[160];
     tnd_sbt sbt;
     VkDescriptorPool pool;

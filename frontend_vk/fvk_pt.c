@@ -5,6 +5,7 @@
  * fvk_shade_gradient_slots, fvk_contract. */
 #include "frontend_vk/fvk_internal.h"
 #include "shaders/sampling.h"
+#include "shaders/specular.h"
 #include "shaders/shader_list.h"
 
 #include "shaders/brdf.h"
@@ -268,6 +269,9 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
         goto fail;
     }
     choose_variant(c, desc && desc->full_pipeline);
+    c->reflect_depth = desc && desc->reflect_depth ? desc->reflect_depth : TND_REFLECT_DEPTH;
+    if (c->reflect_depth > TND_MAX_SPECULAR_DEPTH)
+        c->reflect_depth = TND_MAX_SPECULAR_DEPTH;
     TND_TRY(fvk_scene_upload(c));
     TND_TRY(create_layouts(c));
     if (c->api == FVK_RT_QUERY)
@@ -342,6 +346,7 @@ static void set_params(fvk_context *c, const fvk_params *p)
 {
     tnd_gpu_frame *f = c->frame_ubo.mapped;
     f->params.x = p ? p->bounces : 1;
+    f->params.w = c->reflect_depth;
 }
 
 /* Bind the passes' pipeline(s) and sets, push the mode. */

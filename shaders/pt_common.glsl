@@ -639,7 +639,7 @@ chain_result specular_chain(uvec2 ipx, bool follow)
         r.len += h.t;
         if (inside)
             r.thr *= vec3(exp(-sigma.x * h.t), exp(-sigma.y * h.t), exp(-sigma.z * h.t));
-        if (!follow || r.vertices >= TND_REFLECT_DEPTH)
+        if (!follow || r.vertices >= fr.params.w)
             return r;
         if (materials[meshes[instances[h.inst].info.x].info.x].info.x == TND_KIND_OPAQUE)
             return r;

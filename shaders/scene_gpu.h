@@ -43,7 +43,8 @@ struct tnd_gpu_frame {
     vec4 jitter;         /* xy: this frame's jitter (pixels), z: pixel spread angle */
     vec4 sky;            /* rgb sky radiance */
     uvec4 frame;         /* x: frame index, y: width, z: height, w: light count */
-    uvec4 params;        /* x: bounces, y: reference sample index, z: gradient count */
+    uvec4 params;        /* x: bounces, y: reference sample index, z: gradient count,
+                            w: specular vertices the primary chain follows */
 };
 
 #ifndef TND_GLSL
