@@ -548,13 +548,30 @@ static void test_gpu_gradient_samples(void)
     REQUIRE_OK(pair_frame(&p, 6, 1.0, 1.0, W, H, 1));
     REQUIRE_OK(fvk_shade_gradients(p.gv, &(fvk_params){.bounces = 1}, samples, n, NULL));
     REQUIRE_OK(tnd_contract_download(vk, fvk_contract(p.gv), &p.gpu));
-    int bad = 0;
+    /* the same numbers up to float rounding: the primary and shading passes evaluate the surface
+     * in two shaders, and a driver may contract (fuse) their arithmetic differently (NVIDIA
+     * does; lavapipe gives identical bits). A wrong surface or key differs by far more. */
+    int bad = 0, exact = 0;
+    double worst = 0;
+    const tnd_ct chs[3] = {TND_CT_HF, TND_CT_LF_SH, TND_CT_SPEC};
     for (uint32_t i = 0; i < n; i++) {
         size_t q = samples[7 * i];
-        bad += memcmp(tnd_frame_f(&prev, TND_CT_HF) + 3 * q, tnd_frame_f(&p.gpu, TND_CT_HF) + 3 * q, 12) ||
-               memcmp(tnd_frame_f(&prev, TND_CT_LF_SH) + 4 * q, tnd_frame_f(&p.gpu, TND_CT_LF_SH) + 4 * q, 16) ||
-               memcmp(tnd_frame_f(&prev, TND_CT_SPEC) + 3 * q, tnd_frame_f(&p.gpu, TND_CT_SPEC) + 3 * q, 12);
+        bool same = true, close = true;
+        for (int k = 0; k < 3; k++) {
+            uint32_t m = tnd_ct_get(chs[k])->comps;
+            const float *a = tnd_frame_f(&prev, chs[k]) + m * q, *b = tnd_frame_f(&p.gpu, chs[k]) + m * q;
+            for (uint32_t j = 0; j < m; j++) {
+                double d = fabs((double)a[j] - b[j]) / fmax(fabs((double)a[j]), 1e-6);
+                worst = fmax(worst, d);
+                same &= a[j] == b[j];
+                close &= d <= 1e-4;
+            }
+        }
+        exact += same;
+        bad += !close;
     }
+    printf("     %u gradient samples: %d bit-exact, worst relative difference %.2e\n", n, exact,
+           worst);
     CHECK(n > 10, "samples taken (%u)", n);
     CHECK(bad == 0, "%d of %u GPU gradient samples differ from the previous frame", bad, n);
 cleanup:
