@@ -540,6 +540,9 @@ typedef struct tnd_exr_file {
 /* Read the first part of a scanline or tiled-less EXR: header and every channel, converted to
  * float or uint32. Errors name the file. */
 tnd_result tnd_exr_read(const char *path, tnd_exr_file *f);
+/* How many files tnd_exr_write wrote uncompressed because the library would have corrupted a
+ * ZIP chunk (exr.c says when). */
+uint32_t tnd_exr_uncompressed_fallbacks(void);
 void tnd_exr_close(tnd_exr_file *f);
 const tnd_exr_channel *tnd_exr_find(const tnd_exr_file *f, const char *name);
 /* Attribute lookup; false when absent or of another type. */

@@ -70,10 +70,42 @@ static exr_compression_t compression_type(tnd_exr_compression c)
     }
 }
 
+/* OpenEXRCore before 3.4.8 (Debian 12 has 3.1) corrupts a ZIP/ZIPS chunk whose zlib output is
+ * exactly as long as the raw data: it stores the zlib bytes, and the reader, seeing a chunk of
+ * the raw size, takes them as raw (openexr issue 2306). The writer detects such a chunk and
+ * writes the whole file again uncompressed. */
+static _Atomic uint32_t exr_fallbacks;
+
+uint32_t tnd_exr_uncompressed_fallbacks(void)
+{
+    return exr_fallbacks;
+}
+
+static tnd_result exr_write_once(const char *path, uint32_t width, uint32_t height,
+                                 const tnd_exr_channel_desc *channels, uint32_t channel_count,
+                                 const tnd_exr_attr *attrs, uint32_t attr_count,
+                                 tnd_exr_compression compression, bool *collided);
+
 tnd_result tnd_exr_write(const char *path, uint32_t width, uint32_t height,
                          const tnd_exr_channel_desc *channels, uint32_t channel_count,
                          const tnd_exr_attr *attrs, uint32_t attr_count,
                          tnd_exr_compression compression)
+{
+    bool collided = false;
+    tnd_result res = exr_write_once(path, width, height, channels, channel_count, attrs,
+                                    attr_count, compression, &collided);
+    if (res == TND_OK && collided) {
+        exr_fallbacks++;
+        res = exr_write_once(path, width, height, channels, channel_count, attrs, attr_count,
+                             TND_EXR_NONE, &collided);
+    }
+    return res;
+}
+
+static tnd_result exr_write_once(const char *path, uint32_t width, uint32_t height,
+                                 const tnd_exr_channel_desc *channels, uint32_t channel_count,
+                                 const tnd_exr_attr *attrs, uint32_t attr_count,
+                                 tnd_exr_compression compression, bool *collided)
 {
     tnd_result res = TND_OK;
     exr_msgs msgs = {{0}};
@@ -157,6 +189,11 @@ tnd_result tnd_exr_write(const char *path, uint32_t width, uint32_t height,
         if (k == 0)
             EXR_TRY(exr_encoding_choose_default_routines(ctx, part, &enc), "encoder");
         EXR_TRY(exr_encoding_run(ctx, part, &enc), "encode");
+        if ((compression == TND_EXR_ZIP || compression == TND_EXR_ZIPS) &&
+            enc.compressed_bytes == enc.packed_bytes && enc.packed_bytes > 0 &&
+            enc.compressed_buffer != enc.packed_buffer &&
+            memcmp(enc.compressed_buffer, enc.packed_buffer, enc.packed_bytes) != 0)
+            *collided = true; /* zlib bytes of the raw size: unreadable (see above) */
     }
 fail:
     if (enc_init)

@@ -139,5 +139,49 @@ static void test_files(void)
     CHECK(system(cmd) == 0, "cleanup");
 }
 
-TND_TEST_MAIN(T(test_result_catalogue), T(test_vk_error_format), T(test_choose_device),
+/* OpenEXRCore 3.1 stores a ZIP chunk whose zlib output is exactly the raw size as zlib, and reads
+ * it back as raw: garbage. The writer must notice and write the file uncompressed. Chunks of one
+ * line (ZIPS) whose first k floats are random and the rest zero have every compressed size near
+ * the raw one; some k hits it exactly. Every file must read back bit for bit, and the fallback
+ * must have happened (else the test proves nothing). */
+static void test_exr_zip_equal_size(void)
+{
+    char dir[] = "/tmp/tandem_exr_XXXXXX";
+    REQUIRE(mkdtemp(dir), "mkdtemp");
+    char path[256];
+    snprintf(path, sizeof path, "%s/t.exr", dir);
+    uint32_t before = tnd_exr_uncompressed_fallbacks(), files = 0, bad = 0;
+    uint32_t state = 12345u;
+    static float px[256];
+    for (uint32_t w = 16; w <= 128 && tnd_exr_uncompressed_fallbacks() == before; w += 8)
+        for (uint32_t k = 0; k <= w; k++) {
+            for (uint32_t i = 0; i < w; i++) {
+                state = state * 1664525u + 1013904223u;
+                uint32_t bits = state;
+                float v;
+                memcpy(&v, &bits, 4);
+                px[i] = i < k && isfinite(v) ? v : 0.0f;
+            }
+            const tnd_exr_channel_desc ch = {"Y", TND_EXR_FLOAT, px, 1};
+            CHECK_OK(tnd_exr_write(path, w, 1, &ch, 1, NULL, 0, TND_EXR_ZIPS));
+            tnd_exr_file f;
+            if (tnd_exr_read(path, &f) != TND_OK) {
+                bad++;
+                tnd_error_clear();
+                continue;
+            }
+            bad += memcmp(f.channels[0].data, px, (size_t)w * 4) != 0;
+            tnd_exr_close(&f);
+            files++;
+        }
+    uint32_t fallbacks = tnd_exr_uncompressed_fallbacks() - before;
+    printf("     %u files: %u written uncompressed (equal-size zlib chunk), %u read back wrong\n",
+           files, fallbacks, bad);
+    CHECK(fallbacks > 0, "no chunk hit the equal-size case: the test saw nothing");
+    CHECK(bad == 0, "%u files read back wrong", bad);
+    remove(path);
+    rmdir(dir);
+}
+
+TND_TEST_MAIN(T(test_exr_zip_equal_size), T(test_result_catalogue), T(test_vk_error_format), T(test_choose_device),
               T(test_sbt_layout), T(test_files))
