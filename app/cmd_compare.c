@@ -6,7 +6,6 @@
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
-#include <dirent.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -43,27 +42,24 @@ static int agreement(const char *da, const char *db, double min_gbuffer, double 
                      bool json, cJSON *root, tnd_result *res)
 {
     *res = TND_OK;
-    DIR *d = opendir(da);
-    if (!d) {
-        *res = tnd_fail(TND_ERR_IO, "compare: %s: cannot open directory", da);
+    uint32_t *list = NULL, nf = 0;
+    if ((*res = app_list_frames(da, &list, &nf)) != TND_OK)
+        return APP_EXIT_FAIL;
+    char(*names)[32] = calloc(nf + 1, sizeof *names);
+    if (!names) {
+        free(list);
+        *res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "compare: out of memory");
         return APP_EXIT_FAIL;
     }
-    char names[4096][32];
-    int nf = 0;
-    for (struct dirent *e; (e = readdir(d)) && nf < 4096;) {
-        unsigned f;
-        char tail[8];
-        if (sscanf(e->d_name, "frame_%u.ex%1s", &f, tail) == 2 && strlen(e->d_name) < 32)
-            snprintf(names[nf++], sizeof names[0], "%.31s", e->d_name);
-    }
-    closedir(d);
-    qsort(names, (size_t)nf, sizeof names[0], (int (*)(const void *, const void *))strcmp);
+    for (uint32_t k = 0; k < nf; k++)
+        snprintf(names[k], sizeof names[0], "frame_%04u.exr", list[k]);
+    free(list);
     int status = APP_EXIT_OK, compared = 0;
     double worst[TND_CT_COUNT];
     for (int i = 0; i < TND_CT_COUNT; i++)
         worst[i] = 1.0;
     cJSON *frames = cJSON_AddArrayToObject(root, "frames");
-    for (int k = 0; k < nf; k++) {
+    for (uint32_t k = 0; k < nf; k++) {
         char pa[1200], pb[1200];
         snprintf(pa, sizeof pa, "%.1000s/%.31s", da, names[k]);
         snprintf(pb, sizeof pb, "%.1000s/%.31s", db, names[k]);
@@ -80,6 +76,7 @@ static int agreement(const char *da, const char *db, double min_gbuffer, double 
         if (r != TND_OK) {
             tnd_frame_destroy(&a);
             tnd_frame_destroy(&b);
+            free(names);
             *res = r;
             return APP_EXIT_FAIL;
         }
@@ -140,6 +137,7 @@ static int agreement(const char *da, const char *db, double min_gbuffer, double 
         tnd_frame_destroy(&a);
         tnd_frame_destroy(&b);
     }
+    free(names);
     if (compared == 0) {
         *res = tnd_fail(TND_ERR_BAD_INPUT, "compare: no frame_NNNN.exr in both %s and %s", da, db);
         return APP_EXIT_FAIL;

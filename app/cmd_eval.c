@@ -5,10 +5,12 @@
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
+#include <dirent.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 static const app_cmd eval_cmd = {
     "eval",
@@ -52,19 +54,36 @@ static char *settings_json(const app_eval *e, const char *out, const char *expos
     }
     char path[1200];
     snprintf(path, sizeof path, "%s/run.json", out);
-    FILE *f = fopen(path, "rb");
-    if (f) {
-        char buf[65536];
-        size_t n = fread(buf, 1, sizeof buf - 1, f);
-        fclose(f);
-        buf[n] = 0;
+    void *buf = NULL;
+    size_t n = 0;
+    if (tnd_file_read(path, &buf, &n) == TND_OK) { /* no run.json: settings without it */
         cJSON *run = cJSON_Parse(buf);
         if (run)
             cJSON_AddItemToObject(j, "run", run);
     }
+    free(buf);
+    tnd_error_clear();
     char *txt = cJSON_Print(j);
     cJSON_Delete(j);
     return txt;
+}
+
+/* Remove a directory this command created and filled with files only (the report). */
+static bool remove_flat_dir(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return false;
+    bool ok = true;
+    for (struct dirent *e; (e = readdir(d));) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0)
+            continue;
+        char path[2400];
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        ok &= remove(path) == 0;
+    }
+    closedir(d);
+    return ok && rmdir(dir) == 0;
 }
 
 int cmd_eval(int argc, char **argv)
@@ -152,12 +171,8 @@ int cmd_eval(int argc, char **argv)
         app_eval_regions_html(&e, &html);
         res = app_eval_report(&e, report, title, settings, html.s);
         ev_text_free(&html);
-        if (res != TND_OK && made_report) { /* no partial report */
-            char cmd[1300];
-            snprintf(cmd, sizeof cmd, "rm -rf '%s'", report);
-            if (!strchr(report, '\'') && system(cmd) != 0)
-                fprintf(stderr, "tandem: eval: could not remove the partial report %s\n", report);
-        }
+        if (res != TND_OK && made_report && !remove_flat_dir(report)) /* no partial report */
+            fprintf(stderr, "tandem: eval: could not remove the partial report %s\n", report);
     }
     if (res == TND_OK) {
         if (json) {

@@ -322,13 +322,9 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
     char *txt = cJSON_Print(root);
     char path[1000], rdir[1000];
     snprintf(path, sizeof path, "%s/extremes.json", out);
-    FILE *f = txt ? fopen(path, "w") : NULL;
-    bool ok = f && fputs(txt, f) >= 0;
-    if (f && fclose(f) != 0)
-        ok = false;
+    res = txt ? tnd_file_write_atomic(path, txt, strlen(txt))
+              : tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
     snprintf(rdir, sizeof rdir, "%s/report", out);
-    if (!ok)
-        res = tnd_fail(TND_ERR_IO, "bench: %s: cannot write", path);
     if (res == TND_OK)
         res = tnd_mkdirs(rdir);
     if (res == TND_OK) {

@@ -48,20 +48,11 @@ static tnd_result read_timings(const char *dir, unsigned warmup, sweep_run *r)
 {
     char path[1400];
     snprintf(path, sizeof path, "%s/timings.json", dir);
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return tnd_fail(TND_ERR_IO, "bench: %s: cannot open", path);
-    fseek(f, 0, SEEK_END);
-    long len = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *txt = len > 0 ? malloc((size_t)len + 1) : NULL;
-    size_t got = txt ? fread(txt, 1, (size_t)len, f) : 0;
-    fclose(f);
-    if (!txt || got != (size_t)len) {
-        free(txt);
-        return tnd_fail(TND_ERR_IO, "bench: %s: cannot read", path);
-    }
-    txt[len] = 0;
+    void *txt = NULL;
+    size_t len = 0;
+    tnd_result res = tnd_file_read(path, &txt, &len);
+    if (res != TND_OK)
+        return res;
     cJSON *j = cJSON_Parse(txt);
     free(txt);
     const cJSON *frames = cJSON_GetObjectItem(j, "frames");
@@ -368,14 +359,12 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
         ev_text_add(&jt, "%s\n", json);
     else
         jt.failed = true;
-    FILE *f;
     char p2[1400];
     for (int w = 0; res == TND_OK && w < 2; w++) {
         const ev_text *t = w ? &csv : &jt;
         snprintf(p2, sizeof p2, "%s/sweep.%s", out, w ? "csv" : "json");
-        f = t->failed ? NULL : fopen(p2, "w");
-        if (!f || fwrite(t->s, 1, t->len, f) != t->len || fclose(f) != 0)
-            res = tnd_fail(TND_ERR_IO, "bench: %s: cannot write", p2);
+        res = t->failed ? tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory")
+                        : tnd_file_write_atomic(p2, t->s, t->len);
     }
     if (res == TND_OK) {
         char title[1300];

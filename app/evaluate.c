@@ -24,7 +24,7 @@ tnd_result app_list_frames(const char *dir, uint32_t **frames, uint32_t *count)
     *count = 0;
     DIR *d = opendir(dir);
     if (!d)
-        return tnd_fail(TND_ERR_IO, "eval: %s: cannot open directory", dir);
+        return tnd_fail(TND_ERR_IO, "%s: cannot open directory", dir);
     uint32_t cap = 0;
     for (struct dirent *e; (e = readdir(d));) {
         unsigned f;
@@ -67,13 +67,30 @@ tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, bool noi
 }
 
 /* One frame of a series (noisy: the capture composited) or of the reference (s NULL). */
+static tnd_result load_with(const app_eval *e, const app_eval_series *s, uint32_t frame,
+                            ev_image *img, uint64_t *nonfinite, const tnd_frame *cap);
+
 static tnd_result load(const app_eval *e, const app_eval_series *s, uint32_t frame, ev_image *img,
                        uint64_t *nonfinite)
+{
+    return load_with(e, s, frame, img, nonfinite, NULL);
+}
+
+/* As load; a noisy series reading e->regions_from composites `cap` (that frame's capture, read
+ * once for the region masks) instead of reading it again. */
+static tnd_result load_with(const app_eval *e, const app_eval_series *s, uint32_t frame,
+                            ev_image *img, uint64_t *nonfinite, const tnd_frame *cap)
 {
     char path[1300];
     snprintf(path, sizeof path, "%s/frame_%04u.exr", s ? s->dir : e->ref, frame);
     tnd_result res;
-    if (s && s->noisy) {
+    if (s && s->noisy && cap && strcmp(s->dir, e->regions_from) == 0) {
+        res = ev_image_alloc(cap->width, cap->height, img);
+        if (res == TND_OK) {
+            tnd_frame_composite(cap, img->rgb);
+            tnd_frame_interleave(cap, img->rgb);
+        }
+    } else if (s && s->noisy) {
         tnd_frame f = {0};
         res = tnd_capture_read(path, &f);
         if (res == TND_OK)
@@ -144,35 +161,35 @@ static tnd_result common_frames(app_eval *e)
     return res;
 }
 
-/* The region masks of frame `frame` from the run's capture (path flags), or false. */
-static bool region_masks(const app_eval *e, uint32_t frame, uint32_t w, uint32_t h, uint8_t *mask)
+/* The region masks of frame `frame` from the run's capture (path flags), or false; the capture
+ * stays in *cap for the noisy series (caller destroys it). */
+static bool region_masks(const app_eval *e, uint32_t frame, uint32_t w, uint32_t h, uint8_t *mask,
+                         tnd_frame *cap)
 {
     if (!e->regions_from[0])
         return false;
     char path[1300];
     snprintf(path, sizeof path, "%s/frame_%04u.exr", e->regions_from, frame);
-    tnd_frame f = {0};
-    bool ok = tnd_capture_read(path, &f) == TND_OK && f.width == w && f.height == h &&
-              f.present[TND_CT_PATH];
+    bool ok = tnd_capture_read(path, cap) == TND_OK && cap->width == w && cap->height == h &&
+              cap->present[TND_CT_PATH];
     if (ok) {
-        const uint32_t *p = tnd_frame_u(&f, TND_CT_PATH);
+        const uint32_t *p = tnd_frame_u(cap, TND_CT_PATH);
         for (size_t q = 0; q < (size_t)w * h; q++)
             mask[q] = (uint8_t)(((p[q] & TND_PATH_MIRROR) ? 1u << APP_REGION_MIRROR : 0u) |
                                 ((p[q] & (TND_PATH_GLASS | TND_PATH_SPLIT)) ? 1u << APP_REGION_GLASS
                                                                              : 0u));
+    } else {
+        tnd_frame_destroy(cap);
     }
-    tnd_frame_destroy(&f);
     tnd_error_clear();
     return ok;
 }
 
+/* to, tr: the frame's tone-mapped output and reference (what the sequence just measured) */
 static void region_add(app_region *r, int bit, const uint8_t *mask, const ev_image *out,
-                       const ev_image *ref, const float *flip, double exposure, float *to,
-                       float *tr)
+                       const ev_image *ref, const float *flip, const float *to, const float *tr)
 {
     uint32_t w = ref->width, h = ref->height;
-    ev_tonemap(out, exposure, to);
-    ev_tonemap(ref, exposure, tr);
     for (uint32_t y = 0; y < h; y++)
         for (uint32_t x = 0; x < w; x++) {
             size_t q = (size_t)y * w + x;
@@ -208,7 +225,8 @@ tnd_result app_eval_run(app_eval *e)
     ev_image img = {0}, ref = {0};
     ev_sequence *seq[APP_EVAL_MAX_SERIES] = {0};
     uint8_t *mask = NULL;
-    float *flip = NULL, *to = NULL, *tr = NULL;
+    float *flip = NULL;
+    tnd_frame cap = {0};
     if (res != TND_OK)
         return res;
     if (!(e->ppd > 0))
@@ -243,9 +261,7 @@ tnd_result app_eval_run(app_eval *e)
             size_t n = (size_t)ref.width * ref.height;
             mask = malloc(n);
             flip = malloc(n * sizeof(float));
-            to = malloc(3 * n * sizeof(float));
-            tr = malloc(3 * n * sizeof(float));
-            if (!mask || !flip || !to || !tr) {
+            if (!mask || !flip) {
                 res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
                 goto fail;
             }
@@ -257,10 +273,11 @@ tnd_result app_eval_run(app_eval *e)
                            e->height);
             goto fail;
         }
-        bool regions = region_masks(e, e->frames[k], ref.width, ref.height, mask);
+        tnd_frame_destroy(&cap);
+        bool regions = region_masks(e, e->frames[k], ref.width, ref.height, mask, &cap);
         for (uint32_t i = 0; i < e->nseries; i++) {
             uint64_t bad = 0;
-            TND_TRY(load(e, &e->series[i], e->frames[k], &img, &bad));
+            TND_TRY(load_with(e, &e->series[i], e->frames[k], &img, &bad, regions ? &cap : NULL));
             if (img.width != ref.width || img.height != ref.height) {
                 res = tnd_fail(TND_ERR_BAD_INPUT,
                                "eval: %s/frame_%04u.exr is %ux%u, the reference is %ux%u",
@@ -270,8 +287,10 @@ tnd_result app_eval_run(app_eval *e)
             }
             TND_TRY(ev_sequence_add(seq[i], e->frames[k], &img, &ref, &e->series[i].m[k],
                                     regions ? flip : NULL));
+            const float *to, *tr;
+            ev_sequence_display(seq[i], &to, &tr);
             for (int b = 0; regions && b < APP_REGIONS; b++)
-                region_add(&e->series[i].regions[b], b, mask, &img, &ref, flip, e->exposure, to, tr);
+                region_add(&e->series[i].regions[b], b, mask, &img, &ref, flip, to, tr);
             e->series[i].m[k].nonfinite = bad;
             e->series[i].summary.nonfinite += bad;
             ev_image_free(&img);
@@ -292,8 +311,7 @@ fail:
     ev_image_free(&ref);
     free(mask);
     free(flip);
-    free(to);
-    free(tr);
+    tnd_frame_destroy(&cap);
     return res;
 }
 

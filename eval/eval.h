@@ -73,6 +73,9 @@ void ev_sequence_destroy(ev_sequence *seq);
  * when flip_map is not NULL. */
 tnd_result ev_sequence_add(ev_sequence *seq, uint32_t frame, const ev_image *out,
                            const ev_image *ref, ev_frame_metrics *m, float *flip_map);
+/* The last frame's tone-mapped output and reference (3 floats per pixel, valid until the next
+ * ev_sequence_add). */
+void ev_sequence_display(const ev_sequence *seq, const float **out, const float **ref);
 /* Means over the frames so far, and the lag (nonfinite is left 0 for the caller). */
 void ev_sequence_summary(const ev_sequence *seq, ev_summary *s);
 /* Lighting changes: frames t whose reference mean luminance differs from frame t-1's by more

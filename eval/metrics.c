@@ -623,6 +623,13 @@ fail:
     return res;
 }
 
+void ev_sequence_display(const ev_sequence *s, const float **out, const float **ref)
+{
+    /* ev_sequence_add swapped them into the previous-frame slots */
+    *out = s->po;
+    *ref = s->pr;
+}
+
 void ev_sequence_summary(const ev_sequence *s, ev_summary *out)
 {
     *out = s->sum;

@@ -60,23 +60,19 @@ void ev_text_free(ev_text *t)
     *t = (ev_text){0};
 }
 
-/* Write `text` to DIR/NAME through DIR/NAME.tmp and a rename. */
-static tnd_result write_file(const char *dir, const char *name, const ev_text *text)
+/* Write `text` to PATH atomically (no partial file). */
+static tnd_result write_path(const char *path, const ev_text *text)
 {
-    char path[2048], tmp[2100];
-    snprintf(path, sizeof path, "%s/%s", dir, name);
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
     if (text->failed)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: %s: out of memory", path);
-    FILE *f = fopen(tmp, "w");
-    bool ok = f && fwrite(text->s ? text->s : "", 1, text->len, f) == text->len;
-    if (f && fclose(f) != 0)
-        ok = false;
-    if (!ok || rename(tmp, path) != 0) {
-        remove(tmp);
-        return tnd_fail(TND_ERR_IO, "eval: %s: cannot write", path);
-    }
-    return TND_OK;
+    return tnd_file_write_atomic(path, text->s ? text->s : "", text->len);
+}
+
+static tnd_result write_file(const char *dir, const char *name, const ev_text *text)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%.2047s/%.2047s", dir, name);
+    return write_path(path, text);
 }
 
 /* ---- metrics.json / metrics.csv ------------------------------------------------------------- */
@@ -315,18 +311,8 @@ static void svg_frame(ev_text *t, const char *title, const char *xlabel, const c
 
 static tnd_result write_svg(const char *path, ev_text *t)
 {
-    char dir[2048];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    const char *name = path;
-    if (slash) {
-        *slash = 0;
-        name = slash + 1;
-    } else {
-        snprintf(dir, sizeof dir, ".");
-    }
     ev_text_add(t, "</svg>\n");
-    return write_file(dir, name, t);
+    return write_path(path, t);
 }
 
 tnd_result ev_plot_metric(const char *path, const char *metric, const ev_series *s,

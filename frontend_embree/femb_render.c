@@ -675,9 +675,10 @@ static void shade_pixel(const femb_context *c, const femb_params *p, rng_key key
     femb_surface s;
     float depth;
     surface_from_gbuffer(c, f, q, &s, &depth);
-    if (c->specular) {
-        /* a surface seen in a mirror or through glass is lit towards the chain's last segment,
-         * not towards the camera: the primary pass's chain again (same jitter, same geometry) */
+    if (c->specular && tnd_frame_u(f, TND_CT_PATH)[q] != 0u) {
+        /* a surface seen in a mirror or through glass (the path flags say the primary chain met
+         * one) is lit towards the chain's last segment, not towards the camera: the primary
+         * pass's chain again (same jitter, same geometry) */
         chain_result ch;
         specular_chain(c, (uint32_t)(q % c->width), (uint32_t)(q / c->width), true, &ch);
         if (ch.hit && ch.vertices > 0 && ch.inst == s.instance && ch.prim == s.primitive) {

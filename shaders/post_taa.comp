@@ -107,7 +107,6 @@ void main()
             result = mix(max(ycocg_to_rgb(hy), vec3(0.0)), centre, P.taa.x);
         }
     }
-    /* whatever the history held, the output is finite (a history texel that decodes to garbage
-     * must not reach the picture: seen once on lavapipe, materials 128x72, frame 9) */
+    /* whatever the inputs held, the output is finite (the history stays NaN-safe) */
     imageStore(taa[pc.slot], p, vec4(max(finite_or_zero(result), vec3(0.0)), 1.0));
 }

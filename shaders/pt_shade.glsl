@@ -61,9 +61,10 @@ void pt_shade_main(uvec2 launch)
         vec3 d = fr.cam_pos.xyz - s.p;
         float depth = sqrt(dot(d, d));
         s.wo = depth > 0.0 ? d * (1.0 / depth) : s.ns;
-        if (USES(TND_USES_SPECULAR)) {
-            /* seen in a mirror or through glass: lit towards the chain's last segment (the
-             * primary pass's chain again: same jitter, same geometry) */
+        if (USES(TND_USES_SPECULAR) && imageLoad(img_path, ip).x != 0u) {
+            /* seen in a mirror or through glass (the path flags say the primary chain met one):
+             * lit towards the chain's last segment (the primary pass's chain again: same
+             * jitter, same geometry) */
             chain_result ch = specular_chain(uvec2(ip), true);
             if (ch.hit && ch.vertices > 0u && ch.inst == inst &&
                 ch.prim == imageLoad(img_vis_id, ip).y) {

@@ -9,8 +9,8 @@
 
 enum { W = 64, H = 36, N = W * H };
 
-/* one frame of cornell through the Embree front-end (frame index i: its jitter) */
-static tnd_result cornell_frame(femb_context *fe, const tnd_scene_state *st, uint32_t i,
+/* one frame of the rig's scene through the Embree front-end (frame index i: its jitter) */
+static tnd_result render_frame(femb_context *fe, const tnd_scene_state *st, uint32_t i,
                                 tnd_frame *f)
 {
     tnd_result res = femb_set_frame(fe, st, st, i, W, H);
@@ -93,7 +93,7 @@ static void test_tonemap_exposure(void)
     static float rgb[N * 3];
     static uint8_t d1[N * 3], d1000[N * 3];
     REQUIRE_OK(rig_open(vk, &r));
-    REQUIRE_OK(cornell_frame(r.fe, &r.st, 0, &f));
+    REQUIRE_OK(render_frame(r.fe, &r.st, 0, &f));
     tnd_frame_composite(&f, rgb);
     REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f));
     for (int curve = 0; curve < 3; curve++) {
@@ -179,7 +179,7 @@ static void test_taa_converges_at_edges(void)
     const int frames = 256, taa_frames = 48;
     for (int i = 0; i < frames; i++) {
         tnd_frame_destroy(&f);
-        REQUIRE_OK(cornell_frame(r.fe, &r.st, (uint32_t)i, &f));
+        REQUIRE_OK(render_frame(r.fe, &r.st, (uint32_t)i, &f));
         const float *a = tnd_frame_f(&f, TND_CT_ALBEDO);
         for (int q = 0; q < N * 3; q++) {
             alb[q] = a[q];
@@ -323,10 +323,7 @@ static void test_interleave(void)
     cmp_context *c = NULL;
     static float rgb[N * 3], cpu[N * 3], gpu[N * 3];
     REQUIRE_OK(rig_open_scene(vk, TND_SOURCE_DIR "/data/scenes/materials.gltf", &r));
-    REQUIRE_OK(femb_set_frame(r.fe, &r.st, &r.st, 0, W, H));
-    REQUIRE_OK(tnd_frame_create(W, H, &f));
-    REQUIRE_OK(femb_trace_primary(r.fe, &f));
-    REQUIRE_OK(femb_shade(r.fe, &(femb_params){.bounces = 1}, &f, NULL));
+    REQUIRE_OK(render_frame(r.fe, &r.st, 0, &f));
     tnd_frame_composite(&f, rgb);
     memcpy(cpu, rgb, sizeof cpu);
     tnd_frame_interleave(&f, cpu);
