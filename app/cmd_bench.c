@@ -78,7 +78,7 @@ static const char *const bp_name[BP_COUNT] = {
 static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, unsigned frame,
                                  const unsigned size[2], unsigned bounces, unsigned repeats,
                                  const char *rt_api, bool full, dn_mode mode, tnd_precision prec,
-                                 bool json)
+                                 bool json, bool per_dispatch)
 {
     tnd_result res = TND_OK;
     tnd_vk vk = {0};
@@ -86,7 +86,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
     dn_context *dn = NULL;
     tnd_scene_state st[2] = {{0}};
     enum { WARM = 3 };
-    double *v[BP_COUNT] = {0};
+    double *v[BP_COUNT] = {0}, *dv = NULL; /* dv: per dispatch (--per-dispatch) */
     for (int k = 0; k < BP_COUNT; k++)
         if (!(v[k] = calloc(repeats, sizeof(double)))) {
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
@@ -97,7 +97,19 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
     TND_TRY(fvk_rt_api_parse(rt_api, &api));
     TND_TRY(fvk_create(&vk, s, &(fvk_desc){.precision = prec, .rt_api = api, .full_pipeline = full},
                        &gv));
-    TND_TRY(dn_create(&vk, size[0], size[1], &(dn_desc){.mode = mode, .precision = prec}, &dn));
+    TND_TRY(dn_create(&vk, size[0], size[1],
+                      &(dn_desc){.mode = mode, .precision = prec, .dispatch_timing = per_dispatch},
+                      &dn));
+    /* per dispatch (--per-dispatch): times of each dispatch over the timed frames, when the
+     * sequence of dispatches is the same every frame (it is after the first) */
+    enum { MAXD = TND_TIMER_MAX_PASSES };
+    const char *dnames[MAXD] = {0};
+    uint32_t nd = 0;
+    bool d_same = true;
+    if (per_dispatch && !(dv = calloc((size_t)MAXD * repeats, sizeof(double)))) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+        goto fail;
+    }
     float aspect = (float)size[0] / size[1];
     fvk_params fp = {.bounces = bounces};
     for (unsigned i = 0; i < WARM + repeats; i++) {
@@ -125,6 +137,18 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
                                     dt.composite_ms, wall};
         for (int k = 0; k < BP_COUNT; k++)
             v[k][i - WARM] = x[k];
+        if (per_dispatch) {
+            const char *nm[MAXD];
+            double ms[MAXD];
+            uint32_t n_now = dn_dispatch_times(dn, nm, ms, MAXD);
+            if (i == WARM) {
+                nd = n_now;
+                memcpy(dnames, nm, n_now * sizeof *nm);
+            }
+            d_same = d_same && n_now == nd && memcmp(nm, dnames, nd * sizeof *nm) == 0;
+            for (uint32_t k = 0; k < nd && d_same; k++)
+                dv[(size_t)k * repeats + (i - WARM)] = ms[k];
+        }
     }
     /* the copy bandwidth, measured now that the GPU is warm: 8x the back-end's traffic per
      * frame, between 64 MiB and 1 GiB (larger than any cache) */
@@ -170,6 +194,15 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
                 cJSON_AddNumberToObject(q, "floor_ms", FLOOR(bytes[k]));
             }
         }
+        if (per_dispatch && d_same) {
+            cJSON *dd = cJSON_AddArrayToObject(o, "dispatches");
+            for (uint32_t k = 0; k < nd; k++) {
+                cJSON *q = cJSON_CreateObject();
+                cJSON_AddStringToObject(q, "name", dnames[k]);
+                cJSON_AddNumberToObject(q, "median_ms", app_median(dv + (size_t)k * repeats, repeats));
+                cJSON_AddItemToArray(dd, q);
+            }
+        }
         cJSON_AddNumberToObject(o, "backend_ms", backend);
         cJSON_AddNumberToObject(o, "backend_bytes", backend_bytes);
         cJSON_AddNumberToObject(o, "backend_floor_ms", FLOOR(backend_bytes));
@@ -203,9 +236,18 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
                backend > 0 ? 100.0 * FLOOR(backend_bytes) / backend : 0.0);
         printf("  (GPU timestamps; medians of %u frames after %d warm-up frames; \"of floor\" = "
                "floor / measured)\n", repeats, WARM);
+        if (per_dispatch && !d_same)
+            printf("  per dispatch: the dispatches differed between frames; not shown\n");
+        else if (per_dispatch) {
+            printf("  per dispatch (back-end, each with its own timestamps; the select pass is "
+                   "above):\n");
+            for (uint32_t k = 0; k < nd; k++)
+                printf("    %-18s %9.3f\n", dnames[k], app_median(dv + (size_t)k * repeats, repeats));
+        }
     }
 #undef FLOOR
 fail:
+    free(dv);
     for (int k = 0; k < BP_COUNT; k++)
         free(v[k]);
     tnd_scene_state_free(&st[0]);
@@ -220,7 +262,7 @@ int cmd_bench(int argc, char **argv)
 {
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
     unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
-    bool json = false, extremes = false, scene_given = false;
+    bool json = false, extremes = false, scene_given = false, per_dispatch = false;
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
     const char *out = NULL, *reference = NULL;
     app_list sweeps = {0};
@@ -229,6 +271,8 @@ int cmd_bench(int argc, char **argv)
         {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
          "with --frontend vk: time the whole frame with this back-end (asvgf, svgf or off)"},
         {"precision", APP_OPT_STRING, &precision, "P", "contract precision: float32 or packed"},
+        {"per-dispatch", APP_OPT_FLAG, &per_dispatch, NULL,
+         "with --denoiser: also time every back-end dispatch (each a-trous iteration, ...)"},
         {"rt-api", APP_OPT_STRING, &rt_api, "API", "vk: pipeline, query or auto"},
         {"pipeline", APP_OPT_STRING, &pipeline, "scene|full",
          "vk: shaders model only what the scene requires (default) or everything"},
@@ -292,7 +336,7 @@ int cmd_bench(int argc, char **argv)
         res = tnd_scene_load(scene_path, &sc);
         if (res == TND_OK)
             res = bench_pipeline(sc, scene_path, frame, size, bounces, repeats, rt_api, full,
-                                 mode, prec, json);
+                                 mode, prec, json, per_dispatch);
         tnd_scene_destroy(sc);
         if (res != TND_OK) {
             app_report("bench", res);

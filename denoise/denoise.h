@@ -35,6 +35,8 @@ typedef struct dn_desc {
      * light-leak guard of the last iteration (on unless no_leak_guard) */
     float lf_deflicker;
     bool no_leak_guard;
+    /* profiling: a timestamp around every dispatch as well (dn_dispatch_times) */
+    bool dispatch_timing;
 } dn_desc;
 
 typedef struct dn_frame {
@@ -61,6 +63,9 @@ typedef struct dn_traffic {
     double select, gradient, temporal, lf, atrous, composite;
 } dn_traffic;
 void dn_traffic_of(const dn_context *ctx, dn_traffic *t);
+/* With dn_desc.dispatch_timing: the last dn_run's GPU time of each dispatch, in order (names
+ * such as "atrous.2"; they stay valid for the context's life); returns how many (at most max). */
+uint32_t dn_dispatch_times(const dn_context *ctx, const char **names, double *ms, uint32_t max);
 
 tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc *desc,
                      dn_context **ctx);

@@ -40,8 +40,10 @@ struct dn_context {
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
     VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous, lf;
-    tnd_timer timer, select_timer;
+    tnd_timer timer, select_timer, fine; /* fine: per dispatch (desc.dispatch_timing) */
     double select_ms; /* GPU time of the last selection */
+    double fine_ms[TND_TIMER_MAX_PASSES];
+    uint32_t fine_count;
     bool have_history;
 };
 
@@ -73,6 +75,7 @@ void dn_destroy(dn_context *c)
         vkDeviceWaitIdle(vk->device);
     tnd_timer_destroy(vk, &c->timer);
     tnd_timer_destroy(vk, &c->select_timer);
+    tnd_timer_destroy(vk, &c->fine);
     VkPipeline pipes[7] = {c->temporal,   c->atrous,      c->composite, c->grad_select,
                            c->grad_image, c->grad_atrous, c->lf};
     for (int i = 0; i < 7; i++)
@@ -315,6 +318,8 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     write_own_set(c);
     TND_TRY(tnd_timer_create(vk, &c->timer));
     TND_TRY(tnd_timer_create(vk, &c->select_timer));
+    if (c->desc.dispatch_timing)
+        TND_TRY(tnd_timer_create(vk, &c->fine));
     *out = c;
     return TND_OK;
 fail:
@@ -322,14 +327,41 @@ fail:
     return res;
 }
 
-static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32_t slot,
-                     uint32_t iteration)
+/* Names of the dispatches for dn_dispatch_times: pass name and iteration. */
+static const char *dispatch_name(const char *pass, uint32_t iteration)
 {
-    uint32_t pc[2] = {slot, iteration};
+    static const char *const names[][8] = {
+        {"temporal", "temporal", "temporal", "temporal", "temporal", "temporal", "temporal", "temporal"},
+        {"atrous.0", "atrous.1", "atrous.2", "atrous.3", "atrous.4", "atrous.5", "atrous.6", "atrous.7+"},
+        {"lf.downsample", "lf.deflicker", "lf.atrous0", "lf.atrous1", "lf.atrous2", "lf.atrous3",
+         "lf.atrous4", "lf.atrous5+"},
+        {"gradient.blur0", "gradient.blur1", "gradient.blur2", "gradient.blur3", "gradient.blur4",
+         "gradient.blur5", "gradient.blur6", "gradient.blur7+"},
+    };
+    static const char *const passes[] = {"temporal", "atrous", "lf", "gradient.blur"};
+    for (int k = 0; k < 4; k++)
+        if (strcmp(pass, passes[k]) == 0)
+            return names[k][iteration < 7 ? iteration : 7];
+    return pass;
+}
+
+static void dispatch_grid(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name,
+                          const uint32_t pc[2], uint32_t w, uint32_t h)
+{
+    int slot = c->desc.dispatch_timing ? tnd_timer_begin(cmd, &c->fine, dispatch_name(name, pc[1]))
+                                       : -1;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
-    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, pc);
-    vkCmdDispatch(cmd, (c->width + 7) / 8, (c->height + 7) / 8, 1);
+    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, 2 * sizeof(uint32_t), pc);
+    vkCmdDispatch(cmd, (w + 7) / 8, (h + 7) / 8, 1);
     tnd_cmd_barrier(cmd);
+    if (slot >= 0)
+        tnd_timer_end(cmd, &c->fine, slot);
+}
+
+static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name,
+                     uint32_t slot, uint32_t iteration)
+{
+    dispatch_grid(c, cmd, pipe, name, (uint32_t[2]){slot, iteration}, c->width, c->height);
 }
 
 /* full-res a-trous passes run: the most hf or spec asks for (the other copies through) */
@@ -374,13 +406,11 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
 }
 
 /* a 1/3-resolution pass (one thread per 3x3 stratum) */
-static void dispatch_third(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, uint32_t iteration)
+static void dispatch_third(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name,
+                           uint32_t iteration)
 {
-    uint32_t pc[2] = {c->frame & 1u, iteration};
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
-    vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, pc);
-    vkCmdDispatch(cmd, (c->grad_w + 7) / 8, (c->grad_h + 7) / 8, 1);
-    tnd_cmd_barrier(cmd);
+    dispatch_grid(c, cmd, pipe, name, (uint32_t[2]){c->frame & 1u, iteration}, c->grad_w,
+                  c->grad_h);
 }
 
 /* The selection pass; `host`: also copy the list to the read-back buffer. */
@@ -397,7 +427,7 @@ static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const d
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
     int s_s = tnd_timer_begin(cmd, &c->select_timer, "denoise.grad_select");
-    dispatch_third(c, cmd, c->grad_select, 0);
+    dispatch_third(c, cmd, c->grad_select, "select", 0);
     tnd_timer_end(cmd, &c->select_timer, s_s);
     if (host) {
         vkCmdCopyBuffer(cmd, c->samples.buffer, c->samples_host.buffer, 1,
@@ -473,31 +503,33 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(c->vk, &cmd));
     tnd_timer_reset(cmd, &c->timer);
+    if (d->dispatch_timing)
+        tnd_timer_reset(cmd, &c->fine);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
     int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
-        dispatch_third(c, cmd, c->grad_image, 0);
+        dispatch_third(c, cmd, c->grad_image, "gradient.image", 0);
         for (uint32_t i = 0; i < 7; i++) /* 7 iterations: the result lands in slot 1 */
-            dispatch_third(c, cmd, c->grad_atrous, i);
+            dispatch_third(c, cmd, c->grad_atrous, "gradient.blur", i);
         tnd_timer_end(cmd, &c->timer, s_g);
     }
     if (d->mode != DN_MODE_OFF) {
         s_t = tnd_timer_begin(cmd, &c->timer, "denoise.temporal");
-        dispatch(c, cmd, c->temporal, slot, 0);
+        dispatch(c, cmd, c->temporal, "temporal", slot, 0);
         tnd_timer_end(cmd, &c->timer, s_t);
         s_l = tnd_timer_begin(cmd, &c->timer, "denoise.lf");
         for (uint32_t k = 0; k < d->iters_lf + 2; k++) /* downsample, deflicker, a-trous */
-            dispatch_third(c, cmd, c->lf, k);
+            dispatch_third(c, cmd, c->lf, "lf", k);
         tnd_timer_end(cmd, &c->timer, s_l);
         s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
         for (uint32_t i = 0; i < iters; i++)
-            dispatch(c, cmd, c->atrous, slot, i);
+            dispatch(c, cmd, c->atrous, "atrous", slot, i);
         tnd_timer_end(cmd, &c->timer, s_a);
     }
     int s_c = tnd_timer_begin(cmd, &c->timer, "denoise.composite");
-    dispatch(c, cmd, c->composite, slot, iters & 1u);
+    dispatch(c, cmd, c->composite, "composite", slot, iters & 1u);
     tnd_timer_end(cmd, &c->timer, s_c);
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
     if (t) {
@@ -516,10 +548,24 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         }
         t->composite_ms = ms[k];
     }
+    if (d->dispatch_timing) {
+        TND_TRY(tnd_timer_read(c->vk, &c->fine, c->fine_ms));
+        c->fine_count = c->fine.count;
+    }
     c->have_history = true;
     c->frame++;
 fail:
     return res;
+}
+
+uint32_t dn_dispatch_times(const dn_context *c, const char **names, double *ms, uint32_t max)
+{
+    uint32_t n = c->fine_count < max ? c->fine_count : max;
+    for (uint32_t i = 0; i < n; i++) {
+        names[i] = c->fine.names[i];
+        ms[i] = c->fine_ms[i];
+    }
+    return n;
 }
 
 void dn_traffic_of(const dn_context *c, dn_traffic *t)
