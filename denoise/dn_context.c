@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { N_PAIRED = 9, N_SINGLE = 6 }; /* hist hf, mom, lf sh, lf cocg, spec; at hf, lf sh, lf cocg, spec */
+enum { N_PAIRED = 9, N_SINGLE = 7 }; /* hist hf, mom, lf sh, lf cocg, spec; at hf, lf sh, lf cocg, spec */
 static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF,   DN_B_HIST_MOM,   DN_B_HIST_LF_SH,
                                                   DN_B_HIST_LF_COCG, DN_B_HIST_SPEC, DN_B_AT_HF,
                                                   DN_B_AT_LF_SH,  DN_B_AT_LF_COCG, DN_B_AT_SPEC};
@@ -29,7 +29,7 @@ struct dn_context {
     dn_desc desc;
     uint32_t width, height, frame;
     tnd_image paired[N_PAIRED][2];
-    tnd_image prev_gb, prev_vis, out;
+    tnd_image prev_gb, prev_vis, out, fgeo; /* fgeo: the a-trous filter geometry */
     tnd_image prev_lum, prev_bary, grad_flag, grad[2]; /* A-SVGF */
     tnd_image lf_geo[2];                               /* 1/3-res lf anchors */
     tnd_buffer params, samples, samples_host; /* samples: device-local; _host: its read-back */
@@ -39,7 +39,7 @@ struct dn_context {
     VkPipelineLayout layout;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
-    VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous, lf;
+    VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous, lf, lf_down;
     tnd_timer timer, select_timer, fine; /* fine: per dispatch (desc.dispatch_timing) */
     double select_ms; /* GPU time of the last selection */
     double fine_ms[TND_TIMER_MAX_PASSES];
@@ -76,9 +76,9 @@ void dn_destroy(dn_context *c)
     tnd_timer_destroy(vk, &c->timer);
     tnd_timer_destroy(vk, &c->select_timer);
     tnd_timer_destroy(vk, &c->fine);
-    VkPipeline pipes[7] = {c->temporal,   c->atrous,      c->composite, c->grad_select,
-                           c->grad_image, c->grad_atrous, c->lf};
-    for (int i = 0; i < 7; i++)
+    VkPipeline pipes[8] = {c->temporal,   c->atrous,      c->composite, c->grad_select,
+                           c->grad_image, c->grad_atrous, c->lf,        c->lf_down};
+    for (int i = 0; i < 8; i++)
         if (pipes[i])
             vkDestroyPipeline(vk->device, pipes[i], NULL);
     if (c->pool)
@@ -94,6 +94,7 @@ void dn_destroy(dn_context *c)
     tnd_image_destroy(vk, &c->prev_gb);
     tnd_image_destroy(vk, &c->prev_vis);
     tnd_image_destroy(vk, &c->out);
+    tnd_image_destroy(vk, &c->fgeo);
     tnd_image_destroy(vk, &c->prev_lum);
     tnd_image_destroy(vk, &c->prev_bary);
     tnd_image_destroy(vk, &c->grad_flag);
@@ -149,17 +150,17 @@ static tnd_result create_pipelines(dn_context *c)
     TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, c->sets));
     bool packed = c->desc.precision == TND_PRECISION_PACKED;
 #define DN_PICK(name) (packed ? TND_SHADER_##name##_packed : TND_SHADER_##name##_f32)
-    const tnd_shader ids[7] = {DN_PICK(dn_temporal),   DN_PICK(dn_atrous),
+    const tnd_shader ids[8] = {DN_PICK(dn_temporal),   DN_PICK(dn_atrous),
                                DN_PICK(dn_composite),  DN_PICK(dn_grad_select),
                                DN_PICK(dn_grad_image), DN_PICK(dn_grad_atrous),
-                               DN_PICK(dn_lf)};
+                               DN_PICK(dn_lf),         DN_PICK(dn_lf_down)};
 #undef DN_PICK
-    VkPipeline *out[7] = {&c->temporal,   &c->atrous,      &c->composite, &c->grad_select,
-                          &c->grad_image, &c->grad_atrous, &c->lf};
-    const char *names[7] = {"denoise.temporal",    "denoise.atrous",     "denoise.composite",
+    VkPipeline *out[8] = {&c->temporal,   &c->atrous,      &c->composite, &c->grad_select,
+                          &c->grad_image, &c->grad_atrous, &c->lf,        &c->lf_down};
+    const char *names[8] = {"denoise.temporal",    "denoise.atrous",     "denoise.composite",
                             "denoise.grad_select", "denoise.grad_image", "denoise.grad_atrous",
-                            "denoise.lf"};
-    for (int i = 0; i < 7; i++) {
+                            "denoise.lf",          "denoise.lf_down"};
+    for (int i = 0; i < 8; i++) {
         size_t bytes;
         const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
         TND_TRY(tnd_compute_pipeline_create(vk,
@@ -203,10 +204,10 @@ static void write_own_set(dn_context *c)
                                     .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
                                     .pImageInfo = &ii[k]};
     k += 2;
-    const tnd_image *single[N_SINGLE] = {&c->prev_gb,  &c->prev_vis,  &c->out,
-                                         &c->prev_lum, &c->prev_bary, &c->grad_flag};
-    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GB,  DN_B_PREV_VIS,  DN_B_OUT,
-                                   DN_B_PREV_LUM, DN_B_PREV_BARY, DN_B_GRAD_FLAG};
+    const tnd_image *single[N_SINGLE] = {&c->prev_gb,  &c->prev_vis,  &c->out,      &c->prev_lum,
+                                         &c->prev_bary, &c->grad_flag, &c->fgeo};
+    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GB,   DN_B_PREV_VIS,  DN_B_OUT, DN_B_PREV_LUM,
+                                   DN_B_PREV_BARY, DN_B_GRAD_FLAG, DN_B_FGEO};
     for (int s = 0; s < N_SINGLE; s++) {
         ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single[s]->view, VK_IMAGE_LAYOUT_GENERAL};
         w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
@@ -281,6 +282,10 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                    .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                    .name = "denoise.out"},
                              &c->out));
+    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                   .format = VK_FORMAT_R32G32B32A32_UINT,
+                                                   .name = "denoise.fgeo"},
+                             &c->fgeo));
     struct {
         tnd_image *img;
         uint32_t w, h;
@@ -346,13 +351,13 @@ static const char *dispatch_name(const char *pass, uint32_t iteration)
 }
 
 static void dispatch_grid(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name,
-                          const uint32_t pc[2], uint32_t w, uint32_t h)
+                          const uint32_t pc[2], uint32_t groups_x, uint32_t groups_y)
 {
     int slot = c->desc.dispatch_timing ? tnd_timer_begin(cmd, &c->fine, dispatch_name(name, pc[1]))
                                        : -1;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
     vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, 2 * sizeof(uint32_t), pc);
-    vkCmdDispatch(cmd, (w + 7) / 8, (h + 7) / 8, 1);
+    vkCmdDispatch(cmd, groups_x, groups_y, 1);
     tnd_cmd_barrier(cmd);
     if (slot >= 0)
         tnd_timer_end(cmd, &c->fine, slot);
@@ -361,7 +366,8 @@ static void dispatch_grid(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, c
 static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name,
                      uint32_t slot, uint32_t iteration)
 {
-    dispatch_grid(c, cmd, pipe, name, (uint32_t[2]){slot, iteration}, c->width, c->height);
+    dispatch_grid(c, cmd, pipe, name, (uint32_t[2]){slot, iteration}, (c->width + 7) / 8,
+                  (c->height + 7) / 8);
 }
 
 /* full-res a-trous passes run: the most hf or spec asks for (the other copies through) */
@@ -406,11 +412,18 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
 }
 
 /* a 1/3-resolution pass (one thread per 3x3 stratum) */
+/* a pass in stratum tiles (one thread per pixel, DN_TILE_W x DN_TILE_H per work group) */
+static void dispatch_tiles(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name)
+{
+    dispatch_grid(c, cmd, pipe, name, (uint32_t[2]){c->frame & 1u, 0},
+                  (c->width + DN_TILE_W - 1) / DN_TILE_W, (c->height + DN_TILE_H - 1) / DN_TILE_H);
+}
+
 static void dispatch_third(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name,
                            uint32_t iteration)
 {
-    dispatch_grid(c, cmd, pipe, name, (uint32_t[2]){c->frame & 1u, iteration}, c->grad_w,
-                  c->grad_h);
+    dispatch_grid(c, cmd, pipe, name, (uint32_t[2]){c->frame & 1u, iteration},
+                  (c->grad_w + 7) / 8, (c->grad_h + 7) / 8);
 }
 
 /* The selection pass; `host`: also copy the list to the read-back buffer. */
@@ -427,7 +440,7 @@ static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const d
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
     int s_s = tnd_timer_begin(cmd, &c->select_timer, "denoise.grad_select");
-    dispatch_third(c, cmd, c->grad_select, "select", 0);
+    dispatch_tiles(c, cmd, c->grad_select, "select");
     tnd_timer_end(cmd, &c->select_timer, s_s);
     if (host) {
         vkCmdCopyBuffer(cmd, c->samples.buffer, c->samples_host.buffer, 1,
@@ -510,7 +523,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
-        dispatch_third(c, cmd, c->grad_image, "gradient.image", 0);
+        dispatch_tiles(c, cmd, c->grad_image, "gradient.image");
         for (uint32_t i = 0; i < 7; i++) /* 7 iterations: the result lands in slot 1 */
             dispatch_third(c, cmd, c->grad_atrous, "gradient.blur", i);
         tnd_timer_end(cmd, &c->timer, s_g);
@@ -520,7 +533,8 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         dispatch(c, cmd, c->temporal, "temporal", slot, 0);
         tnd_timer_end(cmd, &c->timer, s_t);
         s_l = tnd_timer_begin(cmd, &c->timer, "denoise.lf");
-        for (uint32_t k = 0; k < d->iters_lf + 2; k++) /* downsample, deflicker, a-trous */
+        dispatch_tiles(c, cmd, c->lf_down, "lf.downsample");
+        for (uint32_t k = 1; k < d->iters_lf + 2; k++) /* deflicker, a-trous */
             dispatch_third(c, cmd, c->lf, "lf", k);
         tnd_timer_end(cmd, &c->timer, s_l);
         s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
@@ -529,7 +543,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         tnd_timer_end(cmd, &c->timer, s_a);
     }
     int s_c = tnd_timer_begin(cmd, &c->timer, "denoise.composite");
-    dispatch(c, cmd, c->composite, "composite", slot, iters & 1u);
+    dispatch(c, cmd, c->composite, "composite", slot, 0);
     tnd_timer_end(cmd, &c->timer, s_c);
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
     if (t) {
@@ -591,14 +605,16 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
         t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +
                            CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
                            8 + 16 + 16 + 5 * 16 /* previous vis, geometry, normal, histories */
-                           + 5 * 16 + 2 * 16 /* histories and a-trous inputs written */) +
+                           + 5 * 16 + 2 * 16 /* histories and a-trous inputs written */
+                           + CT(POSITION) + 16 /* the filter geometry packed */) +
                       (asvgf ? n3 * 16 : 0);
         /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
         t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 2 * 16) +
                 n3 * (4 * 16 + (double)(d->iters_lf + 1) * (4 * 16 + 2 * 16));
-        double per_iter = n * (2 * 16 + CT(VIS_ID) + CT(NORMAL) + CT(POSITION) + CT(DEPTH) +
-                               CT(ROUGHNESS) + 2 * 16);
-        t->atrous = (double)atrous_iters(d) * per_iter + n * 2 * 16; /* + the hf feedback */
+        /* per iteration: the packed geometry and depth; hf and spec read and written while
+         * their iterations last; the hf feedback once */
+        t->atrous = n * ((double)atrous_iters(d) * (16 + CT(DEPTH)) +
+                         (double)(d->iters_hf + d->iters_spec) * 2 * 16 + 2 * 16);
     }
     t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(RNG) + CT(HF) + CT(SPEC) +
                         CT(VIS_BARY) + CT(NORMAL) + CT(EMISSION) + CT(ALBEDO) + CT(METALLIC) +
@@ -663,9 +679,12 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
     if (c->frame == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: dump %s before the first frame",
                         dumps[i].name);
-    uint32_t slot = (c->frame - 1) & 1u, iters = atrous_iters(&c->desc);
+    uint32_t slot = (c->frame - 1) & 1u;
     const tnd_image *img = dumps[i].kind == DUMP_HIST     ? &c->paired[dumps[i].index][slot]
-                           : dumps[i].kind == DUMP_ATROUS ? &c->paired[dumps[i].index][iters & 1u]
+                           : dumps[i].kind == DUMP_ATROUS
+                               ? &c->paired[dumps[i].index]
+                                           [(dumps[i].index == 5 ? c->desc.iters_hf
+                                                                 : c->desc.iters_spec) & 1u]
                            : dumps[i].kind == DUMP_LF
                                ? &c->paired[dumps[i].index][(c->desc.iters_lf + 1) & 1u]
                            : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]

@@ -53,7 +53,16 @@ _Static_assert(sizeof(dn_params) == 128, "dn_params layout");
 #define DN_B_SAMPLES 17    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
 #define DN_B_LF_GEO 18     /* [2] 1/3 res: the lf anchors: [0] xyz position, w 1 (0: sky);
                               [1] xyz geometric normal, w depth */
-#define DN_BINDINGS 19
+#define DN_B_FGEO 19       /* the a-trous passes' filter geometry, written by the temporal pass:
+                              xyz position (float bits; x = DN_FGEO_NONE where no surface), w the
+                              shading normal (octahedral 11 + 11 bits), roughness (8 bits) and the
+                              checkerboard field (2 bits) */
+#define DN_BINDINGS 20
 #define DN_STRATUM 3
+#define DN_FGEO_NONE 0xffffffffu
+/* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x
+ * DN_TILE_H pixels (8 x 4 strata); the others 8 x 8 threads. */
+#define DN_TILE_W 24
+#define DN_TILE_H 12
 
 #endif

@@ -8,7 +8,8 @@
  *   0.05 (mirror-like surfaces stay sharp).
  * lf is filtered at 1/3 resolution (dn_lf.comp).
  * Iteration 0's hf output is fed back as the hf history (SVGF). Reads ping-pong slot i & 1,
- * writes the other. */
+ * writes the other. The geometry of the taps comes packed in one texel (DN_B_FGEO: position,
+ * 22-bit normal, 8-bit roughness, field), and each tap's loads are issued before its tests. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
@@ -20,56 +21,74 @@ void main()
         return;
     uint i = pc.iteration, src = i & 1u, dst = 1u - src;
     int step = 1 << int(i);
-    vec4 c_hf = imageLoad(at_hf[src], p), c_spec = imageLoad(at_spec[src], p);
-    uint inst = imageLoad(img_vis_id, p).x;
+    /* a channel whose iterations are done is left alone: its result stays in slot
+     * iterations & 1, where the composite reads it */
     bool do_hf = i < P.iters.x, do_spec = i < P.iters.z;
-    if (inst == TND_VIS_NONE || !(do_hf || do_spec)) {
-        imageStore(at_hf[dst], p, c_hf);
-        imageStore(at_spec[dst], p, c_spec);
+    vec4 c_hf = do_hf ? imageLoad(at_hf[src], p) : vec4(0.0);
+    vec4 c_spec = do_spec ? imageLoad(at_spec[src], p) : vec4(0.0);
+    uvec4 g = imageLoad(fgeo, p);
+    if (g.x == DN_FGEO_NONE) { /* no surface: carried through (for dumps) */
+        if (do_hf)
+            imageStore(at_hf[dst], p, c_hf);
+        if (do_spec)
+            imageStore(at_spec[dst], p, c_spec);
         return;
     }
-    vec3 n = imageLoad(img_normal, p).xyz, pos = imageLoad(img_position, p).xyz;
+    vec3 n = fgeo_normal(g.w), pos = uintBitsToFloat(g.xyz);
     /* the two checkerboard fields of a split surface are filtered apart */
-    uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
-    float depth = imageLoad(img_depth, p).x, rough = imageLoad(img_roughness, p).x;
-    float footprint = max(depth * P.misc.x * float(step), 1e-6);
+    uint field = fgeo_field(g.w);
+    float rough = fgeo_roughness(g.w);
+    float footprint = max(imageLoad(img_depth, p).x * P.misc.x * float(step), 1e-6);
+    float inv_sigma_z = 1.0 / (P.weights.x * footprint);
     float l = luma(c_hf.rgb);
-    float sigma_l = P.weights.z * sqrt(max(c_hf.a, 1e-8)) + 1e-6;
+    float inv_sigma_l = 1.0 / (P.weights.z * sqrt(max(c_hf.a, 1e-8)) + 1e-6);
+    const float LOG2E = 1.4426950408889634;
     float a2 = max(rough * rough, 1e-3);
     a2 *= a2;
     float spec_exp = clamp(2.0 / a2 - 2.0, 8.0, P.misc.z);
-    vec4 s_hf = vec4(0.0), s_spec = vec4(0.0);
-    float w_hf = 0.0, w_spec = 0.0, var_acc = 0.0;
+    bool spec_iter = do_spec;
+    do_spec = do_spec && rough >= 0.05;
+    /* the centre tap: every weight is h = 1 */
+    vec4 s_hf = vec4(c_hf.rgb, 0.0), s_spec = c_spec;
+    float w_hf = 1.0, w_spec = 1.0, var_acc = c_hf.a;
     const float k[3] = float[3](0.25, 0.5, 1.0);
+    ivec2 last = ivec2(P.size.xy) - 1;
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
-            ivec2 q = p + ivec2(x, y) * step;
-            if (!inside(q) || imageLoad(img_vis_id, q).x == TND_VIS_NONE ||
-                (imageLoad(img_path, q).x & (TND_PATH_SPLIT | TND_PATH_REFRACT)) != field)
+            if (x == 0 && y == 0)
                 continue;
-            float h = k[abs(x) + abs(y) == 0 ? 2 : (abs(x) + abs(y) == 1 ? 1 : 0)];
-            vec3 nq = imageLoad(img_normal, q).xyz;
-            float plane = abs(dot(n, imageLoad(img_position, q).xyz - pos));
-            float wz = exp(-plane / (P.weights.x * footprint));
-            float nn = max(dot(n, nq), 0.0);
+            ivec2 q = p + ivec2(x, y) * step;
+            bool in_image = q == clamp(q, ivec2(0), last);
+            q = clamp(q, ivec2(0), last); /* the loads are issued before the tests */
+            uvec4 gq = imageLoad(fgeo, q);
             vec4 q_hf = imageLoad(at_hf[src], q);
+            vec4 q_spec = do_spec ? imageLoad(at_spec[src], q) : vec4(0.0);
+            if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.w) != field)
+                continue;
+            /* all factors of a weight in one exp2: exp(-a) x nn^e x exp(-b) =
+             * exp2(e log2(nn) - (a + b) log2(e)), one log2 shared by hf and spec */
+            float h = k[abs(x) + abs(y) == 1 ? 1 : 0];
+            float plane = abs(dot(n, uintBitsToFloat(gq.xyz) - pos)) * inv_sigma_z;
+            float log_nn = log2(max(dot(n, fgeo_normal(gq.w)), 1e-30));
             if (do_hf) {
-                float w = h * wz * pow(nn, P.weights.y) * exp(-abs(luma(q_hf.rgb) - l) / sigma_l);
+                float w = h * exp2(P.weights.y * log_nn -
+                                   (plane + abs(luma(q_hf.rgb) - l) * inv_sigma_l) * LOG2E);
                 s_hf.rgb += w * q_hf.rgb;
                 var_acc += w * w * q_hf.a;
                 w_hf += w;
             }
-            if (do_spec && rough >= 0.05) {
-                float rq = imageLoad(img_roughness, q).x;
-                float w = h * wz * pow(nn, spec_exp) * max(0.0, 1.0 - 10.0 * abs(rough - rq));
-                s_spec += w * imageLoad(at_spec[src], q);
+            if (do_spec) {
+                float w = h * exp2(spec_exp * log_nn - plane * LOG2E) *
+                          max(0.0, 1.0 - 10.0 * abs(rough - fgeo_roughness(gq.w)));
+                s_spec += w * q_spec;
                 w_spec += w;
             }
         }
-    vec4 o_hf = do_hf && w_hf > 1e-8 ? vec4(s_hf.rgb / w_hf, var_acc / (w_hf * w_hf)) : c_hf;
-    vec4 o_spec = do_spec && w_spec > 1e-8 ? s_spec / w_spec : c_spec;
-    imageStore(at_hf[dst], p, o_hf);
-    imageStore(at_spec[dst], p, o_spec);
-    if (i == 0u) /* SVGF's feedback: the first iteration becomes the hf history */
+    vec4 o_hf = vec4(s_hf.rgb / w_hf, var_acc / (w_hf * w_hf));
+    if (do_hf)
+        imageStore(at_hf[dst], p, o_hf);
+    if (spec_iter) /* rough < 0.05: the spec carried through unfiltered */
+        imageStore(at_spec[dst], p, do_spec ? s_spec / w_spec : c_spec);
+    if (i == 0u && do_hf) /* SVGF's feedback: the first iteration becomes the hf history */
         imageStore(hist_hf[pc.slot], p, vec4(o_hf.rgb, imageLoad(hist_hf[pc.slot], p).a));
 }

@@ -9,7 +9,37 @@
 #include "contract.h"
 TND_CONTRACT(TND_CT_DECLARE)
 
+#ifdef DN_STRATUM_TILES
+/* one thread per pixel; the work group is one tile of DN_TILE_SX x DN_TILE_SY strata, whose
+ * pixels share their values through shared memory (tile_* below) */
+layout(local_size_x = DN_TILE_W, local_size_y = DN_TILE_H) in;
+#define DN_TILE_N (DN_TILE_W * DN_TILE_H)
+#define DN_TILE_SX (DN_TILE_W / DN_STRATUM)
+#define DN_TILE_STRATA (DN_TILE_SX * (DN_TILE_H / DN_STRATUM))
+/* the tile-local index of pixel (i, j) of tile-local stratum k */
+uint tile_pixel_index(uint k, int i, int j)
+{
+    return (k / DN_TILE_SX * DN_STRATUM + j) * DN_TILE_W + k % DN_TILE_SX * DN_STRATUM + i;
+}
+/* the tile-local stratum of this invocation's pixel */
+uint tile_stratum_index()
+{
+    uvec2 l = gl_LocalInvocationID.xy / DN_STRATUM;
+    return l.y * DN_TILE_SX + l.x;
+}
+/* the image coordinates of tile-local stratum k and tile-local pixel index k */
+ivec2 tile_stratum(uint k)
+{
+    return ivec2(gl_WorkGroupID.xy) * ivec2(DN_TILE_SX, DN_TILE_H / DN_STRATUM) +
+           ivec2(k % DN_TILE_SX, k / DN_TILE_SX);
+}
+ivec2 tile_pixel(uint k)
+{
+    return ivec2(gl_WorkGroupID.xy) * ivec2(DN_TILE_W, DN_TILE_H) + ivec2(k % DN_TILE_W, k / DN_TILE_W);
+}
+#else
 layout(local_size_x = 8, local_size_y = 8) in;
+#endif
 layout(set = 0, binding = DN_B_PARAMS, std140) uniform Params { dn_params P; };
 layout(set = 0, binding = DN_B_HIST_HF, rgba32f) uniform image2D hist_hf[2];
 layout(set = 0, binding = DN_B_HIST_MOM, rgba32f) uniform image2D hist_mom[2];
@@ -28,6 +58,7 @@ layout(set = 0, binding = DN_B_PREV_BARY, rgba32f) uniform image2D prev_bary;
 layout(set = 0, binding = DN_B_GRAD_FLAG, r32ui) uniform uimage2D grad_flag;
 layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
 layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo[2];
+layout(set = 0, binding = DN_B_FGEO, rgba32ui) uniform uimage2D fgeo;
 layout(set = 0, binding = DN_B_SAMPLES, std430) buffer Samples { tnd_gpu_gradient samples[]; };
 ivec2 grad_size() { return (ivec2(P.size.xy) + DN_STRATUM - 1) / DN_STRATUM; }
 layout(push_constant) uniform Push { uint slot; uint iteration; } pc;
@@ -60,6 +91,29 @@ vec3 oct_decode(float f)
     n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
     return normalize(n);
 }
+
+/* The a-trous passes' filter geometry (DN_B_FGEO): one 16-byte texel per pixel instead of five
+ * contract images per tap. */
+uvec4 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
+{
+    if (!surface)
+        return uvec4(DN_FGEO_NONE, 0u, 0u, 0u);
+    n /= abs(n.x) + abs(n.y) + abs(n.z);
+    vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
+    uvec2 q = uvec2(round(clamp(e * 0.5 + 0.5, 0.0, 1.0) * 2047.0));
+    uint r = uint(round(clamp(rough, 0.0, 1.0) * 255.0));
+    return uvec4(floatBitsToUint(pos), q.x | q.y << 11u | r << 22u | (field & 3u) << 30u);
+}
+vec3 fgeo_normal(uint w)
+{
+    vec2 e = vec2(w & 2047u, (w >> 11u) & 2047u) * (2.0 / 2047.0) - 1.0;
+    vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
+    float t = max(-n.z, 0.0);
+    n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
+    return normalize(n);
+}
+float fgeo_roughness(uint w) { return float((w >> 22u) & 255u) * (1.0 / 255.0); }
+uint fgeo_field(uint w) { return w >> 30u; }
 
 float luma(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 

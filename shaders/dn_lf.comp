@@ -2,7 +2,7 @@
  * choice: lf is smooth and sparse, so a 3x3 stratum loses nothing a full-resolution filter would
  * keep, and every pass touches 1/9 of the pixels). One thread per stratum; push constant
  * iteration k:
- * - k = 0, downsample: the stratum's anchor is its centre pixel (the first surface pixel of the
+ * - k = 0, downsample (dn_lf_down.comp, one thread per pixel): the stratum's anchor is its centre pixel (the first surface pixel of the
  *   stratum when the centre sees the sky); this frame's lf history of the 9 pixels is averaged
  *   with weights max(n . n_anchor, 0)^8 (geometric normals) times the tangent-plane test of the
  *   a-trous passes; the anchor's position and normal go to lf_geo for the later passes and the
@@ -30,65 +30,13 @@ bool in_grid(ivec2 s)
 }
 bool lf_valid(ivec2 s) { return in_grid(s) && imageLoad(lf_geo[0], s).w != 0.0; }
 
-void downsample(ivec2 s)
-{
-    uint cur = pc.slot;
-    ivec2 base = s * DN_STRATUM;
-    ivec2 anchor = base + 1;
-    if (!inside(anchor) || imageLoad(img_vis_id, anchor).x == TND_VIS_NONE) {
-        anchor = ivec2(-1);
-        for (int j = 0; j < DN_STRATUM && anchor.x < 0; j++)
-            for (int i = 0; i < DN_STRATUM && anchor.x < 0; i++) {
-                ivec2 p = base + ivec2(i, j);
-                if (inside(p) && imageLoad(img_vis_id, p).x != TND_VIS_NONE)
-                    anchor = p;
-            }
-    }
-    if (anchor.x < 0) { /* the whole stratum sees the sky */
-        imageStore(lf_geo[0], s, vec4(0.0));
-        imageStore(lf_geo[1], s, vec4(0.0));
-        imageStore(at_lf_sh[0], s, vec4(0.0));
-        imageStore(at_lf_cocg[0], s, vec4(0.0));
-        return;
-    }
-    vec3 n = imageLoad(img_geo_normal, anchor).xyz, pos = imageLoad(img_position, anchor).xyz;
-    float depth = imageLoad(img_depth, anchor).x;
-    float footprint = max(depth * P.misc.x, 1e-6);
-    vec4 sh = vec4(0.0);
-    vec2 cocg = vec2(0.0);
-    float wsum = 0.0;
-    for (int j = 0; j < DN_STRATUM; j++)
-        for (int i = 0; i < DN_STRATUM; i++) {
-            ivec2 p = base + ivec2(i, j);
-            if (!inside(p) || imageLoad(img_vis_id, p).x == TND_VIS_NONE)
-                continue;
-            float w = 1.0;
-            if (p != anchor) {
-                float plane = abs(dot(n, imageLoad(img_position, p).xyz - pos));
-                float nn = max(dot(n, imageLoad(img_geo_normal, p).xyz), 0.0);
-                w = exp(-plane / (P.weights.x * footprint)) * pow(nn, P.weights.w);
-            }
-            sh += w * imageLoad(hist_lf_sh[cur], p);
-            cocg += w * imageLoad(hist_lf_cocg[cur], p).xy;
-            wsum += w;
-        }
-    imageStore(lf_geo[0], s, vec4(pos, 1.0));
-    imageStore(lf_geo[1], s, vec4(n, depth));
-    imageStore(at_lf_sh[0], s, sh / wsum);
-    imageStore(at_lf_cocg[0], s, vec4(cocg / wsum, 0.0, 0.0));
-}
-
 void main()
 {
     ivec2 s = ivec2(gl_GlobalInvocationID.xy);
     ivec2 gs = grad_size();
     if (s.x >= gs.x || s.y >= gs.y)
         return;
-    uint k = pc.iteration;
-    if (k == 0u) {
-        downsample(s);
-        return;
-    }
+    uint k = pc.iteration; /* k = 0, the downsample, is dn_lf_down.comp */
     uint src = (k - 1u) & 1u, dst = k & 1u;
     vec4 c_sh = imageLoad(at_lf_sh[src], s), c_cocg = imageLoad(at_lf_cocg[src], s);
     if (!lf_valid(s)) {

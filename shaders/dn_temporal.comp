@@ -9,7 +9,7 @@
  * history from a texel whose normal, hence whose reflected direction, differs; with no such tap
  * the spec history restarts. Writes this frame's history slot and the first a-trous input
  * (colour + variance). Where the history is shorter than 4 frames, the variance comes from a
- * 3x3 spatial estimate. */
+ * 3x3 spatial estimate. Also packs the a-trous passes' filter geometry (DN_B_FGEO). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
@@ -29,8 +29,7 @@ void main()
     vec3 gn = imageLoad(img_geo_normal, p).xyz;
     vec3 motion = imageLoad(img_motion, p).xyz;
     vec3 n = imageLoad(img_normal, p).xyz;
-    float r2 = imageLoad(img_roughness, p).x;
-    r2 *= r2;
+    float rough = imageLoad(img_roughness, p).x, r2 = rough * rough;
     float shininess = clamp(2.0 / max(r2 * r2, 1e-6) - 2.0, 0.0, 32.0);
     if (tnd_nonfinite(motion.x) || tnd_nonfinite(motion.y) || tnd_nonfinite(motion.z))
         motion = vec3(0.0);
@@ -128,4 +127,6 @@ void main()
     imageStore(hist_spec[cur], p, out_spec);
     imageStore(at_hf[0], p, vec4(out_hf.rgb, variance));
     imageStore(at_spec[0], p, out_spec);
+    imageStore(fgeo, p, fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n, rough,
+                                  field));
 }
