@@ -180,9 +180,11 @@ int cmd_denoise(int argc, char **argv)
         TND_TRY(cmp_download_display(post, display));
         fprintf(timings,
                 "%s\n    {\"file\": \"%s\", \"denoise_temporal_ms\": %.4f, "
-                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f, "
+                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"denoise_lf_beside_atrous\": %s, "
+                "\"composite_ms\": %.4f, "
                 "\"taa_ms\": %.4f, \"exposure_ms\": %.4f, \"tonemap_ms\": %.4f}",
-                i ? "," : "", names[i], tm.temporal_ms, tm.lf_ms, tm.atrous_ms, tm.composite_ms,
+                i ? "," : "", names[i], tm.temporal_ms, tm.lf_ms, tm.atrous_ms,
+                tm.lf_beside_atrous ? "true" : "false", tm.composite_ms,
                 pt.taa_ms, pt.exposure_ms, pt.tonemap_ms);
         snprintf(path, sizeof path, "%s/%s", out, names[i]);
         TND_TRY(app_write_rgb_exr(path, rgb, w, h));

@@ -494,11 +494,13 @@ static int run(bool reference, int argc, char **argv)
                 "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
                 "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_select_ms\": %.4f, "
                 "\"denoise_gradient_ms\": %.4f, \"denoise_temporal_ms\": %.4f, "
-                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"composite_ms\": %.4f, "
+                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"denoise_lf_beside_atrous\": %s, "
+                "\"composite_ms\": %.4f, "
                 "\"interleave_ms\": %.4f, \"taa_ms\": %.4f, \"bloom_ms\": %.4f, "
                 "\"exposure_ms\": %.4f, \"tonemap_ms\": %.4f}",
                 i ? "," : "", f, ms_primary, ms_shade, ms_tlas, ms_gradients, dt.select_ms,
-                dt.gradient_ms, dt.temporal_ms, dt.lf_ms, dt.atrous_ms, dt.composite_ms,
+                dt.gradient_ms, dt.temporal_ms, dt.lf_ms, dt.atrous_ms,
+                dt.lf_beside_atrous ? "true" : "false", dt.composite_ms,
                 pt.interleave_ms, pt.taa_ms, pt.bloom_ms, pt.exposure_ms, pt.tonemap_ms);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));

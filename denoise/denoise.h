@@ -53,6 +53,9 @@ typedef struct dn_timings {
     double select_ms;   /* the gradient selection of this frame (dn_select_gradients) */
     double gradient_ms; /* gradient image and its blur */
     double temporal_ms, lf_ms, atrous_ms, composite_ms; /* lf: the 1/3-res lf filter */
+    /* the lf filter ran beside the a-trous (the default; dn_desc.dispatch_timing runs them in
+     * turn): atrous_ms covers both, lf_ms is 0 */
+    bool lf_beside_atrous;
 } dn_timings;
 
 typedef struct dn_context dn_context;

@@ -44,6 +44,7 @@ struct dn_context {
     double select_ms; /* GPU time of the last selection */
     double fine_ms[TND_TIMER_MAX_PASSES];
     uint32_t fine_count;
+    bool batching; /* dispatches recorded now are independent: no barrier after each */
     bool have_history;
 };
 
@@ -358,7 +359,8 @@ static void dispatch_grid(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, c
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
     vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, 2 * sizeof(uint32_t), pc);
     vkCmdDispatch(cmd, groups_x, groups_y, 1);
-    tnd_cmd_barrier(cmd);
+    if (!c->batching)
+        tnd_cmd_barrier(cmd);
     if (slot >= 0)
         tnd_timer_end(cmd, &c->fine, slot);
 }
@@ -424,6 +426,15 @@ static void dispatch_third(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, 
 {
     dispatch_grid(c, cmd, pipe, name, (uint32_t[2]){c->frame & 1u, iteration},
                   (c->grad_w + 7) / 8, (c->grad_h + 7) / 8);
+}
+
+/* step k of the lf filter: the downsample (k = 0), the deflicker, the a-trous iterations */
+static void dispatch_lf(dn_context *c, VkCommandBuffer cmd, uint32_t k)
+{
+    if (k == 0)
+        dispatch_tiles(c, cmd, c->lf_down, "lf.downsample");
+    else
+        dispatch_third(c, cmd, c->lf, "lf", k);
 }
 
 /* The selection pass; `host`: also copy the list to the read-back buffer. */
@@ -532,15 +543,32 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         s_t = tnd_timer_begin(cmd, &c->timer, "denoise.temporal");
         dispatch(c, cmd, c->temporal, "temporal", slot, 0);
         tnd_timer_end(cmd, &c->timer, s_t);
-        s_l = tnd_timer_begin(cmd, &c->timer, "denoise.lf");
-        dispatch_tiles(c, cmd, c->lf_down, "lf.downsample");
-        for (uint32_t k = 1; k < d->iters_lf + 2; k++) /* deflicker, a-trous */
-            dispatch_third(c, cmd, c->lf, "lf", k);
-        tnd_timer_end(cmd, &c->timer, s_l);
-        s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
-        for (uint32_t i = 0; i < iters; i++)
-            dispatch(c, cmd, c->atrous, "atrous", slot, i);
-        tnd_timer_end(cmd, &c->timer, s_a);
+        /* the lf filter (1/3 res, latency-bound, few threads) and the a-trous (full res) do not
+         * depend on each other: their dispatches are paired without a barrier between them, so
+         * the lf passes run beside the a-trous ones. Per-dispatch timing runs them in turn. */
+        uint32_t n_lf = d->iters_lf + 2; /* downsample, deflicker, a-trous */
+        if (d->dispatch_timing) {
+            s_l = tnd_timer_begin(cmd, &c->timer, "denoise.lf");
+            for (uint32_t k = 0; k < n_lf; k++)
+                dispatch_lf(c, cmd, k);
+            tnd_timer_end(cmd, &c->timer, s_l);
+            s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
+            for (uint32_t i = 0; i < iters; i++)
+                dispatch(c, cmd, c->atrous, "atrous", slot, i);
+            tnd_timer_end(cmd, &c->timer, s_a);
+        } else {
+            s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous+lf");
+            for (uint32_t k = 0; k < n_lf || k < iters; k++) {
+                c->batching = true;
+                if (k < n_lf)
+                    dispatch_lf(c, cmd, k);
+                if (k < iters)
+                    dispatch(c, cmd, c->atrous, "atrous", slot, k);
+                c->batching = false;
+                tnd_cmd_barrier(cmd);
+            }
+            tnd_timer_end(cmd, &c->timer, s_a);
+        }
     }
     int s_c = tnd_timer_begin(cmd, &c->timer, "denoise.composite");
     dispatch(c, cmd, c->composite, "composite", slot, 0);
@@ -555,11 +583,13 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
             t->select_ms = c->select_ms;
             t->gradient_ms = ms[k++];
         }
-        if (s_t >= 0) {
+        if (s_t >= 0)
             t->temporal_ms = ms[k++];
+        if (s_l >= 0)
             t->lf_ms = ms[k++];
+        if (s_a >= 0)
             t->atrous_ms = ms[k++];
-        }
+        t->lf_beside_atrous = s_a >= 0 && s_l < 0;
         t->composite_ms = ms[k];
     }
     if (d->dispatch_timing) {
