@@ -265,9 +265,11 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
             char name[64];
             snprintf(name, sizeof name, "denoise.%s[%d]", paired_name[k], s);
             bool third = paired_binding[k] == DN_B_AT_LF_SH || paired_binding[k] == DN_B_AT_LF_COCG;
+            bool two = paired_binding[k] == DN_B_HIST_LF_COCG || paired_binding[k] == DN_B_AT_LF_COCG;
             TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = third ? c->grad_w : width,
                                                            .height = third ? c->grad_h : height,
-                                                           .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                           .format = two ? VK_FORMAT_R32G32_SFLOAT
+                                                                         : VK_FORMAT_R32G32B32A32_SFLOAT,
                                                            .name = name},
                                      &c->paired[k][s]));
         }
@@ -284,7 +286,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                    .name = "denoise.out"},
                              &c->out));
     TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
-                                                   .format = VK_FORMAT_R32G32B32A32_UINT,
+                                                   .format = VK_FORMAT_R32G32_UINT,
                                                    .name = "denoise.fgeo"},
                              &c->fgeo));
     struct {
@@ -634,16 +636,16 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
     if (filter) {
         t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +
                            CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
-                           8 + 16 + 16 + 5 * 16 /* previous vis, geometry, normal, histories */
-                           + 5 * 16 + 2 * 16 /* histories and a-trous inputs written */
-                           + CT(POSITION) + 16 /* the filter geometry packed */) +
+                           8 + 16 + 16 + 4 * 16 + 8 /* previous vis, geometry, normal, histories */
+                           + 4 * 16 + 8 + 2 * 16 /* histories and a-trous inputs written */
+                           + CT(POSITION) + 8 /* the filter geometry packed */) +
                       (asvgf ? n3 * 16 : 0);
         /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
-        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 2 * 16) +
-                n3 * (4 * 16 + (double)(d->iters_lf + 1) * (4 * 16 + 2 * 16));
+        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 16 + 8) +
+                n3 * (3 * 16 + 8 + (double)(d->iters_lf + 1) * (3 * 16 + 8 + 16 + 8));
         /* per iteration: the packed geometry and depth; hf and spec read and written while
          * their iterations last; the hf feedback once */
-        t->atrous = n * ((double)atrous_iters(d) * (16 + CT(DEPTH)) +
+        t->atrous = n * ((double)atrous_iters(d) * (8 + CT(DEPTH) + CT(POSITION)) +
                          (double)(d->iters_hf + d->iters_spec) * 2 * 16 + 2 * 16);
     }
     t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(RNG) + CT(HF) + CT(SPEC) +
@@ -719,7 +721,15 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
                                ? &c->paired[dumps[i].index][(c->desc.iters_lf + 1) & 1u]
                            : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]
                                                           : &c->out;
-    return tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
+    if (img->format != VK_FORMAT_R32G32_SFLOAT)
+        return tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
+    /* two channels (CoCg): into the first half, then spread to RGBA from the end backwards */
+    res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 8);
+    for (size_t q = (size_t)w * h; res == TND_OK && q-- > 0;) {
+        float x = rgba[2 * q], y = rgba[2 * q + 1];
+        rgba[4 * q] = x, rgba[4 * q + 1] = y, rgba[4 * q + 2] = rgba[4 * q + 3] = 0.0f;
+    }
+    return res;
 }
 
 const tnd_image *dn_output(const dn_context *c)

@@ -35,13 +35,13 @@ _Static_assert(sizeof(dn_params) == 128, "dn_params layout");
 #define DN_B_HIST_HF 1     /* [2] rgb colour, a: history length (hf) */
 #define DN_B_HIST_MOM 2    /* [2] x E[l], y E[l^2], z length lf, w length spec */
 #define DN_B_HIST_LF_SH 3  /* [2] */
-#define DN_B_HIST_LF_COCG 4 /* [2] xy */
+#define DN_B_HIST_LF_COCG 4 /* [2] xy (RG32F) */
 #define DN_B_HIST_SPEC 5   /* [2] rgb */
 #define DN_B_PREV_GB 6     /* x depth, yzw geometric normal of the previous frame */
 #define DN_B_PREV_VIS 7    /* xy instance, primitive of the previous frame */
 #define DN_B_AT_HF 8       /* [2] a-trous ping-pong: rgb, a variance */
 #define DN_B_AT_LF_SH 9    /* [2] 1/3 res: the lf filter's ping-pong (dn_lf.comp) */
-#define DN_B_AT_LF_COCG 10 /* [2] 1/3 res, xy */
+#define DN_B_AT_LF_COCG 10 /* [2] 1/3 res, xy (RG32F) */
 #define DN_B_AT_SPEC 11    /* [2] */
 #define DN_B_OUT 12        /* linear HDR output */
 #define DN_B_PREV_LUM 13   /* previous frame: x lum(raw hf), y lum(raw spec), zw rng key (bits) */
@@ -54,9 +54,9 @@ _Static_assert(sizeof(dn_params) == 128, "dn_params layout");
 #define DN_B_LF_GEO 18     /* [2] 1/3 res: the lf anchors: [0] xyz position, w 1 (0: sky);
                               [1] xyz geometric normal, w depth */
 #define DN_B_FGEO 19       /* the a-trous passes' filter geometry, written by the temporal pass:
-                              xyz position (float bits; x = DN_FGEO_NONE where no surface), w the
-                              shading normal (octahedral 11 + 11 bits), roughness (8 bits) and the
-                              checkerboard field (2 bits) */
+                              x the tangent-plane offset (float bits; DN_FGEO_NONE where no
+                              surface), y the shading normal (octahedral 11 + 11 bits), roughness
+                              (8 bits) and the checkerboard field (2 bits) (dn_common.glsl) */
 #define DN_BINDINGS 20
 #define DN_STRATUM 3
 #define DN_FGEO_NONE 0xffffffffu

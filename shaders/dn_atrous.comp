@@ -1,6 +1,6 @@
 /* dn_atrous.comp: one edge-avoiding a-trous iteration (Dammertz et al. 2010, as SVGF uses it),
  * step 2^i, 3x3 taps with weights 1 / 0.5 / 0.25 (Q2RTX's kernel). Edge stopping:
- * - geometry: distance of the neighbour to the centre's tangent plane, relative to the pixel
+ * - geometry: distance of the centre to the neighbour's tangent plane, relative to the pixel
  *   footprint (depth sigma), and normals (exponent);
  * - hf: luminance against the centre's standard deviation (variance-guided; the variance is
  *   filtered with squared weights for the next iteration);
@@ -8,8 +8,8 @@
  *   0.05 (mirror-like surfaces stay sharp).
  * lf is filtered at 1/3 resolution (dn_lf.comp).
  * Iteration 0's hf output is fed back as the hf history (SVGF). Reads ping-pong slot i & 1,
- * writes the other. The geometry of the taps comes packed in one texel (DN_B_FGEO: position,
- * 22-bit normal, 8-bit roughness, field), and each tap's loads are issued before its tests. */
+ * writes the other. The geometry of the taps comes packed in one texel (DN_B_FGEO: tangent-plane
+ * offset, 22-bit normal, 8-bit roughness, field), and each tap's loads are issued before its tests. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
@@ -26,7 +26,7 @@ void main()
     bool do_hf = i < P.iters.x, do_spec = i < P.iters.z;
     vec4 c_hf = do_hf ? imageLoad(at_hf[src], p) : vec4(0.0);
     vec4 c_spec = do_spec ? imageLoad(at_spec[src], p) : vec4(0.0);
-    uvec4 g = imageLoad(fgeo, p);
+    uvec2 g = imageLoad(fgeo, p).xy;
     if (g.x == DN_FGEO_NONE) { /* no surface: carried through (for dumps) */
         if (do_hf)
             imageStore(at_hf[dst], p, c_hf);
@@ -34,10 +34,10 @@ void main()
             imageStore(at_spec[dst], p, c_spec);
         return;
     }
-    vec3 n = fgeo_normal(g.w), pos = uintBitsToFloat(g.xyz);
+    vec3 n = fgeo_normal(g.y), pos = imageLoad(img_position, p).xyz - fgeo_origin();
     /* the two checkerboard fields of a split surface are filtered apart */
-    uint field = fgeo_field(g.w);
-    float rough = fgeo_roughness(g.w);
+    uint field = fgeo_field(g.y);
+    float rough = fgeo_roughness(g.y);
     float footprint = max(imageLoad(img_depth, p).x * P.misc.x * float(step), 1e-6);
     float inv_sigma_z = 1.0 / (P.weights.x * footprint);
     float l = luma(c_hf.rgb);
@@ -60,16 +60,18 @@ void main()
             ivec2 q = p + ivec2(x, y) * step;
             bool in_image = q == clamp(q, ivec2(0), last);
             q = clamp(q, ivec2(0), last); /* the loads are issued before the tests */
-            uvec4 gq = imageLoad(fgeo, q);
+            uvec2 gq = imageLoad(fgeo, q).xy;
             vec4 q_hf = imageLoad(at_hf[src], q);
             vec4 q_spec = do_spec ? imageLoad(at_spec[src], q) : vec4(0.0);
-            if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.w) != field)
+            if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field)
                 continue;
             /* all factors of a weight in one exp2: exp(-a) x nn^e x exp(-b) =
              * exp2(e log2(nn) - (a + b) log2(e)), one log2 shared by hf and spec */
             float h = k[abs(x) + abs(y) == 1 ? 1 : 0];
-            float plane = abs(dot(n, uintBitsToFloat(gq.xyz) - pos)) * inv_sigma_z;
-            float log_nn = log2(max(dot(n, fgeo_normal(gq.w)), 1e-30));
+            /* the distance of this pixel to the neighbour's tangent plane */
+            vec3 nq = fgeo_normal(gq.y);
+            float plane = abs(uintBitsToFloat(gq.x) - dot(nq, pos)) * inv_sigma_z;
+            float log_nn = log2(max(dot(n, nq), 1e-30));
             if (do_hf) {
                 float w = h * exp2(P.weights.y * log_nn -
                                    (plane + abs(luma(q_hf.rgb) - l) * inv_sigma_l) * LOG2E);
@@ -79,7 +81,7 @@ void main()
             }
             if (do_spec) {
                 float w = h * exp2(spec_exp * log_nn - plane * LOG2E) *
-                          max(0.0, 1.0 - 10.0 * abs(rough - fgeo_roughness(gq.w)));
+                          max(0.0, 1.0 - 10.0 * abs(rough - fgeo_roughness(gq.y)));
                 s_spec += w * q_spec;
                 w_spec += w;
             }

@@ -44,13 +44,13 @@ layout(set = 0, binding = DN_B_PARAMS, std140) uniform Params { dn_params P; };
 layout(set = 0, binding = DN_B_HIST_HF, rgba32f) uniform image2D hist_hf[2];
 layout(set = 0, binding = DN_B_HIST_MOM, rgba32f) uniform image2D hist_mom[2];
 layout(set = 0, binding = DN_B_HIST_LF_SH, rgba32f) uniform image2D hist_lf_sh[2];
-layout(set = 0, binding = DN_B_HIST_LF_COCG, rgba32f) uniform image2D hist_lf_cocg[2];
+layout(set = 0, binding = DN_B_HIST_LF_COCG, rg32f) uniform image2D hist_lf_cocg[2];
 layout(set = 0, binding = DN_B_HIST_SPEC, rgba32f) uniform image2D hist_spec[2];
 layout(set = 0, binding = DN_B_PREV_GB, rgba32f) uniform image2D prev_gb;
 layout(set = 0, binding = DN_B_PREV_VIS, rg32ui) uniform uimage2D prev_vis;
 layout(set = 0, binding = DN_B_AT_HF, rgba32f) uniform image2D at_hf[2];
 layout(set = 0, binding = DN_B_AT_LF_SH, rgba32f) uniform image2D at_lf_sh[2];
-layout(set = 0, binding = DN_B_AT_LF_COCG, rgba32f) uniform image2D at_lf_cocg[2];
+layout(set = 0, binding = DN_B_AT_LF_COCG, rg32f) uniform image2D at_lf_cocg[2];
 layout(set = 0, binding = DN_B_AT_SPEC, rgba32f) uniform image2D at_spec[2];
 layout(set = 0, binding = DN_B_OUT, rgba32f) uniform image2D out_img;
 layout(set = 0, binding = DN_B_PREV_LUM, rgba32f) uniform image2D prev_lum;
@@ -58,7 +58,7 @@ layout(set = 0, binding = DN_B_PREV_BARY, rgba32f) uniform image2D prev_bary;
 layout(set = 0, binding = DN_B_GRAD_FLAG, r32ui) uniform uimage2D grad_flag;
 layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
 layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo[2];
-layout(set = 0, binding = DN_B_FGEO, rgba32ui) uniform uimage2D fgeo;
+layout(set = 0, binding = DN_B_FGEO, rg32ui) uniform uimage2D fgeo;
 layout(set = 0, binding = DN_B_SAMPLES, std430) buffer Samples { tnd_gpu_gradient samples[]; };
 ivec2 grad_size() { return (ivec2(P.size.xy) + DN_STRATUM - 1) / DN_STRATUM; }
 layout(push_constant) uniform Push { uint slot; uint iteration; } pc;
@@ -92,18 +92,11 @@ vec3 oct_decode(float f)
     return normalize(n);
 }
 
-/* The a-trous passes' filter geometry (DN_B_FGEO): one 16-byte texel per pixel instead of five
- * contract images per tap. */
-uvec4 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
-{
-    if (!surface)
-        return uvec4(DN_FGEO_NONE, 0u, 0u, 0u);
-    n /= abs(n.x) + abs(n.y) + abs(n.z);
-    vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
-    uvec2 q = uvec2(round(clamp(e * 0.5 + 0.5, 0.0, 1.0) * 2047.0));
-    uint r = uint(round(clamp(rough, 0.0, 1.0) * 255.0));
-    return uvec4(floatBitsToUint(pos), q.x | q.y << 11u | r << 22u | (field & 3u) << 30u);
-}
+/* The a-trous passes' filter geometry (DN_B_FGEO): 8 bytes per pixel instead of five contract
+ * images per tap. x: the offset of the pixel's tangent plane, dot(n, pos - origin) with the
+ * stored (quantised) normal n and origin fgeo_origin() (a point of this frame's scene, so that
+ * the offsets stay small and exact far from the world origin); y: the normal (octahedral,
+ * 11 + 11 bits), roughness (8 bits) and checkerboard field (2 bits). */
 vec3 fgeo_normal(uint w)
 {
     vec2 e = vec2(w & 2047u, (w >> 11u) & 2047u) * (2.0 / 2047.0) - 1.0;
@@ -111,6 +104,23 @@ vec3 fgeo_normal(uint w)
     float t = max(-n.z, 0.0);
     n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
     return normalize(n);
+}
+vec3 fgeo_origin()
+{
+    ivec2 c = ivec2(P.size.xy) / 2;
+    return imageLoad(img_vis_id, c).x != TND_VIS_NONE ? imageLoad(img_position, c).xyz : vec3(0.0);
+}
+uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
+{
+    if (!surface)
+        return uvec2(DN_FGEO_NONE, 0u);
+    n /= abs(n.x) + abs(n.y) + abs(n.z);
+    vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
+    uvec2 q = uvec2(round(clamp(e * 0.5 + 0.5, 0.0, 1.0) * 2047.0));
+    uint r = uint(round(clamp(rough, 0.0, 1.0) * 255.0));
+    uint w = q.x | q.y << 11u | r << 22u | (field & 3u) << 30u;
+    float d = dot(fgeo_normal(w), pos - fgeo_origin());
+    return uvec2(tnd_nonfinite(d) ? DN_FGEO_NONE : floatBitsToUint(d), w);
 }
 float fgeo_roughness(uint w) { return float((w >> 22u) & 255u) * (1.0 / 255.0); }
 uint fgeo_field(uint w) { return w >> 30u; }

@@ -127,6 +127,6 @@ void main()
     imageStore(hist_spec[cur], p, out_spec);
     imageStore(at_hf[0], p, vec4(out_hf.rgb, variance));
     imageStore(at_spec[0], p, out_spec);
-    imageStore(fgeo, p, fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n, rough,
-                                  field));
+    imageStore(fgeo, p, uvec4(fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n,
+                                        rough, field), 0u, 0u));
 }
