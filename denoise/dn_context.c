@@ -7,6 +7,7 @@
  * dn_download, dn_dump_count, dn_dump_name, dn_dump_size, dn_dump, dn_mode_parse, dn_mode_name. */
 #include "denoise/denoise.h"
 #include "shaders/denoise_shared.h"
+#include "shaders/encoding.h"
 #include "shaders/sampling.h"
 #include "shaders/scene_gpu.h"
 #include "shaders/shader_list.h"
@@ -16,13 +17,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { N_PAIRED = 9, N_SINGLE = 7 }; /* hist hf, mom, lf sh, lf cocg, spec; at hf, lf sh, lf cocg, spec */
-static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF,   DN_B_HIST_MOM,   DN_B_HIST_LF_SH,
-                                                  DN_B_HIST_LF_COCG, DN_B_HIST_SPEC, DN_B_AT_HF,
-                                                  DN_B_AT_LF_SH,  DN_B_AT_LF_COCG, DN_B_AT_SPEC};
-static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_mom", "hist_lf_sh",
-                                                  "hist_lf_cocg", "hist_spec", "at_hf",
-                                                  "at_lf_sh", "at_lf_cocg", "at_spec"};
+/* hist hf, mom, lf sh, lf cocg, spec; a-trous ping-pong; lf sh, lf cocg ping-pong (1/3 res) */
+enum { N_PAIRED = 8, N_SINGLE = 7 };
+static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF,      DN_B_HIST_MOM,  DN_B_HIST_LF_SH,
+                                                  DN_B_HIST_LF_COCG, DN_B_HIST_SPEC, DN_B_AT,
+                                                  DN_B_AT_LF_SH,     DN_B_AT_LF_COCG};
+static const char *const paired_name[N_PAIRED] = {"hist_hf",      "hist_mom",  "hist_lf_sh",
+                                                  "hist_lf_cocg", "hist_spec", "atrous",
+                                                  "at_lf_sh",     "at_lf_cocg"};
+enum { PAIRED_AT = 5 };
 
 struct dn_context {
     tnd_vk *vk;
@@ -266,10 +269,12 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
             snprintf(name, sizeof name, "denoise.%s[%d]", paired_name[k], s);
             bool third = paired_binding[k] == DN_B_AT_LF_SH || paired_binding[k] == DN_B_AT_LF_COCG;
             bool two = paired_binding[k] == DN_B_HIST_LF_COCG || paired_binding[k] == DN_B_AT_LF_COCG;
+            VkFormat f = two ? VK_FORMAT_R32G32_SFLOAT
+                         : k == PAIRED_AT ? VK_FORMAT_R32G32B32A32_UINT
+                                          : VK_FORMAT_R32G32B32A32_SFLOAT;
             TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = third ? c->grad_w : width,
                                                            .height = third ? c->grad_h : height,
-                                                           .format = two ? VK_FORMAT_R32G32_SFLOAT
-                                                                         : VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                           .format = f,
                                                            .name = name},
                                      &c->paired[k][s]));
         }
@@ -637,16 +642,17 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
         t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +
                            CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
                            8 + 16 + 16 + 4 * 16 + 8 /* previous vis, geometry, normal, histories */
-                           + 4 * 16 + 8 + 2 * 16 /* histories and a-trous inputs written */
-                           + CT(POSITION) + 8 /* the filter geometry packed */) +
+                           + 4 * 16 + 8 /* histories written */
+                           + CT(POSITION) + 16 + 8 /* the a-trous input and filter geometry */) +
                       (asvgf ? n3 * 16 : 0);
         /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
         t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 16 + 8) +
                 n3 * (3 * 16 + 8 + (double)(d->iters_lf + 1) * (3 * 16 + 8 + 16 + 8));
-        /* per iteration: the packed geometry and depth; hf and spec read and written while
-         * their iterations last; the hf feedback once */
-        t->atrous = n * ((double)atrous_iters(d) * (8 + CT(DEPTH) + CT(POSITION)) +
-                         (double)(d->iters_hf + d->iters_spec) * 2 * 16 + 2 * 16);
+        /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
+         * geometry (8) of each tap, the centre's position and depth; the texel written;
+         * the hf feedback once */
+        t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + CT(POSITION) + CT(DEPTH) + 16) +
+                         2 * 16);
     }
     t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(RNG) + CT(HF) + CT(SPEC) +
                         CT(VIS_BARY) + CT(NORMAL) + CT(EMISSION) + CT(ALBEDO) + CT(METALLIC) +
@@ -669,10 +675,10 @@ static const struct {
     {"temporal.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_HIST, 2},
     {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST, 3},
     {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, 4},
-    {"atrous.hf", {"R", "G", "B", "variance"}, DUMP_ATROUS, 5},
+    {"atrous.hf", {"R", "G", "B", "variance"}, DUMP_ATROUS, 0}, /* index: hf 0, spec 1 */
     {"lf.sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_LF, 6},
     {"lf.cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_LF, 7},
-    {"atrous.spec", {"R", "G", "B", "unused"}, DUMP_ATROUS, 8},
+    {"atrous.spec", {"R", "G", "B", "unused"}, DUMP_ATROUS, 1},
     {"gradients", {"hf", "spec", "lf", "unused"}, DUMP_GRAD, 0},
     {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
 };
@@ -714,13 +720,25 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
     uint32_t slot = (c->frame - 1) & 1u;
     const tnd_image *img = dumps[i].kind == DUMP_HIST     ? &c->paired[dumps[i].index][slot]
                            : dumps[i].kind == DUMP_ATROUS
-                               ? &c->paired[dumps[i].index]
-                                           [(dumps[i].index == 5 ? c->desc.iters_hf
-                                                                 : c->desc.iters_spec) & 1u]
+                               ? &c->paired[PAIRED_AT][atrous_iters(&c->desc) & 1u]
                            : dumps[i].kind == DUMP_LF
                                ? &c->paired[dumps[i].index][(c->desc.iters_lf + 1) & 1u]
                            : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]
                                                           : &c->out;
+    if (dumps[i].kind == DUMP_ATROUS) { /* decode the packed texel: index 0 hf, 1 spec */
+        res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
+        for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++) {
+            uint32_t t[4];
+            memcpy(t, rgba + 4 * q, 16);
+            uint16_t v[8]; /* hf rgb, spec rgb, variance (dn_common.glsl's at_pack) */
+            for (int k = 0; k < 8; k++)
+                v[k] = (uint16_t)(t[k / 2] >> (16 * (k & 1)));
+            for (int k = 0; k < 3; k++)
+                rgba[4 * q + k] = tnd_uf16_decode(v[3 * dumps[i].index + k]);
+            rgba[4 * q + 3] = dumps[i].index == 0 ? tnd_uf16_decode(v[6]) : 0.0f;
+        }
+        return res;
+    }
     if (img->format != VK_FORMAT_R32G32_SFLOAT)
         return tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
     /* two channels (CoCg): into the first half, then spread to RGBA from the end backwards */

@@ -39,10 +39,14 @@ _Static_assert(sizeof(dn_params) == 128, "dn_params layout");
 #define DN_B_HIST_SPEC 5   /* [2] rgb */
 #define DN_B_PREV_GB 6     /* x depth, yzw geometric normal of the previous frame */
 #define DN_B_PREV_VIS 7    /* xy instance, primitive of the previous frame */
-#define DN_B_AT_HF 8       /* [2] a-trous ping-pong: rgb, a variance */
+#define DN_B_AT 8          /* [2] a-trous ping-pong, RGBA32UI: hf rgb, spec rgb, hf variance as
+                              16-bit tnd_uf16 (at_pack in dn_common.glsl) */
 #define DN_B_AT_LF_SH 9    /* [2] 1/3 res: the lf filter's ping-pong (dn_lf.comp) */
 #define DN_B_AT_LF_COCG 10 /* [2] 1/3 res, xy (RG32F) */
-#define DN_B_AT_SPEC 11    /* [2] */
+#define DN_B_FGEO 11       /* RG32UI, the a-trous filter geometry, written by the temporal pass:
+                              x the offset of the pixel's tangent plane (float bits; DN_FGEO_NONE
+                              where no surface), y the shading normal (octahedral 11 + 11 bits),
+                              roughness (8 bits) and checkerboard field (2 bits) */
 #define DN_B_OUT 12        /* linear HDR output */
 #define DN_B_PREV_LUM 13   /* previous frame: x lum(raw hf), y lum(raw spec), zw rng key (bits) */
 #define DN_B_PREV_BARY 14  /* previous frame: xy barycentrics, z 1 where it was a gradient sample,
@@ -53,11 +57,7 @@ _Static_assert(sizeof(dn_params) == 128, "dn_params layout");
 #define DN_B_SAMPLES 17    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
 #define DN_B_LF_GEO 18     /* [2] 1/3 res: the lf anchors: [0] xyz position, w 1 (0: sky);
                               [1] xyz geometric normal, w depth */
-#define DN_B_FGEO 19       /* the a-trous passes' filter geometry, written by the temporal pass:
-                              x the tangent-plane offset (float bits; DN_FGEO_NONE where no
-                              surface), y the shading normal (octahedral 11 + 11 bits), roughness
-                              (8 bits) and the checkerboard field (2 bits) (dn_common.glsl) */
-#define DN_BINDINGS 20
+#define DN_BINDINGS 19
 #define DN_STRATUM 3
 #define DN_FGEO_NONE 0xffffffffu
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x

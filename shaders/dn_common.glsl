@@ -48,10 +48,9 @@ layout(set = 0, binding = DN_B_HIST_LF_COCG, rg32f) uniform image2D hist_lf_cocg
 layout(set = 0, binding = DN_B_HIST_SPEC, rgba32f) uniform image2D hist_spec[2];
 layout(set = 0, binding = DN_B_PREV_GB, rgba32f) uniform image2D prev_gb;
 layout(set = 0, binding = DN_B_PREV_VIS, rg32ui) uniform uimage2D prev_vis;
-layout(set = 0, binding = DN_B_AT_HF, rgba32f) uniform image2D at_hf[2];
+layout(set = 0, binding = DN_B_AT, rgba32ui) uniform uimage2D at[2];
 layout(set = 0, binding = DN_B_AT_LF_SH, rgba32f) uniform image2D at_lf_sh[2];
 layout(set = 0, binding = DN_B_AT_LF_COCG, rg32f) uniform image2D at_lf_cocg[2];
-layout(set = 0, binding = DN_B_AT_SPEC, rgba32f) uniform image2D at_spec[2];
 layout(set = 0, binding = DN_B_OUT, rgba32f) uniform image2D out_img;
 layout(set = 0, binding = DN_B_PREV_LUM, rgba32f) uniform image2D prev_lum;
 layout(set = 0, binding = DN_B_PREV_BARY, rgba32f) uniform image2D prev_bary;
@@ -124,6 +123,26 @@ uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
 }
 float fgeo_roughness(uint w) { return float((w >> 22u) & 255u) * (1.0 / 255.0); }
 uint fgeo_field(uint w) { return w >> 30u; }
+
+/* The a-trous ping-pong texel (DN_B_AT): hf, spec and the hf variance as tnd_uf16. */
+uvec4 at_pack(vec3 hf, vec3 spec, float variance)
+{
+    return uvec4(tnd_uf16_encode(hf.r) | tnd_uf16_encode(hf.g) << 16u,
+                 tnd_uf16_encode(hf.b) | tnd_uf16_encode(spec.r) << 16u,
+                 tnd_uf16_encode(spec.g) | tnd_uf16_encode(spec.b) << 16u,
+                 tnd_uf16_encode(variance));
+}
+vec3 at_hf(uvec4 t)
+{
+    return vec3(tnd_uf16_decode(t.x & 0xffffu), tnd_uf16_decode(t.x >> 16u),
+                tnd_uf16_decode(t.y & 0xffffu));
+}
+vec3 at_spec(uvec4 t)
+{
+    return vec3(tnd_uf16_decode(t.y >> 16u), tnd_uf16_decode(t.z & 0xffffu),
+                tnd_uf16_decode(t.z >> 16u));
+}
+float at_variance(uvec4 t) { return tnd_uf16_decode(t.w & 0xffffu); }
 
 float luma(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 

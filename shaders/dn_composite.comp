@@ -1,7 +1,7 @@
 /* dn_composite.comp: remodulation and composite into linear HDR (docs/contract.md):
  * ((hf + E_n(lf)) x albedo x (1 - metallic) + spec x max(0.01, F0)) x throughput + emission,
- * E_n the SH at the shading normal, chroma rescaled with it. Inputs: the a-trous results (hf
- * in slot iters_hf & 1, spec in slot iters_spec & 1), or the raw contract in mode "off". lf comes from the
+ * E_n the SH at the shading normal, chroma rescaled with it. Inputs: the a-trous results (the
+ * last slot written), or the raw contract in mode "off". lf comes from the
  * 1/3-resolution filter (dn_lf.comp), upsampled with geometry-aware weights: the 4 bilinear
  * taps on the low-res grid (anchors at full-res pixel 3i + 1) weighted by the tangent-plane
  * test against the footprint and max(n . n_anchor, 0)^8 (geometric normals); where no tap
@@ -85,8 +85,9 @@ void main()
         sh = imageLoad(img_lf_sh, p);
         cocg = imageLoad(img_lf_cocg, p).xy;
     } else {
-        hf = imageLoad(at_hf[P.iters.x & 1u], p).rgb; /* the a-trous results' slots */
-        spec = imageLoad(at_spec[P.iters.z & 1u], p).rgb;
+        uvec4 a = imageLoad(at[max(P.iters.x, P.iters.z) & 1u], p); /* the last a-trous slot */
+        hf = at_hf(a);
+        spec = at_spec(a);
         upsample_lf(p, imageLoad(img_position, p).xyz, gn, depth, sh, cocg);
     }
     vec3 alb = imageLoad(img_albedo, p).rgb;

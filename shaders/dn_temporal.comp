@@ -9,7 +9,8 @@
  * history from a texel whose normal, hence whose reflected direction, differs; with no such tap
  * the spec history restarts. Writes this frame's history slot and the first a-trous input
  * (colour + variance). Where the history is shorter than 4 frames, the variance comes from a
- * 3x3 spatial estimate. Also packs the a-trous passes' filter geometry (DN_B_FGEO). */
+ * 3x3 spatial estimate. The a-trous input packs colours, variance and the
+ * filter geometry (DN_B_AT, DN_B_FGEO). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
@@ -125,8 +126,7 @@ void main()
     imageStore(hist_lf_sh[cur], p, out_sh);
     imageStore(hist_lf_cocg[cur], p, vec4(out_cocg, 0.0, 0.0));
     imageStore(hist_spec[cur], p, out_spec);
-    imageStore(at_hf[0], p, vec4(out_hf.rgb, variance));
-    imageStore(at_spec[0], p, out_spec);
-    imageStore(fgeo, p, uvec4(fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n,
-                                        rough, field), 0u, 0u));
+    uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n, rough, field);
+    imageStore(at[0], p, at_pack(out_hf.rgb, out_spec.rgb, variance));
+    imageStore(fgeo, p, uvec4(g, 0u, 0u));
 }

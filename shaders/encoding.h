@@ -10,6 +10,13 @@
  *   - below 2^-BIAS: absolute error <= 2^-(BIAS+9) (5.96e-8 for BIAS 15);
  *   - other channels of the pixel: absolute error <= 2^-9 x the largest channel;
  *   - above TND_RGBE_MAX (130816): clamped (saturation is counted by the stability report).
+ * Unsigned wide half ("tnd_uf16"; the back-end's a-trous colours and variance, whose range
+ * must cover the extremes scene's lights of 1e-4 and 1e5): 16 bits per channel, a 6-bit
+ * exponent E with bias TND_UF16_BIAS and a 10-bit mantissa m: (1 + m / 1024) * 2^(E - BIAS),
+ * E = 0 is zero. Rounded to nearest (ties away from zero), negatives and NaN -> 0, values above
+ * TND_UF16_MAX (and +Inf) -> TND_UF16_MAX, below 2^(1 - BIAS) -> 0.
+ *   - in [2^(1 - BIAS), TND_UF16_MAX] (4.7e-10 .. 4.3e9): relative error <= 2^-11;
+ *   - below: absolute error < 2^(1 - BIAS).
  * Half (C side; GLSL uses the image format's own conversion): round to nearest even, clamped to
  * +-65504 first (never Inf), NaN -> 0. Relative error <= 2^-11 in [6.1e-5, 65504]; below,
  * absolute error <= 2^-25.
@@ -22,6 +29,8 @@
 #define TND_RGBE_BIAS 15
 #define TND_RGBE_MAX  130816.0 /* 511 * 2^(31 - BIAS - 8) */
 #define TND_HALF_MAX  65504.0
+#define TND_UF16_BIAS 32
+#define TND_UF16_MAX  4292870144.0 /* (2 - 2^-10) * 2^(63 - BIAS) */
 
 #ifdef TND_GLSL
 #define TND_FN
@@ -139,6 +148,23 @@ TND_FN float tnd_rgbe_channel(TND_U32 p, TND_I32 c)
     TND_I32 E = TND_TOI(p >> 27);
     TND_U32 m = (p >> TND_TOU(9 * c)) & 511u;
     return TND_FLT(m) * tnd_exp2i(E - TND_RGBE_BIAS - 8);
+}
+
+TND_FN TND_U32 tnd_uf16_encode(float x)
+{
+    TND_U32 u = TND_F2U(TND_MAXF(tnd_sanitize(x, TND_FLT(TND_UF16_MAX)), 0.0f)) + 0x1000u;
+    TND_I32 e = TND_TOI(u >> 23) - 127 + TND_UF16_BIAS; /* the rounding may carry into it */
+    if (e <= 0)
+        return 0u;
+    if (e > 63)
+        return 0xffffu;
+    return (TND_TOU(e) << 10) | ((u >> 13) & 1023u);
+}
+
+TND_FN float tnd_uf16_decode(TND_U32 h)
+{
+    TND_U32 e = (h >> 10) & 63u;
+    return e == 0u ? 0.0f : TND_U2F(((e + TND_TOU(127 - TND_UF16_BIAS)) << 23) | ((h & 1023u) << 13));
 }
 
 #ifdef TND_GLSL

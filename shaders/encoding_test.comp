@@ -1,4 +1,4 @@
-/* encoding_test.comp: RGBE-encodes vec3 inputs with shaders/encoding.h, so that a test can compare
+/* encoding_test.comp: RGBE-encodes (and tnd_uf16-encodes) vec3 inputs with shaders/encoding.h, so that a test can compare
  * the bits with the C mirror; also declares the whole contract (both precisions are compiled) to
  * keep the GLSL side of shaders/contract.h honest. */
 #version 460
@@ -22,4 +22,7 @@ void main()
     uint p = tnd_rgbe_encode(v.x, v.y, v.z);
     vec3 d = tnd_rgbe_decode(p);
     dst[i] = uvec4(p, floatBitsToUint(d.x), floatBitsToUint(d.y), tnd_nonfinite(v.w) ? 1u : 0u);
+    uvec3 h = uvec3(tnd_uf16_encode(v.x), tnd_uf16_encode(v.y), tnd_uf16_encode(v.z));
+    dst[i + pc.count] = uvec4(h.x | h.y << 16u, floatBitsToUint(tnd_uf16_decode(h.x)),
+                              floatBitsToUint(tnd_uf16_decode(h.y)), floatBitsToUint(tnd_uf16_decode(h.z)));
 }

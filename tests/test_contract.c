@@ -141,6 +141,42 @@ static void test_rgbe_extremes(void)
           "mantissa carry");
 }
 
+/* tnd_uf16 (the back-end's a-trous storage): the bounds stated in shaders/encoding.h over
+ * 1e-12 .. 1e12, exhaustive decode/encode round trip, and the clamp rules. */
+static void test_uf16_extremes(void)
+{
+    const double lo = ldexp(1.0, 1 - TND_UF16_BIAS);
+    int bad_rel = 0, bad_abs = 0, bad_clamp = 0, n = 0;
+    double worst = 0;
+    for (double v = 1e-12; v <= 1e12; v *= 1.0137, n++) {
+        float x = (float)v, d = tnd_uf16_decode(tnd_uf16_encode(x));
+        if (x > TND_UF16_MAX)
+            bad_clamp += d != (float)TND_UF16_MAX;
+        else if (x >= lo) {
+            double rel = fabs(d - x) / x;
+            worst = fmax(worst, rel);
+            bad_rel += rel > ldexp(1.0, -11);
+        } else
+            bad_abs += fabs(d - x) >= lo;
+    }
+    int bad_rt = 0;
+    for (uint32_t h = 0; h < 65536; h++) /* every code decodes to a value that encodes back */
+        bad_rt += (h >> 10) != 0 && tnd_uf16_encode(tnd_uf16_decode(h)) != h;
+    printf("     uf16: %d values over 1e-12..1e12, worst relative error in range %.3e (bound "
+           "%.3e)\n", n, worst, ldexp(1.0, -11));
+    CHECK(bad_rel == 0, "%d values beyond 2^-11 relative error", bad_rel);
+    CHECK(bad_abs == 0, "%d small values beyond the absolute bound", bad_abs);
+    CHECK(bad_clamp == 0, "%d large values not clamped to the maximum", bad_clamp);
+    CHECK(bad_rt == 0, "%d codes not stable under decode/encode", bad_rt);
+    CHECK(tnd_uf16_encode(NAN) == 0u && tnd_uf16_encode(-1.0f) == 0u &&
+              tnd_uf16_encode(-INFINITY) == 0u,
+          "NaN and negatives -> 0");
+    CHECK(tnd_uf16_decode(tnd_uf16_encode(INFINITY)) == (float)TND_UF16_MAX, "+Inf -> max");
+    CHECK(tnd_uf16_decode(tnd_uf16_encode(1.0f)) == 1.0f, "1 exact");
+    float carry = 1.99951171875f; /* 2 - 2^-11: rounds up into the next exponent */
+    CHECK(tnd_uf16_decode(tnd_uf16_encode(carry)) == 2.0f, "mantissa carry");
+}
+
 /* Half: exhaustive over every finite half, plus the clamp rules. */
 static void test_half_extremes(void)
 {
@@ -520,7 +556,7 @@ static void test_cleanup(void)
     CHECK(!tmpdir[0] || system(cmd) == 0, "cleanup");
 }
 
-TND_TEST_MAIN(T(test_table), T(test_document_matches_table), T(test_rgbe_extremes),
+TND_TEST_MAIN(T(test_table), T(test_document_matches_table), T(test_rgbe_extremes), T(test_uf16_extremes),
               T(test_half_extremes), T(test_quantize), T(test_capture_round_trip),
               T(test_capture_validation), T(test_independent_tools), T(test_cycles_mapping),
               T(test_cleanup))
