@@ -379,13 +379,6 @@ static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const 
                   (c->height + 7) / 8);
 }
 
-/* an a-trous iteration (work groups of DN_AT_TILE^2) */
-static void dispatch_atrous(dn_context *c, VkCommandBuffer cmd, uint32_t slot, uint32_t iteration)
-{
-    dispatch_grid(c, cmd, c->atrous, "atrous", (uint32_t[2]){slot, iteration},
-                  (c->width + DN_AT_TILE - 1) / DN_AT_TILE, (c->height + DN_AT_TILE - 1) / DN_AT_TILE);
-}
-
 /* full-res a-trous passes run: the most hf or spec asks for (the other copies through) */
 static uint32_t atrous_iters(const dn_desc *d)
 {
@@ -568,7 +561,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
             tnd_timer_end(cmd, &c->timer, s_l);
             s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
             for (uint32_t i = 0; i < iters; i++)
-                dispatch_atrous(c, cmd, slot, i);
+                dispatch(c, cmd, c->atrous, "atrous", slot, i);
             tnd_timer_end(cmd, &c->timer, s_a);
         } else {
             s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous+lf");
@@ -577,7 +570,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
                 if (k < n_lf)
                     dispatch_lf(c, cmd, k);
                 if (k < iters)
-                    dispatch_atrous(c, cmd, slot, k);
+                    dispatch(c, cmd, c->atrous, "atrous", slot, k);
                 c->batching = false;
                 tnd_cmd_barrier(cmd);
             }

@@ -64,9 +64,5 @@ _Static_assert(sizeof(dn_params) == 128, "dn_params layout");
  * DN_TILE_H pixels (8 x 4 strata); the others 8 x 8 threads. */
 #define DN_TILE_W 24
 #define DN_TILE_H 12
-/* The a-trous passes: work groups of DN_AT_TILE^2 pixels; steps up to DN_AT_LDS_STEP read the
- * tile and its apron from shared memory ((16 + 16)^2 x 24 bytes = 24 KiB at most). */
-#define DN_AT_TILE 16
-#define DN_AT_LDS_STEP 8
 
 #endif

@@ -10,42 +10,22 @@
  * Iteration 0's hf output is fed back as the hf history (SVGF). Reads ping-pong slot i & 1,
  * writes the other. Each tap is two loads: the ping-pong texel (DN_B_AT: hf, spec and the
  * variance as 16-bit wide-range floats) and the filter geometry (DN_B_FGEO: tangent-plane offset,
- * packed normal, roughness and field), read from shared memory for steps up to 8. */
+ * packed normal, roughness and field); they are issued before the tap's tests. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#define DN_ATROUS_TILES 1
 #include "dn_common.glsl"
-
-/* Tiles of DN_AT_TILE x DN_AT_TILE pixels; for steps up to DN_AT_LDS_STEP the tile and its apron
- * are loaded once into shared memory ((16 + 2 step)^2 texels for 256 pixels instead of 9 loads
- * per pixel), larger steps load each tap. */
-const int LDS_SIDE = DN_AT_TILE + 2 * DN_AT_LDS_STEP;
-shared uvec4 s_at[LDS_SIDE * LDS_SIDE];
-shared uvec2 s_geo[LDS_SIDE * LDS_SIDE];
 
 void main()
 {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    uint i = pc.iteration, src = i & 1u, dst = 1u - src;
-    int step = 1 << int(i);
-    ivec2 last = ivec2(P.size.xy) - 1;
-    bool lds = step <= DN_AT_LDS_STEP;
-    int side = DN_AT_TILE + 2 * step;
-    ivec2 origin = ivec2(gl_WorkGroupID.xy) * DN_AT_TILE - step;
-    if (lds)
-        for (int k = int(gl_LocalInvocationIndex); k < side * side; k += DN_AT_TILE * DN_AT_TILE) {
-            ivec2 q = clamp(origin + ivec2(k % side, k / side), ivec2(0), last);
-            s_at[k] = imageLoad(at[src], q);
-            s_geo[k] = imageLoad(fgeo, q).xy;
-        }
-    barrier();
     if (!inside(p))
         return;
+    uint i = pc.iteration, src = i & 1u, dst = 1u - src;
+    int step = 1 << int(i);
     /* a channel whose iterations are done is carried through unchanged */
     bool do_hf = i < P.iters.x, do_spec = i < P.iters.z;
-    int ci = (p.y - origin.y) * side + (p.x - origin.x);
-    uvec4 c = lds ? s_at[ci] : imageLoad(at[src], p);
-    uvec2 g = lds ? s_geo[ci] : imageLoad(fgeo, p).xy;
+    uvec4 c = imageLoad(at[src], p);
+    uvec2 g = imageLoad(fgeo, p).xy;
     if (g.x == DN_FGEO_NONE) { /* no surface: carried through (for dumps) */
         imageStore(at[dst], p, c);
         return;
@@ -69,15 +49,16 @@ void main()
     vec3 s_hf = c_hf, s_spec = c_spec;
     float w_hf = 1.0, w_spec = 1.0, var_acc = c_var;
     const float k[2] = float[2](0.5, 0.25); /* edge, corner */
+    ivec2 last = ivec2(P.size.xy) - 1;
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
             if (x == 0 && y == 0)
                 continue;
             ivec2 q = p + ivec2(x, y) * step;
             bool in_image = q == clamp(q, ivec2(0), last);
-            int qi = ci + (y * side + x) * step;
-            uvec4 t = lds ? s_at[qi] : imageLoad(at[src], clamp(q, ivec2(0), last));
-            uvec2 gq = lds ? s_geo[qi] : imageLoad(fgeo, clamp(q, ivec2(0), last)).xy;
+            q = clamp(q, ivec2(0), last); /* the loads are issued before the tests */
+            uvec4 t = imageLoad(at[src], q);
+            uvec2 gq = imageLoad(fgeo, q).xy;
             if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field)
                 continue;
             /* the distance of this pixel to the neighbour's tangent plane, and all factors of

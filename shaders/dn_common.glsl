@@ -37,8 +37,6 @@ ivec2 tile_pixel(uint k)
 {
     return ivec2(gl_WorkGroupID.xy) * ivec2(DN_TILE_W, DN_TILE_H) + ivec2(k % DN_TILE_W, k / DN_TILE_W);
 }
-#elif defined(DN_ATROUS_TILES)
-layout(local_size_x = DN_AT_TILE, local_size_y = DN_AT_TILE) in;
 #else
 layout(local_size_x = 8, local_size_y = 8) in;
 #endif
