@@ -115,10 +115,7 @@ int cmd_denoise(int argc, char **argv)
         if (i == 0) {
             w = f.width, h = f.height;
             TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
-            TND_TRY(dn_create(&vk, w, h,
-                              &(dn_desc){.mode = mode, .precision = f.precision,
-                                         .dumps = dump_mask != 0},
-                              &dn));
+            TND_TRY(dn_create(&vk, w, h, &(dn_desc){.mode = mode, .precision = f.precision}, &dn));
             TND_TRY(tnd_contract_gpu_create(&vk, w, h, f.precision, &ct));
             /* the post chain with render's defaults (TAA, auto exposure, ACES) */
             /* the interleave when the captures carry split paths (checked on the first frame) */

@@ -324,8 +324,7 @@ static int run(bool reference, int argc, char **argv)
         TND_TRY(dn_create(&vk, o.size[0], o.size[1],
                           &(dn_desc){.mode = dmode, .precision = prec, .iters_hf = o.atrous,
                                      .iters_spec = o.atrous, .min_alpha_hf = ma,
-                                     .min_alpha_lf = ma, .min_alpha_spec = ma,
-                                     .dumps = dump_mask != 0},
+                                     .min_alpha_lf = ma, .min_alpha_spec = ma},
                           &dn));
         if (!use_vk)
             TND_TRY(tnd_contract_gpu_create(&vk, o.size[0], o.size[1], prec, &upload));

@@ -37,9 +37,6 @@ typedef struct dn_desc {
     bool no_leak_guard;
     /* profiling: a timestamp around every dispatch as well (dn_dispatch_times) */
     bool dispatch_timing;
-    /* the a-trous result is kept for dn_dump (the last iteration, which runs inside the
-     * composite, stores it; otherwise it is never written) */
-    bool dumps;
 } dn_desc;
 
 typedef struct dn_frame {

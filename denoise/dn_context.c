@@ -410,7 +410,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
     uint32_t mode = d->mode == DN_MODE_OFF ? 1u : d->mode == DN_MODE_ASVGF ? 2u : 0u;
     *(dn_params *)c->params.mapped = (dn_params){
         .size = {c->width, c->height, history ? 1u : 0u, mode},
-        .iters = {d->iters_hf, d->iters_lf, d->iters_spec, d->dumps ? 1u : 0u},
+        .iters = {d->iters_hf, d->iters_lf, d->iters_spec, 0},
         .alpha = {d->min_alpha_hf, d->min_alpha_lf, d->min_alpha_spec, d->min_alpha_moments},
         .jitter = {f->jitter[0], f->jitter[1], f->prev_jitter[0], f->prev_jitter[1]},
         .weights = {2.0f, 64.0f, 4.0f, 8.0f},
@@ -552,8 +552,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         tnd_timer_end(cmd, &c->timer, s_t);
         /* the lf filter (1/3 res, latency-bound, few threads) and the a-trous (full res) do not
          * depend on each other: their dispatches are paired without a barrier between them, so
-         * the lf passes run beside the a-trous ones. Per-dispatch timing runs them in turn. The
-         * last a-trous iteration runs inside the composite. */
+         * the lf passes run beside the a-trous ones. Per-dispatch timing runs them in turn. */
         uint32_t n_lf = d->iters_lf + 2; /* downsample, deflicker, a-trous */
         if (d->dispatch_timing) {
             s_l = tnd_timer_begin(cmd, &c->timer, "denoise.lf");
@@ -561,16 +560,16 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
                 dispatch_lf(c, cmd, k);
             tnd_timer_end(cmd, &c->timer, s_l);
             s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
-            for (uint32_t i = 0; i + 1 < iters; i++)
+            for (uint32_t i = 0; i < iters; i++)
                 dispatch(c, cmd, c->atrous, "atrous", slot, i);
             tnd_timer_end(cmd, &c->timer, s_a);
         } else {
             s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous+lf");
-            for (uint32_t k = 0; k < n_lf || k + 1 < iters; k++) {
+            for (uint32_t k = 0; k < n_lf || k < iters; k++) {
                 c->batching = true;
                 if (k < n_lf)
                     dispatch_lf(c, cmd, k);
-                if (k + 1 < iters)
+                if (k < iters)
                     dispatch(c, cmd, c->atrous, "atrous", slot, k);
                 c->batching = false;
                 tnd_cmd_barrier(cmd);
@@ -649,21 +648,18 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
         /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
         t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 16 + 8) +
                 n3 * (3 * 16 + 8 + (double)(d->iters_lf + 1) * (3 * 16 + 8 + 16 + 8));
-        /* per iteration but the last (in the composite): the ping-pong texel (16 bytes: both
-         * colours, variance) and the filter geometry (8) of each tap, the centre's position and
-         * depth; the texel written; the hf feedback once */
-        double it = (double)atrous_iters(d);
-        t->atrous = n * ((it > 0 ? it - 1 : 0) * (16 + 8 + CT(POSITION) + CT(DEPTH) + 16) +
-                         (it > 1 ? 2 * 16 : 0));
+        /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
+         * geometry (8) of each tap, the centre's position and depth; the texel written;
+         * the hf feedback once */
+        t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + CT(POSITION) + CT(DEPTH) + 16) +
+                         2 * 16);
     }
     t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(RNG) + CT(HF) + CT(SPEC) +
                         CT(VIS_BARY) + CT(NORMAL) + CT(EMISSION) + CT(ALBEDO) + CT(METALLIC) +
                         CT(THROUGHPUT) + CT(POSITION) + 4 /* flag */ +
-                        /* the last a-trous iteration: the texel and filter geometry */
-                        (filter ? 16 + 8 + (atrous_iters(d) == 1 ? 2 * 16 : 0)
-                                : CT(LF_SH) + CT(LF_COCG)) +
+                        (filter ? 2 * 16 : CT(LF_SH) + CT(LF_COCG)) +
                         16 + 8 + 16 + 16 + 16 /* previous geometry, vis, lum, bary; output */) +
-                   (filter ? n3 * (2 * 16 + 16 + 8) : 0); /* lf anchors, SH, CoCg */
+                   (filter ? n3 * 4 * 16 : 0);
 #undef CT
 }
 
@@ -729,10 +725,6 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
                                ? &c->paired[dumps[i].index][(c->desc.iters_lf + 1) & 1u]
                            : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]
                                                           : &c->out;
-    if (dumps[i].kind == DUMP_ATROUS && !c->desc.dumps)
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
-                        "denoise: dump %s needs a back-end created with dumps (the final a-trous "
-                        "result is otherwise never stored)", dumps[i].name);
     if (dumps[i].kind == DUMP_ATROUS) { /* decode the packed texel: index 0 hf, 1 spec */
         res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
         for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++) {

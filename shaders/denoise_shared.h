@@ -13,8 +13,7 @@ typedef struct { uint32_t x, y, z, w; } dn_uvec4;
 struct dn_params {
     uvec4 size;    /* x: width, y: height, z: history valid (0 after a reset), w: mode (0 svgf, 1 off,
                       2 asvgf) */
-    uvec4 iters;   /* a-trous iterations: x hf, y lf (at 1/3 resolution), z spec; w 1: the
-                      composite stores the last iteration's result (for dumps) */
+    uvec4 iters;   /* a-trous iterations: x hf, y lf (at 1/3 resolution), z spec */
     vec4 alpha;    /* minimum temporal alpha: x hf colour, y lf, z spec, w hf moments */
     vec4 jitter;   /* xy: this frame's jitter, zw: the previous frame's (pixels) */
     vec4 weights;  /* x: depth sigma, y: hf normal exponent, z: hf luminance sigma, w: lf normal exponent */

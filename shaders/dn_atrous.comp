@@ -8,22 +8,85 @@
  *   0.05 (mirror-like surfaces stay sharp).
  * lf is filtered at 1/3 resolution (dn_lf.comp).
  * Iteration 0's hf output is fed back as the hf history (SVGF). Reads ping-pong slot i & 1,
- * writes the other. The last iteration runs in dn_composite.comp (both use dn_atrous.glsl).
- * Each tap is two loads: the ping-pong texel (DN_B_AT: hf, spec and the variance as 16-bit
- * wide-range floats) and the filter geometry (DN_B_FGEO: tangent-plane offset, packed normal,
- * roughness and field); they are issued before the tap's tests. */
+ * writes the other. Each tap is two loads: the ping-pong texel (DN_B_AT: hf, spec and the
+ * variance as 16-bit wide-range floats) and the filter geometry (DN_B_FGEO: tangent-plane offset,
+ * packed normal, roughness and field); they are issued before the tap's tests. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
-#include "dn_atrous.glsl"
 
 void main()
 {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(p))
         return;
-    uint i = pc.iteration;
-    dn_atrous_out r = atrous_at(p, i);
-    imageStore(at[1u - (i & 1u)], p, r.surface ? at_pack(r.hf, r.spec, r.variance) : r.texel);
-    atrous_feedback(p, i, r);
+    uint i = pc.iteration, src = i & 1u, dst = 1u - src;
+    int step = 1 << int(i);
+    /* a channel whose iterations are done is carried through unchanged */
+    bool do_hf = i < P.iters.x, do_spec = i < P.iters.z;
+    uvec4 c = imageLoad(at[src], p);
+    uvec2 g = imageLoad(fgeo, p).xy;
+    if (g.x == DN_FGEO_NONE) { /* no surface: carried through (for dumps) */
+        imageStore(at[dst], p, c);
+        return;
+    }
+    vec3 c_hf = at_hf(c), c_spec = at_spec(c);
+    float c_var = at_variance(c);
+    vec3 n = fgeo_normal(g.y), pos = imageLoad(img_position, p).xyz - fgeo_origin();
+    /* the two checkerboard fields of a split surface are filtered apart */
+    uint field = fgeo_field(g.y);
+    float rough = fgeo_roughness(g.y);
+    float footprint = max(imageLoad(img_depth, p).x * P.misc.x * float(step), 1e-6);
+    float inv_sigma_z = 1.0 / (P.weights.x * footprint);
+    float l = luma(c_hf);
+    float inv_sigma_l = 1.0 / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);
+    const float LOG2E = 1.4426950408889634;
+    float a2 = max(rough * rough, 1e-3);
+    a2 *= a2;
+    float spec_exp = clamp(2.0 / a2 - 2.0, 8.0, P.misc.z);
+    bool filter_spec = do_spec && rough >= 0.05; /* mirror-like surfaces stay sharp */
+    /* the centre tap: every weight is h = 1 */
+    vec3 s_hf = c_hf, s_spec = c_spec;
+    float w_hf = 1.0, w_spec = 1.0, var_acc = c_var;
+    const float k[2] = float[2](0.5, 0.25); /* edge, corner */
+    ivec2 last = ivec2(P.size.xy) - 1;
+    for (int y = -1; y <= 1; y++)
+        for (int x = -1; x <= 1; x++) {
+            if (x == 0 && y == 0)
+                continue;
+            ivec2 q = p + ivec2(x, y) * step;
+            bool in_image = q == clamp(q, ivec2(0), last);
+            q = clamp(q, ivec2(0), last); /* the loads are issued before the tests */
+            uvec4 t = imageLoad(at[src], q);
+            uvec2 gq = imageLoad(fgeo, q).xy;
+            if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field)
+                continue;
+            /* the distance of this pixel to the neighbour's tangent plane, and all factors of
+             * a weight in one exp2: exp(-a) x nn^e x exp(-b) = exp2(e log2(nn) - (a + b)
+             * log2(e)), one log2 shared by hf and spec */
+            float h = k[abs(x) + abs(y) - 1];
+            vec3 nq = fgeo_normal(gq.y);
+            float plane = abs(uintBitsToFloat(gq.x) - dot(nq, pos)) * inv_sigma_z;
+            float log_nn = log2(max(dot(n, nq), 1e-30));
+            if (do_hf) {
+                vec3 q_hf = at_hf(t);
+                float w = h * exp2(P.weights.y * log_nn -
+                                   (plane + abs(luma(q_hf) - l) * inv_sigma_l) * LOG2E);
+                s_hf += w * q_hf;
+                var_acc += w * w * at_variance(t);
+                w_hf += w;
+            }
+            if (filter_spec) {
+                float w = h * exp2(spec_exp * log_nn - plane * LOG2E) *
+                          max(0.0, 1.0 - 10.0 * abs(rough - fgeo_roughness(gq.y)));
+                s_spec += w * at_spec(t);
+                w_spec += w;
+            }
+        }
+    vec3 o_hf = s_hf / w_hf;
+    float o_var = var_acc / (w_hf * w_hf);
+    imageStore(at[dst], p, at_pack(do_hf ? o_hf : c_hf, filter_spec ? s_spec / w_spec : c_spec,
+                                   do_hf ? o_var : c_var));
+    if (i == 0u && do_hf) /* SVGF's feedback: the first iteration becomes the hf history */
+        imageStore(hist_hf[pc.slot], p, vec4(o_hf, imageLoad(hist_hf[pc.slot], p).a));
 }

@@ -1,7 +1,7 @@
 /* dn_composite.comp: remodulation and composite into linear HDR (docs/contract.md):
  * ((hf + E_n(lf)) x albedo x (1 - metallic) + spec x max(0.01, F0)) x throughput + emission,
- * E_n the SH at the shading normal, chroma rescaled with it. Inputs: the a-trous results (this
- * pass runs the last iteration itself), or the raw contract in mode "off". lf comes from the
+ * E_n the SH at the shading normal, chroma rescaled with it. Inputs: the a-trous results (the
+ * last slot written), or the raw contract in mode "off". lf comes from the
  * 1/3-resolution filter (dn_lf.comp), upsampled with geometry-aware weights: the 4 bilinear
  * taps on the low-res grid (anchors at full-res pixel 3i + 1) weighted by the tangent-plane
  * test against the footprint and max(n . n_anchor, 0)^8 (geometric normals); where no tap
@@ -11,7 +11,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
-#include "dn_atrous.glsl"
 
 const float SH_C0 = 0.282094791773878;
 const float SH_C1 = 0.488602511902920;
@@ -86,21 +85,9 @@ void main()
         sh = imageLoad(img_lf_sh, p);
         cocg = imageLoad(img_lf_cocg, p).xy;
     } else {
-        /* the last a-trous iteration, here (its arithmetic overlaps this pass's memory
-         * traffic, and its result is stored only when the back-end keeps it for dumps) */
-        uint n_it = max(P.iters.x, P.iters.z);
-        if (n_it == 0u) {
-            uvec4 a = imageLoad(at[0], p);
-            hf = at_hf(a);
-            spec = at_spec(a);
-        } else {
-            dn_atrous_out r = atrous_at(p, n_it - 1u);
-            hf = r.hf;
-            spec = r.spec;
-            atrous_feedback(p, n_it - 1u, r);
-            if (P.iters.w != 0u)
-                imageStore(at[n_it & 1u], p, at_pack(r.hf, r.spec, r.variance));
-        }
+        uvec4 a = imageLoad(at[max(P.iters.x, P.iters.z) & 1u], p); /* the last a-trous slot */
+        hf = at_hf(a);
+        spec = at_spec(a);
         upsample_lf(p, imageLoad(img_position, p).xyz, gn, depth, sh, cocg);
     }
     vec3 alb = imageLoad(img_albedo, p).rgb;
