@@ -90,12 +90,27 @@ import json, sys
 d = json.load(open(sys.argv[1]))
 p = d["passes"]
 assert d["compute_copy_gb_per_s"] > 0 and d["transfer_copy_gb_per_s"] > 0, d
-for k in ("denoise_select", "denoise_gradient", "denoise_temporal", "denoise_lf", "denoise_atrous", "composite"):
+# the lf filter runs beside the a-trous: one pass (and timer) covers both
+assert d["lf_beside_atrous"] is True and "denoise_lf" not in p, d
+for k in ("denoise_select", "denoise_gradient", "denoise_temporal", "denoise_atrous", "composite"):
     assert p[k]["bytes"] > 0 and p[k]["floor_ms"] > 0, k
 # the floor of the whole back-end is the sum of its passes'
 assert abs(sum(p[k]["bytes"] for k in p if "bytes" in p[k]) - d["backend_bytes"]) < 1, d
 PY
 check "bench --denoiser times every pass against the bandwidth floor" $?
+"$T" bench --frontend vk --denoiser asvgf --scene "$SRC/data/scenes/dynamic.gltf" --size 48x27 --repeats 3 --per-dispatch --json >"$tmp/bench_pd.json" 2>/dev/null
+python3 - "$tmp/bench_pd.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+names = [x["name"] for x in d["dispatches"]]
+# every dispatch of the frame, in order, each timed (the lf chain then runs apart from the a-trous)
+assert d["lf_beside_atrous"] is False and d["passes"]["denoise_lf"]["median_ms"] > 0, d
+assert names[0] == "gradient.image" and names[1:8] == ["gradient.blur%d" % i for i in range(7)], names
+assert names[8:] == ["temporal", "lf.downsample", "lf.deflicker", "lf.atrous0", "lf.atrous1",
+                     "lf.atrous2", "atrous.0", "atrous.1", "atrous.2", "atrous.3", "composite"], names
+assert all(x["median_ms"] > 0 for x in d["dispatches"]), d["dispatches"]
+PY
+check "bench --per-dispatch times each back-end dispatch" $?
 "$T" bench --frontend embree --denoiser asvgf >/dev/null 2>"$tmp/err"; rc=$?
 [ $rc -eq 2 ] && grep -q "needs --frontend vk" "$tmp/err"
 check "bench --denoiser without the Vulkan front-end is a usage error" $?
