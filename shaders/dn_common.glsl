@@ -132,17 +132,15 @@ uvec4 at_pack(vec3 hf, vec3 spec, float variance)
                  tnd_uf16_encode(spec.g) | tnd_uf16_encode(spec.b) << 16u,
                  tnd_uf16_encode(variance));
 }
-vec3 at_hf(uvec4 t)
+/* tnd_uf16_decode of both halves of a word: the high half shifts right by 3 into place */
+vec2 at_decode2(uint w)
 {
-    return vec3(tnd_uf16_decode(t.x & 0xffffu), tnd_uf16_decode(t.x >> 16u),
-                tnd_uf16_decode(t.y & 0xffffu));
+    const float rebias = 39614081257132168796771975168.0; /* 2^(127 - TND_UF16_BIAS) = 2^95 */
+    return uintBitsToFloat(uvec2((w & 0xffffu) << 13u, (w >> 3u) & 0x1fffe000u)) * rebias;
 }
-vec3 at_spec(uvec4 t)
-{
-    return vec3(tnd_uf16_decode(t.y >> 16u), tnd_uf16_decode(t.z & 0xffffu),
-                tnd_uf16_decode(t.z >> 16u));
-}
-float at_variance(uvec4 t) { return tnd_uf16_decode(t.w & 0xffffu); }
+vec3 at_hf(uvec4 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
+vec3 at_spec(uvec4 t) { return vec3(at_decode2(t.y).y, at_decode2(t.z)); }
+float at_variance(uvec4 t) { return tnd_uf16_decode(t.w); }
 
 float luma(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 

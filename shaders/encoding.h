@@ -13,7 +13,7 @@
  * Unsigned wide half ("tnd_uf16"; the back-end's a-trous colours and variance, whose range
  * must cover the extremes scene's lights of 1e-4 and 1e5): 16 bits per channel, a 6-bit
  * exponent E with bias TND_UF16_BIAS and a 10-bit mantissa m: (1 + m / 1024) * 2^(E - BIAS),
- * E = 0 is zero. Rounded to nearest (ties away from zero), negatives and NaN -> 0, values above
+ * code 0 is zero (E = 0 is never produced otherwise). Rounded to nearest (ties away from zero), negatives and NaN -> 0, values above
  * TND_UF16_MAX (and +Inf) -> TND_UF16_MAX, below 2^(1 - BIAS) -> 0.
  *   - in [2^(1 - BIAS), TND_UF16_MAX] (4.7e-10 .. 4.3e9): relative error <= 2^-11;
  *   - below: absolute error < 2^(1 - BIAS).
@@ -161,10 +161,13 @@ TND_FN TND_U32 tnd_uf16_encode(float x)
     return (TND_TOU(e) << 10) | ((u >> 13) & 1023u);
 }
 
+/* The 16 bits shifted into a float's exponent and mantissa give (1 + m / 1024) * 2^(E - 127);
+ * one exact multiplication by 2^(127 - BIAS) rebiases it (3 operations: the a-trous decodes 7
+ * channels per tap). Code 0 decodes to 0; codes with E = 0 and m != 0 are never produced (they
+ * would decode to a denormal, which a GPU may flush). */
 TND_FN float tnd_uf16_decode(TND_U32 h)
 {
-    TND_U32 e = (h >> 10) & 63u;
-    return e == 0u ? 0.0f : TND_U2F(((e + TND_TOU(127 - TND_UF16_BIAS)) << 23) | ((h & 1023u) << 13));
+    return TND_U2F((h & 0xffffu) << 13) * tnd_exp2i(127 - TND_UF16_BIAS);
 }
 
 #ifdef TND_GLSL
