@@ -18,7 +18,7 @@
 #include <string.h>
 
 /* hist hf, mom, lf sh, lf cocg, spec; a-trous ping-pong; lf sh, lf cocg ping-pong (1/3 res) */
-enum { N_PAIRED = 8, N_SINGLE = 7 };
+enum { N_PAIRED = 8, N_SINGLE = 6 };
 static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF,      DN_B_HIST_MOM,  DN_B_HIST_LF_SH,
                                                   DN_B_HIST_LF_COCG, DN_B_HIST_SPEC, DN_B_AT,
                                                   DN_B_AT_LF_SH,     DN_B_AT_LF_COCG};
@@ -32,8 +32,8 @@ struct dn_context {
     dn_desc desc;
     uint32_t width, height, frame;
     tnd_image paired[N_PAIRED][2];
-    tnd_image prev_gb, prev_vis, out, fgeo; /* fgeo: the a-trous filter geometry */
-    tnd_image prev_lum, prev_bary, grad_flag, grad[2]; /* A-SVGF */
+    tnd_image prev_geo, prev_surf, out, fgeo; /* fgeo: the a-trous filter geometry */
+    tnd_image prev_lum, grad_flag, grad[2];   /* A-SVGF */
     tnd_image lf_geo[2];                               /* 1/3-res lf anchors */
     tnd_buffer params, samples, samples_host; /* samples: device-local; _host: its read-back */
     uint32_t grad_w, grad_h;
@@ -95,12 +95,11 @@ void dn_destroy(dn_context *c)
     for (int k = 0; k < N_PAIRED; k++)
         for (int s = 0; s < 2; s++)
             tnd_image_destroy(vk, &c->paired[k][s]);
-    tnd_image_destroy(vk, &c->prev_gb);
-    tnd_image_destroy(vk, &c->prev_vis);
+    tnd_image_destroy(vk, &c->prev_geo);
+    tnd_image_destroy(vk, &c->prev_surf);
     tnd_image_destroy(vk, &c->out);
     tnd_image_destroy(vk, &c->fgeo);
     tnd_image_destroy(vk, &c->prev_lum);
-    tnd_image_destroy(vk, &c->prev_bary);
     tnd_image_destroy(vk, &c->grad_flag);
     tnd_image_destroy(vk, &c->grad[0]);
     tnd_image_destroy(vk, &c->grad[1]);
@@ -208,10 +207,10 @@ static void write_own_set(dn_context *c)
                                     .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
                                     .pImageInfo = &ii[k]};
     k += 2;
-    const tnd_image *single[N_SINGLE] = {&c->prev_gb,  &c->prev_vis,  &c->out,      &c->prev_lum,
-                                         &c->prev_bary, &c->grad_flag, &c->fgeo};
-    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GB,   DN_B_PREV_VIS,  DN_B_OUT, DN_B_PREV_LUM,
-                                   DN_B_PREV_BARY, DN_B_GRAD_FLAG, DN_B_FGEO};
+    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,
+                                         &c->prev_lum, &c->grad_flag, &c->fgeo};
+    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO,  DN_B_PREV_SURF,  DN_B_OUT,
+                                   DN_B_PREV_LUM,  DN_B_GRAD_FLAG,  DN_B_FGEO};
     for (int s = 0; s < N_SINGLE; s++) {
         ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single[s]->view, VK_IMAGE_LAYOUT_GENERAL};
         w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
@@ -279,13 +278,13 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                      &c->paired[k][s]));
         }
     TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
-                                                   .format = VK_FORMAT_R32G32B32A32_SFLOAT,
-                                                   .name = "denoise.prev_gb"},
-                             &c->prev_gb));
+                                                   .format = VK_FORMAT_R32G32B32A32_UINT,
+                                                   .name = "denoise.prev_geo"},
+                             &c->prev_geo));
     TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
-                                                   .format = VK_FORMAT_R32G32_UINT,
-                                                   .name = "denoise.prev_vis"},
-                             &c->prev_vis));
+                                                   .format = VK_FORMAT_R32G32B32A32_UINT,
+                                                   .name = "denoise.prev_surf"},
+                             &c->prev_surf));
     TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
                                                    .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                    .name = "denoise.out"},
@@ -299,16 +298,15 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
         uint32_t w, h;
         VkFormat format;
         const char *name;
-    } extra[7] = {
+    } extra[6] = {
         {&c->prev_lum, width, height, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.prev_lum"},
-        {&c->prev_bary, width, height, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.prev_bary"},
         {&c->grad_flag, width, height, VK_FORMAT_R32_UINT, "denoise.grad_flag"},
         {&c->grad[0], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[0]"},
         {&c->grad[1], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[1]"},
         {&c->lf_geo[0], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo[0]"},
         {&c->lf_geo[1], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo[1]"},
     };
-    for (int i = 0; i < 7; i++)
+    for (int i = 0; i < 6; i++)
         TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = extra[i].w ? extra[i].w : c->grad_w,
                                                        .height = extra[i].h ? extra[i].h : c->grad_h,
                                                        .format = extra[i].format,
@@ -630,18 +628,19 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
     bool asvgf = d->mode == DN_MODE_ASVGF, filter = d->mode != DN_MODE_OFF;
     *t = (dn_traffic){0};
     if (asvgf) {
-        /* the stratum's 9 pixels: vis, motion, depth, geometric normal now; previous vis,
-         * barycentrics, geometry, luminances at the reprojection; flag written; one sample
-         * (32 bytes) and one gradient texel per stratum */
-        t->select = n * (CT(VIS_ID) + CT(MOTION) + CT(DEPTH) + CT(GEO_NORMAL) + 8 + 16 + 16 + 16 + 4) +
-                    n3 * (32 + 16);
+        /* the stratum's 9 pixels: vis, motion, depth, geometric normal, path now; the previous
+         * surface and luminances at the reprojection; flag written; per stratum one sample (32
+         * bytes), one gradient texel, the chosen pixel's previous surface (two texels) */
+        t->select = n * (CT(VIS_ID) + CT(MOTION) + CT(DEPTH) + CT(GEO_NORMAL) + CT(PATH) +
+                         16 + 16 + 4) +
+                    n3 * (32 + 16 + 16 + 16);
         /* gradient image: vis, motion, lf now, lf history; the blur: 7 x (read + write) */
         t->gradient = n * (CT(VIS_ID) + CT(MOTION) + CT(LF_SH) + 16) + n3 * (32 + 16 + 16 * 2 * 7);
     }
     if (filter) {
         t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +
                            CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
-                           8 + 16 + 16 + 4 * 16 + 8 /* previous vis, geometry, normal, histories */
+                           CT(PATH) + 16 + 4 * 16 + 8 /* previous surface, histories */
                            + 4 * 16 + 8 /* histories written */
                            + CT(POSITION) + 16 + 8 /* the a-trous input and filter geometry */) +
                       (asvgf ? n3 * 16 : 0);
@@ -656,10 +655,10 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
     }
     t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(RNG) + CT(HF) + CT(SPEC) +
                         CT(VIS_BARY) + CT(NORMAL) + CT(EMISSION) + CT(ALBEDO) + CT(METALLIC) +
-                        CT(THROUGHPUT) + CT(POSITION) + 4 /* flag */ +
-                        (filter ? 2 * 16 : CT(LF_SH) + CT(LF_COCG)) +
-                        16 + 8 + 16 + 16 + 16 /* previous geometry, vis, lum, bary; output */) +
-                   (filter ? n3 * 4 * 16 : 0);
+                        CT(THROUGHPUT) + CT(POSITION) + CT(PATH) + 4 /* flag */ +
+                        (filter ? 16 /* the a-trous result */ : CT(LF_SH) + CT(LF_COCG)) +
+                        16 + 16 + 16 + 16 /* previous surface (two texels), lum; output */) +
+                   (filter ? n3 * (2 * 16 + 16 + 8) : 0); /* lf anchors, SH, CoCg */
 #undef CT
 }
 

@@ -37,8 +37,12 @@ _Static_assert(sizeof(dn_params) == 128, "dn_params layout");
 #define DN_B_HIST_LF_SH 3  /* [2] */
 #define DN_B_HIST_LF_COCG 4 /* [2] xy (RG32F) */
 #define DN_B_HIST_SPEC 5   /* [2] rgb */
-#define DN_B_PREV_GB 6     /* x depth, yzw geometric normal of the previous frame */
-#define DN_B_PREV_VIS 7    /* xy instance, primitive of the previous frame */
+#define DN_B_PREV_GEO 6    /* RGBA32UI, the previous frame's surface as the reprojection tests
+                              it: x instance, y depth (float bits), z geometric normal
+                              (octahedral 12 + 12 bits) | field << 24 | was a gradient sample
+                              << 26, w shading normal (octahedral 12 + 12 bits) */
+#define DN_B_PREV_SURF 7   /* RGBA32UI, the rest of the previous surface, read at the chosen
+                              gradient samples: x primitive, yz barycentrics (float bits) */
 #define DN_B_AT 8          /* [2] a-trous ping-pong, RGBA32UI: hf rgb, spec rgb, hf variance as
                               16-bit tnd_uf16 (at_pack in dn_common.glsl) */
 #define DN_B_AT_LF_SH 9    /* [2] 1/3 res: the lf filter's ping-pong (dn_lf.comp) */
@@ -49,15 +53,13 @@ _Static_assert(sizeof(dn_params) == 128, "dn_params layout");
                               roughness (8 bits) and checkerboard field (2 bits) */
 #define DN_B_OUT 12        /* linear HDR output */
 #define DN_B_PREV_LUM 13   /* previous frame: x lum(raw hf), y lum(raw spec), zw rng key (bits) */
-#define DN_B_PREV_BARY 14  /* previous frame: xy barycentrics, z 1 where it was a gradient sample,
-                              w shading normal (octahedral, packSnorm2x16 bits) */
-#define DN_B_GRAD_FLAG 15  /* this frame's gradient sample pixels (1) */
-#define DN_B_GRAD 16       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
+#define DN_B_GRAD_FLAG 14  /* this frame's gradient sample pixels (1) */
+#define DN_B_GRAD 15       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
                               after the selection zw hold the sample's previous lum hf / spec */
-#define DN_B_SAMPLES 17    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
-#define DN_B_LF_GEO 18     /* [2] 1/3 res: the lf anchors: [0] xyz position, w 1 (0: sky);
+#define DN_B_SAMPLES 16    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
+#define DN_B_LF_GEO 17     /* [2] 1/3 res: the lf anchors: [0] xyz position, w 1 (0: sky);
                               [1] xyz geometric normal, w depth */
-#define DN_BINDINGS 19
+#define DN_BINDINGS 18
 #define DN_STRATUM 3
 #define DN_FGEO_NONE 0xffffffffu
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x

@@ -46,14 +46,13 @@ layout(set = 0, binding = DN_B_HIST_MOM, rgba32f) uniform image2D hist_mom[2];
 layout(set = 0, binding = DN_B_HIST_LF_SH, rgba32f) uniform image2D hist_lf_sh[2];
 layout(set = 0, binding = DN_B_HIST_LF_COCG, rg32f) uniform image2D hist_lf_cocg[2];
 layout(set = 0, binding = DN_B_HIST_SPEC, rgba32f) uniform image2D hist_spec[2];
-layout(set = 0, binding = DN_B_PREV_GB, rgba32f) uniform image2D prev_gb;
-layout(set = 0, binding = DN_B_PREV_VIS, rg32ui) uniform uimage2D prev_vis;
+layout(set = 0, binding = DN_B_PREV_GEO, rgba32ui) uniform uimage2D prev_geo;
+layout(set = 0, binding = DN_B_PREV_SURF, rgba32ui) uniform uimage2D prev_surf;
 layout(set = 0, binding = DN_B_AT, rgba32ui) uniform uimage2D at[2];
 layout(set = 0, binding = DN_B_AT_LF_SH, rgba32f) uniform image2D at_lf_sh[2];
 layout(set = 0, binding = DN_B_AT_LF_COCG, rg32f) uniform image2D at_lf_cocg[2];
 layout(set = 0, binding = DN_B_OUT, rgba32f) uniform image2D out_img;
 layout(set = 0, binding = DN_B_PREV_LUM, rgba32f) uniform image2D prev_lum;
-layout(set = 0, binding = DN_B_PREV_BARY, rgba32f) uniform image2D prev_bary;
 layout(set = 0, binding = DN_B_GRAD_FLAG, r32ui) uniform uimage2D grad_flag;
 layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
 layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo[2];
@@ -70,21 +69,17 @@ vec3 load_hf(ivec2 p) { return imageLoad(img_hf, p).rgb; }
 vec3 load_spec(ivec2 p) { return imageLoad(img_spec, p).rgb; }
 #endif
 
-/* Octahedral unit-vector encoding in 2 x 16 bits (Cigolle et al. 2014). */
-/* Octahedral normal, 12 bits per axis, as an integer-valued float in [0, 2^24): exact in a
- * 32-bit float channel. (Raw packSnorm2x16 bits stored as a float make NaN and Inf patterns for
- * common normals, which a driver may canonicalise on the way through an image.) */
-float oct_encode(vec3 n)
+/* Octahedral unit vectors (Cigolle et al. 2014), 12 bits per axis in the low 24 bits. */
+uint oct_pack12(vec3 n)
 {
     n /= abs(n.x) + abs(n.y) + abs(n.z);
     vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
     uvec2 q = uvec2(round(clamp(e * 0.5 + 0.5, 0.0, 1.0) * 4095.0));
-    return float(q.x + q.y * 4096u);
+    return q.x | q.y << 12u;
 }
-vec3 oct_decode(float f)
+vec3 oct_unpack12(uint v)
 {
-    uint v = uint(clamp(f, 0.0, 16777215.0));
-    vec2 e = vec2(v & 4095u, v >> 12u) * (2.0 / 4095.0) - 1.0;
+    vec2 e = vec2(v & 4095u, (v >> 12u) & 4095u) * (2.0 / 4095.0) - 1.0;
     vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
     float t = max(-n.z, 0.0);
     n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);

@@ -58,19 +58,20 @@ void main()
     uvec2 vis = imageLoad(img_vis_id, p).xy;
     vec3 gn = imageLoad(img_geo_normal, p).xyz;
     float depth = imageLoad(img_depth, p).x;
-    imageStore(prev_gb, p, vec4(depth, gn));
-    imageStore(prev_vis, p, uvec4(vis, 0u, 0u));
+    uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
+    bool was_sample = P.size.w == 2u && P.misc.w != 0.0 && imageLoad(grad_flag, p).x != 0u;
+    vec3 n = imageLoad(img_normal, p).xyz;
+    bool sky = vis.x == TND_VIS_NONE;
+    imageStore(prev_geo, p, uvec4(vis.x, floatBitsToUint(depth),
+                                  (sky ? 0u : oct_pack12(gn)) | field << 24u |
+                                      (was_sample ? 1u : 0u) << 26u,
+                                  sky ? 0u : oct_pack12(n)));
+    imageStore(prev_surf, p, uvec4(vis.y, floatBitsToUint(imageLoad(img_vis_bary, p).xy), 0u));
     /* what the next frame's gradient samples need: raw luminances, rng key, barycentrics, and
      * whether this pixel was a gradient sample (not reused twice in a row) */
     uvec2 key = imageLoad(img_rng, p).xy;
     imageStore(prev_lum, p, vec4(luma(finite3(load_hf(p))), luma(finite3(load_spec(p))),
                                  uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
-    float was_sample = P.size.w == 2u && P.misc.w != 0.0 && imageLoad(grad_flag, p).x != 0u ? 1.0 : 0.0;
-    vec3 n = imageLoad(img_normal, p).xyz;
-    /* z: was a gradient sample (bit 0) and the checkerboard field (bits 1-2), as an exact float */
-    uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
-    imageStore(prev_bary, p, vec4(imageLoad(img_vis_bary, p).xy, was_sample + 2.0 * float(field),
-                                  oct_encode(vis.x == TND_VIS_NONE ? vec3(0, 0, 1) : n)));
     vec3 em = imageLoad(img_emission, p).rgb;
     if (vis.x == TND_VIS_NONE) {
         imageStore(out_img, p, vec4(finite3(em), 1.0));

@@ -27,14 +27,14 @@ void main()
         uvec2 vis = imageLoad(img_vis_id, p).xy;
         vec3 m = imageLoad(img_motion, p).xyz;
         pp = ivec2(floor(vec2(p) + P.jitter.xy + m.xy - P.jitter.zw + 0.5));
-        if (vis.x != TND_VIS_NONE && inside(pp) && imageLoad(prev_vis, pp).x == vis.x) {
-            uint pz = uint(imageLoad(prev_bary, pp).z); /* bit 0 was a sample, bits 1-2 field */
-            vec4 g = imageLoad(prev_gb, pp);
+        uvec4 g = inside(pp) ? imageLoad(prev_geo, pp) : uvec4(TND_VIS_NONE, 0u, 0u, 0u);
+        if (vis.x != TND_VIS_NONE && g.x == vis.x) {
             float depth = imageLoad(img_depth, p).x;
             uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
-            if ((pz & 1u) == 0u && (pz >> 1u) == field &&
-                abs(g.x - (depth + m.z)) <= 0.1 * depth &&
-                dot(g.yzw, imageLoad(img_geo_normal, p).xyz) >= 0.9) {
+            /* g.z: bits 24-25 the field, bit 26 was last frame's sample */
+            if (((g.z >> 24u) & 7u) == field &&
+                abs(uintBitsToFloat(g.y) - (depth + m.z)) <= 0.1 * depth &&
+                dot(oct_unpack12(g.z), imageLoad(img_geo_normal, p).xyz) >= 0.9) {
                 vec4 pl = imageLoad(prev_lum, pp);
                 float l = pl.x + pl.y;
                 score = l > 0.0 ? l : 0.0; /* NaN: not a candidate */
@@ -66,11 +66,11 @@ void main()
                 ivec2 best_p = tile_pixel(best_k);
                 ivec2 best_pp = ivec2(s_target[best_k] & 0xffffu, s_target[best_k] >> 16u);
                 vec4 pl = imageLoad(prev_lum, best_pp);
-                uvec2 pv = imageLoad(prev_vis, best_pp).xy;
-                vec2 pb = imageLoad(prev_bary, best_pp).xy;
+                uint inst = imageLoad(prev_geo, best_pp).x;
+                uvec4 ps = imageLoad(prev_surf, best_pp); /* primitive, barycentrics */
                 smp.a = uvec4(uint(best_p.y) * P.size.x + uint(best_p.x), floatBitsToUint(pl.z),
-                              floatBitsToUint(pl.w), pv.x);
-                smp.b = uvec4(pv.y, floatBitsToUint(pb.x), floatBitsToUint(pb.y), 1u);
+                              floatBitsToUint(pl.w), inst);
+                smp.b = uvec4(ps.x, ps.y, ps.z, 1u);
                 gout = vec4(0.0, 0.0, pl.x, pl.y);
             }
             samples[uint(s.y * gs.x + s.x)] = smp;

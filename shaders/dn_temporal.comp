@@ -48,18 +48,17 @@ void main()
                 ivec2 q = p0 + ivec2(i, j);
                 if (!inside(q))
                     continue;
-                if (imageLoad(prev_vis, q).x != vis.x ||
-                    (uint(imageLoad(prev_bary, q).z) >> 1u) != field) /* the same field */
-                    continue;
-                vec4 g = imageLoad(prev_gb, q);
-                if (abs(g.x - (depth + motion.z)) > 0.1 * depth || dot(g.yzw, gn) < 0.9)
+                uvec4 g = imageLoad(prev_geo, q); /* the previous surface in one texel */
+                if (g.x != vis.x || ((g.z >> 24u) & 3u) != field || /* the same field */
+                    abs(uintBitsToFloat(g.y) - (depth + motion.z)) > 0.1 * depth ||
+                    dot(oct_unpack12(g.z), gn) < 0.9)
                     continue;
                 float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
                 h_hf += w * imageLoad(hist_hf[prev], q);
                 h_mom += w * imageLoad(hist_mom[prev], q);
                 h_sh += w * imageLoad(hist_lf_sh[prev], q);
                 h_cocg += w * imageLoad(hist_lf_cocg[prev], q).xy;
-                vec3 n_prev = oct_decode(imageLoad(prev_bary, q).w);
+                vec3 n_prev = oct_unpack12(g.w);
                 float ws = shininess > 0.0 ? w * pow(max(dot(n, n_prev), 0.0), shininess) : w;
                 h_spec += ws * imageLoad(hist_spec[prev], q);
                 wsum += w;
