@@ -440,13 +440,17 @@ static void test_gradient_samples_reproduce_static(void)
     tnd_frame f0 = {0}, f1 = {0};
     uint32_t *grads = NULL;
     femb_gradient_sample *fg = NULL;
+    uint8_t *was = NULL, *now = NULL; /* last frame's and this frame's sample pixels */
     REQUIRE_OK(rig_open(vk, &r, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
     REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_ASVGF}, &dn));
     uint32_t cap = dn_gradient_capacity(dn);
     grads = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *grads);
     fg = malloc((size_t)cap * sizeof *fg);
     REQUIRE(grads && fg, "out of memory");
-    uint32_t checked = 0, bad = 0;
+    uint32_t checked = 0, bad = 0, bad_rule = 0, missed = 0;
+    was = calloc((size_t)W * H, 1);
+    now = calloc((size_t)W * H, 1);
+    REQUIRE(was && now, "out of memory");
     for (uint32_t i = 0; i < 4; i++) {
         dn_frame df = dn_frame_for_camera(r.st.camera.proj, H, i, i == 0);
         tnd_frame_destroy(&f0);
@@ -464,6 +468,68 @@ static void test_gradient_samples_reproduce_static(void)
             CHECK(fg[k].rng_frame == i - 1 && fg[k].rng_pixel < W * H,
                   "sample %u: key (%u, %u) is not frame %u's", k, fg[k].rng_frame, fg[k].rng_pixel,
                   i - 1);
+        /* the selection rule, recomputed here (static scene: no motion): per 3x3 stratum at most
+         * one sample; among the stratum's pixels whose reprojection (the jitter difference,
+         * rounded) sees the same instance at a depth within 10% with a geometric normal within
+         * 25 degrees, and was not last frame's sample,
+         * the one with the brightest previous hf + spec luminance (the first in row order on
+         * ties); none only where every candidate is black */
+        if (i > 0) {
+            memset(now, 0, (size_t)W * H);
+            int gw = (W + 2) / 3, gh = (H + 2) / 3;
+            int32_t *pick = malloc((size_t)gw * gh * sizeof *pick);
+            REQUIRE(pick, "out of memory");
+            for (int k = 0; k < gw * gh; k++)
+                pick[k] = -1;
+            for (uint32_t k = 0; k < n; k++) {
+                int x = (int)(fg[k].pixel % W), y = (int)(fg[k].pixel / W);
+                int *slot = &pick[(y / 3) * gw + x / 3];
+                bad_rule += *slot >= 0; /* two samples in one stratum */
+                *slot = (int)fg[k].pixel;
+                now[fg[k].pixel] = 1;
+            }
+            const uint32_t *vis1 = tnd_frame_u(&f1, TND_CT_VIS_ID), *vis0 = tnd_frame_u(&f0, TND_CT_VIS_ID);
+            const float *hf0 = tnd_frame_f(&f0, TND_CT_HF), *sp0 = tnd_frame_f(&f0, TND_CT_SPEC);
+            const float *gn0 = tnd_frame_f(&f0, TND_CT_GEO_NORMAL), *gn1 = tnd_frame_f(&f1, TND_CT_GEO_NORMAL);
+            const float *dp0 = tnd_frame_f(&f0, TND_CT_DEPTH), *dp1 = tnd_frame_f(&f1, TND_CT_DEPTH);
+            for (int sy = 0; sy < gh; sy++)
+                for (int sx = 0; sx < gw; sx++) {
+                    float best = 0.0f;
+                    int best_q = -1;
+                    for (int j = 0; j < 3; j++)
+                        for (int k = 0; k < 3; k++) {
+                            int x = sx * 3 + k, y = sy * 3 + j;
+                            if (x >= W || y >= H || vis1[2 * (y * W + x)] == TND_VIS_NONE)
+                                continue;
+                            int px = (int)floorf((float)x + df.jitter[0] - df.prev_jitter[0] + 0.5f);
+                            int py = (int)floorf((float)y + df.jitter[1] - df.prev_jitter[1] + 0.5f);
+                            if (px < 0 || py < 0 || px >= W || py >= H)
+                                continue;
+                            int pq = py * W + px, q = y * W + x;
+                            const float *g0 = gn0 + 3 * pq, *g1 = gn1 + 3 * q;
+                            if (vis0[2 * pq] != vis1[2 * q] || was[pq] ||
+                                fabsf(dp0[pq] - dp1[q]) > 0.1f * dp1[q] ||
+                                g0[0] * g1[0] + g0[1] * g1[1] + g0[2] * g1[2] < 0.9f)
+                                continue;
+                            const float *a = hf0 + 3 * pq, *b = sp0 + 3 * pq;
+                            float l = 0.2126f * a[0] + 0.7152f * a[1] + 0.0722f * a[2] +
+                                      0.2126f * b[0] + 0.7152f * b[1] + 0.0722f * b[2];
+                            if (l > best * (1.0f + 1e-5f)) /* beyond float rounding */
+                                best = l, best_q = y * W + x;
+                            else if (l >= best * (1.0f - 1e-5f) && best_q >= 0)
+                                best_q = -2; /* a near tie: either pick is right */
+                        }
+                    int got = pick[sy * gw + sx];
+                    if (best_q == -1 && got >= 0)
+                        bad_rule++; /* a sample where nothing qualifies */
+                    else if (best_q >= 0 && got != best_q)
+                        bad_rule++, missed += got < 0;
+                }
+            free(pick);
+            memcpy(was, now, (size_t)W * H);
+        } else
+            for (uint32_t k = 0; k < n; k++)
+                was[fg[k].pixel] = 1;
         REQUIRE_OK(femb_shade_gradients(r.fe, &(femb_params){.bounces = 2}, fg, n, &f1));
         for (uint32_t k = 0; k < n; k++) {
             uint32_t q = fg[k].pixel, pq = fg[k].rng_pixel;
@@ -486,7 +552,12 @@ static void test_gradient_samples_reproduce_static(void)
     CHECK(checked >= cap, "too few samples on a static scene: %u over 3 frames of %u strata",
           checked, cap);
     CHECK(bad == 0, "%u re-shaded values differ from the previous frame's", bad);
+    printf("     selection rule recomputed on the CPU: %u strata differ (%u without a sample)\n",
+           bad_rule, missed);
+    CHECK(bad_rule == 0, "%u strata where the GPU's pick breaks the selection rule", bad_rule);
 cleanup:
+    free(was);
+    free(now);
     free(grads);
     free(fg);
     tnd_frame_destroy(&f0);
