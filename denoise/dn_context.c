@@ -42,7 +42,7 @@ struct dn_context {
     VkPipelineLayout layout;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
-    VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous, lf;
+    VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous, lf, lf_down;
     tnd_timer timer, select_timer, fine; /* fine: per dispatch (desc.dispatch_timing) */
     double select_ms; /* GPU time of the last selection */
     double fine_ms[TND_TIMER_MAX_PASSES];
@@ -80,9 +80,9 @@ void dn_destroy(dn_context *c)
     tnd_timer_destroy(vk, &c->timer);
     tnd_timer_destroy(vk, &c->select_timer);
     tnd_timer_destroy(vk, &c->fine);
-    VkPipeline pipes[7] = {c->temporal,   c->atrous,      c->composite, c->grad_select,
-                           c->grad_image, c->grad_atrous, c->lf};
-    for (int i = 0; i < 7; i++)
+    VkPipeline pipes[8] = {c->temporal,   c->atrous,      c->composite, c->grad_select,
+                           c->grad_image, c->grad_atrous, c->lf,        c->lf_down};
+    for (int i = 0; i < 8; i++)
         if (pipes[i])
             vkDestroyPipeline(vk->device, pipes[i], NULL);
     if (c->pool)
@@ -153,17 +153,17 @@ static tnd_result create_pipelines(dn_context *c)
     TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, c->sets));
     bool packed = c->desc.precision == TND_PRECISION_PACKED;
 #define DN_PICK(name) (packed ? TND_SHADER_##name##_packed : TND_SHADER_##name##_f32)
-    const tnd_shader ids[7] = {DN_PICK(dn_temporal),   DN_PICK(dn_atrous),
+    const tnd_shader ids[8] = {DN_PICK(dn_temporal),   DN_PICK(dn_atrous),
                                DN_PICK(dn_composite),  DN_PICK(dn_grad_select),
                                DN_PICK(dn_grad_image), DN_PICK(dn_grad_atrous),
-                               DN_PICK(dn_lf)};
+                               DN_PICK(dn_lf),         DN_PICK(dn_lf_down)};
 #undef DN_PICK
-    VkPipeline *out[7] = {&c->temporal,   &c->atrous,      &c->composite, &c->grad_select,
-                          &c->grad_image, &c->grad_atrous, &c->lf};
-    const char *names[7] = {"denoise.temporal",    "denoise.atrous",     "denoise.composite",
+    VkPipeline *out[8] = {&c->temporal,   &c->atrous,      &c->composite, &c->grad_select,
+                          &c->grad_image, &c->grad_atrous, &c->lf,        &c->lf_down};
+    const char *names[8] = {"denoise.temporal",    "denoise.atrous",     "denoise.composite",
                             "denoise.grad_select", "denoise.grad_image", "denoise.grad_atrous",
-                            "denoise.lf"};
-    for (int i = 0; i < 7; i++) {
+                            "denoise.lf",          "denoise.lf_down"};
+    for (int i = 0; i < 8; i++) {
         size_t bytes;
         const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
         TND_TRY(tnd_compute_pipeline_create(vk,
@@ -345,7 +345,7 @@ static const char *dispatch_name(const char *pass, uint32_t iteration)
         {"temporal", "temporal", "temporal", "temporal", "temporal", "temporal", "temporal", "temporal"},
         {"atrous.0", "atrous.1", "atrous.2", "atrous.3", "atrous.4", "atrous.5", "atrous.6", "atrous.7+"},
         {"lf.downsample", "lf.deflicker", "lf.atrous0", "lf.atrous1", "lf.atrous2", "lf.atrous3",
-         "lf.atrous4", "lf.atrous5+"}, /* k = 0 (the downsample) runs in the temporal pass */
+         "lf.atrous4", "lf.atrous5+"},
         {"gradient.blur0", "gradient.blur1", "gradient.blur2", "gradient.blur3", "gradient.blur4",
          "gradient.blur5", "gradient.blur6", "gradient.blur7+"},
     };
@@ -433,11 +433,13 @@ static void dispatch_third(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, 
                   (c->grad_w + 7) / 8, (c->grad_h + 7) / 8);
 }
 
-/* step k >= 1 of the lf filter: the deflicker, the a-trous iterations (k = 0, the downsample, is
- * the temporal pass's) */
+/* step k of the lf filter: the downsample (k = 0), the deflicker, the a-trous iterations */
 static void dispatch_lf(dn_context *c, VkCommandBuffer cmd, uint32_t k)
 {
-    dispatch_third(c, cmd, c->lf, "lf", k);
+    if (k == 0)
+        dispatch_tiles(c, cmd, c->lf_down, "lf.downsample");
+    else
+        dispatch_third(c, cmd, c->lf, "lf", k);
 }
 
 /* The selection pass; `host`: also copy the list to the read-back buffer. */
@@ -544,16 +546,16 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     }
     if (d->mode != DN_MODE_OFF) {
         s_t = tnd_timer_begin(cmd, &c->timer, "denoise.temporal");
-        dispatch_tiles(c, cmd, c->temporal, "temporal"); /* and the lf downsample */
+        dispatch(c, cmd, c->temporal, "temporal", slot, 0);
         tnd_timer_end(cmd, &c->timer, s_t);
         /* the lf filter (1/3 res, latency-bound, few threads) and the a-trous (full res) do not
          * depend on each other: their dispatches are paired without a barrier between them, so
          * the lf passes run beside the a-trous ones. Per-dispatch timing runs them in turn. */
-        uint32_t n_lf = d->iters_lf + 1; /* deflicker, a-trous */
+        uint32_t n_lf = d->iters_lf + 2; /* downsample, deflicker, a-trous */
         if (d->dispatch_timing) {
             s_l = tnd_timer_begin(cmd, &c->timer, "denoise.lf");
             for (uint32_t k = 0; k < n_lf; k++)
-                dispatch_lf(c, cmd, k + 1);
+                dispatch_lf(c, cmd, k);
             tnd_timer_end(cmd, &c->timer, s_l);
             s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
             for (uint32_t i = 0; i < iters; i++)
@@ -564,7 +566,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
             for (uint32_t k = 0; k < n_lf || k < iters; k++) {
                 c->batching = true;
                 if (k < n_lf)
-                    dispatch_lf(c, cmd, k + 1);
+                    dispatch_lf(c, cmd, k);
                 if (k < iters)
                     dispatch(c, cmd, c->atrous, "atrous", slot, k);
                 c->batching = false;
@@ -641,10 +643,10 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
                            CT(PATH) + 16 + 4 * 16 + 8 /* previous surface, histories */
                            + 4 * 16 + 8 /* histories written */
                            + CT(POSITION) + 16 + 8 /* the a-trous input and filter geometry */) +
-                      (asvgf ? n3 * 16 : 0) +
-                      n3 * (3 * 16 + 8); /* the lf downsample: anchors, SH, CoCg written */
-        /* deflicker and a-trous at 1/3 res */
-        t->lf = n3 * (double)(d->iters_lf + 1) * (3 * 16 + 8 + 16 + 8);
+                      (asvgf ? n3 * 16 : 0);
+        /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
+        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 16 + 8) +
+                n3 * (3 * 16 + 8 + (double)(d->iters_lf + 1) * (3 * 16 + 8 + 16 + 8));
         /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
          * geometry (8) of each tap, the centre's position and depth; the texel written;
          * the hf feedback once */

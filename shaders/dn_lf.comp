@@ -2,9 +2,8 @@
  * choice: lf is smooth and sparse, so a 3x3 stratum loses nothing a full-resolution filter would
  * keep, and every pass touches 1/9 of the pixels). One thread per stratum; push constant
  * iteration k:
- * - k = 0, downsample (done by the temporal pass, dn_temporal.comp, in shared memory): the
- *   stratum's anchor is its centre pixel (the first surface pixel of the stratum when the
- *   centre sees the sky); this frame's lf history of the 9 pixels is averaged
+ * - k = 0, downsample (dn_lf_down.comp, one thread per pixel): the stratum's anchor is its centre pixel (the first surface pixel of the
+ *   stratum when the centre sees the sky); this frame's lf history of the 9 pixels is averaged
  *   with weights max(n . n_anchor, 0)^8 (geometric normals) times the tangent-plane test of the
  *   a-trous passes; the anchor's position and normal go to lf_geo for the later passes and the
  *   upsample. Writes slot 0.
@@ -37,7 +36,7 @@ void main()
     ivec2 gs = grad_size();
     if (s.x >= gs.x || s.y >= gs.y)
         return;
-    uint k = pc.iteration; /* k >= 1: the downsample is the temporal pass's */
+    uint k = pc.iteration; /* k = 0, the downsample, is dn_lf_down.comp */
     uint src = (k - 1u) & 1u, dst = k & 1u;
     vec4 c_sh = imageLoad(at_lf_sh[src], s), c_cocg = imageLoad(at_lf_cocg[src], s);
     if (!lf_valid(s)) {

@@ -10,26 +10,16 @@
  * the spec history restarts. Writes this frame's history slot and the first a-trous input
  * (colour + variance). Where the history is shorter than 4 frames, the variance comes from a
  * 3x3 spatial estimate. The a-trous input packs colours, variance and the
- * filter geometry (DN_B_AT, DN_B_FGEO). Runs in tiles of 8x4 strata, one thread per pixel, and
- * also does the lf filter's downsample onto the stratum anchors through shared memory (the
- * separate pass re-read the histories and the G-buffer just written). */
+ * filter geometry (DN_B_AT, DN_B_FGEO). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#define DN_STRATUM_TILES 1
 #include "dn_common.glsl"
 
-/* What the lf downsample needs of each pixel of the tile. */
-shared bool s_valid[DN_TILE_N];
-shared vec4 s_pos[DN_TILE_N];   /* xyz position, w depth */
-shared vec3 s_gn[DN_TILE_N];    /* geometric normal */
-shared vec4 s_sh[DN_TILE_N];    /* this frame's lf history, then weighted */
-shared vec3 s_cw[DN_TILE_N];    /* CoCg history, then weighted, and the weight */
-
-/* The temporal accumulation of pixel p (inside the image); returns this frame's lf history and
- * the pixel's geometry for the downsample. */
-void temporal(ivec2 p, out bool surface, out vec3 pos_out, out vec3 gn_out, out float depth_out,
-              out vec4 sh_out, out vec2 cocg_out)
+void main()
 {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (!inside(p))
+        return;
     uint cur = pc.slot, prev = 1u - pc.slot;
     uvec2 vis = imageLoad(img_vis_id, p).xy;
     vec3 hf = finite3(load_hf(p)), spec = finite3(load_spec(p));
@@ -135,90 +125,7 @@ void temporal(ivec2 p, out bool surface, out vec3 pos_out, out vec3 gn_out, out 
     imageStore(hist_lf_sh[cur], p, out_sh);
     imageStore(hist_lf_cocg[cur], p, vec4(out_cocg, 0.0, 0.0));
     imageStore(hist_spec[cur], p, out_spec);
-    vec3 pos = imageLoad(img_position, p).xyz;
-    uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, pos, n, rough, field);
+    uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n, rough, field);
     imageStore(at[0], p, at_pack(out_hf.rgb, out_spec.rgb, variance));
     imageStore(fgeo, p, uvec4(g, 0u, 0u));
-    surface = vis.x != TND_VIS_NONE;
-    pos_out = pos;
-    gn_out = gn;
-    depth_out = depth;
-    sh_out = out_sh;
-    cocg_out = out_cocg;
-}
-
-/* tile-local index of stratum k's lf anchor: its centre pixel, or the first surface pixel in
- * row order when the centre sees the sky; ~0u when the stratum sees only sky */
-uint find_anchor(uint k)
-{
-    if (s_valid[tile_pixel_index(k, 1, 1)])
-        return tile_pixel_index(k, 1, 1);
-    for (int j = 0; j < DN_STRATUM; j++)
-        for (int i = 0; i < DN_STRATUM; i++)
-            if (s_valid[tile_pixel_index(k, i, j)])
-                return tile_pixel_index(k, i, j);
-    return ~0u;
-}
-
-void main()
-{
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    uint li = gl_LocalInvocationIndex;
-    bool surface = false;
-    vec3 pos = vec3(0.0), gn = vec3(0.0);
-    float depth = 0.0;
-    vec4 sh = vec4(0.0);
-    vec2 cocg = vec2(0.0);
-    if (inside(p))
-        temporal(p, surface, pos, gn, depth, sh, cocg);
-    /* the lf filter's downsample onto the stratum anchors (dn_lf.comp's step 0), from the
-     * histories just written: this frame's lf history of the 9 pixels averaged with weights
-     * max(n . n_anchor, 0)^8 (geometric normals) x the tangent-plane test of the a-trous */
-    s_valid[li] = surface;
-    s_pos[li] = vec4(pos, depth);
-    s_gn[li] = gn;
-    barrier();
-    uint anchor = find_anchor(tile_stratum_index());
-    vec4 wsh = vec4(0.0);
-    vec3 wcw = vec3(0.0);
-    if (surface) {
-        vec3 na = s_gn[anchor], pa = s_pos[anchor].xyz;
-        float w = 1.0;
-        if (anchor != li) {
-            float footprint = max(s_pos[anchor].w * P.misc.x, 1e-6);
-            float plane = abs(dot(na, pos - pa));
-            float nn = max(dot(na, gn), 0.0);
-            w = exp(-plane / (P.weights.x * footprint)) * pow(nn, P.weights.w);
-        }
-        wsh = w * sh;
-        wcw = vec3(w * cocg, w);
-    }
-    s_sh[li] = wsh;
-    s_cw[li] = wcw;
-    barrier();
-    if (li >= DN_TILE_STRATA)
-        return;
-    ivec2 s = tile_stratum(li);
-    ivec2 gs = grad_size();
-    if (s.x >= gs.x || s.y >= gs.y)
-        return;
-    vec4 sum_sh = vec4(0.0);
-    vec3 sum_cw = vec3(0.0);
-    for (int j = 0; j < DN_STRATUM; j++)
-        for (int i = 0; i < DN_STRATUM; i++) {
-            sum_sh += s_sh[tile_pixel_index(li, i, j)];
-            sum_cw += s_cw[tile_pixel_index(li, i, j)];
-        }
-    uint a = find_anchor(li);
-    if (a != ~0u) {
-        imageStore(lf_geo[0], s, vec4(s_pos[a].xyz, 1.0));
-        imageStore(lf_geo[1], s, vec4(s_gn[a], s_pos[a].w));
-        imageStore(at_lf_sh[0], s, sum_sh / sum_cw.z);
-        imageStore(at_lf_cocg[0], s, vec4(sum_cw.xy / sum_cw.z, 0.0, 0.0));
-    } else { /* the whole stratum sees the sky */
-        imageStore(lf_geo[0], s, vec4(0.0));
-        imageStore(lf_geo[1], s, vec4(0.0));
-        imageStore(at_lf_sh[0], s, vec4(0.0));
-        imageStore(at_lf_cocg[0], s, vec4(0.0));
-    }
 }

@@ -51,6 +51,8 @@
     X(post_tonemap,        "post_tonemap.comp",   "TND_PACKED=0") \
     X(dn_lf_f32,           "dn_lf.comp",          "TND_PACKED=0") \
     X(dn_lf_packed,        "dn_lf.comp",          "TND_PACKED=1") \
+    X(dn_lf_down_f32,      "dn_lf_down.comp",     "TND_PACKED=0") \
+    X(dn_lf_down_packed,   "dn_lf_down.comp",     "TND_PACKED=1") \
     X(pt_rchit,            "pt.rchit",            "") \
     X(pt_rmiss,            "pt.rmiss",            "") \
     X(pt_shadow_rmiss,     "pt_shadow.rmiss",     "")

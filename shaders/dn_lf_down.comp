@@ -1,0 +1,84 @@
+/* dn_lf_down.comp: the first step of the lf filter (dn_lf.comp, k = 0): the downsample onto the
+ * stratum anchors. The anchor is the stratum's centre pixel (the first surface pixel in row
+ * order when the centre sees the sky); this frame's lf history of the 9 pixels is averaged with
+ * weights max(n . n_anchor, 0)^8 (geometric normals) times the tangent-plane test of the a-trous
+ * passes; the anchor's position and normal go to lf_geo for the later passes and the upsample.
+ * Writes slot 0. One thread per pixel (tiles of strata; the anchor is found and the weighted
+ * values summed in row order through shared memory). */
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#define DN_STRATUM_TILES 1
+#include "dn_common.glsl"
+
+shared bool s_valid[DN_TILE_N];
+shared vec4 s_sh[DN_TILE_N]; /* w x lf SH of the pixel */
+shared vec3 s_cw[DN_TILE_N]; /* w x CoCg, w */
+shared vec4 s_geo[DN_TILE_STRATA][2]; /* the anchor's lf_geo texels */
+
+/* tile-local index of stratum k's anchor, ~0u when the stratum sees only sky */
+uint find_anchor(uint k)
+{
+    if (s_valid[tile_pixel_index(k, 1, 1)])
+        return tile_pixel_index(k, 1, 1);
+    for (int j = 0; j < DN_STRATUM; j++)
+        for (int i = 0; i < DN_STRATUM; i++)
+            if (s_valid[tile_pixel_index(k, i, j)])
+                return tile_pixel_index(k, i, j);
+    return ~0u;
+}
+
+void main()
+{
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    uint li = gl_LocalInvocationIndex, k = tile_stratum_index();
+    bool valid = inside(p) && imageLoad(img_vis_id, p).x != TND_VIS_NONE;
+    s_valid[li] = valid;
+    barrier();
+    uint anchor = find_anchor(k);
+    vec4 sh = vec4(0.0);
+    vec3 cw = vec3(0.0);
+    if (valid) {
+        ivec2 a = tile_pixel(anchor);
+        vec3 n = imageLoad(img_geo_normal, a).xyz, pos = imageLoad(img_position, a).xyz;
+        float depth = imageLoad(img_depth, a).x;
+        float w = 1.0;
+        if (anchor != li) {
+            float footprint = max(depth * P.misc.x, 1e-6);
+            float plane = abs(dot(n, imageLoad(img_position, p).xyz - pos));
+            float nn = max(dot(n, imageLoad(img_geo_normal, p).xyz), 0.0);
+            w = exp(-plane / (P.weights.x * footprint)) * pow(nn, P.weights.w);
+        } else {
+            s_geo[k][0] = vec4(pos, 1.0);
+            s_geo[k][1] = vec4(n, depth);
+        }
+        sh = w * imageLoad(hist_lf_sh[pc.slot], p);
+        cw = vec3(w * imageLoad(hist_lf_cocg[pc.slot], p).xy, w);
+    }
+    s_sh[li] = sh;
+    s_cw[li] = cw;
+    barrier();
+    if (li >= DN_TILE_STRATA)
+        return;
+    ivec2 s = tile_stratum(li);
+    ivec2 gs = grad_size();
+    if (s.x >= gs.x || s.y >= gs.y)
+        return;
+    vec4 sum_sh = vec4(0.0);
+    vec3 sum_cw = vec3(0.0);
+    for (int j = 0; j < DN_STRATUM; j++)
+        for (int i = 0; i < DN_STRATUM; i++) {
+            sum_sh += s_sh[tile_pixel_index(li, i, j)];
+            sum_cw += s_cw[tile_pixel_index(li, i, j)];
+        }
+    if (find_anchor(li) != ~0u) {
+        imageStore(lf_geo[0], s, s_geo[li][0]);
+        imageStore(lf_geo[1], s, s_geo[li][1]);
+        imageStore(at_lf_sh[0], s, sum_sh / sum_cw.z);
+        imageStore(at_lf_cocg[0], s, vec4(sum_cw.xy / sum_cw.z, 0.0, 0.0));
+    } else { /* the whole stratum sees the sky */
+        imageStore(lf_geo[0], s, vec4(0.0));
+        imageStore(lf_geo[1], s, vec4(0.0));
+        imageStore(at_lf_sh[0], s, vec4(0.0));
+        imageStore(at_lf_cocg[0], s, vec4(0.0));
+    }
+}
