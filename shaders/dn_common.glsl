@@ -69,36 +69,32 @@ vec3 load_hf(ivec2 p) { return imageLoad(img_hf, p).rgb; }
 vec3 load_spec(ivec2 p) { return imageLoad(img_spec, p).rgb; }
 #endif
 
-/* Octahedral unit vectors (Cigolle et al. 2014), 12 bits per axis in the low 24 bits. */
-uint oct_pack12(vec3 n)
+/* Octahedral unit vectors (Cigolle et al. 2014), `bits` per axis in the low 2 x bits. */
+uint oct_pack(vec3 n, uint bits)
 {
     n /= abs(n.x) + abs(n.y) + abs(n.z);
     vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
-    uvec2 q = uvec2(round(clamp(e * 0.5 + 0.5, 0.0, 1.0) * 4095.0));
-    return q.x | q.y << 12u;
+    uvec2 q = uvec2(round(clamp(e * 0.5 + 0.5, 0.0, 1.0) * float((1u << bits) - 1u)));
+    return q.x | q.y << bits;
 }
-vec3 oct_unpack12(uint v)
+vec3 oct_unpack(uint v, uint bits)
 {
-    vec2 e = vec2(v & 4095u, (v >> 12u) & 4095u) * (2.0 / 4095.0) - 1.0;
+    uint m = (1u << bits) - 1u;
+    vec2 e = vec2(v & m, (v >> bits) & m) * (2.0 / float(m)) - 1.0;
     vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
     float t = max(-n.z, 0.0);
     n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
     return normalize(n);
 }
+uint oct_pack12(vec3 n) { return oct_pack(n, 12u); }
+vec3 oct_unpack12(uint v) { return oct_unpack(v, 12u); }
 
 /* The a-trous passes' filter geometry (DN_B_FGEO): 8 bytes per pixel instead of five contract
  * images per tap. x: the offset of the pixel's tangent plane, dot(n, pos - origin) with the
  * stored (quantised) normal n and origin fgeo_origin() (a point of this frame's scene, so that
  * the offsets stay small and exact far from the world origin); y: the normal (octahedral,
  * 11 + 11 bits), roughness (8 bits) and checkerboard field (2 bits). */
-vec3 fgeo_normal(uint w)
-{
-    vec2 e = vec2(w & 2047u, (w >> 11u) & 2047u) * (2.0 / 2047.0) - 1.0;
-    vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
-    float t = max(-n.z, 0.0);
-    n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
-    return normalize(n);
-}
+vec3 fgeo_normal(uint w) { return oct_unpack(w, 11u); }
 vec3 fgeo_origin()
 {
     ivec2 c = ivec2(P.size.xy) / 2;
@@ -108,11 +104,8 @@ uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
 {
     if (!surface)
         return uvec2(DN_FGEO_NONE, 0u);
-    n /= abs(n.x) + abs(n.y) + abs(n.z);
-    vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
-    uvec2 q = uvec2(round(clamp(e * 0.5 + 0.5, 0.0, 1.0) * 2047.0));
     uint r = uint(round(clamp(rough, 0.0, 1.0) * 255.0));
-    uint w = q.x | q.y << 11u | r << 22u | (field & 3u) << 30u;
+    uint w = oct_pack(n, 11u) | r << 22u | (field & 3u) << 30u;
     float d = dot(fgeo_normal(w), pos - fgeo_origin());
     return uvec2(tnd_nonfinite(d) ? DN_FGEO_NONE : floatBitsToUint(d), w);
 }
