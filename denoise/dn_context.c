@@ -48,6 +48,7 @@ struct dn_context {
     double fine_ms[TND_TIMER_MAX_PASSES];
     uint32_t fine_count;
     bool batching; /* dispatches recorded now are independent: no barrier after each */
+    bool fine_on;  /* recording dn_run with desc.dispatch_timing: time each dispatch */
     bool have_history;
 };
 
@@ -338,19 +339,19 @@ fail:
     return res;
 }
 
-/* Names of the dispatches for dn_dispatch_times: pass name and iteration. */
+/* Names of the dispatches for dn_dispatch_times: the pass's, with the iteration for the
+ * iterated ones (names that outlive the context). */
 static const char *dispatch_name(const char *pass, uint32_t iteration)
 {
     static const char *const names[][8] = {
-        {"temporal", "temporal", "temporal", "temporal", "temporal", "temporal", "temporal", "temporal"},
         {"atrous.0", "atrous.1", "atrous.2", "atrous.3", "atrous.4", "atrous.5", "atrous.6", "atrous.7+"},
         {"lf.downsample", "lf.deflicker", "lf.atrous0", "lf.atrous1", "lf.atrous2", "lf.atrous3",
          "lf.atrous4", "lf.atrous5+"},
         {"gradient.blur0", "gradient.blur1", "gradient.blur2", "gradient.blur3", "gradient.blur4",
          "gradient.blur5", "gradient.blur6", "gradient.blur7+"},
     };
-    static const char *const passes[] = {"temporal", "atrous", "lf", "gradient.blur"};
-    for (int k = 0; k < 4; k++)
+    static const char *const passes[] = {"atrous", "lf", "gradient.blur"};
+    for (int k = 0; k < 3; k++)
         if (strcmp(pass, passes[k]) == 0)
             return names[k][iteration < 7 ? iteration : 7];
     return pass;
@@ -359,8 +360,7 @@ static const char *dispatch_name(const char *pass, uint32_t iteration)
 static void dispatch_grid(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name,
                           const uint32_t pc[2], uint32_t groups_x, uint32_t groups_y)
 {
-    int slot = c->desc.dispatch_timing ? tnd_timer_begin(cmd, &c->fine, dispatch_name(name, pc[1]))
-                                       : -1;
+    int slot = c->fine_on ? tnd_timer_begin(cmd, &c->fine, dispatch_name(name, pc[1])) : -1;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
     vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, 2 * sizeof(uint32_t), pc);
     vkCmdDispatch(cmd, groups_x, groups_y, 1);
@@ -377,7 +377,7 @@ static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const 
                   (c->height + 7) / 8);
 }
 
-/* full-res a-trous passes run: the most hf or spec asks for (the other copies through) */
+/* full-res a-trous passes run: the most hf or spec asks for (the other is carried through) */
 static uint32_t atrous_iters(const dn_desc *d)
 {
     return d->iters_hf > d->iters_spec ? d->iters_hf : d->iters_spec;
@@ -534,6 +534,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     tnd_timer_reset(cmd, &c->timer);
     if (d->dispatch_timing)
         tnd_timer_reset(cmd, &c->fine);
+    c->fine_on = d->dispatch_timing;
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
     int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
@@ -578,6 +579,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     int s_c = tnd_timer_begin(cmd, &c->timer, "denoise.composite");
     dispatch(c, cmd, c->composite, "composite", slot, 0);
     tnd_timer_end(cmd, &c->timer, s_c);
+    c->fine_on = false;
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
     if (t) {
         double ms[5] = {0, 0, 0, 0, 0};
