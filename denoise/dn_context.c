@@ -365,7 +365,7 @@ static void dispatch_grid(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, c
     vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, 2 * sizeof(uint32_t), pc);
     vkCmdDispatch(cmd, groups_x, groups_y, 1);
     if (!c->batching)
-        tnd_cmd_barrier(cmd);
+        tnd_cmd_compute_barrier(cmd);
     if (slot >= 0)
         tnd_timer_end(cmd, &c->fine, slot);
 }
@@ -457,6 +457,7 @@ static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const d
     tnd_cmd_barrier(cmd);
     int s_s = tnd_timer_begin(cmd, &c->select_timer, "denoise.grad_select");
     dispatch_tiles(c, cmd, c->grad_select, "select");
+    tnd_cmd_barrier(cmd); /* for the copy and the front-end's passes that read the samples */
     tnd_timer_end(cmd, &c->select_timer, s_s);
     if (host) {
         vkCmdCopyBuffer(cmd, c->samples.buffer, c->samples_host.buffer, 1,
@@ -571,13 +572,14 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
                 if (k < iters)
                     dispatch(c, cmd, c->atrous, "atrous", slot, k);
                 c->batching = false;
-                tnd_cmd_barrier(cmd);
+                tnd_cmd_compute_barrier(cmd);
             }
             tnd_timer_end(cmd, &c->timer, s_a);
         }
     }
     int s_c = tnd_timer_begin(cmd, &c->timer, "denoise.composite");
     dispatch(c, cmd, c->composite, "composite", slot, 0);
+    tnd_cmd_barrier(cmd); /* the output is read by other passes (post chain, downloads) */
     tnd_timer_end(cmd, &c->timer, s_c);
     c->fine_on = false;
     TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
