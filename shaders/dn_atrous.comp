@@ -15,15 +15,39 @@
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
 
-/* The 8 taps around p, added to the sums. `interior`: every tap of this work group lies in the
- * image (true for all but the border groups; uniform per group), so the addresses need no
- * clamping and the taps no bounds test. */
-void add_taps(bool interior, ivec2 p, int step, uint src, vec3 n, vec3 pos, uint field,
-              float rough, float inv_sigma_z, float l, float inv_sigma_l, float spec_exp,
-              bool do_hf, bool filter_spec, inout vec3 s_hf, inout vec3 s_spec, inout float w_hf,
-              inout float w_spec, inout float var_acc)
+void main()
 {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (!inside(p))
+        return;
+    uint i = pc.iteration, src = i & 1u, dst = 1u - src;
+    int step = 1 << int(i);
+    /* a channel whose iterations are done is carried through unchanged */
+    bool do_hf = i < P.iters.x, do_spec = i < P.iters.z;
+    uvec4 c = imageLoad(at[src], p);
+    uvec2 g = imageLoad(fgeo, p).xy;
+    if (g.x == DN_FGEO_NONE) { /* no surface: carried through (for dumps) */
+        imageStore(at[dst], p, c);
+        return;
+    }
+    vec3 c_hf = at_hf(c), c_spec = at_spec(c);
+    float c_var = at_variance(c);
+    vec3 n = fgeo_normal(g.y), pos = imageLoad(img_position, p).xyz - fgeo_origin();
+    /* the two checkerboard fields of a split surface are filtered apart */
+    uint field = fgeo_field(g.y);
+    float rough = fgeo_roughness(g.y);
+    float footprint = max(imageLoad(img_depth, p).x * P.misc.x * float(step), 1e-6);
+    float inv_sigma_z = 1.0 / (P.weights.x * footprint);
+    float l = luma(c_hf);
+    float inv_sigma_l = 1.0 / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);
     const float LOG2E = 1.4426950408889634;
+    float a2 = max(rough * rough, 1e-3);
+    a2 *= a2;
+    float spec_exp = clamp(2.0 / a2 - 2.0, 8.0, P.misc.z);
+    bool filter_spec = do_spec && rough >= 0.05; /* mirror-like surfaces stay sharp */
+    /* the centre tap: every weight is h = 1 */
+    vec3 s_hf = c_hf, s_spec = c_spec;
+    float w_hf = 1.0, w_spec = 1.0, var_acc = c_var;
     const float k[2] = float[2](0.5, 0.25); /* edge, corner */
     ivec2 last = ivec2(P.size.xy) - 1;
     for (int y = -1; y <= 1; y++)
@@ -31,9 +55,8 @@ void add_taps(bool interior, ivec2 p, int step, uint src, vec3 n, vec3 pos, uint
             if (x == 0 && y == 0)
                 continue;
             ivec2 q = p + ivec2(x, y) * step;
-            bool in_image = interior || q == clamp(q, ivec2(0), last);
-            if (!interior)
-                q = clamp(q, ivec2(0), last); /* the loads are issued before the tests */
+            bool in_image = q == clamp(q, ivec2(0), last);
+            q = clamp(q, ivec2(0), last); /* the loads are issued before the tests */
             uvec4 t = imageLoad(at[src], q);
             uvec2 gq = imageLoad(fgeo, q).xy;
             if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field)
@@ -60,48 +83,6 @@ void add_taps(bool interior, ivec2 p, int step, uint src, vec3 n, vec3 pos, uint
                 w_spec += w;
             }
         }
-}
-
-void main()
-{
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    if (!inside(p))
-        return;
-    uint i = pc.iteration, src = i & 1u, dst = 1u - src;
-    int step = 1 << int(i);
-    /* a channel whose iterations are done is carried through unchanged */
-    bool do_hf = i < P.iters.x, do_spec = i < P.iters.z;
-    uvec4 c = imageLoad(at[src], p);
-    uvec2 g = imageLoad(fgeo, p).xy;
-    if (g.x == DN_FGEO_NONE) { /* no surface: carried through (for dumps) */
-        imageStore(at[dst], p, c);
-        return;
-    }
-    vec3 c_hf = at_hf(c), c_spec = at_spec(c);
-    float c_var = at_variance(c);
-    vec3 n = fgeo_normal(g.y), pos = imageLoad(img_position, p).xyz - fgeo_origin();
-    /* the two checkerboard fields of a split surface are filtered apart */
-    uint field = fgeo_field(g.y);
-    float rough = fgeo_roughness(g.y);
-    float footprint = max(imageLoad(img_depth, p).x * P.misc.x * float(step), 1e-6);
-    float inv_sigma_z = 1.0 / (P.weights.x * footprint);
-    float l = luma(c_hf);
-    float inv_sigma_l = 1.0 / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);
-    float a2 = max(rough * rough, 1e-3);
-    a2 *= a2;
-    float spec_exp = clamp(2.0 / a2 - 2.0, 8.0, P.misc.z);
-    bool filter_spec = do_spec && rough >= 0.05; /* mirror-like surfaces stay sharp */
-    /* the centre tap: every weight is h = 1 */
-    vec3 s_hf = c_hf, s_spec = c_spec;
-    float w_hf = 1.0, w_spec = 1.0, var_acc = c_var;
-    /* the group's taps span its 8x8 pixels +- step */
-    ivec2 g0 = ivec2(gl_WorkGroupID.xy) * 8 - step, g1 = ivec2(gl_WorkGroupID.xy) * 8 + 7 + step;
-    if (all(greaterThanEqual(g0, ivec2(0))) && all(lessThan(g1, ivec2(P.size.xy))))
-        add_taps(true, p, step, src, n, pos, field, rough, inv_sigma_z, l, inv_sigma_l, spec_exp,
-                 do_hf, filter_spec, s_hf, s_spec, w_hf, w_spec, var_acc);
-    else
-        add_taps(false, p, step, src, n, pos, field, rough, inv_sigma_z, l, inv_sigma_l, spec_exp,
-                 do_hf, filter_spec, s_hf, s_spec, w_hf, w_spec, var_acc);
     vec3 o_hf = s_hf / w_hf;
     float o_var = var_acc / (w_hf * w_hf);
     imageStore(at[dst], p, at_pack(do_hf ? o_hf : c_hf, filter_spec ? s_spec / w_spec : c_spec,
