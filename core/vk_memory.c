@@ -314,20 +314,24 @@ fail:
     return res;
 }
 
-void tnd_cmd_compute_barrier(VkCommandBuffer cmd)
+/* A global memory barrier: `write` accesses in `stage` before `read` and `write` ones there. */
+static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags stage, VkAccessFlags write,
+                           VkAccessFlags read)
 {
     VkMemoryBarrier mb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
-                          .srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT,
-                          .dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT};
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &mb, 0, NULL, 0, NULL);
+                          .srcAccessMask = write,
+                          .dstAccessMask = read | write};
+    vkCmdPipelineBarrier(cmd, stage, stage, 0, 1, &mb, 0, NULL, 0, NULL);
+}
+
+void tnd_cmd_compute_barrier(VkCommandBuffer cmd)
+{
+    memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                   VK_ACCESS_SHADER_READ_BIT);
 }
 
 void tnd_cmd_barrier(VkCommandBuffer cmd)
 {
-    VkMemoryBarrier mb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
-                          .srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT,
-                          .dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT};
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT,
-                         VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 1, &mb, 0, NULL, 0, NULL);
+    memory_barrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_MEMORY_WRITE_BIT,
+                   VK_ACCESS_MEMORY_READ_BIT);
 }
