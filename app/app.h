@@ -100,6 +100,12 @@ typedef struct app_region {
     double rel_sq, flip, grad_out, grad_ref;
     double lum_out, lum_ref; /* bias = lum_out / lum_ref - 1 (linear luminance) */
 } app_region;
+/* A region's figures from its sums, and its name ("mirror", "glass"). */
+typedef struct app_region_stats {
+    double relmse, flip, sharpness, bias;
+} app_region_stats;
+app_region_stats app_region_summary(const app_region *r);
+const char *app_region_name(int region);
 
 typedef struct app_eval_series {
     char name[64];

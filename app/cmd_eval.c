@@ -219,14 +219,12 @@ int cmd_eval(int argc, char **argv)
             for (uint32_t i = 0; i < e.nseries; i++)
                 for (int b = 0; b < APP_REGIONS; b++) {
                     const app_region *r = &e.series[i].regions[b];
+                    app_region_stats st = app_region_summary(r);
                     if (r->pixels)
                         printf("  %-28s %s: %llu pixels, relMSE %.4g, FLIP %.4f, sharpness %.3f, "
                                "bias %+.1f%%\n",
-                               e.series[i].name, b == APP_REGION_MIRROR ? "mirror" : "glass",
-                               (unsigned long long)r->pixels, r->rel_sq / (double)r->values,
-                               r->flip / (double)r->pixels,
-                               r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0,
-                               r->lum_ref > 0 ? 100.0 * (r->lum_out / r->lum_ref - 1.0) : 0.0);
+                               e.series[i].name, app_region_name(b), (unsigned long long)r->pixels,
+                               st.relmse, st.flip, st.sharpness, 100.0 * st.bias);
                 }
             printf("  -> %s/metrics.json, %s/metrics.csv%s%s%s\n", out, out,
                    report ? ", " : "", report ? report : "", report ? "/index.html" : "");

@@ -66,40 +66,26 @@ tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, bool noi
     return TND_OK;
 }
 
-/* One frame of a series (noisy: the capture composited) or of the reference (s NULL). */
-static tnd_result load_with(const app_eval *e, const app_eval_series *s, uint32_t frame,
-                            ev_image *img, uint64_t *nonfinite, const tnd_frame *cap);
-
+/* One frame of a series (noisy: the capture composited) or of the reference (s NULL). A noisy
+ * series whose captures are e->regions_from composites `cap` (that frame's capture, already read
+ * for the region masks; NULL: none) instead of reading it again. */
 static tnd_result load(const app_eval *e, const app_eval_series *s, uint32_t frame, ev_image *img,
-                       uint64_t *nonfinite)
-{
-    return load_with(e, s, frame, img, nonfinite, NULL);
-}
-
-/* As load; a noisy series reading e->regions_from composites `cap` (that frame's capture, read
- * once for the region masks) instead of reading it again. */
-static tnd_result load_with(const app_eval *e, const app_eval_series *s, uint32_t frame,
-                            ev_image *img, uint64_t *nonfinite, const tnd_frame *cap)
+                       uint64_t *nonfinite, const tnd_frame *cap)
 {
     char path[1300];
     snprintf(path, sizeof path, "%s/frame_%04u.exr", s ? s->dir : e->ref, frame);
     tnd_result res;
-    if (s && s->noisy && cap && strcmp(s->dir, e->regions_from) == 0) {
-        res = ev_image_alloc(cap->width, cap->height, img);
-        if (res == TND_OK) {
-            tnd_frame_composite(cap, img->rgb);
-            tnd_frame_interleave(cap, img->rgb);
-        }
-    } else if (s && s->noisy) {
-        tnd_frame f = {0};
-        res = tnd_capture_read(path, &f);
+    if (s && s->noisy) {
+        tnd_frame own = {0};
+        const tnd_frame *f = cap && strcmp(s->dir, e->regions_from) == 0 ? cap : &own;
+        res = f == &own ? tnd_capture_read(path, &own) : TND_OK;
         if (res == TND_OK)
-            res = ev_image_alloc(f.width, f.height, img);
+            res = ev_image_alloc(f->width, f->height, img);
         if (res == TND_OK) {
-            tnd_frame_composite(&f, img->rgb);
-            tnd_frame_interleave(&f, img->rgb);
+            tnd_frame_composite(f, img->rgb);
+            tnd_frame_interleave(f, img->rgb);
         }
-        tnd_frame_destroy(&f);
+        tnd_frame_destroy(&own);
     } else {
         res = ev_image_read_exr(path, img);
     }
@@ -236,7 +222,7 @@ tnd_result app_eval_run(app_eval *e)
         double logsum = 0;
         size_t n = 0;
         for (uint32_t k = 0; k < e->count; k++) {
-            TND_TRY(load(e, NULL, e->frames[k], &ref, NULL));
+            TND_TRY(load(e, NULL, e->frames[k], &ref, NULL, NULL));
             double x = ev_auto_exposure(&ref, 1);
             size_t px = (size_t)ref.width * ref.height;
             logsum += log(0.18 / x) * (double)px;
@@ -254,7 +240,7 @@ tnd_result app_eval_run(app_eval *e)
         }
     }
     for (uint32_t k = 0; k < e->count; k++) {
-        TND_TRY(load(e, NULL, e->frames[k], &ref, NULL));
+        TND_TRY(load(e, NULL, e->frames[k], &ref, NULL, NULL));
         if (k == 0) {
             e->width = ref.width;
             e->height = ref.height;
@@ -277,7 +263,7 @@ tnd_result app_eval_run(app_eval *e)
         bool regions = region_masks(e, e->frames[k], ref.width, ref.height, mask, &cap);
         for (uint32_t i = 0; i < e->nseries; i++) {
             uint64_t bad = 0;
-            TND_TRY(load_with(e, &e->series[i], e->frames[k], &img, &bad, regions ? &cap : NULL));
+            TND_TRY(load(e, &e->series[i], e->frames[k], &img, &bad, regions ? &cap : NULL));
             if (img.width != ref.width || img.height != ref.height) {
                 res = tnd_fail(TND_ERR_BAD_INPUT,
                                "eval: %s/frame_%04u.exr is %ux%u, the reference is %ux%u",
@@ -315,7 +301,20 @@ fail:
     return res;
 }
 
-static const char *const region_names[APP_REGIONS] = {"mirror", "glass"};
+const char *app_region_name(int region)
+{
+    return region == APP_REGION_MIRROR ? "mirror" : "glass";
+}
+
+app_region_stats app_region_summary(const app_region *r)
+{
+    return (app_region_stats){
+        .relmse = r->values ? r->rel_sq / (double)r->values : 0.0,
+        .flip = r->pixels ? r->flip / (double)r->pixels : 0.0,
+        .sharpness = r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0,
+        .bias = r->lum_ref > 0 ? r->lum_out / r->lum_ref - 1.0 : 0.0,
+    };
+}
 
 char *app_eval_regions_json(const app_eval *e, uint32_t i)
 {
@@ -326,12 +325,11 @@ char *app_eval_regions_json(const app_eval *e, uint32_t i)
         const app_region *r = &e->series[i].regions[b];
         if (!r->pixels)
             continue;
+        app_region_stats st = app_region_summary(r);
         ev_text_add(&t, "%s\"%s\": {\"pixels\": %llu, \"relmse\": %.9g, \"flip\": %.9g, "
                         "\"sharpness\": %.9g, \"bias\": %.9g}",
-                    any++ ? ", " : "", region_names[b], (unsigned long long)r->pixels,
-                    r->rel_sq / (double)r->values, r->flip / (double)r->pixels,
-                    r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0,
-                    r->lum_ref > 0 ? r->lum_out / r->lum_ref - 1.0 : 0.0);
+                    any++ ? ", " : "", app_region_name(b), (unsigned long long)r->pixels,
+                    st.relmse, st.flip, st.sharpness, st.bias);
     }
     ev_text_add(&t, "}");
     if (!any || t.failed) {
@@ -359,14 +357,13 @@ void app_eval_regions_html(const app_eval *e, ev_text *t)
             const app_region *r = &e->series[i].regions[b];
             if (!r->pixels)
                 continue;
+            app_region_stats st = app_region_summary(r);
             ev_text_add(t, "<tr><td>");
             ev_text_escaped(t, e->series[i].name);
             ev_text_add(t, "</td><td>%s</td><td>%llu</td><td>%.4g</td><td>%.4f</td><td>%.3f</td>"
                            "<td>%+.1f%%</td></tr>\n",
-                        region_names[b], (unsigned long long)r->pixels,
-                        r->rel_sq / (double)r->values, r->flip / (double)r->pixels,
-                        r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0,
-                        r->lum_ref > 0 ? 100.0 * (r->lum_out / r->lum_ref - 1.0) : 0.0);
+                        app_region_name(b), (unsigned long long)r->pixels, st.relmse, st.flip,
+                        st.sharpness, 100.0 * st.bias);
         }
     ev_text_add(t, "</table>\n");
 }
@@ -451,7 +448,7 @@ tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, cons
         ev_row *row = &rows[nrows++], *crow = &rows[nrows++];
         snprintf(row->title, sizeof row->title, "Frame %u%s", f,
                  k == worst && ns ? " (the worst FLIP of the first series)" : "");
-        TND_TRY(load(e, NULL, f, &ref, NULL));
+        TND_TRY(load(e, NULL, f, &ref, NULL, NULL));
         ev_tonemap(&ref, e->exposure, tr);
         snprintf(row->panels[row->count].file, sizeof row->panels[0].file, "f%04u_reference.png", f);
         row->panels[row->count].caption = "reference";
@@ -460,7 +457,7 @@ tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, cons
         /* crop centre: the largest 16x16 box sum of the first series' FLIP */
         uint32_t cx = 0, cy = 0;
         for (uint32_t i = 0; i < ns; i++) {
-            TND_TRY(load(e, &e->series[i], f, &img, NULL));
+            TND_TRY(load(e, &e->series[i], f, &img, NULL, NULL));
             ev_tonemap(&img, e->exposure, tm);
             double mean;
             TND_TRY(ev_flip(tr, tm, w, h, e->ppd, map, &mean));

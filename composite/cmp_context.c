@@ -152,19 +152,18 @@ static void write_own_set(cmp_context *c)
 {
     for (int set = 0; set < 2; set++) {
         VkDescriptorSet ds = c->sets[set ? 2 : 0];
-        VkDescriptorImageInfo ii[7];
+        VkDescriptorImageInfo ii[6];
 #define IMG(i, img) (ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, (img)->view, VK_IMAGE_LAYOUT_GENERAL})
         IMG(0, &c->taa[0]);
         IMG(1, &c->taa[1]);
         IMG(2, &c->bloom[0]);
         IMG(3, &c->bloom[1]);
         IMG(4, &c->display);
-        IMG(5, &c->flat);
-        IMG(6, &c->flat); /* the second set's input */
+        IMG(5, &c->flat); /* the interleave's output, and the second set's input */
 #undef IMG
         VkWriteDescriptorSet w[7];
         const uint32_t bind[5] = {CP_B_TAA, CP_B_BLOOM, CP_B_DISPLAY, CP_B_FLAT, CP_B_IN};
-        const uint32_t first[5] = {0, 2, 4, 5, 6}, count[5] = {2, 2, 1, 1, 1};
+        const uint32_t first[5] = {0, 2, 4, 5, 5}, count[5] = {2, 2, 1, 1, 1};
         uint32_t nw = 0;
         for (int k = 0; k < (set ? 5 : 4); k++)
             w[nw++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,

@@ -45,8 +45,7 @@ struct dn_context {
     VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous, lf, lf_down;
     tnd_timer timer, select_timer, fine; /* fine: per dispatch (desc.dispatch_timing) */
     double select_ms; /* GPU time of the last selection */
-    double fine_ms[TND_TIMER_MAX_PASSES];
-    uint32_t fine_count;
+    double fine_ms[TND_TIMER_MAX_PASSES]; /* the last dn_run's, fine.count of them */
     bool batching; /* dispatches recorded now are independent: no barrier after each */
     bool fine_on;  /* recording dn_run with desc.dispatch_timing: time each dispatch */
     bool have_history;
@@ -602,10 +601,8 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
         t->lf_beside_atrous = s_a >= 0 && s_l < 0;
         t->composite_ms = ms[k];
     }
-    if (d->dispatch_timing) {
+    if (d->dispatch_timing)
         TND_TRY(tnd_timer_read(c->vk, &c->fine, c->fine_ms));
-        c->fine_count = c->fine.count;
-    }
     c->have_history = true;
     c->frame++;
 fail:
@@ -614,7 +611,7 @@ fail:
 
 uint32_t dn_dispatch_times(const dn_context *c, const char **names, double *ms, uint32_t max)
 {
-    uint32_t n = c->fine_count < max ? c->fine_count : max;
+    uint32_t n = c->fine.count < max ? c->fine.count : max;
     for (uint32_t i = 0; i < n; i++) {
         names[i] = c->fine.names[i];
         ms[i] = c->fine_ms[i];

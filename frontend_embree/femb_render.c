@@ -461,13 +461,12 @@ static void specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool f
             return;
         femb_surface s;
         femb_surface_eval(c, r->inst, r->prim, r->u, r->v, dir, r->length * c->pixel_spread, &s);
-        v3 n = s.ns;
-        float cos_i = fmx(-dot(n, dir), 1e-6f), f[3] = {1, 1, 1};
+        float cos_i = fmx(-dot(s.ns, dir), 1e-6f), f[3];
         v3 wi;
-        if (s.kind == TND_KIND_MIRROR) {
-            for (int k = 0; k < 3; k++)
-                f[k] = tnd_mirror_fresnel(s.base[k], cos_i);
-            wi = sub(dir, mul(n, 2.0f * dot(dir, n)));
+        if (s.kind == TND_KIND_MIRROR) { /* reflect about the shading normal, x Schlick */
+            uint32_t ev;
+            bool enter;
+            wi = specular_direction(&s, s.ns, dir, 0.0f, f, &ev, &enter);
             r->path |= TND_PATH_MIRROR;
         } else {
             bool refl, split;

@@ -644,13 +644,12 @@ chain_result specular_chain(uvec2 ipx, bool follow)
         if (materials[meshes[instances[h.inst].info.x].info.x].info.x == TND_KIND_OPAQUE)
             return r;
         surface s = surface_eval(h.inst, h.prim, h.bary, dir, r.len * fr.jitter.z);
-        vec3 n = s.ns;
-        float cos_i = max(-dot(n, dir), 1e-6);
-        vec3 f = vec3(1.0), wi;
-        if (s.kind == TND_KIND_MIRROR) {
-            f = vec3(tnd_mirror_fresnel(s.base.r, cos_i), tnd_mirror_fresnel(s.base.g, cos_i),
-                     tnd_mirror_fresnel(s.base.b, cos_i));
-            wi = dir - n * (2.0 * dot(dir, n));
+        float cos_i = max(-dot(s.ns, dir), 1e-6);
+        vec3 f, wi;
+        if (s.kind == TND_KIND_MIRROR) { /* reflect about the shading normal, x Schlick */
+            uint ev;
+            bool enter;
+            wi = specular_direction(s, s.ns, dir, 0.0, f, ev, enter);
             r.path |= TND_PATH_MIRROR;
         } else {
             bool refl, split;

@@ -22,23 +22,15 @@
 #ifndef TND_SPECULAR_H
 #define TND_SPECULAR_H
 
-#ifndef TND_FN
+#include "brdf.h" /* TND_FN, TND_SQRTF */
+
 #ifdef TND_GLSL
-#define TND_FN
-#else
-#define TND_FN static inline
-#endif
-#endif
-#ifdef TND_GLSL
-#define TND_SP_SQRT(x) sqrt(x)
 #define TND_SP_UINT uint
 #define TND_SP_INOUT_BOOL out bool
 #define TND_SP_SET(p, v) p = (v)
 #else
-#include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
-#define TND_SP_SQRT(x) sqrtf(x)
 #define TND_SP_UINT uint32_t
 #define TND_SP_INOUT_BOOL bool *
 #define TND_SP_SET(p, v) (*(p) = (v))
@@ -64,7 +56,7 @@ TND_FN float tnd_refract_cos(float cos_i, float eta)
     float s2 = (1.0f - cos_i * cos_i) / (eta * eta);
     if (s2 >= 1.0f)
         return -1.0f;
-    return TND_SP_SQRT(1.0f - s2);
+    return TND_SQRTF(1.0f - s2);
 }
 
 TND_FN float tnd_fresnel_dielectric(float cos_i, float eta)

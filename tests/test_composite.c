@@ -55,6 +55,19 @@ static tnd_result rig_open(tnd_vk *vk, rig *r)
     return rig_open_scene(vk, TND_SOURCE_DIR "/data/scenes/cornell.gltf", r);
 }
 
+/* The rig on `scene`, its frame 0 rendered into f, composited into rgb and uploaded. */
+static tnd_result rig_first_frame(tnd_vk *vk, const char *scene, rig *r, tnd_frame *f, float *rgb)
+{
+    tnd_result res = rig_open_scene(vk, scene, r);
+    if (res == TND_OK)
+        res = render_frame(r->fe, &r->st, 0, f);
+    if (res == TND_OK) {
+        tnd_frame_composite(f, rgb);
+        res = tnd_contract_upload(vk, &r->ct, f);
+    }
+    return res;
+}
+
 static void rig_close(tnd_vk *vk, rig *r)
 {
     tnd_image_destroy(vk, &r->in);
@@ -92,10 +105,7 @@ static void test_tonemap_exposure(void)
     cmp_context *c = NULL;
     static float rgb[N * 3];
     static uint8_t d1[N * 3], d1000[N * 3];
-    REQUIRE_OK(rig_open(vk, &r));
-    REQUIRE_OK(render_frame(r.fe, &r.st, 0, &f));
-    tnd_frame_composite(&f, rgb);
-    REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f));
+    REQUIRE_OK(rig_first_frame(vk, TND_SOURCE_DIR "/data/scenes/cornell.gltf", &r, &f, rgb));
     for (int curve = 0; curve < 3; curve++) {
         REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){.curve = (cmp_curve)curve},
                               &c));
@@ -322,12 +332,9 @@ static void test_interleave(void)
     tnd_frame f = {0};
     cmp_context *c = NULL;
     static float rgb[N * 3], cpu[N * 3], gpu[N * 3];
-    REQUIRE_OK(rig_open_scene(vk, TND_SOURCE_DIR "/data/scenes/materials.gltf", &r));
-    REQUIRE_OK(render_frame(r.fe, &r.st, 0, &f));
-    tnd_frame_composite(&f, rgb);
+    REQUIRE_OK(rig_first_frame(vk, TND_SOURCE_DIR "/data/scenes/materials.gltf", &r, &f, rgb));
     memcpy(cpu, rgb, sizeof cpu);
     tnd_frame_interleave(&f, cpu);
-    REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f));
     REQUIRE_OK(upload_rgb(vk, &r.in, rgb, 1.0f));
     REQUIRE_OK(cmp_create(vk, W, H, TND_PRECISION_F32, &(cmp_desc){.interleave = true}, &c));
     REQUIRE_OK(cmp_run(c, &r.in, &r.ct, &(cmp_frame){.reset = true}, NULL));
