@@ -27,7 +27,12 @@ static inline v3 cross(v3 a, v3 b)
 static inline v3 norm(v3 a)
 {
     float l = sqrtf(dot(a, a));
-    return l > 0 ? mul(a, 1.0f / l) : a;
+    return mul(a, l > 0 ? 1.0f / l : 1.0f); /* selects on floats, not on structs: SIMD-friendly */
+}
+/* c ? a : b, per component (the estimator's lane loops vectorise selects of floats) */
+static inline v3 sel3(bool c, v3 a, v3 b)
+{
+    return (v3){c ? a.x : b.x, c ? a.y : b.y, c ? a.z : b.z};
 }
 
 /* Rays traced while a log is attached (benchmarks replay them in a raw loop). */
@@ -100,5 +105,52 @@ void femb_parallel_range(femb_context *c, size_t count, size_t chunk,
 /* Offset a ray origin off the surface along the geometric normal (Waechter and Binder, Ray
  * Tracing Gems, ch. 6): integer ulps scaled with the normal, an absolute offset near zero. */
 v3 femb_offset_ray(v3 p, v3 n);
+
+/* ---- the estimator (femb_estimator.c), on batches of paths ---------------------------------- */
+enum { FEMB_LANES = 64 };
+
+/* A batch of paths to trace: random-number keys, start rays, the pdf of the BRDF sample that
+ * chose each direction (0: none, an emitter hit gets the full weight), the ray cone's width at
+ * the origin; inactive lanes are skipped and return 0. */
+typedef struct femb_paths {
+    uint32_t n;
+    uint32_t key_pixel[FEMB_LANES], key_frame[FEMB_LANES];
+    float org[3][FEMB_LANES], dir[3][FEMB_LANES], pdf_prev[FEMB_LANES], cone[FEMB_LANES];
+    uint8_t active[FEMB_LANES];
+} femb_paths;
+
+/* Radiance arriving along each path from path vertex `bounce` on: emission (MIS-weighted against
+ * the light list where pdf_prev > 0), NEE at each hit, more vertices up to max_bounce with
+ * Russian roulette from rr_start; specular vertices do not count as bounces. */
+void femb_trace_paths(const femb_context *c, const femb_paths *paths, uint32_t bounce,
+                      uint32_t max_bounce, uint32_t rr_start, float radiance[3][FEMB_LANES]);
+
+/* The shading pass on n <= FEMB_LANES pixels of the frame's G-buffer (their rng keys too):
+ * writes hf, lf_sh, lf_cocg and spec, and the undemodulated estimate to `radiance` when given. */
+void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f,
+                       const uint32_t *pixels, uint32_t n, float *radiance);
+
+/* The specular vertex of surface s hit along `dir`: the new direction, the throughput factor,
+ * the event (u: TND_DIM_SPLIT of the vertex) and whether the ray enters a glass volume.
+ * femb_specular_direction does it about normal n; femb_specular_vertex uses the shading normal
+ * unless the ray would then leave on the wrong side of the geometric surface (near the
+ * silhouette of a smooth-shaded mesh), and the geometric normal there. */
+v3 femb_specular_direction(const femb_surface *s, v3 n, v3 dir, float u, float f[3],
+                           uint32_t *event, bool *enter);
+v3 femb_specular_vertex(const femb_surface *s, v3 dir, float u, float f[3], uint32_t *event,
+                        bool *enter);
+
+/* The real-time reflect/refract chain of pixel (x, y) (femb_render.c): from the camera through up
+ * to reflect_depth specular vertices to the surface the G-buffer shows. */
+typedef struct femb_chain {
+    bool hit;
+    uint32_t inst, prim, vertices; /* vertices: specular vertices followed */
+    uint32_t path;                 /* TND_PATH_* (the contract's path flags) */
+    float u, v, length;            /* length: from the camera along the whole chain */
+    float thr[3];
+    v3 dir, dir0;                  /* the last segment's direction, the camera ray's */
+} femb_chain;
+void femb_specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool follow,
+                         femb_chain *r);
 
 #endif

@@ -57,7 +57,8 @@ TND_FN float tnd_smith_g1(float nv, float a2)
 TND_FN float tnd_schlick(float f0, float c)
 {
     float m = 1.0f - c;
-    m = m < 0.0f ? 0.0f : m > 1.0f ? 1.0f : m;
+    m = m < 0.0f ? 0.0f : m; /* one select per statement: the C front-end's lane loops */
+    m = m > 1.0f ? 1.0f : m; /* vectorise only two-way choices */
     float m2 = m * m;
     return f0 + (1.0f - f0) * m2 * m2 * m;
 }
@@ -100,12 +101,11 @@ TND_FN float tnd_luminance(float r, float g, float b)
  * that neither lobe starves. */
 TND_FN float tnd_spec_probability(float lum_f, float lum_diffuse)
 {
-    if (lum_diffuse <= 0.0f)
-        return 1.0f;
-    if (lum_f <= 0.0f)
-        return 0.0f;
-    float p = lum_f / (lum_f + lum_diffuse);
-    return p < 0.1f ? 0.1f : p > 0.9f ? 0.9f : p;
+    float p = lum_f / (lum_f + lum_diffuse); /* (unused when it divides by 0) */
+    p = p < 0.1f ? 0.1f : p;
+    p = p > 0.9f ? 0.9f : p;
+    p = lum_f <= 0.0f ? 0.0f : p;
+    return lum_diffuse <= 0.0f ? 1.0f : p;
 }
 
 #endif

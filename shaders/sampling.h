@@ -84,7 +84,7 @@ static inline float tnd_rand(uint32_t pixel, uint32_t frame, uint32_t dim)
 {
     uint32_t v[3] = {pixel, frame, dim};
     tnd_pcg3d(v);
-    return (float)(v[0] >> 8) * (1.0f / 16777216.0f);
+    return (float)(int32_t)(v[0] >> 8) * (1.0f / 16777216.0f); /* (signed: converts in SIMD) */
 }
 #endif
 

@@ -1,0 +1,594 @@
+/* frontend_embree/femb_estimator.c: the estimator of the Embree front-end, run on batches of up
+ * to FEMB_LANES paths in structure-of-arrays form.
+ *
+ * The estimator follows the Q2RTX reference (section 1.4) in a clean form:
+ * - direct light: one-sample next-event estimation over the light list (area, point, spot,
+ *   directional; shaders/lights.h), one shadow ray, GGX specular (height-correlated Smith,
+ *   Schlick) and Lambert diffuse, MIS (power heuristic) with BRDF sampling for area lights;
+ * - indirect: a Fresnel-weighted choice of the specular lobe (GGX VNDF sampling, Heitz 2018) or
+ *   the diffuse lobe (cosine hemisphere), one bounce by default with NEE at the hit, more with
+ *   Russian roulette;
+ * - outputs: hf (direct diffuse, demodulated), lf (indirect diffuse as L1 SH of luma plus Co/Cg,
+ *   scaled so that evaluating the SH at the shading normal returns the sample exactly:
+ *   s = 4 pi Y / (1 + 2 d.n)), spec (specular / max(0.01, F0)).
+ * Every random number comes from shaders/sampling.h keyed by the pixel's (frame, pixel) key.
+ *
+ * Why batches: between two ray casts a path does a few hundred scalar operations, and on small
+ * scenes that costs several times the rays. Each step here is a loop over the batch's lanes
+ * (LANES) that the compiler turns into SIMD code: the random numbers, the light and lobe samples,
+ * the BRDF formulas of shaders/brdf.h. Ray casts, surface reconstruction (indexed loads,
+ * textures), the light pick and the rare specular vertices run lane by lane. A lane's arithmetic
+ * never depends on the other lanes, and C in ISO mode does not contract to FMA, so a pixel shaded
+ * alone (a gradient sample) gets exactly the bits it gets in a full batch.
+ * Entry points: femb_trace_paths, femb_shade_pixels, femb_specular_direction,
+ * femb_specular_vertex. */
+#include "frontend_embree/femb_internal.h"
+#include "shaders/brdf.h"
+#include "shaders/sampling.h"
+#include "shaders/specular.h"
+
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+enum { NL = FEMB_LANES };
+
+/* A loop over a batch's lanes: iterations are independent (no array of a batch overlaps
+ * another), which the pragma tells the vectoriser. */
+#define LANES(i, n) _Pragma("GCC ivdep") for (uint32_t i = 0; i < (n); i++)
+/* The functions with lane loops, compiled twice: for the baseline (SSE2: 4 lanes per
+ * instruction) and for AVX2 (8), picked at load time by the CPU. Same results from both: no
+ * contraction to FMA, and the operations are IEEE-exact either way. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define LANE_FN __attribute__((target_clones("avx2", "default")))
+#else
+#define LANE_FN
+#endif
+#define LD3(a, i) ((v3){(a)[0][i], (a)[1][i], (a)[2][i]})
+#define ST3(a, i, v) ((a)[0][i] = (v).x, (a)[1][i] = (v).y, (a)[2][i] = (v).z)
+
+#define SH_C0 0.282094791773878f /* Y00 */
+#define SH_C1 0.488602511902920f /* Y1m / direction component */
+
+static inline float rnd(const femb_paths *P, uint32_t i, uint32_t bounce, uint32_t which)
+{
+    return tnd_rand(P->key_pixel[i], P->key_frame[i], tnd_dim(bounce, which));
+}
+
+/* A batch's surfaces. */
+typedef struct fb_surf {
+    float p[3][NL], ng[3][NL], ns[3][NL], wo[3][NL], base[3][NL];
+    float metallic[NL], roughness[NL], specular[NL];
+} fb_surf;
+
+static void surf_store(fb_surf *S, uint32_t i, const femb_surface *s)
+{
+    ST3(S->p, i, s->p);
+    ST3(S->ng, i, s->ng);
+    ST3(S->ns, i, s->ns);
+    ST3(S->wo, i, s->wo);
+    for (int k = 0; k < 3; k++)
+        S->base[k][i] = s->base[k];
+    S->metallic[i] = s->metallic;
+    S->roughness[i] = s->roughness;
+    S->specular[i] = s->specular;
+}
+
+/* Orthonormal basis around n (Duff et al. 2017). The sign test treats -0 as +0, as the GLSL
+ * mirror must (copysign would split them, and the two front-ends would sample different
+ * directions for normals with z = -0). */
+static inline void onb(v3 n, v3 *t, v3 *b)
+{
+    float sign = n.z >= 0.0f ? 1.0f : -1.0f;
+    float a = -1.0f / (sign + n.z);
+    float bb = n.x * n.y * a;
+    *t = (v3){1.0f + sign * n.x * n.x * a, sign * bb, -sign * n.x};
+    *b = (v3){bb, sign + n.y * n.y * a, -n.y};
+}
+
+static inline v3 to_world(v3 l, v3 t, v3 b, v3 n)
+{
+    return add(add(mul(t, l.x), mul(b, l.y)), mul(n, l.z));
+}
+
+/* sin and cos of 2 pi u for u in [0, 1], in a form that vectorises (libm's are calls): the
+ * nearest quarter turn q, then Taylor polynomials on a = 2 pi u - q pi/2 in [-pi/4, pi/4]
+ * (truncation errors below 2e-9 for sin and 3e-8 for cos, under float rounding). */
+static inline void sincos_turns(float u, float *s, float *c)
+{
+    float x = 4.0f * u;
+    int q = (int)(x + 0.5f); /* x >= 0: truncation is floor */
+    float a = (x - (float)q) * (float)(0.5 * TND_PI), a2 = a * a;
+    float sa = a * (1.0f + a2 * (-1.0f / 6 + a2 * (1.0f / 120 + a2 * (-1.0f / 5040 +
+                                                                     a2 * (1.0f / 362880)))));
+    float ca = 1.0f + a2 * (-0.5f + a2 * (1.0f / 24 + a2 * (-1.0f / 720 + a2 * (1.0f / 40320))));
+    /* quarter turns: odd ones swap sin and cos; sin is negative in the 3rd and 4th, cos in
+     * the 2nd and 3rd */
+    float s0 = q & 1 ? ca : sa, c0 = q & 1 ? sa : ca;
+    *s = q & 2 ? -s0 : s0;
+    *c = (q + 1) & 2 ? -c0 : c0;
+}
+
+/* ---- materials ------------------------------------------------------------------------------ */
+typedef struct fb_lobes {
+    float f_nv[3][NL]; /* Fresnel at n.v */
+    float alpha[NL], a2[NL], nv[NL];
+    float p_spec[NL]; /* probability of the specular lobe */
+} fb_lobes;
+
+LANE_FN static void lobes(const fb_surf *S, uint32_t n, fb_lobes *L)
+{
+    LANES(i, n) {
+        float nv = fmx(dot(LD3(S->ns, i), LD3(S->wo, i)), 1e-4f);
+        float alpha = fmx(S->roughness[i] * S->roughness[i], (float)TND_MIN_ALPHA);
+        float fnv[3], kd[3];
+        for (int k = 0; k < 3; k++) {
+            fnv[k] = tnd_fresnel(S->metallic[i], S->specular[i], S->base[k][i], nv);
+            kd[k] = S->base[k][i] * (1.0f - S->metallic[i]) * (1.0f - fnv[k]);
+            L->f_nv[k][i] = fnv[k];
+        }
+        L->nv[i] = nv;
+        L->alpha[i] = alpha;
+        L->a2[i] = alpha * alpha;
+        L->p_spec[i] = tnd_spec_probability(tnd_luminance(fnv[0], fnv[1], fnv[2]),
+                                            tnd_luminance(kd[0], kd[1], kd[2]));
+    }
+}
+
+/* BRDF x cos of lane i for direction wi: diffuse part without albedo and (1 - metallic)
+ * ("demodulated"), specular part with its Fresnel, the mixture pdf of the two lobes. False when
+ * wi is below either normal (the values are then meaningless). */
+static inline bool brdf_lane(const fb_surf *S, const fb_lobes *L, uint32_t i, v3 wi,
+                             float diff[3], float spec[3], float *pdf)
+{
+    v3 ns = LD3(S->ns, i), wo = LD3(S->wo, i);
+    float nl = dot(ns, wi);
+    v3 h = norm(add(wi, wo));
+    float nh = fmx(dot(ns, h), 0.0f), vh = fmx(dot(wo, h), 0.0f);
+    float g = tnd_ggx_spec_cos(nh, L->nv[i], nl, L->a2[i]);
+    for (int k = 0; k < 3; k++) {
+        diff[k] = (1.0f - L->f_nv[k][i]) * nl * (float)TND_INV_PI;
+        spec[k] = tnd_fresnel(S->metallic[i], S->specular[i], S->base[k][i], vh) * g;
+    }
+    *pdf = L->p_spec[i] * tnd_ggx_vndf_pdf(nh, L->nv[i], L->a2[i]) +
+           (1.0f - L->p_spec[i]) * nl * (float)TND_INV_PI;
+    return (nl > 0.0f) & (dot(LD3(S->ng, i), wi) > 0.0f);
+}
+
+/* Light pick probability times the solid-angle pdf of reaching emitter triangle (instance,
+ * primitive) from a point at distance d along wi; 0 when it is not in the list. */
+static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t primitive, float d,
+                         v3 wi, v3 ng_light)
+{
+    if (!c->lights.count || c->lights.instance_first[instance] == ~0u)
+        return 0.0f;
+    const tnd_light_gpu *l = &c->lights.lights[c->lights.instance_first[instance] + primitive];
+    float cosl = fabsf(dot(ng_light, wi));
+    return cosl > 0 ? l->radiance.w * d * d / (l->cdf.w * cosl) : 0.0f;
+}
+
+/* One NEE sample per active lane with the dimensions of path vertex `bounce`: diffuse
+ * (demodulated) and specular contributions, 0 where inactive. */
+LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uint32_t bounce,
+                         const fb_surf *S, const fb_lobes *L, const uint8_t *active, uint32_t n,
+                         float diff[3][NL], float spec[3][NL])
+{
+    LANES(i, n) for (int k = 0; k < 3; k++) diff[k][i] = spec[k][i] = 0.0f;
+    if (!c->lights.count)
+        return;
+    /* the picked lights' records */
+    float lp0[3][NL], lp1[3][NL], lp2[3][NL], lrad[4][NL], lcdf[NL];
+    uint32_t kind[NL];
+    for (uint32_t i = 0; i < n; i++) {
+        const tnd_light_gpu *l =
+            &c->lights.lights[tnd_lights_pick(&c->lights, rnd(P, i, bounce, TND_DIM_LIGHT_PICK))];
+        kind[i] = (uint32_t)l->p0.w;
+        ST3(lp0, i, ((v3){l->p0.x, l->p0.y, l->p0.z}));
+        ST3(lp1, i, ((v3){l->p1.x, l->p1.y, l->p1.z}));
+        ST3(lp2, i, ((v3){l->p2.x, l->p2.y, l->p2.z}));
+        lrad[0][i] = l->radiance.x, lrad[1][i] = l->radiance.y, lrad[2][i] = l->radiance.z;
+        lrad[3][i] = l->radiance.w;
+        lcdf[i] = l->cdf.w;
+    }
+    float wi[3][NL], tmax[NL], dc[3][NL], sc[3][NL];
+    uint8_t ok[NL];
+    LANES(i, n) {
+        float u1 = rnd(P, i, bounce, TND_DIM_LIGHT_U), u2 = rnd(P, i, bounce, TND_DIM_LIGHT_V);
+        v3 p = LD3(S->p, i), pos = LD3(lp0, i), v1 = LD3(lp1, i), v2 = LD3(lp2, i);
+        bool tri = kind[i] == TND_LIGHT_KIND_TRIANGLE, dirl = kind[i] == TND_LIGHT_KIND_DIRECTIONAL;
+        bool spot = kind[i] == TND_LIGHT_KIND_SPOT;
+        /* area: a uniform point on the triangle, the pdf turned to solid angle */
+        float su = sqrtf(u1);
+        v3 q = add(add(mul(pos, 1.0f - su), mul(v1, su * (1.0f - u2))), mul(v2, su * u2));
+        v3 nlt = norm(cross(sub(v1, pos), sub(v2, pos)));
+        v3 d = sub(sel3(tri, q, pos), p);
+        float d2 = dot(d, d), dist = sqrtf(d2);
+        v3 wp = mul(d, 1.0f / dist);
+        float cosl = -dot(nlt, wp);
+        float pdf_tri = lrad[3][i] * (d2 / (lcdf[i] * cosl));
+        /* point and spot: inverse square, the spot's smooth cone */
+        float cd = -dot(wp, v1);
+        float t = (cd - v2.y) / fmx(v2.x - v2.y, 1e-6f);
+        t = fmn(fmx(t, 0.0f), 1.0f);
+        float fall = spot ? (1.0f / d2) * (t * t) : 1.0f / d2;
+        fall = tri | dirl ? 1.0f : fall;
+        /* directional: along -p1 */
+        v3 w = sel3(dirl, mul(v1, -1.0f), wp);
+        float pdf = tri ? pdf_tri : lrad[3][i];
+        bool valid = dirl | ((dist > 0) & (!tri | (cosl > 0.0f)));
+        float d3[3], s3[3], pdf_brdf;
+        bool up = brdf_lane(S, L, i, w, d3, s3, &pdf_brdf);
+        ok[i] = active[i] & valid & (pdf > 0) & up;
+        tmax[i] = dirl ? 1e30f : dist * 0.999f;
+        float mis = tri ? tnd_mis_power(pdf, pdf_brdf) : 1.0f;
+        for (int k = 0; k < 3; k++) {
+            float Li = lrad[k][i] * fall;
+            dc[k][i] = Li * d3[k] * mis / pdf;
+            sc[k][i] = Li * s3[k] * mis / pdf;
+        }
+        ST3(wi, i, w);
+    }
+    for (uint32_t i = 0; i < n; i++)
+        if (ok[i])
+            ok[i] = !femb_occluded(c, femb_offset_ray(LD3(S->p, i), LD3(S->ng, i)), LD3(wi, i),
+                                   tmax[i]);
+    LANES(i, n) for (int k = 0; k < 3; k++) {
+        diff[k][i] = ok[i] ? dc[k][i] : 0.0f;
+        spec[k][i] = ok[i] ? sc[k][i] : 0.0f;
+    }
+}
+
+/* Sample the BRDF of every lane (dimensions of `bounce`): direction, per-channel weight
+ * f cos / pdf (the diffuse lobe's demodulated, i.e. without albedo and 1 - metallic), the
+ * mixture pdf, whether the specular lobe was taken, and whether the sample lives (ok). */
+LANE_FN static void sample_brdf(const fb_surf *S, const fb_lobes *L, const femb_paths *P,
+                        uint32_t bounce, uint32_t n, float wi[3][NL], float w[3][NL],
+                        float pdf[NL], uint8_t specular[NL], uint8_t ok[NL])
+{
+    LANES(i, n) {
+        float u = rnd(P, i, bounce, TND_DIM_LOBE);
+        float u1 = rnd(P, i, bounce, TND_DIM_BRDF_U), u2 = rnd(P, i, bounce, TND_DIM_BRDF_V);
+        v3 ns = LD3(S->ns, i), wo = LD3(S->wo, i), t, b;
+        onb(ns, &t, &b);
+        float sn, cs, r = sqrtf(u1);
+        sincos_turns(u2, &sn, &cs);
+        /* diffuse: cosine-weighted hemisphere */
+        v3 wd = norm(to_world((v3){r * cs, r * sn, sqrtf(fmx(0.0f, 1.0f - u1))}, t, b, ns));
+        /* specular: a GGX VNDF microfacet normal for wo (Heitz 2018), wo reflected about it */
+        float alpha = L->alpha[i];
+        v3 v = {dot(wo, t), dot(wo, b), dot(wo, ns)};
+        v3 vh = norm((v3){alpha * v.x, alpha * v.y, v.z});
+        float lensq = vh.x * vh.x + vh.y * vh.y, il = 1.0f / sqrtf(lensq);
+        v3 t1 = sel3(lensq > 0, (v3){-vh.y * il, vh.x * il, 0.0f}, (v3){1.0f, 0.0f, 0.0f});
+        v3 t2 = cross(vh, t1);
+        float p1 = r * cs, p2 = r * sn, s = 0.5f * (1.0f + vh.z);
+        p2 = (1.0f - s) * sqrtf(fmx(0.0f, 1.0f - p1 * p1)) + s * p2;
+        v3 nh = add(add(mul(t1, p1), mul(t2, p2)),
+                    mul(vh, sqrtf(fmx(0.0f, 1.0f - p1 * p1 - p2 * p2))));
+        v3 ne = norm((v3){alpha * nh.x, alpha * nh.y, fmx(1e-6f, nh.z)});
+        v3 h = norm(to_world(ne, t, b, ns));
+        v3 ws = norm(sub(mul(h, 2.0f * dot(wo, h)), wo));
+        bool sp = u < L->p_spec[i];
+        v3 dir = sel3(sp, ws, wd);
+        float d3[3], s3[3], pb;
+        bool up = brdf_lane(S, L, i, dir, d3, s3, &pb);
+        /* one-sample MIS over the two lobes: weight = f cos / (mixture pdf) for the chosen
+         * lobe's share of f; the lobe's own contribution only, so that lf and spec stay apart */
+        float pl_s = L->p_spec[i] * tnd_ggx_vndf_pdf(fmx(dot(ns, norm(add(dir, wo))), 0.0f),
+                                                     L->nv[i], L->a2[i]);
+        float pl_d = (1.0f - L->p_spec[i]) * dot(ns, dir) * (float)TND_INV_PI;
+        float pl = sp ? pl_s : pl_d;
+        ok[i] = up & (pb > 0) & (pl > 0);
+        for (int k = 0; k < 3; k++)
+            w[k][i] = (sp ? s3[k] : d3[k]) / pl;
+        ST3(wi, i, dir);
+        pdf[i] = pb;
+        specular[i] = sp;
+    }
+}
+
+/* ---- specular vertices ---------------------------------------------------------------------- */
+v3 femb_specular_direction(const femb_surface *s, v3 n, v3 dir, float u, float f[3],
+                           uint32_t *event, bool *enter)
+{
+    float cos_i = fmx(-dot(n, dir), 1e-6f);
+    v3 refl = sub(dir, mul(n, 2.0f * dot(dir, n)));
+    f[0] = f[1] = f[2] = 1.0f;
+    *enter = false;
+    if (s->kind == TND_KIND_MIRROR) {
+        for (int k = 0; k < 3; k++)
+            f[k] = tnd_mirror_fresnel(s->base[k], cos_i);
+        *event = TND_EVENT_REFLECT;
+        return refl;
+    }
+    *event = tnd_dielectric_event(s->kind, s->front, cos_i, s->ior, u);
+    if (*event == TND_EVENT_REFLECT)
+        return refl;
+    if (*event == TND_EVENT_TRANSMIT)
+        return dir;
+    float eta = s->front ? s->ior : 1.0f / s->ior;
+    float cos_t = tnd_refract_cos(cos_i, eta);
+    *enter = s->front;
+    return norm(add(mul(dir, 1.0f / eta), mul(n, cos_i / eta - cos_t)));
+}
+
+v3 femb_specular_vertex(const femb_surface *s, v3 dir, float u, float f[3], uint32_t *event,
+                        bool *enter)
+{
+    v3 wi = femb_specular_direction(s, s->ns, dir, u, f, event, enter);
+    float side = dot(wi, s->ng); /* ng faces the incoming ray */
+    if (*event == TND_EVENT_REFLECT ? side <= 0.0f : side >= 0.0f)
+        wi = femb_specular_direction(s, s->ng, dir, u, f, event, enter);
+    return wi;
+}
+
+/* ---- paths ---------------------------------------------------------------------------------- */
+/* The state of a batch of paths between vertices. */
+typedef struct fb_state {
+    float org[3][NL], dir[3][NL], beta[3][NL], sigma[3][NL], pdf_prev[NL], cone[NL];
+    uint32_t specular[NL]; /* specular vertices so far: they do not count as bounces */
+    uint8_t alive[NL], inside[NL];
+} fb_state;
+
+/* Vertex `b` of lane i: the closest hit, its emission (MIS-weighted against the light list when
+ * the previous vertex sampled a BRDF), and a specular vertex followed at once. True when the lane
+ * stands on an opaque surface (stored in S) that needs shading. */
+static bool path_vertex(const femb_context *c, const femb_paths *P, uint32_t i, uint32_t b,
+                        fb_state *st, fb_surf *S, float L_out[3][NL])
+{
+    uint32_t inst, prim;
+    float hu, hv, t;
+    v3 dir = LD3(st->dir, i);
+    if (!femb_intersect(c, LD3(st->org, i), dir, 1e30f, &inst, &prim, &hu, &hv, &t)) {
+        for (int k = 0; k < 3; k++)
+            L_out[k][i] += st->beta[k][i] * c->scene->sky[k];
+        st->alive[i] = 0;
+        return false;
+    }
+    if (st->inside[i]) /* Beer-Lambert over the segment inside the glass */
+        for (int k = 0; k < 3; k++)
+            st->beta[k][i] *= expf(-st->sigma[k][i] * t);
+    femb_surface s;
+    st->cone[i] += t * c->pixel_spread;
+    femb_surface_eval(c, inst, prim, hu, hv, dir, st->cone[i], &s);
+    if (s.emission[0] > 0 || s.emission[1] > 0 || s.emission[2] > 0) {
+        float w = 1.0f;
+        if (st->pdf_prev[i] > 0)
+            w = tnd_mis_power(st->pdf_prev[i], emitter_pdf(c, inst, prim, t, dir, s.ng));
+        for (int k = 0; k < 3; k++)
+            L_out[k][i] += st->beta[k][i] * w * s.emission[k];
+    }
+    if (s.kind == TND_KIND_OPAQUE) {
+        surf_store(S, i, &s);
+        return true;
+    }
+    if (++st->specular[i] > TND_MAX_SPECULAR_DEPTH) {
+        st->alive[i] = 0;
+        return false;
+    }
+    float f[3];
+    uint32_t ev;
+    bool enter;
+    v3 wi = femb_specular_vertex(&s, dir, rnd(P, i, b, TND_DIM_SPLIT), f, &ev, &enter);
+    if (ev == TND_EVENT_REFRACT) { /* into the volume, or out of it */
+        st->inside[i] = enter;
+        for (int k = 0; k < 3; k++)
+            st->sigma[k][i] = s.sigma[k];
+    }
+    for (int k = 0; k < 3; k++)
+        st->beta[k][i] *= f[k];
+    ST3(st->org, i, femb_offset_ray(s.p, dot(wi, s.ng) >= 0 ? s.ng : mul(s.ng, -1.0f)));
+    ST3(st->dir, i, wi);
+    st->pdf_prev[i] = 0.0f; /* a delta lobe: an emitter seen through it gets the full weight */
+    return false;
+}
+
+LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32_t bounce,
+                      uint32_t max_bounce, uint32_t rr_start, float L_out[3][FEMB_LANES])
+{
+    uint32_t n = P->n;
+    fb_state st;
+    fb_surf S;
+    fb_lobes L;
+    memset(&S, 0, sizeof S); /* lanes not on a surface still feed the lane loops */
+    for (uint32_t i = 0; i < n; i++) {
+        for (int k = 0; k < 3; k++) {
+            st.org[k][i] = P->org[k][i];
+            st.dir[k][i] = P->dir[k][i];
+            st.beta[k][i] = 1.0f;
+            st.sigma[k][i] = 0.0f;
+            L_out[k][i] = 0.0f;
+        }
+        st.pdf_prev[i] = P->pdf_prev[i];
+        st.cone[i] = P->cone[i];
+        st.specular[i] = 0;
+        st.alive[i] = P->active[i];
+        st.inside[i] = 0;
+    }
+    for (uint32_t b = bounce;; b++) {
+        uint8_t shade[NL];
+        bool any = false, more = false; /* any lane to shade; any to continue after it */
+        for (uint32_t i = 0; i < n; i++) {
+            shade[i] = st.alive[i] && path_vertex(c, P, i, b, &st, &S, L_out);
+            any |= shade[i];
+            more |= shade[i] && b - st.specular[i] < max_bounce;
+        }
+        if (!any) {
+            bool alive = false;
+            for (uint32_t i = 0; i < n; i++)
+                alive |= st.alive[i];
+            if (!alive)
+                return;
+            continue;
+        }
+        float d[3][NL], sp[3][NL];
+        lobes(&S, n, &L);
+        direct_light(c, P, b, &S, &L, shade, n, d, sp);
+        LANES(i, n) for (int k = 0; k < 3; k++) {
+            float add = st.beta[k][i] * (d[k][i] * S.base[k][i] * (1.0f - S.metallic[i]) + sp[k][i]);
+            L_out[k][i] += shade[i] ? add : 0.0f; /* (no conditional store: it would not vectorise) */
+        }
+        float wi[3][NL], w[3][NL], pdf[NL];
+        uint8_t spec[NL], ok[NL];
+        if (more)
+            sample_brdf(&S, &L, P, b, n, wi, w, pdf, spec, ok);
+        for (uint32_t i = 0; i < n; i++) {
+            if (!shade[i])
+                continue;
+            uint32_t nb = b - st.specular[i]; /* bounces that count */
+            if (nb >= max_bounce || !ok[i]) {
+                st.alive[i] = 0;
+                continue;
+            }
+            for (int k = 0; k < 3; k++) /* the diffuse lobe remodulated */
+                st.beta[k][i] *= spec[i] ? w[k][i] : w[k][i] * (S.base[k][i] * (1.0f - S.metallic[i]));
+            if (nb + 1 >= rr_start) {
+                float q = fmn(fmx(fmx(st.beta[0][i], fmx(st.beta[1][i], st.beta[2][i])), 0.05f),
+                              1.0f);
+                if (rnd(P, i, b, TND_DIM_RR) >= q) {
+                    st.alive[i] = 0;
+                    continue;
+                }
+                for (int k = 0; k < 3; k++)
+                    st.beta[k][i] /= q;
+            }
+            ST3(st.org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
+            for (int k = 0; k < 3; k++)
+                st.dir[k][i] = wi[k][i];
+            st.pdf_prev[i] = pdf[i];
+        }
+    }
+}
+
+/* ---- the shading pass ----------------------------------------------------------------------- */
+/* Lane i's surface from the G-buffer of pixel q, as the GPU passes read it (the primary pass and
+ * the gradient patches wrote it), plus the material's specular factor; the distance from the eye
+ * along the primary chain. */
+static void surface_from_gbuffer(const femb_context *c, const tnd_frame *f, size_t q,
+                                 fb_surf *S, uint32_t i, float *depth)
+{
+    const tnd_scene *sc = c->scene;
+    uint32_t inst = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q];
+    const tnd_material *m = &sc->materials[sc->meshes[sc->instances[inst].mesh].material];
+    const float *p = tnd_frame_f(f, TND_CT_POSITION) + 3 * q;
+    const float *ns = tnd_frame_f(f, TND_CT_NORMAL) + 3 * q;
+    const float *ng = tnd_frame_f(f, TND_CT_GEO_NORMAL) + 3 * q;
+    const float *base = tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q;
+    v3 pos = {p[0], p[1], p[2]};
+    v3 d = sub((v3){c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]}, pos);
+    *depth = sqrtf(dot(d, d));
+    v3 wo = *depth > 0 ? mul(d, 1.0f / *depth) : (v3){ns[0], ns[1], ns[2]};
+    if (c->specular && tnd_frame_u(f, TND_CT_PATH)[q] != 0u) {
+        /* a surface seen in a mirror or through glass (the path flags say the primary chain met
+         * one) is lit towards the chain's last segment, not towards the camera: the primary
+         * pass's chain again (same jitter, same geometry) */
+        femb_chain ch;
+        femb_specular_chain(c, (uint32_t)(q % c->width), (uint32_t)(q / c->width), true, &ch);
+        if (ch.hit && ch.vertices > 0 && ch.inst == inst &&
+            ch.prim == tnd_frame_u(f, TND_CT_VIS_ID)[2 * q + 1]) {
+            wo = mul(ch.dir, -1.0f);
+            *depth = ch.length;
+        }
+    }
+    ST3(S->p, i, pos);
+    ST3(S->ns, i, ((v3){ns[0], ns[1], ns[2]}));
+    ST3(S->ng, i, ((v3){ng[0], ng[1], ng[2]}));
+    ST3(S->wo, i, wo);
+    for (int k = 0; k < 3; k++)
+        S->base[k][i] = base[k];
+    S->roughness[i] = tnd_frame_f(f, TND_CT_ROUGHNESS)[q];
+    S->metallic[i] = tnd_frame_f(f, TND_CT_METALLIC)[q];
+    S->specular[i] = m->specular;
+}
+
+LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f,
+                       const uint32_t *pixels, uint32_t n, float *radiance)
+{
+    fb_surf S;
+    fb_lobes L;
+    femb_paths P;
+    float depth[NL], thr[3][NL], em[3][NL], demod[3][NL];
+    memset(&S, 0, sizeof S); /* every lane below n is written; this quiets the compiler */
+    memset(&P, 0, sizeof P);
+    P.n = n;
+    for (uint32_t i = 0; i < n; i++) {
+        size_t q = pixels[i];
+        const uint32_t *rng = tnd_frame_u(f, TND_CT_RNG) + 2 * q;
+        P.key_pixel[i] = rng[1];
+        P.key_frame[i] = rng[0];
+        P.active[i] = 1;
+        surface_from_gbuffer(c, f, q, &S, i, &depth[i]);
+        for (int k = 0; k < 3; k++) {
+            thr[k][i] = tnd_frame_f(f, TND_CT_THROUGHPUT)[3 * q + k];
+            em[k][i] = tnd_frame_f(f, TND_CT_EMISSION)[3 * q + k];
+        }
+    }
+    lobes(&S, n, &L);
+    float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
+    direct_light(c, &P, 0, &S, &L, P.active, n, d, sp);
+    LANES(i, n) {
+        for (int k = 0; k < 3; k++) {
+            float m = S.metallic[i];
+            demod[k][i] = fmx(0.01f, 0.04f * (1.0f - m) + S.base[k][i] * m);
+            hf[k][i] = d[k][i];
+            spec[k][i] = sp[k][i] / demod[k][i];
+            rad[k][i] = em[k][i] + thr[k][i] * (d[k][i] * S.base[k][i] * (1.0f - m) + sp[k][i]);
+        }
+        sh[0][i] = sh[1][i] = sh[2][i] = sh[3][i] = cocg[0][i] = cocg[1][i] = 0.0f;
+    }
+    if (p->bounces > 0) {
+        float wi[3][NL], w[3][NL], pdf[NL], Li[3][NL];
+        uint8_t is_spec[NL];
+        sample_brdf(&S, &L, &P, 0, n, wi, w, pdf, is_spec, P.active);
+        for (uint32_t i = 0; i < n; i++) {
+            ST3(P.org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
+            for (int k = 0; k < 3; k++)
+                P.dir[k][i] = wi[k][i];
+            P.pdf_prev[i] = pdf[i];
+            P.cone[i] = depth[i] * c->pixel_spread;
+        }
+        femb_trace_paths(c, &P, 1, p->bounces, 2, Li);
+        LANES(i, n) {
+            float ct[3];
+            for (int k = 0; k < 3; k++) {
+                ct[k] = w[k][i] * Li[k][i];
+                /* a broken sample must not poison the history */
+                ct[k] = (ct[k] >= 0.0f) & (ct[k] <= FLT_MAX) ? ct[k] : 0.0f;
+            }
+            bool s_lobe = P.active[i] & is_spec[i], d_lobe = P.active[i] & !is_spec[i];
+            float m = S.metallic[i];
+            for (int k = 0; k < 3; k++) { /* (no conditional stores: they do not vectorise) */
+                spec[k][i] += s_lobe ? ct[k] / demod[k][i] : 0.0f;
+                float albedo = S.base[k][i] * (1.0f - m);
+                albedo = s_lobe ? 1.0f : albedo;
+                albedo = P.active[i] ? albedo : 0.0f;
+                rad[k][i] += thr[k][i] * ct[k] * albedo;
+            }
+            /* YCoCg, then the SH lobe scaled so that its value at the shading normal is Y */
+            float co = ct[0] - ct[2], t = ct[2] + 0.5f * co, cg = ct[1] - t, Y = t + 0.5f * cg;
+            v3 dir = LD3(wi, i);
+            float kk = 4.0f * (float)TND_PI / (1.0f + 2.0f * fmx(dot(dir, LD3(S.ns, i)), 0.0f));
+            sh[0][i] = d_lobe ? kk * Y * SH_C1 * dir.x : 0.0f;
+            sh[1][i] = d_lobe ? kk * Y * SH_C1 * dir.y : 0.0f;
+            sh[2][i] = d_lobe ? kk * Y * SH_C1 * dir.z : 0.0f;
+            sh[3][i] = d_lobe ? kk * Y * SH_C0 : 0.0f;
+            cocg[0][i] = d_lobe ? kk * co : 0.0f;
+            cocg[1][i] = d_lobe ? kk * cg : 0.0f;
+        }
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        size_t q = pixels[i];
+        float *o_hf = tnd_frame_f(f, TND_CT_HF) + 3 * q, *o_sp = tnd_frame_f(f, TND_CT_SPEC) + 3 * q;
+        float *o_sh = tnd_frame_f(f, TND_CT_LF_SH) + 4 * q, *o_cc = tnd_frame_f(f, TND_CT_LF_COCG) + 2 * q;
+        for (int k = 0; k < 3; k++) {
+            o_hf[k] = hf[k][i];
+            o_sp[k] = spec[k][i];
+            if (radiance)
+                radiance[3 * q + k] = rad[k][i];
+        }
+        for (int k = 0; k < 4; k++)
+            o_sh[k] = sh[k][i];
+        o_cc[0] = cocg[0][i];
+        o_cc[1] = cocg[1][i];
+    }
+}
