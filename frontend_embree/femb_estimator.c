@@ -33,19 +33,10 @@
 
 enum { NL = FEMB_LANES };
 
-/* A loop over a batch's lanes: iterations are independent (no array of a batch overlaps
- * another), which the pragma tells the vectoriser. */
-#define LANES(i, n) _Pragma("GCC ivdep") for (uint32_t i = 0; i < (n); i++)
-/* The functions with lane loops, compiled twice: for the baseline (SSE2: 4 lanes per
- * instruction) and for AVX2 (8), picked at load time by the CPU. Same results from both: no
- * contraction to FMA, and the operations are IEEE-exact either way. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define LANE_FN __attribute__((target_clones("avx2", "default")))
-#else
-#define LANE_FN
-#endif
-#define LD3(a, i) ((v3){(a)[0][i], (a)[1][i], (a)[2][i]})
-#define ST3(a, i, v) ((a)[0][i] = (v).x, (a)[1][i] = (v).y, (a)[2][i] = (v).z)
+#define LANES FEMB_LANES_LOOP
+#define LD3 FEMB_LD3
+#define ST3 FEMB_ST3
+#define LANE_FN FEMB_LANE_FN
 
 #define SH_C0 0.282094791773878f /* Y00 */
 #define SH_C1 0.488602511902920f /* Y1m / direction component */
@@ -55,24 +46,7 @@ static inline float rnd(const femb_paths *P, uint32_t i, uint32_t bounce, uint32
     return tnd_rand(P->key_pixel[i], P->key_frame[i], tnd_dim(bounce, which));
 }
 
-/* A batch's surfaces. */
-typedef struct fb_surf {
-    float p[3][NL], ng[3][NL], ns[3][NL], wo[3][NL], base[3][NL];
-    float metallic[NL], roughness[NL], specular[NL];
-} fb_surf;
-
-static void surf_store(fb_surf *S, uint32_t i, const femb_surface *s)
-{
-    ST3(S->p, i, s->p);
-    ST3(S->ng, i, s->ng);
-    ST3(S->ns, i, s->ns);
-    ST3(S->wo, i, s->wo);
-    for (int k = 0; k < 3; k++)
-        S->base[k][i] = s->base[k];
-    S->metallic[i] = s->metallic;
-    S->roughness[i] = s->roughness;
-    S->specular[i] = s->specular;
-}
+typedef femb_surfaces fb_surf;
 
 /* Orthonormal basis around n (Duff et al. 2017). The sign test treats -0 as +0, as the GLSL
  * mirror must (copysign would split them, and the two front-ends would sample different
@@ -330,57 +304,72 @@ typedef struct fb_state {
     uint8_t alive[NL], inside[NL];
 } fb_state;
 
-/* Vertex `b` of lane i: the closest hit, its emission (MIS-weighted against the light list when
- * the previous vertex sampled a BRDF), and a specular vertex followed at once. True when the lane
- * stands on an opaque surface (stored in S) that needs shading. */
-static bool path_vertex(const femb_context *c, const femb_paths *P, uint32_t i, uint32_t b,
-                        fb_state *st, fb_surf *S, float L_out[3][NL])
+/* Vertex `b` of the live lanes: the closest hits (a miss adds the sky and ends the path), the
+ * surfaces, their emission (MIS-weighted against the light list when the previous vertex sampled
+ * a BRDF), and specular vertices followed at once. shade[i] is set for the lanes that stand on
+ * an opaque surface (in S) and need shading. */
+static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, uint32_t n,
+                        fb_state *st, fb_surf *S, uint8_t shade[NL], float L_out[3][NL])
 {
-    uint32_t inst, prim;
-    float hu, hv, t;
-    v3 dir = LD3(st->dir, i);
-    if (!femb_intersect(c, LD3(st->org, i), dir, 1e30f, &inst, &prim, &hu, &hv, &t)) {
+    uint32_t inst[NL] = {0}, prim[NL] = {0}; /* (initialised: gcc cannot see that lanes < n are) */
+    float hu[NL] = {0}, hv[NL] = {0}, t[NL];
+    uint8_t hit[NL] = {0};
+    for (uint32_t i = 0; i < n; i++) {
+        hit[i] = st->alive[i] && femb_intersect(c, LD3(st->org, i), LD3(st->dir, i), 1e30f,
+                                                &inst[i], &prim[i], &hu[i], &hv[i], &t[i]);
+        if (!hit[i]) {
+            inst[i] = prim[i] = 0;
+            hu[i] = hv[i] = t[i] = 0.0f;
+            if (st->alive[i])
+                for (int k = 0; k < 3; k++)
+                    L_out[k][i] += st->beta[k][i] * c->scene->sky[k];
+            st->alive[i] = 0;
+            continue;
+        }
+        if (st->inside[i]) /* Beer-Lambert over the segment inside the glass */
+            for (int k = 0; k < 3; k++)
+                st->beta[k][i] *= expf(-st->sigma[k][i] * t[i]);
+        st->cone[i] += t[i] * c->pixel_spread;
+    }
+    femb_surface_eval_batch(c, n, hit, inst, prim, hu, hv, st->dir, st->cone, S);
+    for (uint32_t i = 0; i < n; i++) {
+        shade[i] = 0;
+        if (!hit[i])
+            continue;
+        v3 dir = LD3(st->dir, i);
+        if (S->emission[0][i] > 0 || S->emission[1][i] > 0 || S->emission[2][i] > 0) {
+            float w = 1.0f;
+            if (st->pdf_prev[i] > 0)
+                w = tnd_mis_power(st->pdf_prev[i],
+                                  emitter_pdf(c, inst[i], prim[i], t[i], dir, LD3(S->ng, i)));
+            for (int k = 0; k < 3; k++)
+                L_out[k][i] += st->beta[k][i] * w * S->emission[k][i];
+        }
+        if (S->kind[i] == TND_KIND_OPAQUE) {
+            shade[i] = 1;
+            continue;
+        }
+        if (++st->specular[i] > TND_MAX_SPECULAR_DEPTH) {
+            st->alive[i] = 0;
+            continue;
+        }
+        femb_surface s;
+        femb_surface_get(S, i, &s);
+        float f[3];
+        uint32_t ev;
+        bool enter;
+        v3 wi = femb_specular_vertex(&s, dir, rnd(P, i, b, TND_DIM_SPLIT), f, &ev, &enter);
+        if (ev == TND_EVENT_REFRACT) { /* into the volume, or out of it */
+            st->inside[i] = enter;
+            for (int k = 0; k < 3; k++)
+                st->sigma[k][i] = s.sigma[k];
+        }
         for (int k = 0; k < 3; k++)
-            L_out[k][i] += st->beta[k][i] * c->scene->sky[k];
-        st->alive[i] = 0;
-        return false;
+            st->beta[k][i] *= f[k];
+        ST3(st->org, i, femb_offset_ray(s.p, dot(wi, s.ng) >= 0 ? s.ng : mul(s.ng, -1.0f)));
+        ST3(st->dir, i, wi);
+        st->pdf_prev[i] = 0.0f; /* a delta lobe: an emitter seen through it gets the full weight */
     }
-    if (st->inside[i]) /* Beer-Lambert over the segment inside the glass */
-        for (int k = 0; k < 3; k++)
-            st->beta[k][i] *= expf(-st->sigma[k][i] * t);
-    femb_surface s;
-    st->cone[i] += t * c->pixel_spread;
-    femb_surface_eval(c, inst, prim, hu, hv, dir, st->cone[i], &s);
-    if (s.emission[0] > 0 || s.emission[1] > 0 || s.emission[2] > 0) {
-        float w = 1.0f;
-        if (st->pdf_prev[i] > 0)
-            w = tnd_mis_power(st->pdf_prev[i], emitter_pdf(c, inst, prim, t, dir, s.ng));
-        for (int k = 0; k < 3; k++)
-            L_out[k][i] += st->beta[k][i] * w * s.emission[k];
-    }
-    if (s.kind == TND_KIND_OPAQUE) {
-        surf_store(S, i, &s);
-        return true;
-    }
-    if (++st->specular[i] > TND_MAX_SPECULAR_DEPTH) {
-        st->alive[i] = 0;
-        return false;
-    }
-    float f[3];
-    uint32_t ev;
-    bool enter;
-    v3 wi = femb_specular_vertex(&s, dir, rnd(P, i, b, TND_DIM_SPLIT), f, &ev, &enter);
-    if (ev == TND_EVENT_REFRACT) { /* into the volume, or out of it */
-        st->inside[i] = enter;
-        for (int k = 0; k < 3; k++)
-            st->sigma[k][i] = s.sigma[k];
-    }
-    for (int k = 0; k < 3; k++)
-        st->beta[k][i] *= f[k];
-    ST3(st->org, i, femb_offset_ray(s.p, dot(wi, s.ng) >= 0 ? s.ng : mul(s.ng, -1.0f)));
-    ST3(st->dir, i, wi);
-    st->pdf_prev[i] = 0.0f; /* a delta lobe: an emitter seen through it gets the full weight */
-    return false;
 }
 
 LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32_t bounce,
@@ -390,7 +379,6 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
     fb_state st;
     fb_surf S;
     fb_lobes L;
-    memset(&S, 0, sizeof S); /* lanes not on a surface still feed the lane loops */
     for (uint32_t i = 0; i < n; i++) {
         for (int k = 0; k < 3; k++) {
             st.org[k][i] = P->org[k][i];
@@ -408,8 +396,8 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
     for (uint32_t b = bounce;; b++) {
         uint8_t shade[NL];
         bool any = false, more = false; /* any lane to shade; any to continue after it */
+        path_vertex(c, P, b, n, &st, &S, shade, L_out);
         for (uint32_t i = 0; i < n; i++) {
-            shade[i] = st.alive[i] && path_vertex(c, P, i, b, &st, &S, L_out);
             any |= shade[i];
             more |= shade[i] && b - st.specular[i] < max_bounce;
         }

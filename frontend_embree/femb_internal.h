@@ -81,10 +81,43 @@ typedef struct femb_surface {
     bool front;    /* the ray arrived on the side the geometric normal points to */
 } femb_surface;
 
-/* Evaluate the surface hit by a ray of direction `dir` (unit) at (instance, primitive, u, v);
- * `cone_width` (world units at the hit) chooses the texture level of detail. */
+/* A loop over a batch's lanes: iterations are independent (no array of a batch overlaps
+ * another), which the pragma tells the vectoriser. */
+#define FEMB_LANES_LOOP(i, n) _Pragma("GCC ivdep") for (uint32_t i = 0; i < (n); i++)
+#define FEMB_LD3(a, i) ((v3){(a)[0][i], (a)[1][i], (a)[2][i]})
+#define FEMB_ST3(a, i, v) ((a)[0][i] = (v).x, (a)[1][i] = (v).y, (a)[2][i] = (v).z)
+/* Functions with lane loops, compiled twice: for the baseline (SSE2: 4 lanes per instruction)
+ * and for AVX2 (8), picked at load time by the CPU. Both give the same bits: no contraction to
+ * FMA in ISO C mode, and the operations used are IEEE-exact either way. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define FEMB_LANE_FN __attribute__((target_clones("avx2", "default")))
+#else
+#define FEMB_LANE_FN
+#endif
+
+enum { FEMB_LANES = 64 }; /* paths per batch (femb_estimator.c) */
+
+/* The surfaces of a batch, one lane per path (structure of arrays: the lane loops vectorise). */
+typedef struct femb_surfaces {
+    float p[3][FEMB_LANES], ng[3][FEMB_LANES], ns[3][FEMB_LANES], wo[3][FEMB_LANES];
+    float obj[3][FEMB_LANES], base[3][FEMB_LANES], emission[3][FEMB_LANES], sigma[3][FEMB_LANES];
+    float metallic[FEMB_LANES], roughness[FEMB_LANES], specular[FEMB_LANES], ior[FEMB_LANES];
+    float u[FEMB_LANES], v[FEMB_LANES];
+    uint32_t instance[FEMB_LANES], primitive[FEMB_LANES], kind[FEMB_LANES];
+    uint8_t front[FEMB_LANES];
+} femb_surfaces;
+
+/* Evaluate the surfaces hit by rays of directions dir (unit) at (instance, primitive, u, v) for
+ * the active lanes of [0, n) (the others get harmless values); `cone` (world width of the ray
+ * cone at the hit) chooses the texture level of detail. femb_surface_eval does one. */
+void femb_surface_eval_batch(const femb_context *c, uint32_t n, const uint8_t *active,
+                             const uint32_t *instance, const uint32_t *primitive, const float *u,
+                             const float *v, const float dir[3][FEMB_LANES], const float *cone,
+                             femb_surfaces *S);
 void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primitive, float u,
                        float v, v3 dir, float cone_width, femb_surface *s);
+/* Lane i of a batch as one surface. */
+void femb_surface_get(const femb_surfaces *S, uint32_t i, femb_surface *s);
 
 /* Closest hit (false on a miss) and occlusion. */
 bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax, uint32_t *instance,
@@ -107,7 +140,6 @@ void femb_parallel_range(femb_context *c, size_t count, size_t chunk,
 v3 femb_offset_ray(v3 p, v3 n);
 
 /* ---- the estimator (femb_estimator.c), on batches of paths ---------------------------------- */
-enum { FEMB_LANES = 64 };
 
 /* A batch of paths to trace: random-number keys, start rays, the pdf of the BRDF sample that
  * chose each direction (0: none, an emitter hit gets the full weight), the ray cone's width at

@@ -74,15 +74,23 @@ static v3 surface_position(const femb_context *c, uint32_t inst, uint32_t prim, 
                 X[8] * o[0] + X[9] * o[1] + X[10] * o[2] + X[11]};
 }
 
-/* Reconstruct the surface of a visibility-buffer entry as seen from the camera. */
-static void surface_from_vis(const femb_context *c, uint32_t inst, uint32_t prim, float u,
-                             float v, femb_surface *s, float *depth)
+/* Reconstruct the surfaces of visibility-buffer entries as seen from the camera (the primary
+ * pass and the gradient samples, which must agree to the bit): the direction and the distance
+ * from the eye to the reconstructed point. */
+static void surfaces_from_vis(const femb_context *c, uint32_t n, const uint8_t *active,
+                              const uint32_t *inst, const uint32_t *prim, const float *u,
+                              const float *v, femb_surfaces *S, float *depth)
 {
-    v3 p = surface_position(c, inst, prim, u, v);
+    float dir[3][FEMB_LANES], cone[FEMB_LANES] = {0};
     v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
-    v3 d = sub(p, cam);
-    *depth = sqrtf(dot(d, d));
-    femb_surface_eval(c, inst, prim, u, v, norm(d), *depth * c->pixel_spread, s);
+    for (uint32_t i = 0; i < n; i++) {
+        v3 d = active[i] ? sub(surface_position(c, inst[i], prim[i], u[i], v[i]), cam)
+                         : (v3){0.0f, 0.0f, 1.0f};
+        depth[i] = sqrtf(dot(d, d));
+        FEMB_ST3(dir, i, norm(d));
+        cone[i] = depth[i] * c->pixel_spread;
+    }
+    femb_surface_eval_batch(c, n, active, inst, prim, u, v, dir, cone, S);
 }
 
 /* The real-time reflect/refract chain (femb_internal.h): mirror: reflect, x Schlick; glass:
@@ -162,117 +170,148 @@ typedef struct primary_job {
     tnd_frame *f;
 } primary_job;
 
+/* G-buffer and motion of pixel q from its chain and, when it sees one, the surface s at distance
+ * `dist` along the chain. */
+static void primary_store(femb_context *c, tnd_frame *f, size_t q, const femb_chain *ch,
+                          const femb_surface *s, float dist)
+{
+    const tnd_scene *sc = c->scene;
+    uint32_t W = c->width, H = c->height;
+    const tnd_camera_state *cam = &c->cur->camera;
+    tnd_frame_u(f, TND_CT_PATH)[q] = ch->path;
+    float dd[3] = {ch->dir0.x, ch->dir0.y, ch->dir0.z};
+    uint32_t inst = ch->inst, prim = ch->prim;
+    float u = ch->u, v = ch->v;
+    float *alb = tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q, *n = tnd_frame_f(f, TND_CT_NORMAL) + 3 * q;
+    float *gn = tnd_frame_f(f, TND_CT_GEO_NORMAL) + 3 * q;
+    float *pos = tnd_frame_f(f, TND_CT_POSITION) + 3 * q, *depth = tnd_frame_f(f, TND_CT_DEPTH) + q;
+    float *mo = tnd_frame_f(f, TND_CT_MOTION) + 3 * q;
+    float *em = tnd_frame_f(f, TND_CT_EMISSION) + 3 * q;
+    uint32_t *vis = tnd_frame_u(f, TND_CT_VIS_ID) + 2 * q;
+    float *bary = tnd_frame_f(f, TND_CT_VIS_BARY) + 2 * q;
+    float *thr = tnd_frame_f(f, TND_CT_THROUGHPUT) + 3 * q;
+    uint32_t *rng = tnd_frame_u(f, TND_CT_RNG) + 2 * q;
+    rng[0] = c->frame;
+    rng[1] = (uint32_t)q;
+    memcpy(thr, ch->thr, 3 * sizeof(float));
+    double cur_px[2], prev_px[2];
+    if (!ch->hit) {
+        for (int k = 0; k < 3; k++) {
+            alb[k] = n[k] = gn[k] = pos[k] = 0.0f;
+            em[k] = sc->sky[k] * ch->thr[k];
+        }
+        n[2] = gn[2] = 0.0f;
+        *depth = (float)TND_DEPTH_MISS;
+        vis[0] = vis[1] = TND_VIS_NONE;
+        bary[0] = bary[1] = 0.0f;
+        tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = 1.0f;
+        tnd_frame_f(f, TND_CT_METALLIC)[q] = 0.0f;
+        double dir_d[3] = {dd[0], dd[1], dd[2]};
+        mo[0] = mo[1] = mo[2] = 0.0f;
+        if (project(cam, c->cam_pos, dir_d, true, W, H, cur_px) &&
+            project(&c->prev->camera, c->prev_cam_pos, dir_d, true, W, H, prev_px)) {
+            mo[0] = (float)(prev_px[0] - cur_px[0]);
+            mo[1] = (float)(prev_px[1] - cur_px[1]);
+        }
+        return;
+    }
+    for (int k = 0; k < 3; k++) {
+        alb[k] = s->base[k];
+        em[k] = s->emission[k] * ch->thr[k];
+    }
+    n[0] = s->ns.x, n[1] = s->ns.y, n[2] = s->ns.z;
+    gn[0] = s->ng.x, gn[1] = s->ng.y, gn[2] = s->ng.z;
+    pos[0] = s->p.x, pos[1] = s->p.y, pos[2] = s->p.z;
+    *depth = dist;
+    vis[0] = inst;
+    vis[1] = prim;
+    bary[0] = u;
+    bary[1] = v;
+    tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = s->roughness;
+    tnd_frame_f(f, TND_CT_METALLIC)[q] = s->metallic;
+    mo[0] = mo[1] = mo[2] = 0.0f;
+    if (ch->vertices > 0) {
+        /* the virtual point (what a planar mirror shows: along the camera ray at the
+         * chain's length), the mirror and the glass assumed still */
+        double vp[3];
+        for (int r = 0; r < 3; r++)
+            vp[r] = c->cam_pos[r] + (double)dd[r] * ch->length;
+        if (project(cam, c->cam_pos, vp, false, W, H, cur_px) &&
+            project(&c->prev->camera, c->prev_cam_pos, vp, false, W, H, prev_px)) {
+            mo[0] = (float)(prev_px[0] - cur_px[0]);
+            mo[1] = (float)(prev_px[1] - cur_px[1]);
+        }
+        double dp = 0;
+        for (int r = 0; r < 3; r++)
+            dp += (vp[r] - c->prev_cam_pos[r]) * (vp[r] - c->prev_cam_pos[r]);
+        mo[2] = (float)(sqrt(dp) - ch->length);
+        return;
+    }
+    /* motion: the same object-space point through this and the previous frame's
+     * instance transform and camera (both unjittered) */
+    const float *PX = c->prev->instance_xform + 12 * inst, *X = c->cur->instance_xform + 12 * inst;
+    double pw[3], cw[3];
+    for (int r = 0; r < 3; r++) {
+        pw[r] = (double)PX[4 * r] * s->obj[0] + (double)PX[4 * r + 1] * s->obj[1] +
+                (double)PX[4 * r + 2] * s->obj[2] + PX[4 * r + 3];
+        cw[r] = (double)X[4 * r] * s->obj[0] + (double)X[4 * r + 1] * s->obj[1] +
+                (double)X[4 * r + 2] * s->obj[2] + X[4 * r + 3];
+    }
+    if (project(cam, c->cam_pos, cw, false, W, H, cur_px) &&
+        project(&c->prev->camera, c->prev_cam_pos, pw, false, W, H, prev_px)) {
+        mo[0] = (float)(prev_px[0] - cur_px[0]);
+        mo[1] = (float)(prev_px[1] - cur_px[1]);
+    }
+    double dp = 0, dc = 0;
+    for (int r = 0; r < 3; r++) {
+        dp += (pw[r] - c->prev_cam_pos[r]) * (pw[r] - c->prev_cam_pos[r]);
+        dc += (cw[r] - c->cam_pos[r]) * (cw[r] - c->cam_pos[r]);
+    }
+    mo[2] = (float)(sqrt(dp) - sqrt(dc));
+}
+
+static void primary_batch(femb_context *c, tnd_frame *f, const uint32_t *pixels, uint32_t n)
+{
+    femb_chain ch[FEMB_LANES];
+    femb_surfaces S;
+    uint32_t inst[FEMB_LANES] = {0}, prim[FEMB_LANES] = {0}; /* (zeroed: quiets gcc) */
+    float u[FEMB_LANES] = {0}, v[FEMB_LANES] = {0}, depth[FEMB_LANES];
+    uint8_t plain[FEMB_LANES] = {0}, chain[FEMB_LANES];
+    for (uint32_t i = 0; i < n; i++) {
+        femb_specular_chain(c, pixels[i] % c->width, pixels[i] / c->width, c->specular, &ch[i]);
+        inst[i] = ch[i].inst, prim[i] = ch[i].prim, u[i] = ch[i].u, v[i] = ch[i].v;
+        plain[i] = ch[i].hit && ch[i].vertices == 0;
+        chain[i] = ch[i].hit && ch[i].vertices > 0;
+    }
+    surfaces_from_vis(c, n, plain, inst, prim, u, v, &S, depth);
+    for (uint32_t i = 0; i < n; i++) {
+        femb_surface s;
+        if (plain[i]) {
+            femb_surface_get(&S, i, &s);
+        } else if (chain[i]) { /* seen in a mirror or through glass: the surface at its end */
+            depth[i] = ch[i].length;
+            femb_surface_eval(c, inst[i], prim[i], u[i], v[i], ch[i].dir,
+                              depth[i] * c->pixel_spread, &s);
+        }
+        primary_store(c, f, pixels[i], &ch[i], &s, depth[i]);
+    }
+}
+
 static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
                          void *user)
 {
     tnd_frame *f = ((primary_job *)user)->f;
-    const tnd_scene *sc = c->scene;
-    uint32_t W = c->width, H = c->height;
-    tnd_camera_state cam = c->cur->camera;
+    uint32_t batch[FEMB_LANES], n = 0;
     for (uint32_t y = y0; y < y1; y++)
         for (uint32_t x = x0; x < x1; x++) {
-            size_t q = (size_t)y * W + x;
-            femb_chain ch;
-            femb_specular_chain(c, x, y, c->specular, &ch);
-            tnd_frame_u(f, TND_CT_PATH)[q] = ch.path;
-            float dd[3] = {ch.dir0.x, ch.dir0.y, ch.dir0.z};
-            uint32_t inst = ch.inst, prim = ch.prim;
-            float u = ch.u, v = ch.v;
-            float *alb = tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q, *n = tnd_frame_f(f, TND_CT_NORMAL) + 3 * q;
-            float *gn = tnd_frame_f(f, TND_CT_GEO_NORMAL) + 3 * q;
-            float *pos = tnd_frame_f(f, TND_CT_POSITION) + 3 * q, *depth = tnd_frame_f(f, TND_CT_DEPTH) + q;
-            float *mo = tnd_frame_f(f, TND_CT_MOTION) + 3 * q;
-            float *em = tnd_frame_f(f, TND_CT_EMISSION) + 3 * q;
-            uint32_t *vis = tnd_frame_u(f, TND_CT_VIS_ID) + 2 * q;
-            float *bary = tnd_frame_f(f, TND_CT_VIS_BARY) + 2 * q;
-            float *thr = tnd_frame_f(f, TND_CT_THROUGHPUT) + 3 * q;
-            uint32_t *rng = tnd_frame_u(f, TND_CT_RNG) + 2 * q;
-            rng[0] = c->frame;
-            rng[1] = (uint32_t)q;
-            memcpy(thr, ch.thr, 3 * sizeof(float));
-            double cur_px[2], prev_px[2];
-            if (!ch.hit) {
-                for (int k = 0; k < 3; k++) {
-                    alb[k] = n[k] = gn[k] = pos[k] = 0.0f;
-                    em[k] = sc->sky[k] * ch.thr[k];
-                }
-                n[2] = gn[2] = 0.0f;
-                *depth = (float)TND_DEPTH_MISS;
-                vis[0] = vis[1] = TND_VIS_NONE;
-                bary[0] = bary[1] = 0.0f;
-                tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = 1.0f;
-                tnd_frame_f(f, TND_CT_METALLIC)[q] = 0.0f;
-                double dir_d[3] = {dd[0], dd[1], dd[2]};
-                mo[0] = mo[1] = mo[2] = 0.0f;
-                if (project(&cam, c->cam_pos, dir_d, true, W, H, cur_px) &&
-                    project(&c->prev->camera, c->prev_cam_pos, dir_d, true, W, H, prev_px)) {
-                    mo[0] = (float)(prev_px[0] - cur_px[0]);
-                    mo[1] = (float)(prev_px[1] - cur_px[1]);
-                }
-                continue;
+            batch[n++] = y * c->width + x;
+            if (n == FEMB_LANES) {
+                primary_batch(c, f, batch, n);
+                n = 0;
             }
-            femb_surface s;
-            float dist;
-            if (ch.vertices == 0) {
-                surface_from_vis(c, inst, prim, u, v, &s, &dist);
-            } else { /* seen in a mirror or through glass: the surface at the chain's end */
-                dist = ch.length;
-                femb_surface_eval(c, inst, prim, u, v, ch.dir, dist * c->pixel_spread, &s);
-            }
-            for (int k = 0; k < 3; k++) {
-                alb[k] = s.base[k];
-                em[k] = s.emission[k] * ch.thr[k];
-            }
-            n[0] = s.ns.x, n[1] = s.ns.y, n[2] = s.ns.z;
-            gn[0] = s.ng.x, gn[1] = s.ng.y, gn[2] = s.ng.z;
-            pos[0] = s.p.x, pos[1] = s.p.y, pos[2] = s.p.z;
-            *depth = dist;
-            vis[0] = inst;
-            vis[1] = prim;
-            bary[0] = u;
-            bary[1] = v;
-            tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = s.roughness;
-            tnd_frame_f(f, TND_CT_METALLIC)[q] = s.metallic;
-            mo[0] = mo[1] = mo[2] = 0.0f;
-            if (ch.vertices > 0) {
-                /* the virtual point (what a planar mirror shows: along the camera ray at the
-                 * chain's length), the mirror and the glass assumed still */
-                double vp[3];
-                for (int r = 0; r < 3; r++)
-                    vp[r] = c->cam_pos[r] + (double)dd[r] * ch.length;
-                if (project(&cam, c->cam_pos, vp, false, W, H, cur_px) &&
-                    project(&c->prev->camera, c->prev_cam_pos, vp, false, W, H, prev_px)) {
-                    mo[0] = (float)(prev_px[0] - cur_px[0]);
-                    mo[1] = (float)(prev_px[1] - cur_px[1]);
-                }
-                double dp = 0;
-                for (int r = 0; r < 3; r++)
-                    dp += (vp[r] - c->prev_cam_pos[r]) * (vp[r] - c->prev_cam_pos[r]);
-                mo[2] = (float)(sqrt(dp) - ch.length);
-                continue;
-            }
-            /* motion: the same object-space point through this and the previous frame's
-             * instance transform and camera (both unjittered) */
-            const float *PX = c->prev->instance_xform + 12 * inst, *X = c->cur->instance_xform + 12 * inst;
-            double pw[3], cw[3];
-            for (int r = 0; r < 3; r++) {
-                pw[r] = (double)PX[4 * r] * s.obj[0] + (double)PX[4 * r + 1] * s.obj[1] +
-                        (double)PX[4 * r + 2] * s.obj[2] + PX[4 * r + 3];
-                cw[r] = (double)X[4 * r] * s.obj[0] + (double)X[4 * r + 1] * s.obj[1] +
-                        (double)X[4 * r + 2] * s.obj[2] + X[4 * r + 3];
-            }
-            if (project(&cam, c->cam_pos, cw, false, W, H, cur_px) &&
-                project(&c->prev->camera, c->prev_cam_pos, pw, false, W, H, prev_px)) {
-                mo[0] = (float)(prev_px[0] - cur_px[0]);
-                mo[1] = (float)(prev_px[1] - cur_px[1]);
-            }
-            double dp = 0, dc = 0;
-            for (int r = 0; r < 3; r++) {
-                dp += (pw[r] - c->prev_cam_pos[r]) * (pw[r] - c->prev_cam_pos[r]);
-                dc += (cw[r] - c->cam_pos[r]) * (cw[r] - c->cam_pos[r]);
-            }
-            mo[2] = (float)(sqrt(dp) - sqrt(dc));
         }
+    if (n)
+        primary_batch(c, f, batch, n);
 }
 
 tnd_result femb_trace_primary(femb_context *c, tnd_frame *f)
@@ -380,35 +419,43 @@ tnd_result femb_shade_gradients(femb_context *c, const femb_params *p,
                             "of range",
                             i, g[i].pixel, g[i].instance, g[i].primitive);
     }
-    for (uint32_t i = 0; i < n; i++) {
-        size_t q = g[i].pixel;
-        femb_surface s;
-        float depth;
-        surface_from_vis(c, g[i].instance, g[i].primitive, g[i].u, g[i].v, &s, &depth);
-        /* patch the G-buffer with the re-evaluated surface */
-        tnd_frame_u(f, TND_CT_VIS_ID)[2 * q] = g[i].instance;
-        tnd_frame_u(f, TND_CT_VIS_ID)[2 * q + 1] = g[i].primitive;
-        tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q] = g[i].u;
-        tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q + 1] = g[i].v;
-        tnd_frame_u(f, TND_CT_RNG)[2 * q] = g[i].rng_frame;
-        tnd_frame_u(f, TND_CT_RNG)[2 * q + 1] = g[i].rng_pixel;
-        memcpy(tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q, s.base, 3 * sizeof(float));
-        float n3[3] = {s.ns.x, s.ns.y, s.ns.z}, g3[3] = {s.ng.x, s.ng.y, s.ng.z};
-        float p3[3] = {s.p.x, s.p.y, s.p.z};
-        memcpy(tnd_frame_f(f, TND_CT_NORMAL) + 3 * q, n3, sizeof n3);
-        memcpy(tnd_frame_f(f, TND_CT_GEO_NORMAL) + 3 * q, g3, sizeof g3);
-        memcpy(tnd_frame_f(f, TND_CT_POSITION) + 3 * q, p3, sizeof p3);
-        tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = s.roughness;
-        tnd_frame_f(f, TND_CT_METALLIC)[q] = s.metallic;
-        memcpy(tnd_frame_f(f, TND_CT_EMISSION) + 3 * q, s.emission, 3 * sizeof(float));
-    }
-    /* then shade them, in batches */
-    uint32_t batch[FEMB_LANES];
-    for (uint32_t i = 0; i < n; i += FEMB_LANES) {
-        uint32_t m = n - i < FEMB_LANES ? n - i : FEMB_LANES;
-        for (uint32_t k = 0; k < m; k++)
-            batch[k] = g[i + k].pixel;
-        femb_shade_pixels(c, p, f, batch, m, NULL);
+    /* in batches: the surfaces re-evaluated on the current geometry patch the G-buffer, then
+     * the pixels are shaded */
+    for (uint32_t i0 = 0; i0 < n; i0 += FEMB_LANES) {
+        uint32_t m = n - i0 < FEMB_LANES ? n - i0 : FEMB_LANES;
+        uint32_t inst[FEMB_LANES] = {0}, prim[FEMB_LANES] = {0}, pixels[FEMB_LANES];
+        float u[FEMB_LANES] = {0}, v[FEMB_LANES] = {0}, depth[FEMB_LANES];
+        uint8_t active[FEMB_LANES];
+        for (uint32_t k = 0; k < m; k++) {
+            const femb_gradient_sample *gs = &g[i0 + k];
+            inst[k] = gs->instance, prim[k] = gs->primitive, u[k] = gs->u, v[k] = gs->v;
+            pixels[k] = gs->pixel;
+            active[k] = 1;
+        }
+        femb_surfaces S;
+        surfaces_from_vis(c, m, active, inst, prim, u, v, &S, depth);
+        for (uint32_t k = 0; k < m; k++) {
+            const femb_gradient_sample *gs = &g[i0 + k];
+            size_t q = gs->pixel;
+            femb_surface s;
+            femb_surface_get(&S, k, &s);
+            tnd_frame_u(f, TND_CT_VIS_ID)[2 * q] = gs->instance;
+            tnd_frame_u(f, TND_CT_VIS_ID)[2 * q + 1] = gs->primitive;
+            tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q] = gs->u;
+            tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q + 1] = gs->v;
+            tnd_frame_u(f, TND_CT_RNG)[2 * q] = gs->rng_frame;
+            tnd_frame_u(f, TND_CT_RNG)[2 * q + 1] = gs->rng_pixel;
+            memcpy(tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q, s.base, 3 * sizeof(float));
+            float n3[3] = {s.ns.x, s.ns.y, s.ns.z}, g3[3] = {s.ng.x, s.ng.y, s.ng.z};
+            float p3[3] = {s.p.x, s.p.y, s.p.z};
+            memcpy(tnd_frame_f(f, TND_CT_NORMAL) + 3 * q, n3, sizeof n3);
+            memcpy(tnd_frame_f(f, TND_CT_GEO_NORMAL) + 3 * q, g3, sizeof g3);
+            memcpy(tnd_frame_f(f, TND_CT_POSITION) + 3 * q, p3, sizeof p3);
+            tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = s.roughness;
+            tnd_frame_f(f, TND_CT_METALLIC)[q] = s.metallic;
+            memcpy(tnd_frame_f(f, TND_CT_EMISSION) + 3 * q, s.emission, 3 * sizeof(float));
+        }
+        femb_shade_pixels(c, p, f, pixels, m, NULL);
     }
     mark_shading(f);
     return TND_OK;

@@ -229,13 +229,13 @@ v3 femb_offset_ray(v3 p, v3 n)
 }
 
 /* 3x4 row-major transform */
-static v3 xf_point(const float *x, const float *p)
+static inline v3 xf_point(const float *x, const float *p)
 {
     return (v3){x[0] * p[0] + x[1] * p[1] + x[2] * p[2] + x[3],
                 x[4] * p[0] + x[5] * p[1] + x[6] * p[2] + x[7],
                 x[8] * p[0] + x[9] * p[1] + x[10] * p[2] + x[11]};
 }
-static v3 xf_dir(const float *x, v3 d)
+static inline v3 xf_dir(const float *x, v3 d)
 {
     return (v3){x[0] * d.x + x[1] * d.y + x[2] * d.z, x[4] * d.x + x[5] * d.y + x[6] * d.z,
                 x[8] * d.x + x[9] * d.y + x[10] * d.z};
@@ -243,86 +243,57 @@ static v3 xf_dir(const float *x, v3 d)
 /* normal transform: inverse transpose of the 3x3 = its cofactor matrix C / det; C's rows are
  * r1 x r2, r2 x r0, r0 x r1 (r_i the rows), and n' = C n (up to a positive scale when the
  * determinant is positive; the sign is fixed by facing the viewer anyway). For a rotation C = R. */
-static v3 xf_normal(const float *x, v3 n)
+static inline v3 xf_normal(const float *x, v3 n)
 {
     v3 r0 = {x[0], x[1], x[2]}, r1 = {x[4], x[5], x[6]}, r2 = {x[8], x[9], x[10]};
     v3 c0 = cross(r1, r2), c1 = cross(r2, r0), c2 = cross(r0, r1);
     return (v3){dot(c0, n), dot(c1, n), dot(c2, n)};
 }
 
-void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primitive, float u,
-                       float v, v3 dir, float cone_width, femb_surface *s)
+enum { NL = FEMB_LANES };
+
+/* Texture coordinates, level of detail (ray cones, Akenine-Moller et al. 2019) and the
+ * material's textures for lane i of a batch whose geometry is evaluated (ng and ns facing the
+ * ray); X is the instance transform, e1 and e2 the triangle's object-space edges. */
+static void surface_textures(const femb_context *c, femb_surfaces *S, uint32_t i, const float *X,
+                             v3 e1, v3 e2, v3 dir, float cone_width)
 {
     const tnd_scene *sc = c->scene;
-    const tnd_mesh *m = &sc->meshes[sc->instances[instance].mesh];
+    const tnd_mesh *m = &sc->meshes[sc->instances[S->instance[i]].mesh];
     const tnd_material *mat = &sc->materials[m->material];
-    const uint32_t *ix = sc->indices + m->first_index + 3 * primitive;
-    const float *X = c->cur->instance_xform + 12 * instance;
+    const uint32_t *ix = sc->indices + m->first_index + 3 * S->primitive[i];
     uint32_t i0 = m->first_vertex + ix[0], i1 = m->first_vertex + ix[1], i2 = m->first_vertex + ix[2];
-    float w0 = 1.0f - u - v;
-    const float *p0 = sc->positions + 3 * (size_t)i0, *p1 = sc->positions + 3 * (size_t)i1,
-                *p2 = sc->positions + 3 * (size_t)i2;
-    for (int k = 0; k < 3; k++)
-        s->obj[k] = w0 * p0[k] + u * p1[k] + v * p2[k];
-    s->p = xf_point(X, s->obj);
-    v3 e1 = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-    v3 e2 = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-    v3 ng = norm(xf_normal(X, cross(e1, e2)));
-    const float *n0 = sc->normals + 3 * (size_t)i0, *n1 = sc->normals + 3 * (size_t)i1,
-                *n2 = sc->normals + 3 * (size_t)i2;
-    v3 ns = {w0 * n0[0] + u * n1[0] + v * n2[0], w0 * n0[1] + u * n1[1] + v * n2[1],
-             w0 * n0[2] + u * n1[2] + v * n2[2]};
-    ns = dot(ns, ns) > 1e-20f ? norm(xf_normal(X, ns)) : ng;
-    s->wo = mul(dir, -1.0f);
-    bool front = dot(ng, s->wo) >= 0.0f;
-    s->front = front;
-    s->kind = (uint32_t)mat->kind;
-    s->ior = mat->ior > 0 ? mat->ior : 1.5f;
-    tnd_material_sigma(mat, s->sigma);
-    if (!front) {
-        ng = mul(ng, -1.0f);
-        ns = mul(ns, -1.0f);
-    }
-    /* texture coordinates and level of detail (ray cones, Akenine-Moller et al. 2019): only
-     * for textured materials */
+    float u = S->u[i], v = S->v[i], w0 = 1.0f - u - v;
+    v3 ng = FEMB_LD3(S->ng, i), ns = FEMB_LD3(S->ns, i);
     const float *t0 = sc->uvs + 2 * (size_t)i0, *t1 = sc->uvs + 2 * (size_t)i1,
                 *t2 = sc->uvs + 2 * (size_t)i2;
     float tu = w0 * t0[0] + u * t1[0] + v * t2[0], tv = w0 * t0[1] + u * t1[1] + v * t2[1];
     float lod_base = 0.0f;
-    bool textured = mat->tex_base_color >= 0 || mat->tex_metal_rough >= 0 ||
-                    mat->tex_emission >= 0 || mat->tex_normal >= 0;
-    if (textured) {
-        float uv_area = fabsf((t1[0] - t0[0]) * (t2[1] - t0[1]) - (t2[0] - t0[0]) * (t1[1] - t0[1]));
-        v3 we1 = xf_dir(X, e1), we2 = xf_dir(X, e2);
-        float world_area = sqrtf(dot(cross(we1, we2), cross(we1, we2)));
-        float cosv = fabsf(dot(ng, dir));
-        if (uv_area > 0 && world_area > 0)
-            lod_base = log2f(cone_width / fmx(cosv, 1e-3f)) + 0.5f * log2f(uv_area / world_area);
-    }
+    float uv_area = fabsf((t1[0] - t0[0]) * (t2[1] - t0[1]) - (t2[0] - t0[0]) * (t1[1] - t0[1]));
+    v3 we1 = xf_dir(X, e1), we2 = xf_dir(X, e2);
+    float world_area = sqrtf(dot(cross(we1, we2), cross(we1, we2)));
+    float cosv = fabsf(dot(ng, dir));
+    if (uv_area > 0 && world_area > 0)
+        lod_base = log2f(cone_width / fmx(cosv, 1e-3f)) + 0.5f * log2f(uv_area / world_area);
     float texel[4];
-    memcpy(s->base, mat->base_color, 3 * sizeof(float));
-    s->metallic = mat->metallic;
-    s->roughness = mat->roughness;
-    s->specular = mat->specular;
-    memcpy(s->emission, mat->emission, 3 * sizeof(float));
 #define LOD(t) (lod_base + 0.5f * log2f((float)(t)->width * (float)(t)->height))
     if (mat->tex_base_color >= 0) {
         const tnd_texture *t = &sc->textures[mat->tex_base_color];
         tnd_texture_sample(t, tu, tv, LOD(t), texel);
         for (int k = 0; k < 3; k++)
-            s->base[k] *= texel[k];
+            S->base[k][i] *= texel[k];
     }
     if (mat->tex_metal_rough >= 0) {
         const tnd_texture *t = &sc->textures[mat->tex_metal_rough];
         tnd_texture_sample(t, tu, tv, LOD(t), texel);
-        s->roughness *= texel[1];
-        s->metallic *= texel[2];
+        S->roughness[i] *= texel[1];
+        S->metallic[i] *= texel[2];
     }
     if (mat->tex_emission >= 0) {
         const tnd_texture *t = &sc->textures[mat->tex_emission];
         tnd_texture_sample(t, tu, tv, LOD(t), texel);
         for (int k = 0; k < 3; k++)
-            s->emission[k] *= texel[k];
+            S->emission[k][i] *= texel[k];
     }
     if (mat->tex_normal >= 0) {
         const tnd_texture *t = &sc->textures[mat->tex_normal];
@@ -338,23 +309,149 @@ void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primit
         float mz = 2 * texel[2] - 1;
         v3 nm = norm(add(add(mul(T, mx), mul(B, my)), mul(ns, mz)));
         if (dot(T, T) > 0.5f && dot(nm, nm) > 0.5f)
-            ns = nm;
+            FEMB_ST3(S->ns, i, nm);
     }
 #undef LOD
-    if (dot(ns, s->wo) <= 1e-4f) /* a normal-mapped or interpolated normal facing away */
-        ns = ng;
-    s->ng = ng;
-    s->ns = ns;
-    if (!front && !mat->double_sided)
-        s->emission[0] = s->emission[1] = s->emission[2] = 0.0f;
-    for (int k = 0; k < 3; k++)
-        s->base[k] = fmn(fmx(s->base[k], 0.0f), 1.0f);
-    s->metallic = fmn(fmx(s->metallic, 0.0f), 1.0f);
-    s->roughness = fmn(fmx(s->roughness, 0.0f), 1.0f);
-    s->instance = instance;
-    s->primitive = primitive;
-    s->u = u;
-    s->v = v;
+}
+
+FEMB_LANE_FN void femb_surface_eval_batch(const femb_context *c, uint32_t n, const uint8_t *active,
+                                          const uint32_t *instance, const uint32_t *primitive,
+                                          const float *u, const float *v,
+                                          const float dir[3][FEMB_LANES], const float *cone,
+                                          femb_surfaces *S)
+{
+    const tnd_scene *sc = c->scene;
+    /* the lanes' vertices, transforms and materials (indexed loads, lane by lane) */
+    float P[3][3][NL], N[3][3][NL], X[12][NL];
+    uint8_t textured[NL], two_sided[NL];
+    for (uint32_t i = 0; i < n; i++) {
+        if (!active[i]) {
+            for (int j = 0; j < 3; j++)
+                for (int k = 0; k < 3; k++)
+                    P[j][k][i] = N[j][k][i] = 0.0f;
+            for (int r = 0; r < 12; r++)
+                X[r][i] = 0.0f;
+            for (int k = 0; k < 3; k++)
+                S->base[k][i] = S->emission[k][i] = S->sigma[k][i] = 0.0f;
+            S->metallic[i] = S->roughness[i] = S->specular[i] = 0.0f;
+            S->ior[i] = 1.5f;
+            S->kind[i] = TND_KIND_OPAQUE;
+            S->instance[i] = S->primitive[i] = 0;
+            textured[i] = two_sided[i] = 0;
+            continue;
+        }
+        const tnd_mesh *m = &sc->meshes[sc->instances[instance[i]].mesh];
+        const tnd_material *mat = &sc->materials[m->material];
+        const uint32_t *ix = sc->indices + m->first_index + 3 * primitive[i];
+        const float *Xi = c->cur->instance_xform + 12 * instance[i];
+        for (int j = 0; j < 3; j++) {
+            size_t vi = m->first_vertex + ix[j];
+            for (int k = 0; k < 3; k++) {
+                P[j][k][i] = sc->positions[3 * vi + k];
+                N[j][k][i] = sc->normals[3 * vi + k];
+            }
+        }
+        for (int r = 0; r < 12; r++)
+            X[r][i] = Xi[r];
+        float sigma[3];
+        tnd_material_sigma(mat, sigma);
+        for (int k = 0; k < 3; k++) {
+            S->base[k][i] = mat->base_color[k];
+            S->emission[k][i] = mat->emission[k];
+            S->sigma[k][i] = sigma[k];
+        }
+        S->metallic[i] = mat->metallic;
+        S->roughness[i] = mat->roughness;
+        S->specular[i] = mat->specular;
+        S->ior[i] = mat->ior > 0 ? mat->ior : 1.5f;
+        S->kind[i] = (uint32_t)mat->kind;
+        S->instance[i] = instance[i];
+        S->primitive[i] = primitive[i];
+        textured[i] = mat->tex_base_color >= 0 || mat->tex_metal_rough >= 0 ||
+                      mat->tex_emission >= 0 || mat->tex_normal >= 0;
+        two_sided[i] = mat->double_sided;
+    }
+    /* geometry: position, normals facing the ray */
+    FEMB_LANES_LOOP(i, n) {
+        float x[12];
+        for (int r = 0; r < 12; r++)
+            x[r] = X[r][i];
+        float uu = u[i], vv = v[i], w0 = 1.0f - uu - vv;
+        v3 p0 = FEMB_LD3(P[0], i), p1 = FEMB_LD3(P[1], i), p2 = FEMB_LD3(P[2], i);
+        v3 n0 = FEMB_LD3(N[0], i), n1 = FEMB_LD3(N[1], i), n2 = FEMB_LD3(N[2], i);
+        v3 obj = add(add(mul(p0, w0), mul(p1, uu)), mul(p2, vv));
+        float o[3] = {obj.x, obj.y, obj.z};
+        v3 e1 = sub(p1, p0), e2 = sub(p2, p0);
+        v3 ng = norm(xf_normal(x, cross(e1, e2)));
+        v3 ns = add(add(mul(n0, w0), mul(n1, uu)), mul(n2, vv));
+        ns = sel3(dot(ns, ns) > 1e-20f, norm(xf_normal(x, ns)), ng);
+        v3 wo = mul(FEMB_LD3(dir, i), -1.0f);
+        bool front = dot(ng, wo) >= 0.0f;
+        FEMB_ST3(S->obj, i, obj);
+        FEMB_ST3(S->p, i, xf_point(x, o));
+        FEMB_ST3(S->ng, i, sel3(front, ng, mul(ng, -1.0f)));
+        FEMB_ST3(S->ns, i, sel3(front, ns, mul(ns, -1.0f)));
+        FEMB_ST3(S->wo, i, wo);
+        S->front[i] = front;
+        S->u[i] = uu;
+        S->v[i] = vv;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        if (active[i] && textured[i]) {
+            float x[12];
+            for (int r = 0; r < 12; r++)
+                x[r] = X[r][i];
+            v3 p0 = FEMB_LD3(P[0], i);
+            surface_textures(c, S, i, x, sub(FEMB_LD3(P[1], i), p0), sub(FEMB_LD3(P[2], i), p0),
+                             FEMB_LD3(dir, i), cone[i]);
+        }
+    FEMB_LANES_LOOP(i, n) {
+        /* a normal-mapped or interpolated normal facing away: the geometric one */
+        v3 ns = FEMB_LD3(S->ns, i);
+        FEMB_ST3(S->ns, i, sel3(dot(ns, FEMB_LD3(S->wo, i)) <= 1e-4f, FEMB_LD3(S->ng, i), ns));
+        bool lit = S->front[i] | two_sided[i]; /* a one-sided emitter is dark from behind */
+        for (int k = 0; k < 3; k++) {
+            S->emission[k][i] = lit ? S->emission[k][i] : 0.0f;
+            S->base[k][i] = fmn(fmx(S->base[k][i], 0.0f), 1.0f);
+        }
+        S->metallic[i] = fmn(fmx(S->metallic[i], 0.0f), 1.0f);
+        S->roughness[i] = fmn(fmx(S->roughness[i], 0.0f), 1.0f);
+    }
+}
+
+void femb_surface_get(const femb_surfaces *S, uint32_t i, femb_surface *s)
+{
+    s->p = FEMB_LD3(S->p, i);
+    s->ng = FEMB_LD3(S->ng, i);
+    s->ns = FEMB_LD3(S->ns, i);
+    s->wo = FEMB_LD3(S->wo, i);
+    for (int k = 0; k < 3; k++) {
+        s->base[k] = S->base[k][i];
+        s->emission[k] = S->emission[k][i];
+        s->sigma[k] = S->sigma[k][i];
+        s->obj[k] = S->obj[k][i];
+    }
+    s->metallic = S->metallic[i];
+    s->roughness = S->roughness[i];
+    s->specular = S->specular[i];
+    s->instance = S->instance[i];
+    s->primitive = S->primitive[i];
+    s->u = S->u[i];
+    s->v = S->v[i];
+    s->kind = S->kind[i];
+    s->ior = S->ior[i];
+    s->front = S->front[i];
+}
+
+void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primitive, float u,
+                       float v, v3 dir, float cone_width, femb_surface *s)
+{
+    static const uint8_t one = 1;
+    femb_surfaces S;
+    float d[3][FEMB_LANES];
+    FEMB_ST3(d, 0, dir);
+    femb_surface_eval_batch(c, 1, &one, &instance, &primitive, &u, &v, d, &cone_width, &S);
+    femb_surface_get(&S, 0, s);
 }
 
 /* ---- tiles over threads: a range over tile indices ------------------------------------------ */
