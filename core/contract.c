@@ -92,14 +92,22 @@ tnd_result tnd_frame_create(uint32_t width, uint32_t height, tnd_frame *f)
     f->width = width;
     f->height = height;
     size_t n = (size_t)width * height;
+    /* One block; each plane starts 5 cache lines further past a 64-byte boundary than the one
+     * before, so that the same pixel of different planes falls in different L1 sets: planes
+     * at equal offsets modulo 4 KiB (separate page-aligned allocations) make a pass that writes
+     * a pixel's G-buffer entries together thrash one set (4x slower stores measured). */
+    size_t offset[TND_CT_COUNT], total = 0;
+    for (int i = 0; i < TND_CT_COUNT; i++) {
+        offset[i] = total;
+        total += (n * tnd_ct_get((tnd_ct)i)->comps * 4 + 63) / 64 * 64 + 5 * 64;
+    }
+    f->block = aligned_alloc(64, total);
+    if (!f->block)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "contract: out of memory for %ux%u frame", width,
+                        height);
     for (int i = 0; i < TND_CT_COUNT; i++) {
         const tnd_ct_info *e = tnd_ct_get((tnd_ct)i);
-        f->data[i] = malloc(n * e->comps * 4);
-        if (!f->data[i]) {
-            tnd_frame_destroy(f);
-            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "contract: out of memory for %ux%u frame", width,
-                            height);
-        }
+        f->data[i] = (char *)f->block + offset[i];
         if (e->kind == TND_CT_UINT) {
             uint32_t v = (uint32_t)e->default_value, *d = f->data[i];
             for (size_t k = 0; k < n * e->comps; k++)
@@ -119,8 +127,7 @@ tnd_result tnd_frame_create(uint32_t width, uint32_t height, tnd_frame *f)
 
 void tnd_frame_destroy(tnd_frame *f)
 {
-    for (int i = 0; i < TND_CT_COUNT; i++)
-        free(f->data[i]);
+    free(f->block);
     memset(f, 0, sizeof *f);
 }
 

@@ -456,7 +456,8 @@ typedef struct tnd_frame {
     tnd_camera_state camera;
     bool has_camera;
     bool present[TND_CT_COUNT];
-    void *data[TND_CT_COUNT];
+    void *data[TND_CT_COUNT]; /* planes inside `block` */
+    void *block;
 } tnd_frame;
 
 /* Allocate every entry, filled with defaults (position/geo_normal zero until derived). */

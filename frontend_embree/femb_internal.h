@@ -124,7 +124,7 @@ bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax, uint32_t 
                     uint32_t *primitive, float *u, float *v, float *t);
 bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax);
 
-/* Parallel for over tiles of the image: fn(ctx, x0, y0, x1, y1, user) per 16x16 tile, FTZ/DAZ on
+/* Parallel for over tiles of the image: fn(ctx, x0, y0, x1, y1, user) per 64x4 tile, FTZ/DAZ on
  * in every worker, deterministic results whatever the thread count. */
 void femb_parallel_tiles(femb_context *c, void (*fn)(femb_context *c, uint32_t x0, uint32_t y0,
                                                      uint32_t x1, uint32_t y1, void *user),

@@ -455,7 +455,7 @@ void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primit
 }
 
 /* ---- tiles over threads: a range over tile indices ------------------------------------------ */
-enum { TILE = 16 };
+enum { TILE_W = 64, TILE_H = 4 }; /* rows of 64: a batch; the G-buffer planes written in runs */
 
 typedef struct tile_job {
     void (*fn)(femb_context *, uint32_t, uint32_t, uint32_t, uint32_t, void *);
@@ -467,9 +467,9 @@ static void run_tiles(femb_context *c, size_t begin, size_t end, void *user)
 {
     const tile_job *j = user;
     for (size_t t = begin; t < end; t++) {
-        uint32_t x0 = (uint32_t)(t % j->tiles_x) * TILE, y0 = (uint32_t)(t / j->tiles_x) * TILE;
-        uint32_t x1 = x0 + TILE < c->width ? x0 + TILE : c->width;
-        uint32_t y1 = y0 + TILE < c->height ? y0 + TILE : c->height;
+        uint32_t x0 = (uint32_t)(t % j->tiles_x) * TILE_W, y0 = (uint32_t)(t / j->tiles_x) * TILE_H;
+        uint32_t x1 = x0 + TILE_W < c->width ? x0 + TILE_W : c->width;
+        uint32_t y1 = y0 + TILE_H < c->height ? y0 + TILE_H : c->height;
         j->fn(c, x0, y0, x1, y1, j->user);
     }
 }
@@ -478,8 +478,9 @@ void femb_parallel_tiles(femb_context *c,
                          void (*fn)(femb_context *, uint32_t, uint32_t, uint32_t, uint32_t, void *),
                          void *user)
 {
-    tile_job j = {fn, user, (c->width + TILE - 1) / TILE};
-    femb_parallel_range(c, (size_t)j.tiles_x * ((c->height + TILE - 1) / TILE), 1, run_tiles, &j);
+    tile_job j = {fn, user, (c->width + TILE_W - 1) / TILE_W};
+    femb_parallel_range(c, (size_t)j.tiles_x * ((c->height + TILE_H - 1) / TILE_H), 1, run_tiles,
+                        &j);
 }
 
 /* ---- ranges over threads -------------------------------------------------------------------- */
