@@ -394,6 +394,11 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
         st.inside[i] = 0;
     }
     for (uint32_t b = bounce;; b++) {
+        bool alive = false;
+        for (uint32_t i = 0; i < n; i++)
+            alive |= st.alive[i];
+        if (!alive)
+            return;
         uint8_t shade[NL];
         bool any = false, more = false; /* any lane to shade; any to continue after it */
         path_vertex(c, P, b, n, &st, &S, shade, L_out);
@@ -401,14 +406,8 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
             any |= shade[i];
             more |= shade[i] && b - st.specular[i] < max_bounce;
         }
-        if (!any) {
-            bool alive = false;
-            for (uint32_t i = 0; i < n; i++)
-                alive |= st.alive[i];
-            if (!alive)
-                return;
+        if (!any)
             continue;
-        }
         float d[3][NL], sp[3][NL];
         lobes(&S, n, &L);
         direct_light(c, P, b, &S, &L, shade, n, d, sp);
