@@ -24,7 +24,7 @@
 
 /* ---- projection ----------------------------------------------------------------------------- */
 /* Pixel position of world point p (or of direction p when `direction`) for a camera. */
-static bool project(const tnd_camera_state *cam, const float *cam_pos, const double p[3],
+static inline bool project(const tnd_camera_state *cam, const float *cam_pos, const double p[3],
                     bool direction, uint32_t w, uint32_t h, double out[2])
 {
     double d[3];
@@ -37,25 +37,32 @@ static bool project(const tnd_camera_state *cam, const float *cam_pos, const dou
     double clip[4];
     for (int r = 0; r < 4; r++)
         clip[r] = P[r] * v[0] + P[4 + r] * v[1] + P[8 + r] * v[2] + (direction ? 0.0 : P[12 + r]);
-    if (!(fabs(clip[3]) > 1e-30))
-        return false;
     out[0] = (clip[0] / clip[3] * 0.5 + 0.5) * w;
     out[1] = (clip[1] / clip[3] * 0.5 + 0.5) * h;
-    return isfinite(out[0]) && isfinite(out[1]);
+    return (fabs(clip[3]) > 1e-30) & isfinite(out[0]) & isfinite(out[1]);
 }
 
 /* ---- primary pass ---------------------------------------------------------------------------- */
 /* Primary ray direction through pixel position (px, py), from the inverses computed once per
- * frame (the same arithmetic as tnd_camera_ray: unproject in view space, then rotate). */
-static void camera_dir(const femb_context *c, float px, float py, float out[3])
+ * frame (the same arithmetic as tnd_camera_ray with tnd_mat4_point and tnd_mat4_dir: unproject
+ * in view space, then rotate), written inline so that a loop over lanes vectorises it. */
+static inline v3 camera_dir(const femb_context *c, float px, float py)
 {
     float ndc[3] = {2.0f * px / (float)c->width - 1.0f, 2.0f * py / (float)c->height - 1.0f, 0.5f};
+    const float *m = c->inv_proj, *r = c->inv_view;
+    double h[4];
+    for (int k = 0; k < 4; k++)
+        h[k] = (double)m[k] * ndc[0] + (double)m[4 + k] * ndc[1] + (double)m[8 + k] * ndc[2] +
+               m[12 + k];
+    double w = h[3] != 0.0 ? h[3] : 1.0;
     float pv[3], d[3];
-    tnd_mat4_point(c->inv_proj, ndc, true, pv);
-    tnd_mat4_dir(c->inv_view, pv, d);
+    for (int k = 0; k < 3; k++)
+        pv[k] = (float)(h[k] / w);
+    for (int k = 0; k < 3; k++)
+        d[k] = r[k] * pv[0] + r[4 + k] * pv[1] + r[8 + k] * pv[2];
     double n = sqrt((double)d[0] * d[0] + (double)d[1] * d[1] + (double)d[2] * d[2]);
-    for (int i = 0; i < 3; i++)
-        out[i] = n > 0 ? (float)(d[i] / n) : 0.0f;
+    double nn = n > 0 ? n : 1.0, k = n > 0 ? 1.0 : 0.0; /* (selects, not branches) */
+    return (v3){(float)(d[0] / nn * k), (float)(d[1] / nn * k), (float)(d[2] / nn * k)};
 }
 
 static v3 surface_position(const femb_context *c, uint32_t inst, uint32_t prim, float u, float v)
@@ -93,16 +100,19 @@ static void surfaces_from_vis(const femb_context *c, uint32_t n, const uint8_t *
     femb_surface_eval_batch(c, n, active, inst, prim, u, v, dir, cone, S);
 }
 
-/* The real-time reflect/refract chain (femb_internal.h): mirror: reflect, x Schlick; glass:
- * refract unless total internal reflection, x (1 - F); Beer-Lambert inside. */
-void femb_specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool follow,
-                         femb_chain *r)
+static inline v3 pixel_dir(const femb_context *c, uint32_t x, uint32_t y)
 {
-    float px = (float)x + 0.5f + c->jitter[0], py = (float)y + 0.5f + c->jitter[1];
+    return camera_dir(c, (float)x + 0.5f + c->jitter[0], (float)y + 0.5f + c->jitter[1]);
+}
+
+/* The real-time reflect/refract chain (femb_internal.h) of pixel (x, y) whose camera ray has
+ * direction dir (pixel_dir): mirror: reflect, x Schlick; glass: refract unless total internal
+ * reflection, x (1 - F); Beer-Lambert inside. */
+static void chain_from(const femb_context *c, uint32_t x, uint32_t y, v3 dir, bool follow,
+                       femb_chain *r)
+{
     uint32_t field = (x + y) & 1u;
-    float dd[3];
-    camera_dir(c, px, py, dd);
-    v3 org = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]}, dir = {dd[0], dd[1], dd[2]};
+    v3 org = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
     float sigma[3] = {0, 0, 0};
     bool inside = false;
     memset(r, 0, sizeof *r);
@@ -166,14 +176,20 @@ void femb_specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool fol
     }
 }
 
+void femb_specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool follow,
+                         femb_chain *r)
+{
+    chain_from(c, x, y, pixel_dir(c, x, y), follow, r);
+}
+
 typedef struct primary_job {
     tnd_frame *f;
 } primary_job;
 
 /* G-buffer and motion of pixel q from its chain and, when it sees one, the surface s at distance
- * `dist` along the chain. */
+ * `dist` along the chain and (seen directly) its motion. */
 static void primary_store(femb_context *c, tnd_frame *f, size_t q, const femb_chain *ch,
-                          const femb_surface *s, float dist)
+                          const femb_surface *s, float dist, const float motion[3])
 {
     const tnd_scene *sc = c->scene;
     uint32_t W = c->width, H = c->height;
@@ -247,21 +263,26 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, const femb_ch
         mo[2] = (float)(sqrt(dp) - ch->length);
         return;
     }
-    /* motion: the same object-space point through this and the previous frame's
-     * instance transform and camera (both unjittered) */
-    const float *PX = c->prev->instance_xform + 12 * inst, *X = c->cur->instance_xform + 12 * inst;
-    double pw[3], cw[3];
+    memcpy(mo, motion, 3 * sizeof(float));
+}
+
+/* Motion of object-space point obj of an instance with transforms PX (previous frame) and X
+ * (this frame): the same point through both and the two unjittered cameras; inline, so that a
+ * loop over lanes vectorises it. */
+static inline void object_motion(const femb_context *c, const float *PX, const float *X,
+                                 const float obj[3], float mo[3])
+{
+    double pw[3], cw[3], cur_px[2], prev_px[2];
     for (int r = 0; r < 3; r++) {
-        pw[r] = (double)PX[4 * r] * s->obj[0] + (double)PX[4 * r + 1] * s->obj[1] +
-                (double)PX[4 * r + 2] * s->obj[2] + PX[4 * r + 3];
-        cw[r] = (double)X[4 * r] * s->obj[0] + (double)X[4 * r + 1] * s->obj[1] +
-                (double)X[4 * r + 2] * s->obj[2] + X[4 * r + 3];
+        pw[r] = (double)PX[4 * r] * obj[0] + (double)PX[4 * r + 1] * obj[1] +
+                (double)PX[4 * r + 2] * obj[2] + PX[4 * r + 3];
+        cw[r] = (double)X[4 * r] * obj[0] + (double)X[4 * r + 1] * obj[1] +
+                (double)X[4 * r + 2] * obj[2] + X[4 * r + 3];
     }
-    if (project(cam, c->cam_pos, cw, false, W, H, cur_px) &&
-        project(&c->prev->camera, c->prev_cam_pos, pw, false, W, H, prev_px)) {
-        mo[0] = (float)(prev_px[0] - cur_px[0]);
-        mo[1] = (float)(prev_px[1] - cur_px[1]);
-    }
+    bool ok = project(&c->cur->camera, c->cam_pos, cw, false, c->width, c->height, cur_px) &
+              project(&c->prev->camera, c->prev_cam_pos, pw, false, c->width, c->height, prev_px);
+    mo[0] = ok ? (float)(prev_px[0] - cur_px[0]) : 0.0f;
+    mo[1] = ok ? (float)(prev_px[1] - cur_px[1]) : 0.0f;
     double dp = 0, dc = 0;
     for (int r = 0; r < 3; r++) {
         dp += (pw[r] - c->prev_cam_pos[r]) * (pw[r] - c->prev_cam_pos[r]);
@@ -270,20 +291,44 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, const femb_ch
     mo[2] = (float)(sqrt(dp) - sqrt(dc));
 }
 
-static void primary_batch(femb_context *c, tnd_frame *f, const uint32_t *pixels, uint32_t n)
+FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint32_t *pixels,
+                                       uint32_t n)
 {
     femb_chain ch[FEMB_LANES];
     femb_surfaces S;
     uint32_t inst[FEMB_LANES] = {0}, prim[FEMB_LANES] = {0}; /* (zeroed: quiets gcc) */
-    float u[FEMB_LANES] = {0}, v[FEMB_LANES] = {0}, depth[FEMB_LANES];
+    float u[FEMB_LANES] = {0}, v[FEMB_LANES] = {0}, depth[FEMB_LANES], dir[3][FEMB_LANES];
+    float PX[12][FEMB_LANES], X[12][FEMB_LANES], mo[3][FEMB_LANES];
     uint8_t plain[FEMB_LANES] = {0}, chain[FEMB_LANES];
+    float fx[FEMB_LANES], fy[FEMB_LANES]; /* (pixel_dir split: integer division does not
+                                              vectorise) */
     for (uint32_t i = 0; i < n; i++) {
-        femb_specular_chain(c, pixels[i] % c->width, pixels[i] / c->width, c->specular, &ch[i]);
+        fx[i] = (float)(pixels[i] % c->width) + 0.5f + c->jitter[0];
+        fy[i] = (float)(pixels[i] / c->width) + 0.5f + c->jitter[1];
+    }
+    FEMB_LANES_LOOP(i, n) FEMB_ST3(dir, i, camera_dir(c, fx[i], fy[i]));
+    for (uint32_t i = 0; i < n; i++) {
+        chain_from(c, pixels[i] % c->width, pixels[i] / c->width, FEMB_LD3(dir, i), c->specular,
+                   &ch[i]);
         inst[i] = ch[i].inst, prim[i] = ch[i].prim, u[i] = ch[i].u, v[i] = ch[i].v;
         plain[i] = ch[i].hit && ch[i].vertices == 0;
         chain[i] = ch[i].hit && ch[i].vertices > 0;
+        const float *px = c->prev->instance_xform + 12 * (size_t)inst[i];
+        const float *cx = c->cur->instance_xform + 12 * (size_t)inst[i];
+        for (int r = 0; r < 12; r++) {
+            PX[r][i] = plain[i] ? px[r] : 0.0f;
+            X[r][i] = plain[i] ? cx[r] : 0.0f;
+        }
     }
     surfaces_from_vis(c, n, plain, inst, prim, u, v, &S, depth);
+    FEMB_LANES_LOOP(i, n) {
+        float a[12], b[12], obj[3] = {S.obj[0][i], S.obj[1][i], S.obj[2][i]}, m[3];
+        for (int r = 0; r < 12; r++)
+            a[r] = PX[r][i], b[r] = X[r][i];
+        object_motion(c, a, b, obj, m);
+        for (int k = 0; k < 3; k++)
+            mo[k][i] = m[k];
+    }
     for (uint32_t i = 0; i < n; i++) {
         femb_surface s;
         if (plain[i]) {
@@ -293,7 +338,8 @@ static void primary_batch(femb_context *c, tnd_frame *f, const uint32_t *pixels,
             femb_surface_eval(c, inst[i], prim[i], u[i], v[i], ch[i].dir,
                               depth[i] * c->pixel_spread, &s);
         }
-        primary_store(c, f, pixels[i], &ch[i], &s, depth[i]);
+        float m[3] = {mo[0][i], mo[1][i], mo[2][i]};
+        primary_store(c, f, pixels[i], &ch[i], &s, depth[i], m);
     }
 }
 
@@ -493,8 +539,8 @@ static void reference_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x
             uint32_t key_frame = c->frame * 4096u + j->sample;
             float jx = tnd_rand(q, key_frame, TND_DIM_JITTER_X);
             float jy = tnd_rand(q, key_frame, TND_DIM_JITTER_Y);
-            float d[3];
-            camera_dir(c, (float)x + jx, (float)y + jy, d);
+            v3 dv = camera_dir(c, (float)x + jx, (float)y + jy);
+            float d[3] = {dv.x, dv.y, dv.z};
             pixels[i] = q;
             P.key_pixel[i] = q;
             P.key_frame[i] = key_frame;
