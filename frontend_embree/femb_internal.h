@@ -108,7 +108,7 @@ typedef struct femb_surfaces {
 } femb_surfaces;
 
 /* Evaluate the surfaces hit by rays of directions dir (unit) at (instance, primitive, u, v) for
- * the active lanes of [0, n) (the others get harmless values); `cone` (world width of the ray
+ * the active lanes of [0, n) (the others get unspecified values); `cone` (world width of the ray
  * cone at the hit) chooses the texture level of detail. femb_surface_eval does one. */
 void femb_surface_eval_batch(const femb_context *c, uint32_t n, const uint8_t *active,
                              const uint32_t *instance, const uint32_t *primitive, const float *u,

@@ -324,20 +324,18 @@ FEMB_LANE_FN void femb_surface_eval_batch(const femb_context *c, uint32_t n, con
     /* the lanes' vertices, transforms and materials (indexed loads, lane by lane) */
     float P[3][3][NL], N[3][3][NL], X[12][NL];
     uint8_t textured[NL], two_sided[NL];
+    bool all = true;
+    for (uint32_t i = 0; i < n; i++)
+        all &= active[i] != 0;
+    if (!all) { /* inactive lanes: a degenerate triangle at the origin (their S is unspecified) */
+        memset(P, 0, sizeof P);
+        memset(N, 0, sizeof N);
+        memset(X, 0, sizeof X);
+    }
     for (uint32_t i = 0; i < n; i++) {
         if (!active[i]) {
-            for (int j = 0; j < 3; j++)
-                for (int k = 0; k < 3; k++)
-                    P[j][k][i] = N[j][k][i] = 0.0f;
-            for (int r = 0; r < 12; r++)
-                X[r][i] = 0.0f;
-            for (int k = 0; k < 3; k++)
-                S->base[k][i] = S->emission[k][i] = S->sigma[k][i] = 0.0f;
-            S->metallic[i] = S->roughness[i] = S->specular[i] = 0.0f;
-            S->ior[i] = 1.5f;
-            S->kind[i] = TND_KIND_OPAQUE;
-            S->instance[i] = S->primitive[i] = 0;
             textured[i] = two_sided[i] = 0;
+            S->kind[i] = TND_KIND_OPAQUE;
             continue;
         }
         const tnd_mesh *m = &sc->meshes[sc->instances[instance[i]].mesh];
