@@ -21,6 +21,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 /* ---- projection ----------------------------------------------------------------------------- */
 /* Pixel position of world point p (or of direction p when `direction`) for a camera. */
@@ -186,10 +189,72 @@ typedef struct primary_job {
     tnd_frame *f;
 } primary_job;
 
-/* G-buffer and motion of pixel q from its chain and, when it sees one, the surface s at distance
- * `dist` along the chain and (seen directly) its motion. */
-static void primary_store(femb_context *c, tnd_frame *f, size_t q, const femb_chain *ch,
-                          const femb_surface *s, float dist, const float motion[3])
+/* The channels the primary pass writes. */
+static const tnd_ct primary_cts[] = {
+    TND_CT_ALBEDO,   TND_CT_NORMAL, TND_CT_GEO_NORMAL, TND_CT_POSITION,  TND_CT_DEPTH,
+    TND_CT_MOTION,   TND_CT_ROUGHNESS, TND_CT_METALLIC, TND_CT_EMISSION, TND_CT_VIS_ID,
+    TND_CT_VIS_BARY, TND_CT_THROUGHPUT, TND_CT_RNG,   TND_CT_PATH};
+enum { PRIMARY_CTS = sizeof primary_cts / sizeof *primary_cts };
+
+/* A batch's G-buffer, staged as planes of FEMB_LANES entries (a frame of FEMB_LANES x 1 whose
+ * planes live in `mem`), then copied to the frame's planes with streaming stores: the passes
+ * write each entry once and the frame (megabytes) would only push the BVH out of the caches. */
+typedef struct gbuf_stage {
+    tnd_frame f;
+    float mem[4 * PRIMARY_CTS * FEMB_LANES]; /* (at most 4 components per entry) */
+} gbuf_stage;
+
+static void stage_init(gbuf_stage *st)
+{
+    memset(&st->f, 0, sizeof st->f);
+    size_t off = 0;
+    for (int k = 0; k < PRIMARY_CTS; k++) {
+        st->f.data[primary_cts[k]] = st->mem + off;
+        off += (size_t)tnd_ct_get(primary_cts[k])->comps * FEMB_LANES;
+    }
+}
+
+/* Copy n floats (4-byte words) to dst, with non-temporal stores where dst is 16-byte aligned. */
+static void stream_words(float *dst, const float *src, size_t n)
+{
+#ifdef __SSE2__
+    size_t i = 0;
+    for (; i < n && ((uintptr_t)(dst + i) & 15u); i++)
+        dst[i] = src[i];
+    for (; i + 4 <= n; i += 4)
+        _mm_stream_ps(dst + i, _mm_loadu_ps(src + i));
+    for (; i < n; i++)
+        dst[i] = src[i];
+#else
+    memcpy(dst, src, n * sizeof *dst);
+#endif
+}
+
+/* The staged entries of pixels[0..n) to the frame: plane by plane when the pixels are one run. */
+static void stage_flush(const gbuf_stage *st, tnd_frame *f, const uint32_t *pixels, uint32_t n)
+{
+    bool run = pixels[n - 1] == pixels[0] + n - 1;
+    for (int k = 0; k < PRIMARY_CTS; k++) {
+        uint32_t comps = tnd_ct_get(primary_cts[k])->comps;
+        const float *src = st->f.data[primary_cts[k]];
+        float *dst = f->data[primary_cts[k]];
+        if (run) {
+            stream_words(dst + (size_t)pixels[0] * comps, src, (size_t)n * comps);
+            continue;
+        }
+        for (uint32_t i = 0; i < n; i++)
+            memcpy(dst + (size_t)pixels[i] * comps, src + (size_t)i * comps, comps * sizeof *dst);
+    }
+#ifdef __SSE2__
+    _mm_sfence(); /* the streaming stores are visible before the pass ends */
+#endif
+}
+
+/* G-buffer and motion of pixel `pixel` from its chain and, when it sees one, the surface s at
+ * distance `dist` along the chain and (seen directly) its motion, written at entry q of f. */
+static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixel,
+                          const femb_chain *ch, const femb_surface *s, float dist,
+                          const float motion[3])
 {
     const tnd_scene *sc = c->scene;
     uint32_t W = c->width, H = c->height;
@@ -208,7 +273,7 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, const femb_ch
     float *thr = tnd_frame_f(f, TND_CT_THROUGHPUT) + 3 * q;
     uint32_t *rng = tnd_frame_u(f, TND_CT_RNG) + 2 * q;
     rng[0] = c->frame;
-    rng[1] = (uint32_t)q;
+    rng[1] = pixel;
     memcpy(thr, ch->thr, 3 * sizeof(float));
     double cur_px[2], prev_px[2];
     if (!ch->hit) {
@@ -294,6 +359,8 @@ static inline void object_motion(const femb_context *c, const float *PX, const f
 FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint32_t *pixels,
                                        uint32_t n)
 {
+    gbuf_stage st;
+    stage_init(&st);
     femb_chain ch[FEMB_LANES];
     femb_surfaces S;
     uint32_t inst[FEMB_LANES] = {0}, prim[FEMB_LANES] = {0}; /* (zeroed: quiets gcc) */
@@ -339,25 +406,23 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
                               depth[i] * c->pixel_spread, &s);
         }
         float m[3] = {mo[0][i], mo[1][i], mo[2][i]};
-        primary_store(c, f, pixels[i], &ch[i], &s, depth[i], m);
+        primary_store(c, &st.f, i, pixels[i], &ch[i], &s, depth[i], m);
     }
+    stage_flush(&st, f, pixels, n);
 }
 
 static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
                          void *user)
 {
     tnd_frame *f = ((primary_job *)user)->f;
-    uint32_t batch[FEMB_LANES], n = 0;
-    for (uint32_t y = y0; y < y1; y++)
-        for (uint32_t x = x0; x < x1; x++) {
-            batch[n++] = y * c->width + x;
-            if (n == FEMB_LANES) {
-                primary_batch(c, f, batch, n);
-                n = 0;
-            }
+    uint32_t batch[FEMB_LANES];
+    for (uint32_t y = y0; y < y1; y++) /* one batch per row of the tile: a run of pixels */
+        for (uint32_t x = x0; x < x1; x += FEMB_LANES) {
+            uint32_t n = x1 - x < FEMB_LANES ? x1 - x : FEMB_LANES;
+            for (uint32_t i = 0; i < n; i++)
+                batch[i] = y * c->width + x + i;
+            primary_batch(c, f, batch, n);
         }
-    if (n)
-        primary_batch(c, f, batch, n);
 }
 
 tnd_result femb_trace_primary(femb_context *c, tnd_frame *f)
@@ -367,12 +432,8 @@ tnd_result femb_trace_primary(femb_context *c, tnd_frame *f)
                         f->height, c->width, c->height);
     primary_job j = {f};
     femb_parallel_tiles(c, primary_tile, &j);
-    const tnd_ct gbuf[] = {TND_CT_ALBEDO,    TND_CT_NORMAL,   TND_CT_GEO_NORMAL, TND_CT_POSITION,
-                           TND_CT_DEPTH,     TND_CT_MOTION,   TND_CT_ROUGHNESS,  TND_CT_METALLIC,
-                           TND_CT_EMISSION,  TND_CT_VIS_ID,   TND_CT_VIS_BARY,   TND_CT_THROUGHPUT,
-                           TND_CT_RNG,       TND_CT_PATH};
-    for (size_t i = 0; i < sizeof gbuf / sizeof *gbuf; i++)
-        f->present[gbuf[i]] = true;
+    for (int k = 0; k < PRIMARY_CTS; k++)
+        f->present[primary_cts[k]] = true;
     f->has_camera = true;
     memcpy(f->camera.view, c->cur->camera.view, sizeof f->camera.view);
     memcpy(f->camera.proj, c->cur->camera.proj, sizeof f->camera.proj);
