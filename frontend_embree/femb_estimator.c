@@ -33,9 +33,9 @@
 
 enum { NL = FEMB_LANES };
 
-#define LANES FEMB_LANES_LOOP
-#define LD3 FEMB_LD3
-#define ST3 FEMB_ST3
+#define LANES   FEMB_LANES_LOOP
+#define LD3     FEMB_LD3
+#define ST3     FEMB_ST3
 #define LANE_FN FEMB_LANE_FN
 
 #define SH_C0 0.282094791773878f /* Y00 */
@@ -73,8 +73,9 @@ static inline void sincos_turns(float u, float *s, float *c)
     float x = 4.0f * u;
     int q = (int)(x + 0.5f); /* x >= 0: truncation is floor */
     float a = (x - (float)q) * (float)(0.5 * TND_PI), a2 = a * a;
-    float sa = a * (1.0f + a2 * (-1.0f / 6 + a2 * (1.0f / 120 + a2 * (-1.0f / 5040 +
-                                                                     a2 * (1.0f / 362880)))));
+    float sa =
+        a *
+        (1.0f + a2 * (-1.0f / 6 + a2 * (1.0f / 120 + a2 * (-1.0f / 5040 + a2 * (1.0f / 362880)))));
     float ca = 1.0f + a2 * (-0.5f + a2 * (1.0f / 24 + a2 * (-1.0f / 720 + a2 * (1.0f / 40320))));
     /* quarter turns: odd ones swap sin and cos; sin is negative in the 3rd and 4th, cos in
      * the 2nd and 3rd */
@@ -92,7 +93,7 @@ typedef struct fb_lobes {
 
 LANE_FN static void lobes(const fb_surf *S, uint32_t n, fb_lobes *L)
 {
-    LANES(i, n) {
+    LANES (i, n) {
         float nv = fmx(dot(LD3(S->ns, i), LD3(S->wo, i)), 1e-4f);
         float alpha = fmx(S->roughness[i] * S->roughness[i], (float)TND_MIN_ALPHA);
         float fnv[3], kd[3];
@@ -112,8 +113,8 @@ LANE_FN static void lobes(const fb_surf *S, uint32_t n, fb_lobes *L)
 /* BRDF x cos of lane i for direction wi: diffuse part without albedo and (1 - metallic)
  * ("demodulated"), specular part with its Fresnel, the mixture pdf of the two lobes. False when
  * wi is below either normal (the values are then meaningless). */
-static inline bool brdf_lane(const fb_surf *S, const fb_lobes *L, uint32_t i, v3 wi,
-                             float diff[3], float spec[3], float *pdf)
+static inline bool brdf_lane(const fb_surf *S, const fb_lobes *L, uint32_t i, v3 wi, float diff[3],
+                             float spec[3], float *pdf)
 {
     v3 ns = LD3(S->ns, i), wo = LD3(S->wo, i);
     float nl = dot(ns, wi);
@@ -144,17 +145,20 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
 /* One NEE sample per active lane with the dimensions of path vertex `bounce`: diffuse
  * (demodulated) and specular contributions, 0 where inactive. */
 LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uint32_t bounce,
-                         const fb_surf *S, const fb_lobes *L, const uint8_t *active, uint32_t n,
-                         float diff[3][NL], float spec[3][NL])
+                                 const fb_surf *S, const fb_lobes *L, const uint8_t *active,
+                                 uint32_t n, float diff[3][NL], float spec[3][NL])
 {
-    LANES(i, n) for (int k = 0; k < 3; k++) diff[k][i] = spec[k][i] = 0.0f;
+    LANES (i, n)
+        for (int k = 0; k < 3; k++)
+            diff[k][i] = spec[k][i] = 0.0f;
     if (!c->lights.count)
         return;
     /* the picked lights' records */
     float lp0[3][NL], lp1[3][NL], lp2[3][NL], lrad[4][NL], lcdf[NL];
     uint32_t kind[NL];
     float upick[NL];
-    LANES(i, n) upick[i] = rnd(P, i, bounce, TND_DIM_LIGHT_PICK);
+    LANES (i, n)
+        upick[i] = rnd(P, i, bounce, TND_DIM_LIGHT_PICK);
     for (uint32_t i = 0; i < n; i++) {
         const tnd_light_gpu *l = &c->lights.lights[tnd_lights_pick(&c->lights, upick[i])];
         kind[i] = (uint32_t)l->p0.w;
@@ -167,7 +171,7 @@ LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uin
     }
     float wi[3][NL], tmax[NL], dc[3][NL], sc[3][NL];
     uint8_t ok[NL];
-    LANES(i, n) {
+    LANES (i, n) {
         float u1 = rnd(P, i, bounce, TND_DIM_LIGHT_U), u2 = rnd(P, i, bounce, TND_DIM_LIGHT_V);
         v3 p = LD3(S->p, i), pos = LD3(lp0, i), v1 = LD3(lp1, i), v2 = LD3(lp2, i);
         bool tri = kind[i] == TND_LIGHT_KIND_TRIANGLE, dirl = kind[i] == TND_LIGHT_KIND_DIRECTIONAL;
@@ -207,20 +211,21 @@ LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uin
         if (ok[i])
             ok[i] = !femb_occluded(c, femb_offset_ray(LD3(S->p, i), LD3(S->ng, i)), LD3(wi, i),
                                    tmax[i]);
-    LANES(i, n) for (int k = 0; k < 3; k++) {
-        diff[k][i] = ok[i] ? dc[k][i] : 0.0f;
-        spec[k][i] = ok[i] ? sc[k][i] : 0.0f;
-    }
+    LANES (i, n)
+        for (int k = 0; k < 3; k++) {
+            diff[k][i] = ok[i] ? dc[k][i] : 0.0f;
+            spec[k][i] = ok[i] ? sc[k][i] : 0.0f;
+        }
 }
 
 /* Sample the BRDF of every lane (dimensions of `bounce`): direction, per-channel weight
  * f cos / pdf (the diffuse lobe's demodulated, i.e. without albedo and 1 - metallic), the
  * mixture pdf, whether the specular lobe was taken, and whether the sample lives (ok). */
 LANE_FN static void sample_brdf(const fb_surf *S, const fb_lobes *L, const femb_paths *P,
-                        uint32_t bounce, uint32_t n, float wi[3][NL], float w[3][NL],
-                        float pdf[NL], uint8_t specular[NL], uint8_t ok[NL])
+                                uint32_t bounce, uint32_t n, float wi[3][NL], float w[3][NL],
+                                float pdf[NL], uint8_t specular[NL], uint8_t ok[NL])
 {
-    LANES(i, n) {
+    LANES (i, n) {
         float u = rnd(P, i, bounce, TND_DIM_LOBE);
         float u1 = rnd(P, i, bounce, TND_DIM_BRDF_U), u2 = rnd(P, i, bounce, TND_DIM_BRDF_V);
         v3 ns = LD3(S->ns, i), wo = LD3(S->wo, i), t, b;
@@ -238,8 +243,8 @@ LANE_FN static void sample_brdf(const fb_surf *S, const fb_lobes *L, const femb_
         v3 t2 = cross(vh, t1);
         float p1 = r * cs, p2 = r * sn, s = 0.5f * (1.0f + vh.z);
         p2 = (1.0f - s) * sqrtf(fmx(0.0f, 1.0f - p1 * p1)) + s * p2;
-        v3 nh = add(add(mul(t1, p1), mul(t2, p2)),
-                    mul(vh, sqrtf(fmx(0.0f, 1.0f - p1 * p1 - p2 * p2))));
+        v3 nh =
+            add(add(mul(t1, p1), mul(t2, p2)), mul(vh, sqrtf(fmx(0.0f, 1.0f - p1 * p1 - p2 * p2))));
         v3 ne = norm((v3){alpha * nh.x, alpha * nh.y, fmx(1e-6f, nh.z)});
         v3 h = norm(to_world(ne, t, b, ns));
         v3 ws = norm(sub(mul(h, 2.0f * dot(wo, h)), wo));
@@ -249,8 +254,8 @@ LANE_FN static void sample_brdf(const fb_surf *S, const fb_lobes *L, const femb_
         bool up = brdf_lane(S, L, i, dir, d3, s3, &pb);
         /* one-sample MIS over the two lobes: weight = f cos / (mixture pdf) for the chosen
          * lobe's share of f; the lobe's own contribution only, so that lf and spec stay apart */
-        float pl_s = L->p_spec[i] * tnd_ggx_vndf_pdf(fmx(dot(ns, norm(add(dir, wo))), 0.0f),
-                                                     L->nv[i], L->a2[i]);
+        float pl_s = L->p_spec[i] *
+                     tnd_ggx_vndf_pdf(fmx(dot(ns, norm(add(dir, wo))), 0.0f), L->nv[i], L->a2[i]);
         float pl_d = (1.0f - L->p_spec[i]) * dot(ns, dir) * (float)TND_INV_PI;
         float pl = sp ? pl_s : pl_d;
         ok[i] = up & (pb > 0) & (pl > 0);
@@ -374,7 +379,7 @@ static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, 
 }
 
 LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32_t bounce,
-                      uint32_t max_bounce, uint32_t rr_start, float L_out[3][FEMB_LANES])
+                              uint32_t max_bounce, uint32_t rr_start, float L_out[3][FEMB_LANES])
 {
     uint32_t n = P->n;
     fb_state st;
@@ -412,10 +417,13 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
         float d[3][NL], sp[3][NL];
         lobes(&S, n, &L);
         direct_light(c, P, b, &S, &L, shade, n, d, sp);
-        LANES(i, n) for (int k = 0; k < 3; k++) {
-            float add = st.beta[k][i] * (d[k][i] * S.base[k][i] * (1.0f - S.metallic[i]) + sp[k][i]);
-            L_out[k][i] += shade[i] ? add : 0.0f; /* (no conditional store: it would not vectorise) */
-        }
+        LANES (i, n)
+            for (int k = 0; k < 3; k++) {
+                float add =
+                    st.beta[k][i] * (d[k][i] * S.base[k][i] * (1.0f - S.metallic[i]) + sp[k][i]);
+                L_out[k][i] +=
+                    shade[i] ? add : 0.0f; /* (no conditional store: it would not vectorise) */
+            }
         float wi[3][NL], w[3][NL], pdf[NL];
         uint8_t spec[NL], ok[NL];
         if (more)
@@ -429,10 +437,11 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
                 continue;
             }
             for (int k = 0; k < 3; k++) /* the diffuse lobe remodulated */
-                st.beta[k][i] *= spec[i] ? w[k][i] : w[k][i] * (S.base[k][i] * (1.0f - S.metallic[i]));
+                st.beta[k][i] *=
+                    spec[i] ? w[k][i] : w[k][i] * (S.base[k][i] * (1.0f - S.metallic[i]));
             if (nb + 1 >= rr_start) {
-                float q = fmn(fmx(fmx(st.beta[0][i], fmx(st.beta[1][i], st.beta[2][i])), 0.05f),
-                              1.0f);
+                float q =
+                    fmn(fmx(fmx(st.beta[0][i], fmx(st.beta[1][i], st.beta[2][i])), 0.05f), 1.0f);
                 if (rnd(P, i, b, TND_DIM_RR) >= q) {
                     st.alive[i] = 0;
                     continue;
@@ -452,8 +461,8 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
 /* Lane i's surface from the G-buffer of pixel q, as the GPU passes read it (the primary pass and
  * the gradient patches wrote it), plus the material's specular factor; the distance from the eye
  * along the primary chain. */
-static void surface_from_gbuffer(const femb_context *c, const tnd_frame *f, size_t q,
-                                 fb_surf *S, uint32_t i, float *depth)
+static void surface_from_gbuffer(const femb_context *c, const tnd_frame *f, size_t q, fb_surf *S,
+                                 uint32_t i, float *depth)
 {
     const tnd_scene *sc = c->scene;
     uint32_t inst = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q];
@@ -490,7 +499,7 @@ static void surface_from_gbuffer(const femb_context *c, const tnd_frame *f, size
 }
 
 LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f,
-                       const uint32_t *pixels, uint32_t n, float *radiance)
+                               const uint32_t *pixels, uint32_t n, float *radiance)
 {
     fb_surf S;
     fb_lobes L;
@@ -514,7 +523,7 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
     lobes(&S, n, &L);
     float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
     direct_light(c, &P, 0, &S, &L, P.active, n, d, sp);
-    LANES(i, n) {
+    LANES (i, n) {
         for (int k = 0; k < 3; k++) {
             float m = S.metallic[i];
             demod[k][i] = fmx(0.01f, 0.04f * (1.0f - m) + S.base[k][i] * m);
@@ -536,7 +545,7 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
             P.cone[i] = depth[i] * c->pixel_spread;
         }
         femb_trace_paths(c, &P, 1, p->bounces, 2, Li);
-        LANES(i, n) {
+        LANES (i, n) {
             float ct[3];
             for (int k = 0; k < 3; k++) {
                 ct[k] = w[k][i] * Li[k][i];
@@ -566,8 +575,10 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
     }
     for (uint32_t i = 0; i < n; i++) {
         size_t q = pixels[i];
-        float *o_hf = tnd_frame_f(f, TND_CT_HF) + 3 * q, *o_sp = tnd_frame_f(f, TND_CT_SPEC) + 3 * q;
-        float *o_sh = tnd_frame_f(f, TND_CT_LF_SH) + 4 * q, *o_cc = tnd_frame_f(f, TND_CT_LF_COCG) + 2 * q;
+        float *o_hf = tnd_frame_f(f, TND_CT_HF) + 3 * q,
+              *o_sp = tnd_frame_f(f, TND_CT_SPEC) + 3 * q;
+        float *o_sh = tnd_frame_f(f, TND_CT_LF_SH) + 4 * q,
+              *o_cc = tnd_frame_f(f, TND_CT_LF_COCG) + 2 * q;
         for (int k = 0; k < 3; k++) {
             o_hf[k] = hf[k][i];
             o_sp[k] = spec[k][i];

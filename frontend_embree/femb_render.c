@@ -1,18 +1,13 @@
-/* frontend_embree/femb_render.c: the passes of the Embree front-end and its estimator.
- *
- * The estimator follows the Q2RTX reference (section 1.4) in a clean form:
- * - direct light: one-sample next-event estimation over the light list (area, point, spot,
- *   directional; shaders/lights.h), one shadow ray, GGX specular (height-correlated Smith,
- *   Schlick) and Lambert diffuse, MIS (power heuristic) with BRDF sampling for area lights;
- * - indirect: a Fresnel-weighted choice of the specular lobe (GGX VNDF sampling, Heitz 2018) or
- *   the diffuse lobe (cosine hemisphere), one bounce by default with NEE at the hit, more with
- *   Russian roulette;
- * - outputs: hf (direct diffuse, demodulated), lf (indirect diffuse as L1 SH of luma plus Co/Cg,
- *   scaled so that evaluating the SH at the shading normal returns the sample exactly:
- *   s = 4 pi Y / (1 + 2 d.n)), spec (specular / max(0.01, F0)).
- * Every random number comes from shaders/sampling.h keyed by the pixel's (frame, pixel) key.
+/* frontend_embree/femb_render.c: the passes of the Embree front-end, on batches of pixels (the
+ * estimator itself is in femb_estimator.c):
+ * - primary: camera rays (Halton jitter), the real-time mirror/glass chain, the G-buffer with
+ *   visibility, motion vectors from the previous frame's camera and instance transforms, and the
+ *   rng keys; staged per batch and written to the frame with streaming stores;
+ * - shading: the estimator on the G-buffer's surfaces, sky pixels set directly;
+ * - gradient samples: the previous frame's surfaces and keys patched in, then shaded;
+ * - reference: full paths with Russian roulette from jittered camera rays, accumulated.
  * Entry points: femb_trace_primary, femb_shade, femb_gradient_unpack, femb_shade_gradients,
- * femb_reference, femb_composite. */
+ * femb_reference, femb_specular_chain. */
 #include "frontend_embree/femb_internal.h"
 #include "shaders/brdf.h"
 #include "shaders/sampling.h"
