@@ -388,6 +388,8 @@ int cmd_bench(int argc, char **argv)
         cJSON_AddNumberToObject(o, "width", size[0]);
         cJSON_AddNumberToObject(o, "height", size[1]);
         cJSON_AddNumberToObject(o, "threads", femb_thread_count(c));
+        if (!use_vk)
+            cJSON_AddStringToObject(o, "simd", femb_simd());
         cJSON_AddNumberToObject(o, "bounces", bounces);
         cJSON_AddNumberToObject(o, "rays_per_frame", (double)b.rays);
         cJSON_AddNumberToObject(o, "primary_ms", b.primary_ms);
@@ -408,6 +410,8 @@ int cmd_bench(int argc, char **argv)
                scene_path, (unsigned long long)tnd_scene_triangles(s), size[0], size[1], bounces,
                bounces == 1 ? "" : "s", use_vk ? " (GPU timestamps)" : "");
         printf("  scene load %.2f s, BVH build %.2f s\n", t_load, t_build);
+        if (!use_vk)
+            printf("  %u threads, estimator lanes in %s\n", femb_thread_count(c), femb_simd());
         printf("  rays per frame    %llu (primary, shadow and bounce rays)\n",
                (unsigned long long)b.rays);
         printf("  primary pass      %8.2f ms\n  shading pass      %8.2f ms\n", b.primary_ms,

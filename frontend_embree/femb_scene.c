@@ -47,6 +47,16 @@ uint32_t femb_thread_count(const femb_context *c)
     return c->threads;
 }
 
+const char *femb_simd(void)
+{
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+    /* the test the target_clones resolver makes (FEMB_LANE_FN) */
+    return __builtin_cpu_supports("avx2") ? "AVX2, 8 lanes" : "SSE2, 4 lanes";
+#else
+    return "the compiler's default";
+#endif
+}
+
 tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **out)
 {
     *out = NULL;
