@@ -89,7 +89,7 @@ typedef struct femb_surface {
 /* Functions with lane loops, compiled twice: for the baseline (SSE2: 4 lanes per instruction)
  * and for AVX2 (8), picked at load time by the CPU. Both give the same bits: no contraction to
  * FMA in ISO C mode, and the operations used are IEEE-exact either way. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(FEMB_NO_CLONES)
 #define FEMB_LANE_FN __attribute__((target_clones("avx2", "default")))
 #else
 #define FEMB_LANE_FN

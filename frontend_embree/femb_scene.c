@@ -49,7 +49,9 @@ uint32_t femb_thread_count(const femb_context *c)
 
 const char *femb_simd(void)
 {
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(FEMB_NO_CLONES)
+    return "the baseline only (built without clones)";
+#elif defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
     /* the test the target_clones resolver makes (FEMB_LANE_FN) */
     return __builtin_cpu_supports("avx2") ? "AVX2, 8 lanes" : "SSE2, 4 lanes";
 #else
