@@ -88,7 +88,8 @@ typedef struct femb_surface {
 #define FEMB_ST3(a, i, v) ((a)[0][i] = (v).x, (a)[1][i] = (v).y, (a)[2][i] = (v).z)
 /* Functions with lane loops, compiled twice: for the baseline (SSE2: 4 lanes per instruction)
  * and for AVX2 (8), picked at load time by the CPU. Both give the same bits: no contraction to
- * FMA in ISO C mode, and the operations used are IEEE-exact either way. */
+ * FMA in ISO C mode, and the operations used are IEEE-exact either way (test_simd checks it
+ * against a build with FEMB_NO_CLONES, which compiles the baseline only). */
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(FEMB_NO_CLONES)
 #define FEMB_LANE_FN __attribute__((target_clones("avx2", "default")))
 #else
