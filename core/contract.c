@@ -95,7 +95,7 @@ tnd_result tnd_frame_create(uint32_t width, uint32_t height, tnd_frame *f)
     /* One block; each plane starts 5 cache lines further past a 64-byte boundary than the one
      * before, so that the same pixel of different planes falls in different L1 sets: planes
      * at equal offsets modulo 4 KiB (separate page-aligned allocations) make a pass that writes
-     * a pixel's G-buffer entries together thrash one set (4x slower stores measured). */
+     * a pixel's G-buffer entries together thrash one set (4x slower stores in a micro-benchmark). */
     size_t offset[TND_CT_COUNT], total = 0;
     for (int i = 0; i < TND_CT_COUNT; i++) {
         offset[i] = total;

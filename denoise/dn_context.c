@@ -417,7 +417,6 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
     };
 }
 
-/* a 1/3-resolution pass (one thread per 3x3 stratum) */
 /* a pass in stratum tiles (one thread per pixel, DN_TILE_W x DN_TILE_H per work group) */
 static void dispatch_tiles(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name)
 {
@@ -425,6 +424,7 @@ static void dispatch_tiles(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, 
                   (c->width + DN_TILE_W - 1) / DN_TILE_W, (c->height + DN_TILE_H - 1) / DN_TILE_H);
 }
 
+/* a 1/3-resolution pass (one thread per 3x3 stratum, 8 x 8 per work group) */
 static void dispatch_third(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const char *name,
                            uint32_t iteration)
 {

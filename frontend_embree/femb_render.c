@@ -245,6 +245,27 @@ static void stage_flush(const gbuf_stage *st, tnd_frame *f, const uint32_t *pixe
 #endif
 }
 
+/* The G-buffer entries of surface s at entry q: visibility (instance, primitive, barycentrics),
+ * albedo, both normals, position, roughness and metallic (the primary pass and the gradient
+ * samples' patches). */
+static void store_surface(tnd_frame *f, size_t q, const femb_surface *s, uint32_t inst,
+                          uint32_t prim, float u, float v)
+{
+    const v3 *vec[3] = {&s->ns, &s->ng, &s->p};
+    const tnd_ct ct[3] = {TND_CT_NORMAL, TND_CT_GEO_NORMAL, TND_CT_POSITION};
+    for (int k = 0; k < 3; k++) {
+        float *d = tnd_frame_f(f, ct[k]) + 3 * q;
+        d[0] = vec[k]->x, d[1] = vec[k]->y, d[2] = vec[k]->z;
+    }
+    memcpy(tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q, s->base, 3 * sizeof(float));
+    tnd_frame_u(f, TND_CT_VIS_ID)[2 * q] = inst;
+    tnd_frame_u(f, TND_CT_VIS_ID)[2 * q + 1] = prim;
+    tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q] = u;
+    tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q + 1] = v;
+    tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = s->roughness;
+    tnd_frame_f(f, TND_CT_METALLIC)[q] = s->metallic;
+}
+
 /* G-buffer and motion of pixel `pixel` from its chain and, when it sees one, the surface s at
  * distance `dist` along the chain and (seen directly) its motion, written at entry q of f. */
 static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixel,
@@ -291,20 +312,10 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixe
         }
         return;
     }
-    for (int k = 0; k < 3; k++) {
-        alb[k] = s->base[k];
+    store_surface(f, q, s, inst, prim, u, v);
+    for (int k = 0; k < 3; k++)
         em[k] = s->emission[k] * ch->thr[k];
-    }
-    n[0] = s->ns.x, n[1] = s->ns.y, n[2] = s->ns.z;
-    gn[0] = s->ng.x, gn[1] = s->ng.y, gn[2] = s->ng.z;
-    pos[0] = s->p.x, pos[1] = s->p.y, pos[2] = s->p.z;
     *depth = dist;
-    vis[0] = inst;
-    vis[1] = prim;
-    bary[0] = u;
-    bary[1] = v;
-    tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = s->roughness;
-    tnd_frame_f(f, TND_CT_METALLIC)[q] = s->metallic;
     mo[0] = mo[1] = mo[2] = 0.0f;
     if (ch->vertices > 0) {
         /* the virtual point (what a planar mirror shows: along the camera ray at the
@@ -541,20 +552,9 @@ tnd_result femb_shade_gradients(femb_context *c, const femb_params *p,
             size_t q = gs->pixel;
             femb_surface s;
             femb_surface_get(&S, k, &s);
-            tnd_frame_u(f, TND_CT_VIS_ID)[2 * q] = gs->instance;
-            tnd_frame_u(f, TND_CT_VIS_ID)[2 * q + 1] = gs->primitive;
-            tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q] = gs->u;
-            tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q + 1] = gs->v;
+            store_surface(f, q, &s, gs->instance, gs->primitive, gs->u, gs->v);
             tnd_frame_u(f, TND_CT_RNG)[2 * q] = gs->rng_frame;
             tnd_frame_u(f, TND_CT_RNG)[2 * q + 1] = gs->rng_pixel;
-            memcpy(tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q, s.base, 3 * sizeof(float));
-            float n3[3] = {s.ns.x, s.ns.y, s.ns.z}, g3[3] = {s.ng.x, s.ng.y, s.ng.z};
-            float p3[3] = {s.p.x, s.p.y, s.p.z};
-            memcpy(tnd_frame_f(f, TND_CT_NORMAL) + 3 * q, n3, sizeof n3);
-            memcpy(tnd_frame_f(f, TND_CT_GEO_NORMAL) + 3 * q, g3, sizeof g3);
-            memcpy(tnd_frame_f(f, TND_CT_POSITION) + 3 * q, p3, sizeof p3);
-            tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = s.roughness;
-            tnd_frame_f(f, TND_CT_METALLIC)[q] = s.metallic;
             memcpy(tnd_frame_f(f, TND_CT_EMISSION) + 3 * q, s.emission, 3 * sizeof(float));
         }
         femb_shade_pixels(c, p, f, pixels, m, NULL);

@@ -2,11 +2,8 @@
  * choice: lf is smooth and sparse, so a 3x3 stratum loses nothing a full-resolution filter would
  * keep, and every pass touches 1/9 of the pixels). One thread per stratum; push constant
  * iteration k:
- * - k = 0, downsample (dn_lf_down.comp, one thread per pixel): the stratum's anchor is its centre pixel (the first surface pixel of the
- *   stratum when the centre sees the sky); this frame's lf history of the 9 pixels is averaged
- *   with weights max(n . n_anchor, 0)^8 (geometric normals) times the tangent-plane test of the
- *   a-trous passes; the anchor's position and normal go to lf_geo for the later passes and the
- *   upsample. Writes slot 0.
+ * - k = 0, the downsample onto the strata's anchors (writes slot 0 and lf_geo): a shader of its
+ *   own, dn_lf_down.comp, which says how;
  * - k = 1, deflicker: where L0 exceeds 2x (P.lf.x; 0 turns it off) the mean L0 of the 8
  *   low-res pixels at distance 2 (a firefly that the temporal pass could not average away), SH
  *   and chroma are scaled down to that limit. Q2RTX compares with the 8 adjacent pixels; the

@@ -13,8 +13,9 @@
  * Unsigned wide half ("tnd_uf16"; the back-end's a-trous colours and variance, whose range
  * must cover the extremes scene's lights of 1e-4 and 1e5): 16 bits per channel, a 6-bit
  * exponent E with bias TND_UF16_BIAS and a 10-bit mantissa m: (1 + m / 1024) * 2^(E - BIAS),
- * code 0 is zero (E = 0 is never produced otherwise). Rounded to nearest (ties away from zero), negatives and NaN -> 0, values above
- * TND_UF16_MAX (and +Inf) -> TND_UF16_MAX, below 2^(1 - BIAS) -> 0.
+ * code 0 is zero (E = 0 is never produced otherwise). Rounded to nearest (ties away from zero),
+ * negatives and NaN -> 0, values above TND_UF16_MAX (and +Inf) -> TND_UF16_MAX, below
+ * 2^(1 - BIAS) -> 0.
  *   - in [2^(1 - BIAS), TND_UF16_MAX] (4.7e-10 .. 4.3e9): relative error <= 2^-11;
  *   - below: absolute error < 2^(1 - BIAS).
  * Half (C side; GLSL uses the image format's own conversion): round to nearest even, clamped to

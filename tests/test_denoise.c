@@ -379,8 +379,8 @@ static void test_disocclusion_and_frontends(void)
      * in the G-buffers (hardware vs Embree hit distances) flips a borderline reprojection or
      * edge-stopping test, or a rounding step of the a-trous storage (tnd_uf16, 2^-11), in some
      * frame, and the temporal and a-trous passes spread it over up to 31x31 outputs (measured:
-     * 19 of 43200 on lavapipe, 16 on the H200). 1% of values
-     * allows that; a wrong binding or formula changes nearly all of them. */
+     * 19 of 43200 on lavapipe, 16 on the H200). 1% of values allows that; a wrong binding or
+     * formula changes nearly all of them. */
     printf("     front-ends through the back-end: %d of %d values differ\n", differ, WD * HD * 3);
     CHECK(differ <= WD * HD * 3 / 100, "front-ends through the back-end: %d values differ", differ);
     /* newly visible pixels: background now, the cube one frame ago at the motion's target */
