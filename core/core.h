@@ -128,6 +128,7 @@ typedef struct tnd_vk_device_info {
     bool rt_pipeline;    /* VK_KHR_ray_tracing_pipeline + its feature */
     bool accel_struct;   /* VK_KHR_acceleration_structure + its feature */
     bool ray_query;      /* VK_KHR_ray_query + its feature */
+    bool pipeline_executable_info; /* VK_KHR_pipeline_executable_properties */
     bool buffer_address; /* bufferDeviceAddress */
     bool timestamps;     /* compute queue has timestampValidBits > 0 */
     bool compute_ok;     /* Vulkan >= 1.2, buffer device address, a compute queue */
@@ -208,6 +209,9 @@ typedef struct tnd_vk {
     bool validation;
     bool ray_tracing; /* RT pipeline + acceleration structures enabled */
     bool ray_query;   /* ray query enabled */
+    /* $TANDEM_PIPELINE_STATS=1 and VK_KHR_pipeline_executable_properties: every compute
+     * pipeline's compiler statistics (registers, code size, ...) go to stderr when created */
+    bool pipeline_stats;
     tnd_vk_messages *messages;
 } tnd_vk;
 

@@ -130,6 +130,8 @@ static tnd_result query_device(VkPhysicalDevice pd, uint32_t index, tnd_vk_devic
     bool has_as = has_extension(exts, n, VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME) &&
                   has_extension(exts, n, VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME);
     bool has_rq = has_extension(exts, n, VK_KHR_RAY_QUERY_EXTENSION_NAME);
+    d->pipeline_executable_info =
+        has_extension(exts, n, VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
 
     VkPhysicalDeviceProperties base;
     vkGetPhysicalDeviceProperties(pd, &base);
@@ -434,9 +436,23 @@ tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk)
                 .samplerAnisotropy = have.features.samplerAnisotropy,
             },
     };
-    const char *exts[4];
+    const char *exts[5];
     uint32_t next = 0;
     void **chain = &f12.pNext;
+    VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR pe = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR,
+        .pipelineExecutableInfo = VK_TRUE};
+    if (env_true("TANDEM_PIPELINE_STATS")) {
+        if (vk->info.pipeline_executable_info) {
+            exts[next++] = VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME;
+            *chain = &pe;
+            chain = &pe.pNext;
+            vk->pipeline_stats = true;
+        } else {
+            tnd_info("vulkan", "TANDEM_PIPELINE_STATS: %s has no VK_KHR_pipeline_executable_properties",
+                     vk->info.name);
+        }
+    }
     if (vk->ray_tracing) {
         exts[next++] = VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME;
         exts[next++] = VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME;

@@ -39,6 +39,61 @@ fail:
     return res;
 }
 
+/* The compiler's statistics of each executable of a pipeline (VK_KHR_pipeline_executable_
+ * properties; NVIDIA reports registers and code size), one line per executable on stderr. */
+static void print_statistics(tnd_vk *vk, VkPipeline pipe, const char *name)
+{
+    PFN_vkGetPipelineExecutablePropertiesKHR props_fn =
+        (PFN_vkGetPipelineExecutablePropertiesKHR)vkGetDeviceProcAddr(
+            vk->device, "vkGetPipelineExecutablePropertiesKHR");
+    PFN_vkGetPipelineExecutableStatisticsKHR stats_fn =
+        (PFN_vkGetPipelineExecutableStatisticsKHR)vkGetDeviceProcAddr(
+            vk->device, "vkGetPipelineExecutableStatisticsKHR");
+    if (!props_fn || !stats_fn)
+        return;
+    VkPipelineInfoKHR pi = {.sType = VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR, .pipeline = pipe};
+    VkPipelineExecutablePropertiesKHR props[4];
+    uint32_t n = 4;
+    for (uint32_t k = 0; k < n; k++)
+        props[k] = (VkPipelineExecutablePropertiesKHR){
+            .sType = VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR};
+    if (props_fn(vk->device, &pi, &n, props) < 0)
+        return;
+    for (uint32_t k = 0; k < n; k++) {
+        VkPipelineExecutableInfoKHR ei = {.sType = VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR,
+                                          .pipeline = pipe,
+                                          .executableIndex = k};
+        VkPipelineExecutableStatisticKHR st[32];
+        uint32_t m = 32;
+        for (uint32_t j = 0; j < m; j++)
+            st[j] = (VkPipelineExecutableStatisticKHR){
+                .sType = VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR};
+        if (stats_fn(vk->device, &ei, &m, st) < 0)
+            continue;
+        char line[1024];
+        int len = snprintf(line, sizeof line, "pipeline stats: %s [%s]", name, props[k].name);
+        for (uint32_t j = 0; j < m && len > 0 && (size_t)len < sizeof line; j++) {
+            const VkPipelineExecutableStatisticKHR *s = &st[j];
+            char v[64];
+            switch (s->format) {
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR:
+                snprintf(v, sizeof v, "%s", s->value.b32 ? "yes" : "no");
+                break;
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR:
+                snprintf(v, sizeof v, "%lld", (long long)s->value.i64);
+                break;
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR:
+                snprintf(v, sizeof v, "%llu", (unsigned long long)s->value.u64);
+                break;
+            default:
+                snprintf(v, sizeof v, "%g", s->value.f64);
+            }
+            len += snprintf(line + len, sizeof line - (size_t)len, "; %s %s", s->name, v);
+        }
+        fprintf(stderr, "%s\n", line);
+    }
+}
+
 tnd_result tnd_compute_pipeline_create(tnd_vk *vk, const tnd_compute_desc *desc, VkPipeline *pipe)
 {
     tnd_result res = TND_OK;
@@ -53,9 +108,12 @@ tnd_result tnd_compute_pipeline_create(tnd_vk *vk, const tnd_compute_desc *desc,
                   .pName = "main",
                   .pSpecializationInfo = desc->spec},
         .layout = desc->layout,
+        .flags = vk->pipeline_stats ? VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR : 0,
     };
     TND_VK_TRY(vkCreateComputePipelines(vk->device, VK_NULL_HANDLE, 1, &ci, NULL, pipe));
     TND_VK_NAME(vk, VK_OBJECT_TYPE_PIPELINE, *pipe, "%s", desc->name ? desc->name : "compute");
+    if (vk->pipeline_stats)
+        print_statistics(vk, *pipe, desc->name ? desc->name : "compute");
 fail:
     if (mod)
         vkDestroyShaderModule(vk->device, mod, NULL);

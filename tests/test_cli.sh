@@ -380,5 +380,32 @@ check "render --dump with an unknown buffer fails naming it, with no output" $?
 [ $rc -eq 0 ] && [ -f "$tmp/den4/dump/atrous.spec_frame_0001.exr" ]
 check "denoise --dump names the dumps after the input frames" $?
 
+# developers' shader override: $TANDEM_SHADER_DIR/<name>.spv replaces the embedded code
+mkdir -p "$tmp/sv_bad" "$tmp/sv_same"
+printf 'abcde' >"$tmp/sv_bad/dn_composite_f32.spv"
+"$T" render --frames 2 --size 24x12 --out "$tmp/sv0" --quiet 2>/dev/null
+TANDEM_SHADER_DIR="$tmp/sv_bad" "$T" render --frames 2 --size 24x12 --out "$tmp/sv1" --quiet \
+    2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && grep -q "sv_bad/dn_composite_f32.spv: unreadable" "$tmp/err" &&
+    cmp -s "$tmp/sv0/frame_0001.exr" "$tmp/sv1/frame_0001.exr"
+check "TANDEM_SHADER_DIR: a file that is not SPIR-V words is named and ignored" $?
+if command -v glslangValidator >/dev/null; then
+    glslangValidator --target-env vulkan1.2 -DTND_GLSL=1 -DTND_PACKED=0 -I"$SRC/shaders" \
+        -o "$tmp/sv_same/dn_composite_f32.spv" "$SRC/shaders/dn_composite.comp" >/dev/null
+    sed 's/vec4(finite3(c), 1.0)/vec4(finite3(c) * 2.0, 1.0)/' "$SRC/shaders/dn_composite.comp" \
+        >"$tmp/sv_bad/twice.comp"
+    glslangValidator --target-env vulkan1.2 -DTND_GLSL=1 -DTND_PACKED=0 -I"$SRC/shaders" \
+        -o "$tmp/sv_bad/dn_composite_f32.spv" "$tmp/sv_bad/twice.comp" >/dev/null
+    TANDEM_SHADER_DIR="$tmp/sv_same" "$T" render --frames 2 --size 24x12 --out "$tmp/sv2" \
+        --quiet 2>"$tmp/err"; rc=$?
+    [ $rc -eq 0 ] && grep -q "shader dn_composite_f32 from" "$tmp/err" &&
+        cmp -s "$tmp/sv0/frame_0001.exr" "$tmp/sv2/frame_0001.exr"
+    check "TANDEM_SHADER_DIR: the same shader compiled apart gives the same frame" $?
+    TANDEM_SHADER_DIR="$tmp/sv_bad" "$T" render --frames 2 --size 24x12 --out "$tmp/sv3" \
+        --quiet 2>/dev/null; rc=$?
+    [ $rc -eq 0 ] && ! cmp -s "$tmp/sv0/frame_0001.exr" "$tmp/sv3/frame_0001.exr"
+    check "TANDEM_SHADER_DIR: a changed shader changes the frame" $?
+fi
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]
