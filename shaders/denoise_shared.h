@@ -21,13 +21,21 @@ struct dn_params {
                       w: 1 when this frame has gradient samples */
     vec4 antilag;  /* x: hf gain, y: spec gain, z: spec motion gain (per pixel of motion), w: lf gain */
     vec4 lf;       /* x: deflicker ratio (0: off), y: 1 when the light-leak guard is on */
+    /* The filter geometry's origin (fgeo_origin in dn_common.glsl): the contract's position and
+     * visibility at the image's centre pixel, copied here on the GPU at the start of each
+     * frame (the host fills the rest), so that a shader reads them from the uniform buffer
+     * instead of loading two image texels per thread */
+    vec4 origin_position;
+    uvec4 origin_vis;
 };
 
 #ifndef TND_GLSL
 #undef vec4
 #undef uvec4
 typedef struct dn_params dn_params;
-_Static_assert(sizeof(dn_params) == 128, "dn_params layout");
+_Static_assert(sizeof(dn_params) == 160, "dn_params layout");
+#define DN_PARAMS_ORIGIN_POSITION 128 /* byte offsets of the two copied fields */
+#define DN_PARAMS_ORIGIN_VIS 144
 #endif
 
 /* Bindings of set 0 (the back-end's own images; set 1 is the contract). */

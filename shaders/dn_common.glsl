@@ -97,8 +97,7 @@ vec3 oct_unpack12(uint v) { return oct_unpack(v, 12u); }
 vec3 fgeo_normal(uint w) { return oct_unpack(w, 11u); }
 vec3 fgeo_origin()
 {
-    ivec2 c = ivec2(P.size.xy) / 2;
-    return imageLoad(img_vis_id, c).x != TND_VIS_NONE ? imageLoad(img_position, c).xyz : vec3(0.0);
+    return P.origin_vis.x != TND_VIS_NONE ? P.origin_position.xyz : vec3(0.0);
 }
 uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
 {
