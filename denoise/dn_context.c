@@ -17,15 +17,16 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* hist hf, mom, lf sh, lf cocg, spec; a-trous ping-pong; lf sh, lf cocg ping-pong (1/3 res) */
-enum { N_PAIRED = 8, N_SINGLE = 6 };
+/* hist hf, mom, lf sh, lf cocg, spec; a-trous ping-pong; lf ping-pong (1/3 res: tangent plane
+ * and CoCg, SH) */
+enum { N_PAIRED = 8, N_SINGLE = 7 };
 static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF,      DN_B_HIST_MOM,  DN_B_HIST_LF_SH,
                                                   DN_B_HIST_LF_COCG, DN_B_HIST_SPEC, DN_B_AT,
-                                                  DN_B_AT_LF_SH,     DN_B_AT_LF_COCG};
+                                                  DN_B_AT_LF,        DN_B_AT_LF_SH};
 static const char *const paired_name[N_PAIRED] = {"hist_hf",      "hist_mom",  "hist_lf_sh",
                                                   "hist_lf_cocg", "hist_spec", "atrous",
-                                                  "at_lf_sh",     "at_lf_cocg"};
-enum { PAIRED_AT = 5 };
+                                                  "at_lf",        "at_lf_sh"};
+enum { PAIRED_AT = 5, PAIRED_AT_LF = 6, PAIRED_AT_LF_SH = 7 };
 
 struct dn_context {
     tnd_vk *vk;
@@ -34,7 +35,7 @@ struct dn_context {
     tnd_image paired[N_PAIRED][2];
     tnd_image prev_geo, prev_surf, out, fgeo; /* fgeo: the a-trous filter geometry */
     tnd_image prev_lum, grad_flag, grad[2];   /* A-SVGF */
-    tnd_image lf_geo[2];                               /* 1/3-res lf anchors */
+    tnd_image lf_geo; /* 1/3-res lf anchors: position, depth */
     tnd_buffer params, samples, samples_host; /* samples: device-local; _host: its read-back */
     uint32_t grad_w, grad_h;
     uint32_t selected_frame; /* c->frame + 1 when dn_select_gradients ran for this frame */
@@ -103,8 +104,7 @@ void dn_destroy(dn_context *c)
     tnd_image_destroy(vk, &c->grad_flag);
     tnd_image_destroy(vk, &c->grad[0]);
     tnd_image_destroy(vk, &c->grad[1]);
-    tnd_image_destroy(vk, &c->lf_geo[0]);
-    tnd_image_destroy(vk, &c->lf_geo[1]);
+    tnd_image_destroy(vk, &c->lf_geo);
     tnd_buffer_destroy(vk, &c->params);
     tnd_buffer_destroy(vk, &c->samples);
     tnd_buffer_destroy(vk, &c->samples_host);
@@ -124,7 +124,6 @@ static tnd_result create_pipelines(dn_context *c)
     for (int k = 0; k < N_PAIRED; k++)
         b0[paired_binding[k]].descriptorCount = 2;
     b0[DN_B_GRAD].descriptorCount = 2;
-    b0[DN_B_LF_GEO].descriptorCount = 2;
     VkDescriptorSetLayoutCreateInfo ci0 = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
                                            .bindingCount = DN_BINDINGS,
                                            .pBindings = b0};
@@ -199,18 +198,10 @@ static void write_own_set(dn_context *c)
                                     .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
                                     .pImageInfo = &ii[k]};
     k += 2;
-    ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->lf_geo[0].view, VK_IMAGE_LAYOUT_GENERAL};
-    ii[k + 1] = (VkDescriptorImageInfo){VK_NULL_HANDLE, c->lf_geo[1].view, VK_IMAGE_LAYOUT_GENERAL};
-    w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                    .dstSet = c->sets[0], .dstBinding = DN_B_LF_GEO,
-                                    .descriptorCount = 2,
-                                    .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-                                    .pImageInfo = &ii[k]};
-    k += 2;
-    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,
-                                         &c->prev_lum, &c->grad_flag, &c->fgeo};
-    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO,  DN_B_PREV_SURF,  DN_B_OUT,
-                                   DN_B_PREV_LUM,  DN_B_GRAD_FLAG,  DN_B_FGEO};
+    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,   &c->prev_lum,
+                                         &c->grad_flag, &c->fgeo,      &c->lf_geo};
+    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO,  DN_B_PREV_SURF, DN_B_OUT,   DN_B_PREV_LUM,
+                                   DN_B_GRAD_FLAG, DN_B_FGEO,      DN_B_LF_GEO};
     for (int s = 0; s < N_SINGLE; s++) {
         ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single[s]->view, VK_IMAGE_LAYOUT_GENERAL};
         w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
@@ -266,11 +257,10 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
         for (int s = 0; s < 2; s++) {
             char name[64];
             snprintf(name, sizeof name, "denoise.%s[%d]", paired_name[k], s);
-            bool third = paired_binding[k] == DN_B_AT_LF_SH || paired_binding[k] == DN_B_AT_LF_COCG;
-            bool two = paired_binding[k] == DN_B_HIST_LF_COCG || paired_binding[k] == DN_B_AT_LF_COCG;
-            VkFormat f = two ? VK_FORMAT_R32G32_SFLOAT
-                         : k == PAIRED_AT ? VK_FORMAT_R32G32B32A32_UINT
-                                          : VK_FORMAT_R32G32B32A32_SFLOAT;
+            bool third = k == PAIRED_AT_LF || k == PAIRED_AT_LF_SH;
+            VkFormat f = paired_binding[k] == DN_B_HIST_LF_COCG      ? VK_FORMAT_R32G32_SFLOAT
+                         : k == PAIRED_AT || k == PAIRED_AT_LF ? VK_FORMAT_R32G32B32A32_UINT
+                                                                : VK_FORMAT_R32G32B32A32_SFLOAT;
             TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = third ? c->grad_w : width,
                                                            .height = third ? c->grad_h : height,
                                                            .format = f,
@@ -298,15 +288,14 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
         uint32_t w, h;
         VkFormat format;
         const char *name;
-    } extra[6] = {
+    } extra[5] = {
         {&c->prev_lum, width, height, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.prev_lum"},
         {&c->grad_flag, width, height, VK_FORMAT_R32_UINT, "denoise.grad_flag"},
         {&c->grad[0], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[0]"},
         {&c->grad[1], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[1]"},
-        {&c->lf_geo[0], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo[0]"},
-        {&c->lf_geo[1], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo[1]"},
+        {&c->lf_geo, 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo"},
     };
-    for (int i = 0; i < 6; i++)
+    for (int i = 0; i < 5; i++)
         TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = extra[i].w ? extra[i].w : c->grad_w,
                                                        .height = extra[i].h ? extra[i].h : c->grad_h,
                                                        .format = extra[i].format,
@@ -680,8 +669,10 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
                            + CT(POSITION) + 16 + 8 /* the a-trous input and filter geometry */) +
                       (asvgf ? n3 * 16 : 0);
         /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
+        /* (the anchor and the two lf texels written; per step the anchor (the a-trous's centre)
+         * and both texels read, both written) */
         t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 16 + 8) +
-                n3 * (3 * 16 + 8 + (double)(d->iters_lf + 1) * (3 * 16 + 8 + 16 + 8));
+                n3 * (3 * 16 + (double)(d->iters_lf + 1) * (3 * 16 + 2 * 16));
         /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
          * geometry (8) of each tap, the centre's position and depth; the texel written;
          * the hf feedback once */
@@ -693,7 +684,7 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
                         CT(THROUGHPUT) + CT(POSITION) + CT(PATH) + 4 /* flag */ +
                         (filter ? 16 /* the a-trous result */ : CT(LF_SH) + CT(LF_COCG)) +
                         16 + 16 + 16 + 16 /* previous surface (two texels), lum; output */) +
-                   (filter ? n3 * (2 * 16 + 16 + 8) : 0); /* lf anchors, SH, CoCg */
+                   (filter ? n3 * (16 + 16) : 0); /* lf anchors and texels */
 #undef CT
 }
 
@@ -710,8 +701,8 @@ static const struct {
     {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST, 3},
     {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, 4},
     {"atrous.hf", {"R", "G", "B", "variance"}, DUMP_ATROUS, 0}, /* index: hf 0, spec 1 */
-    {"lf.sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_LF, 6},
-    {"lf.cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_LF, 7},
+    {"lf.sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_LF, 0}, /* index: sh 0, cocg 1 */
+    {"lf.cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_LF, 1},
     {"atrous.spec", {"R", "G", "B", "unused"}, DUMP_ATROUS, 1},
     {"gradients", {"hf", "spec", "lf", "unused"}, DUMP_GRAD, 0},
     {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
@@ -756,7 +747,8 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
                            : dumps[i].kind == DUMP_ATROUS
                                ? &c->paired[PAIRED_AT][atrous_iters(&c->desc) & 1u]
                            : dumps[i].kind == DUMP_LF
-                               ? &c->paired[dumps[i].index][(c->desc.iters_lf + 1) & 1u]
+                               ? &c->paired[dumps[i].index ? PAIRED_AT_LF : PAIRED_AT_LF_SH]
+                                           [(c->desc.iters_lf + 1) & 1u]
                            : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]
                                                           : &c->out;
     if (dumps[i].kind == DUMP_ATROUS) { /* decode the packed texel: index 0 hf, 1 spec */
@@ -771,6 +763,13 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
                 rgba[4 * q + k] = tnd_uf16_decode(v[3 * dumps[i].index + k]);
             rgba[4 * q + 3] = dumps[i].index == 0 ? tnd_uf16_decode(v[6]) : 0.0f;
         }
+        return res;
+    }
+    if (dumps[i].kind == DUMP_LF && dumps[i].index == 1) { /* CoCg: zw of the lf texel */
+        res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
+        for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++)
+            rgba[4 * q] = rgba[4 * q + 2], rgba[4 * q + 1] = rgba[4 * q + 3],
+                     rgba[4 * q + 2] = rgba[4 * q + 3] = 0.0f;
         return res;
     }
     if (img->format != VK_FORMAT_R32G32_SFLOAT)

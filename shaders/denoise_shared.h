@@ -53,8 +53,9 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
                               gradient samples: x primitive, yz barycentrics (float bits) */
 #define DN_B_AT 8          /* [2] a-trous ping-pong, RGBA32UI: hf rgb, spec rgb, hf variance as
                               16-bit tnd_uf16 (at_pack in dn_common.glsl) */
-#define DN_B_AT_LF_SH 9    /* [2] 1/3 res: the lf filter's ping-pong (dn_lf.comp) */
-#define DN_B_AT_LF_COCG 10 /* [2] 1/3 res, xy (RG32F) */
+#define DN_B_AT_LF 9       /* [2] 1/3 res, the lf filter's ping-pong (dn_lf.comp), RGBA32UI: the
+                              anchor's tangent plane and CoCg (lf_pack in dn_common.glsl) */
+#define DN_B_AT_LF_SH 10   /* [2] 1/3 res, the lf filter's ping-pong: the SH (RGBA32F) */
 #define DN_B_FGEO 11       /* RG32UI, the a-trous filter geometry, written by the temporal pass:
                               x the offset of the pixel's tangent plane (float bits; DN_FGEO_NONE
                               where no surface), y the shading normal (octahedral 11 + 11 bits),
@@ -65,8 +66,8 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
 #define DN_B_GRAD 15       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
                               after the selection zw hold the sample's previous lum hf / spec */
 #define DN_B_SAMPLES 16    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
-#define DN_B_LF_GEO 17     /* [2] 1/3 res: the lf anchors: [0] xyz position, w 1 (0: sky);
-                              [1] xyz geometric normal, w depth */
+#define DN_B_LF_GEO 17     /* 1/3 res: the lf anchor's xyz position and w depth, read by the
+                              lf a-trous at its centre (the taps read DN_B_AT_LF) */
 #define DN_BINDINGS 18
 #define DN_STRATUM 3
 #define DN_FGEO_NONE 0xffffffffu

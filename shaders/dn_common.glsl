@@ -49,13 +49,13 @@ layout(set = 0, binding = DN_B_HIST_SPEC, rgba32f) uniform image2D hist_spec[2];
 layout(set = 0, binding = DN_B_PREV_GEO, rgba32ui) uniform uimage2D prev_geo;
 layout(set = 0, binding = DN_B_PREV_SURF, rgba32ui) uniform uimage2D prev_surf;
 layout(set = 0, binding = DN_B_AT, rgba32ui) uniform uimage2D at[2];
+layout(set = 0, binding = DN_B_AT_LF, rgba32ui) uniform uimage2D at_lf[2];
 layout(set = 0, binding = DN_B_AT_LF_SH, rgba32f) uniform image2D at_lf_sh[2];
-layout(set = 0, binding = DN_B_AT_LF_COCG, rg32f) uniform image2D at_lf_cocg[2];
 layout(set = 0, binding = DN_B_OUT, rgba32f) uniform image2D out_img;
 layout(set = 0, binding = DN_B_PREV_LUM, rgba32f) uniform image2D prev_lum;
 layout(set = 0, binding = DN_B_GRAD_FLAG, r32ui) uniform uimage2D grad_flag;
 layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
-layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo[2];
+layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo;
 layout(set = 0, binding = DN_B_FGEO, rg32ui) uniform uimage2D fgeo;
 layout(set = 0, binding = DN_B_SAMPLES, std430) buffer Samples { tnd_gpu_gradient samples[]; };
 ivec2 grad_size() { return (ivec2(P.size.xy) + DN_STRATUM - 1) / DN_STRATUM; }
@@ -110,6 +110,27 @@ uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
 }
 float fgeo_roughness(uint w) { return float((w >> 22u) & 255u) * (1.0 / 255.0); }
 uint fgeo_field(uint w) { return w >> 30u; }
+
+/* The lf filter's ping-pong is two texels per anchor: the SH (DN_B_AT_LF_SH) and this one
+ * (DN_B_AT_LF): x the offset of the anchor's tangent plane from fgeo_origin() (float bits), y
+ * its geometric normal (octahedral 12 + 12 bits) | 1 << 24 (0 where the stratum sees only
+ * sky), zw CoCg (float bits). A tap of the lf passes and of the upsample loads both and nothing
+ * else (four texels before: these passes are bound by their load count); each pass carries the
+ * geometry words through. */
+uvec4 lf_pack(bool valid, vec3 pos, vec3 n, vec2 cocg)
+{
+    if (!valid)
+        return uvec4(0u);
+    uint w = oct_pack12(n);
+    return uvec4(floatBitsToUint(dot(oct_unpack12(w), pos - fgeo_origin())), w | 1u << 24u,
+                 floatBitsToUint(cocg));
+}
+bool lf_valid_texel(uvec4 t) { return (t.y >> 24u) != 0u; }
+vec3 lf_normal(uvec4 t) { return oct_unpack12(t.y); }
+/* the distance of `pos` (relative to fgeo_origin()) to the anchor's tangent plane */
+float lf_plane_distance(uvec4 t, vec3 pos) { return abs(uintBitsToFloat(t.x) - dot(lf_normal(t), pos)); }
+vec2 lf_cocg(uvec4 t) { return uintBitsToFloat(t.zw); }
+uvec4 lf_with_cocg(uvec4 t, vec2 cocg) { return uvec4(t.xy, floatBitsToUint(cocg)); }
 
 /* The a-trous ping-pong texel (DN_B_AT): hf, spec and the hf variance as tnd_uf16. */
 uvec4 at_pack(vec3 hf, vec3 spec, float variance)

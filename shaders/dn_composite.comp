@@ -3,8 +3,8 @@
  * E_n the SH at the shading normal, chroma rescaled with it. Inputs: the a-trous results (the
  * last slot written), or the raw contract in mode "off". lf comes from the
  * 1/3-resolution filter (dn_lf.comp), upsampled with geometry-aware weights: the 4 bilinear
- * taps on the low-res grid (anchors at full-res pixel 3i + 1) weighted by the tangent-plane
- * test against the footprint and max(n . n_anchor, 0)^8 (geometric normals); where no tap
+ * taps on the low-res grid (anchors at full-res pixel 3i + 1) weighted by the pixel's distance to
+ * the anchor's tangent plane against the footprint and max(n . n_anchor, 0)^8 (geometric normals); where no tap
  * passes (a thin object between anchors), the pixel's own temporal lf history. Also saves this
  * frame's depth, geometric and shading normals and visibility for the next frame's
  * reprojection. */
@@ -15,7 +15,8 @@
 const float SH_C0 = 0.282094791773878;
 const float SH_C1 = 0.488602511902920;
 
-/* The filtered lf at full-res pixel p (surface position pos, geometric normal gn, depth). */
+/* The filtered lf at full-res pixel p (surface position pos relative to fgeo_origin(),
+ * geometric normal gn, depth). */
 void upsample_lf(ivec2 p, vec3 pos, vec3 gn, float depth, out vec4 sh, out vec2 cocg)
 {
     uint slot = (P.iters.y + 1u) & 1u;
@@ -30,15 +31,14 @@ void upsample_lf(ivec2 p, vec3 pos, vec3 gn, float depth, out vec4 sh, out vec2 
     for (int j = 0; j < 2; j++)
         for (int i = 0; i < 2; i++) {
             ivec2 s = clamp(s0 + ivec2(i, j), ivec2(0), gs - 1);
-            vec4 g0 = imageLoad(lf_geo[0], s);
-            if (g0.w == 0.0)
+            uvec4 t = imageLoad(at_lf[slot], s);
+            if (!lf_valid_texel(t))
                 continue;
-            vec3 na = imageLoad(lf_geo[1], s).xyz;
-            float plane = abs(dot(gn, g0.xyz - pos));
             float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
-            w *= exp(-plane / (P.weights.x * footprint)) * pow(max(dot(gn, na), 0.0), P.weights.w);
+            w *= exp(-lf_plane_distance(t, pos) / (P.weights.x * footprint)) *
+                 pow(max(dot(gn, lf_normal(t)), 0.0), P.weights.w);
             sh += w * imageLoad(at_lf_sh[slot], s);
-            cocg += w * imageLoad(at_lf_cocg[slot], s).xy;
+            cocg += w * lf_cocg(t);
             wsum += w;
         }
     if (wsum > 1e-6) {
@@ -89,7 +89,7 @@ void main()
         uvec4 a = imageLoad(at[max(P.iters.x, P.iters.z) & 1u], p); /* the last a-trous slot */
         hf = at_hf(a);
         spec = at_spec(a);
-        upsample_lf(p, imageLoad(img_position, p).xyz, gn, depth, sh, cocg);
+        upsample_lf(p, imageLoad(img_position, p).xyz - fgeo_origin(), gn, depth, sh, cocg);
     }
     vec3 alb = imageLoad(img_albedo, p).rgb;
     float m = imageLoad(img_metallic, p).x;

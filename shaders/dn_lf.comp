@@ -11,7 +11,8 @@
  *   which then hide it (test_lf_firefly_is_deflickered: brightest pixel 6.7x -> 5.9x, energy
  *   added 3.7% -> 2.2%, against 13x and 8.5% without deflicker).
  * - k = 2 .. iters + 1: a-trous, step 2^(k-2) low-res pixels (3, 6, 12 full-res pixels), 3x3 taps
- *   1 / 0.5 / 0.25, geometry weights only (tangent plane against the footprint, normals^8); the
+ *   1 / 0.5 / 0.25, geometry weights only (the centre's distance to the tap's tangent plane
+ *   against the footprint, normals^8); the
  *   last iteration adds the light-leak guard w *= clamp(1.5 - 0.25 l_q / l_p, 0, 1) (a neighbour
  *   more than 2x brighter than the centre is attenuated, more than 6x is dropped).
  * Pass k >= 1 reads slot (k - 1) & 1 and writes slot k & 1; the result lands in slot
@@ -25,7 +26,8 @@ bool in_grid(ivec2 s)
     ivec2 gs = grad_size();
     return s.x >= 0 && s.y >= 0 && s.x < gs.x && s.y < gs.y;
 }
-bool lf_valid(ivec2 s) { return in_grid(s) && imageLoad(lf_geo[0], s).w != 0.0; }
+/* the lf texel at s, invalid outside the grid */
+uvec4 lf_texel(ivec2 s, uint slot) { return in_grid(s) ? imageLoad(at_lf[slot], s) : uvec4(0u); }
 
 void main()
 {
@@ -35,15 +37,11 @@ void main()
         return;
     uint k = pc.iteration; /* k = 0, the downsample, is dn_lf_down.comp */
     uint src = (k - 1u) & 1u, dst = k & 1u;
-    vec4 c_sh = imageLoad(at_lf_sh[src], s), c_cocg = imageLoad(at_lf_cocg[src], s);
-    if (!lf_valid(s)) {
+    uvec4 c = imageLoad(at_lf[src], s);
+    vec4 c_sh = imageLoad(at_lf_sh[src], s);
+    if (!lf_valid_texel(c) || (k == 1u && P.lf.x <= 0.0)) { /* sky, or deflicker off */
+        imageStore(at_lf[dst], s, c);
         imageStore(at_lf_sh[dst], s, c_sh);
-        imageStore(at_lf_cocg[dst], s, c_cocg);
-        return;
-    }
-    if (k == 1u && P.lf.x <= 0.0) { /* deflicker off */
-        imageStore(at_lf_sh[dst], s, c_sh);
-        imageStore(at_lf_cocg[dst], s, c_cocg);
         return;
     }
     if (k == 1u) { /* deflicker */
@@ -51,7 +49,7 @@ void main()
         for (int y = -1; y <= 1; y++)
             for (int x = -1; x <= 1; x++) {
                 ivec2 q = s + 2 * ivec2(x, y);
-                if ((x == 0 && y == 0) || !lf_valid(q))
+                if ((x == 0 && y == 0) || !lf_valid_texel(lf_texel(q, src)))
                     continue;
                 sum += max(imageLoad(at_lf_sh[src], q).w, 0.0);
                 cnt += 1.0;
@@ -60,41 +58,43 @@ void main()
         if (cnt > 0.0 && c_sh.w > limit) {
             float f = limit / c_sh.w;
             c_sh *= f;
-            c_cocg *= f;
+            c = lf_with_cocg(c, lf_cocg(c) * f);
         }
+        imageStore(at_lf[dst], s, c);
         imageStore(at_lf_sh[dst], s, c_sh);
-        imageStore(at_lf_cocg[dst], s, c_cocg);
         return;
     }
     uint i = k - 2u;
     int step = 1 << int(i);
     bool last = i + 1u == P.iters.y && P.lf.y != 0.0;
-    vec4 g0 = imageLoad(lf_geo[0], s), g1 = imageLoad(lf_geo[1], s);
-    vec3 pos = g0.xyz, n = g1.xyz;
-    float footprint = max(g1.w * P.misc.x * float(DN_STRATUM * step), 1e-6);
+    vec4 g = imageLoad(lf_geo, s);
+    vec3 pos = g.xyz - fgeo_origin();
+    float footprint = max(g.w * P.misc.x * float(DN_STRATUM * step), 1e-6);
+    float inv_sigma = 1.0 / (P.weights.x * footprint);
+    vec3 n = lf_normal(c);
     float lp = max(c_sh.w, 1e-6);
-    vec4 s_sh = vec4(0.0), s_cocg = vec4(0.0);
+    vec4 s_sh = vec4(0.0);
+    vec2 s_cocg = vec2(0.0);
     float wsum = 0.0;
     const float kw[3] = float[3](0.25, 0.5, 1.0);
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
             ivec2 q = s + ivec2(x, y) * step;
-            if (!in_grid(q))
-                continue;
-            vec4 q0 = imageLoad(lf_geo[0], q);
-            if (q0.w == 0.0)
+            uvec4 t = lf_texel(q, src);
+            if (!lf_valid_texel(t))
                 continue;
             float h = kw[abs(x) + abs(y) == 0 ? 2 : (abs(x) + abs(y) == 1 ? 1 : 0)];
-            float plane = abs(dot(n, q0.xyz - pos));
-            float nn = max(dot(n, imageLoad(lf_geo[1], q).xyz), 0.0);
-            float w = h * exp(-plane / (P.weights.x * footprint)) * pow(nn, P.weights.w);
+            /* the distance of this anchor to the tap's tangent plane */
+            float w = h * exp(-lf_plane_distance(t, pos) * inv_sigma) *
+                      pow(max(dot(n, lf_normal(t)), 0.0), P.weights.w);
             vec4 q_sh = imageLoad(at_lf_sh[src], q);
             if (last)
                 w *= clamp(1.5 - 0.25 * max(q_sh.w, 0.0) / lp, 0.0, 1.0);
             s_sh += w * q_sh;
-            s_cocg += w * imageLoad(at_lf_cocg[src], q);
+            s_cocg += w * lf_cocg(t);
             wsum += w;
         }
-    imageStore(at_lf_sh[dst], s, wsum > 1e-8 ? s_sh / wsum : c_sh);
-    imageStore(at_lf_cocg[dst], s, wsum > 1e-8 ? s_cocg / wsum : c_cocg);
+    bool ok = wsum > 1e-8;
+    imageStore(at_lf[dst], s, ok ? lf_with_cocg(c, s_cocg / wsum) : c);
+    imageStore(at_lf_sh[dst], s, ok ? s_sh / wsum : c_sh);
 }

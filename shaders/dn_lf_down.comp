@@ -2,8 +2,8 @@
  * stratum anchors. The anchor is the stratum's centre pixel (the first surface pixel in row
  * order when the centre sees the sky); this frame's lf history of the 9 pixels is averaged with
  * weights max(n . n_anchor, 0)^8 (geometric normals) times the tangent-plane test of the a-trous
- * passes; the anchor's position and normal go to lf_geo for the later passes and the upsample.
- * Writes slot 0. One thread per pixel (tiles of strata; the anchor is found and the weighted
+ * passes; the anchor's tangent plane goes with the CoCg into the lf texel (lf_pack), its
+ * position and depth to lf_geo (read by the lf a-trous at its centre). Writes slot 0. One thread per pixel (tiles of strata; the anchor is found and the weighted
  * values summed in row order through shared memory). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -71,14 +71,13 @@ void main()
             sum_cw += s_cw[tile_pixel_index(li, i, j)];
         }
     if (find_anchor(li) != ~0u) {
-        imageStore(lf_geo[0], s, s_geo[li][0]);
-        imageStore(lf_geo[1], s, s_geo[li][1]);
+        vec3 pos = s_geo[li][0].xyz;
+        imageStore(lf_geo, s, vec4(pos, s_geo[li][1].w));
+        imageStore(at_lf[0], s, lf_pack(true, pos, s_geo[li][1].xyz, sum_cw.xy / sum_cw.z));
         imageStore(at_lf_sh[0], s, sum_sh / sum_cw.z);
-        imageStore(at_lf_cocg[0], s, vec4(sum_cw.xy / sum_cw.z, 0.0, 0.0));
     } else { /* the whole stratum sees the sky */
-        imageStore(lf_geo[0], s, vec4(0.0));
-        imageStore(lf_geo[1], s, vec4(0.0));
+        imageStore(lf_geo, s, vec4(0.0));
+        imageStore(at_lf[0], s, uvec4(0u));
         imageStore(at_lf_sh[0], s, vec4(0.0));
-        imageStore(at_lf_cocg[0], s, vec4(0.0));
     }
 }
