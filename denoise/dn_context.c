@@ -17,16 +17,16 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* hist hf, mom, lf sh, lf cocg, spec; a-trous ping-pong; lf ping-pong (1/3 res: tangent plane
- * and CoCg, SH) */
-enum { N_PAIRED = 8, N_SINGLE = 7 };
-static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF,      DN_B_HIST_MOM,  DN_B_HIST_LF_SH,
-                                                  DN_B_HIST_LF_COCG, DN_B_HIST_SPEC, DN_B_AT,
-                                                  DN_B_AT_LF,        DN_B_AT_LF_SH};
-static const char *const paired_name[N_PAIRED] = {"hist_hf",      "hist_mom",  "hist_lf_sh",
-                                                  "hist_lf_cocg", "hist_spec", "atrous",
-                                                  "at_lf",        "at_lf_sh"};
-enum { PAIRED_AT = 5, PAIRED_AT_LF = 6, PAIRED_AT_LF_SH = 7 };
+/* hist hf, mom, lf sh, spec (+ lf CoCg); a-trous ping-pong; lf ping-pong (1/3 res: tangent
+ * plane and CoCg, SH) */
+enum { N_PAIRED = 7, N_SINGLE = 7 };
+static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_MOM, DN_B_HIST_LF_SH,
+                                                  DN_B_HIST_SPEC, DN_B_AT, DN_B_AT_LF,
+                                                  DN_B_AT_LF_SH};
+static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_mom", "hist_lf_sh", "hist_spec",
+                                                  "atrous",  "at_lf",    "at_lf_sh"};
+enum { PAIRED_HIST_LF_SH = 2, PAIRED_HIST_SPEC = 3, PAIRED_AT = 4, PAIRED_AT_LF = 5,
+       PAIRED_AT_LF_SH = 6 };
 
 struct dn_context {
     tnd_vk *vk;
@@ -258,9 +258,8 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
             char name[64];
             snprintf(name, sizeof name, "denoise.%s[%d]", paired_name[k], s);
             bool third = k == PAIRED_AT_LF || k == PAIRED_AT_LF_SH;
-            VkFormat f = paired_binding[k] == DN_B_HIST_LF_COCG      ? VK_FORMAT_R32G32_SFLOAT
-                         : k == PAIRED_AT || k == PAIRED_AT_LF ? VK_FORMAT_R32G32B32A32_UINT
-                                                                : VK_FORMAT_R32G32B32A32_SFLOAT;
+            bool uint = k == PAIRED_HIST_SPEC || k == PAIRED_AT || k == PAIRED_AT_LF;
+            VkFormat f = uint ? VK_FORMAT_R32G32B32A32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT;
             TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = third ? c->grad_w : width,
                                                            .height = third ? c->grad_h : height,
                                                            .format = f,
@@ -664,14 +663,14 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
     if (filter) {
         t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +
                            CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
-                           CT(PATH) + 16 + 4 * 16 + 8 /* previous surface, histories */
-                           + 4 * 16 + 8 /* histories written */
+                           CT(PATH) + 16 + 4 * 16 /* previous surface, histories */
+                           + 4 * 16 /* histories written */
                            + CT(POSITION) + 16 + 8 /* the a-trous input and filter geometry */) +
                       (asvgf ? n3 * 16 : 0);
         /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
         /* (the anchor and the two lf texels written; per step the anchor (the a-trous's centre)
          * and both texels read, both written) */
-        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 16 + 8) +
+        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 16 + 16) +
                 n3 * (3 * 16 + (double)(d->iters_lf + 1) * (3 * 16 + 2 * 16));
         /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
          * geometry (8) of each tap, the centre's position and depth; the texel written;
@@ -689,7 +688,7 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
 }
 
 /* Dumps: name, channel names, the image (slot: 0 this frame's history, 1 the final a-trous). */
-enum { DUMP_HIST, DUMP_ATROUS, DUMP_LF, DUMP_GRAD, DUMP_OUT };
+enum { DUMP_HIST, DUMP_HIST_COCG, DUMP_ATROUS, DUMP_LF, DUMP_GRAD, DUMP_OUT };
 static const struct {
     const char *name;
     const char *channels[4];
@@ -698,8 +697,8 @@ static const struct {
     {"temporal.hf", {"R", "G", "B", "history"}, DUMP_HIST, 0},
     {"temporal.moments", {"m1", "m2", "history_lf", "history_spec"}, DUMP_HIST, 1},
     {"temporal.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_HIST, 2},
-    {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST, 3},
-    {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, 4},
+    {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST_COCG, 3},
+    {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, 3},
     {"atrous.hf", {"R", "G", "B", "variance"}, DUMP_ATROUS, 0}, /* index: hf 0, spec 1 */
     {"lf.sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_LF, 0}, /* index: sh 0, cocg 1 */
     {"lf.cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_LF, 1},
@@ -743,7 +742,8 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: dump %s before the first frame",
                         dumps[i].name);
     uint32_t slot = (c->frame - 1) & 1u;
-    const tnd_image *img = dumps[i].kind == DUMP_HIST     ? &c->paired[dumps[i].index][slot]
+    bool hist = dumps[i].kind == DUMP_HIST || dumps[i].kind == DUMP_HIST_COCG;
+    const tnd_image *img = hist                           ? &c->paired[dumps[i].index][slot]
                            : dumps[i].kind == DUMP_ATROUS
                                ? &c->paired[PAIRED_AT][atrous_iters(&c->desc) & 1u]
                            : dumps[i].kind == DUMP_LF
@@ -765,6 +765,29 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
         }
         return res;
     }
+    if (hist && dumps[i].index == PAIRED_HIST_SPEC) { /* spec rgb; w: the lf history's CoCg */
+        float *sh = dumps[i].kind == DUMP_HIST_COCG ? malloc((size_t)w * h * 16) : NULL;
+        if (dumps[i].kind == DUMP_HIST_COCG && !sh)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
+        res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
+        if (res == TND_OK && sh)
+            res = tnd_image_download(c->vk, &c->paired[PAIRED_HIST_LF_SH][slot], sh,
+                                     (size_t)w * h * 16);
+        for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++) {
+            float *o = rgba + 4 * q;
+            uint32_t cw;
+            memcpy(&cw, &o[3], 4);
+            if (sh) { /* dn_common.glsl's cocg_unpack */
+                float l0 = sh[4 * q + 3];
+                o[0] = tnd_half_to_float((uint16_t)(cw & 0xffffu)) * l0;
+                o[1] = tnd_half_to_float((uint16_t)(cw >> 16)) * l0;
+                o[2] = 0.0f;
+            }
+            o[3] = 0.0f;
+        }
+        free(sh);
+        return res;
+    }
     if (dumps[i].kind == DUMP_LF && dumps[i].index == 1) { /* CoCg: zw of the lf texel */
         res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
         for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++)
@@ -772,15 +795,7 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
                      rgba[4 * q + 2] = rgba[4 * q + 3] = 0.0f;
         return res;
     }
-    if (img->format != VK_FORMAT_R32G32_SFLOAT)
-        return tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
-    /* two channels (CoCg): into the first half, then spread to RGBA from the end backwards */
-    res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 8);
-    for (size_t q = (size_t)w * h; res == TND_OK && q-- > 0;) {
-        float x = rgba[2 * q], y = rgba[2 * q + 1];
-        rgba[4 * q] = x, rgba[4 * q + 1] = y, rgba[4 * q + 2] = rgba[4 * q + 3] = 0.0f;
-    }
-    return res;
+    return tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
 }
 
 const tnd_image *dn_output(const dn_context *c)

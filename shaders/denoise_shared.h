@@ -42,33 +42,33 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
 #define DN_B_PARAMS 0
 #define DN_B_HIST_HF 1     /* [2] rgb colour, a: history length (hf) */
 #define DN_B_HIST_MOM 2    /* [2] x E[l], y E[l^2], z length lf, w length spec */
-#define DN_B_HIST_LF_SH 3  /* [2] */
-#define DN_B_HIST_LF_COCG 4 /* [2] xy (RG32F) */
-#define DN_B_HIST_SPEC 5   /* [2] rgb */
-#define DN_B_PREV_GEO 6    /* RGBA32UI, the previous frame's surface as the reprojection tests
+#define DN_B_HIST_LF_SH 3  /* [2] the lf history's SH (its CoCg: DN_B_HIST_SPEC) */
+#define DN_B_HIST_SPEC 4   /* [2] RGBA32UI: xyz spec rgb (float bits), w the lf history's CoCg
+                              (cocg_pack in dn_common.glsl) */
+#define DN_B_PREV_GEO 5    /* RGBA32UI, the previous frame's surface as the reprojection tests
                               it: x instance, y depth (float bits), z geometric normal
                               (octahedral 12 + 12 bits) | field << 24 | was a gradient sample
                               << 26, w shading normal (octahedral 12 + 12 bits) */
-#define DN_B_PREV_SURF 7   /* RGBA32UI, the rest of the previous surface, read at the chosen
+#define DN_B_PREV_SURF 6   /* RGBA32UI, the rest of the previous surface, read at the chosen
                               gradient samples: x primitive, yz barycentrics (float bits) */
-#define DN_B_AT 8          /* [2] a-trous ping-pong, RGBA32UI: hf rgb, spec rgb, hf variance as
+#define DN_B_AT 7          /* [2] a-trous ping-pong, RGBA32UI: hf rgb, spec rgb, hf variance as
                               16-bit tnd_uf16 (at_pack in dn_common.glsl) */
-#define DN_B_AT_LF 9       /* [2] 1/3 res, the lf filter's ping-pong (dn_lf.comp), RGBA32UI: the
+#define DN_B_AT_LF 8       /* [2] 1/3 res, the lf filter's ping-pong (dn_lf.comp), RGBA32UI: the
                               anchor's tangent plane and CoCg (lf_pack in dn_common.glsl) */
-#define DN_B_AT_LF_SH 10   /* [2] 1/3 res, the lf filter's ping-pong: the SH (RGBA32F) */
-#define DN_B_FGEO 11       /* RG32UI, the a-trous filter geometry, written by the temporal pass:
+#define DN_B_AT_LF_SH 9    /* [2] 1/3 res, the lf filter's ping-pong: the SH (RGBA32F) */
+#define DN_B_FGEO 10       /* RG32UI, the a-trous filter geometry, written by the temporal pass:
                               x the offset of the pixel's tangent plane (float bits; DN_FGEO_NONE
                               where no surface), y the shading normal (octahedral 11 + 11 bits),
                               roughness (8 bits) and checkerboard field (2 bits) */
-#define DN_B_OUT 12        /* linear HDR output */
-#define DN_B_PREV_LUM 13   /* previous frame: x lum(raw hf), y lum(raw spec), zw rng key (bits) */
-#define DN_B_GRAD_FLAG 14  /* this frame's gradient sample pixels (1) */
-#define DN_B_GRAD 15       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
+#define DN_B_OUT 11        /* linear HDR output */
+#define DN_B_PREV_LUM 12   /* previous frame: x lum(raw hf), y lum(raw spec), zw rng key (bits) */
+#define DN_B_GRAD_FLAG 13  /* this frame's gradient sample pixels (1) */
+#define DN_B_GRAD 14       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
                               after the selection zw hold the sample's previous lum hf / spec */
-#define DN_B_SAMPLES 16    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
-#define DN_B_LF_GEO 17     /* 1/3 res: the lf anchor's xyz position and w depth, read by the
+#define DN_B_SAMPLES 15    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
+#define DN_B_LF_GEO 16     /* 1/3 res: the lf anchor's xyz position and w depth, read by the
                               lf a-trous at its centre (the taps read DN_B_AT_LF) */
-#define DN_BINDINGS 18
+#define DN_BINDINGS 17
 #define DN_STRATUM 3
 #define DN_FGEO_NONE 0xffffffffu
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x

@@ -44,8 +44,7 @@ layout(set = 0, binding = DN_B_PARAMS, std140) uniform Params { dn_params P; };
 layout(set = 0, binding = DN_B_HIST_HF, rgba32f) uniform image2D hist_hf[2];
 layout(set = 0, binding = DN_B_HIST_MOM, rgba32f) uniform image2D hist_mom[2];
 layout(set = 0, binding = DN_B_HIST_LF_SH, rgba32f) uniform image2D hist_lf_sh[2];
-layout(set = 0, binding = DN_B_HIST_LF_COCG, rg32f) uniform image2D hist_lf_cocg[2];
-layout(set = 0, binding = DN_B_HIST_SPEC, rgba32f) uniform image2D hist_spec[2];
+layout(set = 0, binding = DN_B_HIST_SPEC, rgba32ui) uniform uimage2D hist_spec[2];
 layout(set = 0, binding = DN_B_PREV_GEO, rgba32ui) uniform uimage2D prev_geo;
 layout(set = 0, binding = DN_B_PREV_SURF, rgba32ui) uniform uimage2D prev_surf;
 layout(set = 0, binding = DN_B_AT, rgba32ui) uniform uimage2D at[2];
@@ -110,6 +109,16 @@ uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
 }
 float fgeo_roughness(uint w) { return float((w >> 22u) & 255u) * (1.0 / 255.0); }
 uint fgeo_field(uint w) { return w >> 30u; }
+
+/* The lf history's CoCg, stored in the spec history's spare word (DN_B_HIST_SPEC): both as half
+ * floats relative to L0 (chroma is bounded by luminance: small ratios that half floats keep to
+ * 2^-11, clamped so that a degenerate L0 cannot make them infinite). Saves the temporal pass a
+ * texel per reprojection tap and a store. */
+uint cocg_pack(vec2 cocg, float l0)
+{
+    return packHalf2x16(clamp(cocg * (l0 > 0.0 ? 1.0 / l0 : 0.0), -60000.0, 60000.0));
+}
+vec2 cocg_unpack(uint w, float l0) { return unpackHalf2x16(w) * l0; }
 
 /* The lf filter's ping-pong is two texels per anchor: the SH (DN_B_AT_LF_SH) and this one
  * (DN_B_AT_LF): x the offset of the anchor's tangent plane from fgeo_origin() (float bits), y

@@ -51,8 +51,9 @@ void main()
             s_geo[k][0] = vec4(pos, 1.0);
             s_geo[k][1] = vec4(n, depth);
         }
-        sh = w * imageLoad(hist_lf_sh[pc.slot], p);
-        cw = vec3(w * imageLoad(hist_lf_cocg[pc.slot], p).xy, w);
+        vec4 h = imageLoad(hist_lf_sh[pc.slot], p);
+        sh = w * h;
+        cw = vec3(w * cocg_unpack(imageLoad(hist_spec[pc.slot], p).w, h.w), w);
     }
     s_sh[li] = sh;
     s_cw[li] = cw;

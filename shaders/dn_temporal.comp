@@ -56,11 +56,13 @@ void main()
                 float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
                 h_hf += w * imageLoad(hist_hf[prev], q);
                 h_mom += w * imageLoad(hist_mom[prev], q);
-                h_sh += w * imageLoad(hist_lf_sh[prev], q);
-                h_cocg += w * imageLoad(hist_lf_cocg[prev], q).xy;
+                vec4 sh_q = imageLoad(hist_lf_sh[prev], q);
+                uvec4 sp_q = imageLoad(hist_spec[prev], q); /* spec, lf CoCg */
+                h_sh += w * sh_q;
+                h_cocg += w * cocg_unpack(sp_q.w, sh_q.w);
                 vec3 n_prev = oct_unpack12(g.w);
                 float ws = shininess > 0.0 ? w * pow(max(dot(n, n_prev), 0.0), shininess) : w;
-                h_spec += ws * imageLoad(hist_spec[prev], q);
+                h_spec += ws * vec4(uintBitsToFloat(sp_q.xyz), 0.0);
                 wsum += w;
                 wsum_spec += ws;
             }
@@ -123,8 +125,7 @@ void main()
     imageStore(hist_hf[cur], p, out_hf);
     imageStore(hist_mom[cur], p, out_mom);
     imageStore(hist_lf_sh[cur], p, out_sh);
-    imageStore(hist_lf_cocg[cur], p, vec4(out_cocg, 0.0, 0.0));
-    imageStore(hist_spec[cur], p, out_spec);
+    imageStore(hist_spec[cur], p, uvec4(floatBitsToUint(out_spec.rgb), cocg_pack(out_cocg, out_sh.w)));
     uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n, rough, field);
     imageStore(at[0], p, at_pack(out_hf.rgb, out_spec.rgb, variance));
     imageStore(fgeo, p, uvec4(g, 0u, 0u));
