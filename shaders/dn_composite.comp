@@ -66,12 +66,9 @@ void main()
                                   (sky ? 0u : oct_pack12(gn)) | field << 24u |
                                       (was_sample ? 1u : 0u) << 26u,
                                   sky ? 0u : oct_pack12(n)));
+    /* what the next frame's gradient samples need: barycentrics, and whether this pixel was a
+     * gradient sample (not reused twice in a row); its luminances and rng key: dn_temporal.comp */
     imageStore(prev_surf, p, uvec4(vis.y, floatBitsToUint(imageLoad(img_vis_bary, p).xy), 0u));
-    /* what the next frame's gradient samples need: raw luminances, rng key, barycentrics, and
-     * whether this pixel was a gradient sample (not reused twice in a row) */
-    uvec2 key = imageLoad(img_rng, p).xy;
-    imageStore(prev_lum, p, vec4(luma(finite3(load_hf(p))), luma(finite3(load_spec(p))),
-                                 uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
     vec3 em = imageLoad(img_emission, p).rgb;
     if (vis.x == TND_VIS_NONE) {
         imageStore(out_img, p, vec4(finite3(em), 1.0));
