@@ -554,7 +554,7 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
-        dispatch_tiles(c, cmd, c->grad_image, "gradient.image");
+        dispatch_third(c, cmd, c->grad_image, "gradient.image", 0);
         for (uint32_t i = 0; i < 7; i++) /* 7 iterations: the result lands in slot 1 */
             dispatch_third(c, cmd, c->grad_atrous, "gradient.blur", i);
         tnd_timer_end(cmd, &c->timer, s_g);
@@ -655,10 +655,11 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
          * surface and luminances at the reprojection; flag written; per stratum one sample (32
          * bytes), one gradient texel, the chosen pixel's previous surface (two texels) */
         t->select = n * (CT(VIS_ID) + CT(MOTION) + CT(DEPTH) + CT(GEO_NORMAL) + CT(PATH) +
-                         16 + 16 + 4) +
-                    n3 * (32 + 16 + 16 + 16);
-        /* gradient image: vis, motion, lf now, lf history; the blur: 7 x (read + write) */
-        t->gradient = n * (CT(VIS_ID) + CT(MOTION) + CT(LF_SH) + 16) + n3 * (32 + 16 + 16 * 2 * 7);
+                         16 + 16 + 4 + CT(LF_SH) + 16 /* lf now and its history */) +
+                    n3 * (32 + 16 + 16 + 16 + 16 /* the lf sums */);
+        /* gradient image: per stratum the sample, the lf sums, the previous luminances, hf and
+         * spec at the sample, the texel written; the blur: 7 x (read + write) */
+        t->gradient = n3 * (32 + 16 + 16 + CT(HF) + CT(SPEC) + 16 + 16 * 2 * 7);
     }
     if (filter) {
         t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +

@@ -5,7 +5,10 @@
  * the brightest previous hf + spec (a random pick in a moving penumbra often misses the change;
  * ties: the first in row order).
  * Writes the sample (pixel, the previous frame's rng key and surface) for the front-end to
- * re-shade, the previous luminances, and this frame's sample mask. One thread per pixel tests
+ * re-shade, the previous luminances, and this frame's sample mask; also the stratum's sums of
+ * the raw lf L0 now and of the accumulated L0 history at the reprojected pixels (grad[1].zw) for
+ * dn_grad_image.comp (here, where the pixels are visited anyway, and before the re-shading: the
+ * sample's fresh L0 counts as "now", not the previous frame's, which would hide 1/9 of a change). One thread per pixel tests
  * its pixel; one thread per stratum then picks among the nine through shared memory (a thread
  * per stratum doing the nine tests itself is latency-bound: nine chains of dependent loads). */
 #version 460
@@ -16,6 +19,7 @@
 shared float s_score[DN_TILE_N];  /* previous hf + spec luminance of a candidate, else 0 */
 shared uint s_target[DN_TILE_N];  /* its reprojected pixel, x | y << 16 */
 shared uint s_winner[DN_TILE_STRATA]; /* tile-local pixel index of the sample, ~0u for none */
+shared vec2 s_lf[DN_TILE_N];      /* raw lf L0 now, accumulated lf L0 at the reprojection */
 
 void main()
 {
@@ -23,10 +27,18 @@ void main()
     uint li = gl_LocalInvocationIndex;
     float score = 0.0;
     ivec2 pp = ivec2(0);
+    vec2 lf = vec2(0.0);
     if (inside(p) && P.size.z != 0u) {
         uvec2 vis = imageLoad(img_vis_id, p).xy;
         vec3 m = imageLoad(img_motion, p).xyz;
         pp = ivec2(floor(vec2(p) + P.jitter.xy + m.xy - P.jitter.zw + 0.5));
+        if (vis.x != TND_VIS_NONE) {
+            vec3 mf = tnd_nonfinite(m.x) || tnd_nonfinite(m.y) ? vec3(0.0) : m;
+            ivec2 pf = ivec2(floor(vec2(p) + P.jitter.xy + mf.xy - P.jitter.zw + 0.5));
+            lf.x = finite4(imageLoad(img_lf_sh, p)).w;
+            if (inside(pf))
+                lf.y = finite4(imageLoad(hist_lf_sh[1u - pc.slot], pf)).w;
+        }
         uvec4 g = inside(pp) ? imageLoad(prev_geo, pp) : uvec4(TND_VIS_NONE, 0u, 0u, 0u);
         if (vis.x != TND_VIS_NONE && g.x == vis.x) {
             float depth = imageLoad(img_depth, p).x;
@@ -42,6 +54,7 @@ void main()
         }
     }
     s_score[li] = score;
+    s_lf[li] = lf;
     s_target[li] = score > 0.0 ? uint(pp.x) | uint(pp.y) << 16u : 0u;
     barrier();
     if (li < DN_TILE_STRATA) {
@@ -75,6 +88,11 @@ void main()
             }
             samples[uint(s.y * gs.x + s.x)] = smp;
             imageStore(grad[0], s, gout);
+            vec2 sum = vec2(0.0);
+            for (int j = 0; j < DN_STRATUM; j++)
+                for (int i = 0; i < DN_STRATUM; i++)
+                    sum += s_lf[tile_pixel_index(li, i, j)];
+            imageStore(grad[1], s, vec4(0.0, 0.0, sum));
         }
         s_winner[li] = best_k;
     }
