@@ -666,7 +666,8 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
                            CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
                            CT(PATH) + 16 + 4 * 16 /* previous surface, histories */
                            + 4 * 16 /* histories written */
-                           + CT(POSITION) + 16 + 8 /* the a-trous input and filter geometry */) +
+                           + CT(POSITION) + 16 + 8 /* the a-trous input and filter geometry */
+                           + (asvgf ? CT(RNG) + 16 : 0) /* the next frame's sample data */) +
                       (asvgf ? n3 * 16 : 0);
         /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
         /* (the anchor and the two lf texels written; per step the anchor (the a-trous's centre)
@@ -679,11 +680,12 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
         t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + CT(POSITION) + CT(DEPTH) + 16) +
                          2 * 16);
     }
-    t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(RNG) + CT(HF) + CT(SPEC) +
-                        CT(VIS_BARY) + CT(NORMAL) + CT(EMISSION) + CT(ALBEDO) + CT(METALLIC) +
-                        CT(THROUGHPUT) + CT(POSITION) + CT(PATH) + 4 /* flag */ +
-                        (filter ? 16 /* the a-trous result */ : CT(LF_SH) + CT(LF_COCG)) +
-                        16 + 16 + 16 + 16 /* previous surface (two texels), lum; output */) +
+    t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(VIS_BARY) + CT(NORMAL) +
+                        CT(EMISSION) + CT(ALBEDO) + CT(METALLIC) + CT(THROUGHPUT) + CT(POSITION) +
+                        CT(PATH) + 4 /* flag */ +
+                        (filter ? 16 /* the a-trous result */
+                                : CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG)) +
+                        16 + 16 + 16 /* previous surface (two texels); output */) +
                    (filter ? n3 * (16 + 16) : 0); /* lf anchors and texels */
 #undef CT
 }
