@@ -449,7 +449,8 @@ tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk)
             chain = &pe.pNext;
             vk->pipeline_stats = true;
         } else {
-            tnd_info("vulkan", "TANDEM_PIPELINE_STATS: %s has no VK_KHR_pipeline_executable_properties",
+            tnd_info("vulkan",
+                     "TANDEM_PIPELINE_STATS: %s has no VK_KHR_pipeline_executable_properties",
                      vk->info.name);
         }
     }

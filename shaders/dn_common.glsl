@@ -137,7 +137,10 @@ uvec4 lf_pack(bool valid, vec3 pos, vec3 n, vec2 cocg)
 bool lf_valid_texel(uvec4 t) { return (t.y >> 24u) != 0u; }
 vec3 lf_normal(uvec4 t) { return oct_unpack12(t.y); }
 /* the distance of `pos` (relative to fgeo_origin()) to the anchor's tangent plane */
-float lf_plane_distance(uvec4 t, vec3 pos) { return abs(uintBitsToFloat(t.x) - dot(lf_normal(t), pos)); }
+float lf_plane_distance(uvec4 t, vec3 pos)
+{
+    return abs(uintBitsToFloat(t.x) - dot(lf_normal(t), pos));
+}
 vec2 lf_cocg(uvec4 t) { return uintBitsToFloat(t.zw); }
 uvec4 lf_with_cocg(uvec4 t, vec2 cocg) { return uvec4(t.xy, floatBitsToUint(cocg)); }
 

@@ -3,9 +3,10 @@
  * E_n the SH at the shading normal, chroma rescaled with it. Inputs: the a-trous results (the
  * last slot written), or the raw contract in mode "off". lf comes from the
  * 1/3-resolution filter (dn_lf.comp), upsampled with geometry-aware weights: the 4 bilinear
- * taps on the low-res grid (anchors at full-res pixel 3i + 1) weighted by the pixel's distance to
- * the anchor's tangent plane against the footprint and max(n . n_anchor, 0)^8 (geometric normals); where no tap
- * passes (a thin object between anchors), the pixel's own temporal lf history. Also saves this
+ * taps on the low-res grid (anchors at full-res pixel 3i + 1) weighted by the pixel's distance
+ * to the anchor's tangent plane against the footprint and max(n . n_anchor, 0)^8 (geometric
+ * normals); where no tap passes (a thin object between anchors), the pixel's own temporal lf
+ * history. Also saves this
  * frame's depth, geometric and shading normals and visibility for the next frame's
  * reprojection. */
 #version 460

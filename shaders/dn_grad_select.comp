@@ -8,9 +8,10 @@
  * re-shade, the previous luminances, and this frame's sample mask; also the stratum's sums of
  * the raw lf L0 now and of the accumulated L0 history at the reprojected pixels (grad[1].zw) for
  * dn_grad_image.comp (here, where the pixels are visited anyway, and before the re-shading: the
- * sample's fresh L0 counts as "now", not the previous frame's, which would hide 1/9 of a change). One thread per pixel tests
- * its pixel; one thread per stratum then picks among the nine through shared memory (a thread
- * per stratum doing the nine tests itself is latency-bound: nine chains of dependent loads). */
+ * sample's fresh L0 counts as "now", not the previous frame's, which would hide 1/9 of a
+ * change). A non-finite motion counts as none. One thread per pixel tests its pixel; one
+ * thread per stratum then picks among the nine through shared memory (a thread per stratum
+ * doing the nine tests itself is latency-bound: nine chains of dependent loads). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define DN_STRATUM_TILES 1
@@ -31,13 +32,13 @@ void main()
     if (inside(p) && P.size.z != 0u) {
         uvec2 vis = imageLoad(img_vis_id, p).xy;
         vec3 m = imageLoad(img_motion, p).xyz;
+        if (tnd_nonfinite(m.x) || tnd_nonfinite(m.y))
+            m = vec3(0.0);
         pp = ivec2(floor(vec2(p) + P.jitter.xy + m.xy - P.jitter.zw + 0.5));
         if (vis.x != TND_VIS_NONE) {
-            vec3 mf = tnd_nonfinite(m.x) || tnd_nonfinite(m.y) ? vec3(0.0) : m;
-            ivec2 pf = ivec2(floor(vec2(p) + P.jitter.xy + mf.xy - P.jitter.zw + 0.5));
             lf.x = finite4(imageLoad(img_lf_sh, p)).w;
-            if (inside(pf))
-                lf.y = finite4(imageLoad(hist_lf_sh[1u - pc.slot], pf)).w;
+            if (inside(pp))
+                lf.y = finite4(imageLoad(hist_lf_sh[1u - pc.slot], pp)).w;
         }
         uvec4 g = inside(pp) ? imageLoad(prev_geo, pp) : uvec4(TND_VIS_NONE, 0u, 0u, 0u);
         if (vis.x != TND_VIS_NONE && g.x == vis.x) {

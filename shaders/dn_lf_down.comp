@@ -3,8 +3,9 @@
  * order when the centre sees the sky); this frame's lf history of the 9 pixels is averaged with
  * weights max(n . n_anchor, 0)^8 (geometric normals) times the tangent-plane test of the a-trous
  * passes; the anchor's tangent plane goes with the CoCg into the lf texel (lf_pack), its
- * position and depth to lf_geo (read by the lf a-trous at its centre). Writes slot 0. One thread per pixel (tiles of strata; the anchor is found and the weighted
- * values summed in row order through shared memory). */
+ * position and depth to lf_geo (read by the lf a-trous at its centre). Writes slot 0. One thread
+ * per pixel (tiles of strata; the anchor is found and the weighted values summed in row order
+ * through shared memory). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define DN_STRATUM_TILES 1

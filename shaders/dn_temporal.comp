@@ -125,11 +125,13 @@ void main()
     imageStore(hist_hf[cur], p, out_hf);
     imageStore(hist_mom[cur], p, out_mom);
     imageStore(hist_lf_sh[cur], p, out_sh);
-    imageStore(hist_spec[cur], p, uvec4(floatBitsToUint(out_spec.rgb), cocg_pack(out_cocg, out_sh.w)));
-    if (P.size.w == 2u) { /* A-SVGF: the next frame's gradient samples need the raw luminances and
-                             the rng key (the selection, which reads them, runs before this pass) */
+    imageStore(hist_spec[cur], p,
+               uvec4(floatBitsToUint(out_spec.rgb), cocg_pack(out_cocg, out_sh.w)));
+    if (P.size.w == 2u) { /* A-SVGF: the next frame's gradient samples need the raw luminances
+                             and the rng key (the selection, which reads them, runs earlier) */
         uvec2 key = imageLoad(img_rng, p).xy;
-        imageStore(prev_lum, p, vec4(luma(hf), luma(spec), uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
+        imageStore(prev_lum, p,
+                   vec4(luma(hf), luma(spec), uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
     }
     uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n, rough, field);
     imageStore(at[0], p, at_pack(out_hf.rgb, out_spec.rgb, variance));
