@@ -449,7 +449,7 @@ tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk)
             chain = &pe.pNext;
             vk->pipeline_stats = true;
         } else {
-            tnd_info("vulkan",
+            tnd_warn("vulkan",
                      "TANDEM_PIPELINE_STATS: %s has no VK_KHR_pipeline_executable_properties",
                      vk->info.name);
         }

@@ -380,6 +380,13 @@ check "render --dump with an unknown buffer fails naming it, with no output" $?
 [ $rc -eq 0 ] && [ -f "$tmp/den4/dump/atrous.spec_frame_0001.exr" ]
 check "denoise --dump names the dumps after the input frames" $?
 
+# developers' compiler statistics: printed per compute pipeline where the driver has
+# VK_KHR_pipeline_executable_properties (NVIDIA), else one line saying it has not (lavapipe)
+TANDEM_PIPELINE_STATS=1 "$T" render --frames 1 --size 24x12 --out "$tmp/ps" --quiet 2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && { grep -q "pipeline stats: denoise.temporal" "$tmp/err" ||
+    grep -q "has no VK_KHR_pipeline_executable_properties" "$tmp/err"; }
+check "TANDEM_PIPELINE_STATS=1 prints the compiler's statistics or says the driver has none" $?
+
 # developers' shader override: $TANDEM_SHADER_DIR/<name>.spv replaces the embedded code
 mkdir -p "$tmp/sv_bad" "$tmp/sv_same"
 printf 'abcde' >"$tmp/sv_bad/dn_composite_f32.spv"
