@@ -554,8 +554,9 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
+        /* the gradient image and the blur's first iteration, 8 x 8 strata per work group */
         dispatch_third(c, cmd, c->grad_image, "gradient.image", 0);
-        for (uint32_t i = 0; i < 7; i++) /* 7 iterations: the result lands in slot 1 */
+        for (uint32_t i = 1; i < 7; i++) /* 7 iterations: the result lands in slot 1 */
             dispatch_third(c, cmd, c->grad_atrous, "gradient.blur", i);
         tnd_timer_end(cmd, &c->timer, s_g);
     }
@@ -656,16 +657,17 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
          * bytes), one gradient texel, the chosen pixel's previous surface (two texels) */
         t->select = n * (CT(VIS_ID) + CT(MOTION) + CT(DEPTH) + CT(GEO_NORMAL) + CT(PATH) +
                          16 + 16 + 4 + CT(LF_SH) + 16 /* lf now and its history */) +
-                    n3 * (32 + 16 + 16 + 16 + 16 /* the lf sums */);
-        /* gradient image: per stratum the sample, the lf sums, the previous luminances, hf and
-         * spec at the sample, the texel written; the blur: 7 x (read + write) */
-        t->gradient = n3 * (32 + 16 + 16 + CT(HF) + CT(SPEC) + 16 + 16 * 2 * 7);
+                    n3 * (32 + 16 + 16 + 16 /* the texel with the lf sums */);
+        /* gradient image and first blur: per stratum the sample, the lf sums and previous
+         * luminances, hf and spec at the sample, the texel written; the blur: 6 x (read +
+         * write) */
+        t->gradient = n3 * (32 + 16 + CT(HF) + CT(SPEC) + 16 + 16 * 2 * 6);
     }
     if (filter) {
         t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +
                            CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
                            CT(PATH) + 16 + 4 * 16 /* previous surface, histories */
-                           + 4 * 16 /* histories written */
+                           + 3 * 16 /* histories written (hf: by the a-trous) */
                            + CT(POSITION) + 16 + 8 /* the a-trous input and filter geometry */
                            + (asvgf ? CT(RNG) + 16 : 0) /* the next frame's sample data */) +
                       (asvgf ? n3 * 16 : 0);
@@ -677,8 +679,7 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
         /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
          * geometry (8) of each tap, the centre's position and depth; the texel written;
          * the hf feedback once */
-        t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + CT(POSITION) + CT(DEPTH) + 16) +
-                         2 * 16);
+        t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + CT(POSITION) + CT(DEPTH) + 16) + 16);
     }
     t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(VIS_BARY) + CT(NORMAL) +
                         CT(EMISSION) + CT(ALBEDO) + CT(METALLIC) + CT(THROUGHPUT) + CT(POSITION) +

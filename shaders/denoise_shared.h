@@ -40,7 +40,8 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
 
 /* Bindings of set 0 (the back-end's own images; set 1 is the contract). */
 #define DN_B_PARAMS 0
-#define DN_B_HIST_HF 1     /* [2] rgb colour, a: history length (hf) */
+#define DN_B_HIST_HF 1     /* [2] rgb colour, a: history length (hf); written by the a-trous's
+                              first iteration (SVGF's feedback of its output) */
 #define DN_B_HIST_MOM 2    /* [2] x E[l], y E[l^2], z length lf, w length spec */
 #define DN_B_HIST_LF_SH 3  /* [2] the lf history's SH (its CoCg: DN_B_HIST_SPEC) */
 #define DN_B_HIST_SPEC 4   /* [2] RGBA32UI: xyz spec rgb (float bits), w the lf history's CoCg
@@ -52,7 +53,8 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
 #define DN_B_PREV_SURF 6   /* RGBA32UI, the rest of the previous surface, read at the chosen
                               gradient samples: x primitive, yz barycentrics (float bits) */
 #define DN_B_AT 7          /* [2] a-trous ping-pong, RGBA32UI: hf rgb, spec rgb, hf variance as
-                              16-bit tnd_uf16 (at_pack in dn_common.glsl) */
+                              16-bit tnd_uf16 (at_pack in dn_common.glsl); in the temporal
+                              pass's texel also the hf history length (at_len) */
 #define DN_B_AT_LF 8       /* [2] 1/3 res, the lf filter's ping-pong (dn_lf.comp), RGBA32UI: the
                               anchor's tangent plane and CoCg (lf_pack in dn_common.glsl) */
 #define DN_B_AT_LF_SH 9    /* [2] 1/3 res, the lf filter's ping-pong: the SH (RGBA32F) */
@@ -64,7 +66,8 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
 #define DN_B_PREV_LUM 12   /* previous frame: x lum(raw hf), y lum(raw spec), zw rng key (bits) */
 #define DN_B_GRAD_FLAG 13  /* this frame's gradient sample pixels (1) */
 #define DN_B_GRAD 14       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
-                              after the selection zw hold the sample's previous lum hf / spec */
+                              after the selection [0] holds xy the lf sums, zw the sample's
+                              previous lum hf / spec */
 #define DN_B_SAMPLES 15    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
 #define DN_B_LF_GEO 16     /* 1/3 res: the lf anchor's xyz position and w depth, read by the
                               lf a-trous at its centre (the taps read DN_B_AT_LF) */

@@ -28,6 +28,8 @@ void main()
     uvec2 g = imageLoad(fgeo, p).xy;
     if (g.x == DN_FGEO_NONE) { /* no surface: carried through (for dumps) */
         imageStore(at[dst], p, c);
+        if (i == 0u) /* the hf history, unfiltered */
+            imageStore(hist_hf[pc.slot], p, vec4(at_hf(c), at_len(c)));
         return;
     }
     vec3 c_hf = at_hf(c), c_spec = at_spec(c);
@@ -88,5 +90,5 @@ void main()
     imageStore(at[dst], p, at_pack(do_hf ? o_hf : c_hf, filter_spec ? s_spec / w_spec : c_spec,
                                    do_hf ? o_var : c_var));
     if (i == 0u && do_hf) /* SVGF's feedback: the first iteration becomes the hf history */
-        imageStore(hist_hf[pc.slot], p, vec4(o_hf, imageLoad(hist_hf[pc.slot], p).a));
+        imageStore(hist_hf[pc.slot], p, vec4(o_hf, at_len(c)));
 }

@@ -37,7 +37,7 @@ ivec2 tile_pixel(uint k)
 {
     return ivec2(gl_WorkGroupID.xy) * ivec2(DN_TILE_W, DN_TILE_H) + ivec2(k % DN_TILE_W, k / DN_TILE_W);
 }
-#else
+#elif !defined(DN_OWN_LOCAL_SIZE)
 layout(local_size_x = 8, local_size_y = 8) in;
 #endif
 layout(set = 0, binding = DN_B_PARAMS, std140) uniform Params { dn_params P; };
@@ -161,6 +161,14 @@ vec2 at_decode2(uint w)
 vec3 at_hf(uvec4 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
 vec3 at_spec(uvec4 t) { return vec3(at_decode2(t.y).y, at_decode2(t.z)); }
 float at_variance(uvec4 t) { return tnd_uf16_decode(t.w); }
+/* The hf history length, a half float in the spare high half of w: the temporal pass hands it
+ * to the a-trous's first iteration, which writes the hf history (a store and a load fewer than
+ * the temporal pass writing the history and the iteration rewriting its colour). */
+uvec4 at_with_len(uvec4 t, float len)
+{
+    return uvec4(t.xyz, t.w | packHalf2x16(vec2(len, 0.0)) << 16u);
+}
+float at_len(uvec4 t) { return unpackHalf2x16(t.w >> 16u).x; }
 
 float luma(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 

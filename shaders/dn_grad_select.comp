@@ -6,7 +6,7 @@
  * ties: the first in row order).
  * Writes the sample (pixel, the previous frame's rng key and surface) for the front-end to
  * re-shade, the previous luminances, and this frame's sample mask; also the stratum's sums of
- * the raw lf L0 now and of the accumulated L0 history at the reprojected pixels (grad[1].zw) for
+ * the raw lf L0 now and of the accumulated L0 history at the reprojected pixels (grad[0].xy) for
  * dn_grad_image.comp (here, where the pixels are visited anyway, and before the re-shading: the
  * sample's fresh L0 counts as "now", not the previous frame's, which would hide 1/9 of a
  * change). A non-finite motion counts as none. One thread per pixel tests its pixel; one
@@ -88,12 +88,11 @@ void main()
                 gout = vec4(0.0, 0.0, pl.x, pl.y);
             }
             samples[uint(s.y * gs.x + s.x)] = smp;
-            imageStore(grad[0], s, gout);
             vec2 sum = vec2(0.0);
             for (int j = 0; j < DN_STRATUM; j++)
                 for (int i = 0; i < DN_STRATUM; i++)
                     sum += s_lf[tile_pixel_index(li, i, j)];
-            imageStore(grad[1], s, vec4(0.0, 0.0, sum));
+            imageStore(grad[0], s, vec4(sum, gout.zw));
         }
         s_winner[li] = best_k;
     }

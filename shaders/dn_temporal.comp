@@ -122,7 +122,6 @@ void main()
         m1 = s1 / max(n, 1.0), m2 = s2 / max(n, 1.0);
     }
     float variance = max(m2 - m1 * m1, 0.0);
-    imageStore(hist_hf[cur], p, out_hf);
     imageStore(hist_mom[cur], p, out_mom);
     imageStore(hist_lf_sh[cur], p, out_sh);
     imageStore(hist_spec[cur], p,
@@ -134,6 +133,7 @@ void main()
                    vec4(luma(hf), luma(spec), uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
     }
     uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n, rough, field);
-    imageStore(at[0], p, at_pack(out_hf.rgb, out_spec.rgb, variance));
+    /* the hf history (out_hf) is written by the a-trous's first iteration */
+    imageStore(at[0], p, at_with_len(at_pack(out_hf.rgb, out_spec.rgb, variance), out_hf.a));
     imageStore(fgeo, p, uvec4(g, 0u, 0u));
 }
