@@ -1,8 +1,8 @@
 /* dn_grad_atrous.comp: densify the sparse gradients: a-trous blur at 1/3 resolution, step 2^i,
  * 3x3 weights 1 / 0.5 / 0.25, no edge stopping, taps outside count as zero (Q2RTX). Iteration i
- * (1..6; 0 ends dn_grad_image.comp) reads slot i & 1, so the result lands in slot 1. hf and spec gradients (xy) blur for
- * iterations 0..2 (steps 1..4), the lf sums (zw) for all 7 (steps 1..64), and the last one
- * normalises them: z = (|now - prev| / max(now, prev))^2. */
+ * (1..6; 0 ends dn_grad_image.comp) reads slot i & 1, so the result lands in slot 1. hf and
+ * spec gradients (xy) blur for iterations 0..2 (steps 1..4), the lf sums (zw) for all 7 (steps
+ * 1..64), and the last one normalises them: z = (|now - prev| / max(now, prev))^2. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
