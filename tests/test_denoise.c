@@ -186,6 +186,69 @@ cleanup:
     gpu_end();
 }
 
+/* The histories' compact storage, read back through the dumps: on the first frame the lf history
+ * is the input, so its CoCg (two half floats relative to L0 in the spec history's spare word)
+ * comes back within half-float rounding (2^-11 relative, x2 for the unpack's product; the dump
+ * decodes the stored word on the host, so this checks the shader's packing, not its unpacking,
+ * which only the image figures of the other tests cover); the hf
+ * history length, handed from the temporal pass to the a-trous's first iteration in the
+ * ping-pong texel's spare bits, is exactly 1 everywhere, then exactly 2 on the second frame of
+ * a static camera (SVGF) wherever every reprojection tap is valid (interior pixels; at edges
+ * the jitter moves taps onto other surfaces). */
+static void test_history_storage(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    rig r;
+    dn_context *dn = NULL;
+    dn_frame df;
+    REQUIRE_OK(rig_open(vk, &r, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
+    REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_SVGF}, &dn));
+    uint32_t ci = UINT32_MAX, hi = UINT32_MAX;
+    for (uint32_t k = 0; k < dn_dump_count(); k++) {
+        ci = strcmp(dn_dump_name(k, NULL), "temporal.lf_cocg") == 0 ? k : ci;
+        hi = strcmp(dn_dump_name(k, NULL), "temporal.hf") == 0 ? k : hi;
+    }
+    REQUIRE(ci != UINT32_MAX && hi != UINT32_MAX, "dumps temporal.lf_cocg and temporal.hf exist");
+    static float sh[W * H * 4], cocg[W * H * 2], dump[W * H * 4];
+    static uint32_t vis[W * H * 2];
+    for (uint32_t i = 0; i < 2; i++) {
+        REQUIRE_OK(rig_frame(vk, &r, i, NULL, &df));
+        REQUIRE_OK(dn_run(dn, &r.ct, &df, NULL));
+        REQUIRE_OK(tnd_image_download(vk, &r.ct.images[TND_CT_VIS_ID], vis, sizeof vis));
+        int surfaces = 0, bad_len = 0;
+        REQUIRE_OK(dn_dump(dn, hi, dump));
+        for (int q = 0; q < W * H; q++)
+            if (vis[2 * q] != TND_VIS_NONE && (i == 0 || interior[q]))
+                surfaces++, bad_len += dump[4 * q + 3] != (float)(i + 1);
+        CHECK(surfaces > W * H / 4 && bad_len == 0,
+              "frame %u: %d of %d surface pixels with a history length other than %u", i, bad_len,
+              surfaces, i + 1);
+        if (i > 0)
+            continue;
+        REQUIRE_OK(tnd_image_download(vk, &r.ct.images[TND_CT_LF_SH], sh, sizeof sh));
+        REQUIRE_OK(tnd_image_download(vk, &r.ct.images[TND_CT_LF_COCG], cocg, sizeof cocg));
+        REQUIRE_OK(dn_dump(dn, ci, dump));
+        double worst = 0;
+        int nonzero = 0;
+        for (int q = 0; q < W * H; q++)
+            for (int k = 0; k < 2; k++) {
+                double want = cocg[2 * q + k], got = dump[4 * q + k];
+                nonzero += want != 0.0;
+                double scale = fabs(want) > 0 ? fabs(want) : 1.0;
+                worst = fmax(worst, fabs(got - want) / scale);
+            }
+        printf("     first frame: %d CoCg values, worst relative difference of the stored %.2e\n",
+               nonzero, worst);
+        CHECK(nonzero > W * H / 4 && worst <= 2.0 / 2048.0,
+              "CoCg stored with relative error %.2e (%d values)", worst, nonzero);
+    }
+cleanup:
+    dn_destroy(dn);
+    rig_close(vk, &r);
+    gpu_end();
+}
+
 /* A NaN in one input pixel: the output stays finite everywhere, and the frames after it match
  * a run without the NaN outside a bounded neighbourhood (the pixel's history restarts there). */
 static void test_nan_does_not_spread(void)
@@ -760,6 +823,7 @@ static void test_shutdown(void)
 }
 
 TND_TEST_MAIN(T(test_off_equals_cpu_composite), T(test_svgf_static_cornell),
+              T(test_history_storage),
               T(test_nan_does_not_spread), T(test_lf_firefly_is_deflickered),
               T(test_disocclusion_and_frontends), T(test_gradient_samples_reproduce_static),
               T(test_asvgf_follows_light_switch), T(test_shutdown))
