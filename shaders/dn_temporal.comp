@@ -7,8 +7,9 @@
  * spec tap also weighs max(n . n_prev, 0)^s with the shading normals and s = clamp(2 / r^4 - 2,
  * 0, 32) (r the roughness; Q2RTX's lobe-width proxy), so that a glossy reflection does not take
  * history from a texel whose normal, hence whose reflected direction, differs; with no such tap
- * the spec history restarts. Writes this frame's history slot and the first a-trous input
- * (colour + variance). Where the history is shorter than 4 frames, the variance comes from a
+ * the spec history restarts. Writes this frame's history slot (the hf history through the
+ * a-trous's first iteration, which filters it: SVGF's feedback) and the first a-trous input
+ * (colour + variance + the hf history length). Where the history is shorter than 4 frames, the variance comes from a
  * 3x3 spatial estimate. The a-trous input packs colours, variance and the filter geometry
  * (DN_B_AT, DN_B_FGEO). */
 #version 460
