@@ -25,8 +25,8 @@ static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_MOM, D
                                                   DN_B_AT_LF_SH};
 static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_mom", "hist_lf_sh", "hist_spec",
                                                   "atrous",  "at_lf",    "at_lf_sh"};
-enum { PAIRED_HIST_LF_SH = 2, PAIRED_HIST_SPEC = 3, PAIRED_AT = 4, PAIRED_AT_LF = 5,
-       PAIRED_AT_LF_SH = 6 };
+enum { PAIRED_HIST_HF, PAIRED_HIST_MOM, PAIRED_HIST_LF_SH, PAIRED_HIST_SPEC, PAIRED_AT,
+       PAIRED_AT_LF, PAIRED_AT_LF_SH }; /* indices into paired_binding */
 
 struct dn_context {
     tnd_vk *vk;
@@ -413,8 +413,8 @@ static void copy_origin(dn_context *c, VkCommandBuffer cmd, const tnd_contract_g
     const struct {
         tnd_ct id;
         VkDeviceSize offset;
-    } fields[2] = {{TND_CT_POSITION, DN_PARAMS_ORIGIN_POSITION},
-                   {TND_CT_VIS_ID, DN_PARAMS_ORIGIN_VIS}};
+    } fields[2] = {{TND_CT_POSITION, offsetof(dn_params, origin_position)},
+                   {TND_CT_VIS_ID, offsetof(dn_params, origin_vis)}};
     for (int i = 0; i < 2; i++) {
         VkBufferImageCopy r = {.bufferOffset = fields[i].offset,
                                .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
@@ -585,14 +585,14 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
             const uint32_t lone = 1;
             for (uint32_t k = 0; k < n_lf || k < iters; k++) {
                 c->batching = true;
-                uint32_t ka = k, kl = k;
+                uint32_t ka = k; /* the a-trous iteration beside lf step k (iters: none) */
                 if (n_lf == iters + 1 && lone < n_lf && k >= lone)
-                    ka = k == lone ? iters : k - 1; /* iters: none */
+                    ka = k == lone ? iters : k - 1;
                 if (ka < iters)
                     dispatch(c, cmd, c->atrous, "atrous", slot, ka);
-                if (kl < n_lf) /* after: its few groups fill the a-trous's last wave (H200:
+                if (k < n_lf) /* after: its few groups fill the a-trous's last wave (H200:
                                  a-trous + lf 0.500 -> 0.494 ms, dynamic) */
-                    dispatch_lf(c, cmd, kl);
+                    dispatch_lf(c, cmd, k);
                 c->batching = false;
                 tnd_cmd_compute_barrier(cmd);
             }
@@ -653,11 +653,12 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
     *t = (dn_traffic){0};
     if (asvgf) {
         /* the stratum's 9 pixels: vis, motion, depth, geometric normal, path now; the previous
-         * surface and luminances at the reprojection; flag written; per stratum one sample (32
-         * bytes), one gradient texel, the chosen pixel's previous surface (two texels) */
+         * surface and luminances at the reprojection; lf now and at the reprojection; flag
+         * written; per stratum one sample (32 bytes), one gradient texel (lf sums, previous
+         * luminances), the chosen pixel's previous surface (two texels) */
         t->select = n * (CT(VIS_ID) + CT(MOTION) + CT(DEPTH) + CT(GEO_NORMAL) + CT(PATH) +
                          16 + 16 + 4 + CT(LF_SH) + 16 /* lf now and its history */) +
-                    n3 * (32 + 16 + 16 + 16 /* the texel with the lf sums */);
+                    n3 * (32 + 16 + 16 + 16);
         /* gradient image and first blur: per stratum the sample, the lf sums and previous
          * luminances, hf and spec at the sample, the texel written; the blur: 6 x (read +
          * write) */
@@ -698,14 +699,14 @@ static const struct {
     const char *channels[4];
     int kind, index; /* index into paired[] */
 } dumps[] = {
-    {"temporal.hf", {"R", "G", "B", "history"}, DUMP_HIST, 0},
-    {"temporal.moments", {"m1", "m2", "history_lf", "history_spec"}, DUMP_HIST, 1},
-    {"temporal.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_HIST, 2},
-    {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST_COCG, 3},
-    {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, 3},
+    {"temporal.hf", {"R", "G", "B", "history"}, DUMP_HIST, PAIRED_HIST_HF},
+    {"temporal.moments", {"m1", "m2", "history_lf", "history_spec"}, DUMP_HIST, PAIRED_HIST_MOM},
+    {"temporal.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_HIST, PAIRED_HIST_LF_SH},
+    {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST_COCG, PAIRED_HIST_SPEC},
+    {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, PAIRED_HIST_SPEC},
     {"atrous.hf", {"R", "G", "B", "variance"}, DUMP_ATROUS, 0}, /* index: hf 0, spec 1 */
-    {"lf.sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_LF, 0}, /* index: sh 0, cocg 1 */
-    {"lf.cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_LF, 1},
+    {"lf.sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_LF, PAIRED_AT_LF_SH},
+    {"lf.cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_LF, PAIRED_AT_LF},
     {"atrous.spec", {"R", "G", "B", "unused"}, DUMP_ATROUS, 1},
     {"gradients", {"hf", "spec", "lf", "unused"}, DUMP_GRAD, 0},
     {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
@@ -751,8 +752,7 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
                            : dumps[i].kind == DUMP_ATROUS
                                ? &c->paired[PAIRED_AT][atrous_iters(&c->desc) & 1u]
                            : dumps[i].kind == DUMP_LF
-                               ? &c->paired[dumps[i].index ? PAIRED_AT_LF : PAIRED_AT_LF_SH]
-                                           [(c->desc.iters_lf + 1) & 1u]
+                               ? &c->paired[dumps[i].index][(c->desc.iters_lf + 1) & 1u]
                            : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]
                                                           : &c->out;
     if (dumps[i].kind == DUMP_ATROUS) { /* decode the packed texel: index 0 hf, 1 spec */
@@ -792,7 +792,7 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
         free(sh);
         return res;
     }
-    if (dumps[i].kind == DUMP_LF && dumps[i].index == 1) { /* CoCg: zw of the lf texel */
+    if (dumps[i].kind == DUMP_LF && dumps[i].index == PAIRED_AT_LF) { /* CoCg: its zw */
         res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
         for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++)
             rgba[4 * q] = rgba[4 * q + 2], rgba[4 * q + 1] = rgba[4 * q + 3],

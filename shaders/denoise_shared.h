@@ -34,8 +34,6 @@ struct dn_params {
 #undef uvec4
 typedef struct dn_params dn_params;
 _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
-#define DN_PARAMS_ORIGIN_POSITION 128 /* byte offsets of the two copied fields */
-#define DN_PARAMS_ORIGIN_VIS 144
 #endif
 
 /* Bindings of set 0 (the back-end's own images; set 1 is the contract). */

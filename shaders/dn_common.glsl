@@ -58,6 +58,8 @@ layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo;
 layout(set = 0, binding = DN_B_FGEO, rg32ui) uniform uimage2D fgeo;
 layout(set = 0, binding = DN_B_SAMPLES, std430) buffer Samples { tnd_gpu_gradient samples[]; };
 ivec2 grad_size() { return (ivec2(P.size.xy) + DN_STRATUM - 1) / DN_STRATUM; }
+/* whether stratum s lies in the 1/3-resolution grid */
+bool in_grid(ivec2 s) { return all(greaterThanEqual(s, ivec2(0))) && all(lessThan(s, grad_size())); }
 layout(push_constant) uniform Push { uint slot; uint iteration; } pc;
 
 #if TND_PACKED

@@ -10,8 +10,7 @@
 void main()
 {
     ivec2 s = ivec2(gl_GlobalInvocationID.xy);
-    ivec2 gs = grad_size();
-    if (s.x >= gs.x || s.y >= gs.y)
+    if (!in_grid(s))
         return;
     uint src = pc.iteration & 1u;
     int step = 1 << int(pc.iteration);
@@ -22,7 +21,7 @@ void main()
             ivec2 q = s + ivec2(x, y) * step;
             float w = (x == 0 ? 1.0 : 0.5) * (y == 0 ? 1.0 : 0.5);
             wsum += w;
-            if (q.x < 0 || q.y < 0 || q.x >= gs.x || q.y >= gs.y)
+            if (!in_grid(q))
                 continue;
             sum += w * imageLoad(grad[src], q);
         }

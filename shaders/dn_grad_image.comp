@@ -24,11 +24,6 @@ float grad_of(float now, float prev)
     return r * r;
 }
 
-bool in_grid(ivec2 s)
-{
-    ivec2 gs = grad_size();
-    return s.x >= 0 && s.y >= 0 && s.x < gs.x && s.y < gs.y;
-}
 
 void main()
 {

@@ -12,28 +12,22 @@
  *   added 3.7% -> 2.2%, against 13x and 8.5% without deflicker).
  * - k = 2 .. iters + 1: a-trous, step 2^(k-2) low-res pixels (3, 6, 12 full-res pixels), 3x3 taps
  *   1 / 0.5 / 0.25, geometry weights only (the centre's distance to the tap's tangent plane
- *   against the footprint, normals^8); the
- *   last iteration adds the light-leak guard w *= clamp(1.5 - 0.25 l_q / l_p, 0, 1) (a neighbour
- *   more than 2x brighter than the centre is attenuated, more than 6x is dropped).
+ *   against the footprint, normals^8); the last iteration adds the light-leak guard
+ *   w *= clamp(1.5 - 0.25 l_q / l_p, 0, 1) (a neighbour more than 2x brighter than the centre
+ *   is attenuated, more than 6x is dropped).
  * Pass k >= 1 reads slot (k - 1) & 1 and writes slot k & 1; the result lands in slot
  * (iters + 1) & 1, which dn_composite.comp upsamples. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
 
-bool in_grid(ivec2 s)
-{
-    ivec2 gs = grad_size();
-    return s.x >= 0 && s.y >= 0 && s.x < gs.x && s.y < gs.y;
-}
 /* the lf texel at s, invalid outside the grid */
 uvec4 lf_texel(ivec2 s, uint slot) { return in_grid(s) ? imageLoad(at_lf[slot], s) : uvec4(0u); }
 
 void main()
 {
     ivec2 s = ivec2(gl_GlobalInvocationID.xy);
-    ivec2 gs = grad_size();
-    if (s.x >= gs.x || s.y >= gs.y)
+    if (!in_grid(s))
         return;
     uint k = pc.iteration; /* k = 0, the downsample, is dn_lf_down.comp */
     uint src = (k - 1u) & 1u, dst = k & 1u;

@@ -62,8 +62,7 @@ void main()
     if (li >= DN_TILE_STRATA)
         return;
     ivec2 s = tile_stratum(li);
-    ivec2 gs = grad_size();
-    if (s.x >= gs.x || s.y >= gs.y)
+    if (!in_grid(s))
         return;
     vec4 sum_sh = vec4(0.0);
     vec3 sum_cw = vec3(0.0);
