@@ -86,7 +86,7 @@ static inline void sincos_turns(float u, float *s, float *c)
 
 /* ---- materials ------------------------------------------------------------------------------ */
 typedef struct fb_lobes {
-    float f_nv[3][NL]; /* Fresnel at n.v */
+    FEMB_ALIGN float f_nv[3][NL]; /* Fresnel at n.v */
     float alpha[NL], a2[NL], nv[NL];
     float p_spec[NL]; /* probability of the specular lobe */
 } fb_lobes;
@@ -142,11 +142,13 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
     return cosl > 0 ? l->radiance.w * d * d / (l->cdf.w * cosl) : 0.0f;
 }
 
-/* One NEE sample per active lane with the dimensions of path vertex `bounce`: diffuse
- * (demodulated) and specular contributions, 0 where inactive. */
+/* One NEE sample per active lane with the dimensions of path vertex `bounce`, the shadow ray
+ * from `org` (the surface point offset along the geometric normal): diffuse (demodulated) and
+ * specular contributions, 0 where inactive. */
 LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uint32_t bounce,
-                                 const fb_surf *S, const fb_lobes *L, const uint8_t *active,
-                                 uint32_t n, float diff[3][NL], float spec[3][NL])
+                                 const fb_surf *S, const fb_lobes *L, const float org[3][NL],
+                                 const uint8_t *active, uint32_t n, float diff[3][NL],
+                                 float spec[3][NL])
 {
     LANES (i, n)
         for (int k = 0; k < 3; k++)
@@ -209,8 +211,7 @@ LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uin
     }
     for (uint32_t i = 0; i < n; i++)
         if (ok[i])
-            ok[i] = !femb_occluded(c, femb_offset_ray(LD3(S->p, i), LD3(S->ng, i)), LD3(wi, i),
-                                   tmax[i]);
+            ok[i] = !femb_occluded(c, LD3(org, i), LD3(wi, i), tmax[i]);
     LANES (i, n)
         for (int k = 0; k < 3; k++) {
             diff[k][i] = ok[i] ? dc[k][i] : 0.0f;
@@ -305,7 +306,7 @@ v3 femb_specular_vertex(const femb_surface *s, v3 dir, float u, float f[3], uint
 /* ---- paths ---------------------------------------------------------------------------------- */
 /* The state of a batch of paths between vertices. */
 typedef struct fb_state {
-    float org[3][NL], dir[3][NL], beta[3][NL], sigma[3][NL], pdf_prev[NL], cone[NL];
+    FEMB_ALIGN float org[3][NL], dir[3][NL], beta[3][NL], sigma[3][NL], pdf_prev[NL], cone[NL];
     uint32_t specular[NL]; /* specular vertices so far: they do not count as bounces */
     uint8_t alive[NL], inside[NL];
 } fb_state;
@@ -414,9 +415,11 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
         }
         if (!any)
             continue;
-        float d[3][NL], sp[3][NL];
+        float d[3][NL], sp[3][NL], org[3][NL];
         lobes(&S, n, &L);
-        direct_light(c, P, b, &S, &L, shade, n, d, sp);
+        LANES (i, n) /* the next rays' origin */
+            ST3(org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
+        direct_light(c, P, b, &S, &L, org, shade, n, d, sp);
         LANES (i, n)
             for (int k = 0; k < 3; k++) {
                 float add =
@@ -449,9 +452,10 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
                 for (int k = 0; k < 3; k++)
                     st.beta[k][i] /= q;
             }
-            ST3(st.org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
-            for (int k = 0; k < 3; k++)
+            for (int k = 0; k < 3; k++) {
+                st.org[k][i] = org[k][i];
                 st.dir[k][i] = wi[k][i];
+            }
             st.pdf_prev[i] = pdf[i];
         }
     }
@@ -498,6 +502,10 @@ static void surface_from_gbuffer(const femb_context *c, const tnd_frame *f, size
     S->specular[i] = m->specular;
 }
 
+/* (S's lanes below n are all written before use; gcc cannot see it through the lane loops, and
+ * clearing 8 KB per batch to quiet it is not free) */
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f,
                                const uint32_t *pixels, uint32_t n, float *radiance)
 {
@@ -505,8 +513,6 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
     fb_lobes L;
     femb_paths P;
     float depth[NL], thr[3][NL], em[3][NL], demod[3][NL];
-    memset(&S, 0, sizeof S); /* every lane below n is written; this quiets the compiler */
-    memset(&P, 0, sizeof P);
     P.n = n;
     for (uint32_t i = 0; i < n; i++) {
         size_t q = pixels[i];
@@ -522,7 +528,9 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
     }
     lobes(&S, n, &L);
     float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
-    direct_light(c, &P, 0, &S, &L, P.active, n, d, sp);
+    LANES (i, n) /* the origin of the next rays */
+        ST3(P.org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
+    direct_light(c, &P, 0, &S, &L, P.org, P.active, n, d, sp);
     LANES (i, n) {
         for (int k = 0; k < 3; k++) {
             float m = S.metallic[i];
@@ -538,7 +546,6 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
         uint8_t is_spec[NL];
         sample_brdf(&S, &L, &P, 0, n, wi, w, pdf, is_spec, P.active);
         for (uint32_t i = 0; i < n; i++) {
-            ST3(P.org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
             for (int k = 0; k < 3; k++)
                 P.dir[k][i] = wi[k][i];
             P.pdf_prev[i] = pdf[i];
@@ -591,3 +598,4 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
         o_cc[1] = cocg[1][i];
     }
 }
+#pragma GCC diagnostic pop

@@ -7,6 +7,7 @@
 #include <embree3/rtcore.h>
 #include <math.h>
 #include <pthread.h>
+#include <string.h>
 
 typedef struct v3 {
     float x, y, z;
@@ -97,10 +98,13 @@ typedef struct femb_surface {
 #endif
 
 enum { FEMB_LANES = 64 }; /* paths per batch (femb_estimator.c) */
+/* A batch's arrays start on a cache line: a SIMD load of lanes never straddles two (the
+ * vectoriser cannot tell through a pointer, and a misaligned struct makes every load split). */
+#define FEMB_ALIGN _Alignas(64)
 
 /* The surfaces of a batch, one lane per path (structure of arrays: the lane loops vectorise). */
 typedef struct femb_surfaces {
-    float p[3][FEMB_LANES], ng[3][FEMB_LANES], ns[3][FEMB_LANES], wo[3][FEMB_LANES];
+    FEMB_ALIGN float p[3][FEMB_LANES], ng[3][FEMB_LANES], ns[3][FEMB_LANES], wo[3][FEMB_LANES];
     float obj[3][FEMB_LANES], base[3][FEMB_LANES], emission[3][FEMB_LANES], sigma[3][FEMB_LANES];
     float metallic[FEMB_LANES], roughness[FEMB_LANES], specular[FEMB_LANES], ior[FEMB_LANES];
     float u[FEMB_LANES], v[FEMB_LANES];
@@ -137,8 +141,23 @@ void femb_parallel_range(femb_context *c, size_t count, size_t chunk,
                          void *user);
 
 /* Offset a ray origin off the surface along the geometric normal (Waechter and Binder, Ray
- * Tracing Gems, ch. 6): integer ulps scaled with the normal, an absolute offset near zero. */
-v3 femb_offset_ray(v3 p, v3 n);
+ * Tracing Gems, ch. 6): integer ulps scaled with the normal, an absolute offset near zero.
+ * Inline: lane loops vectorise it. */
+static inline v3 femb_offset_ray(v3 p, v3 n)
+{
+    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+    float pv[3] = {p.x, p.y, p.z}, nv[3] = {n.x, n.y, n.z}, o[3];
+    for (int i = 0; i < 3; i++) {
+        int32_t of = (int32_t)(int_scale * nv[i]);
+        int32_t bits;
+        memcpy(&bits, &pv[i], 4);
+        bits += (pv[i] < 0) ? -of : of;
+        float pi;
+        memcpy(&pi, &bits, 4);
+        o[i] = fabsf(pv[i]) < origin ? pv[i] + float_scale * nv[i] : pi;
+    }
+    return (v3){o[0], o[1], o[2]};
+}
 
 /* ---- the estimator (femb_estimator.c), on batches of paths ---------------------------------- */
 
@@ -146,10 +165,11 @@ v3 femb_offset_ray(v3 p, v3 n);
  * chose each direction (0: none, an emitter hit gets the full weight), the ray cone's width at
  * the origin; inactive lanes are skipped and return 0. */
 typedef struct femb_paths {
-    uint32_t n;
-    uint32_t key_pixel[FEMB_LANES], key_frame[FEMB_LANES];
+    FEMB_ALIGN uint32_t key_pixel[FEMB_LANES];
+    uint32_t key_frame[FEMB_LANES];
     float org[3][FEMB_LANES], dir[3][FEMB_LANES], pdf_prev[FEMB_LANES], cone[FEMB_LANES];
     uint8_t active[FEMB_LANES];
+    uint32_t n;
 } femb_paths;
 
 /* Radiance arriving along each path from path vertex `bounce` on: emission (MIS-weighted against

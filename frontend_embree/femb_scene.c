@@ -2,7 +2,7 @@
  * scene whose geometry ids are the tnd_scene instance indices), per-frame transforms, ray
  * queries, surface reconstruction, the tile-parallel loop and the ray-offset rule.
  * Entry points: femb_create, femb_destroy, femb_set_frame, femb_intersect, femb_occluded,
- * femb_surface_eval, femb_parallel_tiles, femb_offset_ray. */
+ * femb_surface_eval, femb_parallel_tiles. */
 #include "frontend_embree/femb_internal.h"
 #include "shaders/sampling.h"
 #include "shaders/specular.h"
@@ -162,7 +162,9 @@ tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
     return tnd_lights_build(s, cur, &c->lights);
 }
 
-static void log_ray(femb_ray_log *log, v3 org, v3 dir, float tmax, uint32_t occlusion)
+/* (out of line and cold: the casts below stay lean when no log is attached) */
+__attribute__((noinline, cold)) static void log_ray(femb_ray_log *log, v3 org, v3 dir,
+                                                   float tmax, uint32_t occlusion)
 {
     pthread_mutex_lock(&log->lock);
     if (log->count == log->cap) {
@@ -187,13 +189,11 @@ bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax, uint32_t 
         log_ray(c->log, org, dir, tmax, 0);
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
+    /* (the fields Embree reads, and the hit's ids it tests; the rest it writes) */
     struct RTCRayHit rh;
-    memset(&rh, 0, sizeof rh);
-    rh.ray.org_x = org.x, rh.ray.org_y = org.y, rh.ray.org_z = org.z;
-    rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
-    rh.ray.tnear = 0.0f;
-    rh.ray.tfar = tmax;
-    rh.ray.mask = 0xffffffffu;
+    rh.ray = (struct RTCRay){.org_x = org.x, .org_y = org.y, .org_z = org.z, .tnear = 0.0f,
+                             .dir_x = dir.x, .dir_y = dir.y, .dir_z = dir.z, .time = 0.0f,
+                             .tfar = tmax, .mask = 0xffffffffu};
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(c->top, &ictx, &rh);
@@ -213,31 +213,11 @@ bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax)
         log_ray(c->log, org, dir, tmax, 1);
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
-    struct RTCRay r;
-    memset(&r, 0, sizeof r);
-    r.org_x = org.x, r.org_y = org.y, r.org_z = org.z;
-    r.dir_x = dir.x, r.dir_y = dir.y, r.dir_z = dir.z;
-    r.tnear = 0.0f;
-    r.tfar = tmax;
-    r.mask = 0xffffffffu;
+    struct RTCRay r = {.org_x = org.x, .org_y = org.y, .org_z = org.z, .tnear = 0.0f,
+                       .dir_x = dir.x, .dir_y = dir.y, .dir_z = dir.z, .time = 0.0f,
+                       .tfar = tmax, .mask = 0xffffffffu};
     rtcOccluded1(c->top, &ictx, &r);
     return r.tfar < 0.0f;
-}
-
-v3 femb_offset_ray(v3 p, v3 n)
-{
-    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
-    float pv[3] = {p.x, p.y, p.z}, nv[3] = {n.x, n.y, n.z}, o[3];
-    for (int i = 0; i < 3; i++) {
-        int32_t of = (int32_t)(int_scale * nv[i]);
-        int32_t bits;
-        memcpy(&bits, &pv[i], 4);
-        bits += (pv[i] < 0) ? -of : of;
-        float pi;
-        memcpy(&pi, &bits, 4);
-        o[i] = fabsf(pv[i]) < origin ? pv[i] + float_scale * nv[i] : pi;
-    }
-    return (v3){o[0], o[1], o[2]};
 }
 
 /* 3x4 row-major transform */
