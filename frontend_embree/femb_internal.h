@@ -48,8 +48,24 @@ typedef struct femb_ray_log {
     size_t count, cap;
 } femb_ray_log;
 
+/* What a surface evaluation reads per instance and per material, gathered once at creation
+ * (the scene's structs spread it over several cache lines and a function call). */
+typedef struct femb_inst {
+    const uint32_t *indices;          /* the mesh's first index (indices are relative) */
+    const float *positions, *normals; /* at the mesh's first vertex */
+    uint32_t material;
+} femb_inst;
+typedef struct femb_mat {
+    float base[3], emission[3], sigma[3];
+    float metallic, roughness, specular, ior;
+    uint32_t kind;
+    uint8_t textured, two_sided;
+} femb_mat;
+
 struct femb_context {
     const tnd_scene *scene;
+    femb_inst *inst; /* per instance */
+    femb_mat *mats;  /* per material */
     RTCDevice device;
     RTCScene top;
     RTCScene *meshes; /* one per tnd_mesh (NULL for meshes without triangles) */
@@ -119,6 +135,12 @@ void femb_surface_eval_batch(const femb_context *c, uint32_t n, const uint8_t *a
                              const uint32_t *instance, const uint32_t *primitive, const float *u,
                              const float *v, const float dir[3][FEMB_LANES], const float *cone,
                              femb_surfaces *S);
+/* The same for surfaces seen from the camera: each direction runs from the camera position to
+ * the surface point, `depth` receives the distance (what the primary pass and the gradient
+ * samples need, bit for bit alike). */
+void femb_surface_eval_eye(const femb_context *c, uint32_t n, const uint8_t *active,
+                           const uint32_t *instance, const uint32_t *primitive, const float *u,
+                           const float *v, femb_surfaces *S, float *depth);
 void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primitive, float u,
                        float v, v3 dir, float cone_width, femb_surface *s);
 /* Lane i of a batch as one surface. */

@@ -63,41 +63,6 @@ static inline v3 camera_dir(const femb_context *c, float px, float py)
     return (v3){(float)(d[0] / nn * k), (float)(d[1] / nn * k), (float)(d[2] / nn * k)};
 }
 
-static v3 surface_position(const femb_context *c, uint32_t inst, uint32_t prim, float u, float v)
-{
-    const tnd_scene *sc = c->scene;
-    const tnd_mesh *m = &sc->meshes[sc->instances[inst].mesh];
-    const uint32_t *ix = sc->indices + m->first_index + 3 * prim;
-    const float *X = c->cur->instance_xform + 12 * inst;
-    float o[3];
-    for (int k = 0; k < 3; k++)
-        o[k] = (1.0f - u - v) * sc->positions[3 * (size_t)(m->first_vertex + ix[0]) + k] +
-               u * sc->positions[3 * (size_t)(m->first_vertex + ix[1]) + k] +
-               v * sc->positions[3 * (size_t)(m->first_vertex + ix[2]) + k];
-    return (v3){X[0] * o[0] + X[1] * o[1] + X[2] * o[2] + X[3],
-                X[4] * o[0] + X[5] * o[1] + X[6] * o[2] + X[7],
-                X[8] * o[0] + X[9] * o[1] + X[10] * o[2] + X[11]};
-}
-
-/* Reconstruct the surfaces of visibility-buffer entries as seen from the camera (the primary
- * pass and the gradient samples, which must agree to the bit): the direction and the distance
- * from the eye to the reconstructed point. */
-static void surfaces_from_vis(const femb_context *c, uint32_t n, const uint8_t *active,
-                              const uint32_t *inst, const uint32_t *prim, const float *u,
-                              const float *v, femb_surfaces *S, float *depth)
-{
-    float dir[3][FEMB_LANES], cone[FEMB_LANES] = {0};
-    v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
-    for (uint32_t i = 0; i < n; i++) {
-        v3 d = active[i] ? sub(surface_position(c, inst[i], prim[i], u[i], v[i]), cam)
-                         : (v3){0.0f, 0.0f, 1.0f};
-        depth[i] = sqrtf(dot(d, d));
-        FEMB_ST3(dir, i, norm(d));
-        cone[i] = depth[i] * c->pixel_spread;
-    }
-    femb_surface_eval_batch(c, n, active, inst, prim, u, v, dir, cone, S);
-}
-
 static inline v3 pixel_dir(const femb_context *c, uint32_t x, uint32_t y)
 {
     return camera_dir(c, (float)x + 0.5f + c->jitter[0], (float)y + 0.5f + c->jitter[1]);
@@ -393,7 +358,7 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
             X[r][i] = plain[i] ? cx[r] : 0.0f;
         }
     }
-    surfaces_from_vis(c, n, plain, inst, prim, u, v, &S, depth);
+    femb_surface_eval_eye(c, n, plain, inst, prim, u, v, &S, depth);
     FEMB_LANES_LOOP(i, n) {
         float a[12], b[12], obj[3] = {S.obj[0][i], S.obj[1][i], S.obj[2][i]}, m[3];
         for (int r = 0; r < 12; r++)
@@ -546,7 +511,7 @@ tnd_result femb_shade_gradients(femb_context *c, const femb_params *p,
             active[k] = 1;
         }
         femb_surfaces S;
-        surfaces_from_vis(c, m, active, inst, prim, u, v, &S, depth);
+        femb_surface_eval_eye(c, m, active, inst, prim, u, v, &S, depth);
         for (uint32_t k = 0; k < m; k++) {
             const femb_gradient_sample *gs = &g[i0 + k];
             size_t q = gs->pixel;

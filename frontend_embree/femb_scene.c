@@ -36,6 +36,8 @@ void femb_destroy(femb_context *c)
         if (c->meshes[m])
             rtcReleaseScene(c->meshes[m]);
     free(c->meshes);
+    free(c->inst);
+    free(c->mats);
     if (c->device)
         rtcReleaseDevice(c->device);
     tnd_lights_free(&c->lights);
@@ -83,7 +85,9 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
     }
     rtcSetDeviceErrorFunction(c->device, on_embree_error, c);
     c->meshes = calloc(s->mesh_count + 1, sizeof *c->meshes);
-    if (!c->meshes) {
+    c->inst = calloc(s->instance_count + 1, sizeof *c->inst);
+    c->mats = calloc(s->material_count + 1, sizeof *c->mats);
+    if (!c->meshes || !c->inst || !c->mats) {
         femb_destroy(c);
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
     }
@@ -111,6 +115,29 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
         rtcAttachGeometryByID(c->meshes[m], g, 0);
         rtcReleaseGeometry(g);
         rtcCommitScene(c->meshes[m]);
+    }
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        const tnd_mesh *me = &s->meshes[s->instances[i].mesh];
+        c->inst[i] = (femb_inst){s->indices + me->first_index,
+                                 s->positions + 3 * (size_t)me->first_vertex,
+                                 s->normals + 3 * (size_t)me->first_vertex, me->material};
+    }
+    for (uint32_t m = 0; m < s->material_count; m++) {
+        const tnd_material *mat = &s->materials[m];
+        femb_mat *r = &c->mats[m];
+        tnd_material_sigma(mat, r->sigma);
+        for (int k = 0; k < 3; k++) {
+            r->base[k] = mat->base_color[k];
+            r->emission[k] = mat->emission[k];
+        }
+        r->metallic = mat->metallic;
+        r->roughness = mat->roughness;
+        r->specular = mat->specular;
+        r->ior = mat->ior > 0 ? mat->ior : 1.5f;
+        r->kind = (uint32_t)mat->kind;
+        r->textured = mat->tex_base_color >= 0 || mat->tex_metal_rough >= 0 ||
+                      mat->tex_emission >= 0 || mat->tex_normal >= 0;
+        r->two_sided = mat->double_sided;
     }
     c->top = rtcNewScene(c->device);
     rtcSetSceneFlags(c->top, RTC_SCENE_FLAG_DYNAMIC);
@@ -306,15 +333,20 @@ static void surface_textures(const femb_context *c, femb_surfaces *S, uint32_t i
 #undef LOD
 }
 
-FEMB_LANE_FN void femb_surface_eval_batch(const femb_context *c, uint32_t n, const uint8_t *active,
-                                          const uint32_t *instance, const uint32_t *primitive,
-                                          const float *u, const float *v,
-                                          const float dir[3][FEMB_LANES], const float *cone,
-                                          femb_surfaces *S)
+/* femb_surface_eval_batch and femb_surface_eval_eye: `eye` (a constant in each) tells whether
+ * the directions and cone widths are given or follow from the camera to each point. */
+static inline __attribute__((always_inline)) void
+surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
+             const uint32_t *instance, const uint32_t *primitive, const float *u, const float *v,
+             const float dir_in[3][FEMB_LANES], const float *cone_in, femb_surfaces *S,
+             float *depth)
 {
-    const tnd_scene *sc = c->scene;
     /* the lanes' vertices, transforms and materials (indexed loads, lane by lane) */
     float P[3][3][NL], N[3][3][NL], X[12][NL];
+    float dir_eye[3][NL], cone_eye[NL];
+    const float(*dir)[NL] = eye ? (const float(*)[NL])dir_eye : dir_in;
+    const float *cone = eye ? cone_eye : cone_in;
+    v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
     uint8_t textured[NL], two_sided[NL];
     bool all = true;
     for (uint32_t i = 0; i < n; i++)
@@ -330,36 +362,33 @@ FEMB_LANE_FN void femb_surface_eval_batch(const femb_context *c, uint32_t n, con
             S->kind[i] = TND_KIND_OPAQUE;
             continue;
         }
-        const tnd_mesh *m = &sc->meshes[sc->instances[instance[i]].mesh];
-        const tnd_material *mat = &sc->materials[m->material];
-        const uint32_t *ix = sc->indices + m->first_index + 3 * primitive[i];
+        const femb_inst *in = &c->inst[instance[i]];
+        const femb_mat *mat = &c->mats[in->material];
+        const uint32_t *ix = in->indices + 3 * primitive[i];
         const float *Xi = c->cur->instance_xform + 12 * instance[i];
         for (int j = 0; j < 3; j++) {
-            size_t vi = m->first_vertex + ix[j];
+            size_t vi = ix[j];
             for (int k = 0; k < 3; k++) {
-                P[j][k][i] = sc->positions[3 * vi + k];
-                N[j][k][i] = sc->normals[3 * vi + k];
+                P[j][k][i] = in->positions[3 * vi + k];
+                N[j][k][i] = in->normals[3 * vi + k];
             }
         }
         for (int r = 0; r < 12; r++)
             X[r][i] = Xi[r];
-        float sigma[3];
-        tnd_material_sigma(mat, sigma);
         for (int k = 0; k < 3; k++) {
-            S->base[k][i] = mat->base_color[k];
+            S->base[k][i] = mat->base[k];
             S->emission[k][i] = mat->emission[k];
-            S->sigma[k][i] = sigma[k];
+            S->sigma[k][i] = mat->sigma[k];
         }
         S->metallic[i] = mat->metallic;
         S->roughness[i] = mat->roughness;
         S->specular[i] = mat->specular;
-        S->ior[i] = mat->ior > 0 ? mat->ior : 1.5f;
-        S->kind[i] = (uint32_t)mat->kind;
+        S->ior[i] = mat->ior;
+        S->kind[i] = mat->kind;
         S->instance[i] = instance[i];
         S->primitive[i] = primitive[i];
-        textured[i] = mat->tex_base_color >= 0 || mat->tex_metal_rough >= 0 ||
-                      mat->tex_emission >= 0 || mat->tex_normal >= 0;
-        two_sided[i] = mat->double_sided;
+        textured[i] = mat->textured;
+        two_sided[i] = mat->two_sided;
     }
     /* geometry: position, normals facing the ray */
     FEMB_LANES_LOOP(i, n) {
@@ -375,10 +404,17 @@ FEMB_LANE_FN void femb_surface_eval_batch(const femb_context *c, uint32_t n, con
         v3 ng = norm(xf_normal(x, cross(e1, e2)));
         v3 ns = add(add(mul(n0, w0), mul(n1, uu)), mul(n2, vv));
         ns = sel3(dot(ns, ns) > 1e-20f, norm(xf_normal(x, ns)), ng);
+        v3 p = xf_point(x, o);
+        if (eye) { /* the direction from the eye and the distance */
+            v3 d = sub(p, cam);
+            depth[i] = sqrtf(dot(d, d));
+            FEMB_ST3(dir_eye, i, norm(d));
+            cone_eye[i] = depth[i] * c->pixel_spread;
+        }
         v3 wo = mul(FEMB_LD3(dir, i), -1.0f);
         bool front = dot(ng, wo) >= 0.0f;
         FEMB_ST3(S->obj, i, obj);
-        FEMB_ST3(S->p, i, xf_point(x, o));
+        FEMB_ST3(S->p, i, p);
         FEMB_ST3(S->ng, i, sel3(front, ng, mul(ng, -1.0f)));
         FEMB_ST3(S->ns, i, sel3(front, ns, mul(ns, -1.0f)));
         FEMB_ST3(S->wo, i, wo);
@@ -407,6 +443,23 @@ FEMB_LANE_FN void femb_surface_eval_batch(const femb_context *c, uint32_t n, con
         S->metallic[i] = fmn(fmx(S->metallic[i], 0.0f), 1.0f);
         S->roughness[i] = fmn(fmx(S->roughness[i], 0.0f), 1.0f);
     }
+}
+
+FEMB_LANE_FN void femb_surface_eval_batch(const femb_context *c, uint32_t n, const uint8_t *active,
+                                          const uint32_t *instance, const uint32_t *primitive,
+                                          const float *u, const float *v,
+                                          const float dir[3][FEMB_LANES], const float *cone,
+                                          femb_surfaces *S)
+{
+    surface_eval(c, false, n, active, instance, primitive, u, v, dir, cone, S, NULL);
+}
+
+FEMB_LANE_FN void femb_surface_eval_eye(const femb_context *c, uint32_t n, const uint8_t *active,
+                                        const uint32_t *instance, const uint32_t *primitive,
+                                        const float *u, const float *v, femb_surfaces *S,
+                                        float *depth)
+{
+    surface_eval(c, true, n, active, instance, primitive, u, v, NULL, NULL, S, depth);
 }
 
 void femb_surface_get(const femb_surfaces *S, uint32_t i, femb_surface *s)
