@@ -462,44 +462,50 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
 }
 
 /* ---- the shading pass ----------------------------------------------------------------------- */
-/* Lane i's surface from the G-buffer of pixel q, as the GPU passes read it (the primary pass and
- * the gradient patches wrote it), plus the material's specular factor; the distance from the eye
- * along the primary chain. */
-static void surface_from_gbuffer(const femb_context *c, const tnd_frame *f, size_t q, fb_surf *S,
-                                 uint32_t i, float *depth)
+/* The lanes' surfaces from the G-buffer of pixels[0..n), as the GPU passes read it (the primary
+ * pass and the gradient patches wrote it), plus the material's specular factor; the distance from
+ * the eye along the primary chain. */
+LANE_FN static void surfaces_from_gbuffer(const femb_context *c, const tnd_frame *f,
+                                          const uint32_t *pixels, uint32_t n, fb_surf *S,
+                                          float *depth)
 {
-    const tnd_scene *sc = c->scene;
-    uint32_t inst = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q];
-    const tnd_material *m = &sc->materials[sc->meshes[sc->instances[inst].mesh].material];
-    const float *p = tnd_frame_f(f, TND_CT_POSITION) + 3 * q;
-    const float *ns = tnd_frame_f(f, TND_CT_NORMAL) + 3 * q;
-    const float *ng = tnd_frame_f(f, TND_CT_GEO_NORMAL) + 3 * q;
-    const float *base = tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q;
-    v3 pos = {p[0], p[1], p[2]};
-    v3 d = sub((v3){c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]}, pos);
-    *depth = sqrtf(dot(d, d));
-    v3 wo = *depth > 0 ? mul(d, 1.0f / *depth) : (v3){ns[0], ns[1], ns[2]};
-    if (c->specular && tnd_frame_u(f, TND_CT_PATH)[q] != 0u) {
+    const float *P = tnd_frame_f(f, TND_CT_POSITION), *NS = tnd_frame_f(f, TND_CT_NORMAL);
+    const float *NG = tnd_frame_f(f, TND_CT_GEO_NORMAL), *B = tnd_frame_f(f, TND_CT_ALBEDO);
+    const float *R = tnd_frame_f(f, TND_CT_ROUGHNESS), *M = tnd_frame_f(f, TND_CT_METALLIC);
+    const uint32_t *vis = tnd_frame_u(f, TND_CT_VIS_ID);
+    v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
+    LANES (i, n) {
+        size_t q = pixels[i];
+        v3 pos = {P[3 * q], P[3 * q + 1], P[3 * q + 2]};
+        v3 ns = {NS[3 * q], NS[3 * q + 1], NS[3 * q + 2]};
+        v3 d = sub(cam, pos);
+        depth[i] = sqrtf(dot(d, d));
+        v3 wo = sel3(depth[i] > 0, mul(d, 1.0f / depth[i]), ns);
+        ST3(S->p, i, pos);
+        ST3(S->ns, i, ns);
+        ST3(S->ng, i, ((v3){NG[3 * q], NG[3 * q + 1], NG[3 * q + 2]}));
+        ST3(S->wo, i, wo);
+        for (int k = 0; k < 3; k++)
+            S->base[k][i] = B[3 * q + k];
+        S->roughness[i] = R[q];
+        S->metallic[i] = M[q];
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        size_t q = pixels[i];
+        uint32_t inst = vis[2 * q];
+        S->specular[i] = c->mats[c->inst[inst].material].specular;
+        if (!c->specular || tnd_frame_u(f, TND_CT_PATH)[q] == 0u)
+            continue;
         /* a surface seen in a mirror or through glass (the path flags say the primary chain met
          * one) is lit towards the chain's last segment, not towards the camera: the primary
          * pass's chain again (same jitter, same geometry) */
         femb_chain ch;
         femb_specular_chain(c, (uint32_t)(q % c->width), (uint32_t)(q / c->width), true, &ch);
-        if (ch.hit && ch.vertices > 0 && ch.inst == inst &&
-            ch.prim == tnd_frame_u(f, TND_CT_VIS_ID)[2 * q + 1]) {
-            wo = mul(ch.dir, -1.0f);
-            *depth = ch.length;
+        if (ch.hit && ch.vertices > 0 && ch.inst == inst && ch.prim == vis[2 * q + 1]) {
+            ST3(S->wo, i, mul(ch.dir, -1.0f));
+            depth[i] = ch.length;
         }
     }
-    ST3(S->p, i, pos);
-    ST3(S->ns, i, ((v3){ns[0], ns[1], ns[2]}));
-    ST3(S->ng, i, ((v3){ng[0], ng[1], ng[2]}));
-    ST3(S->wo, i, wo);
-    for (int k = 0; k < 3; k++)
-        S->base[k][i] = base[k];
-    S->roughness[i] = tnd_frame_f(f, TND_CT_ROUGHNESS)[q];
-    S->metallic[i] = tnd_frame_f(f, TND_CT_METALLIC)[q];
-    S->specular[i] = m->specular;
 }
 
 /* (S's lanes below n are all written before use; gcc cannot see it through the lane loops, and
@@ -514,18 +520,19 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
     femb_paths P;
     float depth[NL], thr[3][NL], em[3][NL], demod[3][NL];
     P.n = n;
-    for (uint32_t i = 0; i < n; i++) {
+    const uint32_t *rng = tnd_frame_u(f, TND_CT_RNG);
+    const float *T = tnd_frame_f(f, TND_CT_THROUGHPUT), *E = tnd_frame_f(f, TND_CT_EMISSION);
+    LANES (i, n) {
         size_t q = pixels[i];
-        const uint32_t *rng = tnd_frame_u(f, TND_CT_RNG) + 2 * q;
-        P.key_pixel[i] = rng[1];
-        P.key_frame[i] = rng[0];
+        P.key_pixel[i] = rng[2 * q + 1];
+        P.key_frame[i] = rng[2 * q];
         P.active[i] = 1;
-        surface_from_gbuffer(c, f, q, &S, i, &depth[i]);
         for (int k = 0; k < 3; k++) {
-            thr[k][i] = tnd_frame_f(f, TND_CT_THROUGHPUT)[3 * q + k];
-            em[k][i] = tnd_frame_f(f, TND_CT_EMISSION)[3 * q + k];
+            thr[k][i] = T[3 * q + k];
+            em[k][i] = E[3 * q + k];
         }
     }
+    surfaces_from_gbuffer(c, f, pixels, n, &S, depth);
     lobes(&S, n, &L);
     float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
     LANES (i, n) /* the origin of the next rays */

@@ -367,10 +367,40 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
         for (int k = 0; k < 3; k++)
             mo[k][i] = m[k];
     }
+    /* the G-buffer of the lanes that see a surface directly, from the batch's surfaces (what
+     * primary_store writes with a chain of no vertex: throughput 1, no path flags); the other
+     * lanes are written after, one by one */
+    tnd_frame *g = &st.f;
+    float *alb = tnd_frame_f(g, TND_CT_ALBEDO), *nrm = tnd_frame_f(g, TND_CT_NORMAL);
+    float *gn = tnd_frame_f(g, TND_CT_GEO_NORMAL), *pos = tnd_frame_f(g, TND_CT_POSITION);
+    float *dep = tnd_frame_f(g, TND_CT_DEPTH), *mot = tnd_frame_f(g, TND_CT_MOTION);
+    float *rough = tnd_frame_f(g, TND_CT_ROUGHNESS), *metal = tnd_frame_f(g, TND_CT_METALLIC);
+    float *em = tnd_frame_f(g, TND_CT_EMISSION), *bary = tnd_frame_f(g, TND_CT_VIS_BARY);
+    float *thr = tnd_frame_f(g, TND_CT_THROUGHPUT);
+    uint32_t *vis = tnd_frame_u(g, TND_CT_VIS_ID), *rng = tnd_frame_u(g, TND_CT_RNG);
+    uint32_t *path = tnd_frame_u(g, TND_CT_PATH);
+    FEMB_LANES_LOOP(i, n) {
+        for (int k = 0; k < 3; k++) {
+            alb[3 * i + k] = S.base[k][i];
+            nrm[3 * i + k] = S.ns[k][i];
+            gn[3 * i + k] = S.ng[k][i];
+            pos[3 * i + k] = S.p[k][i];
+            mot[3 * i + k] = mo[k][i];
+            em[3 * i + k] = S.emission[k][i];
+            thr[3 * i + k] = 1.0f;
+        }
+        dep[i] = depth[i];
+        rough[i] = S.roughness[i];
+        metal[i] = S.metallic[i];
+        vis[2 * i] = inst[i], vis[2 * i + 1] = prim[i];
+        bary[2 * i] = u[i], bary[2 * i + 1] = v[i];
+        rng[2 * i] = c->frame, rng[2 * i + 1] = pixels[i];
+        path[i] = 0u;
+    }
     for (uint32_t i = 0; i < n; i++) {
         femb_surface s;
         if (plain[i]) {
-            femb_surface_get(&S, i, &s);
+            continue;
         } else if (chain[i]) { /* seen in a mirror or through glass: the surface at its end */
             depth[i] = ch[i].length;
             femb_surface_eval(c, inst[i], prim[i], u[i], v[i], ch[i].dir,
