@@ -345,12 +345,26 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
         fy[i] = (float)(pixels[i] / c->width) + 0.5f + c->jitter[1];
     }
     FEMB_LANES_LOOP(i, n) FEMB_ST3(dir, i, camera_dir(c, fx[i], fy[i]));
+    v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
     for (uint32_t i = 0; i < n; i++) {
-        chain_from(c, pixels[i] % c->width, pixels[i] / c->width, FEMB_LD3(dir, i), c->specular,
-                   &ch[i]);
-        inst[i] = ch[i].inst, prim[i] = ch[i].prim, u[i] = ch[i].u, v[i] = ch[i].v;
-        plain[i] = ch[i].hit && ch[i].vertices == 0;
-        chain[i] = ch[i].hit && ch[i].vertices > 0;
+        if (!c->specular) { /* no mirror or glass: the chain is the camera ray (chain_from's) */
+            float t;
+            v3 d = FEMB_LD3(dir, i);
+            plain[i] = femb_intersect(c, cam, d, 1e30f, &inst[i], &prim[i], &u[i], &v[i], &t);
+            chain[i] = 0;
+            if (!plain[i]) { /* what chain_from returns for a miss (primary_store reads it) */
+                memset(&ch[i], 0, sizeof ch[i]);
+                ch[i].thr[0] = ch[i].thr[1] = ch[i].thr[2] = 1.0f;
+                ch[i].dir0 = ch[i].dir = d;
+                inst[i] = prim[i] = 0, u[i] = v[i] = 0.0f;
+            }
+        } else {
+            chain_from(c, pixels[i] % c->width, pixels[i] / c->width, FEMB_LD3(dir, i), true,
+                       &ch[i]);
+            inst[i] = ch[i].inst, prim[i] = ch[i].prim, u[i] = ch[i].u, v[i] = ch[i].v;
+            plain[i] = ch[i].hit && ch[i].vertices == 0;
+            chain[i] = ch[i].hit && ch[i].vertices > 0;
+        }
         const float *px = c->prev->instance_xform + 12 * (size_t)inst[i];
         const float *cx = c->cur->instance_xform + 12 * (size_t)inst[i];
         for (int r = 0; r < 12; r++) {
