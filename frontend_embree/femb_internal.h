@@ -146,10 +146,48 @@ void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primit
 /* Lane i of a batch as one surface. */
 void femb_surface_get(const femb_surfaces *S, uint32_t i, femb_surface *s);
 
-/* Closest hit (false on a miss) and occlusion. */
-bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax, uint32_t *instance,
-                    uint32_t *primitive, float *u, float *v, float *t);
-bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax);
+/* Append a ray to the benchmark's log. */
+void femb_log_ray(femb_ray_log *log, v3 org, v3 dir, float tmax, uint32_t occlusion);
+
+/* Closest hit (false on a miss) and occlusion; inline, the rays built in the callers' loops. */
+static inline bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax,
+                                  uint32_t *instance, uint32_t *primitive, float *u, float *v,
+                                  float *t)
+{
+    if (c->log)
+        femb_log_ray(c->log, org, dir, tmax, 0);
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    /* (the fields Embree reads, and the hit's ids it tests; the rest it writes) */
+    struct RTCRayHit rh;
+    rh.ray = (struct RTCRay){.org_x = org.x, .org_y = org.y, .org_z = org.z, .tnear = 0.0f,
+                             .dir_x = dir.x, .dir_y = dir.y, .dir_z = dir.z, .time = 0.0f,
+                             .tfar = tmax, .mask = 0xffffffffu};
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(c->top, &ictx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+        return false;
+    *instance = rh.hit.instID[0];
+    *primitive = rh.hit.primID;
+    *u = rh.hit.u;
+    *v = rh.hit.v;
+    *t = rh.ray.tfar;
+    return true;
+}
+
+static inline bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax)
+{
+    if (c->log)
+        femb_log_ray(c->log, org, dir, tmax, 1);
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    struct RTCRay r = {.org_x = org.x, .org_y = org.y, .org_z = org.z, .tnear = 0.0f,
+                       .dir_x = dir.x, .dir_y = dir.y, .dir_z = dir.z, .time = 0.0f,
+                       .tfar = tmax, .mask = 0xffffffffu};
+    rtcOccluded1(c->top, &ictx, &r);
+    return r.tfar < 0.0f;
+}
 
 /* Parallel for over tiles of the image: fn(ctx, x0, y0, x1, y1, user) per 64x4 tile, FTZ/DAZ on
  * in every worker, deterministic results whatever the thread count. */

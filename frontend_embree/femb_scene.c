@@ -1,8 +1,8 @@
 /* frontend_embree/femb_scene.c: Embree device and scenes (one scene per mesh, instanced in a top
  * scene whose geometry ids are the tnd_scene instance indices), per-frame transforms, ray
  * queries, surface reconstruction, the tile-parallel loop and the ray-offset rule.
- * Entry points: femb_create, femb_destroy, femb_set_frame, femb_intersect, femb_occluded,
- * femb_surface_eval, femb_parallel_tiles. */
+ * Entry points: femb_create, femb_destroy, femb_set_frame, femb_log_ray, femb_surface_eval,
+ * femb_parallel_tiles. */
 #include "frontend_embree/femb_internal.h"
 #include "shaders/sampling.h"
 #include "shaders/specular.h"
@@ -189,9 +189,9 @@ tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
     return tnd_lights_build(s, cur, &c->lights);
 }
 
-/* (out of line and cold: the casts below stay lean when no log is attached) */
-__attribute__((noinline, cold)) static void log_ray(femb_ray_log *log, v3 org, v3 dir,
-                                                   float tmax, uint32_t occlusion)
+/* (out of line and cold: the inline casts stay lean when no log is attached) */
+__attribute__((noinline, cold)) void femb_log_ray(femb_ray_log *log, v3 org, v3 dir, float tmax,
+                                                 uint32_t occlusion)
 {
     pthread_mutex_lock(&log->lock);
     if (log->count == log->cap) {
@@ -207,44 +207,6 @@ __attribute__((noinline, cold)) static void log_ray(femb_ray_log *log, v3 org, v
     log->rays[log->count++] = (femb_ray){{org.x, org.y, org.z}, {dir.x, dir.y, dir.z}, tmax,
                                          occlusion};
     pthread_mutex_unlock(&log->lock);
-}
-
-bool femb_intersect(const femb_context *c, v3 org, v3 dir, float tmax, uint32_t *instance,
-                    uint32_t *primitive, float *u, float *v, float *t)
-{
-    if (c->log)
-        log_ray(c->log, org, dir, tmax, 0);
-    struct RTCIntersectContext ictx;
-    rtcInitIntersectContext(&ictx);
-    /* (the fields Embree reads, and the hit's ids it tests; the rest it writes) */
-    struct RTCRayHit rh;
-    rh.ray = (struct RTCRay){.org_x = org.x, .org_y = org.y, .org_z = org.z, .tnear = 0.0f,
-                             .dir_x = dir.x, .dir_y = dir.y, .dir_z = dir.z, .time = 0.0f,
-                             .tfar = tmax, .mask = 0xffffffffu};
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(c->top, &ictx, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
-        return false;
-    *instance = rh.hit.instID[0];
-    *primitive = rh.hit.primID;
-    *u = rh.hit.u;
-    *v = rh.hit.v;
-    *t = rh.ray.tfar;
-    return true;
-}
-
-bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tmax)
-{
-    if (c->log)
-        log_ray(c->log, org, dir, tmax, 1);
-    struct RTCIntersectContext ictx;
-    rtcInitIntersectContext(&ictx);
-    struct RTCRay r = {.org_x = org.x, .org_y = org.y, .org_z = org.z, .tnear = 0.0f,
-                       .dir_x = dir.x, .dir_y = dir.y, .dir_z = dir.z, .time = 0.0f,
-                       .tfar = tmax, .mask = 0xffffffffu};
-    rtcOccluded1(c->top, &ictx, &r);
-    return r.tfar < 0.0f;
 }
 
 /* 3x4 row-major transform */
