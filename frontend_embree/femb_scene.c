@@ -1,8 +1,9 @@
 /* frontend_embree/femb_scene.c: Embree device and scenes (one scene per mesh, instanced in a top
- * scene whose geometry ids are the tnd_scene instance indices), per-frame transforms, ray
- * queries, surface reconstruction, the tile-parallel loop and the ray-offset rule.
- * Entry points: femb_create, femb_destroy, femb_set_frame, femb_log_ray, femb_surface_eval,
- * femb_parallel_tiles. */
+ * scene whose geometry ids are the tnd_scene instance indices), per-instance and per-material
+ * records, per-frame transforms, the benchmark's ray log, surface reconstruction and the
+ * tile-parallel loop (the ray casts and the ray-offset rule are inline in femb_internal.h).
+ * Entry points: femb_create, femb_destroy, femb_set_frame, femb_log_ray, femb_surface_eval_batch,
+ * femb_surface_eval_eye, femb_surface_eval, femb_parallel_tiles. */
 #include "frontend_embree/femb_internal.h"
 #include "shaders/sampling.h"
 #include "shaders/specular.h"
