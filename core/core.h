@@ -831,8 +831,20 @@ typedef struct tnd_light_list {
  * zero power are left out; count 0 means no light to sample. Reuses the arrays of `list`. */
 tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_light_list *list);
 void tnd_lights_free(tnd_light_list *list);
-/* Index of the light picked by u in [0,1) (binary search on the cdf). */
-uint32_t tnd_lights_pick(const tnd_light_list *list, float u);
+/* Index of the light picked by u in [0,1) (binary search on the cdf; the halves chosen by
+ * selects, not branches: the CPU front-end picks for every path vertex, and a coin-flip branch
+ * per step mispredicts half the time). */
+static inline uint32_t tnd_lights_pick(const tnd_light_list *list, float u)
+{
+    uint32_t lo = 0, hi = list->count - 1;
+    while (lo < hi) {
+        uint32_t mid = (lo + hi) / 2;
+        bool right = !(list->lights[mid].cdf.x > u);
+        lo = right ? mid + 1 : lo;
+        hi = right ? hi : mid;
+    }
+    return lo;
+}
 
 
 /* ---------------------------------------------------------------------------------------------

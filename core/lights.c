@@ -1,7 +1,7 @@
 /* core/lights.c: the per-frame light list for next-event estimation (shaders/lights.h), shared
  * by both front-ends: world-space emissive triangles and punctual lights with power-proportional
  * pick probabilities and their cdf.
- * Entry points: tnd_lights_build, tnd_lights_free, tnd_lights_pick. */
+ * Entry points: tnd_lights_build, tnd_lights_free (tnd_lights_pick is inline in core.h). */
 #include "core/core.h"
 #include "shaders/brdf.h"
 
@@ -133,17 +133,4 @@ tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_l
     l->count = n;
     l->total_power = (float)total;
     return TND_OK;
-}
-
-uint32_t tnd_lights_pick(const tnd_light_list *l, float u)
-{
-    uint32_t lo = 0, hi = l->count - 1;
-    while (lo < hi) {
-        uint32_t mid = (lo + hi) / 2;
-        if (l->lights[mid].cdf.x > u)
-            hi = mid;
-        else
-            lo = mid + 1;
-    }
-    return lo;
 }

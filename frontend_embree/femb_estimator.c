@@ -150,11 +150,12 @@ LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uin
                                  const uint8_t *active, uint32_t n, float diff[3][NL],
                                  float spec[3][NL])
 {
-    LANES (i, n)
-        for (int k = 0; k < 3; k++)
-            diff[k][i] = spec[k][i] = 0.0f;
-    if (!c->lights.count)
+    if (!c->lights.count) {
+        LANES (i, n)
+            for (int k = 0; k < 3; k++)
+                diff[k][i] = spec[k][i] = 0.0f;
         return;
+    }
     /* the picked lights' records */
     float lp0[3][NL], lp1[3][NL], lp2[3][NL], lrad[4][NL], lcdf[NL];
     uint32_t kind[NL];
