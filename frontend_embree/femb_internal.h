@@ -62,6 +62,8 @@ typedef struct femb_mat {
     uint8_t textured, two_sided;
 } femb_mat;
 
+typedef struct femb_pool femb_pool;
+
 struct femb_context {
     const tnd_scene *scene;
     femb_inst *inst; /* per instance */
@@ -70,6 +72,7 @@ struct femb_context {
     RTCScene top;
     RTCScene *meshes; /* one per tnd_mesh (NULL for meshes without triangles) */
     uint32_t threads;
+    femb_pool *pool; /* threads - 1 workers (femb_parallel_range) */
     char error[256];
     /* the frame */
     uint32_t width, height, frame;
@@ -195,7 +198,12 @@ void femb_parallel_tiles(femb_context *c, void (*fn)(femb_context *c, uint32_t x
                                                      uint32_t x1, uint32_t y1, void *user),
                          void *user);
 
-/* Parallel for over [0, count) in chunks, on the context's threads (FTZ/DAZ on). */
+/* The context's worker threads: started by femb_create, stopped by femb_destroy. */
+tnd_result femb_pool_start(femb_context *c);
+void femb_pool_stop(femb_context *c);
+
+/* Parallel for over [0, count) in chunks, on the context's threads (FTZ/DAZ on): the pool's
+ * workers and the calling thread; returns when every chunk is done. */
 void femb_parallel_range(femb_context *c, size_t count, size_t chunk,
                          void (*fn)(femb_context *c, size_t begin, size_t end, void *user),
                          void *user);

@@ -31,6 +31,7 @@ void femb_destroy(femb_context *c)
 {
     if (!c)
         return;
+    femb_pool_stop(c);
     if (c->top)
         rtcReleaseScene(c->top);
     for (uint32_t m = 0; c->meshes && m < c->scene->mesh_count; m++)
@@ -152,6 +153,11 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
         tnd_result r = tnd_fail(TND_ERR_UNSUPPORTED, "embree: %s: %s", s->path, c->error);
         femb_destroy(c);
         return r;
+    }
+    tnd_result res = femb_pool_start(c);
+    if (res != TND_OK) {
+        femb_destroy(c);
+        return res;
     }
     *out = c;
     return TND_OK;
@@ -489,7 +495,9 @@ void femb_parallel_tiles(femb_context *c,
                         &j);
 }
 
-/* ---- ranges over threads -------------------------------------------------------------------- */
+/* ---- ranges over threads: a pool started with the context ------------------------------------ */
+/* The workers wait on `wake` for a new generation, take chunks of the posted job until it is
+ * exhausted, and the last one out signals `done`; the calling thread takes chunks too. */
 typedef struct range_job {
     femb_context *c;
     void (*fn)(femb_context *, size_t, size_t, void *);
@@ -498,23 +506,89 @@ typedef struct range_job {
     size_t count, chunk;
 } range_job;
 
-static void *range_worker(void *arg)
+struct femb_pool {
+    pthread_mutex_t lock;
+    pthread_cond_t wake, done;
+    pthread_t *threads;
+    uint32_t started;
+    uint64_t generation; /* of the posted job */
+    uint32_t busy;       /* workers still on it */
+    bool quit;
+    range_job *job;
+};
+
+static void run_chunks(range_job *j)
 {
-    range_job *j = arg;
-#ifdef FEMB_HAVE_SSE
-    unsigned csr = _mm_getcsr();
-    _mm_setcsr(csr | 0x8040);
-#endif
     for (;;) {
         size_t b = atomic_fetch_add(&j->next, j->chunk);
         if (b >= j->count)
             break;
         j->fn(j->c, b, b + j->chunk < j->count ? b + j->chunk : j->count, j->user);
     }
+}
+
+static void *pool_worker(void *arg)
+{
+    femb_pool *p = arg;
 #ifdef FEMB_HAVE_SSE
-    _mm_setcsr(csr);
+    _mm_setcsr(_mm_getcsr() | 0x8040); /* FTZ and DAZ, for the worker's life */
 #endif
+    uint64_t seen = 0;
+    pthread_mutex_lock(&p->lock);
+    for (;;) {
+        while (p->generation == seen && !p->quit)
+            pthread_cond_wait(&p->wake, &p->lock);
+        if (p->quit)
+            break;
+        seen = p->generation;
+        range_job *j = p->job;
+        pthread_mutex_unlock(&p->lock);
+        run_chunks(j);
+        pthread_mutex_lock(&p->lock);
+        if (--p->busy == 0)
+            pthread_cond_signal(&p->done);
+    }
+    pthread_mutex_unlock(&p->lock);
     return NULL;
+}
+
+tnd_result femb_pool_start(femb_context *c)
+{
+    femb_pool *p = calloc(1, sizeof *p);
+    uint32_t n = c->threads > 1 ? c->threads - 1 : 0;
+    if (n > 255)
+        n = 255; /* (as many as the old per-call loop started) */
+    if (!p || !(p->threads = calloc(n + 1, sizeof *p->threads))) {
+        free(p);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
+    }
+    pthread_mutex_init(&p->lock, NULL);
+    pthread_cond_init(&p->wake, NULL);
+    pthread_cond_init(&p->done, NULL);
+    c->pool = p;
+    for (uint32_t i = 0; i < n; i++)
+        if (pthread_create(&p->threads[p->started], NULL, pool_worker, p) == 0)
+            p->started++; /* (fewer workers only slow it down: the caller takes chunks too) */
+    return TND_OK;
+}
+
+void femb_pool_stop(femb_context *c)
+{
+    femb_pool *p = c->pool;
+    if (!p)
+        return;
+    pthread_mutex_lock(&p->lock);
+    p->quit = true;
+    pthread_cond_broadcast(&p->wake);
+    pthread_mutex_unlock(&p->lock);
+    for (uint32_t i = 0; i < p->started; i++)
+        pthread_join(p->threads[i], NULL);
+    pthread_cond_destroy(&p->wake);
+    pthread_cond_destroy(&p->done);
+    pthread_mutex_destroy(&p->lock);
+    free(p->threads);
+    free(p);
+    c->pool = NULL;
 }
 
 void femb_parallel_range(femb_context *c, size_t count, size_t chunk,
@@ -522,15 +596,27 @@ void femb_parallel_range(femb_context *c, size_t count, size_t chunk,
 {
     range_job j = {.c = c, .fn = fn, .user = user, .count = count, .chunk = chunk ? chunk : 1};
     atomic_init(&j.next, 0);
-    uint32_t n = c->threads > 1 ? c->threads : 1;
-    pthread_t th[256];
-    if (n > 256)
-        n = 256;
-    uint32_t started = 0;
-    for (uint32_t i = 1; i < n; i++)
-        if (pthread_create(&th[started], NULL, range_worker, &j) == 0)
-            started++;
-    range_worker(&j);
-    for (uint32_t i = 0; i < started; i++)
-        pthread_join(th[i], NULL);
+    femb_pool *p = c->pool;
+#ifdef FEMB_HAVE_SSE
+    unsigned csr = _mm_getcsr();
+    _mm_setcsr(csr | 0x8040);
+#endif
+    if (p && p->started) {
+        pthread_mutex_lock(&p->lock);
+        p->job = &j;
+        p->busy = p->started;
+        p->generation++;
+        pthread_cond_broadcast(&p->wake);
+        pthread_mutex_unlock(&p->lock);
+    }
+    run_chunks(&j);
+    if (p && p->started) { /* the job lives on this stack: wait until no worker holds it */
+        pthread_mutex_lock(&p->lock);
+        while (p->busy)
+            pthread_cond_wait(&p->done, &p->lock);
+        pthread_mutex_unlock(&p->lock);
+    }
+#ifdef FEMB_HAVE_SSE
+    _mm_setcsr(csr);
+#endif
 }
