@@ -77,7 +77,9 @@ tnd_result femb_benchmark(femb_context *c, const femb_params *p, uint32_t repeat
         double t1 = tnd_now();
         TND_TRY(femb_shade(c, p, &f, NULL));
         double t2 = tnd_now();
-        femb_parallel_range(c, log.count, 4096, replay, log.rays);
+        /* chunks of 1024 rays: with 4096 the last chunks left cores idle and the raw loop
+         * looked 10-15% slower on 16 cores (docs/performance.md); smaller gain nothing */
+        femb_parallel_range(c, log.count, 1024, replay, log.rays);
         double t3 = tnd_now();
         tp[r] = 1e3 * (t1 - t0);
         ts[r] = 1e3 * (t2 - t1);
