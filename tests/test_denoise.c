@@ -189,8 +189,9 @@ cleanup:
 /* The histories' compact storage, read back through the dumps: on the first frame the lf history
  * is the input, so its CoCg (two half floats relative to L0 in the spec history's spare word)
  * comes back within half-float rounding (2^-11 relative, x2 for the unpack's product; the dump
- * decodes the stored word on the host, so this checks the shader's packing, not its unpacking,
- * which only the image figures of the other tests cover); the hf
+ * decodes the stored word on the host, so this checks the shader's packing), and on the second
+ * frame the temporal blend of the unpacked history with the new input keeps their mean Co and
+ * Cg (this checks the shader's unpacking: a Co/Cg swap there passed every other test); the hf
  * history length, handed from the temporal pass to the a-trous's first iteration in the
  * ping-pong texel's spare bits, is exactly 1 everywhere, then exactly 2 on the second frame of
  * a static camera (SVGF) wherever every reprojection tap is valid (interior pixels; at edges
@@ -210,7 +211,7 @@ static void test_history_storage(void)
         hi = strcmp(dn_dump_name(k, NULL), "temporal.hf") == 0 ? k : hi;
     }
     REQUIRE(ci != UINT32_MAX && hi != UINT32_MAX, "dumps temporal.lf_cocg and temporal.hf exist");
-    static float sh[W * H * 4], cocg[W * H * 2], dump[W * H * 4];
+    static float sh[W * H * 4], cocg[W * H * 2], cocg0[W * H * 2], dump[W * H * 4];
     static uint32_t vis[W * H * 2];
     for (uint32_t i = 0; i < 2; i++) {
         REQUIRE_OK(rig_frame(vk, &r, i, NULL, &df));
@@ -224,11 +225,36 @@ static void test_history_storage(void)
         CHECK(surfaces > W * H / 4 && bad_len == 0,
               "frame %u: %d of %d surface pixels with a history length other than %u", i, bad_len,
               surfaces, i + 1);
-        if (i > 0)
-            continue;
         REQUIRE_OK(tnd_image_download(vk, &r.ct.images[TND_CT_LF_SH], sh, sizeof sh));
         REQUIRE_OK(tnd_image_download(vk, &r.ct.images[TND_CT_LF_COCG], cocg, sizeof cocg));
         REQUIRE_OK(dn_dump(dn, ci, dump));
+        if (i > 0) {
+            /* the second frame blends the history (its CoCg unpacked by the shader) with the
+             * new input at alpha 1/2: over interior pixels the means of Co and Cg are those of
+             * the two inputs' average (reprojection is bilinear: it moves values, it keeps
+             * their mean up to the region's edges: 0.4% measured; bound 10% of the larger
+             * mean). Cornell's Co and Cg means differ eightfold, so unpacking them swapped
+             * moves each mean by half their difference (a swap measured 50% off). */
+            double got[2] = {0}, want[2] = {0};
+            int n = 0;
+            for (int q = 0; q < W * H; q++) {
+                if (vis[2 * q] == TND_VIS_NONE || !interior[q])
+                    continue;
+                n++;
+                for (int k = 0; k < 2; k++) {
+                    got[k] += dump[4 * q + k];
+                    want[k] += 0.5 * (cocg0[2 * q + k] + cocg[2 * q + k]);
+                }
+            }
+            printf("     second frame: mean Co %.5f (inputs' average %.5f), Cg %.5f (%.5f) over "
+                   "%d pixels\n", got[0] / n, want[0] / n, got[1] / n, want[1] / n, n);
+            for (int k = 0; k < 2; k++)
+                CHECK(fabs(got[k] - want[k]) <= 0.1 * fmax(fabs(want[0]), fabs(want[1])),
+                      "second frame: mean %s %.5f, expected %.5f", k ? "Cg" : "Co", got[k] / n,
+                      want[k] / n);
+            continue;
+        }
+        memcpy(cocg0, cocg, sizeof cocg0);
         double worst = 0;
         int nonzero = 0;
         for (int q = 0; q < W * H; q++)
