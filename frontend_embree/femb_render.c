@@ -71,6 +71,14 @@ static inline v3 pixel_dir(const femb_context *c, uint32_t x, uint32_t y)
 /* The real-time reflect/refract chain (femb_internal.h) of pixel (x, y) whose camera ray has
  * direction dir (pixel_dir): mirror: reflect, x Schlick; glass: refract unless total internal
  * reflection, x (1 - F); Beer-Lambert inside. */
+/* A chain before its camera ray is cast: no hit, no vertex, throughput 1. */
+static void chain_start(femb_chain *r, v3 dir)
+{
+    memset(r, 0, sizeof *r);
+    r->thr[0] = r->thr[1] = r->thr[2] = 1.0f;
+    r->dir0 = r->dir = dir;
+}
+
 static void chain_from(const femb_context *c, uint32_t x, uint32_t y, v3 dir, bool follow,
                        femb_chain *r)
 {
@@ -78,9 +86,7 @@ static void chain_from(const femb_context *c, uint32_t x, uint32_t y, v3 dir, bo
     v3 org = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
     float sigma[3] = {0, 0, 0};
     bool inside = false;
-    memset(r, 0, sizeof *r);
-    r->thr[0] = r->thr[1] = r->thr[2] = 1.0f;
-    r->dir0 = dir;
+    chain_start(r, dir);
     for (;;) {
         float t;
         r->dir = dir;
@@ -231,11 +237,11 @@ static void store_surface(tnd_frame *f, size_t q, const femb_surface *s, uint32_
     tnd_frame_f(f, TND_CT_METALLIC)[q] = s->metallic;
 }
 
-/* G-buffer and motion of pixel `pixel` from its chain and, when it sees one, the surface s at
- * distance `dist` along the chain and (seen directly) its motion, written at entry q of f. */
+/* G-buffer and motion of pixel `pixel` whose chain misses or meets a mirror or glass (surfaces
+ * seen directly are written by primary_batch's lane loop): from the chain and, when it sees
+ * one, the surface s at distance `dist` along it, written at entry q of f. */
 static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixel,
-                          const femb_chain *ch, const femb_surface *s, float dist,
-                          const float motion[3])
+                          const femb_chain *ch, const femb_surface *s, float dist)
 {
     const tnd_scene *sc = c->scene;
     uint32_t W = c->width, H = c->height;
@@ -282,24 +288,20 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixe
         em[k] = s->emission[k] * ch->thr[k];
     *depth = dist;
     mo[0] = mo[1] = mo[2] = 0.0f;
-    if (ch->vertices > 0) {
-        /* the virtual point (what a planar mirror shows: along the camera ray at the
-         * chain's length), the mirror and the glass assumed still */
-        double vp[3];
-        for (int r = 0; r < 3; r++)
-            vp[r] = c->cam_pos[r] + (double)dd[r] * ch->length;
-        if (project(cam, c->cam_pos, vp, false, W, H, cur_px) &&
-            project(&c->prev->camera, c->prev_cam_pos, vp, false, W, H, prev_px)) {
-            mo[0] = (float)(prev_px[0] - cur_px[0]);
-            mo[1] = (float)(prev_px[1] - cur_px[1]);
-        }
-        double dp = 0;
-        for (int r = 0; r < 3; r++)
-            dp += (vp[r] - c->prev_cam_pos[r]) * (vp[r] - c->prev_cam_pos[r]);
-        mo[2] = (float)(sqrt(dp) - ch->length);
-        return;
+    /* the virtual point (what a planar mirror shows: along the camera ray at the chain's
+     * length), the mirror and the glass assumed still */
+    double vp[3];
+    for (int r = 0; r < 3; r++)
+        vp[r] = c->cam_pos[r] + (double)dd[r] * ch->length;
+    if (project(cam, c->cam_pos, vp, false, W, H, cur_px) &&
+        project(&c->prev->camera, c->prev_cam_pos, vp, false, W, H, prev_px)) {
+        mo[0] = (float)(prev_px[0] - cur_px[0]);
+        mo[1] = (float)(prev_px[1] - cur_px[1]);
     }
-    memcpy(mo, motion, 3 * sizeof(float));
+    double dp = 0;
+    for (int r = 0; r < 3; r++)
+        dp += (vp[r] - c->prev_cam_pos[r]) * (vp[r] - c->prev_cam_pos[r]);
+    mo[2] = (float)(sqrt(dp) - ch->length);
 }
 
 /* Motion of object-space point obj of an instance with transforms PX (previous frame) and X
@@ -353,9 +355,7 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
             plain[i] = femb_intersect(c, cam, d, 1e30f, &inst[i], &prim[i], &u[i], &v[i], &t);
             chain[i] = 0;
             if (!plain[i]) { /* what chain_from returns for a miss (primary_store reads it) */
-                memset(&ch[i], 0, sizeof ch[i]);
-                ch[i].thr[0] = ch[i].thr[1] = ch[i].thr[2] = 1.0f;
-                ch[i].dir0 = ch[i].dir = d;
+                chain_start(&ch[i], d);
                 inst[i] = prim[i] = 0, u[i] = v[i] = 0.0f;
             }
         } else {
@@ -420,8 +420,7 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
             femb_surface_eval(c, inst[i], prim[i], u[i], v[i], ch[i].dir,
                               depth[i] * c->pixel_spread, &s);
         }
-        float m[3] = {mo[0][i], mo[1][i], mo[2][i]};
-        primary_store(c, &st.f, i, pixels[i], &ch[i], &s, depth[i], m);
+        primary_store(c, &st.f, i, pixels[i], &ch[i], &s, depth[i]);
     }
     stage_flush(&st, f, pixels, n);
 }

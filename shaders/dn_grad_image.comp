@@ -24,7 +24,6 @@ float grad_of(float now, float prev)
     return r * r;
 }
 
-
 void main()
 {
     ivec2 l = ivec2(gl_LocalInvocationID.xy);

@@ -9,8 +9,8 @@
  * history from a texel whose normal, hence whose reflected direction, differs; with no such tap
  * the spec history restarts. Writes this frame's history slot (the hf history through the
  * a-trous's first iteration, which filters it: SVGF's feedback) and the first a-trous input
- * (colour + variance + the hf history length). Where the history is shorter than 4 frames, the variance comes from a
- * 3x3 spatial estimate. The a-trous input packs colours, variance and the filter geometry
+ * (colour + variance + the hf history length). Where the history is shorter than 4 frames, the
+ * variance comes from a 3x3 spatial estimate. The a-trous input packs colours, variance and the filter geometry
  * (DN_B_AT, DN_B_FGEO). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
