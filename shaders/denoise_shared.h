@@ -62,14 +62,13 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
                               roughness (8 bits) and checkerboard field (2 bits) */
 #define DN_B_OUT 11        /* linear HDR output */
 #define DN_B_PREV_LUM 12   /* previous frame: x lum(raw hf), y lum(raw spec), zw rng key (bits) */
-#define DN_B_GRAD_FLAG 13  /* this frame's gradient sample pixels (1) */
-#define DN_B_GRAD 14       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
+#define DN_B_GRAD 13       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
                               after the selection [0] holds xy the lf sums, zw the sample's
                               previous lum hf / spec */
-#define DN_B_SAMPLES 15    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
-#define DN_B_LF_GEO 16     /* 1/3 res: the lf anchor's xyz position and w depth, read by the
+#define DN_B_SAMPLES 14    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
+#define DN_B_LF_GEO 15     /* 1/3 res: the lf anchor's xyz position and w depth, read by the
                               lf a-trous at its centre (the taps read DN_B_AT_LF) */
-#define DN_BINDINGS 17
+#define DN_BINDINGS 16
 #define DN_STRATUM 3
 #define DN_FGEO_NONE 0xffffffffu
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x

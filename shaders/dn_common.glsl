@@ -52,7 +52,6 @@ layout(set = 0, binding = DN_B_AT_LF, rgba32ui) uniform uimage2D at_lf[2];
 layout(set = 0, binding = DN_B_AT_LF_SH, rgba32f) uniform image2D at_lf_sh[2];
 layout(set = 0, binding = DN_B_OUT, rgba32f) uniform image2D out_img;
 layout(set = 0, binding = DN_B_PREV_LUM, rgba32f) uniform image2D prev_lum;
-layout(set = 0, binding = DN_B_GRAD_FLAG, r32ui) uniform uimage2D grad_flag;
 layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
 layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo;
 layout(set = 0, binding = DN_B_FGEO, rg32ui) uniform uimage2D fgeo;

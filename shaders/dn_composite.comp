@@ -60,7 +60,12 @@ void main()
     vec3 gn = imageLoad(img_geo_normal, p).xyz;
     float depth = imageLoad(img_depth, p).x;
     uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
-    bool was_sample = P.size.w == 2u && P.misc.w != 0.0 && imageLoad(grad_flag, p).x != 0u;
+    bool was_sample = false;
+    if (P.size.w == 2u && P.misc.w != 0.0) { /* this stratum's sample (one buffer read per
+                                                   stratum, cached: no per-pixel mask) */
+        ivec2 s = p / DN_STRATUM;
+        was_sample = samples[uint(s.y * grad_size().x + s.x)].a.x == uint(p.y) * P.size.x + uint(p.x);
+    }
     vec3 n = imageLoad(img_normal, p).xyz;
     bool sky = vis.x == TND_VIS_NONE;
     imageStore(prev_geo, p, uvec4(vis.x, floatBitsToUint(depth),

@@ -5,9 +5,9 @@
  * the brightest previous hf + spec (a random pick in a moving penumbra often misses the change;
  * ties: the first in row order).
  * Writes the sample (pixel, the previous frame's rng key and surface) for the front-end to
- * re-shade, the previous luminances, and this frame's sample mask; also the stratum's sums of
- * the raw lf L0 now and of the accumulated L0 history at the reprojected pixels (grad[0].xy) for
- * dn_grad_image.comp (here, where the pixels are visited anyway, and before the re-shading: the
+ * re-shade (the composite looks its pixels up there too: no per-pixel mask), the sample's
+ * previous luminances (grad[0].zw), and the stratum's sums of the raw lf L0 now and of the
+ * accumulated L0 history at the reprojected pixels (grad[0].xy) for dn_grad_image.comp (here, where the pixels are visited anyway, and before the re-shading: the
  * sample's fresh L0 counts as "now", not the previous frame's, which would hide 1/9 of a
  * change). A non-finite motion counts as none. One thread per pixel tests its pixel; one
  * thread per stratum then picks among the nine through shared memory (a thread per stratum
@@ -19,7 +19,6 @@
 
 shared float s_score[DN_TILE_N];  /* previous hf + spec luminance of a candidate, else 0 */
 shared uint s_target[DN_TILE_N];  /* its reprojected pixel, x | y << 16 */
-shared uint s_winner[DN_TILE_STRATA]; /* tile-local pixel index of the sample, ~0u for none */
 shared vec2 s_lf[DN_TILE_N];      /* raw lf L0 now, accumulated lf L0 at the reprojection */
 
 void main()
@@ -94,9 +93,5 @@ void main()
                     sum += s_lf[tile_pixel_index(li, i, j)];
             imageStore(grad[0], s, vec4(sum, gout.zw));
         }
-        s_winner[li] = best_k;
     }
-    barrier();
-    if (inside(p))
-        imageStore(grad_flag, p, uvec4(s_winner[tile_stratum_index()] == li ? 1u : 0u));
 }
