@@ -17,16 +17,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* hist hf, mom, lf sh, spec (+ lf CoCg); a-trous ping-pong; lf ping-pong (1/3 res: tangent
- * plane and CoCg, SH) */
-enum { N_PAIRED = 7, N_SINGLE = 6 };
-static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_MOM, DN_B_HIST_LF_SH,
-                                                  DN_B_HIST_SPEC, DN_B_AT, DN_B_AT_LF,
-                                                  DN_B_AT_LF_SH};
-static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_mom", "hist_lf_sh", "hist_spec",
-                                                  "atrous",  "at_lf",    "at_lf_sh"};
-enum { PAIRED_HIST_HF, PAIRED_HIST_MOM, PAIRED_HIST_LF_SH, PAIRED_HIST_SPEC, PAIRED_AT,
-       PAIRED_AT_LF, PAIRED_AT_LF_SH }; /* indices into paired_binding */
+/* hist hf (+ moments), lf sh, spec (+ lengths, lf CoCg); a-trous ping-pong; lf ping-pong (1/3
+ * res: tangent plane and CoCg, SH) */
+enum { N_PAIRED = 6, N_SINGLE = 7 };
+static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_LF_SH, DN_B_HIST_SPEC,
+                                                  DN_B_AT,      DN_B_AT_LF,      DN_B_AT_LF_SH};
+static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_lf_sh", "hist_spec",
+                                                  "atrous",  "at_lf",      "at_lf_sh"};
+enum { PAIRED_HIST_HF, PAIRED_HIST_LF_SH, PAIRED_HIST_SPEC, PAIRED_AT, PAIRED_AT_LF,
+       PAIRED_AT_LF_SH }; /* indices into paired_binding */
 
 struct dn_context {
     tnd_vk *vk;
@@ -34,6 +33,7 @@ struct dn_context {
     uint32_t width, height, frame;
     tnd_image paired[N_PAIRED][2];
     tnd_image prev_geo, prev_surf, out, fgeo; /* fgeo: the a-trous filter geometry */
+    tnd_image moments; /* this frame's luminance moments, temporal -> a-trous 0 */
     tnd_image prev_lum, grad[2];   /* A-SVGF */
     tnd_image lf_geo; /* 1/3-res lf anchors: position, depth */
     tnd_buffer params, samples, samples_host; /* samples: device-local; _host: its read-back */
@@ -100,6 +100,7 @@ void dn_destroy(dn_context *c)
     tnd_image_destroy(vk, &c->prev_surf);
     tnd_image_destroy(vk, &c->out);
     tnd_image_destroy(vk, &c->fgeo);
+    tnd_image_destroy(vk, &c->moments);
     tnd_image_destroy(vk, &c->prev_lum);
     tnd_image_destroy(vk, &c->grad[0]);
     tnd_image_destroy(vk, &c->grad[1]);
@@ -197,10 +198,10 @@ static void write_own_set(dn_context *c)
                                     .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
                                     .pImageInfo = &ii[k]};
     k += 2;
-    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,
-                                         &c->prev_lum, &c->fgeo,      &c->lf_geo};
-    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO, DN_B_PREV_SURF, DN_B_OUT,
-                                   DN_B_PREV_LUM, DN_B_FGEO,      DN_B_LF_GEO};
+    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,   &c->prev_lum,
+                                         &c->fgeo,     &c->lf_geo,    &c->moments};
+    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO, DN_B_PREV_SURF, DN_B_OUT,    DN_B_PREV_LUM,
+                                   DN_B_FGEO,     DN_B_LF_GEO,    DN_B_MOMENTS};
     for (int s = 0; s < N_SINGLE; s++) {
         ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single[s]->view, VK_IMAGE_LAYOUT_GENERAL};
         w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
@@ -257,7 +258,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
             char name[64];
             snprintf(name, sizeof name, "denoise.%s[%d]", paired_name[k], s);
             bool third = k == PAIRED_AT_LF || k == PAIRED_AT_LF_SH;
-            bool uint = k == PAIRED_HIST_SPEC || k == PAIRED_AT || k == PAIRED_AT_LF;
+            bool uint = k != PAIRED_HIST_LF_SH && k != PAIRED_AT_LF_SH;
             VkFormat f = uint ? VK_FORMAT_R32G32B32A32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT;
             TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = third ? c->grad_w : width,
                                                            .height = third ? c->grad_h : height,
@@ -281,6 +282,10 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                    .format = VK_FORMAT_R32G32_UINT,
                                                    .name = "denoise.fgeo"},
                              &c->fgeo));
+    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                   .format = VK_FORMAT_R32G32_SFLOAT,
+                                                   .name = "denoise.moments"},
+                             &c->moments));
     struct {
         tnd_image *img;
         uint32_t w, h;
@@ -691,14 +696,14 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
 }
 
 /* Dumps: name, channel names, the image (slot: 0 this frame's history, 1 the final a-trous). */
-enum { DUMP_HIST, DUMP_HIST_COCG, DUMP_ATROUS, DUMP_LF, DUMP_GRAD, DUMP_OUT };
+enum { DUMP_HIST, DUMP_HIST_COCG, DUMP_HIST_MOM, DUMP_ATROUS, DUMP_LF, DUMP_GRAD, DUMP_OUT };
 static const struct {
     const char *name;
     const char *channels[4];
     int kind, index; /* index into paired[] */
 } dumps[] = {
     {"temporal.hf", {"R", "G", "B", "history"}, DUMP_HIST, PAIRED_HIST_HF},
-    {"temporal.moments", {"m1", "m2", "history_lf", "history_spec"}, DUMP_HIST, PAIRED_HIST_MOM},
+    {"temporal.moments", {"m1", "m2", "history_lf", "history_spec"}, DUMP_HIST_MOM, PAIRED_HIST_HF},
     {"temporal.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_HIST, PAIRED_HIST_LF_SH},
     {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST_COCG, PAIRED_HIST_SPEC},
     {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, PAIRED_HIST_SPEC},
@@ -709,6 +714,49 @@ static const struct {
     {"gradients", {"hf", "spec", "lf", "unused"}, DUMP_GRAD, 0},
     {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
 };
+
+/* The hf and spec histories decoded (dn_common.glsl's hist_hf_pack, hist_spec_pack): kind
+ * DUMP_HIST gives the rgb and the history length of `index` (hf, or spec with w 0),
+ * DUMP_HIST_COCG the lf history's CoCg (relative to the SH's L0), DUMP_HIST_MOM the moments and
+ * the lf and spec history lengths. */
+static tnd_result dump_history(dn_context *c, int kind, int index, uint32_t slot, size_t n,
+                               float *rgba)
+{
+    tnd_result res = TND_OK;
+    uint32_t *hf = malloc(n * 16), *spec = malloc(n * 16);
+    float *sh = malloc(n * 16);
+    if (!hf || !spec || !sh) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
+        goto fail;
+    }
+    TND_TRY(tnd_image_download(c->vk, &c->paired[PAIRED_HIST_HF][slot], hf, n * 16));
+    TND_TRY(tnd_image_download(c->vk, &c->paired[PAIRED_HIST_SPEC][slot], spec, n * 16));
+    TND_TRY(tnd_image_download(c->vk, &c->paired[PAIRED_HIST_LF_SH][slot], sh, n * 16));
+    for (size_t q = 0; q < n; q++) {
+        const uint32_t *t = (index == PAIRED_HIST_HF ? hf : spec) + 4 * q, *s = spec + 4 * q;
+        float *o = rgba + 4 * q, l0 = sh[4 * q + 3];
+        if (kind == DUMP_HIST) {
+            o[0] = tnd_uf16_decode(t[0] & 0xffffu);
+            o[1] = tnd_uf16_decode(t[0] >> 16);
+            o[2] = tnd_uf16_decode(t[1] & 0xffffu);
+            o[3] = index == PAIRED_HIST_HF ? tnd_half_to_float((uint16_t)(t[1] >> 16)) : 0.0f;
+        } else if (kind == DUMP_HIST_COCG) { /* cocg_unpack */
+            o[0] = tnd_half_to_float((uint16_t)(s[2] & 0xffffu)) * l0;
+            o[1] = tnd_half_to_float((uint16_t)(s[2] >> 16)) * l0;
+            o[2] = o[3] = 0.0f;
+        } else {
+            memcpy(&o[0], &hf[4 * q + 2], 4);
+            memcpy(&o[1], &hf[4 * q + 3], 4);
+            o[2] = tnd_half_to_float((uint16_t)(s[3] & 0xffffu));
+            o[3] = tnd_half_to_float((uint16_t)(s[1] >> 16));
+        }
+    }
+fail:
+    free(hf);
+    free(spec);
+    free(sh);
+    return res;
+}
 
 uint32_t dn_dump_count(void)
 {
@@ -745,7 +793,8 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: dump %s before the first frame",
                         dumps[i].name);
     uint32_t slot = (c->frame - 1) & 1u;
-    bool hist = dumps[i].kind == DUMP_HIST || dumps[i].kind == DUMP_HIST_COCG;
+    bool hist = dumps[i].kind == DUMP_HIST || dumps[i].kind == DUMP_HIST_COCG ||
+                dumps[i].kind == DUMP_HIST_MOM;
     const tnd_image *img = hist                           ? &c->paired[dumps[i].index][slot]
                            : dumps[i].kind == DUMP_ATROUS
                                ? &c->paired[PAIRED_AT][atrous_iters(&c->desc) & 1u]
@@ -767,29 +816,8 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
         }
         return res;
     }
-    if (hist && dumps[i].index == PAIRED_HIST_SPEC) { /* spec rgb; w: the lf history's CoCg */
-        float *sh = dumps[i].kind == DUMP_HIST_COCG ? malloc((size_t)w * h * 16) : NULL;
-        if (dumps[i].kind == DUMP_HIST_COCG && !sh)
-            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
-        res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
-        if (res == TND_OK && sh)
-            res = tnd_image_download(c->vk, &c->paired[PAIRED_HIST_LF_SH][slot], sh,
-                                     (size_t)w * h * 16);
-        for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++) {
-            float *o = rgba + 4 * q;
-            uint32_t cw;
-            memcpy(&cw, &o[3], 4);
-            if (sh) { /* dn_common.glsl's cocg_unpack */
-                float l0 = sh[4 * q + 3];
-                o[0] = tnd_half_to_float((uint16_t)(cw & 0xffffu)) * l0;
-                o[1] = tnd_half_to_float((uint16_t)(cw >> 16)) * l0;
-                o[2] = 0.0f;
-            }
-            o[3] = 0.0f;
-        }
-        free(sh);
-        return res;
-    }
+    if (hist && dumps[i].index != PAIRED_HIST_LF_SH) /* the packed hf and spec histories */
+        return dump_history(c, dumps[i].kind, dumps[i].index, slot, (size_t)w * h, rgba);
     if (dumps[i].kind == DUMP_LF && dumps[i].index == PAIRED_AT_LF) { /* CoCg: its zw */
         res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
         for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++)

@@ -7,7 +7,8 @@
  * - spec: normals with a roughness-derived exponent, and similar roughness; none below roughness
  *   0.05 (mirror-like surfaces stay sharp).
  * lf is filtered at 1/3 resolution (dn_lf.comp).
- * Iteration 0's hf output is fed back as the hf history (SVGF). Reads ping-pong slot i & 1,
+ * Iteration 0's hf output is fed back as the hf history (SVGF), with the temporal pass's moments
+ * (DN_B_MOMENTS). Reads ping-pong slot i & 1,
  * writes the other. Each tap is two loads: the ping-pong texel (DN_B_AT: hf, spec and the
  * variance as 16-bit wide-range floats) and the filter geometry (DN_B_FGEO: tangent-plane offset,
  * packed normal, roughness and field); they are issued before the tap's tests. */
@@ -29,7 +30,8 @@ void main()
     if (g.x == DN_FGEO_NONE) { /* no surface: carried through (for dumps) */
         imageStore(at[dst], p, c);
         if (i == 0u) /* the hf history, unfiltered */
-            imageStore(hist_hf[pc.slot], p, vec4(at_hf(c), at_len(c)));
+            imageStore(hist_hf[pc.slot], p,
+                       hist_hf_pack(at_hf(c), at_len(c), imageLoad(moments, p).xy));
         return;
     }
     vec3 c_hf = at_hf(c), c_spec = at_spec(c);
@@ -90,5 +92,5 @@ void main()
     imageStore(at[dst], p, at_pack(do_hf ? o_hf : c_hf, filter_spec ? s_spec / w_spec : c_spec,
                                    do_hf ? o_var : c_var));
     if (i == 0u && do_hf) /* SVGF's feedback: the first iteration becomes the hf history */
-        imageStore(hist_hf[pc.slot], p, vec4(o_hf, at_len(c)));
+        imageStore(hist_hf[pc.slot], p, hist_hf_pack(o_hf, at_len(c), imageLoad(moments, p).xy));
 }

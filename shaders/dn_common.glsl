@@ -41,8 +41,8 @@ ivec2 tile_pixel(uint k)
 layout(local_size_x = 8, local_size_y = 8) in;
 #endif
 layout(set = 0, binding = DN_B_PARAMS, std140) uniform Params { dn_params P; };
-layout(set = 0, binding = DN_B_HIST_HF, rgba32f) uniform image2D hist_hf[2];
-layout(set = 0, binding = DN_B_HIST_MOM, rgba32f) uniform image2D hist_mom[2];
+layout(set = 0, binding = DN_B_HIST_HF, rgba32ui) uniform uimage2D hist_hf[2];
+layout(set = 0, binding = DN_B_MOMENTS, rg32f) uniform image2D moments;
 layout(set = 0, binding = DN_B_HIST_LF_SH, rgba32f) uniform image2D hist_lf_sh[2];
 layout(set = 0, binding = DN_B_HIST_SPEC, rgba32ui) uniform uimage2D hist_spec[2];
 layout(set = 0, binding = DN_B_PREV_GEO, rgba32ui) uniform uimage2D prev_geo;
@@ -111,7 +111,7 @@ uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
 float fgeo_roughness(uint w) { return float((w >> 22u) & 255u) * (1.0 / 255.0); }
 uint fgeo_field(uint w) { return w >> 30u; }
 
-/* The lf history's CoCg, stored in the spec history's spare word (DN_B_HIST_SPEC): both as half
+/* The lf history's CoCg, stored in the spec history's texel (DN_B_HIST_SPEC): both as half
  * floats relative to L0 (chroma is bounded by luminance: small ratios that half floats keep to
  * 2^-11, clamped so that a degenerate L0 cannot make them infinite). Saves the temporal pass a
  * texel per reprojection tap and a store. */
@@ -145,6 +145,27 @@ float lf_plane_distance(uvec4 t, vec3 pos)
 vec2 lf_cocg(uvec4 t) { return uintBitsToFloat(t.zw); }
 uvec4 lf_with_cocg(uvec4 t, vec2 cocg) { return uvec4(t.xy, floatBitsToUint(cocg)); }
 
+/* The histories of hf (DN_B_HIST_HF) and spec (DN_B_HIST_SPEC), one texel each, so that a
+ * reprojection tap loads four texels (with the previous surface and the lf SH), not five:
+ * hf: x, y hf rgb as tnd_uf16 and the hf history length as a half float, zw the luminance
+ * moments E[l], E[l^2] (float bits); spec: x, y spec rgb as tnd_uf16 and the spec history length
+ * as a half float, z the lf history's CoCg (cocg_pack), w the lf history length (half float).
+ * tnd_uf16 keeps 2^-11 relative, as RGBA16F would (Q2RTX keeps its hf history in RGBE). */
+uvec2 hist_rgb_pack(vec3 c, float len)
+{
+    return uvec2(tnd_uf16_encode(c.r) | tnd_uf16_encode(c.g) << 16u,
+                 tnd_uf16_encode(c.b) | packHalf2x16(vec2(len, 0.0)) << 16u);
+}
+uvec4 hist_hf_pack(vec3 hf, float len, vec2 mom)
+{
+    return uvec4(hist_rgb_pack(hf, len), floatBitsToUint(mom));
+}
+uvec4 hist_spec_pack(vec3 spec, float len_spec, uint cocg, float len_lf)
+{
+    return uvec4(hist_rgb_pack(spec, len_spec), cocg, packHalf2x16(vec2(len_lf, 0.0)));
+}
+float hist_len_lf(uvec4 t) { return unpackHalf2x16(t.w).x; }
+
 /* The a-trous ping-pong texel (DN_B_AT): hf, spec and the hf variance as tnd_uf16. */
 uvec4 at_pack(vec3 hf, vec3 spec, float variance)
 {
@@ -162,6 +183,9 @@ vec2 at_decode2(uint w)
 vec3 at_hf(uvec4 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
 vec3 at_spec(uvec4 t) { return vec3(at_decode2(t.y).y, at_decode2(t.z)); }
 float at_variance(uvec4 t) { return tnd_uf16_decode(t.w); }
+/* a history texel's rgb (hist_rgb_pack) and length */
+vec3 hist_rgb(uvec4 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
+float hist_len(uvec4 t) { return unpackHalf2x16(t.y >> 16u).x; }
 /* The hf history length, a half float in the spare high half of w: the temporal pass hands it
  * to the a-trous's first iteration, which writes the hf history (a store and a load fewer than
  * the temporal pass writing the history and the iteration rewriting its colour). */

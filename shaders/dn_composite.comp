@@ -47,7 +47,7 @@ void upsample_lf(ivec2 p, vec3 pos, vec3 gn, float depth, out vec4 sh, out vec2 
         cocg /= wsum;
     } else {
         sh = imageLoad(hist_lf_sh[pc.slot], p);
-        cocg = cocg_unpack(imageLoad(hist_spec[pc.slot], p).w, sh.w);
+        cocg = cocg_unpack(imageLoad(hist_spec[pc.slot], p).z, sh.w);
     }
 }
 

@@ -54,7 +54,7 @@ void main()
         }
         vec4 h = imageLoad(hist_lf_sh[pc.slot], p);
         sh = w * h;
-        cw = vec3(w * cocg_unpack(imageLoad(hist_spec[pc.slot], p).w, h.w), w);
+        cw = vec3(w * cocg_unpack(imageLoad(hist_spec[pc.slot], p).z, h.w), w);
     }
     s_sh[li] = sh;
     s_cw[li] = cw;

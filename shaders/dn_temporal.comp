@@ -8,7 +8,8 @@
  * 0, 32) (r the roughness; Q2RTX's lobe-width proxy), so that a glossy reflection does not take
  * history from a texel whose normal, hence whose reflected direction, differs; with no such tap
  * the spec history restarts. Writes this frame's history slot (the hf history through the
- * a-trous's first iteration, which filters it: SVGF's feedback) and the first a-trous input
+ * a-trous's first iteration, which filters it: SVGF's feedback; the moments for it in
+ * DN_B_MOMENTS) and the first a-trous input
  * (colour + variance + the hf history length). Where the history is shorter than 4 frames, the
  * variance comes from a 3x3 spatial estimate. The a-trous input packs colours, variance and the filter geometry
  * (DN_B_AT, DN_B_FGEO). */
@@ -55,15 +56,16 @@ void main()
                     dot(oct_unpack12(g.z), gn) < 0.9)
                     continue;
                 float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
-                h_hf += w * imageLoad(hist_hf[prev], q);
-                h_mom += w * imageLoad(hist_mom[prev], q);
+                uvec4 hf_q = imageLoad(hist_hf[prev], q); /* hf, its length, moments */
                 vec4 sh_q = imageLoad(hist_lf_sh[prev], q);
-                uvec4 sp_q = imageLoad(hist_spec[prev], q); /* spec, lf CoCg */
+                uvec4 sp_q = imageLoad(hist_spec[prev], q); /* spec, lengths, lf CoCg */
+                h_hf += w * vec4(hist_rgb(hf_q), hist_len(hf_q));
+                h_mom += w * vec4(uintBitsToFloat(hf_q.zw), hist_len_lf(sp_q), hist_len(sp_q));
                 h_sh += w * sh_q;
-                h_cocg += w * cocg_unpack(sp_q.w, sh_q.w);
+                h_cocg += w * cocg_unpack(sp_q.z, sh_q.w);
                 vec3 n_prev = oct_unpack12(g.w);
                 float ws = shininess > 0.0 ? w * pow(max(dot(n, n_prev), 0.0), shininess) : w;
-                h_spec += ws * vec4(uintBitsToFloat(sp_q.xyz), 0.0);
+                h_spec += ws * vec4(hist_rgb(sp_q), 0.0);
                 wsum += w;
                 wsum_spec += ws;
             }
@@ -123,10 +125,10 @@ void main()
         m1 = s1 / max(n, 1.0), m2 = s2 / max(n, 1.0);
     }
     float variance = max(m2 - m1 * m1, 0.0);
-    imageStore(hist_mom[cur], p, out_mom);
+    imageStore(moments, p, vec4(out_mom.xy, 0.0, 0.0)); /* for the hf history */
     imageStore(hist_lf_sh[cur], p, out_sh);
     imageStore(hist_spec[cur], p,
-               uvec4(floatBitsToUint(out_spec.rgb), cocg_pack(out_cocg, out_sh.w)));
+               hist_spec_pack(out_spec.rgb, out_mom.w, cocg_pack(out_cocg, out_sh.w), out_mom.z));
     if (P.size.w == 2u) { /* A-SVGF: the next frame's gradient samples need the raw luminances
                              and the rng key (the selection, which reads them, runs earlier) */
         uvec2 key = imageLoad(img_rng, p).xy;
@@ -134,7 +136,7 @@ void main()
                    vec4(luma(hf), luma(spec), uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
     }
     uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n, rough, field);
-    /* the hf history (out_hf) is written by the a-trous's first iteration */
+    /* the hf history (out_hf, with the moments) is written by the a-trous's first iteration */
     imageStore(at[0], p, at_with_len(at_pack(out_hf.rgb, out_spec.rgb, variance), out_hf.a));
     imageStore(fgeo, p, uvec4(g, 0u, 0u));
 }
