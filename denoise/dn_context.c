@@ -19,7 +19,7 @@
 
 /* hist hf (+ moments), lf sh, spec (+ lengths, lf CoCg); a-trous ping-pong; lf ping-pong (1/3
  * res: tangent plane and CoCg, SH) */
-enum { N_PAIRED = 6, N_SINGLE = 7 };
+enum { N_PAIRED = 6, N_SINGLE = 8 };
 static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_LF_SH, DN_B_HIST_SPEC,
                                                   DN_B_AT,      DN_B_AT_LF,      DN_B_AT_LF_SH};
 static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_lf_sh", "hist_spec",
@@ -34,6 +34,7 @@ struct dn_context {
     tnd_image paired[N_PAIRED][2];
     tnd_image prev_geo, prev_surf, out, fgeo; /* fgeo: the a-trous filter geometry */
     tnd_image moments; /* this frame's luminance moments, temporal -> a-trous 0 */
+    tnd_image centre;  /* position (relative to the filter origin) and depth */
     tnd_image prev_lum, grad[2];   /* A-SVGF */
     tnd_image lf_geo; /* 1/3-res lf anchors: position, depth */
     tnd_buffer params, samples, samples_host; /* samples: device-local; _host: its read-back */
@@ -101,6 +102,7 @@ void dn_destroy(dn_context *c)
     tnd_image_destroy(vk, &c->out);
     tnd_image_destroy(vk, &c->fgeo);
     tnd_image_destroy(vk, &c->moments);
+    tnd_image_destroy(vk, &c->centre);
     tnd_image_destroy(vk, &c->prev_lum);
     tnd_image_destroy(vk, &c->grad[0]);
     tnd_image_destroy(vk, &c->grad[1]);
@@ -198,10 +200,10 @@ static void write_own_set(dn_context *c)
                                     .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
                                     .pImageInfo = &ii[k]};
     k += 2;
-    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,   &c->prev_lum,
-                                         &c->fgeo,     &c->lf_geo,    &c->moments};
-    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO, DN_B_PREV_SURF, DN_B_OUT,    DN_B_PREV_LUM,
-                                   DN_B_FGEO,     DN_B_LF_GEO,    DN_B_MOMENTS};
+    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,     &c->prev_lum,
+                                         &c->fgeo,     &c->lf_geo,    &c->moments, &c->centre};
+    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO, DN_B_PREV_SURF, DN_B_OUT,     DN_B_PREV_LUM,
+                                   DN_B_FGEO,     DN_B_LF_GEO,    DN_B_MOMENTS, DN_B_CENTRE};
     for (int s = 0; s < N_SINGLE; s++) {
         ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single[s]->view, VK_IMAGE_LAYOUT_GENERAL};
         w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
@@ -286,6 +288,10 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                    .format = VK_FORMAT_R32G32_SFLOAT,
                                                    .name = "denoise.moments"},
                              &c->moments));
+    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+                                                   .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                   .name = "denoise.centre"},
+                             &c->centre));
     struct {
         tnd_image *img;
         uint32_t w, h;

@@ -68,9 +68,14 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
                               after the selection [0] holds xy the lf sums, zw the sample's
                               previous lum hf / spec */
 #define DN_B_SAMPLES 14    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
-#define DN_B_LF_GEO 15     /* 1/3 res: the lf anchor's xyz position and w depth, read by the
-                              lf a-trous at its centre (the taps read DN_B_AT_LF) */
-#define DN_BINDINGS 16
+#define DN_B_LF_GEO 15     /* 1/3 res: the lf anchor's xyz position (relative to fgeo_origin())
+                              and w depth, read by the lf a-trous at its centre (the taps read
+                              DN_B_AT_LF) */
+#define DN_B_CENTRE 16     /* RGBA32F, written by the temporal pass: xyz the pixel's position
+                              relative to fgeo_origin(), w its depth (what the a-trous's
+                              centre, the lf downsample and the composite need of the geometry
+                              in one texel, instead of two contract images each) */
+#define DN_BINDINGS 17
 #define DN_STRATUM 3
 #define DN_FGEO_NONE 0xffffffffu
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x

@@ -36,11 +36,12 @@ void main()
     }
     vec3 c_hf = at_hf(c), c_spec = at_spec(c);
     float c_var = at_variance(c);
-    vec3 n = fgeo_normal(g.y), pos = imageLoad(img_position, p).xyz - fgeo_origin();
+    vec4 ce = imageLoad(centre, p); /* position relative to fgeo_origin(), depth */
+    vec3 n = fgeo_normal(g.y), pos = ce.xyz;
     /* the two checkerboard fields of a split surface are filtered apart */
     uint field = fgeo_field(g.y);
     float rough = fgeo_roughness(g.y);
-    float footprint = max(imageLoad(img_depth, p).x * P.misc.x * float(step), 1e-6);
+    float footprint = max(ce.w * P.misc.x * float(step), 1e-6);
     float inv_sigma_z = 1.0 / (P.weights.x * footprint);
     float l = luma(c_hf);
     float inv_sigma_l = 1.0 / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);

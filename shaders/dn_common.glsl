@@ -55,6 +55,7 @@ layout(set = 0, binding = DN_B_PREV_LUM, rgba32f) uniform image2D prev_lum;
 layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
 layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo;
 layout(set = 0, binding = DN_B_FGEO, rg32ui) uniform uimage2D fgeo;
+layout(set = 0, binding = DN_B_CENTRE, rgba32f) uniform image2D centre;
 layout(set = 0, binding = DN_B_SAMPLES, std430) buffer Samples { tnd_gpu_gradient samples[]; };
 ivec2 grad_size() { return (ivec2(P.size.xy) + DN_STRATUM - 1) / DN_STRATUM; }
 /* whether stratum s lies in the 1/3-resolution grid */
@@ -99,13 +100,14 @@ vec3 fgeo_origin()
 {
     return P.origin_vis.x != TND_VIS_NONE ? P.origin_position.xyz : vec3(0.0);
 }
+/* pos: relative to fgeo_origin() */
 uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
 {
     if (!surface)
         return uvec2(DN_FGEO_NONE, 0u);
     uint r = uint(round(clamp(rough, 0.0, 1.0) * 255.0));
     uint w = oct_pack(n, 11u) | r << 22u | (field & 3u) << 30u;
-    float d = dot(fgeo_normal(w), pos - fgeo_origin());
+    float d = dot(fgeo_normal(w), pos);
     return uvec2(tnd_nonfinite(d) ? DN_FGEO_NONE : floatBitsToUint(d), w);
 }
 float fgeo_roughness(uint w) { return float((w >> 22u) & 255u) * (1.0 / 255.0); }
@@ -127,12 +129,13 @@ vec2 cocg_unpack(uint w, float l0) { return unpackHalf2x16(w) * l0; }
  * sky), zw CoCg (float bits). A tap of the lf passes and of the upsample loads both and nothing
  * else (four texels before: these passes are bound by their load count); each pass carries the
  * geometry words through. */
+/* pos: relative to fgeo_origin() */
 uvec4 lf_pack(bool valid, vec3 pos, vec3 n, vec2 cocg)
 {
     if (!valid)
         return uvec4(0u);
     uint w = oct_pack12(n);
-    return uvec4(floatBitsToUint(dot(oct_unpack12(w), pos - fgeo_origin())), w | 1u << 24u,
+    return uvec4(floatBitsToUint(dot(oct_unpack12(w), pos)), w | 1u << 24u,
                  floatBitsToUint(cocg));
 }
 bool lf_valid_texel(uvec4 t) { return (t.y >> 24u) != 0u; }

@@ -58,7 +58,9 @@ void main()
         return;
     uvec2 vis = imageLoad(img_vis_id, p).xy;
     vec3 gn = imageLoad(img_geo_normal, p).xyz;
-    float depth = imageLoad(img_depth, p).x;
+    /* the temporal pass's copy of position (relative) and depth where it ran */
+    vec4 ce = P.size.w == 1u ? vec4(0.0, 0.0, 0.0, imageLoad(img_depth, p).x) : imageLoad(centre, p);
+    float depth = ce.w;
     uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
     bool was_sample = false;
     if (P.size.w == 2u && P.misc.w != 0.0) { /* this stratum's sample (one buffer read per
@@ -92,7 +94,7 @@ void main()
         uvec4 a = imageLoad(at[max(P.iters.x, P.iters.z) & 1u], p); /* the last a-trous slot */
         hf = at_hf(a);
         spec = at_spec(a);
-        upsample_lf(p, imageLoad(img_position, p).xyz - fgeo_origin(), gn, depth, sh, cocg);
+        upsample_lf(p, ce.xyz, gn, depth, sh, cocg);
     }
     vec3 alb = imageLoad(img_albedo, p).rgb;
     float m = imageLoad(img_metallic, p).x;

@@ -62,7 +62,7 @@ void main()
     int step = 1 << int(i);
     bool last = i + 1u == P.iters.y && P.lf.y != 0.0;
     vec4 g = imageLoad(lf_geo, s);
-    vec3 pos = g.xyz - fgeo_origin();
+    vec3 pos = g.xyz; /* relative to fgeo_origin() */
     float footprint = max(g.w * P.misc.x * float(DN_STRATUM * step), 1e-6);
     float inv_sigma = 1.0 / (P.weights.x * footprint);
     vec3 n = lf_normal(c);

@@ -40,12 +40,13 @@ void main()
     vec3 cw = vec3(0.0);
     if (valid) {
         ivec2 a = tile_pixel(anchor);
-        vec3 n = imageLoad(img_geo_normal, a).xyz, pos = imageLoad(img_position, a).xyz;
-        float depth = imageLoad(img_depth, a).x;
+        vec4 ca = imageLoad(centre, a); /* position relative to fgeo_origin(), depth */
+        vec3 n = imageLoad(img_geo_normal, a).xyz, pos = ca.xyz;
+        float depth = ca.w;
         float w = 1.0;
         if (anchor != li) {
             float footprint = max(depth * P.misc.x, 1e-6);
-            float plane = abs(dot(n, imageLoad(img_position, p).xyz - pos));
+            float plane = abs(dot(n, imageLoad(centre, p).xyz - pos));
             float nn = max(dot(n, imageLoad(img_geo_normal, p).xyz), 0.0);
             w = exp(-plane / (P.weights.x * footprint)) * pow(nn, P.weights.w);
         } else {

@@ -11,8 +11,8 @@
  * a-trous's first iteration, which filters it: SVGF's feedback; the moments for it in
  * DN_B_MOMENTS) and the first a-trous input
  * (colour + variance + the hf history length). Where the history is shorter than 4 frames, the
- * variance comes from a 3x3 spatial estimate. The a-trous input packs colours, variance and the filter geometry
- * (DN_B_AT, DN_B_FGEO). */
+ * variance comes from a 3x3 spatial estimate. The a-trous input packs colours, variance and the
+ * filter geometry (DN_B_AT, DN_B_FGEO, DN_B_CENTRE). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
@@ -135,7 +135,9 @@ void main()
         imageStore(prev_lum, p,
                    vec4(luma(hf), luma(spec), uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
     }
-    uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, imageLoad(img_position, p).xyz, n, rough, field);
+    vec3 pos = imageLoad(img_position, p).xyz - fgeo_origin();
+    uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, pos, n, rough, field);
+    imageStore(centre, p, vec4(pos, depth));
     /* the hf history (out_hf, with the moments) is written by the a-trous's first iteration */
     imageStore(at[0], p, at_with_len(at_pack(out_hf.rgb, out_spec.rgb, variance), out_hf.a));
     imageStore(fgeo, p, uvec4(g, 0u, 0u));
