@@ -19,7 +19,7 @@
 
 /* hist hf (+ moments), lf sh, spec (+ lengths, lf CoCg); a-trous ping-pong; lf ping-pong (1/3
  * res: tangent plane and CoCg, SH) */
-enum { N_PAIRED = 6, N_SINGLE = 8 };
+enum { N_PAIRED = 6, N_SINGLE = 9 };
 static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_LF_SH, DN_B_HIST_SPEC,
                                                   DN_B_AT,      DN_B_AT_LF,      DN_B_AT_LF_SH};
 static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_lf_sh", "hist_spec",
@@ -35,7 +35,7 @@ struct dn_context {
     tnd_image prev_geo, prev_surf, out, fgeo; /* fgeo: the a-trous filter geometry */
     tnd_image moments; /* this frame's luminance moments, temporal -> a-trous 0 */
     tnd_image centre;  /* position (relative to the filter origin) and depth */
-    tnd_image prev_lum, grad[2];   /* A-SVGF */
+    tnd_image prev_lum, prev_key, grad[2]; /* A-SVGF */
     tnd_image lf_geo; /* 1/3-res lf anchors: position, depth */
     tnd_buffer params, samples, samples_host; /* samples: device-local; _host: its read-back */
     uint32_t grad_w, grad_h;
@@ -104,6 +104,7 @@ void dn_destroy(dn_context *c)
     tnd_image_destroy(vk, &c->moments);
     tnd_image_destroy(vk, &c->centre);
     tnd_image_destroy(vk, &c->prev_lum);
+    tnd_image_destroy(vk, &c->prev_key);
     tnd_image_destroy(vk, &c->grad[0]);
     tnd_image_destroy(vk, &c->grad[1]);
     tnd_image_destroy(vk, &c->lf_geo);
@@ -200,10 +201,12 @@ static void write_own_set(dn_context *c)
                                     .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
                                     .pImageInfo = &ii[k]};
     k += 2;
-    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,     &c->prev_lum,
-                                         &c->fgeo,     &c->lf_geo,    &c->moments, &c->centre};
-    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO, DN_B_PREV_SURF, DN_B_OUT,     DN_B_PREV_LUM,
-                                   DN_B_FGEO,     DN_B_LF_GEO,    DN_B_MOMENTS, DN_B_CENTRE};
+    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,
+                                         &c->prev_lum, &c->prev_key,  &c->fgeo,
+                                         &c->lf_geo,   &c->moments,   &c->centre};
+    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO, DN_B_PREV_SURF, DN_B_OUT,
+                                   DN_B_PREV_LUM, DN_B_PREV_KEY,  DN_B_FGEO,
+                                   DN_B_LF_GEO,   DN_B_MOMENTS,   DN_B_CENTRE};
     for (int s = 0; s < N_SINGLE; s++) {
         ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single[s]->view, VK_IMAGE_LAYOUT_GENERAL};
         w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
@@ -297,13 +300,14 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
         uint32_t w, h;
         VkFormat format;
         const char *name;
-    } extra[4] = {
-        {&c->prev_lum, width, height, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.prev_lum"},
+    } extra[5] = {
+        {&c->prev_lum, width, height, VK_FORMAT_R32_UINT, "denoise.prev_lum"},
+        {&c->prev_key, width, height, VK_FORMAT_R32G32_UINT, "denoise.prev_key"},
         {&c->grad[0], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[0]"},
         {&c->grad[1], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[1]"},
         {&c->lf_geo, 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo"},
     };
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < 5; i++)
         TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = extra[i].w ? extra[i].w : c->grad_w,
                                                        .height = extra[i].h ? extra[i].h : c->grad_h,
                                                        .format = extra[i].format,

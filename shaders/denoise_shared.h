@@ -63,7 +63,9 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
                               where no surface), y the shading normal (octahedral 11 + 11 bits),
                               roughness (8 bits) and checkerboard field (2 bits) */
 #define DN_B_OUT 11        /* linear HDR output */
-#define DN_B_PREV_LUM 12   /* previous frame: x lum(raw hf), y lum(raw spec), zw rng key (bits) */
+#define DN_B_PREV_LUM 12   /* R32UI, previous frame: luminances of the raw hf and spec as tnd_uf16
+                              (low, high half), read by the gradient selection at every
+                              candidate (4 bytes instead of 16 with the key) */
 #define DN_B_GRAD 13       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
                               after the selection [0] holds xy the lf sums, zw the sample's
                               previous lum hf / spec */
@@ -75,7 +77,8 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
                               relative to fgeo_origin(), w its depth (what the a-trous's
                               centre, the lf downsample and the composite need of the geometry
                               in one texel, instead of two contract images each) */
-#define DN_BINDINGS 17
+#define DN_B_PREV_KEY 17   /* RG32UI, previous frame: the rng key, read at the chosen samples */
+#define DN_BINDINGS 18
 #define DN_STRATUM 3
 #define DN_FGEO_NONE 0xffffffffu
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x

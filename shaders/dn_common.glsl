@@ -51,7 +51,8 @@ layout(set = 0, binding = DN_B_AT, rgba32ui) uniform uimage2D at[2];
 layout(set = 0, binding = DN_B_AT_LF, rgba32ui) uniform uimage2D at_lf[2];
 layout(set = 0, binding = DN_B_AT_LF_SH, rgba32f) uniform image2D at_lf_sh[2];
 layout(set = 0, binding = DN_B_OUT, rgba32f) uniform image2D out_img;
-layout(set = 0, binding = DN_B_PREV_LUM, rgba32f) uniform image2D prev_lum;
+layout(set = 0, binding = DN_B_PREV_LUM, r32ui) uniform uimage2D prev_lum;
+layout(set = 0, binding = DN_B_PREV_KEY, rg32ui) uniform uimage2D prev_key;
 layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
 layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo;
 layout(set = 0, binding = DN_B_FGEO, rg32ui) uniform uimage2D fgeo;
@@ -199,6 +200,12 @@ uvec4 at_with_len(uvec4 t, float len)
 float at_len(uvec4 t) { return unpackHalf2x16(t.w >> 16u).x; }
 
 float luma(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+/* The raw luminances kept for the next frame's gradients (DN_B_PREV_LUM), and their values as
+ * the selection and the gradient read them: tnd_uf16, 2^-11 relative, both sides of a gradient
+ * rounded alike (an unchanged sample gives 0 exactly). */
+uint prev_lum_pack(float hf, float spec) { return tnd_uf16_encode(hf) | tnd_uf16_encode(spec) << 16u; }
+vec2 prev_lum_unpack(uint w) { return at_decode2(w); }
+float lum_rounded(float l) { return tnd_uf16_decode(tnd_uf16_encode(l)); }
 
 bool inside(ivec2 p) { return all(greaterThanEqual(p, ivec2(0))) && p.x < int(P.size.x) && p.y < int(P.size.y); }
 

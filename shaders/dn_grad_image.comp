@@ -36,7 +36,8 @@ void main()
         vec2 g = vec2(0.0);
         if (smp.b.w != 0u) {
             ivec2 q = ivec2(int(smp.a.x % P.size.x), int(smp.a.x / P.size.x));
-            float hf = luma(finite3(load_hf(q))), spec = luma(finite3(load_spec(q)));
+            float hf = lum_rounded(luma(finite3(load_hf(q))));
+            float spec = lum_rounded(luma(finite3(load_spec(q))));
             g = vec2(grad_of(hf, g0.z), grad_of(spec, g0.w));
         }
         v = vec4(g, max(g0.xy, vec2(0.0)));

@@ -47,7 +47,7 @@ void main()
             if (((g.z >> 24u) & 7u) == field &&
                 abs(uintBitsToFloat(g.y) - (depth + m.z)) <= 0.1 * depth &&
                 dot(oct_unpack12(g.z), imageLoad(img_geo_normal, p).xyz) >= 0.9) {
-                vec4 pl = imageLoad(prev_lum, pp);
+                vec2 pl = prev_lum_unpack(imageLoad(prev_lum, pp).x);
                 float l = pl.x + pl.y;
                 score = l > 0.0 ? l : 0.0; /* NaN: not a candidate */
             }
@@ -78,11 +78,11 @@ void main()
             if (best_k != ~0u) {
                 ivec2 best_p = tile_pixel(best_k);
                 ivec2 best_pp = ivec2(s_target[best_k] & 0xffffu, s_target[best_k] >> 16u);
-                vec4 pl = imageLoad(prev_lum, best_pp);
+                vec2 pl = prev_lum_unpack(imageLoad(prev_lum, best_pp).x);
+                uvec2 key = imageLoad(prev_key, best_pp).xy;
                 uint inst = imageLoad(prev_geo, best_pp).x;
                 uvec4 ps = imageLoad(prev_surf, best_pp); /* primitive, barycentrics */
-                smp.a = uvec4(uint(best_p.y) * P.size.x + uint(best_p.x), floatBitsToUint(pl.z),
-                              floatBitsToUint(pl.w), inst);
+                smp.a = uvec4(uint(best_p.y) * P.size.x + uint(best_p.x), key, inst);
                 smp.b = uvec4(ps.x, ps.y, ps.z, 1u);
                 gout = vec4(0.0, 0.0, pl.x, pl.y);
             }

@@ -131,9 +131,8 @@ void main()
                hist_spec_pack(out_spec.rgb, out_mom.w, cocg_pack(out_cocg, out_sh.w), out_mom.z));
     if (P.size.w == 2u) { /* A-SVGF: the next frame's gradient samples need the raw luminances
                              and the rng key (the selection, which reads them, runs earlier) */
-        uvec2 key = imageLoad(img_rng, p).xy;
-        imageStore(prev_lum, p,
-                   vec4(luma(hf), luma(spec), uintBitsToFloat(key.x), uintBitsToFloat(key.y)));
+        imageStore(prev_lum, p, uvec4(prev_lum_pack(luma(hf), luma(spec))));
+        imageStore(prev_key, p, imageLoad(img_rng, p));
     }
     vec3 pos = imageLoad(img_position, p).xyz - fgeo_origin();
     uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, pos, n, rough, field);
