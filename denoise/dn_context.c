@@ -17,14 +17,14 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* hist hf (+ moments), lf sh, spec (+ lengths, lf CoCg); a-trous ping-pong; lf ping-pong (1/3
- * res: tangent plane and CoCg, SH) */
+/* histories: hf (+ moments), lf (SH, CoCg, length), spec (+ length); a-trous ping-pong; lf
+ * ping-pong (1/3 res: tangent plane and CoCg, SH) */
 enum { N_PAIRED = 6, N_SINGLE = 9 };
-static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_LF_SH, DN_B_HIST_SPEC,
-                                                  DN_B_AT,      DN_B_AT_LF,      DN_B_AT_LF_SH};
-static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_lf_sh", "hist_spec",
-                                                  "atrous",  "at_lf",      "at_lf_sh"};
-enum { PAIRED_HIST_HF, PAIRED_HIST_LF_SH, PAIRED_HIST_SPEC, PAIRED_AT, PAIRED_AT_LF,
+static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_LF, DN_B_HIST_SPEC,
+                                                  DN_B_AT,      DN_B_AT_LF,   DN_B_AT_LF_SH};
+static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_lf", "hist_spec",
+                                                  "atrous",  "at_lf",   "at_lf_sh"};
+enum { PAIRED_HIST_HF, PAIRED_HIST_LF, PAIRED_HIST_SPEC, PAIRED_AT, PAIRED_AT_LF,
        PAIRED_AT_LF_SH }; /* indices into paired_binding */
 
 struct dn_context {
@@ -263,8 +263,9 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
             char name[64];
             snprintf(name, sizeof name, "denoise.%s[%d]", paired_name[k], s);
             bool third = k == PAIRED_AT_LF || k == PAIRED_AT_LF_SH;
-            bool uint = k != PAIRED_HIST_LF_SH && k != PAIRED_AT_LF_SH;
-            VkFormat f = uint ? VK_FORMAT_R32G32B32A32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT;
+            VkFormat f = k == PAIRED_AT_LF_SH     ? VK_FORMAT_R32G32B32A32_SFLOAT
+                         : k == PAIRED_HIST_SPEC ? VK_FORMAT_R32G32_UINT
+                                                 : VK_FORMAT_R32G32B32A32_UINT;
             TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = third ? c->grad_w : width,
                                                            .height = third ? c->grad_h : height,
                                                            .format = f,
@@ -714,8 +715,8 @@ static const struct {
 } dumps[] = {
     {"temporal.hf", {"R", "G", "B", "history"}, DUMP_HIST, PAIRED_HIST_HF},
     {"temporal.moments", {"m1", "m2", "history_lf", "history_spec"}, DUMP_HIST_MOM, PAIRED_HIST_HF},
-    {"temporal.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_HIST, PAIRED_HIST_LF_SH},
-    {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST_COCG, PAIRED_HIST_SPEC},
+    {"temporal.lf_sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_HIST, PAIRED_HIST_LF},
+    {"temporal.lf_cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_HIST_COCG, PAIRED_HIST_LF},
     {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, PAIRED_HIST_SPEC},
     {"atrous.hf", {"R", "G", "B", "variance"}, DUMP_ATROUS, 0}, /* index: hf 0, spec 1 */
     {"lf.sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_LF, PAIRED_AT_LF_SH},
@@ -725,46 +726,57 @@ static const struct {
     {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
 };
 
-/* The hf and spec histories decoded (dn_common.glsl's hist_hf_pack, hist_spec_pack): kind
- * DUMP_HIST gives the rgb and the history length of `index` (hf, or spec with w 0),
- * DUMP_HIST_COCG the lf history's CoCg (relative to the SH's L0), DUMP_HIST_MOM the moments and
- * the lf and spec history lengths. */
+/* The histories decoded (dn_common.glsl's hist_hf_pack, hist_lf_pack, hist_rgb_pack): kind
+ * DUMP_HIST gives hf's rgb and history length, lf's SH, or spec's rgb (w 0) by `index`;
+ * DUMP_HIST_COCG the lf history's CoCg, DUMP_HIST_MOM the moments and the lf and spec history
+ * lengths. */
+static float rel_half(uint32_t h, float l0) /* rel_unpack */
+{
+    return tnd_half_to_float((uint16_t)(h & 0xffffu)) * l0;
+}
+
 static tnd_result dump_history(dn_context *c, int kind, int index, uint32_t slot, size_t n,
                                float *rgba)
 {
     tnd_result res = TND_OK;
-    uint32_t *hf = malloc(n * 16), *spec = malloc(n * 16);
-    float *sh = malloc(n * 16);
-    if (!hf || !spec || !sh) {
+    uint32_t *hf = malloc(n * 16), *lf = malloc(n * 16), *spec = malloc(n * 8);
+    if (!hf || !lf || !spec) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
         goto fail;
     }
     TND_TRY(tnd_image_download(c->vk, &c->paired[PAIRED_HIST_HF][slot], hf, n * 16));
-    TND_TRY(tnd_image_download(c->vk, &c->paired[PAIRED_HIST_SPEC][slot], spec, n * 16));
-    TND_TRY(tnd_image_download(c->vk, &c->paired[PAIRED_HIST_LF_SH][slot], sh, n * 16));
+    TND_TRY(tnd_image_download(c->vk, &c->paired[PAIRED_HIST_LF][slot], lf, n * 16));
+    TND_TRY(tnd_image_download(c->vk, &c->paired[PAIRED_HIST_SPEC][slot], spec, n * 8));
     for (size_t q = 0; q < n; q++) {
-        const uint32_t *t = (index == PAIRED_HIST_HF ? hf : spec) + 4 * q, *s = spec + 4 * q;
-        float *o = rgba + 4 * q, l0 = sh[4 * q + 3];
-        if (kind == DUMP_HIST) {
-            o[0] = tnd_uf16_decode(t[0] & 0xffffu);
-            o[1] = tnd_uf16_decode(t[0] >> 16);
-            o[2] = tnd_uf16_decode(t[1] & 0xffffu);
-            o[3] = index == PAIRED_HIST_HF ? tnd_half_to_float((uint16_t)(t[1] >> 16)) : 0.0f;
-        } else if (kind == DUMP_HIST_COCG) { /* cocg_unpack */
-            o[0] = tnd_half_to_float((uint16_t)(s[2] & 0xffffu)) * l0;
-            o[1] = tnd_half_to_float((uint16_t)(s[2] >> 16)) * l0;
+        const uint32_t *h = hf + 4 * q, *l = lf + 4 * q, *s = spec + 2 * q;
+        const uint32_t *rgb = index == PAIRED_HIST_HF ? h : s;
+        float *o = rgba + 4 * q, l0;
+        memcpy(&l0, &l[0], 4);
+        if (kind == DUMP_HIST && index == PAIRED_HIST_LF) {
+            o[0] = rel_half(l[1], l0);
+            o[1] = rel_half(l[1] >> 16, l0);
+            o[2] = rel_half(l[2], l0);
+            o[3] = l0;
+        } else if (kind == DUMP_HIST) {
+            o[0] = tnd_uf16_decode(rgb[0] & 0xffffu);
+            o[1] = tnd_uf16_decode(rgb[0] >> 16);
+            o[2] = tnd_uf16_decode(rgb[1] & 0xffffu);
+            o[3] = index == PAIRED_HIST_HF ? tnd_half_to_float((uint16_t)(rgb[1] >> 16)) : 0.0f;
+        } else if (kind == DUMP_HIST_COCG) {
+            o[0] = rel_half(l[3], l0);
+            o[1] = rel_half(l[3] >> 16, l0);
             o[2] = o[3] = 0.0f;
         } else {
-            memcpy(&o[0], &hf[4 * q + 2], 4);
-            memcpy(&o[1], &hf[4 * q + 3], 4);
-            o[2] = tnd_half_to_float((uint16_t)(s[3] & 0xffffu));
+            memcpy(&o[0], &h[2], 4);
+            memcpy(&o[1], &h[3], 4);
+            o[2] = tnd_half_to_float((uint16_t)(l[2] >> 16));
             o[3] = tnd_half_to_float((uint16_t)(s[1] >> 16));
         }
     }
 fail:
     free(hf);
+    free(lf);
     free(spec);
-    free(sh);
     return res;
 }
 
@@ -826,7 +838,7 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
         }
         return res;
     }
-    if (hist && dumps[i].index != PAIRED_HIST_LF_SH) /* the packed hf and spec histories */
+    if (hist) /* the packed histories */
         return dump_history(c, dumps[i].kind, dumps[i].index, slot, (size_t)w * h, rgba);
     if (dumps[i].kind == DUMP_LF && dumps[i].index == PAIRED_AT_LF) { /* CoCg: its zw */
         res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);

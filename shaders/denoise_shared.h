@@ -43,9 +43,9 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
                               a-trous's first iteration (SVGF's feedback of its output) */
 #define DN_B_MOMENTS 2     /* RG32F: this frame's moments E[l], E[l^2], from the temporal pass to
                               the a-trous's first iteration, which stores them in the history */
-#define DN_B_HIST_LF_SH 3  /* [2] the lf history's SH (its CoCg: DN_B_HIST_SPEC) */
-#define DN_B_HIST_SPEC 4   /* [2] RGBA32UI: spec rgb (tnd_uf16), spec history length (half), the
-                              lf history's CoCg and length (hist_spec_pack in dn_common.glsl) */
+#define DN_B_HIST_LF 3     /* [2] RGBA32UI: the lf history's SH, CoCg and length (hist_lf_pack in
+                              dn_common.glsl) */
+#define DN_B_HIST_SPEC 4   /* [2] RG32UI: spec rgb (tnd_uf16), spec history length (half) */
 #define DN_B_PREV_GEO 5    /* RGBA32UI, the previous frame's surface as the reprojection tests
                               it: x instance, y depth (float bits), z geometric normal
                               (octahedral 12 + 12 bits) | field << 24 | was a gradient sample

@@ -43,8 +43,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = DN_B_PARAMS, std140) uniform Params { dn_params P; };
 layout(set = 0, binding = DN_B_HIST_HF, rgba32ui) uniform uimage2D hist_hf[2];
 layout(set = 0, binding = DN_B_MOMENTS, rg32f) uniform image2D moments;
-layout(set = 0, binding = DN_B_HIST_LF_SH, rgba32f) uniform image2D hist_lf_sh[2];
-layout(set = 0, binding = DN_B_HIST_SPEC, rgba32ui) uniform uimage2D hist_spec[2];
+layout(set = 0, binding = DN_B_HIST_LF, rgba32ui) uniform uimage2D hist_lf[2];
+layout(set = 0, binding = DN_B_HIST_SPEC, rg32ui) uniform uimage2D hist_spec[2];
 layout(set = 0, binding = DN_B_PREV_GEO, rgba32ui) uniform uimage2D prev_geo;
 layout(set = 0, binding = DN_B_PREV_SURF, rgba32ui) uniform uimage2D prev_surf;
 layout(set = 0, binding = DN_B_AT, rgba32ui) uniform uimage2D at[2];
@@ -114,15 +114,31 @@ uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
 float fgeo_roughness(uint w) { return float((w >> 22u) & 255u) * (1.0 / 255.0); }
 uint fgeo_field(uint w) { return w >> 30u; }
 
-/* The lf history's CoCg, stored in the spec history's texel (DN_B_HIST_SPEC): both as half
- * floats relative to L0 (chroma is bounded by luminance: small ratios that half floats keep to
- * 2^-11, clamped so that a degenerate L0 cannot make them infinite). Saves the temporal pass a
- * texel per reprojection tap and a store. */
-uint cocg_pack(vec2 cocg, float l0)
+/* Two values relative to L0 as half floats: chroma and the L1 coefficients are bounded by
+ * luminance (|L1| <= sqrt(3) L0 for a non-negative signal), small ratios that half floats keep
+ * to 2^-11, clamped so that a degenerate L0 cannot make them infinite (L0 <= 0 keeps none). */
+uint rel_pack(vec2 v, float l0)
 {
-    return packHalf2x16(clamp(cocg * (l0 > 0.0 ? 1.0 / l0 : 0.0), -60000.0, 60000.0));
+    return packHalf2x16(clamp(v * (l0 > 0.0 ? 1.0 / l0 : 0.0), -60000.0, 60000.0));
 }
-vec2 cocg_unpack(uint w, float l0) { return unpackHalf2x16(w) * l0; }
+vec2 rel_unpack(uint w, float l0) { return unpackHalf2x16(w) * l0; }
+
+/* The lf history (DN_B_HIST_LF), one texel with all the lf reprojection and downsample need:
+ * x L0 (float bits), y L1x, L1y and z L1z, the lf history length (half), w CoCg; L1 and CoCg
+ * relative to L0 (rel_pack). The SH is (L1x, L1y, L1z, L0) as in the contract. */
+uvec4 hist_lf_pack(vec4 sh, vec2 cocg, float len)
+{
+    uint z = rel_pack(vec2(sh.z, 0.0), sh.w) | packHalf2x16(vec2(0.0, len));
+    return uvec4(floatBitsToUint(sh.w), rel_pack(sh.xy, sh.w), z, rel_pack(cocg, sh.w));
+}
+float hist_lf_l0(uvec4 t) { return uintBitsToFloat(t.x); }
+vec4 hist_lf_sh(uvec4 t)
+{
+    float l0 = uintBitsToFloat(t.x);
+    return vec4(rel_unpack(t.y, l0), rel_unpack(t.z, l0).x, l0);
+}
+vec2 hist_lf_cocg(uvec4 t) { return rel_unpack(t.w, uintBitsToFloat(t.x)); }
+float hist_lf_len(uvec4 t) { return unpackHalf2x16(t.z).y; }
 
 /* The lf filter's ping-pong is two texels per anchor: the SH (DN_B_AT_LF_SH) and this one
  * (DN_B_AT_LF): x the offset of the anchor's tangent plane from fgeo_origin() (float bits), y
@@ -150,11 +166,11 @@ vec2 lf_cocg(uvec4 t) { return uintBitsToFloat(t.zw); }
 uvec4 lf_with_cocg(uvec4 t, vec2 cocg) { return uvec4(t.xy, floatBitsToUint(cocg)); }
 
 /* The histories of hf (DN_B_HIST_HF) and spec (DN_B_HIST_SPEC), one texel each, so that a
- * reprojection tap loads four texels (with the previous surface and the lf SH), not five:
+ * reprojection tap loads four texels (with the previous surface and the lf history), not five:
  * hf: x, y hf rgb as tnd_uf16 and the hf history length as a half float, zw the luminance
- * moments E[l], E[l^2] (float bits); spec: x, y spec rgb as tnd_uf16 and the spec history length
- * as a half float, z the lf history's CoCg (cocg_pack), w the lf history length (half float).
- * tnd_uf16 keeps 2^-11 relative, as RGBA16F would (Q2RTX keeps its hf history in RGBE). */
+ * moments E[l], E[l^2] (float bits); spec (RG32UI): x, y spec rgb as tnd_uf16 and the spec
+ * history length as a half float. tnd_uf16 keeps 2^-11 relative, as RGBA16F would (Q2RTX keeps
+ * its hf history in RGBE). */
 uvec2 hist_rgb_pack(vec3 c, float len)
 {
     return uvec2(tnd_uf16_encode(c.r) | tnd_uf16_encode(c.g) << 16u,
@@ -164,11 +180,6 @@ uvec4 hist_hf_pack(vec3 hf, float len, vec2 mom)
 {
     return uvec4(hist_rgb_pack(hf, len), floatBitsToUint(mom));
 }
-uvec4 hist_spec_pack(vec3 spec, float len_spec, uint cocg, float len_lf)
-{
-    return uvec4(hist_rgb_pack(spec, len_spec), cocg, packHalf2x16(vec2(len_lf, 0.0)));
-}
-float hist_len_lf(uvec4 t) { return unpackHalf2x16(t.w).x; }
 
 /* The a-trous ping-pong texel (DN_B_AT): hf, spec and the hf variance as tnd_uf16. */
 uvec4 at_pack(vec3 hf, vec3 spec, float variance)
@@ -188,8 +199,8 @@ vec3 at_hf(uvec4 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
 vec3 at_spec(uvec4 t) { return vec3(at_decode2(t.y).y, at_decode2(t.z)); }
 float at_variance(uvec4 t) { return tnd_uf16_decode(t.w); }
 /* a history texel's rgb (hist_rgb_pack) and length */
-vec3 hist_rgb(uvec4 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
-float hist_len(uvec4 t) { return unpackHalf2x16(t.y >> 16u).x; }
+vec3 hist_rgb(uvec2 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
+float hist_len(uvec2 t) { return unpackHalf2x16(t.y >> 16u).x; }
 /* The hf history length, a half float in the spare high half of w: the temporal pass hands it
  * to the a-trous's first iteration, which writes the hf history (a store and a load fewer than
  * the temporal pass writing the history and the iteration rewriting its colour). */

@@ -46,8 +46,9 @@ void upsample_lf(ivec2 p, vec3 pos, vec3 gn, float depth, out vec4 sh, out vec2 
         sh /= wsum;
         cocg /= wsum;
     } else {
-        sh = imageLoad(hist_lf_sh[pc.slot], p);
-        cocg = cocg_unpack(imageLoad(hist_spec[pc.slot], p).z, sh.w);
+        uvec4 h = imageLoad(hist_lf[pc.slot], p);
+        sh = hist_lf_sh(h);
+        cocg = hist_lf_cocg(h);
     }
 }
 

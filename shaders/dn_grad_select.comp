@@ -36,8 +36,8 @@ void main()
         pp = ivec2(floor(vec2(p) + P.jitter.xy + m.xy - P.jitter.zw + 0.5));
         if (vis.x != TND_VIS_NONE) {
             lf.x = finite4(imageLoad(img_lf_sh, p)).w;
-            if (inside(pp))
-                lf.y = finite4(imageLoad(hist_lf_sh[1u - pc.slot], pp)).w;
+            float l0 = inside(pp) ? hist_lf_l0(imageLoad(hist_lf[1u - pc.slot], pp)) : 0.0;
+            lf.y = tnd_nonfinite(l0) ? 0.0 : l0;
         }
         uvec4 g = inside(pp) ? imageLoad(prev_geo, pp) : uvec4(TND_VIS_NONE, 0u, 0u, 0u);
         if (vis.x != TND_VIS_NONE && g.x == vis.x) {

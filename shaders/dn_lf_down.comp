@@ -53,9 +53,9 @@ void main()
             s_geo[k][0] = vec4(pos, 1.0);
             s_geo[k][1] = vec4(n, depth);
         }
-        vec4 h = imageLoad(hist_lf_sh[pc.slot], p);
-        sh = w * h;
-        cw = vec3(w * cocg_unpack(imageLoad(hist_spec[pc.slot], p).z, h.w), w);
+        uvec4 h = imageLoad(hist_lf[pc.slot], p);
+        sh = w * hist_lf_sh(h);
+        cw = vec3(w * hist_lf_cocg(h), w);
     }
     s_sh[li] = sh;
     s_cw[li] = cw;

@@ -57,12 +57,12 @@ void main()
                     continue;
                 float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
                 uvec4 hf_q = imageLoad(hist_hf[prev], q); /* hf, its length, moments */
-                vec4 sh_q = imageLoad(hist_lf_sh[prev], q);
-                uvec4 sp_q = imageLoad(hist_spec[prev], q); /* spec, lengths, lf CoCg */
-                h_hf += w * vec4(hist_rgb(hf_q), hist_len(hf_q));
-                h_mom += w * vec4(uintBitsToFloat(hf_q.zw), hist_len_lf(sp_q), hist_len(sp_q));
-                h_sh += w * sh_q;
-                h_cocg += w * cocg_unpack(sp_q.z, sh_q.w);
+                uvec4 lf_q = imageLoad(hist_lf[prev], q); /* SH, CoCg, length */
+                uvec2 sp_q = imageLoad(hist_spec[prev], q).xy; /* spec, its length */
+                h_hf += w * vec4(hist_rgb(hf_q.xy), hist_len(hf_q.xy));
+                h_mom += w * vec4(uintBitsToFloat(hf_q.zw), hist_lf_len(lf_q), hist_len(sp_q));
+                h_sh += w * hist_lf_sh(lf_q);
+                h_cocg += w * hist_lf_cocg(lf_q);
                 vec3 n_prev = oct_unpack12(g.w);
                 float ws = shininess > 0.0 ? w * pow(max(dot(n, n_prev), 0.0), shininess) : w;
                 h_spec += ws * vec4(hist_rgb(sp_q), 0.0);
@@ -126,9 +126,8 @@ void main()
     }
     float variance = max(m2 - m1 * m1, 0.0);
     imageStore(moments, p, vec4(out_mom.xy, 0.0, 0.0)); /* for the hf history */
-    imageStore(hist_lf_sh[cur], p, out_sh);
-    imageStore(hist_spec[cur], p,
-               hist_spec_pack(out_spec.rgb, out_mom.w, cocg_pack(out_cocg, out_sh.w), out_mom.z));
+    imageStore(hist_lf[cur], p, hist_lf_pack(out_sh, out_cocg, out_mom.z));
+    imageStore(hist_spec[cur], p, uvec4(hist_rgb_pack(out_spec.rgb, out_mom.w), 0u, 0u));
     if (P.size.w == 2u) { /* A-SVGF: the next frame's gradient samples need the raw luminances
                              and the rng key (the selection, which reads them, runs earlier) */
         imageStore(prev_lum, p, uvec4(prev_lum_pack(luma(hf), luma(spec))));
