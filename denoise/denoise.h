@@ -37,6 +37,9 @@ typedef struct dn_desc {
     bool no_leak_guard;
     /* profiling: a timestamp around every dispatch as well (dn_dispatch_times) */
     bool dispatch_timing;
+    /* the gradient blur's segment of a row or column per work group, in strata: 0 means (and
+     * larger values become) DN_GRAD_SEGMENT; smaller ones let a test split small images */
+    uint32_t grad_segment;
 } dn_desc;
 
 typedef struct dn_frame {

@@ -256,6 +256,8 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     d->antilag_motion = d->antilag_motion > 0 ? d->antilag_motion : 0.004f;
     d->antilag_lf = d->antilag_lf > 0 ? d->antilag_lf : 0.2f;
     d->lf_deflicker = d->lf_deflicker == 0 ? 2.0f : d->lf_deflicker < 0 ? 0.0f : d->lf_deflicker;
+    if (d->grad_segment == 0 || d->grad_segment > DN_GRAD_SEGMENT)
+        d->grad_segment = DN_GRAD_SEGMENT;
     c->grad_w = (width + DN_STRATUM - 1) / DN_STRATUM;
     c->grad_h = (height + DN_STRATUM - 1) / DN_STRATUM;
     for (int k = 0; k < N_PAIRED; k++)
@@ -348,11 +350,9 @@ static const char *dispatch_name(const char *pass, uint32_t iteration)
         {"atrous.0", "atrous.1", "atrous.2", "atrous.3", "atrous.4", "atrous.5", "atrous.6", "atrous.7+"},
         {"lf.downsample", "lf.deflicker", "lf.atrous0", "lf.atrous1", "lf.atrous2", "lf.atrous3",
          "lf.atrous4", "lf.atrous5+"},
-        {"gradient.blur0", "gradient.blur1", "gradient.blur2", "gradient.blur3", "gradient.blur4",
-         "gradient.blur5", "gradient.blur6", "gradient.blur7+"},
     };
-    static const char *const passes[] = {"atrous", "lf", "gradient.blur"};
-    for (int k = 0; k < 3; k++)
+    static const char *const passes[] = {"atrous", "lf"};
+    for (int k = 0; k < 2; k++)
         if (strcmp(pass, passes[k]) == 0)
             return names[k][iteration < 7 ? iteration : 7];
     return pass;
@@ -409,7 +409,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
     uint32_t mode = d->mode == DN_MODE_OFF ? 1u : d->mode == DN_MODE_ASVGF ? 2u : 0u;
     *(dn_params *)c->params.mapped = (dn_params){
         .size = {c->width, c->height, history ? 1u : 0u, mode},
-        .iters = {d->iters_hf, d->iters_lf, d->iters_spec, 0},
+        .iters = {d->iters_hf, d->iters_lf, d->iters_spec, d->grad_segment},
         .alpha = {d->min_alpha_hf, d->min_alpha_lf, d->min_alpha_spec, d->min_alpha_moments},
         .jitter = {f->jitter[0], f->jitter[1], f->prev_jitter[0], f->prev_jitter[1]},
         .weights = {2.0f, 64.0f, 4.0f, 8.0f},
@@ -568,10 +568,15 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
-        /* the gradient image and the blur's first iteration, 8 x 8 strata per work group */
+        /* the gradient image and the blur's first iteration, 8 x 8 strata per work group; the
+         * other six iterations along rows (slot 1 -> 0), then along columns (0 -> 1), a segment
+         * of a row or column per work group */
         dispatch_third(c, cmd, c->grad_image, "gradient.image", 0);
-        for (uint32_t i = 1; i < 7; i++) /* 7 iterations: the result lands in slot 1 */
-            dispatch_third(c, cmd, c->grad_atrous, "gradient.blur", i);
+        uint32_t seg = d->grad_segment;
+        dispatch_grid(c, cmd, c->grad_atrous, "gradient.rows", (uint32_t[2]){c->frame & 1u, 0},
+                      (c->grad_w + seg - 1) / seg, c->grad_h);
+        dispatch_grid(c, cmd, c->grad_atrous, "gradient.columns", (uint32_t[2]){c->frame & 1u, 1},
+                      (c->grad_h + seg - 1) / seg, c->grad_w);
         tnd_timer_end(cmd, &c->timer, s_g);
     }
     if (d->mode != DN_MODE_OFF) {

@@ -13,7 +13,8 @@ typedef struct { uint32_t x, y, z, w; } dn_uvec4;
 struct dn_params {
     uvec4 size;    /* x: width, y: height, z: history valid (0 after a reset), w: mode (0 svgf, 1 off,
                       2 asvgf) */
-    uvec4 iters;   /* a-trous iterations: x hf, y lf (at 1/3 resolution), z spec */
+    uvec4 iters;   /* a-trous iterations: x hf, y lf (at 1/3 resolution), z spec; w the gradient
+                      blur's segment (dn_grad_atrous.comp) */
     vec4 alpha;    /* minimum temporal alpha: x hf colour, y lf, z spec, w hf moments */
     vec4 jitter;   /* xy: this frame's jitter, zw: the previous frame's (pixels) */
     vec4 weights;  /* x: depth sigma, y: hf normal exponent, z: hf luminance sigma, w: lf normal exponent */
@@ -80,6 +81,9 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
 #define DN_B_PREV_KEY 17   /* RG32UI, previous frame: the rng key, read at the chosen samples */
 #define DN_BINDINGS 18
 #define DN_STRATUM 3
+/* dn_grad_atrous.comp filters rows and columns of strata in segments of at most this many per
+ * work group (with its reach of 126 on either side, 16 320 bytes of shared memory) */
+#define DN_GRAD_SEGMENT 768
 #define DN_FGEO_NONE 0xffffffffu
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x
  * DN_TILE_H pixels (8 x 4 strata); the others 8 x 8 threads. */

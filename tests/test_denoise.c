@@ -843,6 +843,105 @@ cleanup:
     gpu_end();
 }
 
+/* The gradient blur runs separably, a segment of a row or column per work group with its reach
+ * of 126 strata of input on either side (dn_grad_atrous.comp). One context filters whole rows
+ * and columns (one segment), the other segments of 5 strata, whose windows then end inside the
+ * grid: on 160 x 8 strata (480 x 24 pixels) along rows, on 8 x 160 along columns. A window
+ * edge's error reaches 126 strata inward, so a reach too short, a tap dropped or a segment
+ * misplaced changes the far taps' share (at least 2^-12 of a gradient); the arithmetic being
+ * the same element by element, both must agree exactly. */
+static void blur_segments_case(tnd_vk *vk, tnd_scene *s, uint32_t wd, uint32_t hd, double *worst,
+                               double *largest)
+{
+    femb_context *fe = NULL;
+    dn_context *da = NULL, *db = NULL;
+    tnd_scene_state cur = {0}, prev = {0};
+    tnd_contract_gpu up = {0};
+    tnd_frame f = {0};
+    uint32_t *ga = NULL, *gb = NULL;
+    femb_gradient_sample *fg = NULL;
+    float *g1 = malloc((size_t)wd * hd * 16), *g2 = malloc((size_t)wd * hd * 16);
+    REQUIRE(g1 && g2, "out of memory");
+    REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 2}, &fe));
+    REQUIRE_OK(dn_create(vk, wd, hd, &(dn_desc){.mode = DN_MODE_ASVGF}, &da));
+    REQUIRE_OK(dn_create(vk, wd, hd, &(dn_desc){.mode = DN_MODE_ASVGF, .grad_segment = 5}, &db));
+    REQUIRE_OK(tnd_contract_gpu_create(vk, wd, hd, TND_PRECISION_F32, &up));
+    uint32_t cap = dn_gradient_capacity(da), gi = UINT32_MAX, gw = 0, gh = 0;
+    ga = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *ga);
+    gb = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *gb);
+    fg = malloc((size_t)cap * sizeof *fg);
+    REQUIRE(ga && gb && fg, "out of memory");
+    for (uint32_t k = 0; k < dn_dump_count(); k++)
+        gi = strcmp(dn_dump_name(k, NULL), "gradients") == 0 ? k : gi;
+    REQUIRE(gi != UINT32_MAX, "dump 'gradients' exists");
+    REQUIRE_OK(dn_dump_size(da, gi, &gw, &gh));
+    const uint32_t first = 27; /* frame 30: the lamp goes off, large gradients */
+    for (uint32_t fr = first; fr <= 31; fr++) {
+        REQUIRE_OK(tnd_scene_evaluate(s, fr / 30.0, 0, (float)wd / hd, &cur));
+        REQUIRE_OK(tnd_scene_evaluate(s, (fr - 1) / 30.0, 0, (float)wd / hd, &prev));
+        dn_frame df = dn_frame_for_camera(cur.camera.proj, hd, fr, fr == first);
+        tnd_frame_destroy(&f);
+        REQUIRE_OK(femb_set_frame(fe, &cur, &prev, fr, wd, hd));
+        REQUIRE_OK(tnd_frame_create(wd, hd, &f));
+        REQUIRE_OK(femb_trace_primary(fe, &f));
+        REQUIRE_OK(femb_shade(fe, &(femb_params){.bounces = 1}, &f, NULL));
+        REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
+        uint32_t na = 0, nb = 0;
+        REQUIRE_OK(dn_select_gradients(da, &up, &df, ga, &na));
+        REQUIRE_OK(dn_select_gradients(db, &up, &df, gb, &nb));
+        /* the selection reads raw signals and geometry only, never the filtered history */
+        REQUIRE(na == nb && memcmp(ga, gb, (size_t)na * DN_GRADIENT_WORDS * sizeof *ga) == 0,
+                "frame %u: the two contexts select different samples", fr);
+        femb_gradient_unpack(ga, na, fg);
+        REQUIRE_OK(femb_shade_gradients(fe, &(femb_params){.bounces = 1}, fg, na, &f));
+        REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
+        REQUIRE_OK(dn_run(da, &up, &df, NULL));
+        REQUIRE_OK(dn_run(db, &up, &df, NULL));
+        if (fr == first) /* no gradients without a history */
+            continue;
+        REQUIRE_OK(dn_dump(da, gi, g1));
+        REQUIRE_OK(dn_dump(db, gi, g2));
+        for (uint32_t q = 0; q < gw * gh * 4; q++) {
+            *worst = fmax(*worst, fabs((double)g1[q] - g2[q]));
+            *largest = fmax(*largest, fabs((double)g1[q]));
+        }
+    }
+cleanup:
+    free(g1);
+    free(g2);
+    free(ga);
+    free(gb);
+    free(fg);
+    tnd_frame_destroy(&f);
+    tnd_contract_gpu_destroy(vk, &up);
+    dn_destroy(da);
+    dn_destroy(db);
+    femb_destroy(fe);
+    tnd_scene_state_free(&cur);
+    tnd_scene_state_free(&prev);
+}
+
+static void test_gradient_blur_segments(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    tnd_scene *s = NULL;
+    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/dynamic.gltf", &s));
+    double worst[2] = {0, 0}, largest[2] = {0, 0};
+    blur_segments_case(vk, s, 480, 24, &worst[0], &largest[0]);
+    blur_segments_case(vk, s, 24, 480, &worst[1], &largest[1]);
+    printf("     gradients, whole rows and columns against segments of 5 strata: largest "
+           "difference %.2g / %.2g (largest gradient %.3f / %.3f), rows / columns\n",
+           worst[0], worst[1], largest[0], largest[1]);
+    for (int k = 0; k < 2; k++) {
+        CHECK(largest[k] > 0.1, "no large gradients to compare: %.3f", largest[k]);
+        CHECK(worst[k] == 0, "the segmented blur differs by %.2g", worst[k]);
+    }
+cleanup:
+    tnd_scene_destroy(s);
+    gpu_end();
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
@@ -852,4 +951,5 @@ TND_TEST_MAIN(T(test_off_equals_cpu_composite), T(test_svgf_static_cornell),
               T(test_history_storage),
               T(test_nan_does_not_spread), T(test_lf_firefly_is_deflickered),
               T(test_disocclusion_and_frontends), T(test_gradient_samples_reproduce_static),
-              T(test_asvgf_follows_light_switch), T(test_shutdown))
+              T(test_asvgf_follows_light_switch), T(test_gradient_blur_segments),
+              T(test_shutdown))
