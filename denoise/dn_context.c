@@ -44,7 +44,7 @@ struct dn_context {
     VkPipelineLayout layout;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
-    VkPipeline temporal, atrous, composite, grad_select, grad_image, grad_atrous, lf, lf_down;
+    VkPipeline temporal, atrous, composite, grad_select, gradients, lf, lf_down;
     tnd_timer timer, select_timer, fine; /* fine: per dispatch (desc.dispatch_timing) */
     double select_ms; /* GPU time of the last selection */
     double fine_ms[TND_TIMER_MAX_PASSES]; /* the last dn_run's, fine.count of them */
@@ -82,9 +82,9 @@ void dn_destroy(dn_context *c)
     tnd_timer_destroy(vk, &c->timer);
     tnd_timer_destroy(vk, &c->select_timer);
     tnd_timer_destroy(vk, &c->fine);
-    VkPipeline pipes[8] = {c->temporal,   c->atrous,      c->composite, c->grad_select,
-                           c->grad_image, c->grad_atrous, c->lf,        c->lf_down};
-    for (int i = 0; i < 8; i++)
+    VkPipeline pipes[7] = {c->temporal,  c->atrous, c->composite, c->grad_select,
+                           c->gradients, c->lf,     c->lf_down};
+    for (int i = 0; i < 7; i++)
         if (pipes[i])
             vkDestroyPipeline(vk->device, pipes[i], NULL);
     if (c->pool)
@@ -155,17 +155,17 @@ static tnd_result create_pipelines(dn_context *c)
     TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, c->sets));
     bool packed = c->desc.precision == TND_PRECISION_PACKED;
 #define DN_PICK(name) (packed ? TND_SHADER_##name##_packed : TND_SHADER_##name##_f32)
-    const tnd_shader ids[8] = {DN_PICK(dn_temporal),   DN_PICK(dn_atrous),
-                               DN_PICK(dn_composite),  DN_PICK(dn_grad_select),
-                               DN_PICK(dn_grad_image), DN_PICK(dn_grad_atrous),
-                               DN_PICK(dn_lf),         DN_PICK(dn_lf_down)};
+    const tnd_shader ids[7] = {DN_PICK(dn_temporal),    DN_PICK(dn_atrous),
+                               DN_PICK(dn_composite),   DN_PICK(dn_grad_select),
+                               DN_PICK(dn_gradients),   DN_PICK(dn_lf),
+                               DN_PICK(dn_lf_down)};
 #undef DN_PICK
-    VkPipeline *out[8] = {&c->temporal,   &c->atrous,      &c->composite, &c->grad_select,
-                          &c->grad_image, &c->grad_atrous, &c->lf,        &c->lf_down};
-    const char *names[8] = {"denoise.temporal",    "denoise.atrous",     "denoise.composite",
-                            "denoise.grad_select", "denoise.grad_image", "denoise.grad_atrous",
-                            "denoise.lf",          "denoise.lf_down"};
-    for (int i = 0; i < 8; i++) {
+    VkPipeline *out[7] = {&c->temporal,  &c->atrous, &c->composite, &c->grad_select,
+                          &c->gradients, &c->lf,     &c->lf_down};
+    const char *names[7] = {"denoise.temporal",    "denoise.atrous",    "denoise.composite",
+                            "denoise.grad_select", "denoise.gradients", "denoise.lf",
+                            "denoise.lf_down"};
+    for (int i = 0; i < 7; i++) {
         size_t bytes;
         const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
         TND_TRY(tnd_compute_pipeline_create(vk,
@@ -568,14 +568,12 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
-        /* the gradient image and the blur's first iteration, 8 x 8 strata per work group; the
-         * other six iterations along rows (slot 1 -> 0), then along columns (0 -> 1), a segment
-         * of a row or column per work group */
-        dispatch_third(c, cmd, c->grad_image, "gradient.image", 0);
+        /* the gradients and their blur along rows (grad[0] and the samples -> grad[1]), then
+         * along columns (-> grad[0]), a segment of a row or column per work group */
         uint32_t seg = d->grad_segment;
-        dispatch_grid(c, cmd, c->grad_atrous, "gradient.rows", (uint32_t[2]){c->frame & 1u, 0},
+        dispatch_grid(c, cmd, c->gradients, "gradient.rows", (uint32_t[2]){c->frame & 1u, 0},
                       (c->grad_w + seg - 1) / seg, c->grad_h);
-        dispatch_grid(c, cmd, c->grad_atrous, "gradient.columns", (uint32_t[2]){c->frame & 1u, 1},
+        dispatch_grid(c, cmd, c->gradients, "gradient.columns", (uint32_t[2]){c->frame & 1u, 1},
                       (c->grad_h + seg - 1) / seg, c->grad_w);
         tnd_timer_end(cmd, &c->timer, s_g);
     }
@@ -827,7 +825,7 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
                                ? &c->paired[PAIRED_AT][atrous_iters(&c->desc) & 1u]
                            : dumps[i].kind == DUMP_LF
                                ? &c->paired[dumps[i].index][(c->desc.iters_lf + 1) & 1u]
-                           : dumps[i].kind == DUMP_GRAD   ? &c->grad[1]
+                           : dumps[i].kind == DUMP_GRAD   ? &c->grad[0]
                                                           : &c->out;
     if (dumps[i].kind == DUMP_ATROUS) { /* decode the packed texel: index 0 hf, 1 spec */
         res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);

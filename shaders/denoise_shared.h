@@ -14,7 +14,7 @@ struct dn_params {
     uvec4 size;    /* x: width, y: height, z: history valid (0 after a reset), w: mode (0 svgf, 1 off,
                       2 asvgf) */
     uvec4 iters;   /* a-trous iterations: x hf, y lf (at 1/3 resolution), z spec; w the gradient
-                      blur's segment (dn_grad_atrous.comp) */
+                      blur's segment (dn_gradients.comp) */
     vec4 alpha;    /* minimum temporal alpha: x hf colour, y lf, z spec, w hf moments */
     vec4 jitter;   /* xy: this frame's jitter, zw: the previous frame's (pixels) */
     vec4 weights;  /* x: depth sigma, y: hf normal exponent, z: hf luminance sigma, w: lf normal exponent */
@@ -67,9 +67,9 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
 #define DN_B_PREV_LUM 12   /* R32UI, previous frame: luminances of the raw hf and spec as tnd_uf16
                               (low, high half), read by the gradient selection at every
                               candidate (4 bytes instead of 16 with the key) */
-#define DN_B_GRAD 13       /* [2] 1/3 res: x g hf, y g spec, zw: lf (sums now / before, then g lf);
-                              after the selection [0] holds xy the lf sums, zw the sample's
-                              previous lum hf / spec */
+#define DN_B_GRAD 13       /* [2] 1/3 res: after the selection [0] holds xy the lf sums (now /
+                              before), zw the sample's previous lum hf / spec; after the blur
+                              (dn_gradients.comp) x g hf, y g spec, z g lf */
 #define DN_B_SAMPLES 14    /* buffer: one tnd_gpu_gradient per 3x3 stratum (b.w = 1: valid) */
 #define DN_B_LF_GEO 15     /* 1/3 res: the lf anchor's xyz position (relative to fgeo_origin())
                               and w depth, read by the lf a-trous at its centre (the taps read
@@ -81,8 +81,8 @@ _Static_assert(sizeof(dn_params) == 160, "dn_params layout");
 #define DN_B_PREV_KEY 17   /* RG32UI, previous frame: the rng key, read at the chosen samples */
 #define DN_BINDINGS 18
 #define DN_STRATUM 3
-/* dn_grad_atrous.comp filters rows and columns of strata in segments of at most this many per
- * work group (with its reach of 126 on either side, 16 320 bytes of shared memory) */
+/* dn_gradients.comp filters rows and columns of strata in segments of at most this many per
+ * work group (with its reach of 127 on either side, 16 352 bytes of shared memory) */
 #define DN_GRAD_SEGMENT 768
 #define DN_FGEO_NONE 0xffffffffu
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x

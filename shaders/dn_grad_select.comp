@@ -7,7 +7,8 @@
  * Writes the sample (pixel, the previous frame's rng key and surface) for the front-end to
  * re-shade (the composite looks its pixels up there too: no per-pixel mask), the sample's
  * previous luminances (grad[0].zw), and the stratum's sums of the raw lf L0 now and of the
- * accumulated L0 history at the reprojected pixels (grad[0].xy) for dn_grad_image.comp (here, where the pixels are visited anyway, and before the re-shading: the
+ * accumulated L0 history at the reprojected pixels (grad[0].xy) for dn_gradients.comp (here,
+ * where the pixels are visited anyway, and before the re-shading: the
  * sample's fresh L0 counts as "now", not the previous frame's, which would hide 1/9 of a
  * change). A non-finite motion counts as none. One thread per pixel tests its pixel; one
  * thread per stratum then picks among the nine through shared memory (a thread per stratum

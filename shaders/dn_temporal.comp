@@ -83,8 +83,8 @@ void main()
         float len_spec = min(h_mom.w + 1.0, cap);
         float anti_hf = 0.0, anti_lf = 0.0, anti_spec = 0.0;
         if (P.size.w == 2u && P.misc.w != 0.0) {
-            /* A-SVGF: the filtered gradients (slot 1 after the blur) shorten the history */
-            vec3 g = clamp(imageLoad(grad[1], min(p / DN_STRATUM, grad_size() - 1)).xyz, 0.0, 1.0);
+            /* A-SVGF: the filtered gradients (slot 0 after the blur) shorten the history */
+            vec3 g = clamp(imageLoad(grad[0], min(p / DN_STRATUM, grad_size() - 1)).xyz, 0.0, 1.0);
             anti_hf = clamp(P.antilag.x * g.x, 0.0, 1.0);
             anti_spec = clamp(P.antilag.y * g.y + P.antilag.z * length(motion.xy), 0.0, 1.0);
             anti_lf = clamp(P.antilag.w * g.z, 0.0, 1.0);

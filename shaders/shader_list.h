@@ -36,10 +36,8 @@
     X(dn_composite_packed, "dn_composite.comp",   "TND_PACKED=1") \
     X(dn_grad_select_f32,  "dn_grad_select.comp", "TND_PACKED=0") \
     X(dn_grad_select_packed, "dn_grad_select.comp", "TND_PACKED=1") \
-    X(dn_grad_image_f32,   "dn_grad_image.comp",  "TND_PACKED=0") \
-    X(dn_grad_image_packed, "dn_grad_image.comp", "TND_PACKED=1") \
-    X(dn_grad_atrous_f32,  "dn_grad_atrous.comp", "TND_PACKED=0") \
-    X(dn_grad_atrous_packed, "dn_grad_atrous.comp", "TND_PACKED=1") \
+    X(dn_gradients_f32,    "dn_gradients.comp",   "TND_PACKED=0") \
+    X(dn_gradients_packed, "dn_gradients.comp",   "TND_PACKED=1") \
     X(bandwidth_copy,      "bandwidth_copy.comp", "") \
     X(post_taa_f32,        "post_taa.comp",       "TND_PACKED=0") \
     X(post_taa_packed,     "post_taa.comp",       "TND_PACKED=1") \

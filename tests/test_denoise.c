@@ -844,10 +844,10 @@ cleanup:
 }
 
 /* The gradient blur runs separably, a segment of a row or column per work group with its reach
- * of 126 strata of input on either side (dn_grad_atrous.comp). One context filters whole rows
+ * of 127 strata of input on either side (dn_gradients.comp). One context filters whole rows
  * and columns (one segment), the other segments of 5 strata, whose windows then end inside the
  * grid: on 160 x 8 strata (480 x 24 pixels) along rows, on 8 x 160 along columns. A window
- * edge's error reaches 126 strata inward, so a reach too short, a tap dropped or a segment
+ * edge's error reaches 127 strata inward, so a reach too short, a tap dropped or a segment
  * misplaced changes the far taps' share (at least 2^-12 of a gradient); the arithmetic being
  * the same element by element, both must agree exactly. */
 static void blur_segments_case(tnd_vk *vk, tnd_scene *s, uint32_t wd, uint32_t hd, double *worst,

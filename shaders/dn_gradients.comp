@@ -1,0 +1,104 @@
+/* dn_gradients.comp: the temporal gradient per stratum and its blur at 1/3 resolution, as Q2RTX
+ * does. hf and spec are normalised before filtering: g = (|l_now - l_prev| / max(l_now,
+ * l_prev))^2 at the re-shaded sample pixel (0 without a sample or when both are 0). lf is too
+ * sparse for per-sample ratios: the stratum's sums of the raw L0 now and of the accumulated L0
+ * history at the reprojected pixels (summed by dn_grad_select.comp into grad[0].xy) go into zw,
+ * normalised after the blur: z = (|now - prev| / max(now, prev))^2. The blur: a-trous, step
+ * 2^i, 3x3 weights 1 / 0.5 / 0.25, no edge stopping, taps outside count as zero (Q2RTX); hf and
+ * spec (xy) for iterations 0..2 (steps 1..4), lf (zw) for all 7 (steps 1..64).
+ * It runs separably: each 3x3 iteration is a 3-tap filter along x times one along y (weights
+ * 0.25 / 0.5 / 0.25; an outside tap is zero on either axis, so the masks separate too), and
+ * filters along different axes commute, so the seven iterations along rows (pc.iteration 0:
+ * the gradients computed from grad[0] and the samples, filtered into grad[1]), then the seven
+ * along columns (1: grad[1] -> grad[0], normalised) give the same result in two dispatches
+ * instead of eight (a chain of tiny, latency-bound dispatches). A work group filters a segment
+ * of DN_GRAD_SEGMENT strata of a row or column in shared memory, with REACH = 1 + 2 + ... + 64
+ * strata of input on either side: an error at the window's edge moves inward by one step per
+ * iteration, so the segment itself is exact. */
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#define DN_OWN_LOCAL_SIZE 1
+#include "dn_common.glsl"
+#define GROUP 256
+layout(local_size_x = GROUP) in;
+#define REACH 127
+#define WIN_MAX (DN_GRAD_SEGMENT + 2 * REACH)
+#define PER ((WIN_MAX + GROUP - 1) / GROUP)
+
+shared vec4 s_v[WIN_MAX]; /* 16 352 bytes: within Vulkan's guaranteed 16 KiB */
+
+float grad_of(float now, float prev)
+{
+    float m = max(now, prev);
+    if (!(m > 0.0))
+        return 0.0;
+    float r = abs(now - prev) / m;
+    return r * r;
+}
+
+/* stratum s before the blur: xy the hf and spec gradients of its sample, zw the lf sums */
+vec4 gradient(ivec2 s)
+{
+    vec4 g0 = imageLoad(grad[0], s); /* xy: lf sums, zw: the sample's previous lums */
+    tnd_gpu_gradient smp = samples[uint(s.y * grad_size().x + s.x)];
+    vec2 g = vec2(0.0);
+    if (smp.b.w != 0u) {
+        ivec2 q = ivec2(int(smp.a.x % P.size.x), int(smp.a.x / P.size.x));
+        float hf = lum_rounded(luma(finite3(load_hf(q))));
+        float spec = lum_rounded(luma(finite3(load_spec(q))));
+        g = vec2(grad_of(hf, g0.z), grad_of(spec, g0.w));
+    }
+    return vec4(g, max(g0.xy, vec2(0.0)));
+}
+
+void main()
+{
+    bool cols = pc.iteration != 0u;
+    ivec2 gs = grad_size();
+    int len = cols ? gs.y : gs.x, line = int(gl_WorkGroupID.y);
+    int seg = int(P.iters.w), win = seg + 2 * REACH; /* seg: DN_GRAD_SEGMENT but in tests */
+    int w0 = int(gl_WorkGroupID.x) * seg - REACH; /* the window's first stratum on the axis */
+    int lid = int(gl_LocalInvocationID.x);
+    for (int k = 0; k < PER; k++) {
+        int i = lid + k * GROUP, a = w0 + i;
+        if (i < win)
+            s_v[i] = a < 0 || a >= len ? vec4(0.0)
+                     : cols            ? imageLoad(grad[1], ivec2(line, a))
+                                       : gradient(ivec2(a, line));
+    }
+    barrier();
+    vec4 r[PER];
+    for (int it = 0; it < 7; it++) {
+        int step = 1 << it;
+        for (int k = 0; k < PER; k++) {
+            int i = lid + k * GROUP, a = w0 + i;
+            vec4 v = vec4(0.0);
+            if (i < win && a >= 0 && a < len) { /* outside the grid stays zero */
+                vec4 c = s_v[i];
+                vec4 lo = i >= step ? s_v[i - step] : vec4(0.0);
+                vec4 hi = i + step < win ? s_v[i + step] : vec4(0.0);
+                v = 0.5 * c + 0.25 * (lo + hi);
+                if (it >= 3) /* hf and spec are done after step 4 */
+                    v.xy = c.xy;
+            }
+            r[k] = v;
+        }
+        barrier();
+        for (int k = 0; k < PER; k++)
+            if (lid + k * GROUP < win)
+                s_v[lid + k * GROUP] = r[k];
+        barrier();
+    }
+    for (int k = 0; k < PER; k++) {
+        int i = lid + k * GROUP, a = w0 + i;
+        if (i < REACH || i >= REACH + seg || a >= len)
+            continue;
+        vec4 o = s_v[i];
+        if (cols) {
+            float m = max(o.z, o.w);
+            float q = m > 0.0 ? abs(o.z - o.w) / m : 0.0;
+            o.zw = vec2(q * q, 0.0);
+        }
+        imageStore(grad[cols ? 0 : 1], cols ? ivec2(line, a) : ivec2(a, line), o);
+    }
+}
