@@ -19,7 +19,7 @@
 #extension GL_GOOGLE_include_directive : require
 #define DN_OWN_LOCAL_SIZE 1
 #include "dn_common.glsl"
-#define GROUP 256
+#define GROUP 512
 layout(local_size_x = GROUP) in;
 #define REACH 127
 #define WIN_MAX (DN_GRAD_SEGMENT + 2 * REACH)
