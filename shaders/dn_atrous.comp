@@ -42,18 +42,23 @@ void main()
     uint field = fgeo_field(g.y);
     float rough = fgeo_roughness(g.y);
     float footprint = max(ce.w * P.misc.x * float(step), 1e-6);
-    float inv_sigma_z = 1.0 / (P.weights.x * footprint);
-    float l = luma(c_hf);
-    float inv_sigma_l = 1.0 / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);
     const float LOG2E = 1.4426950408889634;
+    /* the taps' colours and variance stay scaled by 2^-95 as they decode (at_decode2_scaled:
+     * a multiplication fewer per value; tnd_uf16's smallest value scales to FLT_MIN, a normal
+     * float); the luminance scale and the sums follow, and the results are scaled back */
+    const float TO_SCALED = 1.0 / 39614081257132168796771975168.0, FROM_SCALED = 1.0 / TO_SCALED;
+    /* the edge-stopping terms in units of log2 (one exp2 per weight) */
+    float inv_sigma_z = LOG2E / (P.weights.x * footprint);
+    float l = luma(c_hf) * TO_SCALED;
+    float inv_sigma_l = LOG2E * FROM_SCALED / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);
     float a2 = max(rough * rough, 1e-3);
     a2 *= a2;
     float spec_exp = clamp(2.0 / a2 - 2.0, 8.0, P.misc.z);
     bool filter_spec = do_spec && rough >= 0.05; /* mirror-like surfaces stay sharp */
     /* the centre tap: every weight is h = 1 */
-    vec3 s_hf = c_hf, s_spec = c_spec;
-    float w_hf = 1.0, w_spec = 1.0, var_acc = c_var;
-    const float k[2] = float[2](0.5, 0.25); /* edge, corner */
+    vec3 s_hf = c_hf * TO_SCALED, s_spec = c_spec * TO_SCALED;
+    float w_hf = 1.0, w_spec = 1.0, var_acc = c_var * TO_SCALED;
+    const float log2_k[2] = float[2](1.0, 2.0); /* -log2 h: edge 0.5, corner 0.25 */
     ivec2 last = ivec2(P.size.xy) - 1;
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
@@ -67,30 +72,30 @@ void main()
             if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field)
                 continue;
             /* the distance of this pixel to the neighbour's tangent plane, and all factors of
-             * a weight in one exp2: exp(-a) x nn^e x exp(-b) = exp2(e log2(nn) - (a + b)
-             * log2(e)), one log2 shared by hf and spec */
-            float h = k[abs(x) + abs(y) - 1];
+             * a weight in one exp2: h x exp(-a) x nn^e x exp(-b) = exp2(e log2(nn) - (a + b)
+             * log2(e) + log2(h)), one log2 shared by hf and spec */
             vec3 nq = fgeo_normal(gq.y);
-            float plane = abs(uintBitsToFloat(gq.x) - dot(nq, pos)) * inv_sigma_z;
+            float plane = abs(uintBitsToFloat(gq.x) - dot(nq, pos)) * inv_sigma_z +
+                          log2_k[abs(x) + abs(y) - 1];
             float log_nn = log2(max(dot(n, nq), 1e-30));
             if (do_hf) {
-                vec3 q_hf = at_hf(t);
-                float w = h * exp2(P.weights.y * log_nn -
-                                   (plane + abs(luma(q_hf) - l) * inv_sigma_l) * LOG2E);
+                vec3 q_hf = at_hf_scaled(t);
+                float w = exp2(P.weights.y * log_nn - (plane + abs(luma(q_hf) - l) * inv_sigma_l));
                 s_hf += w * q_hf;
-                var_acc += w * w * at_variance(t);
+                var_acc += w * w * at_variance_scaled(t);
                 w_hf += w;
             }
             if (filter_spec) {
-                float w = h * exp2(spec_exp * log_nn - plane * LOG2E) *
+                float w = exp2(spec_exp * log_nn - plane) *
                           max(0.0, 1.0 - 10.0 * abs(rough - fgeo_roughness(gq.y)));
-                s_spec += w * at_spec(t);
+                s_spec += w * at_spec_scaled(t);
                 w_spec += w;
             }
         }
-    vec3 o_hf = s_hf / w_hf;
-    float o_var = var_acc / (w_hf * w_hf);
-    imageStore(at[dst], p, at_pack(do_hf ? o_hf : c_hf, filter_spec ? s_spec / w_spec : c_spec,
+    vec3 o_hf = s_hf * (FROM_SCALED / w_hf);
+    float o_var = var_acc * (FROM_SCALED / (w_hf * w_hf));
+    imageStore(at[dst], p, at_pack(do_hf ? o_hf : c_hf,
+                                   filter_spec ? s_spec * (FROM_SCALED / w_spec) : c_spec,
                                    do_hf ? o_var : c_var));
     if (i == 0u && do_hf) /* SVGF's feedback: the first iteration becomes the hf history */
         imageStore(hist_hf[pc.slot], p, hist_hf_pack(o_hf, at_len(c), imageLoad(moments, p).xy));

@@ -198,6 +198,14 @@ vec2 at_decode2(uint w)
 vec3 at_hf(uvec4 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
 vec3 at_spec(uvec4 t) { return vec3(at_decode2(t.y).y, at_decode2(t.z)); }
 float at_variance(uvec4 t) { return tnd_uf16_decode(t.w); }
+/* the same times 2^-95 (no rebias): the a-trous taps work on these */
+vec2 at_decode2_scaled(uint w)
+{
+    return uintBitsToFloat(uvec2((w & 0xffffu) << 13u, (w >> 3u) & 0x1fffe000u));
+}
+vec3 at_hf_scaled(uvec4 t) { return vec3(at_decode2_scaled(t.x), at_decode2_scaled(t.y).x); }
+vec3 at_spec_scaled(uvec4 t) { return vec3(at_decode2_scaled(t.y).y, at_decode2_scaled(t.z)); }
+float at_variance_scaled(uvec4 t) { return uintBitsToFloat((t.w & 0xffffu) << 13u); }
 /* a history texel's rgb (hist_rgb_pack) and length */
 vec3 hist_rgb(uvec2 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
 float hist_len(uvec2 t) { return unpackHalf2x16(t.y >> 16u).x; }
