@@ -69,7 +69,9 @@ void main()
         ivec2 s = p / DN_STRATUM;
         was_sample = samples[uint(s.y * grad_size().x + s.x)].a.x == uint(p.y) * P.size.x + uint(p.x);
     }
-    vec3 n = imageLoad(img_normal, p).xyz;
+    /* the shading normal: from the filter geometry (8 bytes, octahedral 11 + 11 bits) where the
+     * temporal pass ran, else the contract's */
+    vec3 n = P.size.w == 1u ? imageLoad(img_normal, p).xyz : fgeo_normal(imageLoad(fgeo, p).y);
     bool sky = vis.x == TND_VIS_NONE;
     imageStore(prev_geo, p, uvec4(vis.x, floatBitsToUint(depth),
                                   (sky ? 0u : oct_pack12(gn)) | field << 24u |
