@@ -46,11 +46,11 @@ void main()
     /* the taps' colours and variance stay scaled by 2^-95 as they decode (at_decode2_scaled:
      * a multiplication fewer per value; tnd_uf16's smallest value scales to FLT_MIN, a normal
      * float); the luminance scale and the sums follow, and the results are scaled back */
-    const float TO_SCALED = 1.0 / 39614081257132168796771975168.0, FROM_SCALED = 1.0 / TO_SCALED;
+    const float TO_SCALED = 1.0 / 39614081257132168796771975168.0;
     /* the edge-stopping terms in units of log2 (one exp2 per weight) */
     float inv_sigma_z = LOG2E / (P.weights.x * footprint);
     float l = luma(c_hf) * TO_SCALED;
-    float inv_sigma_l = LOG2E * FROM_SCALED / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);
+    float inv_sigma_l = LOG2E / TO_SCALED / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);
     float a2 = max(rough * rough, 1e-3);
     a2 *= a2;
     float spec_exp = clamp(2.0 / a2 - 2.0, 8.0, P.misc.z);
@@ -92,11 +92,12 @@ void main()
                 w_spec += w;
             }
         }
-    vec3 o_hf = s_hf * (FROM_SCALED / w_hf);
-    float o_var = var_acc * (FROM_SCALED / (w_hf * w_hf));
-    imageStore(at[dst], p, at_pack(do_hf ? o_hf : c_hf,
-                                   filter_spec ? s_spec * (FROM_SCALED / w_spec) : c_spec,
-                                   do_hf ? o_var : c_var));
+    /* encoded from the scaled values (a channel carried through re-encodes to its own code) */
+    vec3 o_hf = s_hf / w_hf;
+    imageStore(at[dst], p, at_pack_scaled(do_hf ? o_hf : at_hf_scaled(c),
+                                          filter_spec ? s_spec / w_spec : at_spec_scaled(c),
+                                          do_hf ? var_acc / (w_hf * w_hf) : at_variance_scaled(c)));
     if (i == 0u && do_hf) /* SVGF's feedback: the first iteration becomes the hf history */
-        imageStore(hist_hf[pc.slot], p, hist_hf_pack(o_hf, at_len(c), imageLoad(moments, p).xy));
+        imageStore(hist_hf[pc.slot], p,
+                   hist_hf_pack_scaled(o_hf, at_len(c), imageLoad(moments, p).xy));
 }

@@ -206,6 +206,19 @@ vec2 at_decode2_scaled(uint w)
 vec3 at_hf_scaled(uvec4 t) { return vec3(at_decode2_scaled(t.x), at_decode2_scaled(t.y).x); }
 vec3 at_spec_scaled(uvec4 t) { return vec3(at_decode2_scaled(t.y).y, at_decode2_scaled(t.z)); }
 float at_variance_scaled(uvec4 t) { return uintBitsToFloat((t.w & 0xffffu) << 13u); }
+uvec4 at_pack_scaled(vec3 hf, vec3 spec, float variance)
+{
+    return uvec4(tnd_uf16_encode_scaled(hf.r) | tnd_uf16_encode_scaled(hf.g) << 16u,
+                 tnd_uf16_encode_scaled(hf.b) | tnd_uf16_encode_scaled(spec.r) << 16u,
+                 tnd_uf16_encode_scaled(spec.g) | tnd_uf16_encode_scaled(spec.b) << 16u,
+                 tnd_uf16_encode_scaled(variance));
+}
+uvec4 hist_hf_pack_scaled(vec3 hf, float len, vec2 mom)
+{
+    return uvec4(tnd_uf16_encode_scaled(hf.r) | tnd_uf16_encode_scaled(hf.g) << 16u,
+                 tnd_uf16_encode_scaled(hf.b) | packHalf2x16(vec2(len, 0.0)) << 16u,
+                 floatBitsToUint(mom));
+}
 /* a history texel's rgb (hist_rgb_pack) and length */
 vec3 hist_rgb(uvec2 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
 float hist_len(uvec2 t) { return unpackHalf2x16(t.y >> 16u).x; }

@@ -171,6 +171,16 @@ TND_FN float tnd_uf16_decode(TND_U32 h)
     return TND_U2F((h & 0xffffu) << 13) * tnd_exp2i(127 - TND_UF16_BIAS);
 }
 
+/* tnd_uf16_encode(x) given xs = x * 2^(BIAS - 127), finite and >= 0 (-0 included; the a-trous
+ * keeps its sums at that scale, decoding without the rebias): xs's float bits are the code's,
+ * shifted by 13; rounded as tnd_uf16_encode rounds, 0 below the smallest code (xs below
+ * FLT_MIN), the largest code above it. 6 operations instead of 14. */
+TND_FN TND_U32 tnd_uf16_encode_scaled(float xs)
+{
+    TND_U32 c = ((TND_F2U(xs) & 0x7fffffffu) + 0x1000u) >> 13;
+    return c < 0x400u ? 0u : c > 0xffffu ? 0xffffu : c;
+}
+
 #ifdef TND_GLSL
 vec3 tnd_rgbe_decode(uint p)
 {

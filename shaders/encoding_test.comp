@@ -1,4 +1,5 @@
-/* encoding_test.comp: RGBE-encodes (and tnd_uf16-encodes) vec3 inputs with shaders/encoding.h, so that a test can compare
+/* encoding_test.comp: RGBE-encodes (and tnd_uf16-encodes, also from scaled values) vec3 inputs
+ * with shaders/encoding.h, so that a test can compare
  * the bits with the C mirror; also declares the whole contract (both precisions are compiled) to
  * keep the GLSL side of shaders/contract.h honest. */
 #version 460
@@ -25,4 +26,7 @@ void main()
     uvec3 h = uvec3(tnd_uf16_encode(v.x), tnd_uf16_encode(v.y), tnd_uf16_encode(v.z));
     dst[i + pc.count] = uvec4(h.x | h.y << 16u, floatBitsToUint(tnd_uf16_decode(h.x)),
                               floatBitsToUint(tnd_uf16_decode(h.y)), floatBitsToUint(tnd_uf16_decode(h.z)));
+    const float s = 1.0 / 39614081257132168796771975168.0; /* 2^(BIAS - 127) */
+    dst[i + 2u * pc.count] = uvec4(tnd_uf16_encode_scaled(v.x * s), tnd_uf16_encode_scaled(v.y * s),
+                                   tnd_uf16_encode_scaled(v.z * s), 0u);
 }

@@ -159,15 +159,33 @@ static void test_uf16_extremes(void)
         } else
             bad_abs += fabs(d - x) >= lo;
     }
-    int bad_rt = 0;
+    int bad_rt = 0, bad_scaled = 0;
     for (uint32_t h = 0; h < 65536; h++) /* every code decodes to a value that encodes back */
         bad_rt += (h >> 10) != 0 && tnd_uf16_encode(tnd_uf16_decode(h)) != h;
+    /* the encoder from scaled values (x 2^(BIAS - 127)) gives the same codes: over the sweep,
+     * every code's value and the midpoints between neighbouring codes (ties), zero, the
+     * largest values, and below the smallest code */
+    const float to_scaled = ldexpf(1.0f, TND_UF16_BIAS - 127);
+    for (double v = 1e-12; v <= 1e12; v *= 1.0137)
+        bad_scaled += tnd_uf16_encode_scaled((float)v * to_scaled) != tnd_uf16_encode((float)v);
+    for (uint32_t h = 0x400; h < 0xffff; h++) {
+        float a = tnd_uf16_decode(h), b = tnd_uf16_decode(h + 1), mid = 0.5f * (a + b);
+        bad_scaled += tnd_uf16_encode_scaled(a * to_scaled) != h;
+        bad_scaled += tnd_uf16_encode_scaled(mid * to_scaled) != tnd_uf16_encode(mid);
+        bad_scaled += tnd_uf16_encode_scaled(nextafterf(mid, 0.0f) * to_scaled) !=
+                      tnd_uf16_encode(nextafterf(mid, 0.0f));
+    }
+    const float edge[] = {0.0f, -0.0f, (float)TND_UF16_MAX, 1e30f, ldexpf(1.0f, -TND_UF16_BIAS),
+                          ldexpf(1.0f, 1 - TND_UF16_BIAS), nextafterf(ldexpf(1.0f, 1 - TND_UF16_BIAS), 0.0f)};
+    for (int k = 0; k < 7; k++)
+        bad_scaled += tnd_uf16_encode_scaled(edge[k] * to_scaled) != tnd_uf16_encode(edge[k]);
     printf("     uf16: %d values over 1e-12..1e12, worst relative error in range %.3e (bound "
            "%.3e)\n", n, worst, ldexp(1.0, -11));
     CHECK(bad_rel == 0, "%d values beyond 2^-11 relative error", bad_rel);
     CHECK(bad_abs == 0, "%d small values beyond the absolute bound", bad_abs);
     CHECK(bad_clamp == 0, "%d large values not clamped to the maximum", bad_clamp);
     CHECK(bad_rt == 0, "%d codes not stable under decode/encode", bad_rt);
+    CHECK(bad_scaled == 0, "%d codes from scaled values differ", bad_scaled);
     CHECK(tnd_uf16_encode(NAN) == 0u && tnd_uf16_encode(-1.0f) == 0u &&
               tnd_uf16_encode(-INFINITY) == 0u,
           "NaN and negatives -> 0");

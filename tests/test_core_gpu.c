@@ -325,7 +325,7 @@ static void test_rgbe_glsl_matches_c(void)
     REQUIRE(vk, "no context");
     enum { N = 4096 };
     float(*in)[4] = calloc(N, sizeof *in);
-    uint32_t(*out)[4] = calloc(2 * N, sizeof *out); /* rgbe, then uf16 */
+    uint32_t(*out)[4] = calloc(3 * N, sizeof *out); /* rgbe, uf16, uf16 from scaled values */
     uint32_t s = 777;
     for (int i = 0; i < N; i++)
         for (int c = 0; c < 3; c++) {
@@ -344,8 +344,8 @@ static void test_rgbe_glsl_matches_c(void)
     const tnd_shader variants[2] = {TND_SHADER_encoding_test_f32, TND_SHADER_encoding_test_packed};
     for (int v = 0; v < 2; v++) {
         REQUIRE_OK(
-            run_two_buffer_shader(vk, variants[v], in, N * sizeof *in, out, 2 * N * sizeof *out, N));
-        int bad = 0, bad_dec = 0, bad_nf = 0, bad6 = 0;
+            run_two_buffer_shader(vk, variants[v], in, N * sizeof *in, out, 3 * N * sizeof *out, N));
+        int bad = 0, bad_dec = 0, bad_nf = 0, bad6 = 0, bad_scaled = 0;
         for (int i = 0; i < N; i++) {
             uint32_t p = tnd_rgbe_encode(in[i][0], in[i][1], in[i][2]);
             float r = tnd_rgbe_channel(p, 0), g = tnd_rgbe_channel(p, 1);
@@ -365,8 +365,14 @@ static void test_rgbe_glsl_matches_c(void)
             }
             bad6 += out[N + i][0] != (h[0] | h[1] << 16) || out[N + i][1] != d6[0] ||
                     out[N + i][2] != d6[1] || out[N + i][3] != d6[2];
+            for (int c = 0; c < 3; c++) /* defined for finite values >= 0 */
+                if (in[i][c] >= 0.0f && in[i][c] < INFINITY && out[2 * N + i][c] != h[c] &&
+                    bad_scaled++ < 3)
+                    printf("     %g: scaled %04x, C %04x\n", in[i][c], out[2 * N + i][c], h[c]);
         }
         CHECK(bad6 == 0, "%d of %d tnd_uf16 encodings or decodings differ", bad6, N);
+        CHECK(bad_scaled == 0, "%d tnd_uf16_encode_scaled codes differ from tnd_uf16_encode",
+              bad_scaled);
         CHECK(bad == 0, "%d of %d RGBE encodings differ between GLSL and C", bad, N);
         CHECK(bad_dec == 0, "%d decodings differ", bad_dec);
         CHECK(bad_nf == 0, "%d non-finite tests differ", bad_nf);
