@@ -62,16 +62,24 @@ void main()
     /* the temporal pass's copy of position (relative) and depth where it ran */
     vec4 ce = P.size.w == 1u ? vec4(0.0, 0.0, 0.0, imageLoad(img_depth, p).x) : imageLoad(centre, p);
     float depth = ce.w;
-    uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
     bool was_sample = false;
     if (P.size.w == 2u && P.misc.w != 0.0) { /* this stratum's sample (one buffer read per
                                                    stratum, cached: no per-pixel mask) */
         ivec2 s = p / DN_STRATUM;
         was_sample = samples[uint(s.y * grad_size().x + s.x)].a.x == uint(p.y) * P.size.x + uint(p.x);
     }
-    /* the shading normal: from the filter geometry (8 bytes, octahedral 11 + 11 bits) where the
-     * temporal pass ran, else the contract's */
-    vec3 n = P.size.w == 1u ? imageLoad(img_normal, p).xyz : fgeo_normal(imageLoad(fgeo, p).y);
+    /* the shading normal and the field: from the filter geometry (8 bytes, the normal
+     * octahedral 11 + 11 bits) where the temporal pass ran, else from the contract */
+    vec3 n;
+    uint field;
+    if (P.size.w == 1u) {
+        n = imageLoad(img_normal, p).xyz;
+        field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
+    } else {
+        uint w = imageLoad(fgeo, p).y;
+        n = fgeo_normal(w);
+        field = fgeo_field(w);
+    }
     bool sky = vis.x == TND_VIS_NONE;
     imageStore(prev_geo, p, uvec4(vis.x, floatBitsToUint(depth),
                                   (sky ? 0u : oct_pack12(gn)) | field << 24u |
