@@ -16,53 +16,6 @@
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
 
-/* The eight taps' weighted sums (scaled), added to s_hf, s_spec, w_hf, w_spec and var_acc.
- * `edge` (a constant at each call): clamp the taps' addresses and skip those outside the image;
- * work groups whose taps all lie inside go without (8 operations fewer per tap). */
-void add_taps(bool edge, ivec2 p, int step, uint src, uint field, vec3 n, vec3 pos,
-              float inv_sigma_z, float l, float inv_sigma_l, float spec_exp, float rough,
-              bool do_hf, bool filter_spec, inout vec3 s_hf, inout vec3 s_spec, inout float w_hf,
-              inout float w_spec, inout float var_acc)
-{
-    const float log2_k[2] = float[2](1.0, 2.0); /* -log2 h: edge 0.5, corner 0.25 */
-    ivec2 last = ivec2(P.size.xy) - 1;
-    for (int y = -1; y <= 1; y++)
-        for (int x = -1; x <= 1; x++) {
-            if (x == 0 && y == 0)
-                continue;
-            ivec2 q = p + ivec2(x, y) * step;
-            bool in_image = true;
-            if (edge) {
-                in_image = q == clamp(q, ivec2(0), last);
-                q = clamp(q, ivec2(0), last); /* the loads are issued before the tests */
-            }
-            uvec4 t = imageLoad(at[src], q);
-            uvec2 gq = imageLoad(fgeo, q).xy;
-            if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field)
-                continue;
-            /* the distance of this pixel to the neighbour's tangent plane, and all factors of
-             * a weight in one exp2: h x exp(-a) x nn^e x exp(-b) = exp2(e log2(nn) - (a + b)
-             * log2(e) + log2(h)), one log2 shared by hf and spec */
-            vec3 nq = fgeo_normal(gq.y);
-            float plane = abs(uintBitsToFloat(gq.x) - dot(nq, pos)) * inv_sigma_z +
-                          log2_k[abs(x) + abs(y) - 1];
-            float log_nn = log2(max(dot(n, nq), 1e-30));
-            if (do_hf) {
-                vec3 q_hf = at_hf_scaled(t);
-                float w = exp2(P.weights.y * log_nn - (plane + abs(luma(q_hf) - l) * inv_sigma_l));
-                s_hf += w * q_hf;
-                var_acc += w * w * at_variance_scaled(t);
-                w_hf += w;
-            }
-            if (filter_spec) {
-                float w = exp2(spec_exp * log_nn - plane) *
-                          max(0.0, 1.0 - 10.0 * abs(rough - fgeo_roughness(gq.y)));
-                s_spec += w * at_spec_scaled(t);
-                w_spec += w;
-            }
-        }
-}
-
 void main()
 {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -92,7 +45,7 @@ void main()
     const float LOG2E = 1.4426950408889634;
     /* the taps' colours and variance stay scaled by 2^-95 as they decode (at_decode2_scaled:
      * a multiplication fewer per value; tnd_uf16's smallest value scales to FLT_MIN, a normal
-     * float); the luminance scale and the sums follow, and the results encode from them */
+     * float); the luminance scale and the sums follow, and the results are scaled back */
     const float TO_SCALED = 1.0 / 39614081257132168796771975168.0;
     /* the edge-stopping terms in units of log2 (one exp2 per weight) */
     float inv_sigma_z = LOG2E / (P.weights.x * footprint);
@@ -105,15 +58,40 @@ void main()
     /* the centre tap: every weight is h = 1 */
     vec3 s_hf = c_hf * TO_SCALED, s_spec = c_spec * TO_SCALED;
     float w_hf = 1.0, w_spec = 1.0, var_acc = c_var * TO_SCALED;
-    ivec2 wg = ivec2(gl_WorkGroupID.xy * gl_WorkGroupSize.xy);
-    bool interior = all(greaterThanEqual(wg - step, ivec2(0))) &&
-                    all(lessThan(wg + ivec2(gl_WorkGroupSize.xy) - 1 + step, ivec2(P.size.xy)));
-    if (interior)
-        add_taps(false, p, step, src, field, n, pos, inv_sigma_z, l, inv_sigma_l, spec_exp, rough,
-                 do_hf, filter_spec, s_hf, s_spec, w_hf, w_spec, var_acc);
-    else
-        add_taps(true, p, step, src, field, n, pos, inv_sigma_z, l, inv_sigma_l, spec_exp, rough,
-                 do_hf, filter_spec, s_hf, s_spec, w_hf, w_spec, var_acc);
+    const float log2_k[2] = float[2](1.0, 2.0); /* -log2 h: edge 0.5, corner 0.25 */
+    ivec2 last = ivec2(P.size.xy) - 1;
+    for (int y = -1; y <= 1; y++)
+        for (int x = -1; x <= 1; x++) {
+            if (x == 0 && y == 0)
+                continue;
+            ivec2 q = p + ivec2(x, y) * step;
+            bool in_image = q == clamp(q, ivec2(0), last);
+            q = clamp(q, ivec2(0), last); /* the loads are issued before the tests */
+            uvec4 t = imageLoad(at[src], q);
+            uvec2 gq = imageLoad(fgeo, q).xy;
+            if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field)
+                continue;
+            /* the distance of this pixel to the neighbour's tangent plane, and all factors of
+             * a weight in one exp2: h x exp(-a) x nn^e x exp(-b) = exp2(e log2(nn) - (a + b)
+             * log2(e) + log2(h)), one log2 shared by hf and spec */
+            vec3 nq = fgeo_normal(gq.y);
+            float plane = abs(uintBitsToFloat(gq.x) - dot(nq, pos)) * inv_sigma_z +
+                          log2_k[abs(x) + abs(y) - 1];
+            float log_nn = log2(max(dot(n, nq), 1e-30));
+            if (do_hf) {
+                vec3 q_hf = at_hf_scaled(t);
+                float w = exp2(P.weights.y * log_nn - (plane + abs(luma(q_hf) - l) * inv_sigma_l));
+                s_hf += w * q_hf;
+                var_acc += w * w * at_variance_scaled(t);
+                w_hf += w;
+            }
+            if (filter_spec) {
+                float w = exp2(spec_exp * log_nn - plane) *
+                          max(0.0, 1.0 - 10.0 * abs(rough - fgeo_roughness(gq.y)));
+                s_spec += w * at_spec_scaled(t);
+                w_spec += w;
+            }
+        }
     /* encoded from the scaled values (a channel carried through re-encodes to its own code) */
     vec3 o_hf = s_hf / w_hf;
     imageStore(at[dst], p, at_pack_scaled(do_hf ? o_hf : at_hf_scaled(c),
