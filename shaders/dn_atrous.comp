@@ -31,7 +31,7 @@ void main()
         imageStore(at[dst], p, c);
         if (i == 0u) /* the hf history, unfiltered */
             imageStore(hist_hf[pc.slot], p,
-                       hist_hf_pack(at_hf(c), at_len(c), imageLoad(moments, p).xy));
+                       hist_hf_pack_scaled(at_hf_scaled(c), at_len(c), imageLoad(moments, p).xy));
         return;
     }
     vec3 c_hf = at_hf(c), c_spec = at_spec(c);
@@ -46,18 +46,17 @@ void main()
     /* the taps' colours and variance stay scaled by 2^-95 as they decode (at_decode2_scaled:
      * a multiplication fewer per value; tnd_uf16's smallest value scales to FLT_MIN, a normal
      * float); the luminance scale and the sums follow, and the results are scaled back */
-    const float TO_SCALED = 1.0 / 39614081257132168796771975168.0;
     /* the edge-stopping terms in units of log2 (one exp2 per weight) */
     float inv_sigma_z = LOG2E / (P.weights.x * footprint);
-    float l = luma(c_hf) * TO_SCALED;
-    float inv_sigma_l = LOG2E / TO_SCALED / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);
+    float l = luma(c_hf) * UF16_SCALE;
+    float inv_sigma_l = LOG2E / UF16_SCALE / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);
     float a2 = max(rough * rough, 1e-3);
     a2 *= a2;
     float spec_exp = clamp(2.0 / a2 - 2.0, 8.0, P.misc.z);
     bool filter_spec = do_spec && rough >= 0.05; /* mirror-like surfaces stay sharp */
     /* the centre tap: every weight is h = 1 */
-    vec3 s_hf = c_hf * TO_SCALED, s_spec = c_spec * TO_SCALED;
-    float w_hf = 1.0, w_spec = 1.0, var_acc = c_var * TO_SCALED;
+    vec3 s_hf = c_hf * UF16_SCALE, s_spec = c_spec * UF16_SCALE;
+    float w_hf = 1.0, w_spec = 1.0, var_acc = c_var * UF16_SCALE;
     const float log2_k[2] = float[2](1.0, 2.0); /* -log2 h: edge 0.5, corner 0.25 */
     ivec2 last = ivec2(P.size.xy) - 1;
     for (int y = -1; y <= 1; y++)

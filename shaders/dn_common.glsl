@@ -171,24 +171,8 @@ uvec4 lf_with_cocg(uvec4 t, vec2 cocg) { return uvec4(t.xy, floatBitsToUint(cocg
  * moments E[l], E[l^2] (float bits); spec (RG32UI): x, y spec rgb as tnd_uf16 and the spec
  * history length as a half float. tnd_uf16 keeps 2^-11 relative, as RGBA16F would (Q2RTX keeps
  * its hf history in RGBE). */
-uvec2 hist_rgb_pack(vec3 c, float len)
-{
-    return uvec2(tnd_uf16_encode(c.r) | tnd_uf16_encode(c.g) << 16u,
-                 tnd_uf16_encode(c.b) | packHalf2x16(vec2(len, 0.0)) << 16u);
-}
-uvec4 hist_hf_pack(vec3 hf, float len, vec2 mom)
-{
-    return uvec4(hist_rgb_pack(hf, len), floatBitsToUint(mom));
-}
 
 /* The a-trous ping-pong texel (DN_B_AT): hf, spec and the hf variance as tnd_uf16. */
-uvec4 at_pack(vec3 hf, vec3 spec, float variance)
-{
-    return uvec4(tnd_uf16_encode(hf.r) | tnd_uf16_encode(hf.g) << 16u,
-                 tnd_uf16_encode(hf.b) | tnd_uf16_encode(spec.r) << 16u,
-                 tnd_uf16_encode(spec.g) | tnd_uf16_encode(spec.b) << 16u,
-                 tnd_uf16_encode(variance));
-}
 /* tnd_uf16_decode of both halves of a word: the high half shifts right by 3 into place */
 vec2 at_decode2(uint w)
 {
@@ -206,6 +190,9 @@ vec2 at_decode2_scaled(uint w)
 vec3 at_hf_scaled(uvec4 t) { return vec3(at_decode2_scaled(t.x), at_decode2_scaled(t.y).x); }
 vec3 at_spec_scaled(uvec4 t) { return vec3(at_decode2_scaled(t.y).y, at_decode2_scaled(t.z)); }
 float at_variance_scaled(uvec4 t) { return uintBitsToFloat((t.w & 0xffffu) << 13u); }
+/* The packing side works on values so scaled, finite and >= 0 (tnd_uf16_encode_scaled: 6
+ * operations per value instead of 14): UF16_SCALE * max(x, 0) for a finite x. */
+const float UF16_SCALE = 1.0 / 39614081257132168796771975168.0; /* 2^(TND_UF16_BIAS - 127) */
 uvec4 at_pack_scaled(vec3 hf, vec3 spec, float variance)
 {
     return uvec4(tnd_uf16_encode_scaled(hf.r) | tnd_uf16_encode_scaled(hf.g) << 16u,
@@ -213,11 +200,14 @@ uvec4 at_pack_scaled(vec3 hf, vec3 spec, float variance)
                  tnd_uf16_encode_scaled(spec.g) | tnd_uf16_encode_scaled(spec.b) << 16u,
                  tnd_uf16_encode_scaled(variance));
 }
+uvec2 hist_rgb_pack_scaled(vec3 c, float len)
+{
+    return uvec2(tnd_uf16_encode_scaled(c.r) | tnd_uf16_encode_scaled(c.g) << 16u,
+                 tnd_uf16_encode_scaled(c.b) | packHalf2x16(vec2(len, 0.0)) << 16u);
+}
 uvec4 hist_hf_pack_scaled(vec3 hf, float len, vec2 mom)
 {
-    return uvec4(tnd_uf16_encode_scaled(hf.r) | tnd_uf16_encode_scaled(hf.g) << 16u,
-                 tnd_uf16_encode_scaled(hf.b) | packHalf2x16(vec2(len, 0.0)) << 16u,
-                 floatBitsToUint(mom));
+    return uvec4(hist_rgb_pack_scaled(hf, len), floatBitsToUint(mom));
 }
 /* a history texel's rgb (hist_rgb_pack) and length */
 vec3 hist_rgb(uvec2 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
