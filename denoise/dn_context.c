@@ -416,6 +416,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
         .misc = {f->pixel_spread, 256.0f, 1024.0f, gradients ? 1.0f : 0.0f},
         .antilag = {d->antilag_hf, d->antilag_spec, d->antilag_motion, d->antilag_lf},
         .lf = {d->lf_deflicker, d->no_leak_guard ? 0.0f : 1.0f, 0.0f, 0.0f},
+        .frame = {c->frame, 0, 0, 0},
     };
 }
 
@@ -660,8 +661,8 @@ uint32_t dn_dispatch_times(const dn_context *c, const char **names, double *ms, 
 
 void dn_traffic_of(const dn_context *c, dn_traffic *t)
 {
-    /* per pixel (full res) or per stratum (1/3 res) bytes, from the shaders' loads and stores;
-     * the back-end's own images are RGBA32F (16 bytes), the visibility pairs 8, flags 4 */
+    /* per pixel (full res) or per stratum (1/3 res) bytes, from the shaders' loads and stores
+     * (each texel once; the back-end's own texels are 16 bytes but where noted) */
     tnd_precision p = c->desc.precision;
 #define CT(id) ((double)tnd_ct_texel_bytes(TND_CT_##id, p))
     const dn_desc *d = &c->desc;
@@ -670,42 +671,45 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
     *t = (dn_traffic){0};
     if (asvgf) {
         /* the stratum's 9 pixels: vis, motion, depth, geometric normal, path now; the previous
-         * surface and luminances at the reprojection; lf now and at the reprojection; flag
-         * written; per stratum one sample (32 bytes), one gradient texel (lf sums, previous
-         * luminances), the chosen pixel's previous surface (two texels) */
-        t->select = n * (CT(VIS_ID) + CT(MOTION) + CT(DEPTH) + CT(GEO_NORMAL) + CT(PATH) +
-                         16 + 16 + 4 + CT(LF_SH) + 16 /* lf now and its history */) +
-                    n3 * (32 + 16 + 16 + 16);
-        /* gradient image and first blur: per stratum the sample, the lf sums and previous
-         * luminances, hf and spec at the sample, the texel written; the blur: 6 x (read +
-         * write) */
-        t->gradient = n3 * (32 + 16 + CT(HF) + CT(SPEC) + 16 + 16 * 2 * 6);
+         * surface (16) and luminances (4) at the reprojection; lf now and the lf history at
+         * the reprojection (16); per stratum the sample written (32), one gradient texel (lf
+         * sums, previous luminances), and at the chosen pixel the previous luminances, rng key
+         * and surface (4 + 8 + 16 + 16) */
+        t->select = n * (CT(VIS_ID) + CT(MOTION) + CT(DEPTH) + CT(GEO_NORMAL) + CT(PATH) + 16 +
+                         4 + CT(LF_SH) + 16) +
+                    n3 * (32 + 16 + 4 + 8 + 16 + 16);
+        /* rows: per stratum the lf sums and previous luminances, the sample, hf and spec at
+         * the sample pixel, the texel written; columns: one texel read, one written */
+        t->gradient = n3 * (16 + 32 + CT(HF) + CT(SPEC) + 16 + 16 + 16);
     }
     if (filter) {
         t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +
                            CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
-                           CT(PATH) + 16 + 4 * 16 /* previous surface, histories */
-                           + 3 * 16 /* histories written (hf: by the a-trous) */
-                           + CT(POSITION) + 16 + 8 /* the a-trous input and filter geometry */
-                           + (asvgf ? CT(RNG) + 16 : 0) /* the next frame's sample data */) +
+                           CT(PATH) + CT(POSITION) +
+                           56 /* previous surface, hf, lf and spec histories (16 16 16 8) */
+                           + 8 + 16 + 8 /* written: moments, lf and spec histories (hf: by the
+                                           a-trous) */
+                           + 16 + 8 + 16 /* the a-trous input, filter geometry, centre */
+                           + (asvgf ? CT(RNG) + 4 + 8 : 0) /* the next frame's sample data */) +
                       (asvgf ? n3 * 16 : 0);
-        /* downsample (full-res reads, 1/3-res writes), then deflicker and a-trous at 1/3 res */
-        /* (the anchor and the two lf texels written; per step the anchor (the a-trous's centre)
-         * and both texels read, both written) */
-        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(POSITION) + CT(DEPTH) + 16 + 16) +
+        /* downsample (full-res reads: vis, geometric normal, centre, lf history; 1/3-res
+         * writes: the anchor and the two lf texels), then deflicker and a-trous at 1/3 res
+         * (per step the anchor (the a-trous's centre) and both texels read, both written) */
+        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + 16 + 16) +
                 n3 * (3 * 16 + (double)(d->iters_lf + 1) * (3 * 16 + 2 * 16));
         /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
-         * geometry (8) of each tap, the centre's position and depth; the texel written;
-         * the hf feedback once */
-        t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + CT(POSITION) + CT(DEPTH) + 16) + 16);
+         * geometry (8) of each tap, the centre texel; the texel written; once the hf history
+         * written with the moments read */
+        t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + 16 + 16) + 16 + 8);
     }
-    t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(DEPTH) + CT(VIS_BARY) + CT(NORMAL) +
-                        CT(EMISSION) + CT(ALBEDO) + CT(METALLIC) + CT(THROUGHPUT) + CT(POSITION) +
-                        CT(PATH) + 4 /* flag */ +
-                        (filter ? 16 /* the a-trous result */
-                                : CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG)) +
+    t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(VIS_BARY) + CT(EMISSION) +
+                        CT(ALBEDO) + CT(METALLIC) + CT(THROUGHPUT) +
+                        (filter ? 16 + 8 + 16 /* centre, filter geometry, the a-trous result */
+                                : CT(DEPTH) + CT(NORMAL) + CT(PATH) + CT(HF) + CT(SPEC) +
+                                      CT(LF_SH) + CT(LF_COCG)) +
                         16 + 16 + 16 /* previous surface (two texels); output */) +
-                   (filter ? n3 * (16 + 16) : 0); /* lf anchors and texels */
+                   (filter ? n3 * (16 + 16) : 0) + /* lf anchors and texels */
+                   (asvgf ? n3 * 16 : 0);           /* the strata's samples */
 #undef CT
 }
 

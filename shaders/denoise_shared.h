@@ -28,13 +28,14 @@ struct dn_params {
      * instead of loading two image texels per thread */
     vec4 origin_position;
     uvec4 origin_vis;
+    uvec4 frame; /* x: frames run so far (seeds the histories' stochastic rounding) */
 };
 
 #ifndef TND_GLSL
 #undef vec4
 #undef uvec4
 typedef struct dn_params dn_params;
-_Static_assert(sizeof(dn_params) == 160, "dn_params layout");
+_Static_assert(sizeof(dn_params) == 176, "dn_params layout");
 #endif
 
 /* Bindings of set 0 (the back-end's own images; set 1 is the contract). */

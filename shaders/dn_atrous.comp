@@ -31,7 +31,8 @@ void main()
         imageStore(at[dst], p, c);
         if (i == 0u) /* the hf history, unfiltered */
             imageStore(hist_hf[pc.slot], p,
-                       hist_hf_pack_scaled(at_hf_scaled(c), at_len(c), imageLoad(moments, p).xy));
+                       hist_hf_pack_scaled(at_hf_scaled(c), at_len(c), imageLoad(moments, p).xy,
+                                           uvec3(0x1000u)));
         return;
     }
     vec3 c_hf = at_hf(c), c_spec = at_spec(c);
@@ -95,8 +96,10 @@ void main()
     vec3 o_hf = s_hf / w_hf;
     imageStore(at[dst], p, at_pack_scaled(do_hf ? o_hf : at_hf_scaled(c),
                                           filter_spec ? s_spec / w_spec : at_spec_scaled(c),
-                                          do_hf ? var_acc / (w_hf * w_hf) : at_variance_scaled(c)));
+                                          do_hf ? var_acc / (w_hf * w_hf) : at_variance_scaled(c),
+                                          uvec3(0x1000u)));
     if (i == 0u && do_hf) /* SVGF's feedback: the first iteration becomes the hf history */
         imageStore(hist_hf[pc.slot], p,
-                   hist_hf_pack_scaled(o_hf, at_len(c), imageLoad(moments, p).xy));
+                   hist_hf_pack_scaled(o_hf, at_len(c), imageLoad(moments, p).xy,
+                                       history_dither(p)));
 }

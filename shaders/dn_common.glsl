@@ -5,6 +5,7 @@
 #include "denoise_shared.h"
 #include "scene_gpu.h"
 #include "encoding.h"
+#include "sampling.h"
 #define TND_CONTRACT_SET 1
 #include "contract.h"
 TND_CONTRACT(TND_CT_DECLARE)
@@ -114,22 +115,54 @@ uvec2 fgeo_pack(bool surface, vec3 pos, vec3 n, float rough, uint field)
 float fgeo_roughness(uint w) { return float((w >> 22u) & 255u) * (1.0 / 255.0); }
 uint fgeo_field(uint w) { return w >> 30u; }
 
+/* The histories' 16-bit values are rounded stochastically: a history blends in alpha (0.01
+ * to 0.02) of each new value, and with rounding to nearest an update below half a step (2^-11
+ * of the value) would be lost, so a history that sees a noiseless signal stops up to 2^-11 /
+ * alpha (2.4% to 4.9%) short of it (test_noiseless_history_converges). With a random offset
+ * in [0, 1) step before truncation the stored value is right in expectation and the history
+ * converges as a float one does, give or take 2^-11 of noise. The offsets: 13 random bits per
+ * word, from the pixel and the frame (P.frame.x), three words per texel. */
+uvec3 history_dither(ivec2 p)
+{
+    return tnd_pcg3d(uvec3(uvec2(p), P.frame.x)) & 0x1fffu;
+}
+/* tnd_uf16_encode_scaled with the rounding offset r in [0, 2^13) instead of 2^12: a value
+ * rounds up with the probability of its fraction of a step (within a binade the codes are
+ * linear in the float's bits); r = 0x1000 rounds to nearest */
+uint uf16_encode_dither(float xs, uint r)
+{
+    uint c = ((floatBitsToUint(xs) & 0x7fffffffu) + r) >> 13u;
+    return c < 0x400u ? 0u : min(c, 0xffffu);
+}
+/* A half float (unpackHalf2x16 reads it) rounded the same way; values below half's normal range
+ * (6.1e-5) become 0, above it the largest half */
+uint half_dither(float v, uint r)
+{
+    uint b = floatBitsToUint(v), s = (b >> 16u) & 0x8000u;
+    uint m = (b & 0x7fffffffu) + r;
+    int e = int(m >> 23u) - 112; /* 127 - 15 */
+    if (e <= 0)
+        return s;
+    return e >= 31 ? s | 0x7bffu : s | uint(e) << 10u | ((m >> 13u) & 0x3ffu);
+}
 /* Two values relative to L0 as half floats: chroma and the L1 coefficients are bounded by
  * luminance (|L1| <= sqrt(3) L0 for a non-negative signal), small ratios that half floats keep
- * to 2^-11, clamped so that a degenerate L0 cannot make them infinite (L0 <= 0 keeps none). */
-uint rel_pack(vec2 v, float l0)
+ * to 2^-11, clamped so that a degenerate L0 cannot make them infinite (L0 <= 0 keeps none);
+ * rounded with offset r (history_dither) */
+uint rel_pack(vec2 v, float l0, uint r)
 {
-    return packHalf2x16(clamp(v * (l0 > 0.0 ? 1.0 / l0 : 0.0), -60000.0, 60000.0));
+    vec2 q = clamp(v * (l0 > 0.0 ? 1.0 / l0 : 0.0), -60000.0, 60000.0);
+    return half_dither(q.x, r) | half_dither(q.y, r ^ 0x0aaau) << 16u;
 }
 vec2 rel_unpack(uint w, float l0) { return unpackHalf2x16(w) * l0; }
 
 /* The lf history (DN_B_HIST_LF), one texel with all the lf reprojection and downsample need:
  * x L0 (float bits), y L1x, L1y and z L1z, the lf history length (half), w CoCg; L1 and CoCg
  * relative to L0 (rel_pack). The SH is (L1x, L1y, L1z, L0) as in the contract. */
-uvec4 hist_lf_pack(vec4 sh, vec2 cocg, float len)
+uvec4 hist_lf_pack(vec4 sh, vec2 cocg, float len, uvec3 r)
 {
-    uint z = rel_pack(vec2(sh.z, 0.0), sh.w) | packHalf2x16(vec2(0.0, len));
-    return uvec4(floatBitsToUint(sh.w), rel_pack(sh.xy, sh.w), z, rel_pack(cocg, sh.w));
+    uint z = (rel_pack(vec2(sh.z, 0.0), sh.w, r.z) & 0xffffu) | packHalf2x16(vec2(0.0, len));
+    return uvec4(floatBitsToUint(sh.w), rel_pack(sh.xy, sh.w, r.y), z, rel_pack(cocg, sh.w, r.x));
 }
 float hist_lf_l0(uvec4 t) { return uintBitsToFloat(t.x); }
 vec4 hist_lf_sh(uvec4 t)
@@ -193,21 +226,24 @@ float at_variance_scaled(uvec4 t) { return uintBitsToFloat((t.w & 0xffffu) << 13
 /* The packing side works on values so scaled, finite and >= 0 (tnd_uf16_encode_scaled: 6
  * operations per value instead of 14): UF16_SCALE * max(x, 0) for a finite x. */
 const float UF16_SCALE = 1.0 / 39614081257132168796771975168.0; /* 2^(TND_UF16_BIAS - 127) */
-uvec4 at_pack_scaled(vec3 hf, vec3 spec, float variance)
+/* r: rounding offsets (history_dither; uvec3(0x1000) rounds to nearest, as
+ * tnd_uf16_encode_scaled) */
+uvec4 at_pack_scaled(vec3 hf, vec3 spec, float variance, uvec3 r)
 {
-    return uvec4(tnd_uf16_encode_scaled(hf.r) | tnd_uf16_encode_scaled(hf.g) << 16u,
-                 tnd_uf16_encode_scaled(hf.b) | tnd_uf16_encode_scaled(spec.r) << 16u,
-                 tnd_uf16_encode_scaled(spec.g) | tnd_uf16_encode_scaled(spec.b) << 16u,
-                 tnd_uf16_encode_scaled(variance));
+    return uvec4(uf16_encode_dither(hf.r, r.x) | uf16_encode_dither(hf.g, r.y) << 16u,
+                 uf16_encode_dither(hf.b, r.z) | uf16_encode_dither(spec.r, r.x) << 16u,
+                 uf16_encode_dither(spec.g, r.y) | uf16_encode_dither(spec.b, r.z) << 16u,
+                 uf16_encode_dither(variance, r.x));
 }
-uvec2 hist_rgb_pack_scaled(vec3 c, float len)
+/* a history's rgb (scaled, see UF16_SCALE) and length, rounded with the offsets r */
+uvec2 hist_rgb_pack_scaled(vec3 c, float len, uvec3 r)
 {
-    return uvec2(tnd_uf16_encode_scaled(c.r) | tnd_uf16_encode_scaled(c.g) << 16u,
-                 tnd_uf16_encode_scaled(c.b) | packHalf2x16(vec2(len, 0.0)) << 16u);
+    return uvec2(uf16_encode_dither(c.r, r.x) | uf16_encode_dither(c.g, r.y) << 16u,
+                 uf16_encode_dither(c.b, r.z) | packHalf2x16(vec2(len, 0.0)) << 16u);
 }
-uvec4 hist_hf_pack_scaled(vec3 hf, float len, vec2 mom)
+uvec4 hist_hf_pack_scaled(vec3 hf, float len, vec2 mom, uvec3 r)
 {
-    return uvec4(hist_rgb_pack_scaled(hf, len), floatBitsToUint(mom));
+    return uvec4(hist_rgb_pack_scaled(hf, len, r), floatBitsToUint(mom));
 }
 /* a history texel's rgb (hist_rgb_pack) and length */
 vec3 hist_rgb(uvec2 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }

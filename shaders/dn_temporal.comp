@@ -126,9 +126,10 @@ void main()
     }
     float variance = max(m2 - m1 * m1, 0.0);
     imageStore(moments, p, vec4(out_mom.xy, 0.0, 0.0)); /* for the hf history */
-    imageStore(hist_lf[cur], p, hist_lf_pack(out_sh, out_cocg, out_mom.z));
+    uvec3 dither = history_dither(p);
+    imageStore(hist_lf[cur], p, hist_lf_pack(out_sh, out_cocg, out_mom.z, dither));
     vec3 spec_s = max(out_spec.rgb, 0.0) * UF16_SCALE; /* finite: the inputs are sanitised */
-    imageStore(hist_spec[cur], p, uvec4(hist_rgb_pack_scaled(spec_s, out_mom.w), 0u, 0u));
+    imageStore(hist_spec[cur], p, uvec4(hist_rgb_pack_scaled(spec_s, out_mom.w, dither), 0u, 0u));
     if (P.size.w == 2u) { /* A-SVGF: the next frame's gradient samples need the raw luminances
                              and the rng key (the selection, which reads them, runs earlier) */
         imageStore(prev_lum, p, uvec4(prev_lum_pack(luma(hf), luma(spec))));
@@ -137,10 +138,12 @@ void main()
     vec3 pos = imageLoad(img_position, p).xyz - fgeo_origin();
     uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, pos, n, rough, field);
     imageStore(centre, p, vec4(pos, depth));
-    /* the hf history (out_hf, with the moments) is written by the a-trous's first iteration */
+    /* the hf history (out_hf, with the moments) is written by the a-trous's first iteration,
+     * from this texel: rounded stochastically too, or its blend would round back */
     imageStore(at[0], p, at_with_len(at_pack_scaled(max(out_hf.rgb, 0.0) * UF16_SCALE, spec_s,
                                                     (tnd_nonfinite(variance) ? 0.0 : variance) *
-                                                        UF16_SCALE),
+                                                        UF16_SCALE,
+                                                    dither),
                                      out_hf.a));
     imageStore(fgeo, p, uvec4(g, 0u, 0u));
 }

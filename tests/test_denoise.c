@@ -277,6 +277,86 @@ cleanup:
 
 /* A NaN in one input pixel: the output stays finite everywhere, and the frames after it match
  * a run without the NaN outside a bounded neighbourhood (the pixel's history restarts there). */
+/* Histories stored at 16 bits (tnd_uf16 colours, half-float SH ratios) would stall where the
+ * signal has no noise: with alpha 0.02 an update below half a step (2^-11 of the value) rounds
+ * away, so a history that starts off by more than 2^-11 / alpha (2.4% for hf, 4.9% for spec and
+ * lf at 0.01) and sees exact values afterwards stops short by about that much. Stochastic
+ * rounding (history_dither in dn_common.glsl) keeps the expected value: a static cornell frame
+ * whose noisy signals are replaced by constants, off on the first frame, must converge as a
+ * float history does: 0.1% or less after 400 frames, where a float32 history leaves 2e-5 (hf)
+ * and 5e-4 (spec, lf) and the stochastic rounding adds about a third of a step (1e-4 to 3e-4);
+ * rounding to nearest leaves about 2% (hf and spec). */
+static void test_noiseless_history_converges(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    rig r;
+    dn_context *dn = NULL;
+    tnd_frame f = {0};
+    static float dump[W * H * 4];
+    REQUIRE_OK(rig_open(vk, &r, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
+    REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_SVGF}, &dn));
+    REQUIRE_OK(femb_set_frame(r.fe, &r.st, &r.st, 0, W, H));
+    REQUIRE_OK(tnd_frame_create(W, H, &f));
+    REQUIRE_OK(femb_trace_primary(r.fe, &f));
+    REQUIRE_OK(femb_shade(r.fe, &(femb_params){.bounces = 1}, &f, NULL));
+    const float hf[3] = {0.9f, 0.7f, 0.5f}, spec[3] = {0.3f, 0.25f, 0.2f};
+    const float sh[4] = {0.12f, 0.08f, -0.05f, 0.4f}, cocg[2] = {0.05f, -0.02f};
+    const uint32_t frames = 400;
+    /* the first frame off by factors the history must forget: colours 2x, the lf's L0 1.2x and
+     * its L1 and CoCg by other factors each (so that their ratios to L0, which are what the lf
+     * history stores at 16 bits, change too) */
+    const float k_sh[4] = {2.0f, 0.5f, 1.5f, 1.2f}, k_cocg[2] = {0.5f, 2.0f};
+    for (uint32_t fr = 0; fr < frames; fr++) {
+        bool first = fr == 0;
+        for (int q = 0; q < W * H; q++) {
+            for (int c = 0; c < 3; c++) {
+                tnd_frame_f(&f, TND_CT_HF)[3 * q + c] = (first ? 2.0f : 1.0f) * hf[c];
+                tnd_frame_f(&f, TND_CT_SPEC)[3 * q + c] = (first ? 2.0f : 1.0f) * spec[c];
+            }
+            for (int c = 0; c < 4; c++)
+                tnd_frame_f(&f, TND_CT_LF_SH)[4 * q + c] = (first ? k_sh[c] : 1.0f) * sh[c];
+            for (int c = 0; c < 2; c++)
+                tnd_frame_f(&f, TND_CT_LF_COCG)[2 * q + c] = (first ? k_cocg[c] : 1.0f) * cocg[c];
+        }
+        REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f));
+        dn_frame df = dn_frame_for_camera(r.st.camera.proj, H, 0, fr == 0); /* no jitter */
+        REQUIRE_OK(dn_run(dn, &r.ct, &df, NULL));
+    }
+    /* each history against its constant, mean relative error over the surface pixels */
+    const char *names[4] = {"temporal.hf", "temporal.spec", "temporal.lf_sh", "temporal.lf_cocg"};
+    const float *want[4] = {hf, spec, sh, cocg};
+    const int nc[4] = {3, 3, 4, 2};
+    double err[4] = {0, 0, 0, 0};
+    int n = 0;
+    for (int k = 0; k < 4; k++) {
+        uint32_t di = UINT32_MAX;
+        for (uint32_t j = 0; j < dn_dump_count(); j++)
+            di = strcmp(dn_dump_name(j, NULL), names[k]) == 0 ? j : di;
+        REQUIRE(di != UINT32_MAX, "dump %s exists", names[k]);
+        REQUIRE_OK(dn_dump(dn, di, dump));
+        n = 0;
+        for (int q = 0; q < W * H; q++) {
+            if (tnd_frame_u(&f, TND_CT_VIS_ID)[2 * q] == TND_VIS_NONE)
+                continue;
+            n++;
+            for (int c = 0; c < nc[k]; c++)
+                err[k] += fabs(dump[4 * q + c] - want[k][c]) / fabs(want[k][c]) / nc[k];
+        }
+        err[k] /= n > 0 ? n : 1;
+    }
+    printf("     after %u noiseless frames (the first off), mean relative error of the "
+           "histories: hf %.2e, spec %.2e, lf SH %.2e, lf CoCg %.2e (%d pixels)\n",
+           frames, err[0], err[1], err[2], err[3], n);
+    for (int k = 0; k < 4; k++)
+        CHECK(err[k] <= 1e-3, "%s stops short: %.2e", names[k], err[k]);
+cleanup:
+    tnd_frame_destroy(&f);
+    dn_destroy(dn);
+    rig_close(vk, &r);
+    gpu_end();
+}
+
 static void test_nan_does_not_spread(void)
 {
     tnd_vk *vk = gpu_begin();
@@ -948,7 +1028,7 @@ static void test_shutdown(void)
 }
 
 TND_TEST_MAIN(T(test_off_equals_cpu_composite), T(test_svgf_static_cornell),
-              T(test_history_storage),
+              T(test_history_storage), T(test_noiseless_history_converges),
               T(test_nan_does_not_spread), T(test_lf_firefly_is_deflickered),
               T(test_disocclusion_and_frontends), T(test_gradient_samples_reproduce_static),
               T(test_asvgf_follows_light_switch), T(test_gradient_blur_segments),
