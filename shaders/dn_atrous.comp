@@ -8,10 +8,10 @@
  *   0.05 (mirror-like surfaces stay sharp).
  * lf is filtered at 1/3 resolution (dn_lf.comp).
  * Iteration 0's hf output is fed back as the hf history (SVGF), with the temporal pass's moments
- * (DN_B_MOMENTS). Reads ping-pong slot i & 1,
- * writes the other. Each tap is two loads: the ping-pong texel (DN_B_AT: hf, spec and the
- * variance as 16-bit wide-range floats) and the filter geometry (DN_B_FGEO: tangent-plane offset,
- * packed normal, roughness and field); they are issued before the tap's tests. */
+ * (DN_B_MOMENTS). Reads ping-pong slot i & 1, writes the other. Each tap is two loads: the
+ * ping-pong texel (DN_B_AT: hf, spec and the variance as 16-bit wide-range floats) and the filter
+ * geometry (DN_B_FGEO: tangent-plane offset, packed normal, roughness and field); they are issued
+ * before the tap's tests. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
@@ -44,10 +44,11 @@ void main()
     float rough = fgeo_roughness(g.y);
     float footprint = max(ce.w * P.misc.x * float(step), 1e-6);
     const float LOG2E = 1.4426950408889634;
-    /* the taps' colours and variance stay scaled by 2^-95 as they decode (at_decode2_scaled:
-     * a multiplication fewer per value; tnd_uf16's smallest value scales to FLT_MIN, a normal
-     * float); the luminance scale and the sums follow, and the results are scaled back */
-    /* the edge-stopping terms in units of log2 (one exp2 per weight) */
+    /* the taps' colours and variance stay scaled by 2^-95 (UF16_SCALE) as they decode
+     * (at_decode2_scaled: a multiplication fewer per value; tnd_uf16's smallest value scales to
+     * FLT_MIN, a normal float); the luminance scale and the sums follow, and the results are
+     * encoded from them (at_pack_scaled). The edge-stopping terms are in units of log2 (one
+     * exp2 per weight). */
     float inv_sigma_z = LOG2E / (P.weights.x * footprint);
     float l = luma(c_hf) * UF16_SCALE;
     float inv_sigma_l = LOG2E / UF16_SCALE / (P.weights.z * sqrt(max(c_var, 1e-8)) + 1e-6);

@@ -198,13 +198,6 @@ float lf_plane_distance(uvec4 t, vec3 pos)
 vec2 lf_cocg(uvec4 t) { return uintBitsToFloat(t.zw); }
 uvec4 lf_with_cocg(uvec4 t, vec2 cocg) { return uvec4(t.xy, floatBitsToUint(cocg)); }
 
-/* The histories of hf (DN_B_HIST_HF) and spec (DN_B_HIST_SPEC), one texel each, so that a
- * reprojection tap loads four texels (with the previous surface and the lf history), not five:
- * hf: x, y hf rgb as tnd_uf16 and the hf history length as a half float, zw the luminance
- * moments E[l], E[l^2] (float bits); spec (RG32UI): x, y spec rgb as tnd_uf16 and the spec
- * history length as a half float. tnd_uf16 keeps 2^-11 relative, as RGBA16F would (Q2RTX keeps
- * its hf history in RGBE). */
-
 /* The a-trous ping-pong texel (DN_B_AT): hf, spec and the hf variance as tnd_uf16. */
 /* tnd_uf16_decode of both halves of a word: the high half shifts right by 3 into place */
 vec2 at_decode2(uint w)
@@ -235,7 +228,12 @@ uvec4 at_pack_scaled(vec3 hf, vec3 spec, float variance, uvec3 r)
                  uf16_encode_dither(spec.g, r.y) | uf16_encode_dither(spec.b, r.z) << 16u,
                  uf16_encode_dither(variance, r.x));
 }
-/* a history's rgb (scaled, see UF16_SCALE) and length, rounded with the offsets r */
+/* The histories of hf (DN_B_HIST_HF) and spec (DN_B_HIST_SPEC), one texel each, so that a
+ * reprojection tap loads four texels (with the previous surface and the lf history), not five:
+ * hf: x, y hf rgb as tnd_uf16 and the hf history length as a half float, zw the luminance
+ * moments E[l], E[l^2] (float bits); spec (RG32UI): x, y spec rgb as tnd_uf16 and the spec
+ * history length as a half float. tnd_uf16 keeps 2^-11 relative, as RGBA16F would (Q2RTX keeps
+ * its hf history in RGBE); the rgb is scaled (UF16_SCALE) and rounded with the offsets r. */
 uvec2 hist_rgb_pack_scaled(vec3 c, float len, uvec3 r)
 {
     return uvec2(uf16_encode_dither(c.r, r.x) | uf16_encode_dither(c.g, r.y) << 16u,
@@ -245,7 +243,7 @@ uvec4 hist_hf_pack_scaled(vec3 hf, float len, vec2 mom, uvec3 r)
 {
     return uvec4(hist_rgb_pack_scaled(hf, len, r), floatBitsToUint(mom));
 }
-/* a history texel's rgb (hist_rgb_pack) and length */
+/* a history texel's rgb (hist_rgb_pack_scaled, decoded to its real value) and length */
 vec3 hist_rgb(uvec2 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
 float hist_len(uvec2 t) { return unpackHalf2x16(t.y >> 16u).x; }
 /* The hf history length, a half float in the spare high half of w: the temporal pass hands it
@@ -261,7 +259,10 @@ float luma(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 /* The raw luminances kept for the next frame's gradients (DN_B_PREV_LUM), and their values as
  * the selection and the gradient read them: tnd_uf16, 2^-11 relative, both sides of a gradient
  * rounded alike (an unchanged sample gives 0 exactly). */
-uint prev_lum_pack(float hf, float spec) { return tnd_uf16_encode(hf) | tnd_uf16_encode(spec) << 16u; }
+uint prev_lum_pack(float hf, float spec)
+{
+    return tnd_uf16_encode(hf) | tnd_uf16_encode(spec) << 16u;
+}
 vec2 prev_lum_unpack(uint w) { return at_decode2(w); }
 float lum_rounded(float l) { return tnd_uf16_decode(tnd_uf16_encode(l)); }
 

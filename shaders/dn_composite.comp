@@ -60,13 +60,14 @@ void main()
     uvec2 vis = imageLoad(img_vis_id, p).xy;
     vec3 gn = imageLoad(img_geo_normal, p).xyz;
     /* the temporal pass's copy of position (relative) and depth where it ran */
-    vec4 ce = P.size.w == 1u ? vec4(0.0, 0.0, 0.0, imageLoad(img_depth, p).x) : imageLoad(centre, p);
+    vec4 ce = P.size.w == 1u ? vec4(vec3(0.0), imageLoad(img_depth, p).x) : imageLoad(centre, p);
     float depth = ce.w;
     bool was_sample = false;
     if (P.size.w == 2u && P.misc.w != 0.0) { /* this stratum's sample (one buffer read per
                                                    stratum, cached: no per-pixel mask) */
         ivec2 s = p / DN_STRATUM;
-        was_sample = samples[uint(s.y * grad_size().x + s.x)].a.x == uint(p.y) * P.size.x + uint(p.x);
+        uint pixel = uint(p.y) * P.size.x + uint(p.x);
+        was_sample = samples[uint(s.y * grad_size().x + s.x)].a.x == pixel;
     }
     /* the shading normal and the field: from the filter geometry (8 bytes, the normal
      * octahedral 11 + 11 bits) where the temporal pass ran, else from the contract */

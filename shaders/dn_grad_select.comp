@@ -1,18 +1,17 @@
 /* dn_grad_select.comp: A-SVGF's gradient samples (Schied et al. 2018; Q2RTX's choice rules): one
  * per 3x3 stratum, among the stratum's pixels whose surface was visible in the previous frame at
- * the motion's target (same instance, depth within 10%, geometric normal within 25 degrees),
- * that were not last frame's gradient sample (reusing a random sequence twice biases), picking
- * the brightest previous hf + spec (a random pick in a moving penumbra often misses the change;
- * ties: the first in row order).
- * Writes the sample (pixel, the previous frame's rng key and surface) for the front-end to
- * re-shade (the composite looks its pixels up there too: no per-pixel mask), the sample's
- * previous luminances (grad[0].zw), and the stratum's sums of the raw lf L0 now and of the
- * accumulated L0 history at the reprojected pixels (grad[0].xy) for dn_gradients.comp (here,
- * where the pixels are visited anyway, and before the re-shading: the
- * sample's fresh L0 counts as "now", not the previous frame's, which would hide 1/9 of a
- * change). A non-finite motion counts as none. One thread per pixel tests its pixel; one
- * thread per stratum then picks among the nine through shared memory (a thread per stratum
- * doing the nine tests itself is latency-bound: nine chains of dependent loads). */
+ * the motion's target (same instance, depth within 10%, geometric normal within 25 degrees), that
+ * were not last frame's gradient sample (reusing a random sequence twice biases), picking the
+ * brightest previous hf + spec (a random pick in a moving penumbra often misses the change; ties:
+ * the first in row order). Writes the sample (pixel, the previous frame's rng key and surface) for
+ * the front-end to re-shade (the composite looks its pixels up there too: no per-pixel mask), the
+ * sample's previous luminances (grad[0].zw), and the stratum's sums of the raw lf L0 now and of the
+ * accumulated L0 history at the reprojected pixels (grad[0].xy) for dn_gradients.comp (here, where
+ * the pixels are visited anyway, and before the re-shading: the sample's fresh L0 counts as "now",
+ * not the previous frame's, which would hide 1/9 of a change). A non-finite motion counts as none.
+ * One thread per pixel tests its pixel; one thread per stratum then picks among the nine through
+ * shared memory (a thread per stratum doing the nine tests itself is latency-bound: nine chains of
+ * dependent loads). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define DN_STRATUM_TILES 1

@@ -175,8 +175,9 @@ static void test_uf16_extremes(void)
         bad_scaled += tnd_uf16_encode_scaled(nextafterf(mid, 0.0f) * to_scaled) !=
                       tnd_uf16_encode(nextafterf(mid, 0.0f));
     }
+    const float lo_code = ldexpf(1.0f, 1 - TND_UF16_BIAS); /* the smallest code's value */
     const float edge[] = {0.0f, -0.0f, (float)TND_UF16_MAX, 1e30f, ldexpf(1.0f, -TND_UF16_BIAS),
-                          ldexpf(1.0f, 1 - TND_UF16_BIAS), nextafterf(ldexpf(1.0f, 1 - TND_UF16_BIAS), 0.0f)};
+                          lo_code, nextafterf(lo_code, 0.0f)};
     for (int k = 0; k < 7; k++)
         bad_scaled += tnd_uf16_encode_scaled(edge[k] * to_scaled) != tnd_uf16_encode(edge[k]);
     printf("     uf16: %d values over 1e-12..1e12, worst relative error in range %.3e (bound "

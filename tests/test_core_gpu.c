@@ -343,8 +343,8 @@ static void test_rgbe_glsl_matches_c(void)
             in[i * 3 + c][c] = special[i], in[i * 3 + c][3] = special[i];
     const tnd_shader variants[2] = {TND_SHADER_encoding_test_f32, TND_SHADER_encoding_test_packed};
     for (int v = 0; v < 2; v++) {
-        REQUIRE_OK(
-            run_two_buffer_shader(vk, variants[v], in, N * sizeof *in, out, 3 * N * sizeof *out, N));
+        REQUIRE_OK(run_two_buffer_shader(vk, variants[v], in, N * sizeof *in, out,
+                                         3 * N * sizeof *out, N));
         int bad = 0, bad_dec = 0, bad_nf = 0, bad6 = 0, bad_scaled = 0;
         for (int i = 0; i < N; i++) {
             uint32_t p = tnd_rgbe_encode(in[i][0], in[i][1], in[i][2]);
