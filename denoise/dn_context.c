@@ -274,48 +274,31 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                            .name = name},
                                      &c->paired[k][s]));
         }
-    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
-                                                   .format = VK_FORMAT_R32G32B32A32_UINT,
-                                                   .name = "denoise.prev_geo"},
-                             &c->prev_geo));
-    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
-                                                   .format = VK_FORMAT_R32G32B32A32_UINT,
-                                                   .name = "denoise.prev_surf"},
-                             &c->prev_surf));
-    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
-                                                   .format = VK_FORMAT_R32G32B32A32_SFLOAT,
-                                                   .name = "denoise.out"},
-                             &c->out));
-    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
-                                                   .format = VK_FORMAT_R32G32_UINT,
-                                                   .name = "denoise.fgeo"},
-                             &c->fgeo));
-    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
-                                                   .format = VK_FORMAT_R32G32_SFLOAT,
-                                                   .name = "denoise.moments"},
-                             &c->moments));
-    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
-                                                   .format = VK_FORMAT_R32G32B32A32_SFLOAT,
-                                                   .name = "denoise.centre"},
-                             &c->centre));
+    /* the single images: full resolution, or (third) 1/3 */
     struct {
         tnd_image *img;
-        uint32_t w, h;
+        bool third;
         VkFormat format;
         const char *name;
-    } extra[5] = {
-        {&c->prev_lum, width, height, VK_FORMAT_R32_UINT, "denoise.prev_lum"},
-        {&c->prev_key, width, height, VK_FORMAT_R32G32_UINT, "denoise.prev_key"},
-        {&c->grad[0], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[0]"},
-        {&c->grad[1], 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[1]"},
-        {&c->lf_geo, 0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo"},
+    } single[] = {
+        {&c->prev_geo, false, VK_FORMAT_R32G32B32A32_UINT, "denoise.prev_geo"},
+        {&c->prev_surf, false, VK_FORMAT_R32G32B32A32_UINT, "denoise.prev_surf"},
+        {&c->out, false, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.out"},
+        {&c->fgeo, false, VK_FORMAT_R32G32_UINT, "denoise.fgeo"},
+        {&c->moments, false, VK_FORMAT_R32G32_SFLOAT, "denoise.moments"},
+        {&c->centre, false, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.centre"},
+        {&c->prev_lum, false, VK_FORMAT_R32_UINT, "denoise.prev_lum"},
+        {&c->prev_key, false, VK_FORMAT_R32G32_UINT, "denoise.prev_key"},
+        {&c->grad[0], true, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[0]"},
+        {&c->grad[1], true, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[1]"},
+        {&c->lf_geo, true, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo"},
     };
-    for (int i = 0; i < 5; i++)
-        TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = extra[i].w ? extra[i].w : c->grad_w,
-                                                       .height = extra[i].h ? extra[i].h : c->grad_h,
-                                                       .format = extra[i].format,
-                                                       .name = extra[i].name},
-                                 extra[i].img));
+    for (size_t i = 0; i < sizeof single / sizeof single[0]; i++)
+        TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = single[i].third ? c->grad_w : width,
+                                                       .height = single[i].third ? c->grad_h : height,
+                                                       .format = single[i].format,
+                                                       .name = single[i].name},
+                                 single[i].img));
     VkDeviceSize sample_bytes = (VkDeviceSize)c->grad_w * c->grad_h * sizeof(tnd_gpu_gradient);
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sample_bytes,
                                                      .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
