@@ -13,6 +13,7 @@
 #include "shaders/shader_list.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -52,6 +53,38 @@ struct dn_context {
     bool fine_on;  /* recording dn_run with desc.dispatch_timing: time each dispatch */
     bool have_history;
 };
+
+/* The back-end's images that are neither ping-ponged nor the gradient pair: where they live in
+ * the context, their binding, resolution (third: 1/3) and format; created, bound and destroyed
+ * from this table. */
+static const struct {
+    size_t offset;
+    uint32_t binding;
+    bool third;
+    VkFormat format;
+    const char *name;
+} single_images[N_SINGLE] = {
+    {offsetof(dn_context, prev_geo), DN_B_PREV_GEO, false, VK_FORMAT_R32G32B32A32_UINT,
+     "denoise.prev_geo"},
+    {offsetof(dn_context, prev_surf), DN_B_PREV_SURF, false, VK_FORMAT_R32G32B32A32_UINT,
+     "denoise.prev_surf"},
+    {offsetof(dn_context, out), DN_B_OUT, false, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.out"},
+    {offsetof(dn_context, fgeo), DN_B_FGEO, false, VK_FORMAT_R32G32_UINT, "denoise.fgeo"},
+    {offsetof(dn_context, moments), DN_B_MOMENTS, false, VK_FORMAT_R32G32_SFLOAT,
+     "denoise.moments"},
+    {offsetof(dn_context, centre), DN_B_CENTRE, false, VK_FORMAT_R32G32B32A32_SFLOAT,
+     "denoise.centre"},
+    {offsetof(dn_context, prev_lum), DN_B_PREV_LUM, false, VK_FORMAT_R32_UINT, "denoise.prev_lum"},
+    {offsetof(dn_context, prev_key), DN_B_PREV_KEY, false, VK_FORMAT_R32G32_UINT,
+     "denoise.prev_key"},
+    {offsetof(dn_context, lf_geo), DN_B_LF_GEO, true, VK_FORMAT_R32G32B32A32_SFLOAT,
+     "denoise.lf_geo"},
+};
+
+static tnd_image *single_image(dn_context *c, int i)
+{
+    return (tnd_image *)((char *)c + single_images[i].offset);
+}
 
 tnd_result dn_mode_parse(const char *s, dn_mode *mode)
 {
@@ -97,17 +130,10 @@ void dn_destroy(dn_context *c)
     for (int k = 0; k < N_PAIRED; k++)
         for (int s = 0; s < 2; s++)
             tnd_image_destroy(vk, &c->paired[k][s]);
-    tnd_image_destroy(vk, &c->prev_geo);
-    tnd_image_destroy(vk, &c->prev_surf);
-    tnd_image_destroy(vk, &c->out);
-    tnd_image_destroy(vk, &c->fgeo);
-    tnd_image_destroy(vk, &c->moments);
-    tnd_image_destroy(vk, &c->centre);
-    tnd_image_destroy(vk, &c->prev_lum);
-    tnd_image_destroy(vk, &c->prev_key);
+    for (int i = 0; i < N_SINGLE; i++)
+        tnd_image_destroy(vk, single_image(c, i));
     tnd_image_destroy(vk, &c->grad[0]);
     tnd_image_destroy(vk, &c->grad[1]);
-    tnd_image_destroy(vk, &c->lf_geo);
     tnd_buffer_destroy(vk, &c->params);
     tnd_buffer_destroy(vk, &c->samples);
     tnd_buffer_destroy(vk, &c->samples_host);
@@ -201,16 +227,12 @@ static void write_own_set(dn_context *c)
                                     .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
                                     .pImageInfo = &ii[k]};
     k += 2;
-    const tnd_image *single[N_SINGLE] = {&c->prev_geo, &c->prev_surf, &c->out,
-                                         &c->prev_lum, &c->prev_key,  &c->fgeo,
-                                         &c->lf_geo,   &c->moments,   &c->centre};
-    const uint32_t sb[N_SINGLE] = {DN_B_PREV_GEO, DN_B_PREV_SURF, DN_B_OUT,
-                                   DN_B_PREV_LUM, DN_B_PREV_KEY,  DN_B_FGEO,
-                                   DN_B_LF_GEO,   DN_B_MOMENTS,   DN_B_CENTRE};
     for (int s = 0; s < N_SINGLE; s++) {
-        ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single[s]->view, VK_IMAGE_LAYOUT_GENERAL};
+        ii[k] = (VkDescriptorImageInfo){VK_NULL_HANDLE, single_image(c, s)->view,
+                                        VK_IMAGE_LAYOUT_GENERAL};
         w[n++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                        .dstSet = c->sets[0], .dstBinding = sb[s],
+                                        .dstSet = c->sets[0],
+                                        .dstBinding = single_images[s].binding,
                                         .descriptorCount = 1,
                                         .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
                                         .pImageInfo = &ii[k++]};
@@ -274,31 +296,20 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                            .name = name},
                                      &c->paired[k][s]));
         }
-    /* the single images: full resolution, or (third) 1/3 */
-    struct {
-        tnd_image *img;
-        bool third;
-        VkFormat format;
-        const char *name;
-    } single[] = {
-        {&c->prev_geo, false, VK_FORMAT_R32G32B32A32_UINT, "denoise.prev_geo"},
-        {&c->prev_surf, false, VK_FORMAT_R32G32B32A32_UINT, "denoise.prev_surf"},
-        {&c->out, false, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.out"},
-        {&c->fgeo, false, VK_FORMAT_R32G32_UINT, "denoise.fgeo"},
-        {&c->moments, false, VK_FORMAT_R32G32_SFLOAT, "denoise.moments"},
-        {&c->centre, false, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.centre"},
-        {&c->prev_lum, false, VK_FORMAT_R32_UINT, "denoise.prev_lum"},
-        {&c->prev_key, false, VK_FORMAT_R32G32_UINT, "denoise.prev_key"},
-        {&c->grad[0], true, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[0]"},
-        {&c->grad[1], true, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.grad[1]"},
-        {&c->lf_geo, true, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.lf_geo"},
-    };
-    for (size_t i = 0; i < sizeof single / sizeof single[0]; i++)
-        TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = single[i].third ? c->grad_w : width,
-                                                       .height = single[i].third ? c->grad_h : height,
-                                                       .format = single[i].format,
-                                                       .name = single[i].name},
-                                 single[i].img));
+    for (int i = 0; i < N_SINGLE; i++)
+        TND_TRY(tnd_image_create(vk,
+                                 &(tnd_image_desc){
+                                     .width = single_images[i].third ? c->grad_w : width,
+                                     .height = single_images[i].third ? c->grad_h : height,
+                                     .format = single_images[i].format,
+                                     .name = single_images[i].name},
+                                 single_image(c, i)));
+    for (int i = 0; i < 2; i++)
+        TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = c->grad_w, .height = c->grad_h,
+                                                       .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                       .name = i ? "denoise.grad[1]"
+                                                                 : "denoise.grad[0]"},
+                                 &c->grad[i]));
     VkDeviceSize sample_bytes = (VkDeviceSize)c->grad_w * c->grad_h * sizeof(tnd_gpu_gradient);
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sample_bytes,
                                                      .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,

@@ -68,9 +68,6 @@ static inline v3 pixel_dir(const femb_context *c, uint32_t x, uint32_t y)
     return camera_dir(c, (float)x + 0.5f + c->jitter[0], (float)y + 0.5f + c->jitter[1]);
 }
 
-/* The real-time reflect/refract chain (femb_internal.h) of pixel (x, y) whose camera ray has
- * direction dir (pixel_dir): mirror: reflect, x Schlick; glass: refract unless total internal
- * reflection, x (1 - F); Beer-Lambert inside. */
 /* A chain before its camera ray is cast: no hit, no vertex, throughput 1. */
 static void chain_start(femb_chain *r, v3 dir)
 {
@@ -78,6 +75,10 @@ static void chain_start(femb_chain *r, v3 dir)
     r->thr[0] = r->thr[1] = r->thr[2] = 1.0f;
     r->dir0 = r->dir = dir;
 }
+
+/* The real-time reflect/refract chain (femb_internal.h) of pixel (x, y) whose camera ray has
+ * direction dir (pixel_dir): mirror: reflect, x Schlick; glass: refract unless total internal
+ * reflection, x (1 - F); Beer-Lambert inside. */
 
 static void chain_from(const femb_context *c, uint32_t x, uint32_t y, v3 dir, bool follow,
                        femb_chain *r)

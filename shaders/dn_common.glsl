@@ -126,14 +126,6 @@ uvec3 history_dither(ivec2 p)
 {
     return tnd_pcg3d(uvec3(uvec2(p), P.frame.x)) & 0x1fffu;
 }
-/* tnd_uf16_encode_scaled with the rounding offset r in [0, 2^13) instead of 2^12: a value
- * rounds up with the probability of its fraction of a step (within a binade the codes are
- * linear in the float's bits); r = 0x1000 rounds to nearest */
-uint uf16_encode_dither(float xs, uint r)
-{
-    uint c = ((floatBitsToUint(xs) & 0x7fffffffu) + r) >> 13u;
-    return c < 0x400u ? 0u : min(c, 0xffffu);
-}
 /* A half float (unpackHalf2x16 reads it) rounded the same way; values below half's normal range
  * (6.1e-5) become 0, above it the largest half */
 uint half_dither(float v, uint r)
@@ -205,7 +197,9 @@ vec2 at_decode2(uint w)
     const float rebias = 39614081257132168796771975168.0; /* 2^(127 - TND_UF16_BIAS) = 2^95 */
     return uintBitsToFloat(uvec2((w & 0xffffu) << 13u, (w >> 3u) & 0x1fffe000u)) * rebias;
 }
-vec3 at_hf(uvec4 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
+/* the rgb of a ping-pong or history texel (both keep it in words x, y) */
+vec3 hist_rgb(uvec2 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
+vec3 at_hf(uvec4 t) { return hist_rgb(t.xy); }
 vec3 at_spec(uvec4 t) { return vec3(at_decode2(t.y).y, at_decode2(t.z)); }
 float at_variance(uvec4 t) { return tnd_uf16_decode(t.w); }
 /* the same times 2^-95 (no rebias): the a-trous taps work on these */
@@ -223,10 +217,12 @@ const float UF16_SCALE = 1.0 / 39614081257132168796771975168.0; /* 2^(TND_UF16_B
  * tnd_uf16_encode_scaled) */
 uvec4 at_pack_scaled(vec3 hf, vec3 spec, float variance, uvec3 r)
 {
-    return uvec4(uf16_encode_dither(hf.r, r.x) | uf16_encode_dither(hf.g, r.y) << 16u,
-                 uf16_encode_dither(hf.b, r.z) | uf16_encode_dither(spec.r, r.x) << 16u,
-                 uf16_encode_dither(spec.g, r.y) | uf16_encode_dither(spec.b, r.z) << 16u,
-                 uf16_encode_dither(variance, r.x));
+    uvec3 h = uvec3(tnd_uf16_encode_offset(hf.r, r.x), tnd_uf16_encode_offset(hf.g, r.y),
+                    tnd_uf16_encode_offset(hf.b, r.z));
+    uvec3 s = uvec3(tnd_uf16_encode_offset(spec.r, r.x), tnd_uf16_encode_offset(spec.g, r.y),
+                    tnd_uf16_encode_offset(spec.b, r.z));
+    return uvec4(h.x | h.y << 16u, h.z | s.x << 16u, s.y | s.z << 16u,
+                 tnd_uf16_encode_offset(variance, r.x));
 }
 /* The histories of hf (DN_B_HIST_HF) and spec (DN_B_HIST_SPEC), one texel each, so that a
  * reprojection tap loads four texels (with the previous surface and the lf history), not five:
@@ -236,15 +232,14 @@ uvec4 at_pack_scaled(vec3 hf, vec3 spec, float variance, uvec3 r)
  * its hf history in RGBE); the rgb is scaled (UF16_SCALE) and rounded with the offsets r. */
 uvec2 hist_rgb_pack_scaled(vec3 c, float len, uvec3 r)
 {
-    return uvec2(uf16_encode_dither(c.r, r.x) | uf16_encode_dither(c.g, r.y) << 16u,
-                 uf16_encode_dither(c.b, r.z) | packHalf2x16(vec2(len, 0.0)) << 16u);
+    return uvec2(tnd_uf16_encode_offset(c.r, r.x) | tnd_uf16_encode_offset(c.g, r.y) << 16u,
+                 tnd_uf16_encode_offset(c.b, r.z) | packHalf2x16(vec2(len, 0.0)) << 16u);
 }
 uvec4 hist_hf_pack_scaled(vec3 hf, float len, vec2 mom, uvec3 r)
 {
     return uvec4(hist_rgb_pack_scaled(hf, len, r), floatBitsToUint(mom));
 }
-/* a history texel's rgb (hist_rgb_pack_scaled, decoded to its real value) and length */
-vec3 hist_rgb(uvec2 t) { return vec3(at_decode2(t.x), at_decode2(t.y).x); }
+/* a history texel's length (its rgb: hist_rgb) */
 float hist_len(uvec2 t) { return unpackHalf2x16(t.y >> 16u).x; }
 /* The hf history length, a half float in the spare high half of w: the temporal pass hands it
  * to the a-trous's first iteration, which writes the hf history (a store and a load fewer than

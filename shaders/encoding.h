@@ -173,12 +173,19 @@ TND_FN float tnd_uf16_decode(TND_U32 h)
 
 /* tnd_uf16_encode(x) given xs = x * 2^(BIAS - 127), finite and >= 0 (-0 included; the a-trous
  * keeps its sums at that scale, decoding without the rebias): xs's float bits are the code's,
- * shifted by 13; rounded as tnd_uf16_encode rounds, 0 below the smallest code (xs below
- * FLT_MIN), the largest code above it. 6 operations instead of 14. */
+ * shifted by 13; 0 below the smallest code (xs below FLT_MIN), the largest code above it. 6
+ * operations instead of 14. Rounding: `offset` in [0, 2^13) is added before the truncation;
+ * 2^12 rounds as tnd_uf16_encode rounds (tnd_uf16_encode_scaled), a uniformly random one rounds
+ * stochastically (up with the probability of the value's fraction of a step: within a binade
+ * the codes are linear in the float's bits). */
+TND_FN TND_U32 tnd_uf16_encode_offset(float xs, TND_U32 offset)
+{
+    TND_U32 c = ((TND_F2U(xs) & 0x7fffffffu) + offset) >> 13;
+    return c < 0x400u ? 0u : c > 0xffffu ? 0xffffu : c;
+}
 TND_FN TND_U32 tnd_uf16_encode_scaled(float xs)
 {
-    TND_U32 c = ((TND_F2U(xs) & 0x7fffffffu) + 0x1000u) >> 13;
-    return c < 0x400u ? 0u : c > 0xffffu ? 0xffffu : c;
+    return tnd_uf16_encode_offset(xs, 0x1000u);
 }
 
 #ifdef TND_GLSL
