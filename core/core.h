@@ -831,19 +831,21 @@ typedef struct tnd_light_list {
  * zero power are left out; count 0 means no light to sample. Reuses the arrays of `list`. */
 tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_light_list *list);
 void tnd_lights_free(tnd_light_list *list);
-/* Index of the light picked by u in [0,1) (binary search on the cdf; the halves chosen by
- * selects, not branches: the CPU front-end picks for every path vertex, and a coin-flip branch
- * per step mispredicts half the time). */
+/* Index of the light picked by u in [0,1): the first light whose cdf exceeds u (the last one if
+ * none does, NaN included). A binary search of fixed length whose halves are chosen by an
+ * addition of 0 or `half`, without a branch: the CPU front-end picks for every path vertex, and
+ * a branch there mispredicts half the time. The range always holds the answer because the cdf
+ * never decreases. */
 static inline uint32_t tnd_lights_pick(const tnd_light_list *list, float u)
 {
-    uint32_t lo = 0, hi = list->count - 1;
-    while (lo < hi) {
-        uint32_t mid = (lo + hi) / 2;
-        bool right = !(list->lights[mid].cdf.x > u);
-        lo = right ? mid + 1 : lo;
-        hi = right ? hi : mid;
+    uint32_t base = 0, len = list->count;
+    while (len > 1) {
+        uint32_t half = len / 2;
+        uint32_t right = !(list->lights[base + half - 1].cdf.x > u); /* (NaN: right) */
+        base += half & (0u - right); /* (a mask: gcc compiles `right ? half : 0` to a branch) */
+        len -= half;
     }
-    return lo;
+    return base;
 }
 
 

@@ -3,7 +3,7 @@
  *
  * Selection: light i is picked with probability pick = power_i / sum of powers (flux: pi L A for
  * an emissive triangle, 4 pi I for point lights, 2 pi (1 - cos outer) I for spots, pi R^2 E for
- * directional lights with R the scene's bounding radius), by binary search for the first cdf >= u.
+ * directional lights with R the scene's bounding radius), by binary search for the first cdf > u.
  * Area lights are sampled uniformly by area; pdf in solid angle = pick d^2 / (A cos theta_l). */
 #ifndef TND_LIGHTS_H
 #define TND_LIGHTS_H

@@ -387,5 +387,54 @@ cleanup:;
     CHECK(system(cmd) == 0, "cleanup");
 }
 
+/* tnd_lights_pick against a linear scan (the first light whose cdf exceeds u, the last when none
+ * does): lists of 1 to 40 lights with random steps and runs of equal cdf values (float sums do
+ * repeat), u random, on every cdf value and the floats beside it, 0, 1, negative and NaN. */
+static void test_light_pick(void)
+{
+    uint32_t state = 12345u, bad = 0, checked = 0;
+    tnd_light_gpu lights[40];
+    for (uint32_t count = 1; count <= 40; count++) {
+        for (int trial = 0; trial < 20; trial++) {
+            float acc = 0.0f;
+            for (uint32_t i = 0; i < count; i++) {
+                state = state * 1664525u + 1013904223u;
+                acc += (state >> 30) == 0 ? 0.0f : (float)(state >> 8) * (1.0f / 16777216.0f);
+                lights[i].cdf.x = acc;
+            }
+            for (uint32_t i = 0; i < count; i++) /* normalised as tnd_lights_build does */
+                lights[i].cdf.x = i + 1 == count ? 1.0f : lights[i].cdf.x / acc;
+            tnd_light_list list = {.lights = lights, .count = count};
+            float us[4 * 40 + 100];
+            uint32_t nu = 0;
+            for (uint32_t i = 0; i < count; i++) {
+                float x = lights[i].cdf.x;
+                us[nu++] = x;
+                us[nu++] = nextafterf(x, 0.0f);
+                us[nu++] = nextafterf(x, 2.0f);
+            }
+            for (int k = 0; k < 90; k++) {
+                state = state * 1664525u + 1013904223u;
+                us[nu++] = (float)(state >> 8) * (1.0f / 16777216.0f);
+            }
+            us[nu++] = 0.0f, us[nu++] = 1.0f, us[nu++] = -1.0f, us[nu++] = NAN;
+            for (uint32_t k = 0; k < nu; k++) {
+                uint32_t want = count - 1;
+                for (uint32_t i = 0; i < count; i++)
+                    if (lights[i].cdf.x > us[k]) {
+                        want = i;
+                        break;
+                    }
+                uint32_t got = tnd_lights_pick(&list, us[k]);
+                if (got != want && bad++ < 5)
+                    CHECK(false, "%u lights, u %.9g: picked %u, expected %u", count, us[k], got,
+                          want);
+                checked++;
+            }
+        }
+    }
+    CHECK(bad == 0, "%u of %u picks differ from the linear scan", bad, checked);
+}
+
 TND_TEST_MAIN(T(test_shipped_scenes), T(test_values), T(test_animation), T(test_stress),
-              T(test_bad_input))
+              T(test_light_pick), T(test_bad_input))
