@@ -21,46 +21,40 @@
 #endif
 
 /* ---- projection ----------------------------------------------------------------------------- */
-/* Pixel position of world point p (or of direction p when `direction`) for a camera. */
-static inline bool project(const tnd_camera_state *cam, const float *cam_pos, const double p[3],
-                    bool direction, uint32_t w, uint32_t h, double out[2])
+/* Pixel position, for a camera, of the point at d from the camera's position (of direction d
+ * when `direction`), in float. Callers pass d relative to the camera without forming the world
+ * point first (femb_xf_point_rel). Inline: lane loops vectorise it. */
+static inline bool project(const tnd_camera_state *cam, v3 d, bool direction, uint32_t w,
+                           uint32_t h, float out[2])
 {
-    double d[3];
-    for (int k = 0; k < 3; k++)
-        d[k] = direction ? p[k] : p[k] - cam_pos[k];
     const float *V = cam->view, *P = cam->proj;
-    double v[3];
+    float v[3], clip[4];
     for (int r = 0; r < 3; r++)
-        v[r] = V[r] * d[0] + V[4 + r] * d[1] + V[8 + r] * d[2];
-    double clip[4];
+        v[r] = V[r] * d.x + V[4 + r] * d.y + V[8 + r] * d.z;
     for (int r = 0; r < 4; r++)
-        clip[r] = P[r] * v[0] + P[4 + r] * v[1] + P[8 + r] * v[2] + (direction ? 0.0 : P[12 + r]);
-    out[0] = (clip[0] / clip[3] * 0.5 + 0.5) * w;
-    out[1] = (clip[1] / clip[3] * 0.5 + 0.5) * h;
-    return (fabs(clip[3]) > 1e-30) & isfinite(out[0]) & isfinite(out[1]);
+        clip[r] = P[r] * v[0] + P[4 + r] * v[1] + P[8 + r] * v[2] + (direction ? 0.0f : P[12 + r]);
+    out[0] = (clip[0] / clip[3] * 0.5f + 0.5f) * (float)w;
+    out[1] = (clip[1] / clip[3] * 0.5f + 0.5f) * (float)h;
+    return (fabsf(clip[3]) > 1e-30f) & isfinite(out[0]) & isfinite(out[1]);
 }
 
 /* ---- primary pass ---------------------------------------------------------------------------- */
 /* Primary ray direction through pixel position (px, py), from the inverses computed once per
- * frame (the same arithmetic as tnd_camera_ray with tnd_mat4_point and tnd_mat4_dir: unproject
- * in view space, then rotate), written inline so that a loop over lanes vectorises it. */
+ * frame: unproject in view space, then rotate (no translation enters the direction), in float
+ * as the Vulkan front-end's camera_dir; inline, so that a loop over lanes vectorises it. */
 static inline v3 camera_dir(const femb_context *c, float px, float py)
 {
     float ndc[3] = {2.0f * px / (float)c->width - 1.0f, 2.0f * py / (float)c->height - 1.0f, 0.5f};
     const float *m = c->inv_proj, *r = c->inv_view;
-    double h[4];
+    float h[4];
     for (int k = 0; k < 4; k++)
-        h[k] = (double)m[k] * ndc[0] + (double)m[4 + k] * ndc[1] + (double)m[8 + k] * ndc[2] +
-               m[12 + k];
-    double w = h[3] != 0.0 ? h[3] : 1.0;
-    float pv[3], d[3];
+        h[k] = m[k] * ndc[0] + m[4 + k] * ndc[1] + m[8 + k] * ndc[2] + m[12 + k];
+    float w = h[3] != 0.0f ? h[3] : 1.0f, pv[3];
     for (int k = 0; k < 3; k++)
-        pv[k] = (float)(h[k] / w);
-    for (int k = 0; k < 3; k++)
-        d[k] = r[k] * pv[0] + r[4 + k] * pv[1] + r[8 + k] * pv[2];
-    double n = sqrt((double)d[0] * d[0] + (double)d[1] * d[1] + (double)d[2] * d[2]);
-    double nn = n > 0 ? n : 1.0, k = n > 0 ? 1.0 : 0.0; /* (selects, not branches) */
-    return (v3){(float)(d[0] / nn * k), (float)(d[1] / nn * k), (float)(d[2] / nn * k)};
+        pv[k] = h[k] / w;
+    v3 d = {r[0] * pv[0] + r[4] * pv[1] + r[8] * pv[2], r[1] * pv[0] + r[5] * pv[1] + r[9] * pv[2],
+            r[2] * pv[0] + r[6] * pv[1] + r[10] * pv[2]};
+    return norm(d); /* (0 stays 0) */
 }
 
 static inline v3 pixel_dir(const femb_context *c, uint32_t x, uint32_t y)
@@ -248,7 +242,6 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixe
     uint32_t W = c->width, H = c->height;
     const tnd_camera_state *cam = &c->cur->camera;
     tnd_frame_u(f, TND_CT_PATH)[q] = ch->path;
-    float dd[3] = {ch->dir0.x, ch->dir0.y, ch->dir0.z};
     uint32_t inst = ch->inst, prim = ch->prim;
     float u = ch->u, v = ch->v;
     float *alb = tnd_frame_f(f, TND_CT_ALBEDO) + 3 * q, *n = tnd_frame_f(f, TND_CT_NORMAL) + 3 * q;
@@ -263,7 +256,7 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixe
     rng[0] = c->frame;
     rng[1] = pixel;
     memcpy(thr, ch->thr, 3 * sizeof(float));
-    double cur_px[2], prev_px[2];
+    float cur_px[2], prev_px[2];
     if (!ch->hit) {
         for (int k = 0; k < 3; k++) {
             alb[k] = n[k] = gn[k] = pos[k] = 0.0f;
@@ -275,12 +268,11 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixe
         bary[0] = bary[1] = 0.0f;
         tnd_frame_f(f, TND_CT_ROUGHNESS)[q] = 1.0f;
         tnd_frame_f(f, TND_CT_METALLIC)[q] = 0.0f;
-        double dir_d[3] = {dd[0], dd[1], dd[2]};
         mo[0] = mo[1] = mo[2] = 0.0f;
-        if (project(cam, c->cam_pos, dir_d, true, W, H, cur_px) &&
-            project(&c->prev->camera, c->prev_cam_pos, dir_d, true, W, H, prev_px)) {
-            mo[0] = (float)(prev_px[0] - cur_px[0]);
-            mo[1] = (float)(prev_px[1] - cur_px[1]);
+        if (project(cam, ch->dir0, true, W, H, cur_px) &&
+            project(&c->prev->camera, ch->dir0, true, W, H, prev_px)) {
+            mo[0] = prev_px[0] - cur_px[0];
+            mo[1] = prev_px[1] - cur_px[1];
         }
         return;
     }
@@ -291,43 +283,31 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixe
     mo[0] = mo[1] = mo[2] = 0.0f;
     /* the virtual point (what a planar mirror shows: along the camera ray at the chain's
      * length), the mirror and the glass assumed still */
-    double vp[3];
-    for (int r = 0; r < 3; r++)
-        vp[r] = c->cam_pos[r] + (double)dd[r] * ch->length;
-    if (project(cam, c->cam_pos, vp, false, W, H, cur_px) &&
-        project(&c->prev->camera, c->prev_cam_pos, vp, false, W, H, prev_px)) {
-        mo[0] = (float)(prev_px[0] - cur_px[0]);
-        mo[1] = (float)(prev_px[1] - cur_px[1]);
+    v3 dc = mul(ch->dir0, ch->length); /* from this frame's camera, and the previous one's */
+    v3 dp = add(sub((v3){c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]},
+                    (v3){c->prev_cam_pos[0], c->prev_cam_pos[1], c->prev_cam_pos[2]}),
+                dc);
+    if (project(cam, dc, false, W, H, cur_px) &&
+        project(&c->prev->camera, dp, false, W, H, prev_px)) {
+        mo[0] = prev_px[0] - cur_px[0];
+        mo[1] = prev_px[1] - cur_px[1];
     }
-    double dp = 0;
-    for (int r = 0; r < 3; r++)
-        dp += (vp[r] - c->prev_cam_pos[r]) * (vp[r] - c->prev_cam_pos[r]);
-    mo[2] = (float)(sqrt(dp) - ch->length);
+    mo[2] = sqrtf(dot(dp, dp)) - ch->length;
 }
 
 /* Motion of object-space point obj of an instance with transforms PX (previous frame) and X
- * (this frame): the same point through both and the two unjittered cameras; inline, so that a
- * loop over lanes vectorises it. */
+ * (this frame): the same point through both and the two unjittered cameras, each relative to
+ * its camera (project); inline, so that a loop over lanes vectorises it. */
 static inline void object_motion(const femb_context *c, const float *PX, const float *X,
                                  const float obj[3], float mo[3])
 {
-    double pw[3], cw[3], cur_px[2], prev_px[2];
-    for (int r = 0; r < 3; r++) {
-        pw[r] = (double)PX[4 * r] * obj[0] + (double)PX[4 * r + 1] * obj[1] +
-                (double)PX[4 * r + 2] * obj[2] + PX[4 * r + 3];
-        cw[r] = (double)X[4 * r] * obj[0] + (double)X[4 * r + 1] * obj[1] +
-                (double)X[4 * r + 2] * obj[2] + X[4 * r + 3];
-    }
-    bool ok = project(&c->cur->camera, c->cam_pos, cw, false, c->width, c->height, cur_px) &
-              project(&c->prev->camera, c->prev_cam_pos, pw, false, c->width, c->height, prev_px);
-    mo[0] = ok ? (float)(prev_px[0] - cur_px[0]) : 0.0f;
-    mo[1] = ok ? (float)(prev_px[1] - cur_px[1]) : 0.0f;
-    double dp = 0, dc = 0;
-    for (int r = 0; r < 3; r++) {
-        dp += (pw[r] - c->prev_cam_pos[r]) * (pw[r] - c->prev_cam_pos[r]);
-        dc += (cw[r] - c->cam_pos[r]) * (cw[r] - c->cam_pos[r]);
-    }
-    mo[2] = (float)(sqrt(dp) - sqrt(dc));
+    v3 dp = femb_xf_point_rel(PX, obj, c->prev_cam_pos), dc = femb_xf_point_rel(X, obj, c->cam_pos);
+    float cur_px[2], prev_px[2];
+    bool ok = project(&c->cur->camera, dc, false, c->width, c->height, cur_px) &
+              project(&c->prev->camera, dp, false, c->width, c->height, prev_px);
+    mo[0] = ok ? prev_px[0] - cur_px[0] : 0.0f;
+    mo[1] = ok ? prev_px[1] - cur_px[1] : 0.0f;
+    mo[2] = sqrtf(dot(dp, dp)) - sqrtf(dot(dc, dc));
 }
 
 FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint32_t *pixels,

@@ -315,7 +315,6 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
     float dir_eye[3][NL], cone_eye[NL];
     const float(*dir)[NL] = eye ? (const float(*)[NL])dir_eye : dir_in;
     const float *cone = eye ? cone_eye : cone_in;
-    v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
     uint8_t textured[NL], two_sided[NL];
     bool all = true;
     for (uint32_t i = 0; i < n; i++)
@@ -374,8 +373,8 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
         v3 ns = add(add(mul(n0, w0), mul(n1, uu)), mul(n2, vv));
         ns = sel3(dot(ns, ns) > 1e-20f, norm(xf_normal(x, ns)), ng);
         v3 p = xf_point(x, o);
-        if (eye) { /* the direction from the eye and the distance */
-            v3 d = sub(p, cam);
+        if (eye) { /* the direction from the eye and the distance (femb_xf_point_rel) */
+            v3 d = femb_xf_point_rel(x, o, c->cam_pos);
             depth[i] = sqrtf(dot(d, d));
             FEMB_ST3(dir_eye, i, norm(d));
             cone_eye[i] = depth[i] * c->pixel_spread;

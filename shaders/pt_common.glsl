@@ -139,11 +139,6 @@ vec3 xf_point(tnd_gpu_instance I, vec3 p)
     return vec3(dot(I.xform[0], vec4(p, 1.0)), dot(I.xform[1], vec4(p, 1.0)),
                 dot(I.xform[2], vec4(p, 1.0)));
 }
-vec3 xf_prev_point(tnd_gpu_instance I, vec3 p)
-{
-    return vec3(dot(I.prev_xform[0], vec4(p, 1.0)), dot(I.prev_xform[1], vec4(p, 1.0)),
-                dot(I.prev_xform[2], vec4(p, 1.0)));
-}
 vec3 xf_dir(tnd_gpu_instance I, vec3 d)
 {
     return vec3(dot(I.xform[0].xyz, d), dot(I.xform[1].xyz, d), dot(I.xform[2].xyz, d));
@@ -291,14 +286,26 @@ surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width
     return s;
 }
 
-vec3 surface_position(uint inst, uint prim, vec2 bary)
+/* Object-space point p through the 3x4 transform x, relative to the world point org (a camera):
+ * the translation's difference first (femb_xf_point_rel). `precise`: no reassociation that would
+ * form the world point, rounded to its magnitude (1/128 at 1e5 from the origin). */
+vec3 xf_point_rel(vec4 x[3], vec3 p, vec3 org)
+{
+    precise vec3 r = vec3(dot(x[0].xyz, p) + (x[0].w - org.x), dot(x[1].xyz, p) + (x[1].w - org.y),
+                          dot(x[2].xyz, p) + (x[2].w - org.z));
+    return r;
+}
+
+/* The point of a triangle from this frame's camera position (depth and eye direction of a
+ * surface seen directly). */
+vec3 surface_from_camera(uint inst, uint prim, vec2 bary)
 {
     tnd_gpu_instance I = instances[inst];
     tnd_gpu_mesh M = meshes[I.info.x];
     uint fi = M.range.z + 3u * prim;
     vec3 o = (1.0 - bary.x - bary.y) * vpos(M.range.x + indices[fi]) +
              bary.x * vpos(M.range.x + indices[fi + 1u]) + bary.y * vpos(M.range.x + indices[fi + 2u]);
-    return xf_point(I, o);
+    return xf_point_rel(I.xform, o, fr.cam_pos.xyz);
 }
 
 /* ---- the estimator ------------------------------------------------------------------------- */

@@ -4,9 +4,10 @@
 #include "pt_common.glsl"
 
 
-bool project_px(mat4 view, mat4 proj, vec3 cam, vec3 p, bool direction, out vec2 px)
+/* Pixel position of the point at d from the camera's position (of direction d when `direction`);
+ * d relative to the camera, never formed from a world point (xf_point_rel). */
+bool project_px(mat4 view, mat4 proj, vec3 d, bool direction, out vec2 px)
 {
-    vec3 d = direction ? p : p - cam;
     vec3 v = mat3(view) * d;
     vec4 clip = proj * vec4(v, direction ? 0.0 : 1.0);
     px = vec2(0.0);
@@ -44,8 +45,8 @@ void pt_primary_main(uvec2 launch)
         imageStore(img_roughness, ip, vec4(1.0));
         imageStore(img_metallic, ip, vec4(0.0));
         vec3 mo = vec3(0.0);
-        if (project_px(fr.view, fr.proj, cam, dir, true, cur_px) &&
-            project_px(fr.prev_view, fr.prev_proj, fr.prev_cam_pos.xyz, dir, true, prev_px))
+        if (project_px(fr.view, fr.proj, dir, true, cur_px) &&
+            project_px(fr.prev_view, fr.prev_proj, dir, true, prev_px))
             mo.xy = prev_px - cur_px;
         imageStore(img_motion, ip, vec4(mo, 0.0));
         return;
@@ -53,8 +54,7 @@ void pt_primary_main(uvec2 launch)
     surface s;
     float dist;
     if (ch.vertices == 0u) {
-        vec3 p = surface_position(h.inst, h.prim, h.bary);
-        vec3 dv = p - cam;
+        vec3 dv = surface_from_camera(h.inst, h.prim, h.bary);
         dist = sqrt(dot(dv, dv));
         s = surface_eval(h.inst, h.prim, h.bary, safe_normalize(dv), dist * fr.jitter.z);
     } else { /* seen in a mirror or through glass: the surface at the chain's end */
@@ -74,19 +74,20 @@ void pt_primary_main(uvec2 launch)
     vec3 mo = vec3(0.0);
     if (ch.vertices > 0u) {
         /* the virtual point along the camera ray at the chain's length (mirror, glass still) */
-        vec3 vp = cam + dir * ch.len;
-        if (project_px(fr.view, fr.proj, cam, vp, false, cur_px) &&
-            project_px(fr.prev_view, fr.prev_proj, fr.prev_cam_pos.xyz, vp, false, prev_px))
+        vec3 dc = dir * ch.len, dp = (cam - fr.prev_cam_pos.xyz) + dc;
+        if (project_px(fr.view, fr.proj, dc, false, cur_px) &&
+            project_px(fr.prev_view, fr.prev_proj, dp, false, prev_px))
             mo.xy = prev_px - cur_px;
-        mo.z = length(vp - fr.prev_cam_pos.xyz) - ch.len;
+        mo.z = length(dp) - ch.len;
         imageStore(img_motion, ip, vec4(mo, 0.0));
         return;
     }
     tnd_gpu_instance I = instances[h.inst];
-    vec3 pw = xf_prev_point(I, s.obj), cw = xf_point(I, s.obj);
-    if (project_px(fr.view, fr.proj, cam, cw, false, cur_px) &&
-        project_px(fr.prev_view, fr.prev_proj, fr.prev_cam_pos.xyz, pw, false, prev_px))
+    vec3 dp = xf_point_rel(I.prev_xform, s.obj, fr.prev_cam_pos.xyz);
+    vec3 dc = xf_point_rel(I.xform, s.obj, cam);
+    if (project_px(fr.view, fr.proj, dc, false, cur_px) &&
+        project_px(fr.prev_view, fr.prev_proj, dp, false, prev_px))
         mo.xy = prev_px - cur_px;
-    mo.z = length(pw - fr.prev_cam_pos.xyz) - length(cw - cam);
+    mo.z = length(dp) - length(dc);
     imageStore(img_motion, ip, vec4(mo, 0.0));
 }

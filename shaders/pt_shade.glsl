@@ -29,8 +29,7 @@ void pt_shade_main(uvec2 launch)
         ip = ivec2(int(g.a.x % W), int(g.a.x / W));
         vec2 bary = vec2(uintBitsToFloat(g.b.y), uintBitsToFloat(g.b.z));
         uint inst = g.a.w, prim = g.b.x;
-        vec3 p = surface_position(inst, prim, bary);
-        vec3 dv = p - fr.cam_pos.xyz;
+        vec3 dv = surface_from_camera(inst, prim, bary);
         surface s = surface_eval(inst, prim, bary, safe_normalize(dv), length(dv) * fr.jitter.z);
         imageStore(img_vis_id, ip, uvec4(inst, prim, 0u, 0u));
         imageStore(img_vis_bary, ip, vec4(bary, 0.0, 0.0));

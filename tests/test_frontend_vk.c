@@ -8,6 +8,7 @@
 #include "shaders/shader_list.h"
 #include "shaders/trace_test_shared.h"
 #include "tests/gpu_common.h"
+#include "tests/motion_reference.h"
 
 /* ---- scene: a quad (2 triangles) and a closed octahedron (8), three instances ---------------- */
 static const float quad_pos[] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
@@ -471,6 +472,45 @@ static void test_gbuffer_matches_embree(void)
     gpu_end();
 }
 
+/* The Vulkan front-end's motion vectors and depth on the extremes scene (everything 1e5 units
+ * from the origin, the camera moving down to 0.07 units above the plane) against the same in
+ * double precision from its own visibility buffer (tests/motion_reference.h), as
+ * test_frontend_embree checks the CPU front-end. Bounds as there, the GPU's division and
+ * square root allowed a few ulps: 1e-3 px, 1e-4 px on average, 5e-5 units of depth change,
+ * 1e-5 relative depth. Formed from float world points (the shaders before) they were off by
+ * pixels and percents. */
+static void test_motion_far_from_origin_vk(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    pair p;
+    enum { W = 128, H = 72 };
+    motion_error e = {0};
+    REQUIRE_OK(pair_open(vk, &p, TND_SOURCE_DIR "/data/scenes/extremes.gltf"));
+    for (uint32_t fr = 1; fr < 6; fr++) {
+        tnd_frame_destroy(&p.gpu);
+        REQUIRE_OK(tnd_scene_evaluate(p.s, fr / 30.0, 0, (float)W / H, &p.cur));
+        REQUIRE_OK(tnd_scene_evaluate(p.s, (fr - 1) / 30.0, 0, (float)W / H, &p.prev));
+        REQUIRE_OK(fvk_set_frame(p.gv, &p.cur, &p.prev, fr, W, H));
+        REQUIRE_OK(fvk_render(p.gv, &(fvk_params){.bounces = 0}, NULL));
+        REQUIRE_OK(tnd_frame_create(W, H, &p.gpu));
+        REQUIRE_OK(tnd_contract_download(p.vk, fvk_contract(p.gv), &p.gpu));
+        motion_reference_add(p.s, &p.cur, &p.prev, &p.gpu, &e);
+    }
+    double mean = e.sum_px / (2.0 * (double)e.pixels);
+    printf("     %ld pixels: motion within %.3g px of double precision (mean %.3g), depth change "
+           "within %.3g, depth within %.3g relative\n",
+           e.pixels, e.worst_px, mean, e.worst_z, e.worst_depth);
+    CHECK(e.pixels > 5000, "pixels seen directly: %ld", e.pixels);
+    CHECK(e.worst_px <= 1e-3 && mean <= 1e-4, "motion off by up to %.3g px (mean %.3g)",
+          e.worst_px, mean);
+    CHECK(e.worst_z <= 5e-5, "motion.z off by up to %.3g", e.worst_z);
+    CHECK(e.worst_depth <= 1e-5, "depth off by up to %.3g relative", e.worst_depth);
+cleanup:
+    pair_close(&p);
+    gpu_end();
+}
+
 /* The same path is traced: hf, lf and spec agree per pixel. Where they could not, a random
  * decision fell on the other side of a threshold through float rounding (lobe choice, light
  * pick, Russian roulette) or a ray grazed an edge. Measured: 100% on these scenes with one and
@@ -660,6 +700,7 @@ static void test_shutdown(void)
 }
 
 TND_TEST_MAIN(T(test_trace_against_cpu), T(test_blas_bad_input), T(test_gbuffer_matches_embree),
+              T(test_motion_far_from_origin_vk),
               T(test_shading_matches_embree), T(test_gpu_gradient_samples),
               T(test_query_matches_pipeline), T(test_means_and_references_agree),
               T(test_shutdown))

@@ -1,0 +1,72 @@
+/* tests/motion_reference.h: a frame's motion vectors and depth against the same computed in
+ * double precision from its visibility buffer (shared by the Embree and Vulkan front-end tests).
+ * For each pixel that sees a surface directly: the object-space point as the front-ends
+ * interpolate it (in float, from the visibility buffer's barycentrics), through both frames'
+ * instance transforms relative to both cameras (their positions as the front-ends take them from
+ * the view matrices), projected. */
+#ifndef TND_MOTION_REFERENCE_H
+#define TND_MOTION_REFERENCE_H
+
+#include "core/core.h"
+
+#include <math.h>
+
+typedef struct motion_error {
+    long pixels;
+    double worst_px, sum_px; /* motion.xy: largest and summed absolute errors (pixels) */
+    double worst_z;          /* motion.z (scene units) */
+    double worst_depth;      /* depth, relative */
+} motion_error;
+
+static inline void motion_reference_add(const tnd_scene *s, const tnd_scene_state *cur,
+                                        const tnd_scene_state *prev, const tnd_frame *f,
+                                        motion_error *e)
+{
+    uint32_t W = f->width, H = f->height;
+    float icv[16], ipv[16];
+    tnd_mat4_inverse(cur->camera.view, icv);
+    tnd_mat4_inverse(prev->camera.view, ipv);
+    for (size_t q = 0; q < (size_t)W * H; q++) {
+        uint32_t inst = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q];
+        if (inst == TND_VIS_NONE || tnd_frame_u(f, TND_CT_PATH)[q] != 0)
+            continue;
+        uint32_t prim = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q + 1];
+        float u = tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q];
+        float v = tnd_frame_f(f, TND_CT_VIS_BARY)[2 * q + 1], w0 = 1.0f - u - v;
+        const tnd_mesh *m = &s->meshes[s->instances[inst].mesh];
+        const uint32_t *ix = s->indices + m->first_index + 3 * prim;
+        const float *P = s->positions + 3 * (size_t)m->first_vertex;
+        float obj[3];
+        for (int k = 0; k < 3; k++)
+            obj[k] = P[3 * ix[0] + k] * w0 + P[3 * ix[1] + k] * u + P[3 * ix[2] + k] * v;
+        double px[2][2], dist[2];
+        for (int t = 0; t < 2; t++) { /* 0: this frame, 1: the previous one */
+            const tnd_scene_state *st = t ? prev : cur;
+            const float *X = st->instance_xform + 12 * (size_t)inst, *cam = t ? ipv : icv;
+            const float *V = st->camera.view, *Pr = st->camera.proj;
+            double d[3], vv[3], clip[4];
+            for (int k = 0; k < 3; k++)
+                d[k] = (double)X[4 * k] * obj[0] + (double)X[4 * k + 1] * obj[1] +
+                       (double)X[4 * k + 2] * obj[2] + X[4 * k + 3] - cam[12 + k];
+            for (int k = 0; k < 3; k++)
+                vv[k] = V[k] * d[0] + V[4 + k] * d[1] + V[8 + k] * d[2];
+            for (int k = 0; k < 4; k++)
+                clip[k] = Pr[k] * vv[0] + Pr[4 + k] * vv[1] + Pr[8 + k] * vv[2] + Pr[12 + k];
+            px[t][0] = (clip[0] / clip[3] * 0.5 + 0.5) * W;
+            px[t][1] = (clip[1] / clip[3] * 0.5 + 0.5) * H;
+            dist[t] = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        }
+        const float *mo = tnd_frame_f(f, TND_CT_MOTION) + 3 * q;
+        for (int k = 0; k < 2; k++) {
+            double x = fabs(mo[k] - (px[1][k] - px[0][k]));
+            e->worst_px = fmax(e->worst_px, x);
+            e->sum_px += x;
+        }
+        e->worst_z = fmax(e->worst_z, fabs(mo[2] - (dist[1] - dist[0])));
+        e->worst_depth =
+            fmax(e->worst_depth, fabs(tnd_frame_f(f, TND_CT_DEPTH)[q] - dist[0]) / dist[0]);
+        e->pixels++;
+    }
+}
+
+#endif
