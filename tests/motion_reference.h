@@ -1,9 +1,15 @@
 /* tests/motion_reference.h: a frame's motion vectors and depth against the same computed in
  * double precision from its visibility buffer (shared by the Embree and Vulkan front-end tests).
- * For each pixel that sees a surface directly: the object-space point as the front-ends
- * interpolate it (in float, from the visibility buffer's barycentrics), through both frames'
- * instance transforms relative to both cameras (their positions as the front-ends take them from
- * the view matrices), projected. */
+ * For each pixel that sees a surface directly: the object-space point interpolated from the
+ * visibility buffer's barycentrics, through both frames' instance transforms relative to both
+ * cameras (their positions as the front-ends take them from the view matrices), projected.
+ *
+ * Each pixel gets a bound from float arithmetic done right: the interpolated point is off by a
+ * few ulps of its vertices' size (FMA contraction or not: mag * 2^-20 units), the translation
+ * relative to the camera by an ulp of the distance (d * 2^-20); depth may be off by that sum,
+ * the depth change by twice it, the motion by twice it in pixels at that distance plus 1e-4 px
+ * of projection rounding. A world point formed in float first is off by an ulp of its distance
+ * from the origin (1/256 at 1e5), hundreds of times more. */
 #ifndef TND_MOTION_REFERENCE_H
 #define TND_MOTION_REFERENCE_H
 
@@ -12,10 +18,9 @@
 #include <math.h>
 
 typedef struct motion_error {
-    long pixels;
-    double worst_px, sum_px; /* motion.xy: largest and summed absolute errors (pixels) */
-    double worst_z;          /* motion.z (scene units) */
-    double worst_depth;      /* depth, relative */
+    long pixels, outside; /* pixels compared; those with a value outside its bound */
+    double worst_px, worst_z, worst_depth; /* largest errors: pixels, units, relative */
+    double worst_ratio;                    /* largest error / bound over all values */
 } motion_error;
 
 static inline void motion_reference_add(const tnd_scene *s, const tnd_scene_state *cur,
@@ -37,8 +42,12 @@ static inline void motion_reference_add(const tnd_scene *s, const tnd_scene_stat
         const uint32_t *ix = s->indices + m->first_index + 3 * prim;
         const float *P = s->positions + 3 * (size_t)m->first_vertex;
         float obj[3];
-        for (int k = 0; k < 3; k++)
+        double mag = 0;
+        for (int k = 0; k < 3; k++) {
             obj[k] = P[3 * ix[0] + k] * w0 + P[3 * ix[1] + k] * u + P[3 * ix[2] + k] * v;
+            for (int j = 0; j < 3; j++)
+                mag = fmax(mag, fabs(P[3 * ix[j] + k]));
+        }
         double px[2][2], dist[2];
         for (int t = 0; t < 2; t++) { /* 0: this frame, 1: the previous one */
             const tnd_scene_state *st = t ? prev : cur;
@@ -57,14 +66,23 @@ static inline void motion_reference_add(const tnd_scene *s, const tnd_scene_stat
             dist[t] = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         }
         const float *mo = tnd_frame_f(f, TND_CT_MOTION) + 3 * q;
-        for (int k = 0; k < 2; k++) {
-            double x = fabs(mo[k] - (px[1][k] - px[0][k]));
-            e->worst_px = fmax(e->worst_px, x);
-            e->sum_px += x;
+        double near = fmin(dist[0], dist[1]);
+        double tol = (mag + fmax(dist[0], dist[1])) * 0x1p-20; /* scene units */
+        const float *Pr = cur->camera.proj;
+        double ppu = fmax(fabs(Pr[0]) * W, fabs(Pr[5]) * H) / (2.0 * near); /* px per unit */
+        double err[4] = {fabs(mo[0] - (px[1][0] - px[0][0])), fabs(mo[1] - (px[1][1] - px[0][1])),
+                         fabs(mo[2] - (dist[1] - dist[0])),
+                         fabs(tnd_frame_f(f, TND_CT_DEPTH)[q] - dist[0])};
+        double bound[4] = {2 * tol * ppu + 1e-4, 2 * tol * ppu + 1e-4, 2 * tol, tol};
+        bool out = false;
+        for (int k = 0; k < 4; k++) {
+            out |= !(err[k] <= bound[k]);
+            e->worst_ratio = fmax(e->worst_ratio, err[k] / bound[k]);
         }
-        e->worst_z = fmax(e->worst_z, fabs(mo[2] - (dist[1] - dist[0])));
-        e->worst_depth =
-            fmax(e->worst_depth, fabs(tnd_frame_f(f, TND_CT_DEPTH)[q] - dist[0]) / dist[0]);
+        e->outside += out;
+        e->worst_px = fmax(e->worst_px, fmax(err[0], err[1]));
+        e->worst_z = fmax(e->worst_z, err[2]);
+        e->worst_depth = fmax(e->worst_depth, err[3] / dist[0]);
         e->pixels++;
     }
 }

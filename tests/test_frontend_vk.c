@@ -474,11 +474,11 @@ static void test_gbuffer_matches_embree(void)
 
 /* The Vulkan front-end's motion vectors and depth on the extremes scene (everything 1e5 units
  * from the origin, the camera moving down to 0.07 units above the plane) against the same in
- * double precision from its own visibility buffer (tests/motion_reference.h), as
- * test_frontend_embree checks the CPU front-end. Bounds as there, the GPU's division and
- * square root allowed a few ulps: 1e-3 px, 1e-4 px on average, 5e-5 units of depth change,
- * 1e-5 relative depth. Formed from float world points (the shaders before) they were off by
- * pixels and percents. */
+ * double precision from its own visibility buffer, each value within the bound of float
+ * arithmetic done relative to the cameras (tests/motion_reference.h), as test_frontend_embree
+ * checks the CPU front-end. Measured at most 0.11 of the bound on lavapipe (3e-5 px), 0.12 on
+ * an H200 (3e-3 px, 8.7e-5 relative depth: its interpolated points differ by ulps); the shaders
+ * that formed float world points were off by 2.6 px and 7% of the depth, 790 times the bound. */
 static void test_motion_far_from_origin_vk(void)
 {
     tnd_vk *vk = gpu_begin();
@@ -497,15 +497,13 @@ static void test_motion_far_from_origin_vk(void)
         REQUIRE_OK(tnd_contract_download(p.vk, fvk_contract(p.gv), &p.gpu));
         motion_reference_add(p.s, &p.cur, &p.prev, &p.gpu, &e);
     }
-    double mean = e.sum_px / (2.0 * (double)e.pixels);
-    printf("     %ld pixels: motion within %.3g px of double precision (mean %.3g), depth change "
-           "within %.3g, depth within %.3g relative\n",
-           e.pixels, e.worst_px, mean, e.worst_z, e.worst_depth);
+    printf("     %ld pixels: motion within %.3g px of double precision, depth change within "
+           "%.3g, depth within %.3g relative; largest error %.3g of its bound, %ld pixels "
+           "outside\n",
+           e.pixels, e.worst_px, e.worst_z, e.worst_depth, e.worst_ratio, e.outside);
     CHECK(e.pixels > 5000, "pixels seen directly: %ld", e.pixels);
-    CHECK(e.worst_px <= 1e-3 && mean <= 1e-4, "motion off by up to %.3g px (mean %.3g)",
-          e.worst_px, mean);
-    CHECK(e.worst_z <= 5e-5, "motion.z off by up to %.3g", e.worst_z);
-    CHECK(e.worst_depth <= 1e-5, "depth off by up to %.3g relative", e.worst_depth);
+    CHECK(e.outside == 0, "%ld pixels with motion or depth outside the bound (worst %.3g of it)",
+          e.outside, e.worst_ratio);
 cleanup:
     pair_close(&p);
     gpu_end();
