@@ -14,6 +14,7 @@
 #define TND_MOTION_REFERENCE_H
 
 #include "core/core.h"
+#include "tests/tnd_test.h"
 
 #include <math.h>
 
@@ -85,6 +86,18 @@ static inline void motion_reference_add(const tnd_scene *s, const tnd_scene_stat
         e->worst_depth = fmax(e->worst_depth, err[3] / dist[0]);
         e->pixels++;
     }
+}
+
+/* Print the figures; check that enough pixels were compared and none is outside its bound. */
+static inline void motion_reference_check(const motion_error *e, long min_pixels)
+{
+    printf("     %ld pixels: motion within %.3g px of double precision, depth change within "
+           "%.3g, depth within %.3g relative; largest error %.3g of its bound, %ld pixels "
+           "outside\n",
+           e->pixels, e->worst_px, e->worst_z, e->worst_depth, e->worst_ratio, e->outside);
+    CHECK(e->pixels > min_pixels, "pixels seen directly: %ld", e->pixels);
+    CHECK(e->outside == 0, "%ld pixels with motion or depth outside the bound (worst %.3g of it)",
+          e->outside, e->worst_ratio);
 }
 
 #endif

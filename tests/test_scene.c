@@ -1,6 +1,7 @@
 /* tests/test_scene.c: every shipped scene imports with the expected contents; animation, light
- * schedules and cameras evaluate to the authored values; the stress generator; and every kind of
- * bad input gets a message naming the file and the element. Label: unit. */
+ * schedules and cameras evaluate to the authored values; the stress generator; the light pick
+ * against a linear scan; and every kind of bad input gets a message naming the file and the
+ * element. Label: unit. */
 #include "core/core.h"
 #include "tests/tnd_test.h"
 
