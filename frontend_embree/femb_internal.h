@@ -66,6 +66,7 @@ typedef struct femb_inst {
     const uint32_t *indices;          /* the mesh's first index (indices are relative) */
     const float *positions, *normals; /* at the mesh's first vertex */
     uint32_t material;
+    bool moved; /* this frame's transform differs from the previous frame's (femb_set_frame) */
 } femb_inst;
 typedef struct femb_mat {
     float base[3], emission[3], sigma[3];
@@ -151,11 +152,13 @@ void femb_surface_eval_batch(const femb_context *c, uint32_t n, const uint8_t *a
                              const float *v, const float dir[3][FEMB_LANES], const float *cone,
                              femb_surfaces *S);
 /* The same for surfaces seen from the camera: each direction runs from the camera position to
- * the surface point, `depth` receives the distance (what the primary pass and the gradient
- * samples need, bit for bit alike). */
+ * the surface point, `depth` receives the distance and `rel` the vector from the camera
+ * (computed relative to it: femb_xf_point_rel); what the primary pass and the gradient samples
+ * need, bit for bit alike. */
 void femb_surface_eval_eye(const femb_context *c, uint32_t n, const uint8_t *active,
                            const uint32_t *instance, const uint32_t *primitive, const float *u,
-                           const float *v, femb_surfaces *S, float *depth);
+                           const float *v, femb_surfaces *S, float *depth,
+                           float rel[3][FEMB_LANES]);
 void femb_surface_eval(const femb_context *c, uint32_t instance, uint32_t primitive, float u,
                        float v, v3 dir, float cone_width, femb_surface *s);
 /* Lane i of a batch as one surface. */

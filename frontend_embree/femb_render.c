@@ -295,13 +295,11 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixe
     mo[2] = sqrtf(dot(dp, dp)) - ch->length;
 }
 
-/* Motion of object-space point obj of an instance with transforms PX (previous frame) and X
- * (this frame): the same point through both and the two unjittered cameras, each relative to
- * its camera (project); inline, so that a loop over lanes vectorises it. */
-static inline void object_motion(const femb_context *c, const float *PX, const float *X,
-                                 const float obj[3], float mo[3])
+/* Motion of a surface point at dc from this frame's camera (femb_xf_point_rel) and dp from the
+ * previous frame's: the same point through the two unjittered cameras; inline, so that a loop
+ * over lanes vectorises it. */
+static inline void point_motion(const femb_context *c, v3 dc, v3 dp, float mo[3])
 {
-    v3 dp = femb_xf_point_rel(PX, obj, c->prev_cam_pos), dc = femb_xf_point_rel(X, obj, c->cam_pos);
     float cur_px[2], prev_px[2];
     bool ok = project(&c->cur->camera, dc, false, c->width, c->height, cur_px) &
               project(&c->prev->camera, dp, false, c->width, c->height, prev_px);
@@ -319,8 +317,8 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
     femb_surfaces S;
     uint32_t inst[FEMB_LANES] = {0}, prim[FEMB_LANES] = {0}; /* (zeroed: quiets gcc) */
     float u[FEMB_LANES] = {0}, v[FEMB_LANES] = {0}, depth[FEMB_LANES], dir[3][FEMB_LANES];
-    float PX[12][FEMB_LANES], X[12][FEMB_LANES], mo[3][FEMB_LANES];
-    uint8_t plain[FEMB_LANES] = {0}, chain[FEMB_LANES];
+    float PX[12][FEMB_LANES] = {{0}}, rel[3][FEMB_LANES], mo[3][FEMB_LANES];
+    uint8_t plain[FEMB_LANES] = {0}, chain[FEMB_LANES], moved[FEMB_LANES];
     float fx[FEMB_LANES], fy[FEMB_LANES]; /* (pixel_dir split: integer division does not
                                               vectorise) */
     for (uint32_t i = 0; i < n; i++) {
@@ -346,19 +344,23 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
             plain[i] = ch[i].hit && ch[i].vertices == 0;
             chain[i] = ch[i].hit && ch[i].vertices > 0;
         }
+        /* the previous transform of instances that moved (the others' points are where they
+         * were: from the previous camera, the camera's displacement plus the vector from this
+         * one) */
+        moved[i] = plain[i] && c->inst[inst[i]].moved;
         const float *px = c->prev->instance_xform + 12 * (size_t)inst[i];
-        const float *cx = c->cur->instance_xform + 12 * (size_t)inst[i];
-        for (int r = 0; r < 12; r++) {
-            PX[r][i] = plain[i] ? px[r] : 0.0f;
-            X[r][i] = plain[i] ? cx[r] : 0.0f;
-        }
+        for (int r = 0; r < 12 && moved[i]; r++)
+            PX[r][i] = px[r];
     }
-    femb_surface_eval_eye(c, n, plain, inst, prim, u, v, &S, depth);
+    femb_surface_eval_eye(c, n, plain, inst, prim, u, v, &S, depth, rel);
+    v3 dcam = sub(cam, (v3){c->prev_cam_pos[0], c->prev_cam_pos[1], c->prev_cam_pos[2]});
     FEMB_LANES_LOOP(i, n) {
-        float a[12], b[12], obj[3] = {S.obj[0][i], S.obj[1][i], S.obj[2][i]}, m[3];
+        float a[12], obj[3] = {S.obj[0][i], S.obj[1][i], S.obj[2][i]}, m[3];
         for (int r = 0; r < 12; r++)
-            a[r] = PX[r][i], b[r] = X[r][i];
-        object_motion(c, a, b, obj, m);
+            a[r] = PX[r][i];
+        v3 dc = FEMB_LD3(rel, i);
+        v3 dp = sel3(moved[i], femb_xf_point_rel(a, obj, c->prev_cam_pos), add(dcam, dc));
+        point_motion(c, dc, dp, m);
         for (int k = 0; k < 3; k++)
             mo[k][i] = m[k];
     }
@@ -535,7 +537,8 @@ tnd_result femb_shade_gradients(femb_context *c, const femb_params *p,
             active[k] = 1;
         }
         femb_surfaces S;
-        femb_surface_eval_eye(c, m, active, inst, prim, u, v, &S, depth);
+        float rel[3][FEMB_LANES];
+        femb_surface_eval_eye(c, m, active, inst, prim, u, v, &S, depth, rel);
         for (uint32_t k = 0; k < m; k++) {
             const femb_gradient_sample *gs = &g[i0 + k];
             size_t q = gs->pixel;

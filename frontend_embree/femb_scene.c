@@ -122,7 +122,8 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
         const tnd_mesh *me = &s->meshes[s->instances[i].mesh];
         c->inst[i] = (femb_inst){s->indices + me->first_index,
                                  s->positions + 3 * (size_t)me->first_vertex,
-                                 s->normals + 3 * (size_t)me->first_vertex, me->material};
+                                 s->normals + 3 * (size_t)me->first_vertex, me->material,
+                                 false};
     }
     for (uint32_t m = 0; m < s->material_count; m++) {
         const tnd_material *mat = &s->materials[m];
@@ -178,6 +179,8 @@ tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
         RTCGeometry g = rtcGetGeometry(c->top, i);
         rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, cur->instance_xform + 12 * i);
         rtcCommitGeometry(g);
+        c->inst[i].moved = memcmp(cur->instance_xform + 12 * i,
+                                  c->prev->instance_xform + 12 * i, 12 * sizeof(float)) != 0;
     }
     rtcCommitScene(c->top);
     if (c->error[0])
@@ -308,7 +311,7 @@ static inline __attribute__((always_inline)) void
 surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
              const uint32_t *instance, const uint32_t *primitive, const float *u, const float *v,
              const float dir_in[3][FEMB_LANES], const float *cone_in, femb_surfaces *S,
-             float *depth)
+             float *depth, float rel[3][FEMB_LANES])
 {
     /* the lanes' vertices, transforms and materials (indexed loads, lane by lane) */
     float P[3][3][NL], N[3][3][NL], X[12][NL];
@@ -375,6 +378,7 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
         v3 p = xf_point(x, o);
         if (eye) { /* the direction from the eye and the distance (femb_xf_point_rel) */
             v3 d = femb_xf_point_rel(x, o, c->cam_pos);
+            FEMB_ST3(rel, i, d);
             depth[i] = sqrtf(dot(d, d));
             FEMB_ST3(dir_eye, i, norm(d));
             cone_eye[i] = depth[i] * c->pixel_spread;
@@ -419,15 +423,15 @@ FEMB_LANE_FN void femb_surface_eval_batch(const femb_context *c, uint32_t n, con
                                           const float dir[3][FEMB_LANES], const float *cone,
                                           femb_surfaces *S)
 {
-    surface_eval(c, false, n, active, instance, primitive, u, v, dir, cone, S, NULL);
+    surface_eval(c, false, n, active, instance, primitive, u, v, dir, cone, S, NULL, NULL);
 }
 
 FEMB_LANE_FN void femb_surface_eval_eye(const femb_context *c, uint32_t n, const uint8_t *active,
                                         const uint32_t *instance, const uint32_t *primitive,
                                         const float *u, const float *v, femb_surfaces *S,
-                                        float *depth)
+                                        float *depth, float rel[3][FEMB_LANES])
 {
-    surface_eval(c, true, n, active, instance, primitive, u, v, NULL, NULL, S, depth);
+    surface_eval(c, true, n, active, instance, primitive, u, v, NULL, NULL, S, depth, rel);
 }
 
 void femb_surface_get(const femb_surfaces *S, uint32_t i, femb_surface *s)
