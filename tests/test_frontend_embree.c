@@ -708,12 +708,6 @@ cleanup:
     rig_close(&r);
 }
 
-/* The reflect/refract chain of the primary pass on `materials` (a mirror, glass): the pixels
- * that look into the mirror or through the glass (throughput below 1) show in the G-buffer the
- * opaque surface at the chain's end (its material, not the mirror's or the glass's), at a depth
- * (the chain's length) never shorter than the straight distance to it, longer for the mirror's
- * detour; motion vectors stay finite.
- * tests/test_frontend_vk.c compares the same G-buffer with the Vulkan front-end's. */
 /* Motion vectors and depth of the extremes scene, whose whole content (camera included) stands
  * 1e5 units from the origin, against the same in double precision, each value within the bound
  * of float arithmetic done relative to the cameras (tests/motion_reference.h). The plane is seen
@@ -739,6 +733,12 @@ cleanup:
     rig_close(&r);
 }
 
+/* The reflect/refract chain of the primary pass on `materials` (a mirror, glass): the pixels
+ * that look into the mirror or through the glass (throughput below 1) show in the G-buffer the
+ * opaque surface at the chain's end (its material, not the mirror's or the glass's), at a depth
+ * (the chain's length) never shorter than the straight distance to it, longer for the mirror's
+ * detour; motion vectors stay finite.
+ * tests/test_frontend_vk.c compares the same G-buffer with the Vulkan front-end's. */
 static void test_mirror_gbuffer(void)
 {
     rig r;
