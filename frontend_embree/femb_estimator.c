@@ -463,12 +463,20 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
 }
 
 /* ---- the shading pass ----------------------------------------------------------------------- */
+/* Entry q of lane i: pixels[i], or pixels[0] + i when `run` (a constant in each caller: the
+ * pixels are one run, and the lane loops read and write the contract's planes with vector loads
+ * and shuffles instead of one lane at a time). */
+static inline size_t lane_entry(const uint32_t *pixels, bool run, uint32_t i)
+{
+    return run ? (size_t)pixels[0] + i : pixels[i];
+}
+
 /* The lanes' surfaces from the G-buffer of pixels[0..n), as the GPU passes read it (the primary
  * pass and the gradient patches wrote it), plus the material's specular factor; the distance from
  * the eye along the primary chain. */
-LANE_FN static void surfaces_from_gbuffer(const femb_context *c, const tnd_frame *f,
-                                          const uint32_t *pixels, uint32_t n, fb_surf *S,
-                                          float *depth)
+static inline __attribute__((always_inline)) void
+gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixels, bool run,
+                 uint32_t n, fb_surf *S, float *depth)
 {
     const float *P = tnd_frame_f(f, TND_CT_POSITION), *NS = tnd_frame_f(f, TND_CT_NORMAL);
     const float *NG = tnd_frame_f(f, TND_CT_GEO_NORMAL), *B = tnd_frame_f(f, TND_CT_ALBEDO);
@@ -476,7 +484,7 @@ LANE_FN static void surfaces_from_gbuffer(const femb_context *c, const tnd_frame
     const uint32_t *vis = tnd_frame_u(f, TND_CT_VIS_ID);
     v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
     LANES (i, n) {
-        size_t q = pixels[i];
+        size_t q = lane_entry(pixels, run, i);
         v3 pos = {P[3 * q], P[3 * q + 1], P[3 * q + 2]};
         v3 ns = {NS[3 * q], NS[3 * q + 1], NS[3 * q + 2]};
         v3 d = sub(cam, pos);
@@ -492,7 +500,7 @@ LANE_FN static void surfaces_from_gbuffer(const femb_context *c, const tnd_frame
         S->metallic[i] = M[q];
     }
     for (uint32_t i = 0; i < n; i++) {
-        size_t q = pixels[i];
+        size_t q = lane_entry(pixels, run, i);
         uint32_t inst = vis[2 * q];
         S->specular[i] = c->mats[c->inst[inst].material].specular;
         if (!c->specular || tnd_frame_u(f, TND_CT_PATH)[q] == 0u)
@@ -513,8 +521,9 @@ LANE_FN static void surfaces_from_gbuffer(const femb_context *c, const tnd_frame
  * clearing 8 KB per batch to quiet it is not free) */
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f,
-                               const uint32_t *pixels, uint32_t n, float *radiance)
+static inline __attribute__((always_inline)) void
+shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const uint32_t *pixels,
+             bool run, uint32_t n, float *radiance)
 {
     fb_surf S;
     fb_lobes L;
@@ -524,7 +533,7 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
     const uint32_t *rng = tnd_frame_u(f, TND_CT_RNG);
     const float *T = tnd_frame_f(f, TND_CT_THROUGHPUT), *E = tnd_frame_f(f, TND_CT_EMISSION);
     LANES (i, n) {
-        size_t q = pixels[i];
+        size_t q = lane_entry(pixels, run, i);
         P.key_pixel[i] = rng[2 * q + 1];
         P.key_frame[i] = rng[2 * q];
         P.active[i] = 1;
@@ -533,7 +542,7 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
             em[k][i] = E[3 * q + k];
         }
     }
-    surfaces_from_gbuffer(c, f, pixels, n, &S, depth);
+    gbuffer_surfaces(c, f, pixels, run, n, &S, depth);
     lobes(&S, n, &L);
     float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
     LANES (i, n) /* the origin of the next rays */
@@ -588,8 +597,8 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
             cocg[1][i] = d_lobe ? kk * cg : 0.0f;
         }
     }
-    for (uint32_t i = 0; i < n; i++) {
-        size_t q = pixels[i];
+    LANES (i, n) {
+        size_t q = lane_entry(pixels, run, i);
         float *o_hf = tnd_frame_f(f, TND_CT_HF) + 3 * q,
               *o_sp = tnd_frame_f(f, TND_CT_SPEC) + 3 * q;
         float *o_sh = tnd_frame_f(f, TND_CT_LF_SH) + 4 * q,
@@ -605,5 +614,19 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
         o_cc[0] = cocg[0][i];
         o_cc[1] = cocg[1][i];
     }
+}
+
+/* (one copy for pixels that are one run, the shading pass's usual batch, one for any list:
+ * gradient samples come in any order) */
+LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f,
+                               const uint32_t *pixels, uint32_t n, float *radiance)
+{
+    bool run = true;
+    for (uint32_t i = 1; i < n; i++)
+        run &= pixels[i] == pixels[0] + i;
+    if (run)
+        shade_pixels(c, p, f, pixels, true, n, radiance);
+    else
+        shade_pixels(c, p, f, pixels, false, n, radiance);
 }
 #pragma GCC diagnostic pop

@@ -502,9 +502,11 @@ cleanup:
 
 /* The estimator shades batches of pixels in SIMD lanes: a pixel shaded alone (a batch of one,
  * through the gradient path with its own key and surface) gets exactly the bits it got among
- * its batch, on a scene with textures, normal maps, glass and a mirror at the bounce. Pixels
- * seen through a mirror or glass are left out: their G-buffer holds the surface seen along the
- * chain, which a gradient sample (a surface seen directly) does not reproduce. */
+ * its batch, on a scene with textures, normal maps, glass and a mirror at the bounce; so do the
+ * same pixels shaded together as one list of scattered pixels (femb_shade_pixels has a copy
+ * for runs of pixels, the shading pass's batches, and one for any list). Pixels seen through a
+ * mirror or glass are left out: their G-buffer holds the surface seen along the chain, which a
+ * gradient sample (a surface seen directly) does not reproduce. */
 static void test_batch_independent(void)
 {
     rig r;
@@ -515,7 +517,10 @@ static void test_batch_independent(void)
     REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 2}, &f, NULL));
     REQUIRE_OK(rig_frame(&r, 3, 0.5, 0.45, W, H, &g));
     REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 2}, &g, NULL));
-    int tested = 0, bad = 0, textured = 0;
+    int tested = 0, bad = 0, textured = 0, bad_list = 0;
+    static femb_gradient_sample list[W * H];
+    const tnd_ct ct[] = {TND_CT_HF, TND_CT_LF_SH, TND_CT_LF_COCG, TND_CT_SPEC,
+                         TND_CT_NORMAL, TND_CT_ALBEDO, TND_CT_POSITION};
     for (uint32_t q = 0; q < W * H; q += 7) {
         if (tnd_frame_u(&f, TND_CT_VIS_ID)[2 * q] == TND_VIS_NONE ||
             tnd_frame_u(&f, TND_CT_PATH)[q] != 0)
@@ -531,8 +536,7 @@ static void test_batch_independent(void)
         /* perturb g's outputs first, so that a pass that did not write them fails */
         tnd_frame_f(&g, TND_CT_HF)[3 * q] = -1.0f;
         REQUIRE_OK(femb_shade_gradients(r.c, &(femb_params){.bounces = 2}, &one, 1, &g));
-        const tnd_ct ct[] = {TND_CT_HF, TND_CT_LF_SH, TND_CT_LF_COCG, TND_CT_SPEC,
-                             TND_CT_NORMAL, TND_CT_ALBEDO, TND_CT_POSITION};
+        list[tested] = one;
         for (size_t k = 0; k < sizeof ct / sizeof *ct; k++) {
             uint32_t comps = tnd_ct_get(ct[k])->comps;
             bad += memcmp(tnd_frame_f(&f, ct[k]) + comps * q, tnd_frame_f(&g, ct[k]) + comps * q,
@@ -540,10 +544,24 @@ static void test_batch_independent(void)
         }
         tested++;
     }
-    printf("     %d pixels shaded alone (%d textured), %d entries differ from the batched pass\n",
-           tested, textured, bad);
+    /* all of them again as one list (every 7th pixel: never a run) */
+    for (int t = 0; t < tested; t++)
+        tnd_frame_f(&g, TND_CT_HF)[3 * (size_t)list[t].pixel] = -1.0f;
+    REQUIRE_OK(femb_shade_gradients(r.c, &(femb_params){.bounces = 2}, list, (uint32_t)tested, &g));
+    for (int t = 0; t < tested; t++) {
+        size_t q = list[t].pixel;
+        for (size_t k = 0; k < sizeof ct / sizeof *ct; k++) {
+            uint32_t comps = tnd_ct_get(ct[k])->comps;
+            bad_list += memcmp(tnd_frame_f(&f, ct[k]) + comps * q,
+                               tnd_frame_f(&g, ct[k]) + comps * q, 4 * comps) != 0;
+        }
+    }
+    printf("     %d pixels shaded alone (%d textured), %d entries differ from the batched pass; "
+           "as one list, %d differ\n",
+           tested, textured, bad, bad_list);
     CHECK(tested > 100 && textured > 10, "%d pixels, %d textured", tested, textured);
     CHECK(bad == 0, "%d entries differ", bad);
+    CHECK(bad_list == 0, "shaded as one list: %d entries differ", bad_list);
 cleanup:
     tnd_frame_destroy(&f);
     tnd_frame_destroy(&g);
