@@ -308,6 +308,7 @@ static inline void point_motion(const femb_context *c, v3 dc, v3 dp, float mo[3]
     mo[2] = sqrtf(dot(dp, dp)) - sqrtf(dot(dc, dc));
 }
 
+/* The primary pass on a batch of n pixels that are one run within a row (primary_tile). */
 FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint32_t *pixels,
                                        uint32_t n)
 {
@@ -319,11 +320,11 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
     float u[FEMB_LANES] = {0}, v[FEMB_LANES] = {0}, depth[FEMB_LANES], dir[3][FEMB_LANES];
     float PX[12][FEMB_LANES] = {{0}}, rel[3][FEMB_LANES], mo[3][FEMB_LANES];
     uint8_t plain[FEMB_LANES] = {0}, chain[FEMB_LANES], moved[FEMB_LANES];
-    float fx[FEMB_LANES], fy[FEMB_LANES]; /* (pixel_dir split: integer division does not
-                                              vectorise) */
-    for (uint32_t i = 0; i < n; i++) {
-        fx[i] = (float)(pixels[i] % c->width) + 0.5f + c->jitter[0];
-        fy[i] = (float)(pixels[i] / c->width) + 0.5f + c->jitter[1];
+    float fx[FEMB_LANES], fy[FEMB_LANES]; /* (pixel_dir split, without a division per lane) */
+    uint32_t x0 = pixels[0] % c->width, y0 = pixels[0] / c->width;
+    FEMB_LANES_LOOP(i, n) {
+        fx[i] = (float)(x0 + i) + 0.5f + c->jitter[0];
+        fy[i] = (float)y0 + 0.5f + c->jitter[1];
     }
     FEMB_LANES_LOOP(i, n) FEMB_ST3(dir, i, camera_dir(c, fx[i], fy[i]));
     v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
@@ -338,8 +339,7 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
                 inst[i] = prim[i] = 0, u[i] = v[i] = 0.0f;
             }
         } else {
-            chain_from(c, pixels[i] % c->width, pixels[i] / c->width, FEMB_LD3(dir, i), true,
-                       &ch[i]);
+            chain_from(c, x0 + i, y0, FEMB_LD3(dir, i), true, &ch[i]);
             inst[i] = ch[i].inst, prim[i] = ch[i].prim, u[i] = ch[i].u, v[i] = ch[i].v;
             plain[i] = ch[i].hit && ch[i].vertices == 0;
             chain[i] = ch[i].hit && ch[i].vertices > 0;
