@@ -17,7 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 #ifdef __SSE2__
-#include <emmintrin.h>
+#include <immintrin.h>
 #endif
 
 /* ---- projection ----------------------------------------------------------------------------- */
@@ -175,9 +175,31 @@ static void stage_init(gbuf_stage *st)
     }
 }
 
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(FEMB_NO_CLONES)
+/* The same with 32-byte stores, for CPUs with AVX (picked at run time): half the instructions
+ * of the 16-byte copy (the primary pass streams 31 words per pixel). */
+__attribute__((target("avx"))) static void stream_words_avx(float *dst, const float *src, size_t n)
+{
+    size_t i = 0;
+    for (; i < n && ((uintptr_t)(dst + i) & 31u); i++)
+        dst[i] = src[i];
+    for (; i + 8 <= n; i += 8)
+        _mm256_stream_ps(dst + i, _mm256_loadu_ps(src + i));
+    for (; i < n; i++)
+        dst[i] = src[i];
+}
+#define FEMB_STREAM_AVX 1
+#endif
+
 /* Copy n floats (4-byte words) to dst, with non-temporal stores where dst is 16-byte aligned. */
 static void stream_words(float *dst, const float *src, size_t n)
 {
+#ifdef FEMB_STREAM_AVX
+    if (__builtin_cpu_supports("avx")) {
+        stream_words_avx(dst, src, n);
+        return;
+    }
+#endif
 #ifdef __SSE2__
     size_t i = 0;
     for (; i < n && ((uintptr_t)(dst + i) & 15u); i++)
