@@ -144,18 +144,13 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
 
 /* One NEE sample per active lane with the dimensions of path vertex `bounce`, the shadow ray
  * from `org` (the surface point offset along the geometric normal): diffuse (demodulated) and
- * specular contributions, 0 where inactive. */
-LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uint32_t bounce,
-                                 const fb_surf *S, const fb_lobes *L, const float org[3][NL],
-                                 const uint8_t *active, uint32_t n, float diff[3][NL],
-                                 float spec[3][NL])
+ * specular contributions, 0 where inactive (direct_light; `triangles_only`: every light is an
+ * emissive triangle). */
+static inline __attribute__((always_inline)) void
+direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, const fb_surf *S,
+                   const fb_lobes *L, const float org[3][NL], const uint8_t *active, uint32_t n,
+                   float diff[3][NL], float spec[3][NL], bool triangles_only)
 {
-    if (!c->lights.count) {
-        LANES (i, n)
-            for (int k = 0; k < 3; k++)
-                diff[k][i] = spec[k][i] = 0.0f;
-        return;
-    }
     /* the picked lights' records */
     float lp0[3][NL], lp1[3][NL], lp2[3][NL], lrad[4][NL], lcdf[NL];
     uint32_t kind[NL];
@@ -177,8 +172,9 @@ LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uin
     LANES (i, n) {
         float u1 = rnd(P, i, bounce, TND_DIM_LIGHT_U), u2 = rnd(P, i, bounce, TND_DIM_LIGHT_V);
         v3 p = LD3(S->p, i), pos = LD3(lp0, i), v1 = LD3(lp1, i), v2 = LD3(lp2, i);
-        bool tri = kind[i] == TND_LIGHT_KIND_TRIANGLE, dirl = kind[i] == TND_LIGHT_KIND_DIRECTIONAL;
-        bool spot = kind[i] == TND_LIGHT_KIND_SPOT;
+        bool tri = triangles_only | (kind[i] == TND_LIGHT_KIND_TRIANGLE);
+        bool dirl = !triangles_only & (kind[i] == TND_LIGHT_KIND_DIRECTIONAL);
+        bool spot = !triangles_only & (kind[i] == TND_LIGHT_KIND_SPOT);
         /* area: a uniform point on the triangle, the pdf turned to solid angle */
         float su = sqrtf(u1);
         v3 q = add(add(mul(pos, 1.0f - su), mul(v1, su * (1.0f - u2))), mul(v2, su * u2));
@@ -218,6 +214,25 @@ LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uin
             diff[k][i] = ok[i] ? dc[k][i] : 0.0f;
             spec[k][i] = ok[i] ? sc[k][i] : 0.0f;
         }
+}
+
+/* (one copy for scenes whose lights are all emissive triangles, without the point, spot and
+ * directional arithmetic, as the Vulkan front-end compiles only what a scene requires; one for
+ * any list) */
+LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uint32_t bounce,
+                                 const fb_surf *S, const fb_lobes *L, const float org[3][NL],
+                                 const uint8_t *active, uint32_t n, float diff[3][NL],
+                                 float spec[3][NL])
+{
+    if (!c->lights.count) {
+        LANES (i, n)
+            for (int k = 0; k < 3; k++)
+                diff[k][i] = spec[k][i] = 0.0f;
+    } else if (c->triangle_lights_only) {
+        direct_light_kinds(c, P, bounce, S, L, org, active, n, diff, spec, true);
+    } else {
+        direct_light_kinds(c, P, bounce, S, L, org, active, n, diff, spec, false);
+    }
 }
 
 /* Sample the BRDF of every lane (dimensions of `bounce`): direction, per-channel weight

@@ -97,6 +97,7 @@ struct femb_context {
     bool specular;      /* the scene has mirrors or glass: the primary pass follows them */
     uint32_t reflect_depth; /* at most this many specular vertices in the primary chain */
     tnd_light_list lights;
+    bool triangle_lights_only; /* every light of the list is an emissive triangle */
     femb_ray_log *log; /* NULL except while recording */
 };
 

@@ -196,7 +196,11 @@ tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
     /* vertical field of view from the projection: proj[5] = -1 / tan(yfov / 2) */
     double tan_half = 1.0 / fabs((double)cur->camera.proj[5]);
     c->pixel_spread = (float)(2.0 * tan_half / height);
-    return tnd_lights_build(s, cur, &c->lights);
+    tnd_result res = tnd_lights_build(s, cur, &c->lights);
+    c->triangle_lights_only = true;
+    for (uint32_t i = 0; i < c->lights.count; i++)
+        c->triangle_lights_only &= (uint32_t)c->lights.lights[i].p0.w == TND_LIGHT_KIND_TRIANGLE;
+    return res;
 }
 
 /* (out of line and cold: the inline casts stay lean when no log is attached) */
