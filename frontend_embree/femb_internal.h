@@ -135,7 +135,9 @@ enum { FEMB_LANES = 64 }; /* paths per batch (femb_estimator.c) */
  * vectoriser cannot tell through a pointer, and a misaligned struct makes every load split). */
 #define FEMB_ALIGN _Alignas(64)
 
-/* The surfaces of a batch, one lane per path (structure of arrays: the lane loops vectorise). */
+/* The surfaces of a batch, one lane per path (structure of arrays: the lane loops vectorise).
+ * sigma and ior are set only in scenes with mirrors or glass (context `specular`); read them
+ * through femb_surface_get, which gives opaque surfaces 0 and 1. */
 typedef struct femb_surfaces {
     FEMB_ALIGN float p[3][FEMB_LANES], ng[3][FEMB_LANES], ns[3][FEMB_LANES], wo[3][FEMB_LANES];
     float obj[3][FEMB_LANES], base[3][FEMB_LANES], emission[3][FEMB_LANES], sigma[3][FEMB_LANES];

@@ -353,17 +353,22 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
         for (int k = 0; k < 3; k++) {
             S->base[k][i] = mat->base[k];
             S->emission[k][i] = mat->emission[k];
-            S->sigma[k][i] = mat->sigma[k];
+        }
+        if (c->specular) { /* (glass only: femb_surface_get reads them for other kinds) */
+            for (int k = 0; k < 3; k++)
+                S->sigma[k][i] = mat->sigma[k];
+            S->ior[i] = mat->ior;
         }
         S->metallic[i] = mat->metallic;
         S->roughness[i] = mat->roughness;
         S->specular[i] = mat->specular;
-        S->ior[i] = mat->ior;
         S->kind[i] = mat->kind;
-        S->instance[i] = instance[i];
-        S->primitive[i] = primitive[i];
         textured[i] = mat->textured;
         two_sided[i] = mat->two_sided;
+    }
+    FEMB_LANES_LOOP(i, n) {
+        S->instance[i] = instance[i];
+        S->primitive[i] = primitive[i];
     }
     /* geometry: position, normals facing the ray */
     FEMB_LANES_LOOP(i, n) {
@@ -444,10 +449,11 @@ void femb_surface_get(const femb_surfaces *S, uint32_t i, femb_surface *s)
     s->ng = FEMB_LD3(S->ng, i);
     s->ns = FEMB_LD3(S->ns, i);
     s->wo = FEMB_LD3(S->wo, i);
+    bool opaque = S->kind[i] == TND_KIND_OPAQUE; /* (sigma and ior are set for glass only) */
     for (int k = 0; k < 3; k++) {
         s->base[k] = S->base[k][i];
         s->emission[k] = S->emission[k][i];
-        s->sigma[k] = S->sigma[k][i];
+        s->sigma[k] = opaque ? 0.0f : S->sigma[k][i];
         s->obj[k] = S->obj[k][i];
     }
     s->metallic = S->metallic[i];
@@ -458,7 +464,7 @@ void femb_surface_get(const femb_surfaces *S, uint32_t i, femb_surface *s)
     s->u = S->u[i];
     s->v = S->v[i];
     s->kind = S->kind[i];
-    s->ior = S->ior[i];
+    s->ior = opaque ? 1.0f : S->ior[i];
     s->front = S->front[i];
 }
 
