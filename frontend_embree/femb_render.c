@@ -176,34 +176,36 @@ static void stage_init(gbuf_stage *st)
 }
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(FEMB_NO_CLONES)
-/* The same with 32-byte stores, for CPUs with AVX (picked at run time): half the instructions
- * of the 16-byte copy (the primary pass streams 31 words per pixel). */
-__attribute__((target("avx"))) static void stream_words_avx(float *dst, const float *src, size_t n)
+/* words [i, n) with 32-byte non-temporal stores from a 32-byte aligned dst + i, for CPUs with
+ * AVX (picked at run time): half the instructions of the 16-byte copy; returns where it
+ * stopped */
+__attribute__((target("avx"))) static size_t stream_avx(float *dst, const float *src, size_t i,
+                                                        size_t n)
 {
-    size_t i = 0;
-    for (; i < n && ((uintptr_t)(dst + i) & 31u); i++)
-        dst[i] = src[i];
     for (; i + 8 <= n; i += 8)
         _mm256_stream_ps(dst + i, _mm256_loadu_ps(src + i));
-    for (; i < n; i++)
-        dst[i] = src[i];
+    return i;
 }
 #define FEMB_STREAM_AVX 1
 #endif
 
-/* Copy n floats (4-byte words) to dst, with non-temporal stores where dst is 16-byte aligned. */
+/* Copy n floats (4-byte words) to dst, with non-temporal stores from where dst is aligned for
+ * them (32 bytes with AVX, else 16; the primary pass streams 31 words per pixel). */
 static void stream_words(float *dst, const float *src, size_t n)
 {
-#ifdef FEMB_STREAM_AVX
-    if (__builtin_cpu_supports("avx")) {
-        stream_words_avx(dst, src, n);
-        return;
-    }
-#endif
 #ifdef __SSE2__
+    bool avx = false;
+#ifdef FEMB_STREAM_AVX
+    avx = __builtin_cpu_supports("avx");
+#endif
+    uintptr_t align = avx ? 31u : 15u;
     size_t i = 0;
-    for (; i < n && ((uintptr_t)(dst + i) & 15u); i++)
+    for (; i < n && ((uintptr_t)(dst + i) & align); i++)
         dst[i] = src[i];
+#ifdef FEMB_STREAM_AVX
+    if (avx)
+        i = stream_avx(dst, src, i, n);
+#endif
     for (; i + 4 <= n; i += 4)
         _mm_stream_ps(dst + i, _mm_loadu_ps(src + i));
     for (; i < n; i++)
@@ -213,20 +215,13 @@ static void stream_words(float *dst, const float *src, size_t n)
 #endif
 }
 
-/* The staged entries of pixels[0..n) to the frame: plane by plane when the pixels are one run. */
-static void stage_flush(const gbuf_stage *st, tnd_frame *f, const uint32_t *pixels, uint32_t n)
+/* The staged entries of pixels [q0, q0 + n) to the frame, plane by plane. */
+static void stage_flush(const gbuf_stage *st, tnd_frame *f, size_t q0, uint32_t n)
 {
-    bool run = pixels[n - 1] == pixels[0] + n - 1;
     for (int k = 0; k < PRIMARY_CTS; k++) {
         uint32_t comps = tnd_ct_get(primary_cts[k])->comps;
-        const float *src = st->f.data[primary_cts[k]];
-        float *dst = f->data[primary_cts[k]];
-        if (run) {
-            stream_words(dst + (size_t)pixels[0] * comps, src, (size_t)n * comps);
-            continue;
-        }
-        for (uint32_t i = 0; i < n; i++)
-            memcpy(dst + (size_t)pixels[i] * comps, src + (size_t)i * comps, comps * sizeof *dst);
+        stream_words((float *)f->data[primary_cts[k]] + q0 * comps, st->f.data[primary_cts[k]],
+                     (size_t)n * comps);
     }
 #ifdef __SSE2__
     _mm_sfence(); /* the streaming stores are visible before the pass ends */
@@ -330,9 +325,8 @@ static inline void point_motion(const femb_context *c, v3 dc, v3 dp, float mo[3]
     mo[2] = sqrtf(dot(dp, dp)) - sqrtf(dot(dc, dc));
 }
 
-/* The primary pass on a batch of n pixels that are one run within a row (primary_tile). */
-FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint32_t *pixels,
-                                       uint32_t n)
+/* The primary pass on the n pixels from q0 on, a run within a row (primary_tile). */
+FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q0, uint32_t n)
 {
     gbuf_stage st;
     stage_init(&st);
@@ -343,7 +337,7 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
     float PX[12][FEMB_LANES] = {{0}}, rel[3][FEMB_LANES], mo[3][FEMB_LANES];
     uint8_t plain[FEMB_LANES] = {0}, chain[FEMB_LANES], moved[FEMB_LANES];
     float fx[FEMB_LANES], fy[FEMB_LANES]; /* (pixel_dir split, without a division per lane) */
-    uint32_t x0 = pixels[0] % c->width, y0 = pixels[0] / c->width;
+    uint32_t x0 = q0 % c->width, y0 = q0 / c->width;
     FEMB_LANES_LOOP(i, n) {
         fx[i] = (float)(x0 + i) + 0.5f + c->jitter[0];
         fy[i] = (float)y0 + 0.5f + c->jitter[1];
@@ -413,7 +407,7 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
         metal[i] = S.metallic[i];
         vis[2 * i] = inst[i], vis[2 * i + 1] = prim[i];
         bary[2 * i] = u[i], bary[2 * i + 1] = v[i];
-        rng[2 * i] = c->frame, rng[2 * i + 1] = pixels[i];
+        rng[2 * i] = c->frame, rng[2 * i + 1] = q0 + i;
         path[i] = 0u;
     }
     for (uint32_t i = 0; i < n; i++) {
@@ -425,23 +419,18 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, const uint
             femb_surface_eval(c, inst[i], prim[i], u[i], v[i], ch[i].dir,
                               depth[i] * c->pixel_spread, &s);
         }
-        primary_store(c, &st.f, i, pixels[i], &ch[i], &s, depth[i]);
+        primary_store(c, &st.f, i, q0 + i, &ch[i], &s, depth[i]);
     }
-    stage_flush(&st, f, pixels, n);
+    stage_flush(&st, f, q0, n);
 }
 
 static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
                          void *user)
 {
     tnd_frame *f = ((primary_job *)user)->f;
-    uint32_t batch[FEMB_LANES];
     for (uint32_t y = y0; y < y1; y++) /* one batch per row of the tile: a run of pixels */
-        for (uint32_t x = x0; x < x1; x += FEMB_LANES) {
-            uint32_t n = x1 - x < FEMB_LANES ? x1 - x : FEMB_LANES;
-            for (uint32_t i = 0; i < n; i++)
-                batch[i] = y * c->width + x + i;
-            primary_batch(c, f, batch, n);
-        }
+        for (uint32_t x = x0; x < x1; x += FEMB_LANES)
+            primary_batch(c, f, y * c->width + x, x1 - x < FEMB_LANES ? x1 - x : FEMB_LANES);
 }
 
 tnd_result femb_trace_primary(femb_context *c, tnd_frame *f)

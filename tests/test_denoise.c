@@ -82,6 +82,27 @@ static tnd_result rig_frame(tnd_vk *vk, rig *r, uint32_t i, float *composite, dn
 
 /* Overwrite one texel of contract entries ids[0..n) with the 16 bytes in `src` (NaN, a
  * firefly): what a front-end bug or a rare path would write. */
+/* Frame fr of an animated scene through the Embree front-end at w x h with one bounce, the
+ * previous frame one frame (1/fps) before: the scene states into cur and prev, f replaced. */
+static tnd_result embree_frame(femb_context *fe, const tnd_scene *s, uint32_t fr, double fps,
+                               uint32_t w, uint32_t h, tnd_scene_state *cur,
+                               tnd_scene_state *prev, tnd_frame *f)
+{
+    tnd_frame_destroy(f);
+    tnd_result res = tnd_scene_evaluate(s, fr / fps, 0, (float)w / h, cur);
+    if (res == TND_OK)
+        res = tnd_scene_evaluate(s, (fr - 1) / fps, 0, (float)w / h, prev);
+    if (res == TND_OK)
+        res = femb_set_frame(fe, cur, prev, fr, w, h);
+    if (res == TND_OK)
+        res = tnd_frame_create(w, h, f);
+    if (res == TND_OK)
+        res = femb_trace_primary(fe, f);
+    if (res == TND_OK)
+        res = femb_shade(fe, &(femb_params){.bounces = 1}, f, NULL);
+    return res;
+}
+
 static tnd_result inject_texel(tnd_vk *vk, const tnd_contract_gpu *ct, const tnd_ct *ids, int n,
                                int32_t x, int32_t y, const tnd_buffer *src)
 {
@@ -507,16 +528,11 @@ static void test_disocclusion_and_frontends(void)
             cube = i;
     const uint32_t first = 4, last = 20;
     for (uint32_t fr = first; fr <= last; fr++) {
-        REQUIRE_OK(tnd_scene_evaluate(s, fr / fps, 0, (float)WD / HD, &cur));
-        REQUIRE_OK(tnd_scene_evaluate(s, (fr - 1) / fps, 0, (float)WD / HD, &prev));
-        dn_frame df = dn_frame_for_camera(cur.camera.proj, HD, fr, fr == first);
         tnd_frame_destroy(&fp);
         fp = f;
         memset(&f, 0, sizeof f);
-        REQUIRE_OK(femb_set_frame(fe, &cur, &prev, fr, WD, HD));
-        REQUIRE_OK(tnd_frame_create(WD, HD, &f));
-        REQUIRE_OK(femb_trace_primary(fe, &f));
-        REQUIRE_OK(femb_shade(fe, &(femb_params){.bounces = 1}, &f, NULL));
+        REQUIRE_OK(embree_frame(fe, s, fr, fps, WD, HD, &cur, &prev, &f));
+        dn_frame df = dn_frame_for_camera(cur.camera.proj, HD, fr, fr == first);
         REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
         REQUIRE_OK(dn_run(da, &up, &df, NULL));
         REQUIRE_OK(fvk_set_frame(gv, &cur, &prev, fr, WD, HD));
@@ -892,14 +908,8 @@ static void test_asvgf_follows_light_switch(void)
     double before = 0, err_a[64] = {0}, err_c[64] = {0};
     uint32_t min_samples = UINT32_MAX;
     for (uint32_t fr = first; fr <= last; fr++) {
-        REQUIRE_OK(tnd_scene_evaluate(s, fr / fps, 0, (float)WD / HD, &cur));
-        REQUIRE_OK(tnd_scene_evaluate(s, (fr - 1) / fps, 0, (float)WD / HD, &prev));
+        REQUIRE_OK(embree_frame(fe, s, fr, fps, WD, HD, &cur, &prev, &f));
         dn_frame df = dn_frame_for_camera(cur.camera.proj, HD, fr, fr == first);
-        tnd_frame_destroy(&f);
-        REQUIRE_OK(femb_set_frame(fe, &cur, &prev, fr, WD, HD));
-        REQUIRE_OK(tnd_frame_create(WD, HD, &f));
-        REQUIRE_OK(femb_trace_primary(fe, &f));
-        REQUIRE_OK(femb_shade(fe, &(femb_params){.bounces = 1}, &f, NULL));
         tnd_frame_composite(&f, noisy);
         REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
         REQUIRE_OK(dn_run(dc, &up, &df, NULL));
@@ -1066,14 +1076,8 @@ static void blur_segments_case(tnd_vk *vk, tnd_scene *s, uint32_t wd, uint32_t h
     REQUIRE_OK(dn_dump_size(da, gi, &gw, &gh));
     const uint32_t first = 27; /* frame 30: the lamp goes off, large gradients */
     for (uint32_t fr = first; fr <= 31; fr++) {
-        REQUIRE_OK(tnd_scene_evaluate(s, fr / 30.0, 0, (float)wd / hd, &cur));
-        REQUIRE_OK(tnd_scene_evaluate(s, (fr - 1) / 30.0, 0, (float)wd / hd, &prev));
+        REQUIRE_OK(embree_frame(fe, s, fr, 30.0, wd, hd, &cur, &prev, &f));
         dn_frame df = dn_frame_for_camera(cur.camera.proj, hd, fr, fr == first);
-        tnd_frame_destroy(&f);
-        REQUIRE_OK(femb_set_frame(fe, &cur, &prev, fr, wd, hd));
-        REQUIRE_OK(tnd_frame_create(wd, hd, &f));
-        REQUIRE_OK(femb_trace_primary(fe, &f));
-        REQUIRE_OK(femb_shade(fe, &(femb_params){.bounces = 1}, &f, NULL));
         REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
         uint32_t na = 0, nb = 0;
         REQUIRE_OK(dn_select_gradients(da, &up, &df, ga, &na));
