@@ -398,6 +398,10 @@ int cmd_bench(int argc, char **argv)
         cJSON_AddNumberToObject(o, "frontend_mrays_per_s", fe_rate);
         cJSON_AddNumberToObject(o, "raw_ms", b.raw_ms);
         cJSON_AddNumberToObject(o, "raw_mrays_per_s", raw_rate);
+        if (!use_vk) {
+            cJSON_AddNumberToObject(o, "primary_rays_per_frame", (double)b.primary_rays);
+            cJSON_AddNumberToObject(o, "raw_primary_ms", b.raw_primary_ms);
+        }
         if (raw_rate > 0)
             cJSON_AddNumberToObject(o, "frontend_over_raw", fe_rate / raw_rate);
         cJSON_AddNumberToObject(o, "build_s", t_build);
@@ -420,7 +424,12 @@ int cmd_bench(int argc, char **argv)
         if (!use_vk) {
             printf("  raw Embree loop   %8.2f ms  %7.2f Mrays/s (same rays, rtcIntersect1/rtcOccluded1)\n",
                    b.raw_ms, raw_rate);
-            printf("  front-end / raw   %7.1f%%  (goal: above 60%%)\n", 100.0 * fe_rate / raw_rate);
+            printf("    of which        %8.2f ms for the primary pass's %llu rays\n",
+                   b.raw_primary_ms, (unsigned long long)b.primary_rays);
+            printf("  front-end / raw   %7.1f%%  (goal: above 60%%; primary pass %.1f%%, "
+                   "shading pass %.1f%%)\n",
+                   100.0 * fe_rate / raw_rate, 100.0 * b.raw_primary_ms / b.primary_ms,
+                   100.0 * (b.raw_ms - b.raw_primary_ms) / b.shade_ms);
         }
         printf("  (medians of %u repetitions after a warm-up)\n", repeats);
     }

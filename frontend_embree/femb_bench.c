@@ -50,14 +50,15 @@ tnd_result femb_benchmark(femb_context *c, const femb_params *p, uint32_t repeat
     tnd_result res = TND_OK;
     tnd_frame f = {0};
     femb_ray_log log = {.lock = PTHREAD_MUTEX_INITIALIZER};
-    double *tp = NULL, *ts = NULL, *tr = NULL;
+    double *tp = NULL, *ts = NULL, *tr = NULL, *trp = NULL;
     memset(out, 0, sizeof *out);
     if (repeats == 0)
         repeats = 1;
     tp = calloc(repeats, sizeof *tp);
     ts = calloc(repeats, sizeof *ts);
     tr = calloc(repeats, sizeof *tr);
-    if (!tp || !ts || !tr) {
+    trp = calloc(repeats, sizeof *trp);
+    if (!tp || !ts || !tr || !trp) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
         goto fail;
     }
@@ -65,12 +66,14 @@ tnd_result femb_benchmark(femb_context *c, const femb_params *p, uint32_t repeat
     /* record (and warm up) */
     c->log = &log;
     res = femb_trace_primary(c, &f);
+    size_t primary_rays = log.count;
     if (res == TND_OK)
         res = femb_shade(c, p, &f, NULL);
     c->log = NULL;
     if (res != TND_OK)
         goto fail;
     out->rays = log.count;
+    out->primary_rays = primary_rays;
     for (uint32_t r = 0; r < repeats; r++) {
         double t0 = tnd_now();
         TND_TRY(femb_trace_primary(c, &f));
@@ -79,19 +82,24 @@ tnd_result femb_benchmark(femb_context *c, const femb_params *p, uint32_t repeat
         double t2 = tnd_now();
         /* chunks of 1024 rays: with 4096 the last chunks left cores idle and the raw loop
          * looked 10-15% slower on 16 cores (docs/performance.md); smaller gain nothing */
-        femb_parallel_range(c, log.count, 1024, replay, log.rays);
+        femb_parallel_range(c, primary_rays, 1024, replay, log.rays);
         double t3 = tnd_now();
+        femb_parallel_range(c, log.count - primary_rays, 1024, replay, log.rays + primary_rays);
+        double t4 = tnd_now();
         tp[r] = 1e3 * (t1 - t0);
         ts[r] = 1e3 * (t2 - t1);
-        tr[r] = 1e3 * (t3 - t2);
+        trp[r] = 1e3 * (t3 - t2);
+        tr[r] = 1e3 * (t4 - t2);
     }
     out->primary_ms = median(tp, repeats);
     out->shade_ms = median(ts, repeats);
     out->raw_ms = median(tr, repeats);
+    out->raw_primary_ms = median(trp, repeats);
 fail:
     free(tp);
     free(ts);
     free(tr);
+    free(trp);
     free(log.rays);
     tnd_frame_destroy(&f);
     return res;
