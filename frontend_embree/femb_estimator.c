@@ -206,9 +206,17 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
         }
         ST3(wi, i, w);
     }
-    for (uint32_t i = 0; i < n; i++)
-        if (ok[i])
-            ok[i] = !femb_occluded(c, LD3(org, i), LD3(wi, i), tmax[i]);
+    /* the lanes with a shadow ray first, without a branch per lane (which lanes have one
+     * follows the light samples: a branch on it mispredicts) */
+    uint32_t todo[NL], m = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        todo[m] = i;
+        m += ok[i];
+    }
+    for (uint32_t j = 0; j < m; j++) {
+        uint32_t i = todo[j];
+        ok[i] = !femb_occluded(c, LD3(org, i), LD3(wi, i), tmax[i]);
+    }
     LANES (i, n)
         for (int k = 0; k < 3; k++) {
             diff[k][i] = ok[i] ? dc[k][i] : 0.0f;
