@@ -323,16 +323,14 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
     const float(*dir)[NL] = eye ? (const float(*)[NL])dir_eye : dir_in;
     const float *cone = eye ? cone_eye : cone_in;
     uint8_t textured[NL], two_sided[NL];
-    bool all = true;
-    for (uint32_t i = 0; i < n; i++)
-        all &= active[i] != 0;
-    if (!all) { /* inactive lanes: a degenerate triangle at the origin (their S is unspecified) */
-        memset(P, 0, sizeof P);
-        memset(N, 0, sizeof N);
-        memset(X, 0, sizeof X);
-    }
+    bool any_textured = false;
     for (uint32_t i = 0; i < n; i++) {
-        if (!active[i]) {
+        if (!active[i]) { /* a degenerate triangle at the origin (their S is unspecified) */
+            for (int j = 0; j < 3; j++)
+                for (int k = 0; k < 3; k++)
+                    P[j][k][i] = N[j][k][i] = 0.0f;
+            for (int r = 0; r < 12; r++)
+                X[r][i] = 0.0f;
             textured[i] = two_sided[i] = 0;
             S->kind[i] = TND_KIND_OPAQUE;
             continue;
@@ -365,6 +363,7 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
         S->kind[i] = mat->kind;
         textured[i] = mat->textured;
         two_sided[i] = mat->two_sided;
+        any_textured |= mat->textured;
     }
     FEMB_LANES_LOOP(i, n) {
         S->instance[i] = instance[i];
@@ -403,7 +402,7 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
         S->u[i] = uu;
         S->v[i] = vv;
     }
-    for (uint32_t i = 0; i < n; i++)
+    for (uint32_t i = 0; i < n && any_textured; i++)
         if (active[i] && textured[i]) {
             float x[12];
             for (int r = 0; r < 12; r++)
