@@ -620,22 +620,34 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
             cocg[1][i] = d_lobe ? kk * cg : 0.0f;
         }
     }
+    /* a run is staged in the order of the contract's planes and streamed to them */
+    FEMB_ALIGN float stage[12 * NL];
+    float *s_hf = stage, *s_sp = stage + 3 * n, *s_sh = stage + 6 * n, *s_cc = stage + 10 * n;
     LANES (i, n) {
         size_t q = lane_entry(pixels, run, i);
-        float *o_hf = tnd_frame_f(f, TND_CT_HF) + 3 * q,
-              *o_sp = tnd_frame_f(f, TND_CT_SPEC) + 3 * q;
-        float *o_sh = tnd_frame_f(f, TND_CT_LF_SH) + 4 * q,
-              *o_cc = tnd_frame_f(f, TND_CT_LF_COCG) + 2 * q;
+        size_t e = run ? i : q; /* the entry written: in the stage or in the frame */
+        float *o_hf = run ? s_hf : tnd_frame_f(f, TND_CT_HF),
+              *o_sp = run ? s_sp : tnd_frame_f(f, TND_CT_SPEC);
+        float *o_sh = run ? s_sh : tnd_frame_f(f, TND_CT_LF_SH),
+              *o_cc = run ? s_cc : tnd_frame_f(f, TND_CT_LF_COCG);
         for (int k = 0; k < 3; k++) {
-            o_hf[k] = hf[k][i];
-            o_sp[k] = spec[k][i];
+            o_hf[3 * e + k] = hf[k][i];
+            o_sp[3 * e + k] = spec[k][i];
             if (radiance)
                 radiance[3 * q + k] = rad[k][i];
         }
         for (int k = 0; k < 4; k++)
-            o_sh[k] = sh[k][i];
-        o_cc[0] = cocg[0][i];
-        o_cc[1] = cocg[1][i];
+            o_sh[4 * e + k] = sh[k][i];
+        o_cc[2 * e] = cocg[0][i];
+        o_cc[2 * e + 1] = cocg[1][i];
+    }
+    if (run) {
+        size_t q0 = pixels[0];
+        femb_stream_words(tnd_frame_f(f, TND_CT_HF) + 3 * q0, s_hf, 3 * (size_t)n);
+        femb_stream_words(tnd_frame_f(f, TND_CT_SPEC) + 3 * q0, s_sp, 3 * (size_t)n);
+        femb_stream_words(tnd_frame_f(f, TND_CT_LF_SH) + 4 * q0, s_sh, 4 * (size_t)n);
+        femb_stream_words(tnd_frame_f(f, TND_CT_LF_COCG) + 2 * q0, s_cc, 2 * (size_t)n);
+        femb_stream_fence();
     }
 }
 

@@ -210,6 +210,13 @@ static inline bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tm
     return r.tfar < 0.0f;
 }
 
+/* Copy n floats (4-byte words) to dst, with non-temporal stores from where dst is aligned for
+ * them (32 bytes with AVX, else 16): for output that the pass writes once and does not read
+ * (megabytes of it would only push the BVH out of the caches). femb_stream_fence makes such
+ * stores visible before a pass ends. */
+void femb_stream_words(float *dst, const float *src, size_t n);
+void femb_stream_fence(void);
+
 /* Parallel for over tiles of the image: fn(ctx, x0, y0, x1, y1, user) per 64x4 tile, FTZ/DAZ on
  * in every worker, deterministic results whatever the thread count. */
 void femb_parallel_tiles(femb_context *c, void (*fn)(femb_context *c, uint32_t x0, uint32_t y0,

@@ -189,9 +189,7 @@ __attribute__((target("avx"))) static size_t stream_avx(float *dst, const float 
 #define FEMB_STREAM_AVX 1
 #endif
 
-/* Copy n floats (4-byte words) to dst, with non-temporal stores from where dst is aligned for
- * them (32 bytes with AVX, else 16; the primary pass streams 31 words per pixel). */
-static void stream_words(float *dst, const float *src, size_t n)
+void femb_stream_words(float *dst, const float *src, size_t n)
 {
 #ifdef __SSE2__
     bool avx = false;
@@ -220,11 +218,16 @@ static void stage_flush(const gbuf_stage *st, tnd_frame *f, size_t q0, uint32_t 
 {
     for (int k = 0; k < PRIMARY_CTS; k++) {
         uint32_t comps = tnd_ct_get(primary_cts[k])->comps;
-        stream_words((float *)f->data[primary_cts[k]] + q0 * comps, st->f.data[primary_cts[k]],
-                     (size_t)n * comps);
+        femb_stream_words((float *)f->data[primary_cts[k]] + q0 * comps,
+                          st->f.data[primary_cts[k]], (size_t)n * comps);
     }
+    femb_stream_fence();
+}
+
+void femb_stream_fence(void)
+{
 #ifdef __SSE2__
-    _mm_sfence(); /* the streaming stores are visible before the pass ends */
+    _mm_sfence();
 #endif
 }
 
