@@ -57,7 +57,9 @@ const char *femb_simd(void)
     return "the baseline only (built without clones)";
 #elif defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
     /* the test the target_clones resolver makes (FEMB_LANE_FN) */
-    return __builtin_cpu_supports("avx2") ? "AVX2, 8 lanes" : "SSE2, 4 lanes";
+    if (__builtin_cpu_supports("x86-64-v4"))
+        return "x86-64-v4 (AVX-512), 8 lanes";
+    return __builtin_cpu_supports("x86-64-v3") ? "x86-64-v3 (AVX2), 8 lanes" : "SSE2, 4 lanes";
 #else
     return "the compiler's default";
 #endif

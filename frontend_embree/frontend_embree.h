@@ -27,8 +27,9 @@ typedef struct femb_context femb_context;
 tnd_result femb_create(const tnd_scene *scene, const femb_desc *desc, femb_context **ctx);
 void femb_destroy(femb_context *ctx);
 uint32_t femb_thread_count(const femb_context *ctx);
-/* The instruction set the estimator's lane loops run with on this CPU ("AVX2, 8 lanes" or
- * "SSE2, 4 lanes"; the same results either way): benchmarks print it. */
+/* The instruction set the estimator's lane loops run with on this CPU ("x86-64-v4 (AVX-512), 8
+ * lanes", "x86-64-v3 (AVX2), 8 lanes" or "SSE2, 4 lanes"; the same results in every case):
+ * benchmarks print it. */
 const char *femb_simd(void);
 
 /* Set the frame: the scene at this frame and the previous one (for motion vectors; pass the

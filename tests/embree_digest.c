@@ -1,7 +1,7 @@
 /* tests/embree_digest.c: renders with the Embree front-end and prints a digest of every bit it
  * produced: two real-time frames of `materials` (textures, glass, a mirror; primary and shading
  * with two bounces, motion between the frames) and a 4-spp reference. Built twice, against the
- * front-end with its AVX2 clones and against the baseline-only build (FEMB_NO_CLONES);
+ * front-end with its clones (x86-64-v4 or v3) and against the baseline-only build (FEMB_NO_CLONES);
  * tests/test_simd.sh runs both and requires the same digest: the lane loops give the same bits
  * whatever instruction set the CPU picks (frontend_embree/README.md says why they should). */
 #include "frontend_embree/frontend_embree.h"

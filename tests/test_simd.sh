@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# tests/test_simd.sh A B: the Embree front-end built with its AVX2 clones (A) and baseline-only
-# (B) render the same bits (tests/embree_digest.c). On a CPU without AVX2 both run the baseline
-# and the check is trivially true; it says so.
+# tests/test_simd.sh A B: the Embree front-end built with its clones (A: x86-64-v4 or v3, as the
+# CPU has) and baseline-only (B) render the same bits (tests/embree_digest.c). On a CPU without
+# AVX2 both run the baseline and the check is trivially true; it says so.
 set -u
 a=$("$1") || { echo "FAIL $1 did not run"; exit 1; }
 b=$("$2") || { echo "FAIL $2 did not run"; exit 1; }
