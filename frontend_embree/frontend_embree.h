@@ -81,7 +81,7 @@ tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, double *r
 typedef struct femb_bench {
     double primary_ms, shade_ms; /* medians over the repeats */
     double raw_ms;               /* median replay time of the same rays */
-    double raw_primary_ms;       /* the same, of the primary pass's rays alone (the first) */
+    double raw_primary_ms;       /* the primary pass's rays (the first) replayed alone */
     uint64_t rays;               /* per frame: primary, shadow and bounce rays */
     uint64_t primary_rays;       /* of them, the primary pass's (camera rays, specular chains) */
 } femb_bench;
