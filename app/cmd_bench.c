@@ -424,7 +424,8 @@ int cmd_bench(int argc, char **argv)
         if (!use_vk) {
             printf("  raw Embree loop   %8.2f ms  %7.2f Mrays/s (same rays, rtcIntersect1/rtcOccluded1)\n",
                    b.raw_ms, raw_rate);
-            printf("    of which        %8.2f ms for the primary pass's %llu rays (replayed alone)\n",
+            printf("    of which        %8.2f ms for the primary pass's %llu rays "
+                   "(replayed alone)\n",
                    b.raw_primary_ms, (unsigned long long)b.primary_rays);
             printf("  front-end / raw   %7.1f%%  (goal: above 60%%; primary pass %.1f%%, "
                    "shading pass %.1f%%)\n",
