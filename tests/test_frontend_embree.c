@@ -6,6 +6,7 @@
  * depth 1e5 units from the origin against double precision, and no NaN/Inf on the extremes
  * scene. Label: unit (CPU only). */
 #include "frontend_embree/frontend_embree.h"
+#include "frontend_embree/femb_internal.h" /* (test_nee_copies_agree forces the general NEE) */
 #include "shaders/brdf.h"
 #include "tests/motion_reference.h"
 #include "tests/tnd_test.h"
@@ -572,6 +573,55 @@ cleanup:
  * Compared on interior pixels (not within one pixel of an emitter or of the background): there
  * the pixel filters differ (16 Halton jitter positions against the reference's uniform jitter)
  * and the bright emitter's edge pixels would dominate the difference. */
+/* The NEE sampling has a copy for scenes whose lights are all emissive triangles (no point,
+ * spot or directional arithmetic) beside the general one; on `cornell` (two emitter triangles)
+ * both must give the same bits, whichever the scene would pick. */
+static void test_nee_copies_agree(void)
+{
+    rig r;
+    tnd_frame f = {0};
+    float *first = NULL;
+    enum { W = 64, H = 36 };
+    const tnd_ct ct[] = {TND_CT_HF, TND_CT_LF_SH, TND_CT_LF_COCG, TND_CT_SPEC};
+    size_t words = 0, off = 0;
+    for (size_t k = 0; k < sizeof ct / sizeof *ct; k++)
+        words += (size_t)tnd_ct_get(ct[k])->comps * W * H;
+    REQUIRE_OK(rig_open(&r, SCENES "cornell.gltf", 2));
+    REQUIRE_OK(rig_frame(&r, 3, 0.5, 0.45, W, H, &f));
+    CHECK(r.c->triangle_lights_only, "cornell's lights are emissive triangles only");
+    REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 2}, &f, NULL));
+    first = malloc(words * sizeof *first);
+    CHECK(first != NULL, "out of memory");
+    if (!first)
+        goto cleanup;
+    for (size_t k = 0; k < sizeof ct / sizeof *ct; k++) {
+        size_t m = (size_t)tnd_ct_get(ct[k])->comps * W * H;
+        memcpy(first + off, tnd_frame_f(&f, ct[k]), m * sizeof *first);
+        memset(tnd_frame_f(&f, ct[k]), 0xff, m * sizeof *first); /* NaN: a pass that skips fails */
+        off += m;
+    }
+    r.c->triangle_lights_only = false;
+    REQUIRE_OK(femb_shade(r.c, &(femb_params){.bounces = 2}, &f, NULL));
+    size_t differ = 0, lit = 0;
+    off = 0;
+    for (size_t k = 0; k < sizeof ct / sizeof *ct; k++) {
+        size_t m = (size_t)tnd_ct_get(ct[k])->comps * W * H;
+        for (size_t i = 0; i < m; i++) {
+            differ += memcmp(first + off + i, tnd_frame_f(&f, ct[k]) + i, 4) != 0;
+            lit += ct[k] == TND_CT_HF && first[off + i] > 0.0f;
+        }
+        off += m;
+    }
+    printf("     %zu of %zu words differ between the triangle-only and the general NEE (%zu hf "
+           "words lit)\n", differ, words, lit);
+    CHECK(lit > W * H, "%zu hf words lit", lit);
+    CHECK(differ == 0, "%zu words differ", differ);
+cleanup:
+    free(first);
+    tnd_frame_destroy(&f);
+    rig_close(&r);
+}
+
 static void test_many_bounces_converge(void)
 {
     rig r;
@@ -810,5 +860,6 @@ TND_TEST_MAIN(T(test_furnace_lambert), T(test_furnace_ggx), T(test_furnace_glass
               T(test_total_internal_reflection), T(test_rotated_instance_normals),
               T(test_mirror_gbuffer), T(test_composite_equals_radiance),
               T(test_deterministic_threads), T(test_gradient_samples_reproduce), T(test_batch_independent),
+              T(test_nee_copies_agree),
               T(test_many_bounces_converge), T(test_motion_vectors),
               T(test_motion_far_from_origin), T(test_extremes_finite))
