@@ -847,6 +847,26 @@ static inline uint32_t tnd_lights_pick(const tnd_light_list *list, float u)
     }
     return base;
 }
+/* tnd_lights_pick for n values of u at once (out[i] for u[i]). Up to TND_LIGHTS_PICK_LINEAR
+ * lights, a count of the cdf values at or below u over all but the last light: the same index,
+ * since the cdf never decreases (a NaN counts every one: the last light), in loops over i that
+ * the compiler turns into SIMD code; longer lists take the binary search per value. */
+enum { TND_LIGHTS_PICK_LINEAR = 16 };
+static inline void tnd_lights_pick_n(const tnd_light_list *list, uint32_t n, const float *u,
+                                     uint32_t *out)
+{
+    if (list->count > TND_LIGHTS_PICK_LINEAR) {
+        for (uint32_t i = 0; i < n; i++)
+            out[i] = tnd_lights_pick(list, u[i]);
+        return;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        out[i] = 0;
+    for (uint32_t j = 0; j + 1 < list->count; j++) {
+        float cdf = list->lights[j].cdf.x;
+        _Pragma("GCC ivdep") for (uint32_t i = 0; i < n; i++) out[i] += !(cdf > u[i]);
+    }
+}
 
 
 /* ---------------------------------------------------------------------------------------------

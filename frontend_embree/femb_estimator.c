@@ -153,12 +153,13 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
 {
     /* the picked lights' records */
     float lp0[3][NL], lp1[3][NL], lp2[3][NL], lrad[4][NL], lcdf[NL];
-    uint32_t kind[NL];
+    uint32_t kind[NL], pick[NL];
     float upick[NL];
     LANES (i, n)
         upick[i] = rnd(P, i, bounce, TND_DIM_LIGHT_PICK);
+    tnd_lights_pick_n(&c->lights, n, upick, pick);
     for (uint32_t i = 0; i < n; i++) {
-        const tnd_light_gpu *l = &c->lights.lights[tnd_lights_pick(&c->lights, upick[i])];
+        const tnd_light_gpu *l = &c->lights.lights[pick[i]];
         kind[i] = (uint32_t)l->p0.w;
         ST3(lp0, i, ((v3){l->p0.x, l->p0.y, l->p0.z}));
         ST3(lp1, i, ((v3){l->p1.x, l->p1.y, l->p1.z}));

@@ -419,6 +419,8 @@ static void test_light_pick(void)
                 us[nu++] = (float)(state >> 8) * (1.0f / 16777216.0f);
             }
             us[nu++] = 0.0f, us[nu++] = 1.0f, us[nu++] = -1.0f, us[nu++] = NAN;
+            uint32_t picks[sizeof us / sizeof *us];
+            tnd_lights_pick_n(&list, nu, us, picks); /* (linear up to 16 lights, then binary) */
             for (uint32_t k = 0; k < nu; k++) {
                 uint32_t want = count - 1;
                 for (uint32_t i = 0; i < count; i++)
@@ -430,6 +432,9 @@ static void test_light_pick(void)
                 if (got != want && bad++ < 5)
                     CHECK(false, "%u lights, u %.9g: picked %u, expected %u", count, us[k], got,
                           want);
+                if (picks[k] != want && bad++ < 5)
+                    CHECK(false, "%u lights, u %.9g: tnd_lights_pick_n picked %u, expected %u",
+                          count, us[k], picks[k], want);
                 checked++;
             }
         }
