@@ -142,6 +142,8 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
     return cosl > 0 ? l->radiance.w * d * d / (l->cdf.w * cosl) : 0.0f;
 }
 
+enum { FEW_LIGHTS = 8 }; /* direct_light_kinds: records selected into lanes up to this many */
+
 /* One NEE sample per active lane with the dimensions of path vertex `bounce`, the shadow ray
  * from `org` (the surface point offset along the geometric normal): diffuse (demodulated) and
  * specular contributions, 0 where inactive (direct_light; `triangles_only`: every light is an
@@ -158,15 +160,40 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
     LANES (i, n)
         upick[i] = rnd(P, i, bounce, TND_DIM_LIGHT_PICK);
     tnd_lights_pick_n(&c->lights, n, upick, pick);
-    for (uint32_t i = 0; i < n; i++) {
-        const tnd_light_gpu *l = &c->lights.lights[pick[i]];
-        kind[i] = (uint32_t)l->p0.w;
-        ST3(lp0, i, ((v3){l->p0.x, l->p0.y, l->p0.z}));
-        ST3(lp1, i, ((v3){l->p1.x, l->p1.y, l->p1.z}));
-        ST3(lp2, i, ((v3){l->p2.x, l->p2.y, l->p2.z}));
-        lrad[0][i] = l->radiance.x, lrad[1][i] = l->radiance.y, lrad[2][i] = l->radiance.z;
-        lrad[3][i] = l->radiance.w;
-        lcdf[i] = l->cdf.w;
+    if (c->lights.count <= FEW_LIGHTS) {
+        /* few lights: each one's record selected into the lanes that picked it, in lane loops
+         * (cheaper than a copy lane by lane up to about 8 lights) */
+        for (uint32_t j = 0; j < c->lights.count; j++) {
+            const tnd_light_gpu *l = &c->lights.lights[j];
+            float rec[14] = {l->p0.x,       l->p0.y,       l->p0.z,       l->p1.x,
+                             l->p1.y,       l->p1.z,       l->p2.x,       l->p2.y,
+                             l->p2.z,       l->radiance.x, l->radiance.y, l->radiance.z,
+                             l->radiance.w, l->cdf.w};
+            uint32_t lk = (uint32_t)l->p0.w;
+            LANES (i, n) {
+                bool mine = (pick[i] == j) | (j == 0); /* (light 0 first fills every lane) */
+                for (int k = 0; k < 3; k++) {
+                    lp0[k][i] = mine ? rec[k] : lp0[k][i];
+                    lp1[k][i] = mine ? rec[3 + k] : lp1[k][i];
+                    lp2[k][i] = mine ? rec[6 + k] : lp2[k][i];
+                }
+                for (int k = 0; k < 4; k++)
+                    lrad[k][i] = mine ? rec[9 + k] : lrad[k][i];
+                lcdf[i] = mine ? rec[13] : lcdf[i];
+                kind[i] = mine ? lk : kind[i];
+            }
+        }
+    } else {
+        for (uint32_t i = 0; i < n; i++) {
+            const tnd_light_gpu *l = &c->lights.lights[pick[i]];
+            kind[i] = (uint32_t)l->p0.w;
+            ST3(lp0, i, ((v3){l->p0.x, l->p0.y, l->p0.z}));
+            ST3(lp1, i, ((v3){l->p1.x, l->p1.y, l->p1.z}));
+            ST3(lp2, i, ((v3){l->p2.x, l->p2.y, l->p2.z}));
+            lrad[0][i] = l->radiance.x, lrad[1][i] = l->radiance.y, lrad[2][i] = l->radiance.z;
+            lrad[3][i] = l->radiance.w;
+            lcdf[i] = l->cdf.w;
+        }
     }
     float wi[3][NL], tmax[NL], dc[3][NL], sc[3][NL];
     uint8_t ok[NL];
