@@ -98,6 +98,7 @@ struct femb_context {
     uint32_t reflect_depth; /* at most this many specular vertices in the primary chain */
     tnd_light_list lights;
     bool triangle_lights_only; /* every light of the list is an emissive triangle */
+    bool any_moved;            /* some instance's transform differs from the previous frame's */
     femb_ray_log *log; /* NULL except while recording */
 };
 

@@ -328,6 +328,31 @@ static inline void point_motion(const femb_context *c, v3 dc, v3 dp, float mo[3]
     mo[2] = sqrtf(dot(dp, dp)) - sqrtf(dot(dc, dc));
 }
 
+/* The motion vectors mo of a batch's lanes (dc: from this frame's camera; the previous transform
+ * PX of the lanes on instances that moved); `any_moved` (a constant in each call) false: no
+ * instance moved, every point is where it was. */
+static inline __attribute__((always_inline)) void
+batch_motion(const femb_context *c, bool any_moved, uint32_t n, const uint8_t *moved,
+             const float PX[12][FEMB_LANES], const femb_surfaces *S,
+             const float rel[3][FEMB_LANES], float mo[3][FEMB_LANES])
+{
+    v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
+    v3 dcam = sub(cam, (v3){c->prev_cam_pos[0], c->prev_cam_pos[1], c->prev_cam_pos[2]});
+    FEMB_LANES_LOOP(i, n) {
+        v3 dc = FEMB_LD3(rel, i), dp = add(dcam, dc);
+        if (any_moved) {
+            float a[12], obj[3] = {S->obj[0][i], S->obj[1][i], S->obj[2][i]};
+            for (int r = 0; r < 12; r++)
+                a[r] = PX[r][i];
+            dp = sel3(moved[i], femb_xf_point_rel(a, obj, c->prev_cam_pos), dp);
+        }
+        float m[3];
+        point_motion(c, dc, dp, m);
+        for (int k = 0; k < 3; k++)
+            mo[k][i] = m[k];
+    }
+}
+
 /* The primary pass on the n pixels from q0 on, a run within a row (primary_tile). */
 FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q0, uint32_t n)
 {
@@ -337,7 +362,7 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q
     femb_surfaces S;
     uint32_t inst[FEMB_LANES] = {0}, prim[FEMB_LANES] = {0}; /* (zeroed: quiets gcc) */
     float u[FEMB_LANES] = {0}, v[FEMB_LANES] = {0}, depth[FEMB_LANES], dir[3][FEMB_LANES];
-    float PX[12][FEMB_LANES] = {{0}}, rel[3][FEMB_LANES], mo[3][FEMB_LANES];
+    float PX[12][FEMB_LANES], rel[3][FEMB_LANES], mo[3][FEMB_LANES];
     uint8_t plain[FEMB_LANES] = {0}, chain[FEMB_LANES], moved[FEMB_LANES];
     float fx[FEMB_LANES], fy[FEMB_LANES]; /* (pixel_dir split, without a division per lane) */
     uint32_t x0 = q0 % c->width, y0 = q0 / c->width;
@@ -347,6 +372,8 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q
     }
     FEMB_LANES_LOOP(i, n) FEMB_ST3(dir, i, camera_dir(c, fx[i], fy[i]));
     v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
+    if (c->any_moved) /* (lanes that did not move read zeros, whose result is not selected) */
+        memset(PX, 0, sizeof PX);
     for (uint32_t i = 0; i < n; i++) {
         if (!c->specular) { /* no mirror or glass: the chain is the camera ray (chain_from's) */
             float t;
@@ -372,17 +399,10 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q
             PX[r][i] = px[r];
     }
     femb_surface_eval_eye(c, n, plain, inst, prim, u, v, &S, depth, rel);
-    v3 dcam = sub(cam, (v3){c->prev_cam_pos[0], c->prev_cam_pos[1], c->prev_cam_pos[2]});
-    FEMB_LANES_LOOP(i, n) {
-        float a[12], obj[3] = {S.obj[0][i], S.obj[1][i], S.obj[2][i]}, m[3];
-        for (int r = 0; r < 12; r++)
-            a[r] = PX[r][i];
-        v3 dc = FEMB_LD3(rel, i);
-        v3 dp = sel3(moved[i], femb_xf_point_rel(a, obj, c->prev_cam_pos), add(dcam, dc));
-        point_motion(c, dc, dp, m);
-        for (int k = 0; k < 3; k++)
-            mo[k][i] = m[k];
-    }
+    if (c->any_moved)
+        batch_motion(c, true, n, moved, PX, &S, rel, mo);
+    else
+        batch_motion(c, false, n, moved, PX, &S, rel, mo);
     /* the G-buffer of the lanes that see a surface directly, from the batch's surfaces (what
      * primary_store writes with a chain of no vertex: throughput 1, no path flags); the other
      * lanes are written after, one by one */

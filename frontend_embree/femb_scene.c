@@ -177,12 +177,14 @@ tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
     c->width = width;
     c->height = height;
     tnd_jitter(frame, c->jitter);
+    c->any_moved = false;
     for (uint32_t i = 0; i < s->instance_count; i++) {
         RTCGeometry g = rtcGetGeometry(c->top, i);
         rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, cur->instance_xform + 12 * i);
         rtcCommitGeometry(g);
         c->inst[i].moved = memcmp(cur->instance_xform + 12 * i,
                                   c->prev->instance_xform + 12 * i, 12 * sizeof(float)) != 0;
+        c->any_moved |= c->inst[i].moved;
     }
     rtcCommitScene(c->top);
     if (c->error[0])
