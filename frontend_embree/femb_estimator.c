@@ -550,11 +550,12 @@ gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixe
         S->roughness[i] = R[q];
         S->metallic[i] = M[q];
     }
-    for (uint32_t i = 0; i < n; i++) {
+    LANES (i, n)
+        S->specular[i] = c->inst[vis[2 * lane_entry(pixels, run, i)]].specular;
+    for (uint32_t i = 0; i < n && c->specular; i++) {
         size_t q = lane_entry(pixels, run, i);
         uint32_t inst = vis[2 * q];
-        S->specular[i] = c->mats[c->inst[inst].material].specular;
-        if (!c->specular || tnd_frame_u(f, TND_CT_PATH)[q] == 0u)
+        if (tnd_frame_u(f, TND_CT_PATH)[q] == 0u)
             continue;
         /* a surface seen in a mirror or through glass (the path flags say the primary chain met
          * one) is lit towards the chain's last segment, not towards the camera: the primary

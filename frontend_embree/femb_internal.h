@@ -66,6 +66,7 @@ typedef struct femb_inst {
     const uint32_t *indices;          /* the mesh's first index (indices are relative) */
     const float *positions, *normals; /* at the mesh's first vertex */
     uint32_t material;
+    float specular; /* the material's specular factor (what the shading pass reads from it) */
     bool moved; /* this frame's transform differs from the previous frame's (femb_set_frame) */
 } femb_inst;
 typedef struct femb_mat {

@@ -125,7 +125,7 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
         c->inst[i] = (femb_inst){s->indices + me->first_index,
                                  s->positions + 3 * (size_t)me->first_vertex,
                                  s->normals + 3 * (size_t)me->first_vertex, me->material,
-                                 false};
+                                 s->materials[me->material].specular, false};
     }
     for (uint32_t m = 0; m < s->material_count; m++) {
         const tnd_material *mat = &s->materials[m];
