@@ -144,6 +144,11 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
 
 enum { FEW_LIGHTS = 8 }; /* direct_light_kinds: records selected into lanes up to this many */
 
+/* (lanes below n of upick and the records are written before use; gcc 12 cannot always see it
+ * through the lane loops) */
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
 /* One NEE sample per active lane with the dimensions of path vertex `bounce`, the shadow ray
  * from `org` (the surface point offset along the geometric normal): diffuse (demodulated) and
  * specular contributions, 0 where inactive (direct_light; `triangles_only`: every light is an
@@ -270,6 +275,7 @@ LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uin
         direct_light_kinds(c, P, bounce, S, L, org, active, n, diff, spec, false);
     }
 }
+#pragma GCC diagnostic pop
 
 /* Sample the BRDF of every lane (dimensions of `bounce`): direction, per-channel weight
  * f cos / pdf (the diffuse lobe's demodulated, i.e. without albedo and 1 - metallic), the
@@ -513,6 +519,64 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
     }
 }
 
+/* femb_trace_paths from vertex 1 with max_bounce 1 in a scene without mirrors or glass (every
+ * surface opaque): the real-time default, and the shading pass's usual call. The same
+ * arithmetic on the same values (a path's throughput is 1 at its first vertex, and products
+ * by 1 are exact), without the general loop's path state and bookkeeping: test_one_bounce
+ * compares the two bit for bit. (The lanes of S, d and sp below n are all written before use;
+ * gcc cannot see it through the lane loops.) */
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float L_out[3][NL])
+{
+    uint32_t n = P->n;
+    uint32_t inst[NL], prim[NL];
+    float hu[NL], hv[NL], t[NL], cone[NL];
+    uint8_t hit[NL];
+    fb_surf S;
+    fb_lobes L;
+    bool any = false;
+    for (uint32_t i = 0; i < n; i++) {
+        hit[i] = P->active[i] && femb_intersect(c, LD3(P->org, i), LD3(P->dir, i), 1e30f,
+                                                &inst[i], &prim[i], &hu[i], &hv[i], &t[i]);
+        if (!hit[i]) {
+            inst[i] = prim[i] = 0;
+            hu[i] = hv[i] = t[i] = 0.0f;
+        }
+        any |= hit[i];
+    }
+    const float *sky = c->scene->sky;
+    LANES (i, n) { /* a miss sees the sky */
+        bool miss = P->active[i] & !hit[i];
+        for (int k = 0; k < 3; k++)
+            L_out[k][i] = miss ? sky[k] : 0.0f;
+        cone[i] = P->cone[i] + t[i] * c->pixel_spread;
+    }
+    if (!any)
+        return;
+    femb_surface_eval_batch(c, n, hit, inst, prim, hu, hv, P->dir, cone, &S);
+    for (uint32_t i = 0; i < n; i++) /* emitters hit, MIS-weighted when a BRDF sample found them */
+        if (hit[i] && (S.emission[0][i] > 0 || S.emission[1][i] > 0 || S.emission[2][i] > 0)) {
+            float w = 1.0f;
+            if (P->pdf_prev[i] > 0)
+                w = tnd_mis_power(P->pdf_prev[i], emitter_pdf(c, inst[i], prim[i], t[i],
+                                                              LD3(P->dir, i), LD3(S.ng, i)));
+            for (int k = 0; k < 3; k++)
+                L_out[k][i] += w * S.emission[k][i];
+        }
+    float d[3][NL], sp[3][NL], org[3][NL];
+    lobes(&S, n, &L);
+    LANES (i, n)
+        ST3(org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
+    direct_light(c, P, 1, &S, &L, org, hit, n, d, sp);
+    LANES (i, n)
+        for (int k = 0; k < 3; k++) {
+            float add = d[k][i] * S.base[k][i] * (1.0f - S.metallic[i]) + sp[k][i];
+            L_out[k][i] += hit[i] ? add : 0.0f;
+        }
+}
+#pragma GCC diagnostic pop
+
 /* ---- the shading pass ----------------------------------------------------------------------- */
 /* Entry q of lane i: pixels[i], or pixels[0] + i when `run` (a constant in each caller: the
  * pixels are one run, and the lane loops read and write the contract's planes with vector loads
@@ -620,7 +684,10 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
             P.pdf_prev[i] = pdf[i];
             P.cone[i] = depth[i] * c->pixel_spread;
         }
-        femb_trace_paths(c, &P, 1, p->bounces, 2, Li);
+        if (p->bounces == 1 && !c->specular)
+            one_bounce(c, &P, Li);
+        else
+            femb_trace_paths(c, &P, 1, p->bounces, 2, Li);
         LANES (i, n) {
             float ct[3];
             for (int k = 0; k < 3; k++) {
