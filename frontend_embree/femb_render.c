@@ -182,6 +182,7 @@ static void stage_init(gbuf_stage *st)
 __attribute__((target("avx"))) static size_t stream_avx(float *dst, const float *src, size_t i,
                                                         size_t n)
 {
+#pragma GCC unroll 4
     for (; i + 8 <= n; i += 8)
         _mm256_stream_ps(dst + i, _mm256_loadu_ps(src + i));
     return i;
