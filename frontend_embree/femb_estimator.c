@@ -112,9 +112,12 @@ LANE_FN static void lobes(const fb_surf *S, uint32_t n, fb_lobes *L)
 
 /* BRDF x cos of lane i for direction wi: diffuse part without albedo and (1 - metallic)
  * ("demodulated"), specular part with its Fresnel, the mixture pdf of the two lobes. False when
- * wi is below either normal (the values are then meaningless). */
-static inline bool brdf_lane(const fb_surf *S, const fb_lobes *L, uint32_t i, v3 wi, float diff[3],
-                             float spec[3], float *pdf)
+ * wi is below either normal (the values are then meaningless). Always inline: called out of line
+ * (gcc's choice once direct_light grew) it kept the general NEE copy's lane loop scalar, and
+ * `materials` lost 6 points of front-end/raw. */
+static inline __attribute__((always_inline)) bool
+brdf_lane(const fb_surf *S, const fb_lobes *L, uint32_t i, v3 wi, float diff[3], float spec[3],
+          float *pdf)
 {
     v3 ns = LD3(S->ns, i), wo = LD3(S->wo, i);
     float nl = dot(ns, wi);
