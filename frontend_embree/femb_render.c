@@ -394,10 +394,12 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q
         /* the previous transform of instances that moved (the others' points are where they
          * were: from the previous camera, the camera's displacement plus the vector from this
          * one) */
-        moved[i] = plain[i] && c->inst[inst[i]].moved;
-        const float *px = c->prev->instance_xform + 12 * (size_t)inst[i];
-        for (int r = 0; r < 12 && moved[i]; r++)
-            PX[r][i] = px[r];
+        moved[i] = c->any_moved && plain[i] && c->inst[inst[i]].moved;
+        if (moved[i]) {
+            const float *px = c->prev->instance_xform + 12 * (size_t)inst[i];
+            for (int r = 0; r < 12; r++)
+                PX[r][i] = px[r];
+        }
     }
     femb_surface_eval_eye(c, n, plain, inst, prim, u, v, &S, depth, rel);
     if (c->any_moved)
