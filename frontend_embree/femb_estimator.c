@@ -372,6 +372,26 @@ typedef struct fb_state {
     uint8_t alive[NL], inside[NL];
 } fb_state;
 
+/* The closest hits of the rays of the `live` lanes among [0, n): hit[i], and where (a lane that
+ * is not live or misses gets instance, primitive, barycentrics and distance 0); whether any
+ * lane hit. */
+static inline bool closest_hits(const femb_context *c, uint32_t n, const uint8_t *live,
+                                const float org[3][NL], const float dir[3][NL], uint32_t *inst,
+                                uint32_t *prim, float *hu, float *hv, float *t, uint8_t *hit)
+{
+    bool any = false;
+    for (uint32_t i = 0; i < n; i++) {
+        hit[i] = live[i] && femb_intersect(c, LD3(org, i), LD3(dir, i), 1e30f, &inst[i],
+                                           &prim[i], &hu[i], &hv[i], &t[i]);
+        if (!hit[i]) {
+            inst[i] = prim[i] = 0;
+            hu[i] = hv[i] = t[i] = 0.0f;
+        }
+        any |= hit[i];
+    }
+    return any;
+}
+
 /* Vertex `b` of the live lanes: the closest hits (a miss adds the sky and ends the path), the
  * surfaces, their emission (MIS-weighted against the light list when the previous vertex sampled
  * a BRDF), and specular vertices followed at once. shade[i] is set for the lanes that stand on
@@ -382,12 +402,9 @@ static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, 
     uint32_t inst[NL] = {0}, prim[NL] = {0}; /* (initialised: gcc cannot see that lanes < n are) */
     float hu[NL] = {0}, hv[NL] = {0}, t[NL];
     uint8_t hit[NL] = {0};
+    closest_hits(c, n, st->alive, st->org, st->dir, inst, prim, hu, hv, t, hit);
     for (uint32_t i = 0; i < n; i++) {
-        hit[i] = st->alive[i] && femb_intersect(c, LD3(st->org, i), LD3(st->dir, i), 1e30f,
-                                                &inst[i], &prim[i], &hu[i], &hv[i], &t[i]);
         if (!hit[i]) {
-            inst[i] = prim[i] = 0;
-            hu[i] = hv[i] = t[i] = 0.0f;
             if (st->alive[i])
                 for (int k = 0; k < 3; k++)
                     L_out[k][i] += st->beta[k][i] * c->scene->sky[k];
@@ -538,16 +555,7 @@ LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float
     uint8_t hit[NL];
     fb_surf S;
     fb_lobes L;
-    bool any = false;
-    for (uint32_t i = 0; i < n; i++) {
-        hit[i] = P->active[i] && femb_intersect(c, LD3(P->org, i), LD3(P->dir, i), 1e30f,
-                                                &inst[i], &prim[i], &hu[i], &hv[i], &t[i]);
-        if (!hit[i]) {
-            inst[i] = prim[i] = 0;
-            hu[i] = hv[i] = t[i] = 0.0f;
-        }
-        any |= hit[i];
-    }
+    bool any = closest_hits(c, n, P->active, P->org, P->dir, inst, prim, hu, hv, t, hit);
     const float *sky = c->scene->sky;
     LANES (i, n) { /* a miss sees the sky */
         bool miss = P->active[i] & !hit[i];
