@@ -542,7 +542,7 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
 /* femb_trace_paths from vertex 1 with max_bounce 1 in a scene without mirrors or glass (every
  * surface opaque): the real-time default, and the shading pass's usual call. The same
  * arithmetic on the same values (a path's throughput is 1 at its first vertex, and products
- * by 1 are exact), without the general loop's path state and bookkeeping: test_one_bounce
+ * by 1 are exact), without the general loop's path state and bookkeeping: test_one_bounce_agrees
  * compares the two bit for bit. (The lanes of S, d and sp below n are all written before use;
  * gcc cannot see it through the lane loops.) */
 #pragma GCC diagnostic push
