@@ -77,7 +77,9 @@ tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, double *r
 
 /* Benchmark: the front-end's rays per frame and their raw rate. Records every ray of one
  * primary + shading pass (untimed), then times `repeats` front-end passes and `repeats` replays
- * of the recorded rays through bare rtcIntersect1/rtcOccluded1 on the same threads. */
+ * of the recorded rays through bare rtcIntersect1/rtcOccluded1 on the same threads (each
+ * followed by an untimed-for-raw_ms replay of the primary pass's rays alone, for the per-pass
+ * figures). */
 typedef struct femb_bench {
     double primary_ms, shade_ms; /* medians over the repeats */
     double raw_ms;               /* median replay time of the same rays */
