@@ -5,6 +5,7 @@
  * ghost trail outlives 2 frames. Label: gpu. */
 #include "composite/composite.h"
 #include "frontend_embree/frontend_embree.h"
+#include "tests/embree_frame.h"
 #include "tests/gpu_common.h"
 
 enum { W = 64, H = 36, N = W * H };
@@ -13,14 +14,7 @@ enum { W = 64, H = 36, N = W * H };
 static tnd_result render_frame(femb_context *fe, const tnd_scene_state *st, uint32_t i,
                                 tnd_frame *f)
 {
-    tnd_result res = femb_set_frame(fe, st, st, i, W, H);
-    if (res == TND_OK)
-        res = tnd_frame_create(W, H, f);
-    if (res == TND_OK)
-        res = femb_trace_primary(fe, f);
-    if (res == TND_OK)
-        res = femb_shade(fe, &(femb_params){.bounces = 1}, f, NULL);
-    return res;
+    return test_embree_frame(fe, st, st, i, W, H, &(femb_params){.bounces = 1}, f);
 }
 
 /* cornell through the Embree front-end, a contract for the motion vectors and an HDR input */
@@ -259,9 +253,7 @@ static void ghost_run(tnd_vk *vk, rig *r, bool clip, int frames, int *max_trail,
         REQUIRE_OK(tnd_scene_evaluate(r->s, i ? (i - 1) / 30.0 : 0.0, 0, (float)W / H, &prev));
         REQUIRE_OK(tnd_scene_evaluate(r->s, t, 0, (float)W / H, &r->st));
         tnd_frame_destroy(&f);
-        REQUIRE_OK(femb_set_frame(r->fe, &r->st, &prev, (uint32_t)i, W, H));
-        REQUIRE_OK(tnd_frame_create(W, H, &f));
-        REQUIRE_OK(femb_trace_primary(r->fe, &f));
+        REQUIRE_OK(test_embree_frame(r->fe, &r->st, &prev, (uint32_t)i, W, H, NULL, &f));
         memcpy(alb, tnd_frame_f(&f, TND_CT_ALBEDO), sizeof alb);
         REQUIRE_OK(tnd_contract_upload(vk, &r->ct, &f));
         REQUIRE_OK(upload_rgb(vk, &r->in, alb, 1.0f));

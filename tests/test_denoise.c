@@ -8,6 +8,7 @@
 #include "frontend_vk/frontend_vk.h"
 #include "shaders/encoding.h"
 #include "shaders/sampling.h"
+#include "tests/embree_frame.h"
 #include "tests/gpu_common.h"
 
 enum { W = 64, H = 36 };
@@ -52,13 +53,8 @@ static unsigned char interior[W * H];
 static tnd_result rig_frame(tnd_vk *vk, rig *r, uint32_t i, float *composite, dn_frame *df)
 {
     tnd_frame f = {0};
-    tnd_result res = femb_set_frame(r->fe, &r->st, &r->st, i, W, H);
-    if (res == TND_OK)
-        res = tnd_frame_create(W, H, &f);
-    if (res == TND_OK)
-        res = femb_trace_primary(r->fe, &f);
-    if (res == TND_OK)
-        res = femb_shade(r->fe, &(femb_params){.bounces = 4}, &f, NULL);
+    tnd_result res =
+        test_embree_frame(r->fe, &r->st, &r->st, i, W, H, &(femb_params){.bounces = 4}, &f);
     if (res == TND_OK && composite)
         tnd_frame_composite(&f, composite);
     for (int y = 0; res == TND_OK && y < H; y++)
@@ -93,13 +89,7 @@ static tnd_result embree_frame(femb_context *fe, const tnd_scene *s, uint32_t fr
     if (res == TND_OK)
         res = tnd_scene_evaluate(s, (fr - 1) / fps, 0, (float)w / h, prev);
     if (res == TND_OK)
-        res = femb_set_frame(fe, cur, prev, fr, w, h);
-    if (res == TND_OK)
-        res = tnd_frame_create(w, h, f);
-    if (res == TND_OK)
-        res = femb_trace_primary(fe, f);
-    if (res == TND_OK)
-        res = femb_shade(fe, &(femb_params){.bounces = 1}, f, NULL);
+        res = test_embree_frame(fe, cur, prev, fr, w, h, &(femb_params){.bounces = 1}, f);
     return res;
 }
 
@@ -318,10 +308,7 @@ static void test_noiseless_history_converges(void)
     static float dump[W * H * 4];
     REQUIRE_OK(rig_open(vk, &r, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
     REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_SVGF}, &dn));
-    REQUIRE_OK(femb_set_frame(r.fe, &r.st, &r.st, 0, W, H));
-    REQUIRE_OK(tnd_frame_create(W, H, &f));
-    REQUIRE_OK(femb_trace_primary(r.fe, &f));
-    REQUIRE_OK(femb_shade(r.fe, &(femb_params){.bounces = 1}, &f, NULL));
+    REQUIRE_OK(test_embree_frame(r.fe, &r.st, &r.st, 0, W, H, &(femb_params){.bounces = 1}, &f));
     const float hf[3] = {0.9f, 0.7f, 0.5f}, spec[3] = {0.3f, 0.25f, 0.2f};
     const float sh[4] = {0.12f, 0.08f, -0.05f, 0.4f}, cocg[2] = {0.05f, -0.02f};
     const uint32_t frames = 400;
@@ -699,10 +686,8 @@ static void test_gradient_samples_reproduce_static(void)
         tnd_frame_destroy(&f0);
         f0 = f1;
         memset(&f1, 0, sizeof f1);
-        REQUIRE_OK(femb_set_frame(r.fe, &r.st, &r.st, i, W, H));
-        REQUIRE_OK(tnd_frame_create(W, H, &f1));
-        REQUIRE_OK(femb_trace_primary(r.fe, &f1));
-        REQUIRE_OK(femb_shade(r.fe, &(femb_params){.bounces = 2}, &f1, NULL));
+        REQUIRE_OK(
+            test_embree_frame(r.fe, &r.st, &r.st, i, W, H, &(femb_params){.bounces = 2}, &f1));
         for (int q = 0; q < W * H; q++) /* the lf L0 the selection sums, before the re-shading */
             l0_now[q] = tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + 3];
         REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f1));

@@ -8,6 +8,7 @@
 #include "frontend_embree/frontend_embree.h"
 #include "frontend_embree/femb_internal.h" /* (test_nee_copies_agree forces the general NEE) */
 #include "shaders/brdf.h"
+#include "tests/embree_frame.h"
 #include "tests/motion_reference.h"
 #include "tests/tnd_test.h"
 #include "shaders/specular.h"
@@ -383,11 +384,7 @@ static tnd_result rig_frame(rig *r, uint32_t frame, double t, double t_prev, uin
     if (res == TND_OK)
         res = tnd_scene_evaluate(r->s, t_prev, 0, (float)w / h, &r->prev);
     if (res == TND_OK)
-        res = femb_set_frame(r->c, &r->cur, &r->prev, frame, w, h);
-    if (res == TND_OK)
-        res = tnd_frame_create(w, h, f);
-    if (res == TND_OK)
-        res = femb_trace_primary(r->c, f);
+        res = test_embree_frame(r->c, &r->cur, &r->prev, frame, w, h, NULL, f);
     return res;
 }
 

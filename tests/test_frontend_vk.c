@@ -10,6 +10,7 @@
 #include "shaders/brdf.h"
 #include "shaders/shader_list.h"
 #include "shaders/trace_test_shared.h"
+#include "tests/embree_frame.h"
 #include "tests/gpu_common.h"
 #include "tests/motion_reference.h"
 
@@ -400,13 +401,8 @@ static tnd_result pair_frame(pair *p, uint32_t frame, double t, double tp, uint3
     if (r == TND_OK)
         r = tnd_scene_evaluate(p->s, tp, 0, (float)w / h, &p->prev);
     if (r == TND_OK)
-        r = femb_set_frame(p->fe, &p->cur, &p->prev, frame, w, h);
-    if (r == TND_OK)
-        r = tnd_frame_create(w, h, &p->cpu);
-    if (r == TND_OK)
-        r = femb_trace_primary(p->fe, &p->cpu);
-    if (r == TND_OK)
-        r = femb_shade(p->fe, &(femb_params){.bounces = bounces}, &p->cpu, NULL);
+        r = test_embree_frame(p->fe, &p->cur, &p->prev, frame, w, h,
+                              &(femb_params){.bounces = bounces}, &p->cpu);
     if (r == TND_OK)
         r = fvk_set_frame(p->gv, &p->cur, &p->prev, frame, w, h);
     if (r == TND_OK)
