@@ -145,8 +145,6 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
     return cosl > 0 ? l->radiance.w * d * d / (l->cdf.w * cosl) : 0.0f;
 }
 
-enum { FEW_LIGHTS = 8 }; /* direct_light_kinds: records selected into lanes up to this many */
-
 /* (lanes below n of upick and the records are written before use; gcc 12 cannot always see it
  * through the lane loops) */
 #pragma GCC diagnostic push
@@ -168,7 +166,7 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
     LANES (i, n)
         upick[i] = rnd(P, i, bounce, TND_DIM_LIGHT_PICK);
     tnd_lights_pick_n(&c->lights, n, upick, pick);
-    if (c->lights.count <= FEW_LIGHTS) {
+    if (c->select_lights) {
         /* few lights: each one's record selected into the lanes that picked it, in lane loops
          * (cheaper than a copy lane by lane up to about 8 lights) */
         for (uint32_t j = 0; j < c->lights.count; j++) {

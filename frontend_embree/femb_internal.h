@@ -99,6 +99,8 @@ struct femb_context {
     uint32_t reflect_depth; /* at most this many specular vertices in the primary chain */
     tnd_light_list lights;
     bool triangle_lights_only; /* every light of the list is an emissive triangle */
+    bool select_lights; /* at most FEMB_SELECT_LIGHTS lights: NEE selects their records into
+                         * lanes instead of copying them lane by lane (femb_estimator.c) */
     bool any_moved;            /* some instance's transform differs from the previous frame's */
     femb_ray_log *log; /* NULL except while recording */
 };
@@ -136,6 +138,7 @@ typedef struct femb_surface {
 #endif
 
 enum { FEMB_LANES = 64 }; /* paths per batch (femb_estimator.c) */
+enum { FEMB_SELECT_LIGHTS = 8 }; /* see femb_context.select_lights */
 /* A batch's arrays start on a cache line: a SIMD load of lanes never straddles two (the
  * vectoriser cannot tell through a pointer, and a misaligned struct makes every load split). */
 #define FEMB_ALIGN _Alignas(64)

@@ -201,6 +201,7 @@ tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
     double tan_half = 1.0 / fabs((double)cur->camera.proj[5]);
     c->pixel_spread = (float)(2.0 * tan_half / height);
     tnd_result res = tnd_lights_build(s, cur, &c->lights);
+    c->select_lights = c->lights.count <= FEMB_SELECT_LIGHTS;
     c->triangle_lights_only = true;
     for (uint32_t i = 0; i < c->lights.count; i++)
         c->triangle_lights_only &= (uint32_t)c->lights.lights[i].p0.w == TND_LIGHT_KIND_TRIANGLE;

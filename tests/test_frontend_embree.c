@@ -621,6 +621,7 @@ cleanup:
 }
 
 static void force_general_nee(femb_context *c) { c->triangle_lights_only = false; }
+static void force_copied_lights(femb_context *c) { c->select_lights = false; }
 /* (the flag of scenes with mirrors or glass: the shading pass then takes the general path loop;
  * on a scene without them it changes nothing else) */
 static void force_general_paths(femb_context *c) { c->specular = true; }
@@ -631,6 +632,13 @@ static void force_general_paths(femb_context *c) { c->specular = true; }
 static void test_nee_copies_agree(void)
 {
     shade_twice_agree(force_general_nee, 2, "triangle-only vs general NEE");
+}
+
+/* With few lights the NEE selects each light's record into the lanes that picked it; with more it
+ * copies them lane by lane (no shipped scene has more than 8 lights): both, bit for bit. */
+static void test_light_records_agree(void)
+{
+    shade_twice_agree(force_copied_lights, 2, "light records selected vs copied");
 }
 
 /* One bounce in a scene without mirrors or glass (the real-time default) has its own loop beside
@@ -879,5 +887,6 @@ TND_TEST_MAIN(T(test_furnace_lambert), T(test_furnace_ggx), T(test_furnace_glass
               T(test_mirror_gbuffer), T(test_composite_equals_radiance),
               T(test_deterministic_threads), T(test_gradient_samples_reproduce), T(test_batch_independent),
               T(test_nee_copies_agree), T(test_one_bounce_agrees),
+              T(test_light_records_agree),
               T(test_many_bounces_converge), T(test_motion_vectors),
               T(test_motion_far_from_origin), T(test_extremes_finite))
