@@ -595,12 +595,21 @@ static inline size_t lane_entry(const uint32_t *pixels, bool run, uint32_t i)
     return run ? (size_t)pixels[0] + i : pixels[i];
 }
 
+/* The entry that lane i reads: lane_entry in the frame, or i in a staged batch (whose pixels are
+ * one run). */
+static inline size_t read_entry(const uint32_t *pixels, bool run, bool staged, uint32_t i)
+{
+    return staged ? i : lane_entry(pixels, run, i);
+}
+
 /* The lanes' surfaces from the G-buffer of pixels[0..n), as the GPU passes read it (the primary
  * pass and the gradient patches wrote it), plus the material's specular factor; the distance from
- * the eye along the primary chain. */
+ * the eye along the primary chain. f holds the G-buffer: the frame, or when `staged` (a constant
+ * in each caller) the primary pass's staged batch of the run pixels[0].., whose lanes that see no
+ * surface (active 0) get values that are not used. */
 static inline __attribute__((always_inline)) void
 gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixels, bool run,
-                 uint32_t n, fb_surf *S, float *depth)
+                 bool staged, const uint8_t *active, uint32_t n, fb_surf *S, float *depth)
 {
     const float *P = tnd_frame_f(f, TND_CT_POSITION), *NS = tnd_frame_f(f, TND_CT_NORMAL);
     const float *NG = tnd_frame_f(f, TND_CT_GEO_NORMAL), *B = tnd_frame_f(f, TND_CT_ALBEDO);
@@ -608,7 +617,7 @@ gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixe
     const uint32_t *vis = tnd_frame_u(f, TND_CT_VIS_ID);
     v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
     LANES (i, n) {
-        size_t q = lane_entry(pixels, run, i);
+        size_t q = read_entry(pixels, run, staged, i);
         v3 pos = {P[3 * q], P[3 * q + 1], P[3 * q + 2]};
         v3 ns = {NS[3 * q], NS[3 * q + 1], NS[3 * q + 2]};
         v3 d = sub(cam, pos);
@@ -623,19 +632,19 @@ gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixe
         S->roughness[i] = R[q];
         S->metallic[i] = M[q];
     }
-    LANES (i, n)
-        S->specular[i] = c->inst[vis[2 * lane_entry(pixels, run, i)]].specular;
+    LANES (i, n) /* (a lane without a surface reads instance 0's) */
+        S->specular[i] = c->inst[active[i] ? vis[2 * read_entry(pixels, run, staged, i)] : 0].specular;
     for (uint32_t i = 0; i < n && c->specular; i++) {
-        size_t q = lane_entry(pixels, run, i);
-        uint32_t inst = vis[2 * q];
-        if (tnd_frame_u(f, TND_CT_PATH)[q] == 0u)
+        size_t r = read_entry(pixels, run, staged, i), q = lane_entry(pixels, run, i);
+        uint32_t inst = vis[2 * r];
+        if (!active[i] || tnd_frame_u(f, TND_CT_PATH)[r] == 0u)
             continue;
         /* a surface seen in a mirror or through glass (the path flags say the primary chain met
          * one) is lit towards the chain's last segment, not towards the camera: the primary
          * pass's chain again (same jitter, same geometry) */
         femb_chain ch;
         femb_specular_chain(c, (uint32_t)(q % c->width), (uint32_t)(q / c->width), true, &ch);
-        if (ch.hit && ch.vertices > 0 && ch.inst == inst && ch.prim == vis[2 * q + 1]) {
+        if (ch.hit && ch.vertices > 0 && ch.inst == inst && ch.prim == vis[2 * r + 1]) {
             ST3(S->wo, i, mul(ch.dir, -1.0f));
             depth[i] = ch.length;
         }
@@ -646,28 +655,35 @@ gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixe
  * clearing 8 KB per batch to quiet it is not free) */
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+/* The shading pass on pixels[0..n) of f: from f's G-buffer, or when `in` is given (then the
+ * pixels are one run) from the primary pass's staged G-buffer of that run, in which a lane that
+ * sees no surface gets what the pass writes for the sky (no signal; radiance: the emission). */
 static inline __attribute__((always_inline)) void
 shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const uint32_t *pixels,
-             bool run, uint32_t n, float *radiance)
+             bool run, uint32_t n, float *radiance, const tnd_frame *in)
 {
     fb_surf S;
     fb_lobes L;
     femb_paths P;
     float depth[NL], thr[3][NL], em[3][NL], demod[3][NL];
+    uint8_t live[NL]; /* the lane sees a surface */
+    const bool staged = in != NULL;
+    const tnd_frame *g = staged ? in : f; /* the G-buffer read */
     P.n = n;
-    const uint32_t *rng = tnd_frame_u(f, TND_CT_RNG);
-    const float *T = tnd_frame_f(f, TND_CT_THROUGHPUT), *E = tnd_frame_f(f, TND_CT_EMISSION);
+    const uint32_t *rng = tnd_frame_u(g, TND_CT_RNG), *vis = tnd_frame_u(g, TND_CT_VIS_ID);
+    const float *T = tnd_frame_f(g, TND_CT_THROUGHPUT), *E = tnd_frame_f(g, TND_CT_EMISSION);
     LANES (i, n) {
-        size_t q = lane_entry(pixels, run, i);
+        size_t q = read_entry(pixels, run, staged, i);
         P.key_pixel[i] = rng[2 * q + 1];
         P.key_frame[i] = rng[2 * q];
-        P.active[i] = 1;
+        live[i] = staged ? vis[2 * q] != TND_VIS_NONE : 1;
+        P.active[i] = live[i];
         for (int k = 0; k < 3; k++) {
             thr[k][i] = T[3 * q + k];
             em[k][i] = E[3 * q + k];
         }
     }
-    gbuffer_surfaces(c, f, pixels, run, n, &S, depth);
+    gbuffer_surfaces(c, g, pixels, run, staged, live, n, &S, depth);
     lobes(&S, n, &L);
     float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
     LANES (i, n) /* the origin of the next rays */
@@ -685,9 +701,10 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
     }
     if (p->bounces > 0) {
         float wi[3][NL], w[3][NL], pdf[NL], Li[3][NL];
-        uint8_t is_spec[NL];
-        sample_brdf(&S, &L, &P, 0, n, wi, w, pdf, is_spec, P.active);
+        uint8_t is_spec[NL], ok[NL];
+        sample_brdf(&S, &L, &P, 0, n, wi, w, pdf, is_spec, ok);
         for (uint32_t i = 0; i < n; i++) {
+            P.active[i] = live[i] & ok[i];
             for (int k = 0; k < 3; k++)
                 P.dir[k][i] = wi[k][i];
             P.pdf_prev[i] = pdf[i];
@@ -735,16 +752,17 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
               *o_sp = run ? s_sp : tnd_frame_f(f, TND_CT_SPEC);
         float *o_sh = run ? s_sh : tnd_frame_f(f, TND_CT_LF_SH),
               *o_cc = run ? s_cc : tnd_frame_f(f, TND_CT_LF_COCG);
+        bool l = live[i]; /* (a lane without a surface: what shade_tile writes for the sky) */
         for (int k = 0; k < 3; k++) {
-            o_hf[3 * e + k] = hf[k][i];
-            o_sp[3 * e + k] = spec[k][i];
+            o_hf[3 * e + k] = l ? hf[k][i] : 0.0f;
+            o_sp[3 * e + k] = l ? spec[k][i] : 0.0f;
             if (radiance)
-                radiance[3 * q + k] = rad[k][i];
+                radiance[3 * q + k] = l ? rad[k][i] : em[k][i];
         }
         for (int k = 0; k < 4; k++)
-            o_sh[4 * e + k] = sh[k][i];
-        o_cc[2 * e] = cocg[0][i];
-        o_cc[2 * e + 1] = cocg[1][i];
+            o_sh[4 * e + k] = l ? sh[k][i] : 0.0f;
+        o_cc[2 * e] = l ? cocg[0][i] : 0.0f;
+        o_cc[2 * e + 1] = l ? cocg[1][i] : 0.0f;
     }
     if (run) {
         size_t q0 = pixels[0];
@@ -765,8 +783,14 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
     for (uint32_t i = 1; i < n; i++)
         run &= pixels[i] == pixels[0] + i;
     if (run)
-        shade_pixels(c, p, f, pixels, true, n, radiance);
+        shade_pixels(c, p, f, pixels, true, n, radiance, NULL);
     else
-        shade_pixels(c, p, f, pixels, false, n, radiance);
+        shade_pixels(c, p, f, pixels, false, n, radiance, NULL);
+}
+
+LANE_FN void femb_shade_staged(const femb_context *c, const femb_params *p, tnd_frame *f,
+                               const tnd_frame *stage, uint32_t q0, uint32_t n, float *radiance)
+{
+    shade_pixels(c, p, f, &q0, true, n, radiance, stage);
 }
 #pragma GCC diagnostic pop

@@ -148,6 +148,8 @@ void femb_specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool fol
 
 typedef struct primary_job {
     tnd_frame *f;
+    const femb_params *shade; /* femb_render: each batch shaded at once with these; else NULL */
+    float *radiance;          /* femb_render's */
 } primary_job;
 
 /* The channels the primary pass writes. */
@@ -354,8 +356,10 @@ batch_motion(const femb_context *c, bool any_moved, uint32_t n, const uint8_t *m
     }
 }
 
-/* The primary pass on the n pixels from q0 on, a run within a row (primary_tile). */
-FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q0, uint32_t n)
+/* The primary pass on the n pixels from q0 on, a run within a row (primary_tile), then when
+ * `shade` is given the shading pass on them from the staged G-buffer (femb_render). */
+FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q0, uint32_t n,
+                                       const femb_params *shade, float *radiance)
 {
     gbuf_stage st;
     stage_init(&st);
@@ -448,24 +452,27 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q
         primary_store(c, &st.f, i, q0 + i, &ch[i], &s, depth[i]);
     }
     stage_flush(&st, f, q0, n);
+    if (shade)
+        femb_shade_staged(c, shade, f, &st.f, q0, n, radiance);
 }
 
 static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
                          void *user)
 {
-    tnd_frame *f = ((primary_job *)user)->f;
+    const primary_job *j = user;
     for (uint32_t y = y0; y < y1; y++) /* one batch per row of the tile: a run of pixels */
         for (uint32_t x = x0; x < x1; x += FEMB_LANES)
-            primary_batch(c, f, y * c->width + x, x1 - x < FEMB_LANES ? x1 - x : FEMB_LANES);
+            primary_batch(c, j->f, y * c->width + x, x1 - x < FEMB_LANES ? x1 - x : FEMB_LANES,
+                          j->shade, j->radiance);
 }
 
-tnd_result femb_trace_primary(femb_context *c, tnd_frame *f)
+/* The primary pass over the frame, each batch shaded at once when j->shade is given. */
+static tnd_result primary_frame(femb_context *c, tnd_frame *f, const primary_job *j)
 {
     if (f->width != c->width || f->height != c->height)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "embree: frame %ux%u, expected %ux%u", f->width,
                         f->height, c->width, c->height);
-    primary_job j = {f};
-    femb_parallel_tiles(c, primary_tile, &j);
+    femb_parallel_tiles(c, primary_tile, (void *)j);
     for (int k = 0; k < PRIMARY_CTS; k++)
         f->present[primary_cts[k]] = true;
     f->has_camera = true;
@@ -477,6 +484,11 @@ tnd_result femb_trace_primary(femb_context *c, tnd_frame *f)
     f->camera.frame_index = c->frame;
     f->precision = TND_PRECISION_F32;
     return TND_OK;
+}
+
+tnd_result femb_trace_primary(femb_context *c, tnd_frame *f)
+{
+    return primary_frame(c, f, &(primary_job){f, NULL, NULL});
 }
 
 /* ---- shading pass ---------------------------------------------------------------------------- */
@@ -523,12 +535,21 @@ static void mark_shading(tnd_frame *f)
     f->present[TND_CT_LF_COCG] = f->present[TND_CT_SPEC] = true;
 }
 
+static const femb_params default_params = {.bounces = 1};
+
+tnd_result femb_render(femb_context *c, const femb_params *p, tnd_frame *f, float *radiance)
+{
+    tnd_result res = primary_frame(c, f, &(primary_job){f, p ? p : &default_params, radiance});
+    if (res == TND_OK)
+        mark_shading(f);
+    return res;
+}
+
 tnd_result femb_shade(femb_context *c, const femb_params *p, tnd_frame *f, float *radiance)
 {
     if (f->width != c->width || f->height != c->height || !f->present[TND_CT_VIS_ID])
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "embree: shade needs the primary pass's frame");
-    femb_params def = {.bounces = 1};
-    shade_job j = {p ? p : &def, f, radiance};
+    shade_job j = {p ? p : &default_params, f, radiance};
     femb_parallel_tiles(c, shade_tile, &j);
     mark_shading(f);
     return TND_OK;
@@ -548,9 +569,8 @@ void femb_gradient_unpack(const uint32_t *w, uint32_t n, femb_gradient_sample *g
 tnd_result femb_shade_gradients(femb_context *c, const femb_params *p,
                                 const femb_gradient_sample *g, uint32_t n, tnd_frame *f)
 {
-    femb_params def = {.bounces = 1};
     if (!p)
-        p = &def;
+        p = &default_params;
     for (uint32_t i = 0; i < n; i++) {
         if (g[i].pixel >= c->width * c->height || g[i].instance >= c->scene->instance_count ||
             g[i].primitive >=

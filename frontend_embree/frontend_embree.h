@@ -3,8 +3,8 @@
  * shaders/sampling.h, shared light list in shaders/lights.h), and renders references.
  *
  * Use: femb_create once per scene; per frame femb_set_frame (current and previous scene state),
- * then femb_trace_primary (G-buffer, visibility, motion, rng keys) and femb_shade (hf, lf, spec),
- * or femb_shade_gradients for the back-end's gradient samples; femb_reference for converged
+ * then femb_render (G-buffer, visibility, motion, rng keys, hf, lf, spec), which is
+ * femb_trace_primary and femb_shade in one sweep, or femb_shade_gradients for the back-end's gradient samples; femb_reference for converged
  * images. Depends on core/ only. */
 #ifndef FEMB_FRONTEND_EMBREE_H
 #define FEMB_FRONTEND_EMBREE_H
@@ -48,6 +48,12 @@ tnd_result femb_trace_primary(femb_context *ctx, tnd_frame *out);
  * same estimate computed without demodulation, for checking the composite. */
 tnd_result femb_shade(femb_context *ctx, const femb_params *p, tnd_frame *io, float *radiance);
 
+/* Both passes in one sweep over the image, what a frame is rendered with: each batch of pixels is
+ * shaded as soon as its G-buffer is staged, from the stage while it is in the cache, instead of
+ * from the frame read back after the whole primary pass. The same bits as femb_trace_primary
+ * followed by femb_shade (test_render_agrees). */
+tnd_result femb_render(femb_context *ctx, const femb_params *p, tnd_frame *out, float *radiance);
+
 /* One gradient sample: re-shade pixel `pixel` on the surface (instance, primitive, u, v) seen
  * there in the previous frame, with that frame's random-number key. */
 typedef struct femb_gradient_sample {
@@ -76,12 +82,13 @@ tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, double *r
                           void *user);
 
 /* Benchmark: the front-end's rays per frame and their raw rate. Records every ray of one
- * primary + shading pass (untimed), then times `repeats` front-end passes and `repeats` replays
- * of the recorded rays through bare rtcIntersect1/rtcOccluded1 on the same threads (each
- * followed by an untimed-for-raw_ms replay of the primary pass's rays alone, for the per-pass
- * figures). */
+ * primary + shading pass (untimed), then times, `repeats` times in turn: a frame through
+ * femb_render, the primary pass and the shading pass alone, a replay of the recorded rays through
+ * bare rtcIntersect1/rtcOccluded1 on the same threads, and a replay of the primary pass's rays
+ * alone (not part of raw_ms; for the per-pass figures). */
 typedef struct femb_bench {
-    double primary_ms, shade_ms; /* medians over the repeats */
+    double frame_ms;             /* femb_render: the front-end's frame (median over the repeats) */
+    double primary_ms, shade_ms; /* each pass alone (medians) */
     double raw_ms;               /* median replay time of the same rays */
     double raw_primary_ms;       /* the primary pass's rays (the first) replayed alone */
     uint64_t rays;               /* per frame: primary, shadow and bounce rays */
