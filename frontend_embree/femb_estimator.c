@@ -770,7 +770,6 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         femb_stream_words(tnd_frame_f(f, TND_CT_SPEC) + 3 * q0, s_sp, 3 * (size_t)n);
         femb_stream_words(tnd_frame_f(f, TND_CT_LF_SH) + 4 * q0, s_sh, 4 * (size_t)n);
         femb_stream_words(tnd_frame_f(f, TND_CT_LF_COCG) + 2 * q0, s_cc, 2 * (size_t)n);
-        femb_stream_fence();
     }
 }
 

@@ -221,7 +221,9 @@ static inline bool femb_occluded(const femb_context *c, v3 org, v3 dir, float tm
 /* Copy n floats (4-byte words) to dst, with non-temporal stores from where dst is aligned for
  * them (32 bytes with AVX, else 16): for output that the pass writes once and does not read
  * (megabytes of it would only push the BVH out of the caches). femb_stream_fence makes such
- * stores visible before a pass ends. */
+ * stores visible to other threads: femb_parallel_range runs it on each thread when its chunks are
+ * done (one fence per thread and pass, not one per batch); code that streams outside a parallel
+ * range calls it itself. */
 void femb_stream_words(float *dst, const float *src, size_t n);
 void femb_stream_fence(void);
 

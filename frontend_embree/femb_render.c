@@ -224,7 +224,6 @@ static void stage_flush(const gbuf_stage *st, tnd_frame *f, size_t q0, uint32_t 
         femb_stream_words((float *)f->data[primary_cts[k]] + q0 * comps,
                           st->f.data[primary_cts[k]], (size_t)n * comps);
     }
-    femb_stream_fence();
 }
 
 void femb_stream_fence(void)
@@ -608,6 +607,7 @@ tnd_result femb_shade_gradients(femb_context *c, const femb_params *p,
         }
         femb_shade_pixels(c, p, f, pixels, m, NULL);
     }
+    femb_stream_fence(); /* (a run among the samples is streamed: femb_shade_pixels) */
     mark_shading(f);
     return TND_OK;
 }

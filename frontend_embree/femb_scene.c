@@ -542,6 +542,7 @@ static void run_chunks(range_job *j)
             break;
         j->fn(j->c, b, b + j->chunk < j->count ? b + j->chunk : j->count, j->user);
     }
+    femb_stream_fence(); /* this thread's streaming stores visible before the job counts done */
 }
 
 static void *pool_worker(void *arg)
