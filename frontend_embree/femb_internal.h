@@ -81,6 +81,13 @@ typedef struct femb_pool femb_pool;
 struct femb_context {
     const tnd_scene *scene;
     femb_inst *inst; /* per instance */
+    /* What the surface evaluation's geometry loop loads by lane (as gathers where the CPU has
+     * them: signed 32-bit offsets, checked at creation): per instance its mesh's first index and
+     * first vertex, and the scene's index, position and normal arrays (a zero triangle for a
+     * scene without geometry, so that inactive lanes always read something). */
+    int32_t *inst_index0, *inst_vertex0;
+    const int32_t *g_indices;
+    const float *g_positions, *g_normals;
     femb_mat *mats;  /* per material */
     RTCDevice device;
     RTCScene top;

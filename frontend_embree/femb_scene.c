@@ -40,6 +40,8 @@ void femb_destroy(femb_context *c)
     free(c->meshes);
     free(c->inst);
     free(c->mats);
+    free(c->inst_index0);
+    free(c->inst_vertex0);
     if (c->device)
         rtcReleaseDevice(c->device);
     tnd_lights_free(&c->lights);
@@ -91,7 +93,9 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
     c->meshes = calloc(s->mesh_count + 1, sizeof *c->meshes);
     c->inst = calloc(s->instance_count + 1, sizeof *c->inst);
     c->mats = calloc(s->material_count + 1, sizeof *c->mats);
-    if (!c->meshes || !c->inst || !c->mats) {
+    c->inst_index0 = calloc(s->instance_count + 1, sizeof *c->inst_index0);
+    c->inst_vertex0 = calloc(s->instance_count + 1, sizeof *c->inst_vertex0);
+    if (!c->meshes || !c->inst || !c->mats || !c->inst_index0 || !c->inst_vertex0) {
         femb_destroy(c);
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
     }
@@ -120,8 +124,28 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
         rtcReleaseGeometry(g);
         rtcCommitScene(c->meshes[m]);
     }
+    /* the geometry loop's offsets are signed 32-bit (gathers): 3 x vertices, the index count and
+     * 12 x instances must fit */
+    if ((uint64_t)s->vertex_count * 3 > INT32_MAX || s->index_count > INT32_MAX - 3 ||
+        (uint64_t)s->instance_count * 12 > INT32_MAX) {
+        tnd_result r = tnd_fail(TND_ERR_UNSUPPORTED,
+                                "embree: %s: %u vertices, %u indices, %u instances: more than the "
+                                "front-end addresses (715,827,882 vertices, 2^31 indices, "
+                                "178,956,970 instances)",
+                                s->path, s->vertex_count, s->index_count, s->instance_count);
+        femb_destroy(c);
+        return r;
+    }
+    static const int32_t zero_indices[3] = {0, 0, 0};
+    static const float zero_vertex[3] = {0, 0, 0};
+    bool geometry = s->index_count >= 3 && s->vertex_count > 0;
+    c->g_indices = geometry ? (const int32_t *)s->indices : zero_indices;
+    c->g_positions = geometry ? s->positions : zero_vertex;
+    c->g_normals = geometry ? s->normals : zero_vertex;
     for (uint32_t i = 0; i < s->instance_count; i++) {
         const tnd_mesh *me = &s->meshes[s->instances[i].mesh];
+        c->inst_index0[i] = (int32_t)me->first_index;
+        c->inst_vertex0[i] = (int32_t)me->first_vertex;
         c->inst[i] = (femb_inst){s->indices + me->first_index,
                                  s->positions + 3 * (size_t)me->first_vertex,
                                  s->normals + 3 * (size_t)me->first_vertex, me->material,
@@ -322,37 +346,19 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
              const float dir_in[3][FEMB_LANES], const float *cone_in, femb_surfaces *S,
              float *depth, float rel[3][FEMB_LANES])
 {
-    /* the lanes' vertices, transforms and materials (indexed loads, lane by lane) */
-    float P[3][3][NL], N[3][3][NL], X[12][NL];
     float dir_eye[3][NL], cone_eye[NL];
     const float(*dir)[NL] = eye ? (const float(*)[NL])dir_eye : dir_in;
     const float *cone = eye ? cone_eye : cone_in;
     uint8_t textured[NL], two_sided[NL];
     bool any_textured = false;
+    /* the lanes' materials (lane by lane); an inactive lane is opaque (its S is unspecified) */
     for (uint32_t i = 0; i < n; i++) {
-        if (!active[i]) { /* a degenerate triangle at the origin (their S is unspecified) */
-            for (int j = 0; j < 3; j++)
-                for (int k = 0; k < 3; k++)
-                    P[j][k][i] = N[j][k][i] = 0.0f;
-            for (int r = 0; r < 12; r++)
-                X[r][i] = 0.0f;
+        if (!active[i]) {
             textured[i] = two_sided[i] = 0;
             S->kind[i] = TND_KIND_OPAQUE;
             continue;
         }
-        const femb_inst *in = &c->inst[instance[i]];
-        const femb_mat *mat = &c->mats[in->material];
-        const uint32_t *ix = in->indices + 3 * primitive[i];
-        const float *Xi = c->cur->instance_xform + 12 * instance[i];
-        for (int j = 0; j < 3; j++) {
-            size_t vi = ix[j];
-            for (int k = 0; k < 3; k++) {
-                P[j][k][i] = in->positions[3 * vi + k];
-                N[j][k][i] = in->normals[3 * vi + k];
-            }
-        }
-        for (int r = 0; r < 12; r++)
-            X[r][i] = Xi[r];
+        const femb_mat *mat = &c->mats[c->inst[instance[i]].material];
         for (int k = 0; k < 3; k++) {
             S->base[k][i] = mat->base[k];
             S->emission[k][i] = mat->emission[k];
@@ -374,14 +380,34 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
         S->instance[i] = instance[i];
         S->primitive[i] = primitive[i];
     }
-    /* geometry: position, normals facing the ray */
+    /* the offsets of each lane's vertices and transform; an inactive lane reads the scene's
+     * first index (a triangle whatever its vertices, or the zero triangle) and transform */
+    int32_t vo[3][NL], xo[NL];
+    const int32_t *gi = c->g_indices, *i0 = c->inst_index0, *v0 = c->inst_vertex0;
+    FEMB_LANES_LOOP(i, n) {
+        int32_t in = active[i] ? (int32_t)instance[i] : 0;
+        int32_t ib = active[i] ? i0[in] + 3 * (int32_t)primitive[i] : 0;
+        int32_t vb = active[i] ? v0[in] : 0;
+        for (int a = 0; a < 3; a++)
+            vo[a][i] = 3 * (vb + gi[ib + a]);
+        xo[i] = 12 * in;
+    }
+    /* geometry: position, normals facing the ray (vertices, normals and transforms loaded by
+     * lane: gathers) */
+    const float *gp = c->g_positions, *gn = c->g_normals;
+    static const float no_xform[12];
+    const float *xf = c->scene->instance_count ? c->cur->instance_xform : no_xform;
     FEMB_LANES_LOOP(i, n) {
         float x[12];
         for (int r = 0; r < 12; r++)
-            x[r] = X[r][i];
+            x[r] = xf[xo[i] + r];
         float uu = u[i], vv = v[i], w0 = 1.0f - uu - vv;
-        v3 p0 = FEMB_LD3(P[0], i), p1 = FEMB_LD3(P[1], i), p2 = FEMB_LD3(P[2], i);
-        v3 n0 = FEMB_LD3(N[0], i), n1 = FEMB_LD3(N[1], i), n2 = FEMB_LD3(N[2], i);
+        v3 p0 = {gp[vo[0][i]], gp[vo[0][i] + 1], gp[vo[0][i] + 2]};
+        v3 p1 = {gp[vo[1][i]], gp[vo[1][i] + 1], gp[vo[1][i] + 2]};
+        v3 p2 = {gp[vo[2][i]], gp[vo[2][i] + 1], gp[vo[2][i] + 2]};
+        v3 n0 = {gn[vo[0][i]], gn[vo[0][i] + 1], gn[vo[0][i] + 2]};
+        v3 n1 = {gn[vo[1][i]], gn[vo[1][i] + 1], gn[vo[1][i] + 2]};
+        v3 n2 = {gn[vo[2][i]], gn[vo[2][i] + 1], gn[vo[2][i] + 2]};
         v3 obj = add(add(mul(p0, w0), mul(p1, uu)), mul(p2, vv));
         float o[3] = {obj.x, obj.y, obj.z};
         v3 e1 = sub(p1, p0), e2 = sub(p2, p0);
@@ -408,13 +434,11 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
         S->v[i] = vv;
     }
     for (uint32_t i = 0; i < n && any_textured; i++)
-        if (active[i] && textured[i]) {
-            float x[12];
-            for (int r = 0; r < 12; r++)
-                x[r] = X[r][i];
-            v3 p0 = FEMB_LD3(P[0], i);
-            surface_textures(c, S, i, x, sub(FEMB_LD3(P[1], i), p0), sub(FEMB_LD3(P[2], i), p0),
-                             FEMB_LD3(dir, i), cone[i]);
+        if (active[i] && textured[i]) { /* (the triangle's vertices loaded again) */
+            const float *q0 = gp + vo[0][i], *q1 = gp + vo[1][i], *q2 = gp + vo[2][i];
+            v3 p0 = {q0[0], q0[1], q0[2]};
+            surface_textures(c, S, i, xf + xo[i], sub((v3){q1[0], q1[1], q1[2]}, p0),
+                             sub((v3){q2[0], q2[1], q2[2]}, p0), FEMB_LD3(dir, i), cone[i]);
         }
     FEMB_LANES_LOOP(i, n) {
         /* a normal-mapped or interpolated normal facing away: the geometric one */
