@@ -632,8 +632,10 @@ gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixe
         S->roughness[i] = R[q];
         S->metallic[i] = M[q];
     }
-    LANES (i, n) /* (a lane without a surface reads instance 0's) */
-        S->specular[i] = c->inst[active[i] ? vis[2 * read_entry(pixels, run, staged, i)] : 0].specular;
+    LANES (i, n) { /* (a lane without a surface reads instance 0's) */
+        uint32_t inst = vis[2 * read_entry(pixels, run, staged, i)];
+        S->specular[i] = c->inst[active[i] ? inst : 0].specular;
+    }
     for (uint32_t i = 0; i < n && c->specular; i++) {
         size_t r = read_entry(pixels, run, staged, i), q = lane_entry(pixels, run, i);
         uint32_t inst = vis[2 * r];
@@ -655,19 +657,19 @@ gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixe
  * clearing 8 KB per batch to quiet it is not free) */
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-/* The shading pass on pixels[0..n) of f: from f's G-buffer, or when `in` is given (then the
- * pixels are one run) from the primary pass's staged G-buffer of that run, in which a lane that
- * sees no surface gets what the pass writes for the sky (no signal; radiance: the emission). */
+/* The shading pass on pixels[0..n) of f: from f's G-buffer, or when `staged` (a constant in each
+ * caller, as `run`: then the pixels are one run) from `in`, the primary pass's staged G-buffer of
+ * that run, in which a lane that sees no surface gets what the pass writes for the sky (no
+ * signal; radiance: the emission). */
 static inline __attribute__((always_inline)) void
 shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const uint32_t *pixels,
-             bool run, uint32_t n, float *radiance, const tnd_frame *in)
+             bool run, uint32_t n, float *radiance, bool staged, const tnd_frame *in)
 {
     fb_surf S;
     fb_lobes L;
     femb_paths P;
     float depth[NL], thr[3][NL], em[3][NL], demod[3][NL];
     uint8_t live[NL]; /* the lane sees a surface */
-    const bool staged = in != NULL;
     const tnd_frame *g = staged ? in : f; /* the G-buffer read */
     P.n = n;
     const uint32_t *rng = tnd_frame_u(g, TND_CT_RNG), *vis = tnd_frame_u(g, TND_CT_VIS_ID);
@@ -782,14 +784,14 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
     for (uint32_t i = 1; i < n; i++)
         run &= pixels[i] == pixels[0] + i;
     if (run)
-        shade_pixels(c, p, f, pixels, true, n, radiance, NULL);
+        shade_pixels(c, p, f, pixels, true, n, radiance, false, NULL);
     else
-        shade_pixels(c, p, f, pixels, false, n, radiance, NULL);
+        shade_pixels(c, p, f, pixels, false, n, radiance, false, NULL);
 }
 
 LANE_FN void femb_shade_staged(const femb_context *c, const femb_params *p, tnd_frame *f,
                                const tnd_frame *stage, uint32_t q0, uint32_t n, float *radiance)
 {
-    shade_pixels(c, p, f, &q0, true, n, radiance, stage);
+    shade_pixels(c, p, f, &q0, true, n, radiance, true, stage);
 }
 #pragma GCC diagnostic pop
