@@ -653,6 +653,20 @@ gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixe
     }
 }
 
+/* The direction to the eye and its distance for the surfaces S of the primary pass, computed
+ * from their position as gbuffer_surfaces computes them from the G-buffer's (the same bits). */
+static inline __attribute__((always_inline)) void eye_from_position(const femb_context *c,
+                                                                    uint32_t n, fb_surf *S,
+                                                                    float *depth)
+{
+    v3 cam = {c->cam_pos[0], c->cam_pos[1], c->cam_pos[2]};
+    LANES (i, n) {
+        v3 d = sub(cam, LD3(S->p, i));
+        depth[i] = sqrtf(dot(d, d));
+        ST3(S->wo, i, sel3(depth[i] > 0, mul(d, 1.0f / depth[i]), LD3(S->ns, i)));
+    }
+}
+
 /* (S's lanes below n are all written before use; gcc cannot see it through the lane loops, and
  * clearing 8 KB per batch to quiet it is not free) */
 #pragma GCC diagnostic push
@@ -663,9 +677,10 @@ gbuffer_surfaces(const femb_context *c, const tnd_frame *f, const uint32_t *pixe
  * signal; radiance: the emission). */
 static inline __attribute__((always_inline)) void
 shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const uint32_t *pixels,
-             bool run, uint32_t n, float *radiance, bool staged, const tnd_frame *in)
+             bool run, uint32_t n, float *radiance, bool staged, const tnd_frame *in,
+             fb_surf *given)
 {
-    fb_surf S;
+    fb_surf own, *S = given ? given : &own;
     fb_lobes L;
     femb_paths P;
     float depth[NL], thr[3][NL], em[3][NL], demod[3][NL];
@@ -685,26 +700,29 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
             em[k][i] = E[3 * q + k];
         }
     }
-    gbuffer_surfaces(c, g, pixels, run, staged, live, n, &S, depth);
-    lobes(&S, n, &L);
+    if (given) /* the primary pass's surfaces; towards the eye as gbuffer_surfaces has it */
+        eye_from_position(c, n, S, depth);
+    else
+        gbuffer_surfaces(c, g, pixels, run, staged, live, n, S, depth);
+    lobes(S, n, &L);
     float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
     LANES (i, n) /* the origin of the next rays */
-        ST3(P.org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
-    direct_light(c, &P, 0, &S, &L, P.org, P.active, n, d, sp);
+        ST3(P.org, i, femb_offset_ray(LD3(S->p, i), LD3(S->ng, i)));
+    direct_light(c, &P, 0, S, &L, P.org, P.active, n, d, sp);
     LANES (i, n) {
         for (int k = 0; k < 3; k++) {
-            float m = S.metallic[i];
-            demod[k][i] = fmx(0.01f, 0.04f * (1.0f - m) + S.base[k][i] * m);
+            float m = S->metallic[i];
+            demod[k][i] = fmx(0.01f, 0.04f * (1.0f - m) + S->base[k][i] * m);
             hf[k][i] = d[k][i];
             spec[k][i] = sp[k][i] / demod[k][i];
-            rad[k][i] = em[k][i] + thr[k][i] * (d[k][i] * S.base[k][i] * (1.0f - m) + sp[k][i]);
+            rad[k][i] = em[k][i] + thr[k][i] * (d[k][i] * S->base[k][i] * (1.0f - m) + sp[k][i]);
         }
         sh[0][i] = sh[1][i] = sh[2][i] = sh[3][i] = cocg[0][i] = cocg[1][i] = 0.0f;
     }
     if (p->bounces > 0) {
         float wi[3][NL], w[3][NL], pdf[NL], Li[3][NL];
         uint8_t is_spec[NL], ok[NL];
-        sample_brdf(&S, &L, &P, 0, n, wi, w, pdf, is_spec, ok);
+        sample_brdf(S, &L, &P, 0, n, wi, w, pdf, is_spec, ok);
         for (uint32_t i = 0; i < n; i++) {
             P.active[i] = live[i] & ok[i];
             for (int k = 0; k < 3; k++)
@@ -724,10 +742,10 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
                 ct[k] = (ct[k] >= 0.0f) & (ct[k] <= FLT_MAX) ? ct[k] : 0.0f;
             }
             bool s_lobe = P.active[i] & is_spec[i], d_lobe = P.active[i] & !is_spec[i];
-            float m = S.metallic[i];
+            float m = S->metallic[i];
             for (int k = 0; k < 3; k++) { /* (no conditional stores: they do not vectorise) */
                 spec[k][i] += s_lobe ? ct[k] / demod[k][i] : 0.0f;
-                float albedo = S.base[k][i] * (1.0f - m);
+                float albedo = S->base[k][i] * (1.0f - m);
                 albedo = s_lobe ? 1.0f : albedo;
                 albedo = P.active[i] ? albedo : 0.0f;
                 rad[k][i] += thr[k][i] * ct[k] * albedo;
@@ -735,7 +753,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
             /* YCoCg, then the SH lobe scaled so that its value at the shading normal is Y */
             float co = ct[0] - ct[2], t = ct[2] + 0.5f * co, cg = ct[1] - t, Y = t + 0.5f * cg;
             v3 dir = LD3(wi, i);
-            float kk = 4.0f * (float)TND_PI / (1.0f + 2.0f * fmx(dot(dir, LD3(S.ns, i)), 0.0f));
+            float kk = 4.0f * (float)TND_PI / (1.0f + 2.0f * fmx(dot(dir, LD3(S->ns, i)), 0.0f));
             sh[0][i] = d_lobe ? kk * Y * SH_C1 * dir.x : 0.0f;
             sh[1][i] = d_lobe ? kk * Y * SH_C1 * dir.y : 0.0f;
             sh[2][i] = d_lobe ? kk * Y * SH_C1 * dir.z : 0.0f;
@@ -784,14 +802,18 @@ LANE_FN void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_
     for (uint32_t i = 1; i < n; i++)
         run &= pixels[i] == pixels[0] + i;
     if (run)
-        shade_pixels(c, p, f, pixels, true, n, radiance, false, NULL);
+        shade_pixels(c, p, f, pixels, true, n, radiance, false, NULL, NULL);
     else
-        shade_pixels(c, p, f, pixels, false, n, radiance, false, NULL);
+        shade_pixels(c, p, f, pixels, false, n, radiance, false, NULL, NULL);
 }
 
 LANE_FN void femb_shade_staged(const femb_context *c, const femb_params *p, tnd_frame *f,
-                               const tnd_frame *stage, uint32_t q0, uint32_t n, float *radiance)
+                               const tnd_frame *stage, femb_surfaces *S, uint32_t q0, uint32_t n,
+                               float *radiance)
 {
-    shade_pixels(c, p, f, &q0, true, n, radiance, true, stage);
+    if (S)
+        shade_pixels(c, p, f, &q0, true, n, radiance, true, stage, S);
+    else
+        shade_pixels(c, p, f, &q0, true, n, radiance, true, stage, NULL);
 }
 #pragma GCC diagnostic pop

@@ -295,9 +295,12 @@ void femb_shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f
 /* The same for the run of n pixels from q0 on, read from `stage`, the primary pass's G-buffer of
  * that run staged as a frame of n x 1 (femb_render: the batch shaded while its G-buffer is in the
  * cache): the same bits as femb_shade_pixels on those pixels of f, and for those that see no
- * surface what femb_shade writes (no signal; radiance: the emission). */
+ * surface what femb_shade writes (no signal; radiance: the emission). With S (a batch in which
+ * every pixel sees its surface directly or the sky: no mirror or glass on the way), the
+ * surfaces are taken from the primary pass's S instead of the stage; S's wo is overwritten. */
 void femb_shade_staged(const femb_context *c, const femb_params *p, tnd_frame *f,
-                       const tnd_frame *stage, uint32_t q0, uint32_t n, float *radiance);
+                       const tnd_frame *stage, femb_surfaces *S, uint32_t q0, uint32_t n,
+                       float *radiance);
 
 /* The specular vertex of surface s hit along `dir`: the new direction, the throughput factor,
  * the event (u: TND_DIM_SPLIT of the vertex) and whether the ray enters a glass volume.

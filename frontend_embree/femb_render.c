@@ -451,8 +451,8 @@ FEMB_LANE_FN static void primary_batch(femb_context *c, tnd_frame *f, uint32_t q
         primary_store(c, &st.f, i, q0 + i, &ch[i], &s, depth[i]);
     }
     stage_flush(&st, f, q0, n);
-    if (shade)
-        femb_shade_staged(c, shade, f, &st.f, q0, n, radiance);
+    if (shade) /* (S holds every lane's surface when no chain met a mirror or glass) */
+        femb_shade_staged(c, shade, f, &st.f, c->specular ? NULL : &S, q0, n, radiance);
 }
 
 static void primary_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
