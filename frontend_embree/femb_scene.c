@@ -351,11 +351,15 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
     const float *cone = eye ? cone_eye : cone_in;
     uint8_t textured[NL], two_sided[NL];
     bool any_textured = false;
-    /* the lanes' materials (lane by lane); an inactive lane is opaque (its S is unspecified) */
+    /* the lanes' materials (lane by lane); an inactive lane is black and opaque (its S is
+     * unspecified, but defined: the lane loops after this one compute on it and discard it) */
     for (uint32_t i = 0; i < n; i++) {
         if (!active[i]) {
             textured[i] = two_sided[i] = 0;
             S->kind[i] = TND_KIND_OPAQUE;
+            for (int k = 0; k < 3; k++)
+                S->base[k][i] = S->emission[k][i] = 0.0f;
+            S->metallic[i] = S->roughness[i] = S->specular[i] = 0.0f;
             continue;
         }
         const femb_mat *mat = &c->mats[c->inst[instance[i]].material];
