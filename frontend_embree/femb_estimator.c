@@ -674,7 +674,8 @@ static inline __attribute__((always_inline)) void eye_from_position(const femb_c
 /* The shading pass on pixels[0..n) of f: from f's G-buffer, or when `staged` (a constant in each
  * caller, as `run`: then the pixels are one run) from `in`, the primary pass's staged G-buffer of
  * that run, in which a lane that sees no surface gets what the pass writes for the sky (no
- * signal; radiance: the emission). */
+ * signal; radiance: the emission). `given` (staged batches without mirrors or glass): the
+ * surfaces are the primary pass's, not read from `in`; only their eye direction is recomputed. */
 static inline __attribute__((always_inline)) void
 shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const uint32_t *pixels,
              bool run, uint32_t n, float *radiance, bool staged, const tnd_frame *in,
