@@ -120,7 +120,6 @@ typedef struct femb_surface {
     float emission[3]; /* towards wo (0 for a back face of a one-sided emitter) */
     uint32_t instance, primitive;
     float u, v;
-    float obj[3]; /* object-space position (motion vectors) */
     uint32_t kind; /* TND_KIND_* (shaders/specular.h) */
     float ior, sigma[3]; /* glass: index of refraction, absorption inside (1/m) */
     bool front;    /* the ray arrived on the side the geometric normal points to */
@@ -152,7 +151,8 @@ enum { FEMB_SELECT_LIGHTS = 8 }; /* see femb_context.select_lights */
 
 /* The surfaces of a batch, one lane per path (structure of arrays: the lane loops vectorise).
  * sigma and ior are set only in scenes with mirrors or glass (context `specular`); read them
- * through femb_surface_get, which gives opaque surfaces 0 and 1. */
+ * through femb_surface_get, which gives opaque surfaces 0 and 1. obj (the object-space position,
+ * for motion vectors) is set by femb_surface_eval_eye only. */
 typedef struct femb_surfaces {
     FEMB_ALIGN float p[3][FEMB_LANES], ng[3][FEMB_LANES], ns[3][FEMB_LANES], wo[3][FEMB_LANES];
     float obj[3][FEMB_LANES], base[3][FEMB_LANES], emission[3][FEMB_LANES], sigma[3][FEMB_LANES];

@@ -428,7 +428,8 @@ surface_eval(const femb_context *c, bool eye, uint32_t n, const uint8_t *active,
         }
         v3 wo = mul(FEMB_LD3(dir, i), -1.0f);
         bool front = dot(ng, wo) >= 0.0f;
-        FEMB_ST3(S->obj, i, obj);
+        if (eye) /* (motion vectors: the primary pass's only) */
+            FEMB_ST3(S->obj, i, obj);
         FEMB_ST3(S->p, i, p);
         FEMB_ST3(S->ng, i, sel3(front, ng, mul(ng, -1.0f)));
         FEMB_ST3(S->ns, i, sel3(front, ns, mul(ns, -1.0f)));
@@ -486,7 +487,6 @@ void femb_surface_get(const femb_surfaces *S, uint32_t i, femb_surface *s)
         s->base[k] = S->base[k][i];
         s->emission[k] = S->emission[k][i];
         s->sigma[k] = opaque ? 0.0f : S->sigma[k][i];
-        s->obj[k] = S->obj[k][i];
     }
     s->metallic = S->metallic[i];
     s->roughness = S->roughness[i];
