@@ -61,10 +61,9 @@ typedef struct femb_ray_log {
 } femb_ray_log;
 
 /* What a surface evaluation reads per instance and per material, gathered once at creation
- * (the scene's structs spread it over several cache lines and a function call). */
+ * (the scene's structs spread it over several cache lines and a function call); the mesh's
+ * vertex and index offsets are femb_context.inst_vertex0 / inst_index0 (loaded by lane). */
 typedef struct femb_inst {
-    const uint32_t *indices;          /* the mesh's first index (indices are relative) */
-    const float *positions, *normals; /* at the mesh's first vertex */
     uint32_t material;
     float specular; /* the material's specular factor (what the shading pass reads from it) */
     bool moved; /* this frame's transform differs from the previous frame's (femb_set_frame) */

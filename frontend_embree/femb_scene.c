@@ -146,10 +146,7 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
         const tnd_mesh *me = &s->meshes[s->instances[i].mesh];
         c->inst_index0[i] = (int32_t)me->first_index;
         c->inst_vertex0[i] = (int32_t)me->first_vertex;
-        c->inst[i] = (femb_inst){s->indices + me->first_index,
-                                 s->positions + 3 * (size_t)me->first_vertex,
-                                 s->normals + 3 * (size_t)me->first_vertex, me->material,
-                                 s->materials[me->material].specular, false};
+        c->inst[i] = (femb_inst){me->material, s->materials[me->material].specular, false};
     }
     for (uint32_t m = 0; m < s->material_count; m++) {
         const tnd_material *mat = &s->materials[m];

@@ -1,7 +1,7 @@
 /* tests/embree_frame.h: one frame through the Embree front-end as the tests render it, shared by
  * the front-end, denoiser and post-chain tests: the front-end set to (cur, prev, frame) at w x h,
- * f created (the caller destroys it, also on failure), the primary pass, and the shading pass with
- * *p unless p is NULL (then femb_render: both in one sweep). */
+ * f created (the caller destroys it, also on failure), then with *p both passes in one sweep
+ * (femb_render, as `tandem render` runs them), or with p NULL the primary pass alone. */
 #ifndef TESTS_EMBREE_FRAME_H
 #define TESTS_EMBREE_FRAME_H
 
@@ -15,7 +15,7 @@ static inline tnd_result test_embree_frame(femb_context *fe, const tnd_scene_sta
     tnd_result res = femb_set_frame(fe, cur, prev, frame, w, h);
     if (res == TND_OK)
         res = tnd_frame_create(w, h, f);
-    if (res == TND_OK) /* (both passes in one sweep, as `tandem render` runs them) */
+    if (res == TND_OK)
         res = p ? femb_render(fe, p, f, NULL) : femb_trace_primary(fe, f);
     return res;
 }
