@@ -80,7 +80,8 @@ tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_l
         tnd_light_gpu *g = &l->lights[n];
         memset(g, 0, sizeof *g);
         g->p0 = (tnd_lvec4){(float)v[0][0], (float)v[0][1], (float)v[0][2], TND_LIGHT_KIND_TRIANGLE};
-        g->p1 = (tnd_lvec4){(float)v[1][0], (float)v[1][1], (float)v[1][2], 0};
+        g->p1 = (tnd_lvec4){(float)v[1][0], (float)v[1][1], (float)v[1][2],
+                            mat->double_sided ? 1.0f : 0.0f};
         g->p2 = (tnd_lvec4){(float)v[2][0], (float)v[2][1], (float)v[2][2], 0};
         g->radiance = (tnd_lvec4){mat->emission[0], mat->emission[1], mat->emission[2], 0};
         g->cdf = (tnd_lvec4){0, (float)em->instance, (float)em->primitive, (float)area};

@@ -20,11 +20,22 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The glTF extensions Tandem applies: the one list that the checks of extensionsRequired and
+ * extensionsUsed and their messages read. */
 static const char *const supported_ext[] = {
     "KHR_lights_punctual",        "KHR_materials_emissive_strength",
     "KHR_materials_transmission", "KHR_materials_ior",
-    "KHR_materials_volume",
+    "KHR_materials_volume",       "KHR_materials_specular",
 };
+enum { SUPPORTED_EXT_COUNT = sizeof supported_ext / sizeof *supported_ext };
+
+static bool ext_supported(const cJSON *e)
+{
+    for (size_t i = 0; i < SUPPORTED_EXT_COUNT; i++)
+        if (cJSON_IsString(e) && strcmp(e->valuestring, supported_ext[i]) == 0)
+            return true;
+    return false;
+}
 
 typedef struct gltf_ctx {
     const char *path;
@@ -70,24 +81,21 @@ static tnd_result parse_json(gltf_ctx *c, const uint8_t *data, size_t size)
     const cJSON *req = cJSON_GetObjectItemCaseSensitive(c->json, "extensionsRequired"), *e;
     cJSON_ArrayForEach(e, req)
     {
-        bool ok = false;
-        for (size_t i = 0; i < sizeof supported_ext / sizeof *supported_ext; i++)
-            ok |= cJSON_IsString(e) && strcmp(e->valuestring, supported_ext[i]) == 0;
-        if (!ok)
-            return tnd_fail(TND_ERR_UNSUPPORTED,
-                            "scene: %s: requires extension '%s', which Tandem does not support "
-                            "(supported: KHR_lights_punctual, KHR_materials_emissive_strength, "
-                            "KHR_materials_transmission, KHR_materials_ior, KHR_materials_volume, "
-                            "KHR_materials_specular)",
-                            c->path, cJSON_IsString(e) ? e->valuestring : "?");
+        if (ext_supported(e))
+            continue;
+        char list[512] = "";
+        for (size_t i = 0; i < SUPPORTED_EXT_COUNT; i++)
+            snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? ", " : "",
+                     supported_ext[i]);
+        return tnd_fail(TND_ERR_UNSUPPORTED,
+                        "scene: %s: requires extension '%s', which Tandem does not support "
+                        "(supported: %s)",
+                        c->path, cJSON_IsString(e) ? e->valuestring : "?", list);
     }
     const cJSON *used = cJSON_GetObjectItemCaseSensitive(c->json, "extensionsUsed");
     cJSON_ArrayForEach(e, used)
     {
-        bool ok = false;
-        for (size_t i = 0; i < sizeof supported_ext / sizeof *supported_ext; i++)
-            ok |= cJSON_IsString(e) && strcmp(e->valuestring, supported_ext[i]) == 0;
-        if (!ok && cJSON_IsString(e))
+        if (!ext_supported(e) && cJSON_IsString(e))
             tnd_warn("scene", "%s: extension '%s' is used but ignored", c->path, e->valuestring);
     }
     return TND_OK;

@@ -43,7 +43,7 @@ enum { NL = FEMB_LANES };
 
 static inline float rnd(const femb_paths *P, uint32_t i, uint32_t bounce, uint32_t which)
 {
-    return tnd_rand(P->key_pixel[i], P->key_frame[i], tnd_dim(bounce, which));
+    return tnd_rand(P->key_pixel[i], P->key_frame[i], P->key_sample, tnd_dim(bounce, which));
 }
 
 typedef femb_surfaces fb_surf;
@@ -151,7 +151,7 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 
 /* One NEE sample per active lane with the dimensions of path vertex `bounce`, the shadow ray
- * from `org` (the surface point offset along the geometric normal): diffuse (demodulated) and
+ * from `org` (the surface point offset along the geometric normal: femb_offset_ray): diffuse (demodulated) and
  * specular contributions, 0 where inactive (direct_light; `triangles_only`: every light is an
  * emissive triangle). */
 static inline __attribute__((always_inline)) void
@@ -160,7 +160,7 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
                    float diff[3][NL], float spec[3][NL], bool triangles_only)
 {
     /* the picked lights' records */
-    float lp0[3][NL], lp1[3][NL], lp2[3][NL], lrad[4][NL], lcdf[NL];
+    float lp0[3][NL], lp1[3][NL], lp2[3][NL], lrad[4][NL], lcdf[NL], ltwo[NL];
     uint32_t kind[NL], pick[NL];
     float upick[NL];
     LANES (i, n)
@@ -171,10 +171,10 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
          * (cheaper than a copy lane by lane up to about 8 lights) */
         for (uint32_t j = 0; j < c->lights.count; j++) {
             const tnd_light_gpu *l = &c->lights.lights[j];
-            float rec[14] = {l->p0.x,       l->p0.y,       l->p0.z,       l->p1.x,
+            float rec[15] = {l->p0.x,       l->p0.y,       l->p0.z,       l->p1.x,
                              l->p1.y,       l->p1.z,       l->p2.x,       l->p2.y,
                              l->p2.z,       l->radiance.x, l->radiance.y, l->radiance.z,
-                             l->radiance.w, l->cdf.w};
+                             l->radiance.w, l->cdf.w,      l->p1.w};
             uint32_t lk = (uint32_t)l->p0.w;
             LANES (i, n) {
                 bool mine = (pick[i] == j) | (j == 0); /* (light 0 first fills every lane) */
@@ -186,6 +186,7 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
                 for (int k = 0; k < 4; k++)
                     lrad[k][i] = mine ? rec[9 + k] : lrad[k][i];
                 lcdf[i] = mine ? rec[13] : lcdf[i];
+                ltwo[i] = mine ? rec[14] : ltwo[i];
                 kind[i] = mine ? lk : kind[i];
             }
         }
@@ -199,24 +200,27 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
             lrad[0][i] = l->radiance.x, lrad[1][i] = l->radiance.y, lrad[2][i] = l->radiance.z;
             lrad[3][i] = l->radiance.w;
             lcdf[i] = l->cdf.w;
+            ltwo[i] = l->p1.w;
         }
     }
     float wi[3][NL], tmax[NL], dc[3][NL], sc[3][NL];
-    uint8_t ok[NL];
+    uint8_t ok[NL], cast[NL];
     LANES (i, n) {
         float u1 = rnd(P, i, bounce, TND_DIM_LIGHT_U), u2 = rnd(P, i, bounce, TND_DIM_LIGHT_V);
         v3 p = LD3(S->p, i), pos = LD3(lp0, i), v1 = LD3(lp1, i), v2 = LD3(lp2, i);
         bool tri = triangles_only | (kind[i] == TND_LIGHT_KIND_TRIANGLE);
         bool dirl = !triangles_only & (kind[i] == TND_LIGHT_KIND_DIRECTIONAL);
         bool spot = !triangles_only & (kind[i] == TND_LIGHT_KIND_SPOT);
-        /* area: a uniform point on the triangle, the pdf turned to solid angle */
+        /* area: a uniform point on the triangle, the pdf turned to solid angle; a two-sided
+         * emitter from either side */
         float su = sqrtf(u1);
         v3 q = add(add(mul(pos, 1.0f - su), mul(v1, su * (1.0f - u2))), mul(v2, su * u2));
         v3 nlt = norm(cross(sub(v1, pos), sub(v2, pos)));
         v3 d = sub(sel3(tri, q, pos), p);
         float d2 = dot(d, d), dist = sqrtf(d2);
         v3 wp = mul(d, 1.0f / dist);
-        float cosl = -dot(nlt, wp);
+        float cfront = -dot(nlt, wp); /* > 0: p is in front of the triangle */
+        float cosl = ltwo[i] != 0.0f ? fabsf(cfront) : cfront;
         float pdf_tri = lrad[3][i] * (d2 / (lcdf[i] * cosl));
         /* point and spot: inverse square, the spot's smooth cone */
         float cd = -dot(wp, v1);
@@ -231,21 +235,32 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
         float d3[3], s3[3], pdf_brdf;
         bool up = brdf_lane(S, L, i, w, d3, s3, &pdf_brdf);
         ok[i] = active[i] & valid & (pdf > 0) & up;
-        tmax[i] = dirl ? 1e30f : dist * 0.999f;
+        /* the shadow ray from the receiver's offset origin to the emitter's point offset off
+         * its plane towards the receiver (shaders/offset.h), direction and length from those
+         * two points; a point light's position is its end. When the two offset points have
+         * crossed (the receiver closer to the emitter than the coordinates resolve), no
+         * occluder fits between them: no ray. */
+        v3 o = LD3(org, i);
+        float eq = tnd_offset_eps(fmx(tnd_max_abs3(q.x, q.y, q.z), tnd_max_abs3(p.x, p.y, p.z)));
+        v3 end = sel3(tri, add(q, mul(sel3(cfront >= 0.0f, nlt, mul(nlt, -1.0f)), eq)), pos);
+        v3 sd = sub(end, o);
+        float sl = sqrtf(dot(sd, sd));
+        cast[i] = dirl | (dot(sd, d) > 0.0f);
+        tmax[i] = dirl ? 1e30f : sl;
         float mis = tri ? tnd_mis_power(pdf, pdf_brdf) : 1.0f;
         for (int k = 0; k < 3; k++) {
             float Li = lrad[k][i] * fall;
             dc[k][i] = Li * d3[k] * mis / pdf;
             sc[k][i] = Li * s3[k] * mis / pdf;
         }
-        ST3(wi, i, w);
+        ST3(wi, i, sel3(dirl, w, mul(sd, 1.0f / sl)));
     }
     /* the lanes with a shadow ray first, without a branch per lane (which lanes have one
      * follows the light samples: a branch on it mispredicts) */
     uint32_t todo[NL], m = 0;
     for (uint32_t i = 0; i < n; i++) {
         todo[m] = i;
-        m += ok[i];
+        m += ok[i] & cast[i];
     }
     for (uint32_t j = 0; j < m; j++) {
         uint32_t i = todo[j];
@@ -688,6 +703,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
     uint8_t live[NL]; /* the lane sees a surface */
     const tnd_frame *g = staged ? in : f; /* the G-buffer read */
     P.n = n;
+    P.key_sample = TND_SAMPLE_REALTIME;
     const uint32_t *rng = tnd_frame_u(g, TND_CT_RNG), *vis = tnd_frame_u(g, TND_CT_VIS_ID);
     const float *T = tnd_frame_f(g, TND_CT_THROUGHPUT), *E = tnd_frame_f(g, TND_CT_EMISSION);
     LANES (i, n) {

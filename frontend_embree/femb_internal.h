@@ -3,6 +3,7 @@
 #define FEMB_INTERNAL_H
 
 #include "frontend_embree/frontend_embree.h"
+#include "shaders/offset.h"
 
 #include <embree3/rtcore.h>
 #include <math.h>
@@ -249,33 +250,24 @@ void femb_parallel_range(femb_context *c, size_t count, size_t chunk,
                          void (*fn)(femb_context *c, size_t begin, size_t end, void *user),
                          void *user);
 
-/* Offset a ray origin off the surface along the geometric normal (Waechter and Binder, Ray
- * Tracing Gems, ch. 6): integer ulps scaled with the normal, an absolute offset near zero.
- * Inline: lane loops vectorise it. */
+/* A ray origin off the surface at p along the geometric normal n, by an offset that scales with
+ * the coordinates' magnitude (shaders/offset.h; the GLSL mirror is offset_ray). Inline: lane
+ * loops vectorise it. */
 static inline v3 femb_offset_ray(v3 p, v3 n)
 {
-    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
-    float pv[3] = {p.x, p.y, p.z}, nv[3] = {n.x, n.y, n.z}, o[3];
-    for (int i = 0; i < 3; i++) {
-        int32_t of = (int32_t)(int_scale * nv[i]);
-        int32_t bits;
-        memcpy(&bits, &pv[i], 4);
-        bits += (pv[i] < 0) ? -of : of;
-        float pi;
-        memcpy(&pi, &bits, 4);
-        o[i] = fabsf(pv[i]) < origin ? pv[i] + float_scale * nv[i] : pi;
-    }
-    return (v3){o[0], o[1], o[2]};
+    return add(p, mul(n, tnd_offset_eps(tnd_max_abs3(p.x, p.y, p.z))));
 }
 
 /* ---- the estimator (femb_estimator.c), on batches of paths ---------------------------------- */
 
-/* A batch of paths to trace: random-number keys, start rays, the pdf of the BRDF sample that
+/* A batch of paths to trace: random-number keys (pixel and frame per lane; the sample word for
+ * the batch: TND_SAMPLE_REALTIME, or tnd_reference_sample(s) in the reference mode), start rays, the pdf of the BRDF sample that
  * chose each direction (0: none, an emitter hit gets the full weight), the ray cone's width at
  * the origin; inactive lanes are skipped and return 0. */
 typedef struct femb_paths {
     FEMB_ALIGN uint32_t key_pixel[FEMB_LANES];
     uint32_t key_frame[FEMB_LANES];
+    uint32_t key_sample;
     float org[3][FEMB_LANES], dir[3][FEMB_LANES], pdf_prev[FEMB_LANES], cone[FEMB_LANES];
     uint8_t active[FEMB_LANES];
     uint32_t n;

@@ -636,19 +636,18 @@ static void reference_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x
                            void *user)
 {
     ref_job *j = user;
-    femb_paths P = {.n = 0};
+    femb_paths P = {.n = 0, .key_sample = tnd_reference_sample(j->sample)};
     uint32_t pixels[FEMB_LANES];
     for (uint32_t y = y0; y < y1; y++)
         for (uint32_t x = x0; x < x1; x++) {
             uint32_t q = y * c->width + x, i = P.n++;
-            uint32_t key_frame = c->frame * 4096u + j->sample;
-            float jx = tnd_rand(q, key_frame, TND_DIM_JITTER_X);
-            float jy = tnd_rand(q, key_frame, TND_DIM_JITTER_Y);
+            float jx = tnd_rand(q, c->frame, P.key_sample, TND_DIM_JITTER_X);
+            float jy = tnd_rand(q, c->frame, P.key_sample, TND_DIM_JITTER_Y);
             v3 dv = camera_dir(c, (float)x + jx, (float)y + jy);
             float d[3] = {dv.x, dv.y, dv.z};
             pixels[i] = q;
             P.key_pixel[i] = q;
-            P.key_frame[i] = key_frame;
+            P.key_frame[i] = c->frame;
             for (int k = 0; k < 3; k++) {
                 P.org[k][i] = c->cam_pos[k];
                 P.dir[k][i] = d[k];

@@ -4,7 +4,11 @@
  * Selection: light i is picked with probability pick = power_i / sum of powers (flux: pi L A for
  * an emissive triangle, 4 pi I for point lights, 2 pi (1 - cos outer) I for spots, pi R^2 E for
  * directional lights with R the scene's bounding radius), by binary search for the first cdf > u.
- * Area lights are sampled uniformly by area; pdf in solid angle = pick d^2 / (A cos theta_l). */
+ * Area lights are sampled uniformly by area; pdf in solid angle = pick d^2 / (A |cos theta_l|).
+ * A one-sided emitter lights only the side its triangle's normal (v1 - v0) x (v2 - v0) faces; a
+ * two-sided one (a double-sided emissive material: p1.w = 1) both sides, with twice the power
+ * in the pick, and NEE samples it from either side (|cos theta_l|), as a BRDF sample that hits
+ * either face sees it. */
 #ifndef TND_LIGHTS_H
 #define TND_LIGHTS_H
 
@@ -21,7 +25,8 @@ typedef struct { float x, y, z, w; } tnd_lvec4;
 
 struct tnd_light_gpu {
     vec4 p0;       /* triangle: v0 (world); point/spot: position; w: kind (as float) */
-    vec4 p1;       /* triangle: v1; spot/directional: unit direction the light travels */
+    vec4 p1;       /* triangle: v1, w: 1 two-sided, 0 one-sided; spot/directional: unit direction
+                      the light travels */
     vec4 p2;       /* triangle: v2; spot: x = cos(inner), y = cos(outer) */
     vec4 radiance; /* rgb: radiance (triangle, nits), intensity (cd), illuminance (lux),
                       schedule scale applied; w: pick probability */

@@ -16,6 +16,7 @@
 #include "scene_gpu.h"
 #include "encoding.h"
 #include "specular.h"
+#include "offset.h"
 
 layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
 layout(set = 0, binding = 1, std140) uniform Frame { tnd_gpu_frame fr; };
@@ -99,17 +100,11 @@ bool trace_occluded(vec3 org, vec3 dir, float tmax)
 }
 #endif
 
-/* Waechter and Binder's offset, as femb_offset_ray. */
+/* A ray origin off the surface at p along the geometric normal n (shaders/offset.h), as
+ * femb_offset_ray. */
 vec3 offset_ray(vec3 p, vec3 n)
 {
-    const float origin = 1.0 / 32.0, float_scale = 1.0 / 65536.0, int_scale = 256.0;
-    ivec3 of = ivec3(int_scale * n);
-    vec3 pi = vec3(intBitsToFloat(floatBitsToInt(p.x) + ((p.x < 0.0) ? -of.x : of.x)),
-                   intBitsToFloat(floatBitsToInt(p.y) + ((p.y < 0.0) ? -of.y : of.y)),
-                   intBitsToFloat(floatBitsToInt(p.z) + ((p.z < 0.0) ? -of.z : of.z)));
-    return vec3(abs(p.x) < origin ? p.x + float_scale * n.x : pi.x,
-                abs(p.y) < origin ? p.y + float_scale * n.y : pi.y,
-                abs(p.z) < origin ? p.z + float_scale * n.z : pi.z);
+    return p + n * tnd_offset_eps(tnd_max_abs(p));
 }
 
 /* ---- surfaces ------------------------------------------------------------------------------ */
@@ -385,9 +380,10 @@ vec3 sample_vndf(vec3 n, vec3 wo, float alpha, float u1, float u2)
     return safe_normalize(t * ne.x + b * ne.y + n * ne.z);
 }
 
-float rnd(uvec2 key, uint bounce, uint which)
+/* key: (pixel, frame, sample word: shaders/sampling.h) */
+float rnd(uvec3 key, uint bounce, uint which)
 {
-    return tnd_rand(key.x, key.y, tnd_dim(bounce, which));
+    return tnd_rand(key.x, key.y, key.z, tnd_dim(bounce, which));
 }
 
 uint pick_light(float u)
@@ -413,7 +409,7 @@ float emitter_pdf(uint inst, uint prim, float d, vec3 wi, vec3 ng_light)
     return cosl > 0.0 ? l.radiance.w * d * d / (l.cdf.w * cosl) : 0.0;
 }
 
-void direct_light(uvec2 key, uint bounce, surface s, lobe_info L, out vec3 diff, out vec3 spec)
+void direct_light(uvec3 key, uint bounce, surface s, lobe_info L, out vec3 diff, out vec3 spec)
 {
     diff = vec3(0.0);
     spec = vec3(0.0);
@@ -426,7 +422,10 @@ void direct_light(uvec2 key, uint bounce, surface s, lobe_info L, out vec3 diff,
     float dist = 1e30, pdf = l.radiance.w;
     vec3 Li = l.radiance.rgb;
     bool area = false;
+    vec3 end = pos; /* where the shadow ray ends: a point light's position */
     if (USES(TND_USES_AREA) && kind == TND_LIGHT_KIND_TRIANGLE) {
+        /* a uniform point on the triangle, the pdf turned to solid angle; a two-sided emitter
+         * from either side */
         float su = sqrt(u1);
         vec3 q = pos * (1.0 - su) + l.p1.xyz * (su * (1.0 - u2)) + l.p2.xyz * (su * u2);
         vec3 nl = safe_normalize(cross(l.p1.xyz - pos, l.p2.xyz - pos));
@@ -436,11 +435,15 @@ void direct_light(uvec2 key, uint bounce, surface s, lobe_info L, out vec3 diff,
         if (!(dist > 0.0))
             return;
         wi = d * (1.0 / dist);
-        float cosl = -dot(nl, wi);
+        float cfront = -dot(nl, wi); /* > 0: s.p is in front of the triangle */
+        float cosl = l.p1.w != 0.0 ? abs(cfront) : cfront;
         if (cosl <= 0.0)
             return;
         pdf *= d2 / (l.cdf.w * cosl);
         area = true;
+        /* the emitter's end of the shadow ray: off its plane towards the receiver */
+        end = q + (cfront >= 0.0 ? nl : -nl) *
+                      tnd_offset_eps(max(tnd_max_abs(q), tnd_max_abs(s.p)));
     } else if (USES(TND_USES_DIRECTIONAL) && kind == TND_LIGHT_KIND_DIRECTIONAL) {
         wi = -l.p1.xyz;
     } else if (USES(TND_USES_POINT | TND_USES_SPOT)) {
@@ -465,15 +468,24 @@ void direct_light(uvec2 key, uint bounce, surface s, lobe_info L, out vec3 diff,
     float pdf_brdf;
     if (!(pdf > 0.0) || !eval_brdf(s, L, wi, dd, sp, pdf_brdf))
         return;
+    /* the shadow ray from the offset origin to the offset end, direction and length from those
+     * two points (femb's direct_light_kinds); none when they have crossed (the receiver closer
+     * to the emitter than the coordinates resolve: no occluder fits between them) */
     vec3 org = offset_ray(s.p, s.ng);
-    if (trace_occluded(org, wi, area || kind != TND_LIGHT_KIND_DIRECTIONAL ? dist * 0.999 : 1e30))
+    if (area || kind != TND_LIGHT_KIND_DIRECTIONAL) {
+        vec3 sd = end - org;
+        float sl = sqrt(dot(sd, sd));
+        if (dot(sd, wi) > 0.0 && trace_occluded(org, sd * (1.0 / sl), sl))
+            return;
+    } else if (trace_occluded(org, wi, 1e30)) {
         return;
+    }
     float w = area ? tnd_mis_power(pdf, pdf_brdf) : 1.0;
     diff = Li * dd * w / pdf;
     spec = Li * sp * w / pdf;
 }
 
-bool sample_brdf(surface s, lobe_info L, uvec2 key, uint bounce, bool demod, out vec3 wi,
+bool sample_brdf(surface s, lobe_info L, uvec3 key, uint bounce, bool demod, out vec3 wi,
                  out vec3 w, out float pdf, out bool is_spec)
 {
     float u = rnd(key, bounce, TND_DIM_LOBE);
@@ -533,7 +545,7 @@ vec3 specular_vertex(surface s, vec3 dir, float u, out vec3 f, out uint event, o
     return wi;
 }
 
-vec3 trace_path(uvec2 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uint rr_start,
+vec3 trace_path(uvec3 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uint rr_start,
                 float pdf_prev, float cone)
 {
     vec3 beta = vec3(1.0), L_out = vec3(0.0), sigma = vec3(0.0);

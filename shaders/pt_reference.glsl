@@ -10,9 +10,9 @@ void pt_reference_main(uvec2 launch)
 {
     ivec2 ip = ivec2(launch);
     uint q = launch.y * fr.frame.y + launch.x;
-    uvec2 key = uvec2(q, fr.frame.x * 4096u + pc.sample_index);
-    float jx = tnd_rand(key.x, key.y, TND_DIM_JITTER_X);
-    float jy = tnd_rand(key.x, key.y, TND_DIM_JITTER_Y);
+    uvec3 key = uvec3(q, fr.frame.x, tnd_reference_sample(pc.sample_index));
+    float jx = tnd_rand(key.x, key.y, key.z, TND_DIM_JITTER_X);
+    float jy = tnd_rand(key.x, key.y, key.z, TND_DIM_JITTER_Y);
     vec3 dir = camera_dir(vec2(launch) + vec2(jx, jy));
     vec3 L = trace_path(key, fr.cam_pos.xyz, dir, 0u, 64u, 3u, 0.0, 0.0);
     float lum = tnd_luminance(L.r, L.g, L.b);

@@ -20,7 +20,7 @@ const float SH_C1 = 0.488602511902920;
 void pt_shade_main(uvec2 launch)
 {
     ivec2 ip;
-    uvec2 key;
+    uvec3 key;
     uint W = fr.frame.y;
     if (pc.mode == 1u) {
         tnd_gpu_gradient g = gradients[launch.x];
@@ -41,11 +41,11 @@ void pt_shade_main(uvec2 launch)
         imageStore(img_roughness, ip, vec4(s.roughness));
         imageStore(img_metallic, ip, vec4(s.metallic));
         imageStore(img_emission, ip, vec4(s.emission, 0.0));
-        key = uvec2(g.a.z, g.a.y);
+        key = uvec3(g.a.z, g.a.y, TND_SAMPLE_REALTIME);
     } else {
         ip = ivec2(launch);
         uvec2 r = imageLoad(img_rng, ip).xy;
-        key = uvec2(r.y, r.x);
+        key = uvec3(r.y, r.x, TND_SAMPLE_REALTIME);
     }
     vec3 hf = vec3(0.0), spec = vec3(0.0);
     vec4 sh = vec4(0.0);

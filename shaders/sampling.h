@@ -1,17 +1,23 @@
 /* Random numbers and the sample-dimension table, shared by both front-ends (C and GLSL).
  *
- * The generator is counter-based: every number is a pure function of (pixel key, frame, sample
- * dimension), so the Vulkan and Embree front-ends draw the same numbers for the same pixel and
- * the same use, and a gradient sample re-draws the previous frame's numbers from its stored key.
- * Hash: pcg3d (Jarzynski and Olano, "Hash Functions for GPU Rendering", JCGT 2020) applied to
- * (pixel, frame, dimension); the float is the top 24 bits times 2^-24, in [0, 1). Only 32-bit
- * integer arithmetic, which wraps identically in C and GLSL. tests/test_core_gpu.c checks bit
- * equality on the GPU.
+ * The generator is counter-based: every number is a pure function of (pixel key, frame, sample,
+ * sample dimension), so the Vulkan and Embree front-ends draw the same numbers for the same pixel
+ * and the same use, and a gradient sample re-draws the previous frame's numbers from its stored
+ * key. Hash: pcg4d (Jarzynski and Olano, "Hash Functions for GPU Rendering", JCGT 2020), a
+ * bijection of 128 bits, applied to (pixel, frame, sample, dimension); the float is the top 24
+ * bits of its first word times 2^-24, in [0, 1). Only 32-bit integer arithmetic, which wraps
+ * identically in C and GLSL. tests/test_core_gpu.c checks bit equality on the GPU.
+ *
+ * Keys never collide: each of the four words is a full 32-bit input. The sample word is
+ * TND_SAMPLE_REALTIME (0) for the real-time estimator's one sample per pixel and frame, and
+ * s + 1 for sample s of a reference frame (tnd_reference_sample), so any frame count and up to
+ * 2^32 - 1 samples per pixel give independent streams, and a reference never reuses the numbers
+ * of the real-time frame it is compared with. (Before, the reference keyed sample s of frame f
+ * as frame f x 4096 + s, and with more than 4096 samples consecutive frames shared samples.)
  *
  * Dimensions: TND_DIM_JITTER_* for the reference mode's per-sample pixel jitter (the real-time
  * jitter is one Halton offset per frame, in the frame parameters), then TND_DIMS_PER_BOUNCE per
- * path vertex b (b = 0 is the primary surface). A sample index s > 0 (reference mode) offsets
- * the frame key so that samples are independent: key frame = frame * 4096 + s. */
+ * path vertex b (b = 0 is the primary surface). */
 #ifndef TND_SAMPLING_H
 #define TND_SAMPLING_H
 
@@ -30,11 +36,13 @@
 #define TND_DIM_JITTER_Y 1u
 #define TND_DIMS_BASE 2u
 #define TND_DIMS_PER_BOUNCE 8u
+#define TND_SAMPLE_REALTIME 0u
 
 #ifdef TND_GLSL
 #define TND_DIM_ENUM(name, off, text) const uint TND_DIM_##name = uint(off);
 TND_DIM_LIST(TND_DIM_ENUM)
 #undef TND_DIM_ENUM
+/* (pcg3d: the back-end's per-pixel hashes, GLSL only) */
 uvec3 tnd_pcg3d(uvec3 v)
 {
     v = v * 1664525u + 1013904223u;
@@ -47,14 +55,33 @@ uvec3 tnd_pcg3d(uvec3 v)
     v.z += v.x * v.y;
     return v;
 }
+uvec4 tnd_pcg4d(uvec4 v)
+{
+    v = v * 1664525u + 1013904223u;
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    v ^= v >> 16u;
+    v.x += v.y * v.w;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v.w += v.y * v.z;
+    return v;
+}
 /* dimension of path vertex `bounce` */
 uint tnd_dim(uint bounce, uint which)
 {
     return TND_DIMS_BASE + TND_DIMS_PER_BOUNCE * bounce + which;
 }
-float tnd_rand(uint pixel, uint frame, uint dim)
+/* the sample word of reference sample s */
+uint tnd_reference_sample(uint s)
 {
-    return float(tnd_pcg3d(uvec3(pixel, frame, dim)).x >> 8) * (1.0 / 16777216.0);
+    return s + 1u;
+}
+float tnd_rand(uint pixel, uint frame, uint smp, uint dim)
+{
+    return float(tnd_pcg4d(uvec4(pixel, frame, smp, dim)).x >> 8) * (1.0 / 16777216.0);
 }
 #else
 #include <stdint.h>
@@ -63,27 +90,33 @@ enum {
     TND_DIM_LIST(TND_DIM_ENUM)
 #undef TND_DIM_ENUM
 };
-static inline void tnd_pcg3d(uint32_t v[3])
+static inline void tnd_pcg4d(uint32_t v[4])
 {
-    for (int i = 0; i < 3; i++)
+    for (int i = 0; i < 4; i++)
         v[i] = v[i] * 1664525u + 1013904223u;
-    v[0] += v[1] * v[2];
+    v[0] += v[1] * v[3];
     v[1] += v[2] * v[0];
     v[2] += v[0] * v[1];
-    for (int i = 0; i < 3; i++)
+    v[3] += v[1] * v[2];
+    for (int i = 0; i < 4; i++)
         v[i] ^= v[i] >> 16u;
-    v[0] += v[1] * v[2];
+    v[0] += v[1] * v[3];
     v[1] += v[2] * v[0];
     v[2] += v[0] * v[1];
+    v[3] += v[1] * v[2];
 }
 static inline uint32_t tnd_dim(uint32_t bounce, uint32_t which)
 {
     return TND_DIMS_BASE + TND_DIMS_PER_BOUNCE * bounce + which;
 }
-static inline float tnd_rand(uint32_t pixel, uint32_t frame, uint32_t dim)
+static inline uint32_t tnd_reference_sample(uint32_t s)
 {
-    uint32_t v[3] = {pixel, frame, dim};
-    tnd_pcg3d(v);
+    return s + 1u;
+}
+static inline float tnd_rand(uint32_t pixel, uint32_t frame, uint32_t sample, uint32_t dim)
+{
+    uint32_t v[4] = {pixel, frame, sample, dim};
+    tnd_pcg4d(v);
     return (float)(int32_t)(v[0] >> 8) * (1.0f / 16777216.0f); /* (signed: converts in SIMD) */
 }
 #endif

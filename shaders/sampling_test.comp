@@ -1,4 +1,4 @@
-/* sampling_test.comp: draws tnd_rand for (pixel, frame, dim) triples, so that a test can compare
+/* sampling_test.comp: draws tnd_rand for (pixel, frame, sample, dim) keys, so that a test can compare
  * the GLSL generator with its C mirror bit for bit. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -15,6 +15,6 @@ void main()
     if (i >= pc.count)
         return;
     uvec4 k = src[i];
-    float r = tnd_rand(k.x, k.y, k.z);
-    dst[i] = uvec4(floatBitsToUint(r), tnd_pcg3d(k.xyz));
+    float r = tnd_rand(k.x, k.y, k.z, k.w);
+    dst[i] = uvec4(floatBitsToUint(r), tnd_pcg4d(k).yzw);
 }

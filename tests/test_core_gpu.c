@@ -393,18 +393,19 @@ static void test_rng_glsl_matches_c(void)
     for (uint32_t i = 0; i < N; i++) {
         in[i][0] = i * 7919u % 2073600u; /* pixel keys of a 1080p frame */
         in[i][1] = i % 3 == 0 ? 0xffffffffu - i : i / 13u;
-        in[i][2] = tnd_dim(i % 6, i % TND_DIMS_PER_BOUNCE);
+        in[i][2] = i % 5 == 0 ? TND_SAMPLE_REALTIME : tnd_reference_sample(i * 2654435761u);
+        in[i][3] = tnd_dim(i % 6, i % TND_DIMS_PER_BOUNCE);
     }
     REQUIRE_OK(run_two_buffer_shader(vk, TND_SHADER_sampling_test, in, N * sizeof *in, out,
                                      N * sizeof *out, N));
     int bad = 0;
     double mean = 0;
     for (uint32_t i = 0; i < N; i++) {
-        float r = tnd_rand(in[i][0], in[i][1], in[i][2]);
-        uint32_t rb, v[3] = {in[i][0], in[i][1], in[i][2]};
+        float r = tnd_rand(in[i][0], in[i][1], in[i][2], in[i][3]);
+        uint32_t rb, v[4] = {in[i][0], in[i][1], in[i][2], in[i][3]};
         memcpy(&rb, &r, 4);
-        tnd_pcg3d(v);
-        bad += out[i][0] != rb || out[i][1] != v[0] || out[i][2] != v[1] || out[i][3] != v[2];
+        tnd_pcg4d(v);
+        bad += out[i][0] != rb || out[i][1] != v[1] || out[i][2] != v[2] || out[i][3] != v[3];
         mean += r;
     }
     mean /= N;

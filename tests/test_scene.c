@@ -376,6 +376,49 @@ static void test_bad_input(void)
     free(patched);
     free(txt);
     expect_error("unsupported extension", p, "KHR_draco_mesh_compression", "not support");
+    /* ... whose message lists what is supported, KHR_materials_specular among it */
+    CHECK(strstr(tnd_error_detail(), "KHR_materials_specular") != NULL, "%s",
+          tnd_error_detail());
+
+    /* KHR_materials_specular, which Tandem applies, may be required, and using it draws no
+     * "used but ignored" warning (stderr captured around the load) */
+    stage("cornell", true, false);
+    REQUIRE_OK(tnd_file_read(p, &txt, &n));
+    patched = malloc(n + 160);
+    brace = strchr(txt, '{');
+    snprintf(patched, n + 160,
+             "{\"extensionsRequired\": [\"KHR_materials_specular\"], "
+             "\"extensionsUsed\": [\"KHR_materials_specular\"],%s",
+             brace + 1);
+    CHECK_OK(tnd_file_write_atomic(p, patched, strlen(patched)));
+    free(patched);
+    free(txt);
+    {
+        char log[512];
+        snprintf(log, sizeof log, "%s/stderr.txt", dir);
+        fflush(stderr);
+        int saved = dup(2);
+        FILE *lf = fopen(log, "w");
+        REQUIRE(saved >= 0 && lf, "redirect stderr");
+        dup2(fileno(lf), 2);
+        tnd_scene *s = NULL;
+        tnd_result r = tnd_scene_load(p, &s);
+        fflush(stderr);
+        dup2(saved, 2);
+        close(saved);
+        fclose(lf);
+        CHECK(r == TND_OK, "KHR_materials_specular required: %s", tnd_error_detail());
+        tnd_scene_destroy(s);
+        void *out;
+        size_t on;
+        REQUIRE_OK(tnd_file_read(log, &out, &on));
+        char *text = calloc(on + 1, 1);
+        memcpy(text, out, on);
+        CHECK(strstr(text, "KHR_materials_specular") == NULL,
+              "KHR_materials_specular warned about: %s", text);
+        free(text);
+        free(out);
+    }
 
     /* not glTF at all, and a missing file */
     CHECK_OK(tnd_file_write_atomic(p, "{\"asset\": {\"version\": \"1.0\"}}", 29));
