@@ -134,7 +134,9 @@ brdf_lane(const fb_surf *S, const fb_lobes *L, uint32_t i, v3 wi, float diff[3],
 }
 
 /* Light pick probability times the solid-angle pdf of reaching emitter triangle (instance,
- * primitive) from a point at distance d along wi; 0 when it is not in the list. */
+ * primitive) from a point at distance d along wi; 0 when it is not in the list. d is measured
+ * from the surface point the ray left, not from its offset origin (which may be 16 u (1 + m)
+ * nearer: at 1e4 from the origin, 1 cm, and MIS weights that no longer sum to one). */
 static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t primitive, float d,
                          v3 wi, v3 ng_light)
 {
@@ -380,7 +382,8 @@ v3 femb_specular_vertex(const femb_surface *s, v3 dir, float u, float f[3], uint
 /* ---- paths ---------------------------------------------------------------------------------- */
 /* The state of a batch of paths between vertices. */
 typedef struct fb_state {
-    FEMB_ALIGN float org[3][NL], dir[3][NL], beta[3][NL], sigma[3][NL], pdf_prev[NL], cone[NL];
+    FEMB_ALIGN float from[3][NL], org[3][NL], dir[3][NL], beta[3][NL], sigma[3][NL];
+    float pdf_prev[NL], cone[NL];
     uint32_t specular[NL]; /* specular vertices so far: they do not count as bounces */
     uint8_t alive[NL], inside[NL];
 } fb_state;
@@ -437,9 +440,12 @@ static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, 
         v3 dir = LD3(st->dir, i);
         if (S->emission[0][i] > 0 || S->emission[1][i] > 0 || S->emission[2][i] > 0) {
             float w = 1.0f;
-            if (st->pdf_prev[i] > 0)
-                w = tnd_mis_power(st->pdf_prev[i],
-                                  emitter_pdf(c, inst[i], prim[i], t[i], dir, LD3(S->ng, i)));
+            if (st->pdf_prev[i] > 0) {
+                v3 dd = sub(LD3(S->p, i), LD3(st->from, i));
+                w = tnd_mis_power(st->pdf_prev[i], emitter_pdf(c, inst[i], prim[i],
+                                                               sqrtf(dot(dd, dd)), dir,
+                                                               LD3(S->ng, i)));
+            }
             for (int k = 0; k < 3; k++)
                 L_out[k][i] += st->beta[k][i] * w * S->emission[k][i];
         }
@@ -464,6 +470,7 @@ static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, 
         }
         for (int k = 0; k < 3; k++)
             st->beta[k][i] *= f[k];
+        ST3(st->from, i, s.p);
         ST3(st->org, i, femb_offset_ray(s.p, dot(wi, s.ng) >= 0 ? s.ng : mul(s.ng, -1.0f)));
         ST3(st->dir, i, wi);
         st->pdf_prev[i] = 0.0f; /* a delta lobe: an emitter seen through it gets the full weight */
@@ -479,6 +486,7 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
     fb_lobes L;
     for (uint32_t i = 0; i < n; i++) {
         for (int k = 0; k < 3; k++) {
+            st.from[k][i] = P->from[k][i];
             st.org[k][i] = P->org[k][i];
             st.dir[k][i] = P->dir[k][i];
             st.beta[k][i] = 1.0f;
@@ -544,6 +552,7 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
                     st.beta[k][i] /= q;
             }
             for (int k = 0; k < 3; k++) {
+                st.from[k][i] = S.p[k][i];
                 st.org[k][i] = org[k][i];
                 st.dir[k][i] = wi[k][i];
             }
@@ -582,9 +591,12 @@ LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float
     for (uint32_t i = 0; i < n; i++) /* emitters hit, MIS-weighted when a BRDF sample found them */
         if (hit[i] && (S.emission[0][i] > 0 || S.emission[1][i] > 0 || S.emission[2][i] > 0)) {
             float w = 1.0f;
-            if (P->pdf_prev[i] > 0)
-                w = tnd_mis_power(P->pdf_prev[i], emitter_pdf(c, inst[i], prim[i], t[i],
-                                                              LD3(P->dir, i), LD3(S.ng, i)));
+            if (P->pdf_prev[i] > 0) {
+                v3 dd = sub(LD3(S.p, i), LD3(P->from, i));
+                w = tnd_mis_power(P->pdf_prev[i], emitter_pdf(c, inst[i], prim[i],
+                                                              sqrtf(dot(dd, dd)), LD3(P->dir, i),
+                                                              LD3(S.ng, i)));
+            }
             for (int k = 0; k < 3; k++)
                 L_out[k][i] += w * S.emission[k][i];
         }
@@ -723,8 +735,10 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         gbuffer_surfaces(c, g, pixels, run, staged, live, n, S, depth);
     lobes(S, n, &L);
     float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
-    LANES (i, n) /* the origin of the next rays */
+    LANES (i, n) { /* the origin of the next rays */
+        ST3(P.from, i, LD3(S->p, i));
         ST3(P.org, i, femb_offset_ray(LD3(S->p, i), LD3(S->ng, i)));
+    }
     direct_light(c, &P, 0, S, &L, P.org, P.active, n, d, sp);
     LANES (i, n) {
         for (int k = 0; k < 3; k++) {

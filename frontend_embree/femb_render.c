@@ -649,7 +649,7 @@ static void reference_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x
             P.key_pixel[i] = q;
             P.key_frame[i] = c->frame;
             for (int k = 0; k < 3; k++) {
-                P.org[k][i] = c->cam_pos[k];
+                P.from[k][i] = P.org[k][i] = c->cam_pos[k];
                 P.dir[k][i] = d[k];
             }
             P.pdf_prev[i] = 0.0f;

@@ -545,8 +545,10 @@ vec3 specular_vertex(surface s, vec3 dir, float u, out vec3 f, out uint event, o
     return wi;
 }
 
-vec3 trace_path(uvec3 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uint rr_start,
-                float pdf_prev, float cone)
+/* Radiance along the ray from org (the offset origin of surface point `from`, whence an emitter's
+ * MIS distance is measured: femb's femb_paths) in direction dir. */
+vec3 trace_path(uvec3 key, vec3 from, vec3 org, vec3 dir, uint bounce, uint max_bounce,
+                uint rr_start, float pdf_prev, float cone)
 {
     vec3 beta = vec3(1.0), L_out = vec3(0.0), sigma = vec3(0.0);
     bool inside = false;
@@ -562,7 +564,8 @@ vec3 trace_path(uvec3 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uin
         if (s.emission.r > 0.0 || s.emission.g > 0.0 || s.emission.b > 0.0) {
             float w = 1.0;
             if (pdf_prev > 0.0)
-                w = tnd_mis_power(pdf_prev, emitter_pdf(h.inst, h.prim, h.t, dir, s.ng));
+                w = tnd_mis_power(pdf_prev, emitter_pdf(h.inst, h.prim, length(s.p - from), dir,
+                                                        s.ng));
             L_out += beta * w * s.emission;
         }
         if (USES(TND_USES_SPECULAR) && s.kind != TND_KIND_OPAQUE) {
@@ -577,6 +580,7 @@ vec3 trace_path(uvec3 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uin
                 sigma = s.sigma;
             }
             beta *= f;
+            from = s.p;
             org = offset_ray(s.p, dot(wi, s.ng) >= 0.0 ? s.ng : -s.ng);
             dir = wi;
             pdf_prev = 0.0; /* a delta lobe: an emitter seen through it gets the full weight */
@@ -601,6 +605,7 @@ vec3 trace_path(uvec3 key, vec3 org, vec3 dir, uint bounce, uint max_bounce, uin
                 return L_out;
             beta /= q;
         }
+        from = s.p;
         org = offset_ray(s.p, s.ng);
         dir = wi;
         pdf_prev = pdf;

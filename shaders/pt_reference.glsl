@@ -14,7 +14,7 @@ void pt_reference_main(uvec2 launch)
     float jx = tnd_rand(key.x, key.y, key.z, TND_DIM_JITTER_X);
     float jy = tnd_rand(key.x, key.y, key.z, TND_DIM_JITTER_Y);
     vec3 dir = camera_dir(vec2(launch) + vec2(jx, jy));
-    vec3 L = trace_path(key, fr.cam_pos.xyz, dir, 0u, 64u, 3u, 0.0, 0.0);
+    vec3 L = trace_path(key, fr.cam_pos.xyz, fr.cam_pos.xyz, dir, 0u, 64u, 3u, 0.0, 0.0);
     float lum = tnd_luminance(L.r, L.g, L.b);
     vec4 a = pc.sample_index == 0u ? vec4(0.0) : imageLoad(accum, ip);
     imageStore(accum, ip, a + vec4(L, lum * lum));

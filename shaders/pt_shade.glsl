@@ -88,7 +88,7 @@ void pt_shade_main(uvec2 launch)
         float pdf;
         bool is_spec;
         if (fr.params.x > 0u && sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
-            vec3 Li = trace_path(key, offset_ray(s.p, s.ng), wi, 1u, fr.params.x, 2u, pdf,
+            vec3 Li = trace_path(key, s.p, offset_ray(s.p, s.ng), wi, 1u, fr.params.x, 2u, pdf,
                                  depth * fr.jitter.z);
             vec3 contrib = w * Li;
             for (int k = 0; k < 3; k++)

@@ -9,6 +9,7 @@
 #include "frontend_embree/femb_internal.h" /* (test_nee_copies_agree forces the general NEE) */
 #include "shaders/brdf.h"
 #include "tests/embree_frame.h"
+#include "tests/lambert_probe.h"
 #include "tests/motion_reference.h"
 #include "tests/tnd_test.h"
 #include "shaders/specular.h"
@@ -394,6 +395,45 @@ static void rig_close(rig *r)
     tnd_scene_state_free(&r->prev);
     femb_destroy(r->c);
     tnd_scene_destroy(r->s);
+}
+
+/* Direct light from one- and two-sided polygonal emitters at receivers 1 mm to 1 m from them,
+ * at the origin and 1e2, 1e4, 1e5 units from it, against Lambert's polygon irradiance within
+ * the float-error bound and the noise (tests/lambert_probe.h says how both are derived). */
+static void test_lambert_emitters(void)
+{
+    lambert_probe_self_test();
+    const double Ts[4] = {0, 1e2, 1e4, 1e5};
+    enum { W = 128, H = 64, DISPATCHES = 96 };
+    uint32_t *words = malloc(7 * W * H * sizeof *words);
+    femb_gradient_sample *g = malloc(W * H * sizeof *g);
+    for (int t = 0; t < 4; t++) {
+        lambert_probe lp;
+        femb_context *c = NULL;
+        tnd_scene_state st = {0};
+        tnd_frame f = {0};
+        REQUIRE(lambert_probe_open(&lp, Ts[t]), "probe scene: %s", tnd_error_detail());
+        REQUIRE_OK(femb_create(lp.scene, &(femb_desc){.threads = 2}, &c));
+        REQUIRE_OK(tnd_scene_evaluate(lp.scene, 0, 0, (float)W / H, &st));
+        for (uint32_t d = 0; d < DISPATCHES; d++) {
+            tnd_frame_destroy(&f);
+            REQUIRE_OK(test_embree_frame(c, &st, &st, d, W, H, NULL, &f));
+            lambert_probe_samples(&lp, d, W * H, words);
+            femb_gradient_unpack(words, W * H, g);
+            REQUIRE_OK(femb_shade_gradients(c, &(femb_params){.bounces = 1}, g, W * H, &f));
+            lambert_probe_add(&lp, &f, W * H);
+        }
+        lp_summary sm;
+        lambert_probe_check(&lp, "embree", &sm, getenv("LP_VERBOSE") != NULL);
+        lambert_probe_print("embree", &lp, &sm);
+    cleanup:
+        tnd_frame_destroy(&f);
+        tnd_scene_state_free(&st);
+        femb_destroy(c);
+        lambert_probe_close(&lp);
+    }
+    free(words);
+    free(g);
 }
 
 static void test_composite_equals_radiance(void)
@@ -947,4 +987,4 @@ TND_TEST_MAIN(T(test_furnace_lambert), T(test_furnace_ggx), T(test_furnace_glass
               T(test_nee_copies_agree), T(test_one_bounce_agrees),
               T(test_light_records_agree), T(test_render_agrees),
               T(test_many_bounces_converge), T(test_motion_vectors),
-              T(test_motion_far_from_origin), T(test_extremes_finite))
+              T(test_motion_far_from_origin), T(test_extremes_finite), T(test_lambert_emitters))
