@@ -336,7 +336,7 @@ static double lp_others_expected(const lambert_probe *lp, const lp_point *pt, co
 }
 
 typedef struct lp_summary {
-    int asserted, unresolved, dark_checked;
+    int asserted, failed, unresolved, dark_checked, dark_failed;
     int tight;             /* asserted lit points whose bound is under 1% of E/pi */
     double worst_z;        /* largest |mean - E/pi| in standard errors over those */
     double worst_of_bound; /* largest |mean - E/pi| / (bound + 5 se) */
@@ -393,6 +393,7 @@ static void lambert_probe_check(const lambert_probe *lp, const char *who, lp_sum
                 continue;
             }
             sm->dark_checked++;
+            sm->dark_failed += !(fabs(mean) <= others + LP_ALBEDO + 5 * se);
             sm->worst_dark = fmax(sm->worst_dark, fabs(mean));
             CHECK(fabs(mean) <= others + LP_ALBEDO + 5 * se,
                   "%s T=%g: the back of one-sided emitter %d gets light %.3g at h %g (other "
@@ -406,6 +407,7 @@ static void lambert_probe_check(const lambert_probe *lp, const char *who, lp_sum
         }
         sm->asserted++;
         double err = mean - e;
+        sm->failed += !(fabs(err) <= bound + 5 * se);
         if (bound < 0.01 * e) {
             sm->tight++;
             sm->worst_z = fmax(sm->worst_z, fabs(err) / se);
@@ -426,11 +428,12 @@ static void lambert_probe_check(const lambert_probe *lp, const char *who, lp_sum
 
 static void lambert_probe_print(const char *who, const lambert_probe *lp, const lp_summary *sm)
 {
-    printf("     %s T=%-6g %2d lit points within bound + 5 se (the worst at %.2f of that; %2d "
-           "with bounds under 1%%: worst error %.1f standard errors), %2d one-sided backs dark "
-           "(worst %.2g), %2d beyond float resolution\n",
-           who, lp->T, sm->asserted, sm->worst_of_bound, sm->tight, sm->worst_z,
-           sm->dark_checked, sm->worst_dark, sm->unresolved);
+    printf("     %s T=%-6g lit: %2d of %2d within bound + 5 se (worst |error| %.2f of that; %2d "
+           "with bounds under 1%%: worst %.1f standard errors); one-sided backs dark: %2d of %2d "
+           "(worst %.2g); %2d points beyond float resolution\n",
+           who, lp->T, sm->asserted - sm->failed, sm->asserted, sm->worst_of_bound, sm->tight,
+           sm->worst_z, sm->dark_checked - sm->dark_failed, sm->dark_checked, sm->worst_dark,
+           sm->unresolved);
 }
 
 /* Lambert's formula against the closed form for a rectangle seen from a point under its corner

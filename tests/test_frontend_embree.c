@@ -404,7 +404,7 @@ static void test_lambert_emitters(void)
 {
     lambert_probe_self_test();
     const double Ts[4] = {0, 1e2, 1e4, 1e5};
-    enum { W = 128, H = 64, DISPATCHES = 96 };
+    enum { W = 128, H = 128, DISPATCHES = 48 };
     uint32_t *words = malloc(7 * W * H * sizeof *words);
     femb_gradient_sample *g = malloc(W * H * sizeof *g);
     for (int t = 0; t < 4; t++) {

@@ -12,6 +12,7 @@
 #include "shaders/trace_test_shared.h"
 #include "tests/embree_frame.h"
 #include "tests/gpu_common.h"
+#include "tests/lambert_probe.h"
 #include "tests/motion_reference.h"
 
 /* ---- scene: a quad (2 triangles) and a closed octahedron (8), three instances ---------------- */
@@ -419,6 +420,50 @@ static bool near3(const float *a, const float *b, float tol)
     return fabsf(a[0] - b[0]) <= tol && fabsf(a[1] - b[1]) <= tol && fabsf(a[2] - b[2]) <= tol;
 }
 
+/* tests/lambert_probe.h on the Vulkan front-end (test_lambert_emitters in test_frontend_embree
+ * runs the same points on the Embree one): direct light from one- and two-sided emitters 1 mm to
+ * 4 m away, at the origin and 1e2, 1e4, 1e5 from it, against Lambert's polygon irradiance. */
+static void test_lambert_emitters_vk(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    lambert_probe_self_test();
+    const double Ts[4] = {0, 1e2, 1e4, 1e5};
+    enum { W = 128, H = 128, DISPATCHES = 48 };
+    uint32_t *words = malloc(7 * W * H * sizeof *words);
+    for (int t = 0; t < 4; t++) {
+        lambert_probe lp;
+        fvk_context *gv = NULL;
+        tnd_scene_state st = {0};
+        tnd_frame f = {0};
+        REQUIRE(lambert_probe_open(&lp, Ts[t]), "probe scene: %s", tnd_error_detail());
+        REQUIRE_OK(fvk_create(vk, lp.scene,
+                              &(fvk_desc){.precision = TND_PRECISION_F32,
+                                          .rt_api = FVK_RT_PIPELINE},
+                              &gv));
+        REQUIRE_OK(tnd_scene_evaluate(lp.scene, 0, 0, (float)W / H, &st));
+        REQUIRE_OK(tnd_frame_create(W, H, &f));
+        for (uint32_t d = 0; d < DISPATCHES; d++) {
+            REQUIRE_OK(fvk_set_frame(gv, &st, &st, d, W, H));
+            REQUIRE_OK(fvk_render(gv, &(fvk_params){.bounces = 1}, NULL));
+            lambert_probe_samples(&lp, d, W * H, words);
+            REQUIRE_OK(fvk_shade_gradients(gv, &(fvk_params){.bounces = 1}, words, W * H, NULL));
+            REQUIRE_OK(tnd_contract_download(vk, fvk_contract(gv), &f));
+            lambert_probe_add(&lp, &f, W * H);
+        }
+        lp_summary sm;
+        lambert_probe_check(&lp, "vulkan", &sm, getenv("LP_VERBOSE") != NULL);
+        lambert_probe_print("vulkan", &lp, &sm);
+    cleanup:
+        tnd_frame_destroy(&f);
+        tnd_scene_state_free(&st);
+        fvk_destroy(gv);
+        lambert_probe_close(&lp);
+    }
+    free(words);
+    gpu_end();
+}
+
 /* G-buffer channels agree to float precision on at least 99% of the pixels (the rest are on
  * triangle edges, where the two traversals may report the neighbour). */
 static void test_gbuffer_matches_embree(void)
@@ -691,7 +736,7 @@ static void test_shutdown(void)
 }
 
 TND_TEST_MAIN(T(test_trace_against_cpu), T(test_blas_bad_input), T(test_gbuffer_matches_embree),
-              T(test_motion_far_from_origin_vk),
+              T(test_motion_far_from_origin_vk), T(test_lambert_emitters_vk),
               T(test_shading_matches_embree), T(test_gpu_gradient_samples),
               T(test_query_matches_pipeline), T(test_means_and_references_agree),
               T(test_shutdown))
