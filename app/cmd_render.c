@@ -404,9 +404,9 @@ static int run(bool reference, int argc, char **argv)
             ref_progress rp = {&bar, i, o.frames};
             if (use_vk) {
                 TND_TRY(fvk_set_frame(gv, cur, prev, f, o.size[0], o.size[1]));
-                TND_TRY(fvk_reference(gv, o.spp, rgb, &err, on_ref_progress, &rp));
+                TND_TRY(fvk_reference(gv, o.spp, rgb, NULL, &err, on_ref_progress, &rp));
             } else {
-                TND_TRY(femb_reference(fe, o.spp, rgb, &err, on_ref_progress, &rp));
+                TND_TRY(femb_reference(fe, o.spp, rgb, NULL, &err, on_ref_progress, &rp));
             }
             snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
             TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));

@@ -662,8 +662,9 @@ static void reference_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x
         reference_batch(c, j, &P, pixels);
 }
 
-tnd_result femb_reference(femb_context *c, uint32_t spp, float *rgb, double *rel_error,
-                          void (*progress)(uint32_t, uint32_t, void *), void *user)
+tnd_result femb_reference(femb_context *c, uint32_t spp, float *rgb, float *lum_se,
+                          double *rel_error, void (*progress)(uint32_t, uint32_t, void *),
+                          void *user)
 {
     size_t n = (size_t)c->width * c->height;
     if (spp == 0)
@@ -690,6 +691,8 @@ tnd_result femb_reference(femb_context *c, uint32_t spp, float *rgb, double *rel
         }
         double ml = tnd_luminance((float)m[0], (float)m[1], (float)m[2]);
         double var = spp > 1 ? (j.sum2[q] / spp - ml * ml) * spp / (spp - 1) : 0;
+        if (lum_se)
+            lum_se[q] = (float)sqrt(fmax(var, 0) / spp);
         if (ml > 1e-6 && spp > 1) {
             err += sqrt(fmax(var, 0) / spp) / ml;
             counted++;

@@ -75,10 +75,13 @@ tnd_result femb_shade_gradients(femb_context *ctx, const femb_params *p,
 
 /* Reference: unbiased progressive path tracing, spp samples per pixel (full paths with Russian
  * roulette, next-event estimation with MIS, no clamping), radiance in rgb (3 floats per pixel).
- * `rel_error` (optional) receives the mean relative standard error of the pixel means. Calls
+ * `lum_se` (optional, 1 float per pixel) receives the standard error of each pixel's luminance
+ * mean, sqrt(sample variance / spp) (0 with one sample); `rel_error` (optional) the mean relative
+ * standard error of the pixel means. Sample s of frame f draws the random-number stream
+ * (pixel, f, tnd_reference_sample(s)): frames never share samples. Calls
  * `progress(done, total, user)` after each sample pass when given. */
-tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, double *rel_error,
-                          void (*progress)(uint32_t done, uint32_t total, void *user),
+tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, float *lum_se,
+                          double *rel_error, void (*progress)(uint32_t, uint32_t, void *),
                           void *user);
 
 /* Benchmark: the front-end's rays per frame and their raw rate. Records every ray of one

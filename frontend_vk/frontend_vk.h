@@ -106,9 +106,11 @@ tnd_result fvk_shade_gradients(fvk_context *ctx, const fvk_params *p, const uint
 tnd_result fvk_shade_gradient_slots(fvk_context *ctx, const fvk_params *p, VkBuffer slots_buffer,
                                     uint32_t slots, fvk_timings *t);
 /* Reference: unbiased progressive path tracing on the GPU, as femb_reference (same paths for
- * the same keys): spp samples per pixel, radiance in rgb (3 floats per pixel), mean relative
- * standard error in rel_error (optional), progress after each batch of samples. */
-tnd_result fvk_reference(fvk_context *ctx, uint32_t spp, float *rgb, double *rel_error,
+ * the same keys): spp samples per pixel, radiance in rgb (3 floats per pixel), the standard error
+ * of each pixel's luminance mean in lum_se (optional), mean relative standard error in rel_error
+ * (optional), progress after each batch of samples. */
+tnd_result fvk_reference(fvk_context *ctx, uint32_t spp, float *rgb, float *lum_se,
+                         double *rel_error,
                          void (*progress)(uint32_t done, uint32_t total, void *user), void *user);
 /* The API the passes use (after AUTO was resolved). */
 fvk_rt_api fvk_api(const fvk_context *ctx);

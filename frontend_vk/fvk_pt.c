@@ -490,8 +490,9 @@ tnd_result fvk_shade_gradient_slots(fvk_context *c, const fvk_params *p, VkBuffe
     return launch_gradients(c, p, slots, t);
 }
 
-tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, double *rel_error,
-                         void (*progress)(uint32_t, uint32_t, void *), void *user)
+tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se,
+                         double *rel_error, void (*progress)(uint32_t, uint32_t, void *),
+                         void *user)
 {
     tnd_result res = TND_OK;
     float *acc = NULL;
@@ -527,6 +528,8 @@ tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, double *rel_e
             rgb[3 * q + k] = a[4 * q + k] / (float)spp;
         double ml = tnd_luminance(rgb[3 * q], rgb[3 * q + 1], rgb[3 * q + 2]);
         double var = spp > 1 ? (a[4 * q + 3] / spp - ml * ml) * spp / (spp - 1) : 0;
+        if (lum_se)
+            lum_se[q] = (float)sqrt(var > 0 ? var / spp : 0);
         if (ml > 1e-6 && spp > 1) {
             err += sqrt(var > 0 ? var / spp : 0) / ml;
             counted++;

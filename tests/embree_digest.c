@@ -49,7 +49,7 @@ int main(void)
         tnd_frame_destroy(&f);
     }
     if (!(rgb = malloc((size_t)W * H * 3 * sizeof *rgb)) ||
-        femb_reference(c, 4, rgb, NULL, NULL, NULL) != TND_OK)
+        femb_reference(c, 4, rgb, NULL, NULL, NULL, NULL) != TND_OK)
         goto done;
     h = fnv1a(h, rgb, (size_t)W * H * 3 * sizeof *rgb);
     printf("%016" PRIx64 " (lane loops: %s)\n", h, femb_simd());

@@ -174,7 +174,7 @@ static void test_svgf_static_cornell(void)
         avgf[k] = (float)avg[k];
     REQUIRE_OK(dn_download(dn, den));
     REQUIRE_OK(femb_set_frame(r.fe, &r.st, &r.st, 31, W, H));
-    REQUIRE_OK(femb_reference(r.fe, 512, ref, NULL, NULL, NULL));
+    REQUIRE_OK(femb_reference(r.fe, 512, ref, NULL, NULL, NULL, NULL));
     double e_noisy = relmse(noisy, ref), e_den = relmse(den, ref);
     printf("     (plain average of the 32 noisy frames: %.4f)\n", relmse(avgf, ref));
     printf("     relMSE vs 512 spp reference: noisy %.4f, SVGF after 32 frames %.4f (%.1fx); "
@@ -560,7 +560,7 @@ static void test_disocclusion_and_frontends(void)
     int n = 0;
     double e_den = 0, e_noisy = 0;
     tnd_frame_composite(&f, noisy);
-    REQUIRE_OK(femb_reference(fe, 256, ref, NULL, NULL, NULL));
+    REQUIRE_OK(femb_reference(fe, 256, ref, NULL, NULL, NULL, NULL));
     for (int y = 0; y < HD; y++)
         for (int x = 0; x < WD; x++) {
             int q = y * WD + x;

@@ -163,7 +163,7 @@ static void furnace(float metallic, float roughness, float specular, bool cube, 
         rt = malloc(W * H * 3 * sizeof(float));
         REQUIRE_OK(femb_shade(c, &(femb_params){.bounces = 1}, &f, rt));
     }
-    REQUIRE_OK(femb_reference(c, spp, rgb, NULL, NULL, NULL));
+    REQUIRE_OK(femb_reference(c, spp, rgb, NULL, NULL, NULL, NULL));
     double sum = 0, sum2 = 0;
     float cam[3] = {0, 0, 4};
     for (int q = 0; q < W * H; q++) {
@@ -395,6 +395,52 @@ static void rig_close(rig *r)
     tnd_scene_state_free(&r->prev);
     femb_destroy(r->c);
     tnd_scene_destroy(r->s);
+}
+
+/* Consecutive reference frames at 8192 samples per pixel are independent: the luminance
+ * difference of each pixel between frames 0 and 1 of a still scene, over the standard error of
+ * that difference (each frame's own, from its sample variance), has a mean square of 1
+ * (chi-square with one degree of freedom per pixel, averaged over P pixels: standard deviation
+ * sqrt(2 / P), 0.06 here). Frames that share samples are positively correlated and give less:
+ * 0.5 when they share half, as the keys frame x 4096 + s made them above 4096 samples. The test
+ * is one-sided, at 4 standard deviations under 1; above 1 it only asks for less than 2, because
+ * the sample variance of heavy-tailed pixels (rare bright paths) tends to fall short of the true
+ * one and inflates the ratio (measured: 1.1 to 1.2 on cornell). */
+static void test_reference_frames_independent(void)
+{
+    enum { W = 24, H = 24, SPP = 8192 };
+    rig r;
+    float *rgb[2] = {malloc(W * H * 3 * sizeof(float)), malloc(W * H * 3 * sizeof(float))};
+    float *se[2] = {malloc(W * H * sizeof(float)), malloc(W * H * sizeof(float))};
+    REQUIRE_OK(rig_open(&r, SCENES "cornell.gltf", 2));
+    REQUIRE_OK(tnd_scene_evaluate(r.s, 0, 0, 1.0f, &r.cur));
+    for (uint32_t f = 0; f < 2; f++) {
+        REQUIRE_OK(femb_set_frame(r.c, &r.cur, &r.cur, f, W, H));
+        REQUIRE_OK(femb_reference(r.c, SPP, rgb[f], se[f], NULL, NULL, NULL));
+    }
+    double z2 = 0;
+    int n = 0;
+    for (int q = 0; q < W * H; q++) {
+        double v = (double)se[0][q] * se[0][q] + (double)se[1][q] * se[1][q];
+        if (!(v > 0)) /* (a pixel without variance: the sky, or the light seen directly) */
+            continue;
+        double d = tnd_luminance(rgb[0][3 * q], rgb[0][3 * q + 1], rgb[0][3 * q + 2]) -
+                   tnd_luminance(rgb[1][3 * q], rgb[1][3 * q + 1], rgb[1][3 * q + 2]);
+        z2 += d * d / v;
+        n++;
+    }
+    REQUIRE(n > W * H / 2, "only %d pixels with variance", n);
+    z2 /= n;
+    double sd = sqrt(2.0 / n);
+    printf("     frames 0 and 1 at %d spp: mean squared difference %.3f of independent frames' "
+           "(%d pixels; 1 +- %.3f expected)\n",
+           SPP, z2, n, sd);
+    CHECK(z2 > 1 - 4 * sd, "consecutive reference frames correlated: %.3f", z2);
+    CHECK(z2 < 2, "consecutive reference frames: %.3f, far above independent frames' 1", z2);
+cleanup:
+    for (int f = 0; f < 2; f++)
+        free(rgb[f]), free(se[f]);
+    rig_close(&r);
 }
 
 /* Direct light from one- and two-sided polygonal emitters at receivers 1 mm to 1 m from them,
@@ -772,7 +818,7 @@ static void test_many_bounces_converge(void)
         }
         tnd_frame_destroy(&f);
     }
-    REQUIRE_OK(femb_reference(r.c, N, ref, NULL, NULL, NULL));
+    REQUIRE_OK(femb_reference(r.c, N, ref, NULL, NULL, NULL, NULL));
     double mt = 0, mr = 0, var = 0;
     int n = 0, outliers = 0;
     for (int y = 1; y < H - 1; y++)
@@ -890,7 +936,7 @@ static void test_extremes_finite(void)
         CHECK(bad == 0, "frame %d: %d non-finite values in the contract", fr, bad);
         tnd_frame_destroy(&f);
     }
-    REQUIRE_OK(femb_reference(r.c, 8, rgb, NULL, NULL, NULL));
+    REQUIRE_OK(femb_reference(r.c, 8, rgb, NULL, NULL, NULL, NULL));
     int bad = 0;
     for (int k = 0; k < W * H * 3; k++)
         bad += !isfinite(rgb[k]) || rgb[k] < 0;
@@ -987,4 +1033,5 @@ TND_TEST_MAIN(T(test_furnace_lambert), T(test_furnace_ggx), T(test_furnace_glass
               T(test_nee_copies_agree), T(test_one_bounce_agrees),
               T(test_light_records_agree), T(test_render_agrees),
               T(test_many_bounces_converge), T(test_motion_vectors),
-              T(test_motion_far_from_origin), T(test_extremes_finite), T(test_lambert_emitters))
+              T(test_motion_far_from_origin), T(test_extremes_finite), T(test_lambert_emitters),
+              T(test_reference_frames_independent))

@@ -685,8 +685,8 @@ static void test_means_and_references_agree(void)
         outside += fabs(ma - mb) > 4 * se + 1e-5 * fmax(ma, mb) + 1e-7;
     }
     CHECK(outside == 0, "%d pixel means differ beyond 4 standard errors", outside);
-    REQUIRE_OK(femb_reference(p.fe, SPP, ra, NULL, NULL, NULL));
-    REQUIRE_OK(fvk_reference(p.gv, SPP, rb, NULL, NULL, NULL));
+    REQUIRE_OK(femb_reference(p.fe, SPP, ra, NULL, NULL, NULL, NULL));
+    REQUIRE_OK(fvk_reference(p.gv, SPP, rb, NULL, NULL, NULL, NULL));
     double worst = 0;
     for (int k = 0; k < W * H * 3; k++)
         worst = fmax(worst, fabs(ra[k] - rb[k]) / (fabs(ra[k]) + 1e-3));
