@@ -16,13 +16,15 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 export DEBIAN_FRONTEND=noninteractive
 
-# Build, Vulkan, libraries, and the independent tools the tests check our files with.
+# Build, Vulkan, libraries, and the independent tools the tests check our files with (blender:
+# Cycles, the independent renderer tests/test_cycles.py compares the reference with).
 PKGS=(
     build-essential cmake pkg-config git
     libvulkan-dev glslang-tools vulkan-validationlayers vulkan-tools
     libembree-dev libtbb-dev libopenexr-dev libassimp-dev libcjson-dev libstb-dev
     openexr openimageio-tools python3 ffmpeg
     python3-numpy python3-openimageio chromium
+    blender
 )
 
 missing=()

@@ -49,7 +49,7 @@ class Gltf:
 
     def material(self, name, base=(0.8, 0.8, 0.8), metallic=0.0, roughness=1.0, emission=None,
                  strength=1.0, transmission=None, ior=None, base_tex=None, mr_tex=None,
-                 normal_tex=None, double_sided=False, volume=None):
+                 normal_tex=None, double_sided=False, volume=None, specular=None):
         m = {"name": name, "pbrMetallicRoughness": {"baseColorFactor": list(base) + [1.0],
                                                     "metallicFactor": metallic,
                                                     "roughnessFactor": roughness}}
@@ -68,6 +68,10 @@ class Gltf:
         if ior is not None:
             m.setdefault("extensions", {})["KHR_materials_ior"] = {"ior": ior}
             self.extensions.add("KHR_materials_ior")
+        if specular is not None:  # KHR_materials_specular factor (0: pure Lambert)
+            m.setdefault("extensions", {})["KHR_materials_specular"] = {
+                "specularFactor": specular}
+            self.extensions.add("KHR_materials_specular")
         if volume is not None:  # (thickness, attenuation colour, attenuation distance)
             m.setdefault("extensions", {})["KHR_materials_volume"] = {
                 "thicknessFactor": volume[0], "attenuationColor": list(volume[1]),

@@ -1,0 +1,105 @@
+"""tests/cycles_render.py: render a glTF scene with Blender Cycles the way Tandem's reference
+models it, for tests/test_cycles.py. Run as
+    blender -b --factory-startup -P tests/cycles_render.py -- SCENE.gltf OUT.exr SPP SIZE SEED
+
+What makes the two model the same thing (docs/platform.md): every material becomes a Diffuse
+BSDF of the glTF base colour with roughness 0 (Lambert; the scenes use KHR_materials_specular
+specularFactor 0, so Tandem's material is Lambert too); an emissive material adds an Emission of
+emissiveFactor x KHR_materials_emissive_strength (radiance, as Tandem's nits) on its front face
+only, unless the material is doubleSided (Cycles' mesh emission is two-sided by itself); black
+world; a box pixel filter one pixel wide (Tandem's reference jitters uniformly over the pixel);
+128 bounces, no clamping, no light threshold, no adaptive sampling, no denoising; linear float
+EXR."""
+import json
+import sys
+
+import bpy
+
+argv = sys.argv[sys.argv.index("--") + 1:]
+scene_path, out_path, spp, size, seed = argv[0], argv[1], int(argv[2]), int(argv[3]), int(argv[4])
+
+# Debian's Blender 3.4 glTF importer calls numpy.bool, an alias that Debian 12's numpy 1.24 has
+# removed ("module 'numpy' has no attribute 'bool'"): give it back the builtin it stood for.
+import numpy  # noqa: E402
+
+if "bool" not in numpy.__dict__:
+    numpy.bool = bool
+
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.import_scene.gltf(filepath=scene_path)
+with open(scene_path) as f:
+    doc = json.load(f)
+
+for m in doc.get("materials", []):
+    mat = bpy.data.materials.get(m["name"])
+    if mat is None:
+        sys.exit("cycles_render: %s: material '%s' was not imported" % (scene_path, m["name"]))
+    mat.use_backface_culling = False
+    mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    base = m.get("pbrMetallicRoughness", {}).get("baseColorFactor", [1, 1, 1, 1])
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (base[0], base[1], base[2], 1.0)
+    diffuse.inputs["Roughness"].default_value = 0.0
+    shader = diffuse.outputs["BSDF"]
+    e = m.get("emissiveFactor", [0, 0, 0])
+    k = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get(
+        "emissiveStrength", 1.0)
+    if max(e) > 0:
+        emit = nodes.new("ShaderNodeEmission")
+        emit.inputs["Color"].default_value = (e[0] * k, e[1] * k, e[2] * k, 1.0)
+        emit.inputs["Strength"].default_value = 1.0
+        add = nodes.new("ShaderNodeAddShader")
+        links.new(emit.outputs["Emission"], add.inputs[0])
+        links.new(diffuse.outputs["BSDF"], add.inputs[1])
+        shader = add.outputs["Shader"]
+        if not m.get("doubleSided", False):  # the back face: the diffuse part alone
+            geo = nodes.new("ShaderNodeNewGeometry")
+            mix = nodes.new("ShaderNodeMixShader")
+            links.new(geo.outputs["Backfacing"], mix.inputs["Fac"])
+            links.new(add.outputs["Shader"], mix.inputs[1])
+            links.new(diffuse.outputs["BSDF"], mix.inputs[2])
+            shader = mix.outputs["Shader"]
+    links.new(shader, out.inputs["Surface"])
+
+scene = bpy.context.scene
+cams = [o for o in scene.objects if o.type == "CAMERA"]
+if not cams:
+    sys.exit("cycles_render: %s: no camera" % scene_path)
+scene.camera = cams[0]
+yfov = doc["cameras"][0]["perspective"]["yfov"]
+cams[0].data.sensor_fit = "VERTICAL"
+cams[0].data.angle_y = yfov
+
+world = bpy.data.worlds.new("black")
+world.use_nodes = True
+world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+scene.world = world
+
+scene.render.engine = "CYCLES"
+cy = scene.cycles
+cy.device = "CPU"
+cy.samples = spp
+cy.use_adaptive_sampling = False
+cy.use_denoising = False
+cy.seed = seed
+cy.use_animated_seed = False
+cy.max_bounces = cy.diffuse_bounces = cy.glossy_bounces = cy.transmission_bounces = 128
+cy.transparent_max_bounces = cy.volume_bounces = 128
+cy.sample_clamp_direct = cy.sample_clamp_indirect = 0.0
+cy.light_sampling_threshold = 0.0
+cy.pixel_filter_type = "BOX"
+cy.filter_width = 1.0
+scene.render.resolution_x = scene.render.resolution_y = size
+scene.render.resolution_percentage = 100
+scene.render.film_transparent = False
+scene.view_settings.view_transform = "Standard"
+scene.view_settings.exposure = 0.0
+scene.render.image_settings.file_format = "OPEN_EXR"
+scene.render.image_settings.color_depth = "32"
+scene.render.image_settings.exr_codec = "NONE"
+scene.render.image_settings.color_mode = "RGB"
+scene.render.filepath = out_path
+bpy.ops.render.render(write_still=True)
