@@ -153,9 +153,9 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 
 /* One NEE sample per active lane with the dimensions of path vertex `bounce`, the shadow ray
- * from `org` (the surface point offset along the geometric normal: femb_offset_ray): diffuse (demodulated) and
- * specular contributions, 0 where inactive (direct_light; `triangles_only`: every light is an
- * emissive triangle). */
+ * from `org` (the surface point offset along the geometric normal: femb_offset_ray): diffuse
+ * (demodulated) and specular contributions, 0 where inactive (direct_light; `triangles_only`:
+ * every light is an emissive triangle). */
 static inline __attribute__((always_inline)) void
 direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, const fb_surf *S,
                    const fb_lobes *L, const float org[3][NL], const uint8_t *active, uint32_t n,

@@ -263,9 +263,9 @@ static inline v3 femb_offset_ray(v3 p, v3 n)
 /* A batch of paths to trace: random-number keys (pixel and frame per lane; the sample word for
  * the batch: TND_SAMPLE_REALTIME, or tnd_reference_sample(s) in the reference mode), start rays
  * (from: the surface point a ray leaves, org its offset origin; an emitter's MIS pdf measures
- * the distance from `from`, as next-event estimation at that point does), the pdf of the BRDF sample that
- * chose each direction (0: none, an emitter hit gets the full weight), the ray cone's width at
- * the origin; inactive lanes are skipped and return 0. */
+ * the distance from `from`, as next-event estimation at that point does), the pdf of the BRDF
+ * sample that chose each direction (0: none, an emitter hit gets the full weight), the ray
+ * cone's width at the origin; inactive lanes are skipped and return 0. */
 typedef struct femb_paths {
     FEMB_ALIGN uint32_t key_pixel[FEMB_LANES];
     uint32_t key_frame[FEMB_LANES];

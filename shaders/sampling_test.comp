@@ -1,5 +1,5 @@
-/* sampling_test.comp: draws tnd_rand for (pixel, frame, sample, dim) keys, so that a test can compare
- * the GLSL generator with its C mirror bit for bit. */
+/* sampling_test.comp: draws tnd_rand for (pixel, frame, sample, dim) keys, so that a test can
+ * compare the GLSL generator with its C mirror bit for bit. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 64) in;

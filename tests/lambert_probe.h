@@ -4,9 +4,10 @@
  * The scene (lp_scene): eight square emitters (0.5 m, radiance 1, black, specular 0), four
  * two-sided and four one-sided facing down, on a 20 m grid at height 1; each emitter k has a
  * pure-Lambert receiver quad (KHR_materials_specular 0, albedo 1e-6) at distance h_k below it
- * (facing up) and one at h_k above it (facing down), h from 1 mm to 4 m (lp_heights). Everything hangs from one
- * node translated by (T, T, T), T = 0, 1e2, 1e4, 1e5. Probe points lie on the receivers under and
- * over each emitter's centre line, from the centre to beyond the edge (grazing light).
+ * (facing up) and one at h_k above it (facing down), h from 1 mm to 4 m (lp_heights).
+ * Everything hangs from one node translated by (T, T, T), T = 0, 1e2, 1e4, 1e5. Probe points lie
+ * on the receivers under and over each emitter's centre line, from the centre to beyond the edge
+ * (grazing light).
  *
  * Each point is shaded as a gradient sample (the front-ends' re-evaluation of a surface from its
  * instance, triangle and barycentrics, then the shading pass) with its own random-number keys,
@@ -24,13 +25,15 @@
  * emitter's vertices are rounded to float in world space (u m at most; the points sampled on
  * them are interpolated in float, which scatters each sample by a few u m without moving the
  * emitter). The bound moves the point by eps and every vertex by 2 u (1 + m) in the worst
- * direction (first order: the gradient of E by central differences in double), adds 16 u m / h of E for the float arithmetic on q - p (h: the distance from the
- * emitter's plane) and the reflected light above. A shadow ray that reaches the emitter's own
- * plane or starts under the receiver shows as a loss far beyond the bound. The test
- * asserts |mean - E/pi| <= bound + 5 standard errors where the bound is under a quarter of E/pi,
- * and that the light of a one-sided emitter never reaches its back (less than the other emitters'
- * and the reflected light) where the receiver's distance exceeds 16 u (1 + m), the offset;
- * elsewhere the coordinates cannot resolve the geometry, and it asserts only finite
+ * direction (first order: the gradient of E by central differences in double), adds 16 u m / h
+ * of E for the float arithmetic on q - p (h: the distance from the emitter's plane) and the
+ * other terms above. A shadow ray that reaches the emitter's own plane or starts under the
+ * receiver shows as a loss far beyond the bound.
+ *
+ * The test asserts |mean - E/pi| <= bound + 5 standard errors where the bound is under a quarter
+ * of E/pi, and that the light of a one-sided emitter never reaches its back (no more than the
+ * other emitters' and the reflected light) where the receiver's distance exceeds 16 u (1 + m),
+ * the offset; elsewhere the coordinates cannot resolve the geometry, and it asserts only finite
  * values (and counts those points). */
 #ifndef TESTS_LAMBERT_PROBE_H
 #define TESTS_LAMBERT_PROBE_H
