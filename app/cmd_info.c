@@ -60,6 +60,11 @@ static int scene_info(const char *path, bool json)
         cJSON *sky = cJSON_AddArrayToObject(o, "sky");
         for (int k = 0; k < 3; k++)
             cJSON_AddItemToArray(sky, cJSON_CreateNumber(s->sky[k]));
+        cJSON *def = cJSON_AddObjectToObject(o, "defaults");
+        if (s->default_camera[0])
+            cJSON_AddStringToObject(def, "camera", s->default_camera);
+        if (s->default_light[0])
+            cJSON_AddStringToObject(def, "light", s->default_light);
         cJSON *f = cJSON_AddArrayToObject(o, "features");
         for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
             if (s->features & (1u << b))
@@ -87,6 +92,10 @@ static int scene_info(const char *path, bool json)
         if (s->features & TND_FEATURE(SKY))
             printf("  sky         %g %g %g nits\n", (double)s->sky[0], (double)s->sky[1],
                    (double)s->sky[2]);
+        if (s->default_camera[0])
+            printf("  default     %s\n", s->default_camera);
+        if (s->default_light[0])
+            printf("  default     %s\n", s->default_light);
         printf("  requires:\n");
         for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
             if (s->features & (1u << b))

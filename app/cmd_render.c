@@ -207,6 +207,11 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     cJSON_AddStringToObject(j, "rt_api", o->rt_api);
     cJSON_AddStringToObject(j, "pipeline", o->pipeline);
     cJSON_AddBoolToObject(j, "video", o->video);
+    cJSON *def = cJSON_AddObjectToObject(j, "scene_defaults"); /* what the scene lacked */
+    if (scene->default_camera[0])
+        cJSON_AddStringToObject(def, "camera", scene->default_camera);
+    if (scene->default_light[0])
+        cJSON_AddStringToObject(def, "light", scene->default_light);
     cJSON *feat = cJSON_AddArrayToObject(j, "scene_features");
     for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
         if (scene->features & (1u << b))

@@ -762,7 +762,17 @@ typedef struct tnd_scene {
     float duration; /* seconds; 0 for a still scene */
     float sky[3];   /* uniform sky radiance, nits */
     uint32_t features;
+    /* What the scene lacked and was given (empty when it had its own): a camera framing its
+     * bounds, a default environment; each note says the rule, as announced on stderr. */
+    char default_camera[256], default_light[256];
 } tnd_scene;
+
+/* The defaults a scene without a camera or without any light gets (docs/scenes.md). */
+#define TND_DEFAULT_CAMERA_YFOV_DEG 45.0
+#define TND_DEFAULT_CAMERA_AZIMUTH_DEG 30.0   /* to the right of +Z, about +Y */
+#define TND_DEFAULT_CAMERA_ELEVATION_DEG 20.0 /* above the horizontal */
+#define TND_DEFAULT_CAMERA_MARGIN 1.1         /* the bounding sphere fills 1/1.1 of the height */
+#define TND_DEFAULT_SKY 1.0f                  /* nits, white, uniform */
 
 /* Load a scene: a .gltf/.glb path, or a generated one: "stress:N" (about N triangles in 16
  * distinct meshes, for benchmarks). Bad input gets a message naming the file and the element. */

@@ -81,6 +81,80 @@ uint64_t tnd_scene_triangles(const tnd_scene *s)
 }
 
 /* ---- checks and derived data shared by all sources ------------------------------------------ */
+/* What a real asset may lack: a camera (one framing the scene's bounds at time 0 is added) and
+ * any light (a uniform white sky). Each is noted in the scene and announced. */
+static tnd_result scene_defaults(tnd_scene *s)
+{
+    s->default_camera[0] = s->default_light[0] = '\0';
+    if (s->camera_count == 0 && s->instance_count > 0) {
+        tnd_scene_state st = {0};
+        tnd_result r = tnd_scene_evaluate(s, 0, 0, 1.0f, &st);
+        double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+        for (uint32_t i = 0; i < s->instance_count && r == TND_OK; i++) {
+            const tnd_mesh *m = &s->meshes[s->instances[i].mesh];
+            const float *x = st.instance_xform + 12 * i;
+            for (uint32_t v = 0; v < m->vertex_count; v++) {
+                const float *p = s->positions + 3 * (size_t)(m->first_vertex + v);
+                for (int k = 0; k < 3; k++) {
+                    double w = (double)x[4 * k] * p[0] + (double)x[4 * k + 1] * p[1] +
+                               (double)x[4 * k + 2] * p[2] + x[4 * k + 3];
+                    lo[k] = fmin(lo[k], w), hi[k] = fmax(hi[k], w);
+                }
+            }
+        }
+        tnd_scene_state_free(&st);
+        if (r != TND_OK)
+            return r;
+        double c[3], r2 = 0;
+        for (int k = 0; k < 3; k++) {
+            c[k] = 0.5 * (lo[k] + hi[k]);
+            r2 += 0.25 * (hi[k] - lo[k]) * (hi[k] - lo[k]);
+        }
+        double rad = sqrt(r2) > 0 ? sqrt(r2) : 1.0;
+        double az = TND_DEFAULT_CAMERA_AZIMUTH_DEG * TND_PI / 180;
+        double el = TND_DEFAULT_CAMERA_ELEVATION_DEG * TND_PI / 180;
+        double yfov = TND_DEFAULT_CAMERA_YFOV_DEG * TND_PI / 180;
+        double dist = TND_DEFAULT_CAMERA_MARGIN * rad / sin(0.5 * yfov);
+        /* the camera's +Z (it looks down -Z) points from the centre to the camera */
+        double b[3] = {sin(az) * cos(el), sin(el), cos(az) * cos(el)};
+        double rt[3] = {b[2], 0, -b[0]}; /* (0, 1, 0) x b, normalised */
+        double rl = sqrt(rt[0] * rt[0] + rt[2] * rt[2]);
+        rt[0] /= rl, rt[2] /= rl;
+        double up[3] = {b[1] * rt[2] - b[2] * rt[1], b[2] * rt[0] - b[0] * rt[2],
+                        b[0] * rt[1] - b[1] * rt[0]};
+        /* rotation matrix (columns right, up, back) to a quaternion */
+        double m00 = rt[0], m11 = up[1], m22 = b[2], tr = m00 + m11 + m22;
+        double qw = 0.5 * sqrt(fmax(0.0, 1 + tr));
+        float q[4] = {(float)((up[2] - b[1]) / (4 * qw)), (float)((b[0] - rt[2]) / (4 * qw)),
+                      (float)((rt[1] - up[0]) / (4 * qw)), (float)qw};
+        float t[3];
+        for (int k = 0; k < 3; k++)
+            t[k] = (float)(c[k] + dist * b[k]);
+        int32_t n = tnd_scene_add_node(s, "tandem_default_camera", -1, t, q, NULL);
+        if (n < 0 || tnd_scene_add_camera(s, (uint32_t)n, (float)yfov) < 0)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: %s: out of memory", s->path);
+        s->cameras[s->camera_count - 1].znear = (float)(1e-3 * dist);
+        snprintf(s->default_camera, sizeof s->default_camera,
+                 "scene has no camera: framing its bounds (centre %.4g %.4g %.4g, radius %.4g) "
+                 "from %.0f degrees right of +Z and %.0f above, yfov %.0f degrees, margin %.0f%%",
+                 c[0], c[1], c[2], rad, TND_DEFAULT_CAMERA_AZIMUTH_DEG,
+                 TND_DEFAULT_CAMERA_ELEVATION_DEG, TND_DEFAULT_CAMERA_YFOV_DEG,
+                 100 * (TND_DEFAULT_CAMERA_MARGIN - 1));
+        tnd_info("scene", "%s: %s", s->path, s->default_camera);
+    }
+    bool lit = s->light_count > 0 || s->emitter_count > 0 || s->sky[0] > 0 || s->sky[1] > 0 ||
+               s->sky[2] > 0;
+    if (!lit) {
+        s->sky[0] = s->sky[1] = s->sky[2] = TND_DEFAULT_SKY;
+        snprintf(s->default_light, sizeof s->default_light,
+                 "scene has no light: lit by the default environment, a uniform white sky of "
+                 "%g nits",
+                 (double)TND_DEFAULT_SKY);
+        tnd_info("scene", "%s: %s", s->path, s->default_light);
+    }
+    return TND_OK;
+}
+
 tnd_result scene_finish(tnd_scene *s)
 {
     const char *path = s->path;
@@ -169,6 +243,9 @@ tnd_result scene_finish(tnd_scene *s)
     for (uint32_t c = 0; c < s->channel_count; c++)
         if (s->channels[c].key_count)
             s->duration = fmaxf(s->duration, s->channels[c].times[s->channels[c].key_count - 1]);
+    tnd_result dr = scene_defaults(s);
+    if (dr != TND_OK)
+        return dr;
     /* features */
     uint32_t f = 0;
     for (uint32_t l = 0; l < s->light_count; l++) {

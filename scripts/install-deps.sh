@@ -17,14 +17,15 @@ fi
 export DEBIAN_FRONTEND=noninteractive
 
 # Build, Vulkan, libraries, and the independent tools the tests check our files with (blender:
-# Cycles, the independent renderer tests/test_cycles.py compares the reference with).
+# Cycles, the independent renderer tests/test_cycles.py compares the reference with;
+# assimp-testmodels: real glTF and OBJ models nobody here wrote).
 PKGS=(
     build-essential cmake pkg-config git
     libvulkan-dev glslang-tools vulkan-validationlayers vulkan-tools
     libembree-dev libtbb-dev libopenexr-dev libassimp-dev libcjson-dev libstb-dev
     openexr openimageio-tools python3 ffmpeg
     python3-numpy python3-openimageio chromium
-    blender
+    blender assimp-testmodels
 )
 
 missing=()

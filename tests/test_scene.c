@@ -485,5 +485,59 @@ static void test_light_pick(void)
     CHECK(bad == 0, "%u of %u picks differ from the linear scan", bad, checked);
 }
 
+/* A real asset without camera or light (Khronos' BoxTextured, from Debian's assimp-testmodels)
+ * gets the defaults of docs/scenes.md, noted in the scene: one camera, from the stated direction,
+ * that sees every vertex of the box inside the image with the stated margin, and a uniform white
+ * sky. A shipped scene with its own camera and light gets neither. */
+static void test_defaults(void)
+{
+    const char *box = "/usr/share/assimp/models/glTF2/BoxTextured-glTF/BoxTextured.gltf";
+    tnd_scene *s = NULL;
+    tnd_scene_state st = {0};
+    if (access(box, R_OK) != 0) {
+        printf("     skip: %s absent (assimp-testmodels: scripts/install-deps.sh)\n", box);
+        return;
+    }
+    REQUIRE_OK(tnd_scene_load(box, &s));
+    CHECK(s->camera_count == 1 && strstr(s->default_camera, "no camera") != NULL,
+          "default camera: %u cameras, note '%s'", s->camera_count, s->default_camera);
+    CHECK(s->sky[0] == TND_DEFAULT_SKY && s->sky[2] == TND_DEFAULT_SKY &&
+              (s->features & TND_FEATURE(SKY)) && strstr(s->default_light, "no light") != NULL,
+          "default light: sky %g, note '%s'", (double)s->sky[0], s->default_light);
+    /* every vertex inside the image, the farthest from the centre of the view at about
+     * 1 / margin of the half height (the bounding sphere, whose silhouette is a little larger
+     * than the box's, fills exactly that) */
+    REQUIRE_OK(tnd_scene_evaluate(s, 0, 0, 1.0f, &st));
+    double worst = 0;
+    for (uint32_t v = 0; v < s->vertex_count; v++) {
+        float ndc[3], vp[16];
+        tnd_mat4_mul(st.camera.proj, st.camera.view, vp);
+        tnd_mat4_point(vp, s->positions + 3 * v, true, ndc);
+        worst = fmax(worst, fmax(fabs(ndc[0]), fabs(ndc[1])));
+    }
+    CHECK(worst < 1.0 / TND_DEFAULT_CAMERA_MARGIN && worst > 0.6,
+          "the box fills %.3f of the half image (expected under %.3f, framed)", worst,
+          1.0 / TND_DEFAULT_CAMERA_MARGIN);
+    /* from the stated direction: the camera sits where the note says, right of +Z and above */
+    const float *cp = st.camera_position;
+    double el = atan2(cp[1], sqrt((double)cp[0] * cp[0] + (double)cp[2] * cp[2])) * 180 / TND_PI;
+    double az = atan2(cp[0], cp[2]) * 180 / TND_PI;
+    CHECK(fabs(el - TND_DEFAULT_CAMERA_ELEVATION_DEG) < 0.01 &&
+              fabs(az - TND_DEFAULT_CAMERA_AZIMUTH_DEG) < 0.01,
+          "camera at azimuth %.3f, elevation %.3f", az, el);
+    printf("     BoxTextured: the default camera frames it at %.3f of the half image, from "
+           "azimuth %.1f, elevation %.1f degrees\n",
+           worst, az, el);
+    tnd_scene_state_free(&st);
+    tnd_scene_destroy(s);
+    s = NULL;
+    REQUIRE_OK(tnd_scene_load(SCENES "cornell.gltf", &s));
+    CHECK(!s->default_camera[0] && !s->default_light[0], "cornell given defaults: '%s' '%s'",
+          s->default_camera, s->default_light);
+cleanup:
+    tnd_scene_state_free(&st);
+    tnd_scene_destroy(s);
+}
+
 TND_TEST_MAIN(T(test_shipped_scenes), T(test_values), T(test_animation), T(test_stress),
-              T(test_light_pick), T(test_bad_input))
+              T(test_light_pick), T(test_bad_input), T(test_defaults))
