@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 void tnd_material_sigma(const tnd_material *m, float sigma[3])
 {
@@ -644,5 +645,14 @@ tnd_result tnd_scene_load(const char *path, tnd_scene **scene)
     *scene = NULL;
     if (strncmp(path, "stress:", 7) == 0)
         return stress_scene(path, scene);
+    /* glTF by its extension; any other is refused by name (a file without one is tried as
+     * glTF, whose parser says what is wrong) */
+    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
+    if (dot && (!slash || dot > slash) && strcasecmp(dot, ".gltf") != 0 &&
+        strcasecmp(dot, ".glb") != 0)
+        return tnd_fail(TND_ERR_UNSUPPORTED,
+                        "scene: %s: '%s' files are not supported (Tandem reads glTF 2.0: .gltf "
+                        "or .glb)",
+                        path, dot + 1);
     return scene_load_gltf(path, scene);
 }

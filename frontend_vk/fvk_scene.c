@@ -183,7 +183,26 @@ tnd_result fvk_scene_upload(fvk_context *c)
     TND_TRY(upload_array(vk, gm, s->mesh_count * sizeof *gm, "scene.meshes", &c->meshes));
     TND_TRY(upload_array(vk, gmat, s->material_count * sizeof *gmat, "scene.materials",
                          &c->materials));
-    TND_TRY(fvk_blas_build(vk, md, s->mesh_count, c->blas));
+    {
+        /* one BLAS per mesh that has triangles (a mesh of points or lines has none, and no
+         * instance: its entry stays empty); built together, then put at their meshes' places */
+        uint32_t nz = 0;
+        for (uint32_t m = 0; m < s->mesh_count; m++)
+            if (s->meshes[m].triangle_count)
+                md[nz++] = md[m];
+        fvk_blas *built = calloc(nz + 1, sizeof *built);
+        if (!built) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+            goto fail;
+        }
+        res = nz ? fvk_blas_build(vk, md, nz, built) : TND_OK;
+        for (uint32_t m = 0, k = 0; m < s->mesh_count && res == TND_OK; m++)
+            if (s->meshes[m].triangle_count)
+                c->blas[m] = built[k++];
+        free(built);
+        if (res != TND_OK)
+            goto fail;
+    }
     TND_TRY(tnd_buffer_create(
         vk, &(tnd_buffer_desc){.size = (s->instance_count + 1) * sizeof(tnd_gpu_instance),
                                .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,

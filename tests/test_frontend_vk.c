@@ -15,6 +15,8 @@
 #include "tests/lambert_probe.h"
 #include "tests/motion_reference.h"
 
+#include <unistd.h>
+
 /* ---- scene: a quad (2 triangles) and a closed octahedron (8), three instances ---------------- */
 static const float quad_pos[] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
 static const uint32_t quad_idx[] = {0, 1, 2, 0, 2, 3};
@@ -464,6 +466,111 @@ static void test_lambert_emitters_vk(void)
     gpu_end();
 }
 
+/* Every file of Debian's assimp-testmodels under glTF2/, OBJ/ and invalid/ (models and broken
+ * files nobody here wrote): each imports and renders a frame in both front-ends, or fails with a
+ * message that names the file; an imported one renders finite signals, and the two front-ends
+ * see the same surface (visibility) on at least 99% of its pixels (the rest: triangle edges). No
+ * crash (this runs under ASan and UBSan too). Prints the counts. */
+static int walk_cmp(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+static void test_assimp_testmodels(void)
+{
+    const char *root = "/usr/share/assimp/models";
+    char dir_probe[256];
+    snprintf(dir_probe, sizeof dir_probe, "%s/glTF2", root);
+    if (access(dir_probe, R_OK) != 0) {
+        printf("     skip: %s absent (assimp-testmodels: scripts/install-deps.sh)\n", dir_probe);
+        return;
+    }
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    char cmd[512];
+    snprintf(cmd, sizeof cmd,
+             "find %s/glTF2 %s/OBJ %s/invalid -type f \\( -name '*.gltf' -o -name '*.glb' -o "
+             "-name '*.obj' -o -path '*/invalid/*' \\)",
+             root, root, root);
+    FILE *fp = popen(cmd, "r");
+    REQUIRE(fp, "find");
+    char line[1024], *files[512];
+    int nf = 0;
+    while (nf < 512 && fgets(line, sizeof line, fp)) {
+        line[strcspn(line, "\n")] = 0;
+        files[nf++] = strdup(line);
+    }
+    pclose(fp);
+    qsort(files, (size_t)nf, sizeof *files, walk_cmp);
+    int imported = 0, refused = 0, rendered = 0;
+    enum { W = 48, H = 36 };
+    for (int i = 0; i < nf; i++) {
+        const char *path = files[i];
+        tnd_scene *s = NULL;
+        tnd_result r = tnd_scene_load(path, &s);
+        if (r != TND_OK) {
+            refused++;
+            CHECK(strstr(tnd_error_detail(), path) != NULL, "%s: message without the file: %s",
+                  path, tnd_error_detail());
+            continue;
+        }
+        imported++;
+        femb_context *fe = NULL;
+        fvk_context *gv = NULL;
+        tnd_scene_state st = {0};
+        tnd_frame a = {0}, b = {0};
+        r = tnd_scene_evaluate(s, 0, 0, (float)W / H, &st);
+        if (r == TND_OK)
+            r = femb_create(s, &(femb_desc){.threads = 2}, &fe);
+        if (r == TND_OK)
+            r = test_embree_frame(fe, &st, &st, 0, W, H, &(femb_params){.bounces = 1}, &a);
+        if (r == TND_OK)
+            r = fvk_create(vk, s, &(fvk_desc){.precision = TND_PRECISION_F32,
+                                              .rt_api = FVK_RT_PIPELINE}, &gv);
+        if (r == TND_OK)
+            r = fvk_set_frame(gv, &st, &st, 0, W, H);
+        if (r == TND_OK)
+            r = fvk_render(gv, &(fvk_params){.bounces = 1}, NULL);
+        if (r == TND_OK)
+            r = tnd_frame_create(W, H, &b);
+        if (r == TND_OK)
+            r = tnd_contract_download(vk, fvk_contract(gv), &b);
+        CHECK(r == TND_OK, "%s: imported but not rendered: %s", path, tnd_error_detail());
+        if (r == TND_OK) {
+            rendered++;
+            int same = 0, finite = 1;
+            for (int q = 0; q < W * H; q++) {
+                const uint32_t *va = tnd_frame_u(&a, TND_CT_VIS_ID) + 2 * q;
+                const uint32_t *vb = tnd_frame_u(&b, TND_CT_VIS_ID) + 2 * q;
+                same += va[0] == vb[0] && (va[0] == TND_VIS_NONE || va[1] == vb[1]);
+                const tnd_ct chs[3] = {TND_CT_HF, TND_CT_LF_SH, TND_CT_SPEC};
+                for (int k = 0; k < 3; k++) {
+                    uint32_t m = tnd_ct_get(chs[k])->comps;
+                    for (uint32_t j = 0; j < m; j++)
+                        finite &= isfinite(tnd_frame_f(&a, chs[k])[m * q + j]) &&
+                                  isfinite(tnd_frame_f(&b, chs[k])[m * q + j]);
+                }
+            }
+            CHECK(finite, "%s: non-finite signals", path);
+            CHECK(same >= 0.99 * W * H, "%s: front-ends see the same surface on %d of %d pixels",
+                  path, same, W * H);
+        }
+        tnd_frame_destroy(&a);
+        tnd_frame_destroy(&b);
+        fvk_destroy(gv);
+        femb_destroy(fe);
+        tnd_scene_state_free(&st);
+        tnd_scene_destroy(s);
+    }
+    printf("     assimp-testmodels: %d files: %d imported (%d rendered in both front-ends), %d "
+           "refused with a message naming the file, 0 crashed\n",
+           nf, imported, rendered, refused);
+    CHECK(nf > 50 && imported > 10, "%d files, %d imported", nf, imported);
+    for (int i = 0; i < nf; i++)
+        free(files[i]);
+    gpu_end();
+}
+
 /* G-buffer channels agree to float precision on at least 99% of the pixels (the rest are on
  * triangle edges, where the two traversals may report the neighbour). */
 static void test_gbuffer_matches_embree(void)
@@ -737,6 +844,7 @@ static void test_shutdown(void)
 
 TND_TEST_MAIN(T(test_trace_against_cpu), T(test_blas_bad_input), T(test_gbuffer_matches_embree),
               T(test_motion_far_from_origin_vk), T(test_lambert_emitters_vk),
+              T(test_assimp_testmodels),
               T(test_shading_matches_embree), T(test_gpu_gradient_samples),
               T(test_query_matches_pipeline), T(test_means_and_references_agree),
               T(test_shutdown))
