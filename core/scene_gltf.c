@@ -98,6 +98,21 @@ static tnd_result parse_json(gltf_ctx *c, const uint8_t *data, size_t size)
         if (!ext_supported(e) && cJSON_IsString(e))
             tnd_warn("scene", "%s: extension '%s' is used but ignored", c->path, e->valuestring);
     }
+    /* core features Tandem does not model, named once each */
+    if (cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(c->json, "skins")) > 0)
+        tnd_warn("scene", "%s: skinning is not supported: skinned meshes render in their bind pose",
+                 c->path);
+    const cJSON *jm, *jp;
+    bool morph = false;
+    cJSON_ArrayForEach(jm, cJSON_GetObjectItemCaseSensitive(c->json, "meshes"))
+    {
+        cJSON_ArrayForEach(jp, cJSON_GetObjectItemCaseSensitive(jm, "primitives"))
+        morph |= cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(jp, "targets")) > 0;
+    }
+    if (morph)
+        tnd_warn("scene", "%s: morph targets are not supported: meshes render with their base "
+                 "geometry",
+                 c->path);
     return TND_OK;
 }
 
@@ -607,10 +622,11 @@ static tnd_result load_cameras_lights(gltf_ctx *c)
             cd->znear = (float)jnum(pp, "znear", cd->znear);
             cd->zfar = (float)jnum(pp, "zfar", 0.0);
             cd->aspect = (float)jnum(pp, "aspectRatio", 0.0);
-        } else if (jc) {
-            return tnd_fail(TND_ERR_UNSUPPORTED,
-                            "scene: %s: camera '%s': only perspective cameras are supported",
-                            c->path, cd->name);
+        } else if (jc) { /* orthographic: left out, the scene keeps its other cameras */
+            tnd_warn("scene", "%s: camera '%s' is orthographic and is ignored (Tandem renders "
+                     "perspective cameras)", c->path, cd->name);
+            s->camera_count--;
+            continue;
         }
         if (!(cd->yfov > 1e-4f && cd->yfov < 3.1f) || !(cd->znear > 0))
             return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: camera '%s': yfov %g, znear %g", c->path,
