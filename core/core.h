@@ -797,6 +797,8 @@ typedef struct tnd_scene_state {
 tnd_result tnd_scene_evaluate(const tnd_scene *s, double time, uint32_t camera, float aspect,
                               tnd_scene_state *st);
 void tnd_scene_state_free(tnd_scene_state *st);
+/* The world-space bounding box of every instance's vertices in state st (in double). */
+void tnd_scene_bounds(const tnd_scene *s, const tnd_scene_state *st, double lo[3], double hi[3]);
 
 /* ---------------------------------------------------------------------------------------------
  * The contract on the GPU: one storage image per entry, formats from the table

@@ -38,17 +38,8 @@ tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_l
     for (uint32_t i = 0; i < s->instance_count; i++)
         l->instance_first[i] = ~0u;
     /* scene bounding radius, for directional lights' notional power */
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (uint32_t i = 0; i < s->instance_count; i++) {
-        const tnd_mesh *m = &s->meshes[s->instances[i].mesh];
-        const float *x = st->instance_xform + 12 * i;
-        for (uint32_t v = 0; v < m->vertex_count; v++) {
-            double w[3];
-            xform_point(x, s->positions + 3 * (size_t)(m->first_vertex + v), w);
-            for (int k = 0; k < 3; k++)
-                lo[k] = fmin(lo[k], w[k]), hi[k] = fmax(hi[k], w[k]);
-        }
-    }
+    double lo[3], hi[3];
+    tnd_scene_bounds(s, st, lo, hi);
     double radius = 0.5 * sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                                (hi[2] - lo[2]) * (hi[2] - lo[2]));
     uint32_t n = 0;

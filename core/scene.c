@@ -1,7 +1,8 @@
 /* core/scene.c: the flat scene representation: evaluation of animation (glTF TRS channels,
  * linear / slerp / step), the features a scene requires, validation shared by every source, and
  * the generated stress scene ("stress:N"). glTF import is in scene_gltf.c.
- * Entry points: tnd_scene_load, tnd_scene_destroy, tnd_scene_evaluate, tnd_scene_triangles. */
+ * Entry points: tnd_scene_load, tnd_scene_destroy, tnd_scene_evaluate, tnd_scene_triangles,
+ * tnd_scene_bounds. */
 #include "core/core.h"
 #include "core/scene_internal.h"
 
@@ -82,6 +83,24 @@ uint64_t tnd_scene_triangles(const tnd_scene *s)
 }
 
 /* ---- checks and derived data shared by all sources ------------------------------------------ */
+void tnd_scene_bounds(const tnd_scene *s, const tnd_scene_state *st, double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; k++)
+        lo[k] = 1e300, hi[k] = -1e300;
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        const tnd_mesh *m = &s->meshes[s->instances[i].mesh];
+        const float *x = st->instance_xform + 12 * i;
+        for (uint32_t v = 0; v < m->vertex_count; v++) {
+            const float *p = s->positions + 3 * (size_t)(m->first_vertex + v);
+            for (int k = 0; k < 3; k++) {
+                double w = (double)x[4 * k] * p[0] + (double)x[4 * k + 1] * p[1] +
+                           (double)x[4 * k + 2] * p[2] + x[4 * k + 3];
+                lo[k] = fmin(lo[k], w), hi[k] = fmax(hi[k], w);
+            }
+        }
+    }
+}
+
 /* What a real asset may lack: a camera (one framing the scene's bounds at time 0 is added) and
  * any light (a uniform white sky). Each is noted in the scene and announced. */
 static tnd_result scene_defaults(tnd_scene *s)
@@ -90,19 +109,9 @@ static tnd_result scene_defaults(tnd_scene *s)
     if (s->camera_count == 0 && s->instance_count > 0) {
         tnd_scene_state st = {0};
         tnd_result r = tnd_scene_evaluate(s, 0, 0, 1.0f, &st);
-        double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-        for (uint32_t i = 0; i < s->instance_count && r == TND_OK; i++) {
-            const tnd_mesh *m = &s->meshes[s->instances[i].mesh];
-            const float *x = st.instance_xform + 12 * i;
-            for (uint32_t v = 0; v < m->vertex_count; v++) {
-                const float *p = s->positions + 3 * (size_t)(m->first_vertex + v);
-                for (int k = 0; k < 3; k++) {
-                    double w = (double)x[4 * k] * p[0] + (double)x[4 * k + 1] * p[1] +
-                               (double)x[4 * k + 2] * p[2] + x[4 * k + 3];
-                    lo[k] = fmin(lo[k], w), hi[k] = fmax(hi[k], w);
-                }
-            }
-        }
+        double lo[3], hi[3];
+        if (r == TND_OK)
+            tnd_scene_bounds(s, &st, lo, hi);
         tnd_scene_state_free(&st);
         if (r != TND_OK)
             return r;
