@@ -54,6 +54,23 @@ bool app_quiet(void);
 int app_report(const char *what, tnd_result r);
 
 /* ---- progress bar on stderr (silent when stderr is not a terminal or with --quiet) ---------- */
+/* The environment map options of every command that loads a scene (--env FILE,
+ * --env-intensity X, --env-rotation DEG): app_env_opts' three table entries, then
+ * app_scene_load. */
+typedef struct app_env {
+    const char *path;
+    double intensity, rotation;
+} app_env;
+#define APP_ENV_INIT {NULL, 1.0, 0.0}
+#define APP_ENV_OPTS(e)                                                                            \
+    {"env", APP_OPT_STRING, &(e)->path, "FILE",                                                    \
+     "light the scene by a latitude-longitude EXR (replaces its sky; docs/scenes.md)"},            \
+        {"env-intensity", APP_OPT_FLOAT, &(e)->intensity, "X",                                     \
+         "--env: radiance factor (default 1)"},                                                    \
+        {"env-rotation", APP_OPT_FLOAT, &(e)->rotation, "DEG",                                     \
+         "--env: rotation about +Y in degrees (default 0)"}
+tnd_result app_scene_load(const char *path, const app_env *env, tnd_scene **scene);
+
 typedef struct app_progress {
     const char *label;
     unsigned total, done;

@@ -25,10 +25,10 @@ static void material_kinds(const tnd_scene *s, uint32_t counts[TND_MAT_KIND_COUN
     }
 }
 
-static int scene_info(const char *path, bool json)
+static int scene_info(const char *path, const app_env *env, bool json)
 {
     tnd_scene *s = NULL;
-    tnd_result r = tnd_scene_load(path, &s);
+    tnd_result r = app_scene_load(path, env, &s);
     if (r != TND_OK)
         return app_report("info", r);
     uint32_t kinds[TND_MAT_KIND_COUNT], lights[TND_LIGHT_TYPE_COUNT] = {0};
@@ -60,6 +60,16 @@ static int scene_info(const char *path, bool json)
         cJSON *sky = cJSON_AddArrayToObject(o, "sky");
         for (int k = 0; k < 3; k++)
             cJSON_AddItemToArray(sky, cJSON_CreateNumber(s->sky[k]));
+        if (s->env.width) {
+            cJSON *e = cJSON_AddObjectToObject(o, "environment");
+            cJSON_AddStringToObject(e, "path", s->env.path);
+            cJSON_AddNumberToObject(e, "width", s->env.width);
+            cJSON_AddNumberToObject(e, "height", s->env.height);
+            cJSON_AddNumberToObject(e, "intensity", s->env.intensity);
+            cJSON_AddNumberToObject(e, "rotation_degrees", s->env.rotation);
+            cJSON_AddNumberToObject(e, "mean_luminance", s->env.mean_luminance);
+            cJSON_AddNumberToObject(e, "bad_texels", s->env.bad_texels);
+        }
         cJSON *def = cJSON_AddObjectToObject(o, "defaults");
         if (s->default_camera[0])
             cJSON_AddStringToObject(def, "camera", s->default_camera);
@@ -92,6 +102,12 @@ static int scene_info(const char *path, bool json)
         if (s->features & TND_FEATURE(SKY))
             printf("  sky         %g %g %g nits\n", (double)s->sky[0], (double)s->sky[1],
                    (double)s->sky[2]);
+        if (s->env.width)
+            printf("  environment %s: %ux%u, intensity %g, rotation %g degrees, mean luminance "
+                   "%.4g nits%s\n",
+                   s->env.path, s->env.width, s->env.height, (double)s->env.intensity,
+                   (double)s->env.rotation, s->env.mean_luminance,
+                   s->env.bad_texels ? " (bad texels set to 0)" : "");
         if (s->default_camera[0])
             printf("  default     %s\n", s->default_camera);
         if (s->default_light[0])
@@ -181,6 +197,7 @@ int cmd_info(int argc, char **argv)
 {
     bool json = false;
     const char *device = NULL, *scene = NULL;
+    app_env env = APP_ENV_INIT;
     const app_opt opts[] = {
         {"json", APP_OPT_FLAG, &json, NULL, "print the same information as JSON on stdout"},
         {"device", APP_OPT_STRING, &device, "NAME",
@@ -188,6 +205,7 @@ int cmd_info(int argc, char **argv)
          "then lavapipe)"},
         {"scene", APP_OPT_STRING, &scene, "PATH",
          "describe a scene (.gltf/.glb, or stress:N) instead of the devices"},
+        APP_ENV_OPTS(&env),
         {0},
     };
     const char *pos[1];
@@ -196,7 +214,7 @@ int cmd_info(int argc, char **argv)
     if (rc >= 0)
         return rc;
     if (scene)
-        return scene_info(scene, json);
+        return scene_info(scene, &env, json);
 
     tnd_vk_device_info devs[16];
     uint32_t n = 0;

@@ -27,6 +27,7 @@ typedef struct render_opts {
     unsigned size[2];
     double fps;
     bool capture, video;
+    app_env env;
 } render_opts;
 
 static const app_cmd render_cmd = {
@@ -44,6 +45,7 @@ static const app_cmd reference_cmd = {
 static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int argc, char **argv)
 {
     *o = (render_opts){.scene = TND_DATA_DIR "/scenes/cornell.gltf",
+                       .env = APP_ENV_INIT,
                        .frontend = "embree",
                        .precision = "float32",
                        .rt_api = "auto",
@@ -93,6 +95,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
          "auto exposure from the luminance histogram (default), or a fixed EV100"},
         {"bloom", APP_OPT_FLOAT, &o->bloom, "I", "bloom intensity (default 0: off)"},
         {"video", APP_OPT_FLAG, &o->video, NULL, "also write DIR/video.mp4 from the PNGs (needs ffmpeg)"},
+        APP_ENV_OPTS(&o->env),
         {0},
     };
     const app_opt ref_opts_tbl[] = {
@@ -107,6 +110,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"camera", APP_OPT_UINT, &o->camera, "I", "scene camera (default 0)"},
         {"threads", APP_OPT_UINT, &o->threads, "N", "CPU threads (default: all cores)"},
         {"spp", APP_OPT_UINT, &o->spp, "K", "samples per pixel (default 256)"},
+        APP_ENV_OPTS(&o->env),
         {0},
     };
     const char *pos[1];
@@ -212,6 +216,13 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
         cJSON_AddStringToObject(def, "camera", scene->default_camera);
     if (scene->default_light[0])
         cJSON_AddStringToObject(def, "light", scene->default_light);
+    if (scene->env.width) { /* the environment map, from --env or the scene */
+        cJSON *env = cJSON_AddObjectToObject(j, "environment");
+        cJSON_AddStringToObject(env, "path", scene->env.path);
+        cJSON_AddNumberToObject(env, "intensity", scene->env.intensity);
+        cJSON_AddNumberToObject(env, "rotation_degrees", scene->env.rotation);
+        cJSON_AddBoolToObject(env, "from_command_line", o->env.path != NULL);
+    }
     cJSON *feat = cJSON_AddArrayToObject(j, "scene_features");
     for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
         if (scene->features & (1u << b))
@@ -320,7 +331,7 @@ static int run(bool reference, int argc, char **argv)
     if (strlen(o.out) > 1500)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
     int status = APP_EXIT_FAIL;
-    TND_TRY(tnd_scene_load(o.scene, &scene));
+    TND_TRY(app_scene_load(o.scene, &o.env, &scene));
     if (use_vk || use_dn) {
         TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !use_vk}, &vk));
     }

@@ -186,3 +186,11 @@ void app_progress_end(app_progress *p)
     app_progress_step(p, p->total);
     fputc('\n', stderr);
 }
+
+tnd_result app_scene_load(const char *path, const app_env *env, tnd_scene **scene)
+{
+    tnd_scene_options o = {.env = env ? env->path : NULL,
+                           .env_intensity = env ? (float)env->intensity : 1.0f,
+                           .env_rotation = env ? (float)env->rotation : 0.0f};
+    return tnd_scene_load_with(path, &o, scene);
+}

@@ -77,6 +77,13 @@ tnd_result tnd_fail_vk(const char *file, int line, const char *call, VkResult r)
         if (res != TND_OK)                                                                         \
             goto fail;                                                                             \
     } while (0)
+/* Return a failure at once (where there is nothing to clean up). */
+#define TND_TRY_RETURN(expr)                                                                       \
+    do {                                                                                           \
+        tnd_result r_ = (expr);                                                                    \
+        if (r_ != TND_OK)                                                                          \
+            return r_;                                                                             \
+    } while (0)
 
 /* ---------------------------------------------------------------------------------------------
  * Logging (stderr). The level is process-wide and set once by the application.
@@ -708,6 +715,34 @@ typedef struct tnd_emitter {
     uint32_t instance, primitive;
 } tnd_emitter;
 
+/* An environment map (shaders/env.h: convention and layout), as both front-ends sample it. */
+#include "shaders/env.h"
+typedef struct tnd_env {
+    char path[1024];
+    uint32_t width, height; /* 0: none */
+    float intensity, rotation; /* rotation: degrees about +Y */
+    float cos_rot, sin_rot;
+    float *data;            /* TND_ENV_FLOATS(width, height) floats, shaders/env.h's layout */
+    double mean_luminance;  /* over the sphere of directions, intensity applied */
+    uint32_t bad_texels;    /* NaN, infinite or negative values read (set to 0) */
+} tnd_env;
+
+/* Read a latitude-longitude RGB EXR (half or float, width = 2 height) as an environment of the
+ * given intensity (a factor) and rotation about +Y (degrees). Bad texels are counted, set to 0
+ * and said once on stderr. Errors name the file and the problem; e is left as it was. */
+tnd_result tnd_env_load(const char *path, float intensity, float rotation_deg, tnd_env *e);
+/* The same from w x h RGB floats in memory (any size: tests, generated skies); `name` for
+ * messages. */
+tnd_result tnd_env_from_pixels(const char *name, const float *rgb, uint32_t w, uint32_t h,
+                               float intensity, float rotation_deg, tnd_env *e);
+void tnd_env_free(tnd_env *e);
+/* Radiance seen along unit direction dir (nearest texel) and the solid-angle density with which
+ * tnd_env_sample picks that direction. */
+float tnd_env_lookup(const tnd_env *e, const float dir[3], float rgb[3]);
+/* A direction by importance (u1 picks the row, u2 the column), its texel's radiance, and its
+ * solid-angle density (0: not a usable sample). */
+float tnd_env_sample(const tnd_env *e, float u1, float u2, float dir[3], float rgb[3]);
+
 /* What a scene requires of the pipeline (docs: model only what a scene requires). */
 // clang-format off
 #define TND_FEATURE_LIST(X) \
@@ -715,7 +750,8 @@ typedef struct tnd_emitter {
     X(LIGHT_SPOT,        "spot lights") \
     X(LIGHT_DIRECTIONAL, "directional lights") \
     X(LIGHT_AREA,        "area lights (emissive triangles)") \
-    X(SKY,               "sky radiance") \
+    X(SKY,               "uniform sky radiance") \
+    X(ENV_MAP,           "environment map (importance-sampled)") \
     X(TEXTURES,          "textures") \
     X(NORMAL_MAPS,       "normal maps") \
     X(MIRROR,            "mirrors (reflect pass)") \
@@ -760,7 +796,8 @@ typedef struct tnd_scene {
     tnd_anim_channel *channels;
     uint32_t channel_count;
     float duration; /* seconds; 0 for a still scene */
-    float sky[3];   /* uniform sky radiance, nits */
+    float sky[3];   /* uniform sky radiance, nits (unused where env is set) */
+    tnd_env env;    /* environment map (width 0: none); replaces the sky */
     uint32_t features;
     /* What the scene lacked and was given (empty when it had its own): a camera framing its
      * bounds, a default environment; each note says the rule, as announced on stderr. */
@@ -777,6 +814,13 @@ typedef struct tnd_scene {
 /* Load a scene: a .gltf/.glb path, or a generated one: "stress:N" (about N triangles in 16
  * distinct meshes, for benchmarks). Bad input gets a message naming the file and the element. */
 tnd_result tnd_scene_load(const char *path, tnd_scene **scene);
+/* What a user may change in a scene as it loads (the command line's --env). */
+typedef struct tnd_scene_options {
+    const char *env;         /* an environment map (EXR) replacing the scene's sky or tandem_env */
+    float env_intensity;     /* its factor */
+    float env_rotation;      /* degrees about +Y */
+} tnd_scene_options;
+tnd_result tnd_scene_load_with(const char *path, const tnd_scene_options *o, tnd_scene **scene);
 void tnd_scene_destroy(tnd_scene *scene);
 /* Triangles over all instances (what the tracer sees). */
 uint64_t tnd_scene_triangles(const tnd_scene *s);
@@ -837,6 +881,7 @@ typedef struct tnd_light_list {
     uint32_t count;
     uint32_t *instance_first; /* per instance: index of its first emissive triangle, or ~0u */
     float total_power;
+    float env_pick;           /* pick probability of the environment map (0: not in the list) */
 } tnd_light_list;
 
 /* Build the list for a scene state (world-space emitters, schedule scales applied). Lights of

@@ -5,10 +5,14 @@
  * encoder, pointers re-aimed at the chunk's first line (the library does not advance them),
  * run. Reading mirrors it, matching decoder channels by name. HALF <-> FLOAT conversion is done
  * by the library both ways. Errors from the library go to the caller's message, not stderr.
+ * DWAA/DWAB files (lossy; OpenEXRCore 3.1 cannot decode them) are read through the C interface
+ * of the C++ library's RGBA reader.
  * Entry points: tnd_exr_write, tnd_exr_read, tnd_exr_close, tnd_exr_find, tnd_exr_attr_*. */
 #include "core/core.h"
 
+#include <ImfCRgbaFile.h>
 #include <openexr.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -223,6 +227,52 @@ void tnd_exr_close(tnd_exr_file *f)
     memset(f, 0, sizeof *f);
 }
 
+/* DWAA/DWAB, which OpenEXRCore 3.1 cannot decode (HDRIs come so: Blender's, HDRI Haven's): the
+ * C interface of the C++ library's RGBA reader, for R, G, B and A (any other channel is
+ * refused by name). It delivers half values; DWA is lossy and stores half precision anyway. */
+static tnd_result read_rgba_imf(tnd_exr_file *f, int x0, int y0, const char *codec)
+{
+    static const char names[4][2] = {"R", "G", "B", "A"};
+    tnd_exr_channel *dst[4] = {NULL, NULL, NULL, NULL};
+    for (uint32_t c = 0; c < f->channel_count; c++) {
+        int k = 0;
+        while (k < 4 && strcmp(f->channels[c].name, names[k]) != 0)
+            k++;
+        if (k == 4 || f->channels[c].type == TND_EXR_UINT)
+            return tnd_fail(TND_ERR_UNSUPPORTED,
+                            "exr: %s: %s compression is read for half or float R, G, B, A "
+                            "channels only (channel '%s')",
+                            f->path, codec, f->channels[c].name);
+        dst[k] = &f->channels[c];
+    }
+    size_t w = f->width, h = f->height;
+    ImfRgba *px = malloc(w * h * sizeof *px);
+    if (!px)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "exr: %s: out of memory", f->path);
+    ImfInputFile *in = ImfOpenInputFile(f->path);
+    if (!in) {
+        free(px);
+        return tnd_fail(TND_ERR_IO, "exr: %s: %s", f->path, ImfErrorMessage());
+    }
+    /* the frame buffer is addressed by absolute pixel coordinates */
+    ptrdiff_t origin = -(ptrdiff_t)x0 - (ptrdiff_t)y0 * (ptrdiff_t)w;
+    bool ok = ImfInputSetFrameBuffer(in, px + origin, 1, w) &&
+              ImfInputReadPixels(in, y0, y0 + (int)h - 1);
+    tnd_result res = TND_OK;
+    if (!ok)
+        res = tnd_fail(TND_ERR_BAD_INPUT, "exr: %s: decode (%s): %s", f->path, codec,
+                       ImfErrorMessage());
+    ImfCloseInputFile(in);
+    for (int k = 0; k < 4 && res == TND_OK; k++)
+        if (dst[k] && dst[k]->data)
+            for (size_t i = 0; i < w * h; i++) {
+                ImfHalf v = k == 0 ? px[i].r : k == 1 ? px[i].g : k == 2 ? px[i].b : px[i].a;
+                ((float *)dst[k]->data)[i] = ImfHalfToFloat(v);
+            }
+    free(px);
+    return res;
+}
+
 tnd_result tnd_exr_read(const char *path, tnd_exr_file *f)
 {
     tnd_result res = TND_OK;
@@ -280,6 +330,13 @@ tnd_result tnd_exr_read(const char *path, tnd_exr_file *f)
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "exr: %s: out of memory", path);
             goto fail;
         }
+    }
+    exr_compression_t comp;
+    EXR_TRY(exr_get_compression(ctx, 0, &comp), "compression");
+    if (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB) {
+        TND_TRY(read_rgba_imf(f, dw.min.x, dw.min.y, comp == EXR_COMPRESSION_DWAA ? "DWAA" : "DWAB"));
+        current_msgs = NULL;
+        return TND_OK;
     }
     int32_t lines = 0;
     EXR_TRY(exr_get_scanlines_per_chunk(ctx, 0, &lines), "chunk size");

@@ -1,6 +1,6 @@
 /* core/lights.c: the per-frame light list for next-event estimation (shaders/lights.h), shared
- * by both front-ends: world-space emissive triangles and punctual lights with power-proportional
- * pick probabilities and their cdf.
+ * by both front-ends: world-space emissive triangles, punctual lights and the environment map,
+ * with power-proportional pick probabilities and their cdf.
  * Entry points: tnd_lights_build, tnd_lights_free (tnd_lights_pick is inline in core.h). */
 #include "core/core.h"
 #include "shaders/brdf.h"
@@ -25,7 +25,7 @@ static void xform_point(const float *x, const float *p, double out[3])
 
 tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_light_list *l)
 {
-    uint32_t cap = s->emitter_count + s->light_count;
+    uint32_t cap = s->emitter_count + s->light_count + 1; /* + the environment map */
     tnd_light_gpu *nl = realloc(l->lights, (cap ? cap : 1) * sizeof *nl);
     uint32_t *nf = realloc(l->instance_first, (s->instance_count ? s->instance_count : 1) *
                                                   sizeof *nf);
@@ -115,6 +115,20 @@ tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_l
         power[n++] = p;
         total += p;
     }
+    /* the environment map: the flux its radiance sends through the scene's cross-section,
+     * pi R^2 x the integral of luminance over the sphere (4 pi x the mean) */
+    uint32_t env_index = ~0u;
+    if (s->env.width) {
+        double p = TND_PI * radius * radius * 4 * TND_PI * s->env.mean_luminance;
+        if (p > 0) {
+            tnd_light_gpu *g = &l->lights[n];
+            memset(g, 0, sizeof *g);
+            g->p0.w = (float)TND_LIGHT_KIND_ENV;
+            env_index = n;
+            power[n++] = p;
+            total += p;
+        }
+    }
     double acc = 0;
     for (uint32_t i = 0; i < n; i++) {
         acc += power[i];
@@ -122,6 +136,7 @@ tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_l
         l->lights[i].cdf.x = i + 1 == n ? 1.0f : (float)(acc / total);
     }
     free(power);
+    l->env_pick = env_index != ~0u ? l->lights[env_index].radiance.w : 0.0f;
     l->count = n;
     l->total_power = (float)total;
     return TND_OK;

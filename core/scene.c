@@ -48,6 +48,7 @@ void tnd_scene_destroy(tnd_scene *s)
 {
     if (!s)
         return;
+    tnd_env_free(&s->env);
     free(s->positions);
     free(s->normals);
     free(s->uvs);
@@ -153,7 +154,7 @@ static tnd_result scene_defaults(tnd_scene *s)
         tnd_info("scene", "%s: %s", s->path, s->default_camera);
     }
     bool lit = s->light_count > 0 || s->emitter_count > 0 || s->sky[0] > 0 || s->sky[1] > 0 ||
-               s->sky[2] > 0;
+               s->sky[2] > 0 || (s->env.width > 0 && s->env.mean_luminance > 0);
     if (!lit) {
         s->sky[0] = s->sky[1] = s->sky[2] = TND_DEFAULT_SKY;
         snprintf(s->default_light, sizeof s->default_light,
@@ -165,9 +166,18 @@ static tnd_result scene_defaults(tnd_scene *s)
     return TND_OK;
 }
 
-tnd_result scene_finish(tnd_scene *s)
+tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o)
 {
     const char *path = s->path;
+    if (o && o->env) {
+        TND_TRY_RETURN(tnd_env_load(o->env, o->env_intensity, o->env_rotation, &s->env));
+        tnd_info("scene", "%s: lit by the environment %s (intensity %g, rotation %g degrees)",
+                 path, o->env, (double)o->env_intensity, (double)o->env_rotation);
+    }
+    if (s->env.width && (s->sky[0] > 0 || s->sky[1] > 0 || s->sky[2] > 0)) {
+        tnd_info("scene", "%s: the environment map replaces the uniform sky", path);
+        s->sky[0] = s->sky[1] = s->sky[2] = 0;
+    }
     for (uint32_t t = 0; t < s->texture_count; t++)
         if (!s->textures[t].levels) {
             tnd_result r = tnd_texture_build_mips(&s->textures[t]);
@@ -270,6 +280,8 @@ tnd_result scene_finish(tnd_scene *s)
         f |= TND_FEATURE(LIGHT_AREA);
     if (s->sky[0] > 0 || s->sky[1] > 0 || s->sky[2] > 0)
         f |= TND_FEATURE(SKY);
+    if (s->env.width)
+        f |= TND_FEATURE(ENV_MAP);
     for (uint32_t i = 0; i < s->instance_count; i++) {
         s->instances[i].animated = s->nodes[s->instances[i].node].animated;
         if (s->instances[i].animated)
@@ -507,7 +519,7 @@ void tnd_scene_state_free(tnd_scene_state *st)
 
 /* ---- the generated stress scene ---------------------------------------------------------------
  */
-static tnd_result stress_scene(const char *spec, tnd_scene **out)
+static tnd_result stress_scene(const char *spec, const tnd_scene_options *o, tnd_scene **out)
 {
     char *end = NULL;
     double want = strtod(spec + 7, &end);
@@ -640,7 +652,7 @@ static tnd_result stress_scene(const char *spec, tnd_scene **out)
     cn->r[0] = (float)sin(a), cn->r[3] = (float)cos(a);
     cn->s[0] = cn->s[1] = cn->s[2] = 1;
     s->cameras[0] = (tnd_camera_def){"camera", s->mesh_count, 0.8f, 0.0f, 0.05f, 0.0f};
-    tnd_result r = scene_finish(s);
+    tnd_result r = scene_finish(s, o);
     if (r != TND_OK) {
         tnd_scene_destroy(s);
         return r;
@@ -651,9 +663,14 @@ static tnd_result stress_scene(const char *spec, tnd_scene **out)
 
 tnd_result tnd_scene_load(const char *path, tnd_scene **scene)
 {
+    return tnd_scene_load_with(path, NULL, scene);
+}
+
+tnd_result tnd_scene_load_with(const char *path, const tnd_scene_options *o, tnd_scene **scene)
+{
     *scene = NULL;
     if (strncmp(path, "stress:", 7) == 0)
-        return stress_scene(path, scene);
+        return stress_scene(path, o, scene);
     /* glTF by its extension; any other is refused by name (a file without one is tried as
      * glTF, whose parser says what is wrong) */
     const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
@@ -663,5 +680,5 @@ tnd_result tnd_scene_load(const char *path, tnd_scene **scene)
                         "scene: %s: '%s' files are not supported (Tandem reads glTF 2.0: .gltf "
                         "or .glb)",
                         path, dot + 1);
-    return scene_load_gltf(path, scene);
+    return scene_load_gltf(path, o, scene);
 }

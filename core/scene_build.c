@@ -142,5 +142,5 @@ int32_t tnd_scene_add_light(tnd_scene *s, const tnd_light *l)
 
 tnd_result tnd_scene_commit(tnd_scene *s)
 {
-    return scene_finish(s);
+    return scene_finish(s, NULL);
 }

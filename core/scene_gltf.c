@@ -712,6 +712,27 @@ static tnd_result load_cameras_lights(gltf_ctx *c)
     if (cJSON_GetArraySize(sky) == 3)
         for (int k = 0; k < 3; k++)
             s->sky[k] = (float)cJSON_GetArrayItem(sky, k)->valuedouble;
+    const cJSON *env = jget(jget(sc, "extras"), "tandem_env");
+    if (env) {
+        const cJSON *uri = jget(env, "uri");
+        if (!cJSON_IsObject(env) || !cJSON_IsString(uri))
+            return tnd_fail(TND_ERR_BAD_INPUT,
+                            "scene: %s: scene extras tandem_env: expected {\"uri\": \"file.exr\", "
+                            "\"intensity\": 1, \"rotation\": degrees}",
+                            c->path);
+        char path[2048];
+        if (uri->valuestring[0] == '/')
+            snprintf(path, sizeof path, "%s", uri->valuestring);
+        else
+            snprintf(path, sizeof path, "%s%s", c->dir, uri->valuestring);
+        tnd_result r = tnd_env_load(path, (float)jnum(env, "intensity", 1.0),
+                                    (float)jnum(env, "rotation", 0.0), &s->env);
+        if (r != TND_OK) {
+            char why[1024];
+            snprintf(why, sizeof why, "%s", tnd_error_detail());
+            return tnd_fail(r, "scene: %s: scene extras tandem_env: %s", c->path, why);
+        }
+    }
     return TND_OK;
 }
 
@@ -824,7 +845,7 @@ static tnd_result load_animation(gltf_ctx *c)
     return TND_OK;
 }
 
-tnd_result scene_load_gltf(const char *path, tnd_scene **out)
+tnd_result scene_load_gltf(const char *path, const tnd_scene_options *o, tnd_scene **out)
 {
     tnd_result res = TND_OK;
     gltf_ctx c = {.path = path};
@@ -857,7 +878,7 @@ tnd_result scene_load_gltf(const char *path, tnd_scene **out)
     TND_TRY(add_node(&c, c.ai->mRootNode, -1, &cap));
     TND_TRY(load_cameras_lights(&c));
     TND_TRY(load_animation(&c));
-    TND_TRY(scene_finish(c.s));
+    TND_TRY(scene_finish(c.s, o));
     *out = c.s;
     c.s = NULL;
 fail:

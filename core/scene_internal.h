@@ -4,9 +4,10 @@
 #include "core/core.h"
 
 /* Validate a filled scene (indices, finite vertices, degenerate emitters), build the emitter
- * list, propagate animation flags, compute the duration and the features. */
-tnd_result scene_finish(tnd_scene *s);
+ * list, propagate animation flags, apply the user's options (o may be NULL), give what is
+ * missing its default, compute the duration and the features. */
+tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o);
 tnd_material_kind scene_classify(const tnd_material *m);
-tnd_result scene_load_gltf(const char *path, tnd_scene **scene);
+tnd_result scene_load_gltf(const char *path, const tnd_scene_options *o, tnd_scene **scene);
 
 #endif

@@ -147,6 +147,28 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
     return cosl > 0 ? l->radiance.w * d * d / (l->cdf.w * cosl) : 0.0f;
 }
 
+/* Radiance a path finds where its ray in direction dir leaves the scene: the uniform sky, or the
+ * environment map MIS-weighted against its own sampling when the ray is a BRDF sample (pdf_prev
+ * > 0; a camera ray or a delta lobe's gets it whole). */
+static inline void miss_radiance(const femb_context *c, v3 dir, float pdf_prev, float out[3])
+{
+    const tnd_scene *s = c->scene;
+    if (!s->env.width) {
+        out[0] = s->sky[0], out[1] = s->sky[1], out[2] = s->sky[2];
+        return;
+    }
+    float d[3] = {dir.x, dir.y, dir.z};
+    float pdf = tnd_env_lookup(&s->env, d, out);
+    float w = pdf_prev > 0 ? tnd_mis_power(pdf_prev, c->lights.env_pick * pdf) : 1.0f;
+    for (int k = 0; k < 3; k++)
+        out[k] *= w;
+}
+
+void femb_miss_radiance(const femb_context *c, v3 dir, float out[3])
+{
+    miss_radiance(c, dir, 0.0f, out);
+}
+
 /* (lanes below n of upick and the records are written before use; gcc 12 cannot always see it
  * through the lane loops) */
 #pragma GCC diagnostic push
@@ -205,14 +227,32 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
             ltwo[i] = l->p1.w;
         }
     }
-    float wi[3][NL], tmax[NL], dc[3][NL], sc[3][NL];
+    float wi[3][NL], tmax[NL], dc[3][NL], sc[3][NL], lu[NL], lv[NL];
     uint8_t ok[NL], cast[NL];
     LANES (i, n) {
-        float u1 = rnd(P, i, bounce, TND_DIM_LIGHT_U), u2 = rnd(P, i, bounce, TND_DIM_LIGHT_V);
+        lu[i] = rnd(P, i, bounce, TND_DIM_LIGHT_U);
+        lv[i] = rnd(P, i, bounce, TND_DIM_LIGHT_V);
+    }
+    /* the environment map's samples, lane by lane (two searches in its distribution) for the
+     * lanes that picked it: direction, radiance, solid-angle density (0: no sample) */
+    float ed[3][NL], erad[3][NL], epdf[NL];
+    if (!triangles_only && c->lights.env_pick > 0)
+        for (uint32_t i = 0; i < n; i++) {
+            float d[3] = {0, 1, 0}, rgb[3] = {0, 0, 0};
+            epdf[i] = kind[i] == TND_LIGHT_KIND_ENV
+                          ? tnd_env_sample(&c->scene->env, lu[i], lv[i], d, rgb)
+                          : 0.0f;
+            for (int k = 0; k < 3; k++)
+                ed[k][i] = d[k], erad[k][i] = rgb[k];
+        }
+    LANES (i, n) {
+        float u1 = lu[i], u2 = lv[i];
         v3 p = LD3(S->p, i), pos = LD3(lp0, i), v1 = LD3(lp1, i), v2 = LD3(lp2, i);
         bool tri = triangles_only | (kind[i] == TND_LIGHT_KIND_TRIANGLE);
         bool dirl = !triangles_only & (kind[i] == TND_LIGHT_KIND_DIRECTIONAL);
         bool spot = !triangles_only & (kind[i] == TND_LIGHT_KIND_SPOT);
+        bool envl = !triangles_only & (kind[i] == TND_LIGHT_KIND_ENV);
+        bool far = dirl | envl; /* no end point: the shadow ray goes to infinity */
         /* area: a uniform point on the triangle, the pdf turned to solid angle; a two-sided
          * emitter from either side */
         float su = sqrtf(u1);
@@ -230,10 +270,12 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
         t = fmn(fmx(t, 0.0f), 1.0f);
         float fall = spot ? (1.0f / d2) * (t * t) : 1.0f / d2;
         fall = tri | dirl ? 1.0f : fall;
-        /* directional: along -p1 */
+        /* directional: along -p1; the environment: its sample */
         v3 w = sel3(dirl, mul(v1, -1.0f), wp);
-        float pdf = tri ? pdf_tri : lrad[3][i];
-        bool valid = dirl | ((dist > 0) & (!tri | (cosl > 0.0f)));
+        w = envl ? LD3(ed, i) : w;
+        float pdf = tri ? pdf_tri : envl ? lrad[3][i] * epdf[i] : lrad[3][i];
+        bool valid = dirl | (envl & (epdf[i] > 0.0f)) |
+                     (!envl & (dist > 0) & (!tri | (cosl > 0.0f)));
         float d3[3], s3[3], pdf_brdf;
         bool up = brdf_lane(S, L, i, w, d3, s3, &pdf_brdf);
         ok[i] = active[i] & valid & (pdf > 0) & up;
@@ -247,15 +289,15 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
         v3 end = sel3(tri, add(q, mul(sel3(cfront >= 0.0f, nlt, mul(nlt, -1.0f)), eq)), pos);
         v3 sd = sub(end, o);
         float sl = sqrtf(dot(sd, sd));
-        cast[i] = dirl | (dot(sd, d) > 0.0f);
-        tmax[i] = dirl ? 1e30f : sl;
-        float mis = tri ? tnd_mis_power(pdf, pdf_brdf) : 1.0f;
+        cast[i] = far | (dot(sd, d) > 0.0f);
+        tmax[i] = far ? 1e30f : sl;
+        float mis = tri | envl ? tnd_mis_power(pdf, pdf_brdf) : 1.0f;
         for (int k = 0; k < 3; k++) {
-            float Li = lrad[k][i] * fall;
+            float Li = envl ? erad[k][i] : lrad[k][i] * fall;
             dc[k][i] = Li * d3[k] * mis / pdf;
             sc[k][i] = Li * s3[k] * mis / pdf;
         }
-        ST3(wi, i, sel3(dirl, w, mul(sd, 1.0f / sl)));
+        ST3(wi, i, sel3(far, w, mul(sd, 1.0f / sl)));
     }
     /* the lanes with a shadow ray first, without a branch per lane (which lanes have one
      * follows the light samples: a branch on it mispredicts) */
@@ -421,9 +463,12 @@ static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, 
     closest_hits(c, n, st->alive, st->org, st->dir, inst, prim, hu, hv, t, hit);
     for (uint32_t i = 0; i < n; i++) {
         if (!hit[i]) {
-            if (st->alive[i])
+            if (st->alive[i]) {
+                float Le[3];
+                miss_radiance(c, LD3(st->dir, i), st->pdf_prev[i], Le);
                 for (int k = 0; k < 3; k++)
-                    L_out[k][i] += st->beta[k][i] * c->scene->sky[k];
+                    L_out[k][i] += st->beta[k][i] * Le[k];
+            }
             st->alive[i] = 0;
             continue;
         }
@@ -585,6 +630,12 @@ LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float
             L_out[k][i] = miss ? sky[k] : 0.0f;
         cone[i] = P->cone[i] + t[i] * c->pixel_spread;
     }
+    for (uint32_t i = 0; i < n && c->scene->env.width; i++) /* or the environment map */
+        if (P->active[i] && !hit[i]) {
+            float Le[3];
+            miss_radiance(c, LD3(P->dir, i), P->pdf_prev[i], Le);
+            ST3(L_out, i, ((v3){Le[0], Le[1], Le[2]}));
+        }
     if (!any)
         return;
     femb_surface_eval_batch(c, n, hit, inst, prim, hu, hv, P->dir, cone, &S);

@@ -316,6 +316,9 @@ typedef struct femb_chain {
     float thr[3];
     v3 dir, dir0;                  /* the last segment's direction, the camera ray's */
 } femb_chain;
+/* Radiance seen along a camera ray (or one through a specular chain) that leaves the scene in
+ * direction dir: the sky, or the environment map. */
+void femb_miss_radiance(const femb_context *c, v3 dir, float out[3]);
 void femb_specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool follow,
                          femb_chain *r);
 

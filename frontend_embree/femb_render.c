@@ -260,7 +260,6 @@ static void store_surface(tnd_frame *f, size_t q, const femb_surface *s, uint32_
 static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixel,
                           const femb_chain *ch, const femb_surface *s, float dist)
 {
-    const tnd_scene *sc = c->scene;
     uint32_t W = c->width, H = c->height;
     const tnd_camera_state *cam = &c->cur->camera;
     tnd_frame_u(f, TND_CT_PATH)[q] = ch->path;
@@ -280,9 +279,11 @@ static void primary_store(femb_context *c, tnd_frame *f, size_t q, uint32_t pixe
     memcpy(thr, ch->thr, 3 * sizeof(float));
     float cur_px[2], prev_px[2];
     if (!ch->hit) {
+        float Le[3];
+        femb_miss_radiance(c, ch->dir, Le);
         for (int k = 0; k < 3; k++) {
             alb[k] = n[k] = gn[k] = pos[k] = 0.0f;
-            em[k] = sc->sky[k] * ch->thr[k];
+            em[k] = Le[k] * ch->thr[k];
         }
         n[2] = gn[2] = 0.0f;
         *depth = (float)TND_DEPTH_MISS;

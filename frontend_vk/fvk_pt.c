@@ -15,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { SCENE_BINDINGS = 14 };
+enum { SCENE_BINDINGS = 15 };
 
 static tnd_result create_layouts(fvk_context *c)
 {
@@ -146,7 +146,7 @@ static void write_scene_set(fvk_context *c)
                                               &c->normals,   &c->uvs,       &c->tangents,
                                               &c->indices,   &c->meshes,    &c->materials,
                                               &c->instances, &c->lights,    &c->gradients,
-                                              NULL,          NULL};
+                                              NULL,          NULL,          &c->env};
     VkDescriptorImageInfo acc = {VK_NULL_HANDLE, c->accum.view, VK_IMAGE_LAYOUT_GENERAL};
     VkDescriptorBufferInfo bi[SCENE_BINDINGS];
     VkWriteDescriptorSet w[SCENE_BINDINGS];
@@ -173,7 +173,9 @@ static void write_scene_set(fvk_context *c)
     w[12].pImageInfo = ii;
     w[13].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
     w[13].pImageInfo = &acc;
-    vkUpdateDescriptorSets(c->vk->device, ii ? SCENE_BINDINGS : 12, w, 0, NULL);
+    if (!ii) /* (out of memory: the textures' binding left out) */
+        w[12] = w[SCENE_BINDINGS - 1];
+    vkUpdateDescriptorSets(c->vk->device, ii ? SCENE_BINDINGS : SCENE_BINDINGS - 1, w, 0, NULL);
     free(ii);
 }
 
@@ -217,6 +219,7 @@ static void choose_variant(fvk_context *c, bool full)
                {TND_FEATURE(TEXTURES), TND_USES_TEXTURES, "textures"},
                {TND_FEATURE(NORMAL_MAPS), TND_USES_NORMAL_MAPS, "normal maps"},
                {TND_FEATURE(SKY), TND_USES_SKY, "sky"},
+               {TND_FEATURE(ENV_MAP), TND_USES_ENV, "environment map"},
                {TND_FEATURE(MIRROR) | TND_FEATURE(GLASS) | TND_FEATURE(THIN_GLASS),
                 TND_USES_SPECULAR, "mirrors and glass"}};
     c->uses = full ? TND_USES_ALL : 0u;
@@ -332,7 +335,10 @@ tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_s
     tnd_jitter(frame, jit);
     double tan_half = 1.0 / (cur->camera.proj[5] < 0 ? -cur->camera.proj[5] : cur->camera.proj[5]);
     f.jitter = (tnd_gvec4){jit[0], jit[1], (float)(2.0 * tan_half / height), 0};
-    f.sky = (tnd_gvec4){c->scene->sky[0], c->scene->sky[1], c->scene->sky[2], 0};
+    const tnd_env *env = &c->scene->env;
+    f.sky = (tnd_gvec4){c->scene->sky[0], c->scene->sky[1], c->scene->sky[2],
+                        c->light_list.env_pick};
+    f.env = (tnd_gvec4){env->cos_rot, env->sin_rot, (float)env->width, (float)env->height};
     f.frame = (tnd_guvec4){frame, width, height, c->light_list.count};
     memcpy(c->frame_ubo.mapped, &f, sizeof f);
     write_scene_set(c); /* the TLAS handle may be new */

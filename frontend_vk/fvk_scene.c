@@ -115,7 +115,7 @@ void fvk_scene_free(fvk_context *c)
     tnd_vk *vk = c->vk;
     tnd_buffer *bufs[] = {&c->positions, &c->normals, &c->uvs,      &c->tangents,
                           &c->indices,   &c->meshes,  &c->materials, &c->instances,
-                          &c->lights,    &c->frame_ubo, &c->gradients};
+                          &c->lights,    &c->frame_ubo, &c->gradients, &c->env};
     for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
         tnd_buffer_destroy(vk, bufs[i]);
     for (uint32_t i = 0; c->textures && i < c->texture_count; i++)
@@ -213,6 +213,17 @@ tnd_result fvk_scene_upload(fvk_context *c)
                                .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                .mem = TND_MEM_UPLOAD, .name = "scene.lights"},
         &c->lights));
+    /* the environment map's texels and distributions as one float array (shaders/env.h); a
+     * vec4 when there is none (the binding is never empty) */
+    size_t env_bytes = s->env.width ? TND_ENV_FLOATS((size_t)s->env.width, s->env.height) * 4 : 16;
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = env_bytes,
+                                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                     .mem = TND_MEM_UPLOAD, .name = "scene.env"},
+                              &c->env));
+    if (s->env.width)
+        memcpy(c->env.mapped, s->env.data, env_bytes);
+    else
+        memset(c->env.mapped, 0, env_bytes);
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(tnd_gpu_frame),
                                                      .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                                      .mem = TND_MEM_UPLOAD, .name = "frame"},

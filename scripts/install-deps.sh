@@ -18,14 +18,15 @@ export DEBIAN_FRONTEND=noninteractive
 
 # Build, Vulkan, libraries, and the independent tools the tests check our files with (blender:
 # Cycles, the independent renderer tests/test_cycles.py compares the reference with;
-# assimp-testmodels: real glTF and OBJ models nobody here wrote).
+# assimp-testmodels: real glTF and OBJ models nobody here wrote; blender-data: real HDRIs from
+# HDRI Haven, CC0, in /usr/share/blender/datafiles/studiolights/world).
 PKGS=(
     build-essential cmake pkg-config git
     libvulkan-dev glslang-tools vulkan-validationlayers vulkan-tools
     libembree-dev libtbb-dev libopenexr-dev libassimp-dev libcjson-dev libstb-dev
     openexr openimageio-tools python3 ffmpeg
     python3-numpy python3-openimageio chromium
-    blender assimp-testmodels
+    blender blender-data assimp-testmodels
 )
 
 missing=()

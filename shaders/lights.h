@@ -3,7 +3,9 @@
  *
  * Selection: light i is picked with probability pick = power_i / sum of powers (flux: pi L A for
  * an emissive triangle, 4 pi I for point lights, 2 pi (1 - cos outer) I for spots, pi R^2 E for
- * directional lights with R the scene's bounding radius), by binary search for the first cdf > u.
+ * directional lights with R the scene's bounding radius, pi R^2 x 4 pi x mean luminance for the
+ * environment map: kind TND_LIGHT_KIND_ENV, shaders/env.h, sampled by its own distribution), by
+ * binary search for the first cdf > u.
  * Area lights are sampled uniformly by area; pdf in solid angle = pick d^2 / (A |cos theta_l|).
  * A one-sided emitter lights only the side its triangle's normal (v1 - v0) x (v2 - v0) faces; a
  * two-sided one (a double-sided emissive material: p1.w = 1) both sides, with twice the power

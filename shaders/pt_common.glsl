@@ -31,6 +31,8 @@ layout(set = 0, binding = 9, std430) readonly buffer Instances { tnd_gpu_instanc
 layout(set = 0, binding = 10, std430) readonly buffer Lights { tnd_light_gpu lights[]; };
 layout(set = 0, binding = 11, std430) readonly buffer Gradients { tnd_gpu_gradient gradients[]; };
 layout(set = 0, binding = 12) uniform sampler2D textures[];
+layout(set = 0, binding = 14, std430) readonly buffer Env { float env_data[]; };
+#include "env.h"
 
 #define TND_CONTRACT_SET 1
 #include "contract.h"
@@ -409,6 +411,59 @@ float emitter_pdf(uint inst, uint prim, float d, vec3 wi, vec3 ng_light)
     return cosl > 0.0 ? l.radiance.w * d * d / (l.cdf.w * cosl) : 0.0;
 }
 
+/* ---- the environment map (shaders/env.h; core/env.c's tnd_env_lookup and tnd_env_sample) -- */
+/* Radiance along world direction dir (nearest texel) and the solid-angle density of sampling it. */
+float env_lookup(vec3 dir, out vec3 rgb)
+{
+    float cr = fr.env.x, sr = fr.env.y;
+    uint w = uint(fr.env.z), h = uint(fr.env.w);
+    float x = cr * dir.x - sr * dir.z;
+    float z = sr * dir.x + cr * dir.z;
+    float y = clamp(dir.y, -1.0, 1.0);
+    float u = atan(-z, -x) * (0.5 * TND_INV_PI) + 0.5;
+    float v = acos(y) * TND_INV_PI;
+    uint cx = min(uint(max(u * float(w), 0.0)), w - 1u);
+    uint cy = min(uint(max(v * float(h), 0.0)), h - 1u);
+    uint t = 4u * (cy * w + cx);
+    rgb = vec3(env_data[t], env_data[t + 1u], env_data[t + 2u]);
+    return tnd_env_pdf(env_data[t + 3u], sqrt(max(0.0, 1.0 - y * y)));
+}
+
+/* A direction by importance: u1 picks the row, u2 the column; its radiance and density. */
+float env_sample(float u1, float u2, out vec3 dir, out vec3 rgb)
+{
+    uint w = uint(fr.env.z), h = uint(fr.env.w);
+    uint mo = TND_ENV_OFFSET_MARGINAL(w, h);
+    uint y = tnd_env_find(mo, h, u1);
+    float fv = tnd_env_remap(mo, y, u1);
+    uint co = TND_ENV_OFFSET_CONDITIONAL(w, h) + y * w;
+    uint x = tnd_env_find(co, w, u2);
+    float fu = tnd_env_remap(co, x, u2);
+    float u = (float(x) + fu) / float(w), v = (float(y) + fv) / float(h);
+    float th = PI * v, ph = 2.0 * PI * (u - 0.5);
+    float st = sin(th), ct = cos(th);
+    float lx = -cos(ph) * st, lz = -sin(ph) * st;
+    float cr = fr.env.x, sr = fr.env.y;
+    dir = vec3(cr * lx + sr * lz, ct, -sr * lx + cr * lz);
+    uint t = 4u * (y * w + x);
+    rgb = vec3(env_data[t], env_data[t + 1u], env_data[t + 2u]);
+    return tnd_env_pdf(env_data[t + 3u], st);
+}
+
+/* What a ray that leaves the scene in direction dir brings back: the uniform sky, or the
+ * environment map MIS-weighted against its own sampling when the ray is a BRDF sample
+ * (pdf_prev > 0). */
+vec3 miss_radiance(vec3 dir, float pdf_prev)
+{
+    if (USES(TND_USES_ENV) && fr.env.z > 0.0) {
+        vec3 rgb;
+        float pdf = env_lookup(dir, rgb);
+        float w = pdf_prev > 0.0 ? tnd_mis_power(pdf_prev, fr.sky.w * pdf) : 1.0;
+        return rgb * w;
+    }
+    return USES(TND_USES_SKY) ? fr.sky.rgb : vec3(0.0);
+}
+
 void direct_light(uvec3 key, uint bounce, surface s, lobe_info L, out vec3 diff, out vec3 spec)
 {
     diff = vec3(0.0);
@@ -421,7 +476,7 @@ void direct_light(uvec3 key, uint bounce, surface s, lobe_info L, out vec3 diff,
     vec3 wi, pos = l.p0.xyz;
     float dist = 1e30, pdf = l.radiance.w;
     vec3 Li = l.radiance.rgb;
-    bool area = false;
+    bool area = false, env = false;
     vec3 end = pos; /* where the shadow ray ends: a point light's position */
     if (USES(TND_USES_AREA) && kind == TND_LIGHT_KIND_TRIANGLE) {
         /* a uniform point on the triangle, the pdf turned to solid angle; a two-sided emitter
@@ -446,6 +501,12 @@ void direct_light(uvec3 key, uint bounce, surface s, lobe_info L, out vec3 diff,
                       tnd_offset_eps(max(tnd_max_abs(q), tnd_max_abs(s.p)));
     } else if (USES(TND_USES_DIRECTIONAL) && kind == TND_LIGHT_KIND_DIRECTIONAL) {
         wi = -l.p1.xyz;
+    } else if (USES(TND_USES_ENV) && kind == TND_LIGHT_KIND_ENV) {
+        float pe = env_sample(u1, u2, wi, Li);
+        if (!(pe > 0.0))
+            return;
+        pdf *= pe;
+        env = true;
     } else if (USES(TND_USES_POINT | TND_USES_SPOT)) {
         vec3 d = pos - s.p;
         float d2 = dot(d, d);
@@ -472,7 +533,7 @@ void direct_light(uvec3 key, uint bounce, surface s, lobe_info L, out vec3 diff,
      * two points (femb's direct_light_kinds); none when they have crossed (the receiver closer
      * to the emitter than the coordinates resolve: no occluder fits between them) */
     vec3 org = offset_ray(s.p, s.ng);
-    if (area || kind != TND_LIGHT_KIND_DIRECTIONAL) {
+    if (area || (kind != TND_LIGHT_KIND_DIRECTIONAL && !env)) {
         vec3 sd = end - org;
         float sl = sqrt(dot(sd, sd));
         if (dot(sd, wi) > 0.0 && trace_occluded(org, sd * (1.0 / sl), sl))
@@ -480,7 +541,7 @@ void direct_light(uvec3 key, uint bounce, surface s, lobe_info L, out vec3 diff,
     } else if (trace_occluded(org, wi, 1e30)) {
         return;
     }
-    float w = area ? tnd_mis_power(pdf, pdf_brdf) : 1.0;
+    float w = area || env ? tnd_mis_power(pdf, pdf_brdf) : 1.0;
     diff = Li * dd * w / pdf;
     spec = Li * sp * w / pdf;
 }
@@ -556,7 +617,7 @@ vec3 trace_path(uvec3 key, vec3 from, vec3 org, vec3 dir, uint bounce, uint max_
     for (uint b = bounce;; b++) {
         hit_info h;
         if (!trace_closest(org, dir, 1e30, h))
-            return USES(TND_USES_SKY) ? L_out + beta * fr.sky.rgb : L_out;
+            return L_out + beta * miss_radiance(dir, pdf_prev);
         if (inside) /* Beer-Lambert over the segment inside the glass */
             beta *= vec3(exp(-sigma.x * h.t), exp(-sigma.y * h.t), exp(-sigma.z * h.t));
         cone += h.t * fr.jitter.z;

@@ -38,7 +38,7 @@ void pt_primary_main(uvec2 launch)
         imageStore(img_normal, ip, vec4(0.0));
         imageStore(img_geo_normal, ip, vec4(0.0));
         imageStore(img_position, ip, vec4(0.0));
-        imageStore(img_emission, ip, vec4(fr.sky.rgb * ch.thr, 0.0));
+        imageStore(img_emission, ip, vec4(miss_radiance(ch.dir, 0.0) * ch.thr, 0.0));
         imageStore(img_depth, ip, vec4(TND_DEPTH_MISS));
         imageStore(img_vis_id, ip, uvec4(TND_VIS_NONE, TND_VIS_NONE, 0u, 0u));
         imageStore(img_vis_bary, ip, vec4(0.0));

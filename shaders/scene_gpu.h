@@ -41,7 +41,9 @@ struct tnd_gpu_frame {
     vec4 cam_pos;        /* xyz */
     vec4 prev_cam_pos;   /* xyz */
     vec4 jitter;         /* xy: this frame's jitter (pixels), z: pixel spread angle */
-    vec4 sky;            /* rgb sky radiance */
+    vec4 sky;            /* rgb uniform sky radiance; w: the environment map's pick probability */
+    vec4 env;            /* environment map (shaders/env.h): cos, sin of its rotation, width,
+                            height (0: none) */
     uvec4 frame;         /* x: frame index, y: width, z: height, w: light count */
     uvec4 params;        /* x: bounces, y: reference sample index, z: gradient count,
                             w: specular vertices the primary chain follows */
@@ -59,7 +61,7 @@ typedef struct tnd_gpu_frame tnd_gpu_frame;
 _Static_assert(sizeof(tnd_gpu_mesh) == 32, "mesh layout");
 _Static_assert(sizeof(tnd_gpu_material) == 96, "material layout");
 _Static_assert(sizeof(tnd_gpu_instance) == 112, "instance layout");
-_Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 6 * 16, "frame layout");
+_Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 7 * 16, "frame layout");
 #endif
 
 /* What the front-end's shaders model (specialization constant 0 of every pass, a bit mask):
@@ -75,7 +77,8 @@ _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 6 * 16, "frame layout");
 #define TND_USES_NORMAL_MAPS 32u
 #define TND_USES_SKY 64u
 #define TND_USES_SPECULAR 128u  /* mirrors and glass */
-#define TND_USES_ALL 255u
+#define TND_USES_ENV 256u       /* an environment map */
+#define TND_USES_ALL 511u
 
 /* Gradient sample for the shading pass (matches femb_gradient_sample). In the back-end's
  * per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a sample has
