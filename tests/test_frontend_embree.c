@@ -9,6 +9,7 @@
 #include "frontend_embree/femb_internal.h" /* (test_nee_copies_agree forces the general NEE) */
 #include "shaders/brdf.h"
 #include "tests/embree_frame.h"
+#include "tests/env_sphere.h"
 #include "tests/lambert_probe.h"
 #include "tests/motion_reference.h"
 #include "tests/tnd_test.h"
@@ -1027,7 +1028,36 @@ cleanup:
     rig_close(&r);
 }
 
-TND_TEST_MAIN(T(test_furnace_lambert), T(test_furnace_ggx), T(test_furnace_glass),
+/* A pure-Lambert sphere under a uniform environment of radiance 1 returns its albedo (0.5 and
+ * the white furnace's 1) within 0.5% in the reference mode, lit by the uniform sky and by a
+ * constant environment map sampled by importance (tests/env_sphere.h). */
+static void test_env_sphere(void)
+{
+    for (int light = ES_SKY; light <= ES_ENV; light++)
+        for (int a = 0; a < 2; a++) {
+            float albedo = a ? 1.0f : 0.5f;
+            tnd_scene *s = es_scene(albedo, light);
+            femb_context *c = NULL;
+            tnd_scene_state st = {0};
+            float *rgb = malloc(ES_W * ES_H * 3 * sizeof(float));
+            REQUIRE(s, "sphere scene: %s", tnd_error_detail());
+            CHECK(light == ES_SKY ? (s->features & TND_FEATURE(SKY)) != 0
+                                  : (s->features & TND_FEATURE(ENV_MAP)) != 0,
+                  "features %#x", s->features);
+            REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 2}, &c));
+            REQUIRE_OK(tnd_scene_evaluate(s, 0, 0, 1.0f, &st));
+            REQUIRE_OK(femb_set_frame(c, &st, &st, 0, ES_W, ES_H));
+            REQUIRE_OK(femb_reference(c, 64, rgb, NULL, NULL, NULL, NULL));
+            es_check("embree", light, albedo, rgb);
+        cleanup:
+            free(rgb);
+            tnd_scene_state_free(&st);
+            femb_destroy(c);
+            tnd_scene_destroy(s);
+        }
+}
+
+TND_TEST_MAIN(T(test_furnace_lambert), T(test_env_sphere), T(test_furnace_ggx), T(test_furnace_glass),
               T(test_total_internal_reflection), T(test_rotated_instance_normals),
               T(test_mirror_gbuffer), T(test_composite_equals_radiance),
               T(test_deterministic_threads), T(test_gradient_samples_reproduce), T(test_batch_independent),
