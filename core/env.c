@@ -147,7 +147,7 @@ static size_t env_texel(const tnd_env *e, const float dir[3], float *st)
     float x = e->cos_rot * dir[0] - e->sin_rot * dir[2];
     float z = e->sin_rot * dir[0] + e->cos_rot * dir[2];
     float y = fminf(fmaxf(dir[1], -1.0f), 1.0f);
-    float u = atan2f(-z, -x) * (float)(0.5 * TND_INV_PI) + 0.5f;
+    float u = atan2f(z, x) * (float)(0.5 * TND_INV_PI) + 0.5f;
     float v = acosf(y) * (float)TND_INV_PI;
     uint32_t cx = (uint32_t)fmaxf(u * (float)e->width, 0.0f);
     uint32_t cy = (uint32_t)fmaxf(v * (float)e->height, 0.0f);
@@ -178,7 +178,7 @@ float tnd_env_sample(const tnd_env *e, float u1, float u2, float dir[3], float r
     float u = ((float)x + fu) / (float)w, v = ((float)y + fv) / (float)h;
     float th = (float)TND_PI * v, ph = 2.0f * (float)TND_PI * (u - 0.5f);
     float st = sinf(th), ct = cosf(th);
-    float lx = -cosf(ph) * st, lz = -sinf(ph) * st;
+    float lx = cosf(ph) * st, lz = sinf(ph) * st;
     dir[0] = e->cos_rot * lx + e->sin_rot * lz;
     dir[1] = ct;
     dir[2] = -e->sin_rot * lx + e->cos_rot * lz;

@@ -2,12 +2,14 @@
  * layout and the search in its distributions (core/env.c builds it; frontend_embree reads the
  * arrays, frontend_vk uploads them as one storage buffer).
  *
- * Convention (Blender's, in glTF's +Y-up world): a latitude-longitude image, row 0 at the top.
+ * Convention (Cycles', in glTF's +Y-up world): a latitude-longitude image, row 0 at the top.
  * Texel column u in [0, 1) is the azimuth phi = 2 pi (u - 1/2), row v in [0, 1) the angle theta
- * = pi v from +Y; the direction is (-cos phi sin theta, cos theta, -sin phi sin theta), so the
- * image's centre (u = 1/2) faces -X, u = 1/4 faces +Z, u = 3/4 faces -Z and the left and right
- * edges face +X. A rotation r (degrees) turns the environment about +Y by the right-hand rule:
- * world = R_y(r) local, x' = cos r x + sin r z, z' = -sin r x + cos r z.
+ * = pi v from +Y; the direction is (cos phi sin theta, cos theta, sin phi sin theta), so the
+ * image's centre (u = 1/2) faces +X, u = 1/4 faces -Z, u = 3/4 faces +Z and the left and right
+ * edges face -X (Cycles' Environment Texture: u = 1/2 - atan2(y, x) / 2 pi with Blender's +Z up,
+ * and glTF's export maps Blender's (x, y, z) to (x, z, -y)). A rotation r (degrees) turns the
+ * environment about +Y by the right-hand rule: world = R_y(r) local, x' = cos r x + sin r z,
+ * z' = -sin r x + cos r z (r = 90 turns +X to -Z).
  *
  * Radiance is the texel's (nearest, no filtering: the radiance is piecewise constant exactly as
  * the sampling density is, so an importance-sampled texel contributes L / pdf = its share of the

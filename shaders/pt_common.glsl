@@ -420,7 +420,7 @@ float env_lookup(vec3 dir, out vec3 rgb)
     float x = cr * dir.x - sr * dir.z;
     float z = sr * dir.x + cr * dir.z;
     float y = clamp(dir.y, -1.0, 1.0);
-    float u = atan(-z, -x) * (0.5 * TND_INV_PI) + 0.5;
+    float u = atan(z, x) * (0.5 * TND_INV_PI) + 0.5;
     float v = acos(y) * TND_INV_PI;
     uint cx = min(uint(max(u * float(w), 0.0)), w - 1u);
     uint cy = min(uint(max(v * float(h), 0.0)), h - 1u);
@@ -442,7 +442,7 @@ float env_sample(float u1, float u2, out vec3 dir, out vec3 rgb)
     float u = (float(x) + fu) / float(w), v = (float(y) + fv) / float(h);
     float th = PI * v, ph = 2.0 * PI * (u - 0.5);
     float st = sin(th), ct = cos(th);
-    float lx = -cos(ph) * st, lz = -sin(ph) * st;
+    float lx = cos(ph) * st, lz = sin(ph) * st;
     float cr = fr.env.x, sr = fr.env.y;
     dir = vec3(cr * lx + sr * lz, ct, -sr * lx + cr * lz);
     uint t = 4u * (y * w + x);

@@ -30,7 +30,7 @@ static double dot3(const float *a, const double *b)
 }
 
 /* One bright texel: every sample lands in its solid angle, centred where the convention says
- * (the image's centre faces -X; a rotation of 90 degrees about +Y turns -X to +Z), and each
+ * (the image's centre faces +X; a rotation of 90 degrees about +Y turns +X to -Z), and each
  * sampled direction looks up the texel it came from with the density it was drawn with. */
 static void test_convention(void)
 {
@@ -38,12 +38,12 @@ static void test_convention(void)
     static float px[W * H * 3];
     tnd_env e = {0};
     /* texel (8, 4): u in [1/2, 9/16), v in [1/2, 5/8): phi in [0, 22.5] degrees, theta in [90,
-     * 112.5] degrees: about (-0.96, -0.2, -0.19) */
+     * 112.5] degrees: about (0.96, -0.2, 0.19) */
     for (int k = 0; k < 3; k++)
         px[3 * (4 * W + 8) + k] = 5.0f;
     px[3 * (1 * W + 3) + 1] = 1e-3f; /* a faint second texel, for the lookup test */
     const double ph = 11.25 * TND_PI / 180, th = 101.25 * TND_PI / 180;
-    const double centre[3] = {-cos(ph) * sin(th), cos(th), -sin(ph) * sin(th)};
+    const double centre[3] = {cos(ph) * sin(th), cos(th), sin(ph) * sin(th)};
     for (int r = 0; r < 2; r++) {
         double rot = r ? 90.0 : 0.0;
         REQUIRE_OK(tnd_env_from_pixels("one texel", px, W, H, 1.0f, (float)rot, &e));
@@ -100,7 +100,7 @@ static void test_density_normalised(void)
         double dw = 2 * TND_PI / NX * (cos(th0) - cos(th1));
         for (int x = 0; x < NX; x++) {
             double ph = 2 * TND_PI * ((x + 0.5) / NX - 0.5);
-            float d[3] = {(float)(-cos(ph) * sin(th)), (float)cos(th), (float)(-sin(ph) * sin(th))};
+            float d[3] = {(float)(cos(ph) * sin(th)), (float)cos(th), (float)(sin(ph) * sin(th))};
             /* (the world direction of this local one under the 30-degree rotation) */
             double c = cos(30 * TND_PI / 180), s = sin(30 * TND_PI / 180);
             float w[3] = {(float)(c * d[0] + s * d[2]), d[1], (float)(-s * d[0] + c * d[2])};
@@ -142,7 +142,7 @@ static void test_importance_vs_uniform(void)
         double bu = (best % e.width + 0.5) / e.width, bv = (best / e.width + 0.5) / e.height;
         double bph = 2 * TND_PI * (bu - 0.5), bth = TND_PI * bv;
         double normals[2][3] = {{0, 1, 0},
-                                {-cos(bph) * sin(bth), cos(bth), -sin(bph) * sin(bth)}};
+                                {cos(bph) * sin(bth), cos(bth), sin(bph) * sin(bth)}};
         for (int k = 0; k < 2; k++) {
             const double *n = normals[k];
             /* exact: every texel's radiance times its projected solid angle, by a 4x4
@@ -153,7 +153,7 @@ static void test_importance_vs_uniform(void)
                 double th = 0.5 * (th0 + th1), dw = 2 * TND_PI / (4.0 * e.width) * (cos(th0) - cos(th1));
                 for (uint32_t x = 0; x < 4 * e.width; x++) {
                     double ph = 2 * TND_PI * ((x + 0.5) / (4.0 * e.width) - 0.5);
-                    double d[3] = {-cos(ph) * sin(th), cos(th), -sin(ph) * sin(th)};
+                    double d[3] = {cos(ph) * sin(th), cos(th), sin(ph) * sin(th)};
                     double c = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
                     if (c <= 0)
                         continue;
