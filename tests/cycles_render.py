@@ -6,11 +6,13 @@ What makes the two model the same thing (docs/platform.md): every material becom
 BSDF of the glTF base colour with roughness 0 (Lambert; the scenes use KHR_materials_specular
 specularFactor 0, so Tandem's material is Lambert too); an emissive material adds an Emission of
 emissiveFactor x KHR_materials_emissive_strength (radiance, as Tandem's nits) on its front face
-only, unless the material is doubleSided (Cycles' mesh emission is two-sided by itself); black
-world; a box pixel filter one pixel wide (Tandem's reference jitters uniformly over the pixel);
+only, unless the material is doubleSided (Cycles' mesh emission is two-sided by itself); a black
+world, or the scene's tandem_env as an Environment Texture (equirectangular, Closest: the nearest
+texel, as Tandem reads it; strength = its intensity); a box pixel filter one pixel wide (Tandem's reference jitters uniformly over the pixel);
 128 bounces, no clamping, no light threshold, no adaptive sampling, no denoising; linear float
 EXR."""
 import json
+import os
 import sys
 
 import bpy
@@ -73,9 +75,27 @@ yfov = doc["cameras"][0]["perspective"]["yfov"]
 cams[0].data.sensor_fit = "VERTICAL"
 cams[0].data.angle_y = yfov
 
-world = bpy.data.worlds.new("black")
+world = bpy.data.worlds.new("world")
 world.use_nodes = True
-world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+bg = world.node_tree.nodes["Background"]
+env = doc["scenes"][0].get("extras", {}).get("tandem_env")
+if env is None:
+    bg.inputs["Strength"].default_value = 0.0  # black
+else:
+    # the environment map as Tandem reads it: the nearest texel (Closest), equirectangular,
+    # strength = intensity; unrotated (the scenes here use rotation 0)
+    if env.get("rotation", 0) != 0:
+        sys.exit("cycles_render: %s: tandem_env rotation is not modelled here" % scene_path)
+    uri = env["uri"]
+    if not uri.startswith("/"):
+        uri = os.path.join(os.path.dirname(os.path.abspath(scene_path)), uri)
+    tex = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    tex.image = bpy.data.images.load(uri)
+    tex.image.colorspace_settings.name = "Linear"
+    tex.interpolation = "Closest"
+    tex.projection = "EQUIRECTANGULAR"
+    world.node_tree.links.new(tex.outputs["Color"], bg.inputs["Color"])
+    bg.inputs["Strength"].default_value = env.get("intensity", 1.0)
 scene.world = world
 
 scene.render.engine = "CYCLES"

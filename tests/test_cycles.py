@@ -1,10 +1,13 @@
 #!/usr/bin/env python3
 """tests/test_cycles.py [--quick] TANDEM: Tandem's unbiased reference against Blender Cycles, an independent
 renderer set up to model the same thing (tests/cycles_render.py says how), on two small closed
-rooms of pure-Lambert materials (KHR_materials_specular specularFactor 0) made here:
+rooms and an open yard of pure-Lambert materials (KHR_materials_specular specularFactor 0) made here:
   room_one_sided   lit by a one-sided emissive quad under the ceiling, facing down;
   room_two_sided   lit by a double-sided emissive panel standing in the room, facing the red
-                   and the green wall (Tandem's NEE once lit only its front: -40% on the walls).
+                   and the green wall (Tandem's NEE once lit only its front: -40% on the walls);
+  yard_sunset      three boxes on a floor under sunset.exr (Debian's blender-data), no other
+                   light, the sky in view: the environment map's orientation (Cycles' is the
+                   one Tandem states), its importance sampling and MIS.
 Both are rendered by `tandem reference` (Embree front-end) and by Cycles at SIZE x SIZE. The image
 is cut into 4 x 4 regions; in each, the mean of the per-pixel differences Cycles - Tandem must be
 within 4 standard errors of 0, the standard error measured from the spread of those differences
@@ -37,6 +40,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "scripts"))
 from make_scenes import Gltf, box, quad, quat_axis  # noqa: E402
 
 SIZE = 48
+SUNSET = "/usr/share/blender/datafiles/studiolights/world/sunset.exr"
 TANDEM_SPP = 4096
 CYCLES_SPP = 1024
 SIGMAS = 4.0
@@ -81,6 +85,28 @@ def room(name, two_sided):
     return g
 
 
+def yard(name, env):
+    """Three boxes (grey, red, green) on a 20 m white floor under the environment map `env` (no
+    other light); the camera looks at them from above the floor, towards -z, with the map's sky
+    behind them in view."""
+    g = Gltf(name)
+    lam = dict(specular=0.0, metallic=0.0, roughness=1.0)
+    white = g.material("white", (0.6, 0.6, 0.6), **lam)
+    red = g.material("red", (0.63, 0.065, 0.05), **lam)
+    green = g.material("green", (0.14, 0.45, 0.09), **lam)
+    grey = g.material("grey", (0.5, 0.5, 0.5), **lam)
+    g.node("floor", g.mesh("floor", quad(20.0, 20.0), white))
+    g.node("grey", g.mesh("grey", box(0.6, 0.9, 0.6), grey), t=(-0.9, 0.45, -0.6),
+           r=quat_axis((0, 1, 0), 25))
+    g.node("red", g.mesh("red", box(0.5, 0.5, 0.5), red), t=(0.3, 0.25, -0.2),
+           r=quat_axis((0, 1, 0), -15))
+    g.node("green", g.mesh("green", box(0.4, 1.2, 0.4), green), t=(1.0, 0.6, -1.1))
+    cam = g.camera("camera", 60.0, aspect=1.0, znear=0.01)
+    g.node("camera", t=(0.0, 1.3, 2.2), r=quat_axis((1, 0, 0), -18), camera=cam)
+    g.doc["scenes"][0]["extras"] = {"tandem_env": {"uri": env, "intensity": 1.0}}
+    return g
+
+
 def read_rgb(path):
     img = oiio.ImageBuf(path)
     if img.has_error:
@@ -105,8 +131,15 @@ def main():
     passed = failed = 0
     tmp = tempfile.mkdtemp(prefix="tandem_cycles_")
     try:
-        for name, two in (("room_one_sided", False), ("room_two_sided", True)):
-            room(name, two).write(tmp)
+        for name, two in (("room_one_sided", False), ("room_two_sided", True),
+                          ("yard_sunset", None)):
+            if two is None:
+                if not os.path.exists(SUNSET):
+                    print("skip yard_sunset: %s is missing (blender-data)" % SUNSET)
+                    continue
+                yard(name, SUNSET).write(tmp)
+            else:
+                room(name, two).write(tmp)
             scene = os.path.join(tmp, name + ".gltf")
             tdir = os.path.join(tmp, name + "_tandem")
             subprocess.run([tandem, "reference", "--quiet", "--scene", scene, "--out", tdir, "--frames", "1",
