@@ -634,7 +634,12 @@ typedef struct tnd_material {
     float normal_scale;
     int32_t tex_base_color, tex_metal_rough, tex_normal, tex_emission; /* -1: none */
     bool double_sided;
+    /* glTF alphaMode MASK, and BLEND taken as a cut-out (docs/scenes.md): the surface is there
+     * for every ray where base colour alpha x the texture's alpha (level 0) >= alpha_cutoff */
+    bool alpha_test;
+    float alpha_cutoff;
 } tnd_material;
+
 
 #define TND_TEXTURE_MAX_LEVELS 16
 typedef struct tnd_texture {
@@ -752,6 +757,7 @@ float tnd_env_sample(const tnd_env *e, float u1, float u2, float dir[3], float r
     X(LIGHT_AREA,        "area lights (emissive triangles)") \
     X(SKY,               "uniform sky radiance") \
     X(ENV_MAP,           "environment map (importance-sampled)") \
+    X(ALPHA,             "alpha-tested geometry (glTF MASK, BLEND as a cut-out)") \
     X(TEXTURES,          "textures") \
     X(NORMAL_MAPS,       "normal maps") \
     X(MIRROR,            "mirrors (reflect pass)") \
@@ -824,6 +830,10 @@ tnd_result tnd_scene_load_with(const char *path, const tnd_scene_options *o, tnd
 void tnd_scene_destroy(tnd_scene *scene);
 /* Triangles over all instances (what the tracer sees). */
 uint64_t tnd_scene_triangles(const tnd_scene *s);
+/* Whether a ray meets material m's surface at texture coordinate (u, v): always, or for an
+ * alpha-tested material, where its alpha (factor x base colour texture at level 0, bilinear)
+ * reaches the cutoff. The GLSL mirror is pt_scene.glsl's alpha_pass. */
+bool tnd_material_alpha_pass(const tnd_scene *s, const tnd_material *m, float u, float v);
 
 /* The scene at one moment. */
 typedef struct tnd_scene_state {

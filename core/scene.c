@@ -292,6 +292,8 @@ tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o)
             f |= TND_FEATURE(TEXTURES);
         if (m->tex_normal >= 0)
             f |= TND_FEATURE(NORMAL_MAPS);
+        if (m->alpha_test)
+            f |= TND_FEATURE(ALPHA);
         if (m->kind == TND_MAT_MIRROR)
             f |= TND_FEATURE(MIRROR);
         if (m->kind == TND_MAT_GLASS)
@@ -391,6 +393,19 @@ void tnd_texture_sample(const tnd_texture *t, float u, float v, float lod, float
     bilinear(t, l1, u, v, b);
     for (int c = 0; c < 4; c++)
         out[c] = a[c] + f * (b[c] - a[c]);
+}
+
+bool tnd_material_alpha_pass(const tnd_scene *s, const tnd_material *m, float u, float v)
+{
+    if (!m->alpha_test)
+        return true;
+    float a = m->base_color[3];
+    if (m->tex_base_color >= 0) {
+        float t[4];
+        tnd_texture_sample(&s->textures[m->tex_base_color], u, v, 0.0f, t);
+        a *= t[3];
+    }
+    return a >= m->alpha_cutoff;
 }
 
 tnd_material_kind scene_classify(const tnd_material *m)

@@ -440,6 +440,23 @@ static tnd_result load_materials(gltf_ctx *c)
                 m->attenuation_color[k] = (float)cJSON_GetArrayItem(ac, k)->valuedouble;
         }
         m->normal_scale = (float)jnum(jget(jm, "normalTexture"), "scale", 1.0);
+        /* alphaMode: MASK cuts at alphaCutoff (default 0.5); BLEND is taken as a cut-out at
+         * 0.5 (docs/scenes.md says why); OPAQUE, the default, ignores alpha */
+        const cJSON *am_mode = jget(jm, "alphaMode");
+        const char *mode = cJSON_IsString(am_mode) ? am_mode->valuestring : "OPAQUE";
+        if (strcmp(mode, "MASK") == 0 || strcmp(mode, "BLEND") == 0) {
+            m->alpha_test = true;
+            m->alpha_cutoff = mode[0] == 'M' ? (float)jnum(jm, "alphaCutoff", 0.5) : 0.5f;
+        } else if (strcmp(mode, "OPAQUE") != 0) {
+            return tnd_fail(TND_ERR_BAD_INPUT,
+                            "scene: %s: material %u '%s': alphaMode '%s' (expected OPAQUE, MASK "
+                            "or BLEND)",
+                            c->path, i, m->name, mode);
+        }
+        if (m->alpha_test && !(m->alpha_cutoff >= 0.0f && m->alpha_cutoff <= 1.0f))
+            return tnd_fail(TND_ERR_BAD_INPUT,
+                            "scene: %s: material %u '%s': alphaCutoff %g outside [0, 1]", c->path,
+                            i, m->name, (double)m->alpha_cutoff);
         bool finite = true;
         const float *vals[] = {m->base_color, m->emission, &m->metallic, &m->roughness, &m->ior};
         const int counts[] = {4, 3, 1, 1, 1};

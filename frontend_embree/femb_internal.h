@@ -92,6 +92,7 @@ struct femb_context {
     RTCDevice device;
     RTCScene top;
     RTCScene *meshes; /* one per tnd_mesh (NULL for meshes without triangles) */
+    struct femb_alpha_geom *alpha; /* per mesh: what its alpha-test filter reads */
     uint32_t threads;
     femb_pool *pool; /* threads - 1 workers (femb_parallel_range) */
     char error[256];

@@ -27,6 +27,40 @@ static void on_embree_error(void *user, enum RTCError code, const char *str)
         snprintf(c->error, sizeof c->error, "embree error %d: %s", (int)code, str ? str : "");
 }
 
+/* The alpha test of a mesh whose material has one (tnd_material_alpha_pass), as Embree's
+ * intersection and occlusion filter: a hit where the surface is cut out is rejected, and the ray
+ * goes on. Meshes without it get no filter (an opaque scene runs none). */
+typedef struct femb_alpha_geom {
+    const tnd_scene *s;
+    uint32_t mesh;
+} femb_alpha_geom;
+
+static void alpha_filter(const struct RTCFilterFunctionNArguments *a)
+{
+    const femb_alpha_geom *g = a->geometryUserPtr;
+    const tnd_scene *s = g->s;
+    const tnd_mesh *me = &s->meshes[g->mesh];
+    const tnd_material *m = &s->materials[me->material];
+    for (unsigned i = 0; i < a->N; i++) {
+        if (a->valid[i] != -1)
+            continue;
+        /* RTCHitN is structure-of-arrays (Ng x, y, z, u, v, primID, ...: N each); its accessors
+         * are C++ only */
+        const float *hf = (const float *)a->hit;
+        uint32_t prim = ((const uint32_t *)a->hit)[5 * a->N + i];
+        float bu = hf[3 * a->N + i], bv = hf[4 * a->N + i];
+        const uint32_t *ix = s->indices + me->first_index + 3 * (size_t)prim;
+        const float *t0 = s->uvs + 2 * (size_t)(me->first_vertex + ix[0]);
+        const float *t1 = s->uvs + 2 * (size_t)(me->first_vertex + ix[1]);
+        const float *t2 = s->uvs + 2 * (size_t)(me->first_vertex + ix[2]);
+        float w0 = 1.0f - bu - bv;
+        float u = w0 * t0[0] + bu * t1[0] + bv * t2[0];
+        float v = w0 * t0[1] + bu * t1[1] + bv * t2[1];
+        if (!tnd_material_alpha_pass(s, m, u, v))
+            a->valid[i] = 0;
+    }
+}
+
 void femb_destroy(femb_context *c)
 {
     if (!c)
@@ -38,6 +72,7 @@ void femb_destroy(femb_context *c)
         if (c->meshes[m])
             rtcReleaseScene(c->meshes[m]);
     free(c->meshes);
+    free(c->alpha);
     free(c->inst);
     free(c->mats);
     free(c->inst_index0);
@@ -95,7 +130,8 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
     c->mats = calloc(s->material_count + 1, sizeof *c->mats);
     c->inst_index0 = calloc(s->instance_count + 1, sizeof *c->inst_index0);
     c->inst_vertex0 = calloc(s->instance_count + 1, sizeof *c->inst_vertex0);
-    if (!c->meshes || !c->inst || !c->mats || !c->inst_index0 || !c->inst_vertex0) {
+    c->alpha = calloc(s->mesh_count + 1, sizeof *c->alpha);
+    if (!c->meshes || !c->inst || !c->mats || !c->inst_index0 || !c->inst_vertex0 || !c->alpha) {
         femb_destroy(c);
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
     }
@@ -117,6 +153,12 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
         memcpy(vb, s->positions + 3 * (size_t)me->first_vertex,
                (size_t)me->vertex_count * 3 * sizeof(float));
         memcpy(ib, s->indices + me->first_index, (size_t)me->triangle_count * 3 * sizeof(uint32_t));
+        if (s->materials[me->material].alpha_test) {
+            c->alpha[m] = (femb_alpha_geom){s, m};
+            rtcSetGeometryUserData(g, &c->alpha[m]);
+            rtcSetGeometryIntersectFilterFunction(g, alpha_filter);
+            rtcSetGeometryOccludedFilterFunction(g, alpha_filter);
+        }
         rtcCommitGeometry(g);
         c->meshes[m] = rtcNewScene(c->device);
         rtcSetSceneBuildQuality(c->meshes[m], RTC_BUILD_QUALITY_HIGH);

@@ -142,7 +142,10 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
         geoms[m] = (VkAccelerationStructureGeometryKHR){
             .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR,
             .geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR,
-            .flags = VK_GEOMETRY_OPAQUE_BIT_KHR,
+            /* alpha-tested geometry: any-hit once per triangle (the test has no side effects,
+             * but a second call would be wasted) */
+            .flags = meshes[m].alpha_tested ? VK_GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION_BIT_KHR
+                                            : VK_GEOMETRY_OPAQUE_BIT_KHR,
             .geometry.triangles = {
                 .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_TRIANGLES_DATA_KHR,
                 .vertexFormat = VK_FORMAT_R32G32B32_SFLOAT,

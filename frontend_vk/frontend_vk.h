@@ -15,6 +15,7 @@ typedef struct fvk_mesh_desc {
     const uint32_t *indices; /* 3 per triangle */
     uint32_t triangle_count;
     const char *name;
+    bool alpha_tested; /* not opaque: the any-hit shader (or candidate loop) tests its hits */
 } fvk_mesh_desc;
 
 typedef struct fvk_blas {

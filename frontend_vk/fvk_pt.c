@@ -21,7 +21,8 @@ static tnd_result create_layouts(fvk_context *c)
 {
     tnd_result res = TND_OK;
     tnd_vk *vk = c->vk;
-    const VkShaderStageFlags rt = VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT;
+    const VkShaderStageFlags rt = VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT |
+                                  VK_SHADER_STAGE_ANY_HIT_BIT_KHR;
     VkDescriptorSetLayoutBinding b0[SCENE_BINDINGS];
     for (uint32_t i = 0; i < SCENE_BINDINGS; i++)
         b0[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, rt, NULL};
@@ -35,7 +36,7 @@ static tnd_result create_layouts(fvk_context *c)
                                            .pBindings = b0};
     TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci0, NULL, &c->set_layout[0]));
     TND_TRY(tnd_contract_set_layout(vk, rt, &c->set_layout[1]));
-    VkPushConstantRange pcr = {rt, 0, 4};
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT, 0, 4};
     VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
                                       .setLayoutCount = 2,
                                       .pSetLayouts = c->set_layout,
@@ -108,26 +109,30 @@ fail:
 static tnd_result create_pipeline(fvk_context *c)
 {
     bool packed = c->precision == TND_PRECISION_PACKED;
-    const tnd_shader ids[6] = {packed ? TND_SHADER_pt_primary_packed : TND_SHADER_pt_primary_f32,
+    const tnd_shader ids[7] = {packed ? TND_SHADER_pt_primary_packed : TND_SHADER_pt_primary_f32,
                                packed ? TND_SHADER_pt_shade_packed : TND_SHADER_pt_shade_f32,
                                TND_SHADER_pt_reference,
                                TND_SHADER_pt_rmiss, TND_SHADER_pt_shadow_rmiss,
-                               TND_SHADER_pt_rchit};
-    const VkShaderStageFlagBits kinds[6] = {
+                               TND_SHADER_pt_rchit, TND_SHADER_pt_alpha_rahit};
+    const VkShaderStageFlagBits kinds[7] = {
         VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_RAYGEN_BIT_KHR,
         VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
-        VK_SHADER_STAGE_MISS_BIT_KHR,   VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR};
-    tnd_rt_stage stages[6];
-    for (int i = 0; i < 6; i++) {
+        VK_SHADER_STAGE_MISS_BIT_KHR,   VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR,
+        VK_SHADER_STAGE_ANY_HIT_BIT_KHR};
+    /* the any-hit shader only where the scene has alpha-tested geometry */
+    bool alpha = (c->uses & TND_USES_ALPHA) != 0;
+    int nstages = alpha ? 7 : 6;
+    tnd_rt_stage stages[7];
+    for (int i = 0; i < nstages; i++) {
         stages[i].code = tnd_spirv_code(ids[i], &stages[i].bytes, NULL);
         stages[i].stage = kinds[i];
     }
     const uint32_t raygen[3] = {0, 1, 2}, miss[2] = {3, 4};
     const VkSpecializationMapEntry entry = {0, 0, sizeof(uint32_t)};
     const VkSpecializationInfo spec = {1, &entry, sizeof(uint32_t), &c->uses};
-    const tnd_rt_hit_group hit = {.closest_hit = 5, .any_hit = -1};
+    const tnd_rt_hit_group hit = {.closest_hit = 5, .any_hit = alpha ? 6 : -1};
     return tnd_rt_pipeline_create(c->vk,
-                                  &(tnd_rt_desc){.stages = stages, .stage_count = 6,
+                                  &(tnd_rt_desc){.stages = stages, .stage_count = (uint32_t)nstages,
                                                  .raygen = raygen, .raygen_count = 3,
                                                  .miss = miss, .miss_count = 2, .hit = &hit,
                                                  .hit_count = 1, .max_recursion = 1,
@@ -220,6 +225,7 @@ static void choose_variant(fvk_context *c, bool full)
                {TND_FEATURE(NORMAL_MAPS), TND_USES_NORMAL_MAPS, "normal maps"},
                {TND_FEATURE(SKY), TND_USES_SKY, "sky"},
                {TND_FEATURE(ENV_MAP), TND_USES_ENV, "environment map"},
+               {TND_FEATURE(ALPHA), TND_USES_ALPHA, "alpha-tested geometry"},
                {TND_FEATURE(MIRROR) | TND_FEATURE(GLASS) | TND_FEATURE(THIN_GLASS),
                 TND_USES_SPECULAR, "mirrors and glass"}};
     c->uses = full ? TND_USES_ALL : 0u;

@@ -166,7 +166,8 @@ tnd_result fvk_scene_upload(fvk_context *c)
                                 me->triangle_count},
                                {me->material, 0, 0, 0}};
         md[m] = (fvk_mesh_desc){s->positions + 3 * (size_t)me->first_vertex, me->vertex_count,
-                                s->indices + me->first_index, me->triangle_count, me->name};
+                                s->indices + me->first_index, me->triangle_count, me->name,
+                                s->materials[me->material].alpha_test};
     }
     for (uint32_t m = 0; m < s->material_count; m++) {
         const tnd_material *mt = &s->materials[m];
@@ -178,7 +179,8 @@ tnd_result fvk_scene_upload(fvk_context *c)
             {mt->roughness, mt->specular, mt->normal_scale, mt->double_sided ? 1.0f : 0.0f},
             {mt->tex_base_color, mt->tex_metal_rough, mt->tex_normal, mt->tex_emission},
             {sigma[0], sigma[1], sigma[2], mt->ior > 0 ? mt->ior : 1.5f},
-            {(uint32_t)mt->kind, 0, 0, 0}};
+            {(uint32_t)mt->kind, mt->alpha_test ? 1u : 0u, 0, 0}};
+        memcpy(&gmat[m].info.z, &mt->alpha_cutoff, sizeof(float));
     }
     TND_TRY(upload_array(vk, gm, s->mesh_count * sizeof *gm, "scene.meshes", &c->meshes));
     TND_TRY(upload_array(vk, gmat, s->material_count * sizeof *gmat, "scene.materials",

@@ -49,10 +49,14 @@ class Gltf:
 
     def material(self, name, base=(0.8, 0.8, 0.8), metallic=0.0, roughness=1.0, emission=None,
                  strength=1.0, transmission=None, ior=None, base_tex=None, mr_tex=None,
-                 normal_tex=None, double_sided=False, volume=None, specular=None):
+                 normal_tex=None, double_sided=False, volume=None, specular=None, alpha=None):
         m = {"name": name, "pbrMetallicRoughness": {"baseColorFactor": list(base) + [1.0],
                                                     "metallicFactor": metallic,
                                                     "roughnessFactor": roughness}}
+        if alpha:  # ("MASK", cutoff) or ("BLEND", None)
+            m["alphaMode"] = alpha[0]
+            if alpha[1] is not None:
+                m["alphaCutoff"] = alpha[1]
         if double_sided:
             m["doubleSided"] = True
         if emission:
@@ -398,6 +402,48 @@ def sun(out):
     g.write(out)
 
 
+def cutout(out):
+    """Alpha: a wire fence (alphaMode MASK, cutoff 0.5: a grid of bars, 3/4 holes) and two leaf
+    cards (BLEND, cut at 0.5: an ellipse with soft edges) in front of boxes on a ground, lit by a
+    low sun whose light falls through the fence's holes, and a sky."""
+    g = Gltf("cutout")
+
+    def wire(x, y):
+        bar = (x % 16) < 4 or (y % 16) < 4
+        return (150, 150, 140, 255 if bar else 0)
+
+    def leaf(x, y):
+        r = math.hypot((x - 31.5) / 30.0, (y - 31.5) / 18.0)
+        a = max(0.0, min(1.0, (1.1 - r) / 0.2))
+        return (60, 120 + (x * 2) % 40, 40, int(round(255 * a)))
+    fence_tex = png("cutout_fence.png", 32, 32, wire)
+    leaf_tex = png("cutout_leaf.png", 64, 64, leaf)
+    ground = g.material("ground", (0.5, 0.48, 0.44), roughness=0.9)
+    stone = g.material("stone", (0.7, 0.68, 0.62), roughness=0.8)
+    red = g.material("red", (0.6, 0.12, 0.08), roughness=0.7)
+    fence = g.material("fence", (1, 1, 1), metallic=0.0, roughness=0.5, base_tex=fence_tex,
+                       double_sided=True, alpha=("MASK", 0.5))
+    foliage = g.material("leaf", (1, 1, 1), roughness=0.7, base_tex=leaf_tex,
+                         double_sided=True, alpha=("BLEND", None))
+    g.node("ground", g.mesh("ground", quad(40, 40), ground))
+    g.node("block", g.mesh("block", box(1.0, 1.0, 1.0), stone), t=(-0.8, 0.5, -1.6),
+           r=quat_axis((0, 1, 0), 30))
+    g.node("pillar", g.mesh("pillar", box(0.5, 2.0, 0.5), red), t=(1.2, 1.0, -1.4))
+    # the fence: 4 m x 1.5 m, standing in the XY plane at z = 0 (the quad's UVs repeat the
+    # 32-texel tile once per metre)
+    g.node("fence", g.mesh("fence", quad(4.0, 1.5), fence), t=(0, 0.75, 0),
+           r=quat_axis((1, 0, 0), 90))
+    for i, (x, y, z, yaw) in enumerate([(-1.2, 1.9, 0.6, 20), (0.9, 2.1, 0.9, -35)]):
+        g.node("leaf_%d" % i, g.mesh("leaf_%d" % i, quad(1.0, 1.0), foliage), t=(x, y, z),
+               r=quat_mul(quat_axis((0, 1, 0), yaw), quat_axis((1, 0, 0), 80)))
+    sl = g.light("sun", "directional", (1.0, 0.95, 0.85), 6.0)
+    g.light_node("sun", sl, r=quat_mul(quat_axis((0, 1, 0), 20), quat_axis((1, 0, 0), -35)))
+    g.doc["scenes"][0]["extras"] = {"tandem_sky": [0.35, 0.5, 0.8]}
+    cam = g.camera("camera", 50.0)
+    g.node("camera", t=(0.3, 1.6, 4.5), r=look_rot(4, -12), camera=cam)
+    g.write(out)
+
+
 def extremes(out):
     """Numerical extremes: a tiny very bright light beside a large dim one, geometry 1e5 units
     from the origin, roughness 0 and 1, metallic 0 and 1, grazing views."""
@@ -434,7 +480,7 @@ def main():
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "..", "data", "scenes")
     os.makedirs(out, exist_ok=True)
-    for f in (cornell, materials, dynamic, sun, extremes):
+    for f in (cornell, materials, dynamic, sun, extremes, cutout):
         f(out)
 
 

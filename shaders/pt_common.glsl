@@ -18,31 +18,12 @@
 #include "specular.h"
 #include "offset.h"
 
-layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
-layout(set = 0, binding = 1, std140) uniform Frame { tnd_gpu_frame fr; };
-layout(set = 0, binding = 2, std430) readonly buffer Positions { float positions[]; };
-layout(set = 0, binding = 3, std430) readonly buffer Normals { float normals[]; };
-layout(set = 0, binding = 4, std430) readonly buffer Uvs { float uvs[]; };
-layout(set = 0, binding = 5, std430) readonly buffer Tangents { float tangents[]; };
-layout(set = 0, binding = 6, std430) readonly buffer Indices { uint indices[]; };
-layout(set = 0, binding = 7, std430) readonly buffer Meshes { tnd_gpu_mesh meshes[]; };
-layout(set = 0, binding = 8, std430) readonly buffer Materials { tnd_gpu_material materials[]; };
-layout(set = 0, binding = 9, std430) readonly buffer Instances { tnd_gpu_instance instances[]; };
-layout(set = 0, binding = 10, std430) readonly buffer Lights { tnd_light_gpu lights[]; };
-layout(set = 0, binding = 11, std430) readonly buffer Gradients { tnd_gpu_gradient gradients[]; };
-layout(set = 0, binding = 12) uniform sampler2D textures[];
-layout(set = 0, binding = 14, std430) readonly buffer Env { float env_data[]; };
-#include "env.h"
+#include "pt_scene.glsl"
 
 #define TND_CONTRACT_SET 1
 #include "contract.h"
 TND_CONTRACT(TND_CT_DECLARE)
 
-const float PI = 3.14159265358979323846;
-
-/* What this scene needs (TND_USES_*, scene_gpu.h); branches for anything else fold away. */
-layout(constant_id = 0) const uint TND_USES = TND_USES_ALL;
-#define USES(bit) ((TND_USES & (bit)) != 0u)
 
 /* ---- rays ---------------------------------------------------------------------------------- */
 struct hit_info {
@@ -56,10 +37,14 @@ struct hit_info {
 layout(location = 0) rayPayloadEXT hit_info payload;
 layout(location = 1) rayPayloadEXT uint shadow_payload;
 
+/* Every ray is opaque (no any-hit shader runs) unless the scene has alpha-tested geometry; then
+ * the geometry without it is still marked opaque in its BLAS, and pt_alpha.rahit tests the rest. */
+const uint RAY_OPAQUE = USES(TND_USES_ALPHA) ? gl_RayFlagsNoneEXT : gl_RayFlagsOpaqueEXT;
+
 bool trace_closest(vec3 org, vec3 dir, float tmax, out hit_info h)
 {
     payload.t = -1.0;
-    traceRayEXT(tlas, gl_RayFlagsOpaqueEXT, 0xff, 0, 0, 0, org, 0.0, dir, tmax, 0);
+    traceRayEXT(tlas, RAY_OPAQUE, 0xff, 0, 0, 0, org, 0.0, dir, tmax, 0);
     h = payload;
     return payload.t >= 0.0;
 }
@@ -68,18 +53,33 @@ bool trace_occluded(vec3 org, vec3 dir, float tmax)
 {
     shadow_payload = 1u;
     traceRayEXT(tlas,
-                gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT |
-                    gl_RayFlagsSkipClosestHitShaderEXT,
+                RAY_OPAQUE | gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT,
                 0xff, 0, 0, 1, org, 0.0, dir, tmax, 1);
     return shadow_payload != 0u;
 }
 #else
+const uint RAY_OPAQUE = USES(TND_USES_ALPHA) ? gl_RayFlagsNoneEXT : gl_RayFlagsOpaqueEXT;
+
+/* The candidate loop of a ray query: a triangle of alpha-tested geometry (not opaque in its
+ * BLAS) is confirmed where alpha_pass says the surface is there. */
+void alpha_candidates(rayQueryEXT q)
+{
+    while (rayQueryProceedEXT(q)) {
+        if (USES(TND_USES_ALPHA) && rayQueryGetIntersectionTypeEXT(q, false) ==
+                                        gl_RayQueryCandidateIntersectionTriangleEXT) {
+            uint inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(q, false));
+            uint prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(q, false));
+            if (alpha_pass(inst, prim, rayQueryGetIntersectionBarycentricsEXT(q, false)))
+                rayQueryConfirmIntersectionEXT(q);
+        }
+    }
+}
+
 bool trace_closest(vec3 org, vec3 dir, float tmax, out hit_info h)
 {
     rayQueryEXT q;
-    rayQueryInitializeEXT(q, tlas, gl_RayFlagsOpaqueEXT, 0xff, org, 0.0, dir, tmax);
-    while (rayQueryProceedEXT(q)) {
-    }
+    rayQueryInitializeEXT(q, tlas, RAY_OPAQUE, 0xff, org, 0.0, dir, tmax);
+    alpha_candidates(q);
     if (rayQueryGetIntersectionTypeEXT(q, true) == gl_RayQueryCommittedIntersectionNoneEXT) {
         h.t = -1.0;
         return false;
@@ -94,10 +94,9 @@ bool trace_closest(vec3 org, vec3 dir, float tmax, out hit_info h)
 bool trace_occluded(vec3 org, vec3 dir, float tmax)
 {
     rayQueryEXT q;
-    rayQueryInitializeEXT(q, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xff,
-                          org, 0.0, dir, tmax);
-    while (rayQueryProceedEXT(q)) {
-    }
+    rayQueryInitializeEXT(q, tlas, RAY_OPAQUE | gl_RayFlagsTerminateOnFirstHitEXT, 0xff, org, 0.0,
+                          dir, tmax);
+    alpha_candidates(q);
     return rayQueryGetIntersectionTypeEXT(q, true) != gl_RayQueryCommittedIntersectionNoneEXT;
 }
 #endif
@@ -123,14 +122,6 @@ struct surface {
     bool front;  /* arrived on the side the geometric normal points to */
 };
 
-vec3 vpos(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
-vec3 vnrm(uint i) { return vec3(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]); }
-vec2 vuv(uint i) { return vec2(uvs[2 * i], uvs[2 * i + 1]); }
-vec4 vtan(uint i)
-{
-    return vec4(tangents[4 * i], tangents[4 * i + 1], tangents[4 * i + 2], tangents[4 * i + 3]);
-}
-
 vec3 xf_point(tnd_gpu_instance I, vec3 p)
 {
     return vec3(dot(I.xform[0], vec4(p, 1.0)), dot(I.xform[1], vec4(p, 1.0)),
@@ -151,34 +142,6 @@ vec3 safe_normalize(vec3 v)
 {
     float l = sqrt(dot(v, v));
     return l > 0.0 ? v / l : v;
-}
-
-/* Trilinear filtering written out with texelFetch, the exact mirror of tnd_texture_sample (repeat
- * wrap, texel centres at +0.5, linear blend of two levels): the hardware's fixed-point filter
- * weights would make the two front-ends disagree on textured surfaces. */
-vec4 bilinear(int t, int level, ivec2 size0, vec2 uv)
-{
-    /* level sizes as the CPU builds them (halving down to 1), not textureSize(level): lavapipe
-     * answered that wrongly for a non-uniformly indexed sampler in this shader */
-    ivec2 size = max(size0 >> level, ivec2(1));
-    vec2 x = uv * vec2(size) - 0.5;
-    vec2 fl = floor(x);
-    vec2 a = x - fl;
-    /* uv is in [0, 1), so the taps lie in [-1, size]: wrap without % (GLSL leaves % of negative
-     * operands undefined) */
-    ivec2 p0 = ivec2(fl), p1 = p0 + 1;
-    p0 = ivec2(p0.x < 0 ? p0.x + size.x : p0.x, p0.y < 0 ? p0.y + size.y : p0.y);
-    p1 = ivec2(p1.x >= size.x ? p1.x - size.x : p1.x, p1.y >= size.y ? p1.y - size.y : p1.y);
-    vec4 t00 = texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p0.y), level);
-    vec4 t10 = texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p0.y), level);
-    vec4 t01 = texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p1.y), level);
-    vec4 t11 = texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p1.y), level);
-    /* the CPU's order of summation: (0,0), (1,0), (0,1), (1,1) */
-    vec4 r = ((1.0 - a.x) * (1.0 - a.y)) * t00;
-    r += (a.x * (1.0 - a.y)) * t10;
-    r += ((1.0 - a.x) * a.y) * t01;
-    r += (a.x * a.y) * t11;
-    return r;
 }
 
 vec4 sample_tex(int t, vec2 uv, float lod_base)

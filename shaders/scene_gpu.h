@@ -26,7 +26,8 @@ struct tnd_gpu_material {
     vec4 params;         /* roughness, specular factor, normal scale, double-sided (0/1) */
     ivec4 tex;           /* base colour, metal-rough, normal, emission texture index; -1 none */
     vec4 vol;            /* glass: Beer-Lambert sigma_a rgb (1/m), w: index of refraction */
-    uvec4 info;          /* x: kind (TND_KIND_*, specular.h) */
+    uvec4 info;          /* x: kind (TND_KIND_*, specular.h), y: 1 alpha-tested, z: alpha cutoff
+                            (float bits) */
 };
 
 struct tnd_gpu_instance {
@@ -78,7 +79,8 @@ _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 7 * 16, "frame layout");
 #define TND_USES_SKY 64u
 #define TND_USES_SPECULAR 128u  /* mirrors and glass */
 #define TND_USES_ENV 256u       /* an environment map */
-#define TND_USES_ALL 511u
+#define TND_USES_ALPHA 512u     /* alpha-tested geometry (any-hit, candidate loop) */
+#define TND_USES_ALL 1023u
 
 /* Gradient sample for the shading pass (matches femb_gradient_sample). In the back-end's
  * per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a sample has

@@ -52,6 +52,7 @@
     X(dn_lf_down_f32,      "dn_lf_down.comp",     "TND_PACKED=0") \
     X(dn_lf_down_packed,   "dn_lf_down.comp",     "TND_PACKED=1") \
     X(pt_rchit,            "pt.rchit",            "") \
+    X(pt_alpha_rahit,      "pt_alpha.rahit",      "") \
     X(pt_rmiss,            "pt.rmiss",            "") \
     X(pt_shadow_rmiss,     "pt_shadow.rmiss",     "")
 // clang-format on

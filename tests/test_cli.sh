@@ -166,7 +166,7 @@ s = json.load(open(f"{sys.argv[1]}/pipe_scene/run.json"))
 f = json.load(open(f"{sys.argv[1]}/pipe_full/run.json"))
 assert s["pipeline"] == "scene" and f["pipeline"] == "full"
 assert s["frontend_models"] == "area lights", s["frontend_models"]
-assert f["frontend_models"].count(",") == 8 and "textures" in f["frontend_models"], f["frontend_models"]
+assert f["frontend_models"].count(",") == 9 and "textures" in f["frontend_models"], f["frontend_models"]
 assert "area lights (emissive triangles)" in s["scene_features"]
 assert "reflect_refract" in s["post"]["not_run"] and "interleave" in s["post"]["not_run"]
 PY

@@ -264,8 +264,8 @@ static void test_trace_against_cpu(void)
     tnd_vk *vk = gpu_begin();
     REQUIRE(vk, "no context");
     fvk_mesh_desc meshes[2] = {
-        {quad_pos, 4, quad_idx, 2, "quad"},
-        {octa_pos, 6, octa_idx, 8, "octahedron"},
+        {quad_pos, 4, quad_idx, 2, "quad", false},
+        {octa_pos, 6, octa_idx, 8, "octahedron", false},
     };
     fvk_blas blas[2] = {0};
     fvk_tlas tlas = {0};
@@ -340,7 +340,7 @@ static void test_blas_bad_input(void)
     tnd_vk *vk = gpu_begin();
     REQUIRE(vk, "no context");
     const uint32_t bad_idx[] = {0, 1, 7};
-    fvk_mesh_desc m = {quad_pos, 4, bad_idx, 1, "broken"};
+    fvk_mesh_desc m = {quad_pos, 4, bad_idx, 1, "broken", false};
     fvk_blas b = {0};
     tnd_result r = fvk_blas_build(vk, &m, 1, &b);
     CHECK(r == TND_ERR_BAD_INPUT, "out-of-range index rejected: %s", tnd_result_name(r));

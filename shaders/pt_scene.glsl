@@ -1,0 +1,95 @@
+/* pt_scene.glsl: the scene's bindings (set 0) and what every stage of the path tracer reads
+ * from them: vertex fetches, texture filtering written out (the mirror of tnd_texture_sample),
+ * the specialization on what a scene requires, and the alpha test (tnd_material_alpha_pass).
+ * Included by pt_common.glsl (raygens, compute twins) and pt_alpha.rahit (the any-hit shader). */
+#ifndef TND_PT_SCENE_GLSL
+#define TND_PT_SCENE_GLSL
+
+#include "encoding.h"
+#include "lights.h"
+#include "scene_gpu.h"
+
+layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
+layout(set = 0, binding = 1, std140) uniform Frame { tnd_gpu_frame fr; };
+layout(set = 0, binding = 2, std430) readonly buffer Positions { float positions[]; };
+layout(set = 0, binding = 3, std430) readonly buffer Normals { float normals[]; };
+layout(set = 0, binding = 4, std430) readonly buffer Uvs { float uvs[]; };
+layout(set = 0, binding = 5, std430) readonly buffer Tangents { float tangents[]; };
+layout(set = 0, binding = 6, std430) readonly buffer Indices { uint indices[]; };
+layout(set = 0, binding = 7, std430) readonly buffer Meshes { tnd_gpu_mesh meshes[]; };
+layout(set = 0, binding = 8, std430) readonly buffer Materials { tnd_gpu_material materials[]; };
+layout(set = 0, binding = 9, std430) readonly buffer Instances { tnd_gpu_instance instances[]; };
+layout(set = 0, binding = 10, std430) readonly buffer Lights { tnd_light_gpu lights[]; };
+layout(set = 0, binding = 11, std430) readonly buffer Gradients { tnd_gpu_gradient gradients[]; };
+layout(set = 0, binding = 12) uniform sampler2D textures[];
+layout(set = 0, binding = 14, std430) readonly buffer Env { float env_data[]; };
+#include "env.h"
+
+
+const float PI = 3.14159265358979323846;
+
+/* What this scene needs (TND_USES_*, scene_gpu.h); branches for anything else fold away. */
+layout(constant_id = 0) const uint TND_USES = TND_USES_ALL;
+#define USES(bit) ((TND_USES & (bit)) != 0u)
+
+vec3 vpos(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
+vec3 vnrm(uint i) { return vec3(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]); }
+vec2 vuv(uint i) { return vec2(uvs[2 * i], uvs[2 * i + 1]); }
+vec4 vtan(uint i)
+{
+    return vec4(tangents[4 * i], tangents[4 * i + 1], tangents[4 * i + 2], tangents[4 * i + 3]);
+}
+
+/* Trilinear filtering written out with texelFetch, the exact mirror of tnd_texture_sample (repeat
+ * wrap, texel centres at +0.5, linear blend of two levels): the hardware's fixed-point filter
+ * weights would make the two front-ends disagree on textured surfaces. */
+vec4 bilinear(int t, int level, ivec2 size0, vec2 uv)
+{
+    /* level sizes as the CPU builds them (halving down to 1), not textureSize(level): lavapipe
+     * answered that wrongly for a non-uniformly indexed sampler in this shader */
+    ivec2 size = max(size0 >> level, ivec2(1));
+    vec2 x = uv * vec2(size) - 0.5;
+    vec2 fl = floor(x);
+    vec2 a = x - fl;
+    /* uv is in [0, 1), so the taps lie in [-1, size]: wrap without % (GLSL leaves % of negative
+     * operands undefined) */
+    ivec2 p0 = ivec2(fl), p1 = p0 + 1;
+    p0 = ivec2(p0.x < 0 ? p0.x + size.x : p0.x, p0.y < 0 ? p0.y + size.y : p0.y);
+    p1 = ivec2(p1.x >= size.x ? p1.x - size.x : p1.x, p1.y >= size.y ? p1.y - size.y : p1.y);
+    vec4 t00 = texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p0.y), level);
+    vec4 t10 = texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p0.y), level);
+    vec4 t01 = texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p1.y), level);
+    vec4 t11 = texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p1.y), level);
+    /* the CPU's order of summation: (0,0), (1,0), (0,1), (1,1) */
+    vec4 r = ((1.0 - a.x) * (1.0 - a.y)) * t00;
+    r += (a.x * (1.0 - a.y)) * t10;
+    r += ((1.0 - a.x) * a.y) * t01;
+    r += (a.x * a.y) * t11;
+    return r;
+}
+
+/* Whether a ray meets the surface of instance inst's triangle prim at barycentrics bary: always,
+ * or for an alpha-tested material (info.y = 1), where base colour alpha x its texture's alpha
+ * at level 0 reaches the cutoff (info.z, float bits): tnd_material_alpha_pass's arithmetic. */
+bool alpha_pass(uint inst, uint prim, vec2 bary)
+{
+    tnd_gpu_mesh M = meshes[instances[inst].info.x];
+    tnd_gpu_material mat = materials[M.info.x];
+    if (mat.info.y == 0u)
+        return true;
+    float a = mat.base_color.a;
+    if (USES(TND_USES_TEXTURES) && mat.tex.x >= 0) {
+        uint fi = M.range.z + 3u * prim;
+        vec2 t0 = vuv(M.range.x + indices[fi]), t1 = vuv(M.range.x + indices[fi + 1u]),
+             t2 = vuv(M.range.x + indices[fi + 2u]);
+        float w0 = 1.0 - bary.x - bary.y;
+        vec2 uv = w0 * t0 + bary.x * t1 + bary.y * t2;
+        if (tnd_nonfinite(uv.x) || tnd_nonfinite(uv.y))
+            uv = vec2(0.0);
+        uv -= floor(uv);
+        a *= bilinear(mat.tex.x, 0, textureSize(textures[nonuniformEXT(mat.tex.x)], 0), uv).a;
+    }
+    return a >= uintBitsToFloat(mat.info.z);
+}
+
+#endif
