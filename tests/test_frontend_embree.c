@@ -1057,7 +1057,54 @@ static void test_env_sphere(void)
         }
 }
 
-TND_TEST_MAIN(T(test_furnace_lambert), T(test_env_sphere), T(test_furnace_ggx), T(test_furnace_glass),
+/* The cutout scene's wire fence (alphaMode MASK, cutoff 0.5; 4 m x 1.5 m in the plane z = 0, its
+ * 32-texel tile repeated per metre, bars of 4 texels every 16 in both directions): rays straight
+ * through it meet it where the texture has its bars, 1 - (12/16)^2 = 43.75% of its area (the
+ * bilinear alpha crosses the cutoff at the texel edges), and shadow rays are stopped by the same
+ * part; a ray meets nothing else of the fence. (The Vulkan front-end's any-hit shader and
+ * candidate loop: test_shading_matches_embree on the same scene.) */
+static void test_alpha_cutout(void)
+{
+    tnd_scene *s = NULL;
+    femb_context *c = NULL;
+    tnd_scene_state st = {0};
+    REQUIRE_OK(tnd_scene_load(SCENES "cutout.gltf", &s));
+    REQUIRE_OK(femb_create(s, &(femb_desc){.threads = 1}, &c));
+    REQUIRE_OK(tnd_scene_evaluate(s, 0, 0, 1.0f, &st));
+    REQUIRE_OK(femb_set_frame(c, &st, &st, 0, 16, 16));
+    uint32_t fence = ~0u;
+    for (uint32_t i = 0; i < s->instance_count; i++)
+        if (strcmp(s->nodes[s->instances[i].node].name, "fence") == 0)
+            fence = i;
+    REQUIRE(fence != ~0u, "the fence instance");
+    enum { NX = 800, NY = 300 };
+    int hits = 0, occluded = 0, disagree = 0, n = 0;
+    for (int y = 0; y < NY; y++)
+        for (int x = 0; x < NX; x++) {
+            v3 o = {-2.0f + 4.0f * (x + 0.5f) / NX, 1.5f * (y + 0.5f) / NY, 0.5f};
+            v3 d = {0, 0, -1};
+            uint32_t inst, prim;
+            float u, v, t;
+            bool h = femb_intersect(c, o, d, 1.0f, &inst, &prim, &u, &v, &t) && inst == fence;
+            bool occ = femb_occluded(c, o, d, 1.0f); /* (only the fence lies within 1 m) */
+            hits += h;
+            occluded += occ;
+            disagree += h != occ;
+            n++;
+        }
+    double frac = (double)hits / n;
+    printf("     fence: %.2f%% of %d rays meet it (43.75%% expected), %d shadow rays stopped, %d "
+           "disagree\n",
+           100 * frac, n, occluded, disagree);
+    CHECK(fabs(frac - 0.4375) < 0.005, "the fence's coverage %.4f", frac);
+    CHECK(disagree == 0, "%d closest-hit and shadow rays disagree", disagree);
+cleanup:
+    tnd_scene_state_free(&st);
+    femb_destroy(c);
+    tnd_scene_destroy(s);
+}
+
+TND_TEST_MAIN(T(test_furnace_lambert), T(test_env_sphere), T(test_alpha_cutout), T(test_furnace_ggx), T(test_furnace_glass),
               T(test_total_internal_reflection), T(test_rotated_instance_normals),
               T(test_mirror_gbuffer), T(test_composite_equals_radiance),
               T(test_deterministic_threads), T(test_gradient_samples_reproduce), T(test_batch_independent),

@@ -592,8 +592,9 @@ static void test_gbuffer_matches_embree(void)
     REQUIRE(vk, "no context");
     const char *scenes[] = {TND_SOURCE_DIR "/data/scenes/cornell.gltf",
                             TND_SOURCE_DIR "/data/scenes/materials.gltf",
-                            TND_SOURCE_DIR "/data/scenes/dynamic.gltf"};
-    for (int k = 0; k < 3; k++) {
+                            TND_SOURCE_DIR "/data/scenes/dynamic.gltf",
+                            TND_SOURCE_DIR "/data/scenes/cutout.gltf"};
+    for (int k = 0; k < 4; k++) {
         pair p;
         enum { W = 96, H = 54 };
         REQUIRE_OK(pair_open(vk, &p, scenes[k]));
@@ -679,14 +680,17 @@ static void test_shading_matches_embree(void)
     REQUIRE(vk, "no context");
     const char *scenes[] = {TND_SOURCE_DIR "/data/scenes/cornell.gltf",
                             TND_SOURCE_DIR "/data/scenes/materials.gltf",
-                            TND_SOURCE_DIR "/data/scenes/sun.gltf"};
-    for (int k = 0; k < 6; k++) {
+                            TND_SOURCE_DIR "/data/scenes/sun.gltf",
+                            TND_SOURCE_DIR "/data/scenes/cutout.gltf"};
+    for (int k = 0; k < 8; k++) {
         pair p;
         enum { W = 64, H = 36 };
-        uint32_t bounces = k == 3 || k == 5 ? 3 : 1;
-        /* 4, 5: sun.gltf under forest.exr */
-        REQUIRE_OK(pair_open_with(vk, &p, scenes[k < 4 ? k % 3 : 2], FVK_RT_PIPELINE,
-                                  k >= 4 ? &env_forest : NULL));
+        uint32_t bounces = k == 3 || k == 5 || k == 7 ? 3 : 1;
+        /* 4, 5: sun.gltf under forest.exr; 6, 7: the alpha cut-outs, through the pipeline's
+         * any-hit shader and the ray query's candidate loop */
+        const char *scene = scenes[k < 4 ? k % 3 : k < 6 ? 2 : 3];
+        REQUIRE_OK(pair_open_with(vk, &p, scene, k == 7 ? FVK_RT_QUERY : FVK_RT_PIPELINE,
+                                  k == 4 || k == 5 ? &env_forest : NULL));
         REQUIRE_OK(pair_frame(&p, 11, 0.3, 0.3, W, H, bounces));
         const tnd_ct ch[4] = {TND_CT_HF, TND_CT_LF_SH, TND_CT_LF_COCG, TND_CT_SPEC};
         int agree[4] = {0}, n = 0;
@@ -706,12 +710,13 @@ static void test_shading_matches_embree(void)
         }
         printf("     %s%s, %u bounce%s: same-path agreement hf %.1f%%, lf %.1f%% / %.1f%%, "
                "spec %.1f%%\n",
-               strrchr(scenes[k < 4 ? k % 3 : 2], '/') + 1, k >= 4 ? " under forest.exr" : "",
-               bounces, bounces > 1 ? "s" : "",
+               strrchr(scene, '/') + 1,
+               k == 4 || k == 5 ? " under forest.exr" : k == 7 ? " (ray query)" : "", bounces,
+               bounces > 1 ? "s" : "",
                100.0 * agree[0] / n, 100.0 * agree[1] / n, 100.0 * agree[2] / n,
                100.0 * agree[3] / n);
         for (int c = 0; c < 4; c++)
-            CHECK(agree[c] >= 0.99 * n, "%s: %s agrees on %d of %d pixels", scenes[k < 4 ? k % 3 : 2],
+            CHECK(agree[c] >= 0.99 * n, "%s: %s agrees on %d of %d pixels", scene,
                   tnd_ct_get(ch[c])->name, agree[c], n);
     cleanup:
         pair_close(&p);

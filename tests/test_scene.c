@@ -59,6 +59,9 @@ static void test_shipped_scenes(void)
         {"extremes", 2 + 4 * 528 + 2 + 2, 7, 6, 1, 0, 0, 0, 2, 0, 0, 4, 1, 2.0f,
          TND_FEATURE(LIGHT_POINT) | TND_FEATURE(LIGHT_AREA) | TND_FEATURE(MIRROR) |
              TND_FEATURE(ANIMATED_CAMERA)},
+        {"cutout", 2 + 12 + 12 + 2 + 2 * 2, 6, 5, 0, 0, 0, 2, 0, 0, 1, 0, 1, 0.0f,
+         TND_FEATURE(LIGHT_DIRECTIONAL) | TND_FEATURE(SKY) | TND_FEATURE(TEXTURES) |
+             TND_FEATURE(ALPHA)},
     };
     for (size_t k = 0; k < sizeof ex / sizeof *ex; k++) {
         const expect *e = &ex[k];
@@ -116,6 +119,17 @@ static const tnd_light *light(const tnd_scene *s, const char *name)
 /* Values assimp drops or alters come through exactly. */
 static void test_values(void)
 {
+    {
+        /* alphaMode: MASK with its cutoff, BLEND as a cut-out at 0.5, OPAQUE without a test */
+        tnd_scene *c = NULL;
+        REQUIRE_OK(tnd_scene_load(SCENES "cutout.gltf", &c));
+        const tnd_material *fence = material(c, "fence"), *leaf = material(c, "leaf"),
+                           *ground = material(c, "ground");
+        CHECK(fence && fence->alpha_test && fence->alpha_cutoff == 0.5f, "fence: MASK 0.5");
+        CHECK(leaf && leaf->alpha_test && leaf->alpha_cutoff == 0.5f, "leaf: BLEND as 0.5");
+        CHECK(ground && !ground->alpha_test, "ground: opaque");
+        tnd_scene_destroy(c);
+    }
     tnd_scene *s = NULL;
     REQUIRE_OK(tnd_scene_load(SCENES "cornell.gltf", &s));
     const tnd_material *m = material(s, "light");
@@ -407,6 +421,21 @@ static void test_bad_input(void)
     /* ... whose message lists what is supported, KHR_materials_specular among it */
     CHECK(strstr(tnd_error_detail(), "KHR_materials_specular") != NULL, "%s",
           tnd_error_detail());
+
+    /* an alphaMode glTF does not define */
+    stage("cornell", true, false);
+    REQUIRE_OK(tnd_file_read(p, &txt, &n));
+    patched = malloc(n + 64);
+    {
+        char *pbr = strstr(txt, "\"pbrMetallicRoughness\"");
+        REQUIRE(pbr, "cornell has materials");
+        snprintf(patched, n + 64, "%.*s\"alphaMode\": \"CUTOUT\", %s", (int)(pbr - (char *)txt),
+                 (char *)txt, pbr);
+    }
+    CHECK_OK(tnd_file_write_atomic(p, patched, strlen(patched)));
+    free(patched);
+    free(txt);
+    expect_error("bad alphaMode", p, "alphaMode 'CUTOUT'", "expected OPAQUE, MASK or BLEND");
 
     /* KHR_materials_specular, which Tandem applies, may be required, and using it draws no
      * "used but ignored" warning (stderr captured around the load) */
