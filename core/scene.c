@@ -686,14 +686,20 @@ tnd_result tnd_scene_load_with(const char *path, const tnd_scene_options *o, tnd
     *scene = NULL;
     if (strncmp(path, "stress:", 7) == 0)
         return stress_scene(path, o, scene);
-    /* glTF by its extension; any other is refused by name (a file without one is tried as
-     * glTF, whose parser says what is wrong) */
+    /* glTF by its extension; OBJ and the formats assimp reads that the MTL conversion fits;
+     * any other is refused by name (a file without an extension is tried as glTF, whose parser
+     * says what is wrong) */
+    static const char *const others[] = {".obj", ".fbx", ".dae", ".ply", ".stl", ".3ds"};
     const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
     if (dot && (!slash || dot > slash) && strcasecmp(dot, ".gltf") != 0 &&
-        strcasecmp(dot, ".glb") != 0)
+        strcasecmp(dot, ".glb") != 0) {
+        for (size_t i = 0; i < sizeof others / sizeof *others; i++)
+            if (strcasecmp(dot, others[i]) == 0)
+                return scene_load_assimp(path, o, scene);
         return tnd_fail(TND_ERR_UNSUPPORTED,
-                        "scene: %s: '%s' files are not supported (Tandem reads glTF 2.0: .gltf "
-                        "or .glb)",
+                        "scene: %s: '%s' files are not supported (Tandem reads glTF 2.0 .gltf and "
+                        ".glb, and through assimp .obj with .mtl, .fbx, .dae, .ply, .stl, .3ds)",
                         path, dot + 1);
+    }
     return scene_load_gltf(path, o, scene);
 }

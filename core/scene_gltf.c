@@ -3,12 +3,14 @@
  * exact KHR_lights_punctual values, camera yfov (assimp stores yfov x aspect as a horizontal
  * FOV), STEP interpolation, extensionsRequired, and Tandem's extras (tandem_sky,
  * tandem_light_schedule). Nodes are matched between the two by name; assimp names an unnamed
- * glTF node "nodes[i]".
- * Entry point: scene_load_gltf. */
+ * glTF node "nodes[i]". OBJ + MTL and the other formats assimp reads (FBX, Collada, PLY, STL,
+ * 3DS) come through assimp alone, their materials converted to metal-rough (docs/scenes.md).
+ * Entry points: scene_load_gltf, scene_load_assimp. */
 #include "core/core.h"
 #include "core/scene_internal.h"
 
 #include <assimp/GltfMaterial.h>
+#include <assimp/ObjMaterial.h>
 #include <assimp/cimport.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -19,6 +21,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 /* The glTF extensions Tandem applies: the one list that the checks of extensionsRequired and
  * extensionsUsed and their messages read. */
@@ -329,6 +332,14 @@ static int32_t load_texture(gltf_ctx *c, const struct aiMaterial *m, enum aiText
     if (aiGetMaterialTexture(m, type, index, &p, NULL, NULL, NULL, NULL, NULL, NULL) !=
         aiReturn_SUCCESS)
         return -1;
+    /* MTL files written on Windows name textures ".\\file.jpg": slashes, no leading "./" */
+    for (char *q = p.data; *q; q++)
+        if (*q == '\\')
+            *q = '/';
+    while (p.data[0] == '.' && p.data[1] == '/') {
+        memmove(p.data, p.data + 2, strlen(p.data + 2) + 1);
+        p.length = (ai_uint32)strlen(p.data);
+    }
     tnd_scene *s = c->s;
     for (uint32_t t = 0; t < s->texture_count; t++)
         if (strcmp(s->textures[t].name, p.data) == 0 && s->textures[t].srgb == srgb)
@@ -860,6 +871,324 @@ static tnd_result load_animation(gltf_ctx *c)
         }
     }
     return TND_OK;
+}
+
+/* ---- OBJ + MTL, and the other formats assimp reads ------------------------------------------ */
+/* A new texture appended to the scene (rgba8 of w x h, owned by the scene); its index, or -1
+ * (out of memory: *res says so). */
+static int32_t add_texture(gltf_ctx *c, const char *name, uint8_t *rgba8, uint32_t w, uint32_t h,
+                           bool srgb, tnd_result *res)
+{
+    tnd_scene *s = c->s;
+    tnd_texture *nt = realloc(s->textures, (s->texture_count + 1) * sizeof *nt);
+    if (!nt) {
+        free(rgba8);
+        *res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+        return -1;
+    }
+    s->textures = nt;
+    tnd_texture *tx = &s->textures[s->texture_count];
+    memset(tx, 0, sizeof *tx);
+    put_name(tx->name, sizeof tx->name, name);
+    tx->srgb = srgb;
+    tx->width = w, tx->height = h;
+    tx->rgba8 = rgba8;
+    return (int32_t)s->texture_count++;
+}
+
+/* The base colour texture with the opacity map's coverage as its alpha (map_d; the opacity map
+ * resampled to the base's size, nearest): the opacity map's alpha where it has one (a PNG with
+ * alpha used as its own mask), else its red channel (a grey mask). base < 0: white. */
+static int32_t merge_opacity(gltf_ctx *c, int32_t base, int32_t opacity, tnd_result *res)
+{
+    const tnd_texture *op = &c->s->textures[opacity];
+    uint32_t w = base >= 0 ? c->s->textures[base].width : op->width;
+    uint32_t h = base >= 0 ? c->s->textures[base].height : op->height;
+    uint8_t *px = malloc((size_t)w * h * 4);
+    if (!px) {
+        *res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+        return -1;
+    }
+    bool has_alpha = false;
+    for (size_t k = 0; k < (size_t)op->width * op->height && !has_alpha; k++)
+        has_alpha = op->rgba8[4 * k + 3] != 255;
+    char name[256];
+    snprintf(name, sizeof name, "%.120s + opacity %.120s",
+             base >= 0 ? c->s->textures[base].name : "white", op->name);
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            uint8_t *d = px + 4 * ((size_t)y * w + x);
+            if (base >= 0)
+                memcpy(d, c->s->textures[base].rgba8 + 4 * ((size_t)y * w + x), 3);
+            else
+                d[0] = d[1] = d[2] = 255;
+            size_t ox = (size_t)x * op->width / w, oy = (size_t)y * op->height / h;
+            const uint8_t *o = op->rgba8 + 4 * (oy * op->width + ox);
+            d[3] = has_alpha ? o[3] : o[0];
+        }
+    return add_texture(c, name, px, w, h, true, res);
+}
+
+/* A height (bump) map as a tangent-space normal map: the slope is the height difference per
+ * texel (heights 0 to 1, central differences, repeat) times `scale` (MTL's -bm, default 1);
+ * x along the texture's u, y towards the image's top (the normal maps' convention). */
+static int32_t bump_to_normal(gltf_ctx *c, int32_t height, float scale, tnd_result *res)
+{
+    const tnd_texture *t = &c->s->textures[height];
+    uint32_t w = t->width, h = t->height;
+    uint8_t *px = malloc((size_t)w * h * 4);
+    if (!px) {
+        *res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+        return -1;
+    }
+#define H_AT(x, y) (t->rgba8[4 * ((size_t)(y) * w + (x))] / 255.0f)
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            float dx = 0.5f * (H_AT((x + 1) % w, y) - H_AT((x + w - 1) % w, y));
+            float drow = 0.5f * (H_AT(x, (y + 1) % h) - H_AT(x, (y + h - 1) % h));
+            /* n = (-dh/du, -dh/dv, 1), v upwards: dh/dv = -dh/drow */
+            float n[3] = {-scale * dx, scale * drow, 1.0f};
+            float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            uint8_t *d = px + 4 * ((size_t)y * w + x);
+            for (int k = 0; k < 3; k++)
+                d[k] = (uint8_t)lrintf(255.0f * (0.5f + 0.5f * n[k] / l));
+            d[3] = 255;
+        }
+#undef H_AT
+    char name[256];
+    snprintf(name, sizeof name, "normals from height %.200s", t->name);
+    return add_texture(c, name, px, w, h, false, res);
+}
+
+/* The MTL material model (and the other formats', which assimp reports with the same keys) as
+ * metal-rough, by the rule docs/scenes.md states ("OBJ and MTL"). */
+static tnd_result load_materials_assimp(gltf_ctx *c)
+{
+    const struct aiScene *ai = c->ai;
+    tnd_scene *s = c->s;
+    s->materials = calloc(ai->mNumMaterials + 1, sizeof *s->materials);
+    if (!s->materials)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: %s: out of memory", c->path);
+    s->material_count = ai->mNumMaterials;
+    tnd_result res = TND_OK;
+    for (unsigned i = 0; i < ai->mNumMaterials; i++) {
+        const struct aiMaterial *am = ai->mMaterials[i];
+        tnd_material *m = &s->materials[i];
+        *m = tnd_material_default("");
+        struct aiString nm;
+        if (aiGetMaterialString(am, AI_MATKEY_NAME, &nm) == aiReturn_SUCCESS)
+            put_name(m->name, sizeof m->name, nm.data);
+        float kd[4] = {0.8f, 0.8f, 0.8f, 1}, ks[4] = {0, 0, 0, 1}, ke[4] = {0, 0, 0, 1};
+        float ns = 0, d = 1, tr = 0, ni = 1.5f, bm = 1;
+        int illum = 2;
+        unsigned n = 4;
+        aiGetMaterialFloatArray(am, AI_MATKEY_COLOR_DIFFUSE, kd, &n);
+        n = 4;
+        aiGetMaterialFloatArray(am, AI_MATKEY_COLOR_SPECULAR, ks, &n);
+        n = 4;
+        aiGetMaterialFloatArray(am, AI_MATKEY_COLOR_EMISSIVE, ke, &n);
+        n = 1;
+        aiGetMaterialFloatArray(am, AI_MATKEY_SHININESS, &ns, &n);
+        n = 1;
+        aiGetMaterialFloatArray(am, AI_MATKEY_OPACITY, &d, &n);
+        n = 1;
+        bool have_tr = aiGetMaterialFloatArray(am, AI_MATKEY_TRANSPARENCYFACTOR, &tr, &n) ==
+                       aiReturn_SUCCESS;
+        n = 1;
+        aiGetMaterialFloatArray(am, AI_MATKEY_REFRACTI, &ni, &n);
+        n = 1;
+        aiGetMaterialFloatArray(am, AI_MATKEY_BUMPSCALING, &bm, &n);
+        n = 1;
+        aiGetMaterialIntegerArray(am, AI_MATKEY_OBJ_ILLUM, &illum, &n);
+        if (have_tr && d >= 1.0f && tr > 0.0f && tr <= 1.0f)
+            d = 1.0f - tr; /* Tr is 1 - d */
+        const float *vals[] = {kd, ks, ke, &ns, &d, &ni, &bm};
+        const int counts[] = {3, 3, 3, 1, 1, 1, 1};
+        bool finite = true;
+        for (int a = 0; a < 7; a++)
+            for (int k = 0; k < counts[a]; k++)
+                finite &= isfinite(vals[a][k]);
+        if (!finite)
+            return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: material %u '%s': a non-finite value",
+                            c->path, i, m->name);
+        float kdmax = fmaxf(kd[0], fmaxf(kd[1], kd[2])), ksmax = fmaxf(ks[0], fmaxf(ks[1], ks[2]));
+        /* a metal: no diffuse colour, a specular one */
+        bool metal = kdmax < 0.01f && ksmax >= 0.1f;
+        for (int k = 0; k < 3; k++)
+            m->base_color[k] = fminf(fmaxf(metal ? ks[k] : kd[k], 0.0f), 1.0f);
+        m->base_color[3] = 1.0f;
+        m->metallic = metal ? 1.0f : 0.0f;
+        /* Phong exponent to roughness: Beckmann alpha = sqrt(2 / (Ns + 2)), taken as GGX's alpha
+         * = roughness^2 */
+        m->roughness = powf(2.0f / (fmaxf(ns, 0.0f) + 2.0f), 0.25f);
+        /* the dielectric's specular lobe (F0 = 0.04 x factor): as strong as Ks asks, up to the
+         * usual 4%; Ks = 0 is pure Lambert */
+        m->specular = fminf(fmaxf(ksmax, 0.0f) / 0.04f, 1.0f);
+        for (int k = 0; k < 3; k++)
+            m->emission[k] = fmaxf(ke[k], 0.0f);
+        m->ior = ni >= 1.0f && ni <= 5.0f ? ni : 1.5f;
+        /* illum 4, 6, 7, 9: refraction (glass); with d < 1, thin glass; otherwise d < 1 or an
+         * opacity map cut the surface out */
+        bool glass = (illum == 4 || illum == 6 || illum == 7 || illum == 9) && d < 1.0f;
+        if (glass) {
+            m->transmission = 1.0f;
+            m->specular = 1.0f;
+            m->roughness = 0.0f;
+        }
+        m->tex_base_color = load_texture(c, am, aiTextureType_DIFFUSE, 0, true, m->name, &res);
+        if (res != TND_OK)
+            return res;
+        int32_t op = load_texture(c, am, aiTextureType_OPACITY, 0, false, m->name, &res);
+        if (res != TND_OK)
+            return res;
+        if (!glass && (d < 1.0f || op >= 0)) {
+            m->alpha_test = true;
+            m->alpha_cutoff = 0.5f;
+            m->base_color[3] = fminf(fmaxf(d, 0.0f), 1.0f);
+            if (op >= 0) {
+                m->tex_base_color = merge_opacity(c, m->tex_base_color, op, &res);
+                if (res != TND_OK)
+                    return res;
+            }
+        }
+        m->tex_normal = load_texture(c, am, aiTextureType_NORMALS, 0, false, m->name, &res);
+        if (res != TND_OK)
+            return res;
+        if (m->tex_normal < 0) {
+            int32_t ht = load_texture(c, am, aiTextureType_HEIGHT, 0, false, m->name, &res);
+            if (res != TND_OK)
+                return res;
+            if (ht >= 0) {
+                m->tex_normal = bump_to_normal(c, ht, bm, &res);
+                if (res != TND_OK)
+                    return res;
+            }
+        }
+        m->tex_emission = load_texture(c, am, aiTextureType_EMISSIVE, 0, true, m->name, &res);
+        if (res != TND_OK)
+            return res;
+        if (m->tex_emission >= 0 && !(m->emission[0] > 0 || m->emission[1] > 0 ||
+                                      m->emission[2] > 0))
+            m->emission[0] = m->emission[1] = m->emission[2] = 1.0f; /* map_Ke alone */
+        m->kind = scene_classify(m);
+    }
+    return TND_OK;
+}
+
+/* The statements of an OBJ's MTL files that Tandem does not use, each kind named once with its
+ * first line (assimp parses the file; this only reads it to say what is ignored). */
+static void warn_mtl(const char *obj_path, const char *dir)
+{
+    static const char *const used[] = {"newmtl", "Kd",   "Ks",       "Ke",       "Ns",
+                                       "d",      "Tr",   "Ni",       "illum",    "map_Kd",
+                                       "map_d",  "bump", "map_Bump", "map_bump", "norm",
+                                       "map_Ke", "#"};
+    void *text = NULL;
+    size_t size = 0;
+    if (tnd_file_read(obj_path, &text, &size) != TND_OK)
+        return;
+    const char *t = text, *end = t + size;
+    while (t < end) {
+        const char *eol = memchr(t, '\n', (size_t)(end - t));
+        if (!eol)
+            eol = end;
+        while (t < eol && (*t == ' ' || *t == '\t'))
+            t++;
+        if (eol - t > 7 && strncmp(t, "mtllib", 6) == 0) {
+            char mtl[1024], path[2048];
+            size_t len = (size_t)(eol - t - 7) < sizeof mtl - 1 ? (size_t)(eol - t - 7)
+                                                                  : sizeof mtl - 1;
+            memcpy(mtl, t + 7, len);
+            mtl[len] = '\0';
+            while (len && (mtl[len - 1] == '\r' || mtl[len - 1] == ' '))
+                mtl[--len] = '\0';
+            snprintf(path, sizeof path, "%s%s", dir, mtl);
+            void *mt = NULL;
+            size_t ms = 0;
+            if (tnd_file_read(path, &mt, &ms) == TND_OK) {
+                char seen[64][24];
+                int nseen = 0, line = 0;
+                const char *a = mt, *ae = a + ms;
+                while (a < ae) {
+                    const char *ael = memchr(a, '\n', (size_t)(ae - a));
+                    if (!ael)
+                        ael = ae;
+                    line++;
+                    while (a < ael && (*a == ' ' || *a == '\t'))
+                        a++;
+                    char kw[24];
+                    size_t k = 0;
+                    while (a + k < ael && k < sizeof kw - 1 && a[k] != ' ' && a[k] != '\t' &&
+                           a[k] != '\r')
+                        kw[k] = a[k], k++;
+                    kw[k] = '\0';
+                    bool known = k == 0 || kw[0] == '#';
+                    for (size_t u = 0; u < sizeof used / sizeof *used && !known; u++)
+                        known = strcmp(kw, used[u]) == 0;
+                    for (int sn = 0; sn < nseen && !known; sn++)
+                        known = strcmp(kw, seen[sn]) == 0;
+                    if (!known && nseen < 64) {
+                        snprintf(seen[nseen++], sizeof seen[0], "%s", kw);
+                        tnd_warn("scene", "%s:%d: MTL statement '%s' is not used (ignored)", path,
+                                 line, kw);
+                    }
+                    a = ael + 1;
+                }
+                free(mt);
+            }
+        }
+        t = eol + 1;
+    }
+    free(text);
+}
+
+tnd_result scene_load_assimp(const char *path, const tnd_scene_options *o, tnd_scene **out)
+{
+    tnd_result res = TND_OK;
+    gltf_ctx c = {.path = path};
+    c.s = calloc(1, sizeof *c.s);
+    if (!c.s)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    snprintf(c.s->path, sizeof c.s->path, "%s", path);
+    const char *slash = strrchr(path, '/');
+    if (slash)
+        snprintf(c.dir, sizeof c.dir, "%.*s/", (int)(slash - path), path);
+    FILE *probe = fopen(path, "rb");
+    if (!probe) {
+        res = tnd_fail(TND_ERR_IO, "scene: %s: cannot open", path);
+        goto fail;
+    }
+    fclose(probe);
+    const char *dot = strrchr(path, '.');
+    if (dot && strcasecmp(dot, ".obj") == 0)
+        warn_mtl(path, c.dir);
+    c.ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_CalcTangentSpace |
+                                  aiProcess_GenSmoothNormals | aiProcess_ValidateDataStructure |
+                                  aiProcess_JoinIdenticalVertices);
+    if (!c.ai) {
+        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: cannot import: %s", path, aiGetErrorString());
+        goto fail;
+    }
+    if (!c.ai->mRootNode || (c.ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE) || !c.ai->mNumMeshes) {
+        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: incomplete scene (no nodes or meshes)", path);
+        goto fail;
+    }
+    if (c.ai->mNumCameras || c.ai->mNumLights || c.ai->mNumAnimations)
+        tnd_warn("scene", "%s: its %u camera(s), %u light(s) and %u animation(s) are not imported "
+                 "(glTF carries them)",
+                 path, c.ai->mNumCameras, c.ai->mNumLights, c.ai->mNumAnimations);
+    TND_TRY(load_meshes(&c));
+    TND_TRY(load_materials_assimp(&c));
+    uint32_t cap = 0;
+    TND_TRY(add_node(&c, c.ai->mRootNode, -1, &cap));
+    TND_TRY(scene_finish(c.s, o));
+    *out = c.s;
+    c.s = NULL;
+fail:
+    if (c.ai)
+        aiReleaseImport(c.ai);
+    tnd_scene_destroy(c.s);
+    return res;
 }
 
 tnd_result scene_load_gltf(const char *path, const tnd_scene_options *o, tnd_scene **out)

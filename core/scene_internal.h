@@ -9,5 +9,7 @@
 tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o);
 tnd_material_kind scene_classify(const tnd_material *m);
 tnd_result scene_load_gltf(const char *path, const tnd_scene_options *o, tnd_scene **scene);
+/* OBJ + MTL, FBX, Collada, PLY, STL, 3DS through assimp alone (materials by the MTL rule). */
+tnd_result scene_load_assimp(const char *path, const tnd_scene_options *o, tnd_scene **scene);
 
 #endif
