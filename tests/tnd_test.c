@@ -8,14 +8,20 @@ int tnd_test_failures;
 int tnd_test_run(const tnd_test_case *tests, int count, int argc, char **argv)
 {
     int passed = 0, failed = 0;
+    /* arguments: the tests to run (all when none is named); -NAME leaves NAME out */
+    int named = 0;
+    for (int a = 1; a < argc; a++)
+        named += argv[a][0] != '-';
     for (int i = 0; i < count; i++) {
-        if (argc > 1) {
-            int wanted = 0;
-            for (int a = 1; a < argc; a++)
-                wanted |= strcmp(argv[a], tests[i].name) == 0;
-            if (!wanted)
-                continue;
+        int wanted = !named;
+        for (int a = 1; a < argc; a++) {
+            if (argv[a][0] == '-' && strcmp(argv[a] + 1, tests[i].name) == 0)
+                wanted = 0, a = argc;
+            else if (argv[a][0] != '-' && strcmp(argv[a], tests[i].name) == 0)
+                wanted = 1;
         }
+        if (!wanted)
+            continue;
         tnd_test_failures = 0;
         struct timespec t0, t1;
         clock_gettime(CLOCK_MONOTONIC, &t0);
