@@ -5,6 +5,9 @@
 #include "core/core.h"
 #include "tests/tnd_test.h"
 
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#include <stb/stb_image_write.h>
+
 #include <cjson/cJSON.h>
 #include <unistd.h>
 
@@ -644,6 +647,107 @@ static void test_other_formats(void)
     }
 }
 
+static void write_text(const char *path, const char *text)
+{
+    CHECK_OK(tnd_file_write_atomic(path, text, strlen(text)));
+}
+
+/* MTL to metal-rough, statement by statement (docs/scenes.md "OBJ and MTL"): a plastic (Kd, Ks,
+ * Ns), a metal (no Kd, Ks), a glass (illum 7, d, Ni), a lamp (Ke: an area light), a cut-out
+ * (map_d beside map_Kd), a bumped one (map_Bump: a normal map made from the height); an unused
+ * statement is named with its line; an OBJ index out of range is refused naming the file. */
+static void test_obj_mtl(void)
+{
+    char d[] = "/tmp/tandem_obj_XXXXXX", p[600], cmd[700];
+    REQUIRE(mkdtemp(d), "mkdtemp");
+    snprintf(p, sizeof p, "%s/m.mtl", d);
+    write_text(p, "newmtl plastic\nKd 0.8 0.2 0.1\nKs 0.5 0.5 0.5\nNs 98\n"
+                  "newmtl metal\nKd 0 0 0\nKs 0.9 0.6 0.3\nNs 400\n"
+                  "newmtl glass\nKd 0 0 0\nKs 1 1 1\nillum 7\nd 0.2\nNi 1.45\n"
+                  "newmtl lamp\nKd 0 0 0\nKe 5 4 3\n"
+                  "newmtl leaf\nKd 1 1 1\nmap_Kd c.png\nmap_d mask.png\nTf 1 1 1\n"
+                  "newmtl bumpy\nKd 0.5 0.5 0.5\nKs 0 0 0\nmap_Bump h.png\n");
+    /* textures: 2x2 colour, 4x4 mask (left half opaque), 4x4 height ramp along x */
+    {
+        static const uint8_t px[16] = {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 9, 9, 9, 255};
+        uint8_t mask[4 * 4 * 4], h[4 * 4 * 4];
+        for (int i = 0; i < 16; i++) {
+            uint8_t m = (i % 4) < 2 ? 255 : 0, v = (uint8_t)(60 * (i % 4));
+            for (int k = 0; k < 4; k++) {
+                mask[4 * i + k] = k == 3 ? 255 : m;
+                h[4 * i + k] = k == 3 ? 255 : v;
+            }
+        }
+        const char *names[3] = {"c.png", "mask.png", "h.png"};
+        const uint8_t *data[3] = {px, mask, h};
+        const int sz[3] = {2, 4, 4};
+        for (int t = 0; t < 3; t++) {
+            snprintf(p, sizeof p, "%s/%s", d, names[t]);
+            CHECK(stbi_write_png(p, sz[t], sz[t], 4, data[t], 4 * sz[t]) != 0, "write %s", p);
+        }
+    }
+    /* six quads, one per material */
+    char obj[4096];
+    size_t n = (size_t)snprintf(obj, sizeof obj, "mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n");
+    const char *mats[6] = {"plastic", "metal", "glass", "lamp", "leaf", "bumpy"};
+    for (int q = 0; q < 6; q++) {
+        n += (size_t)snprintf(obj + n, sizeof obj - n,
+                              "v %d 0 0\nv %d 0 0\nv %d 1 0\nv %d 1 0\nusemtl %s\n"
+                              "f %d/1 %d/2 %d/3 %d/4\n",
+                              2 * q, 2 * q + 1, 2 * q + 1, 2 * q, mats[q], 4 * q + 1, 4 * q + 2,
+                              4 * q + 3, 4 * q + 4);
+    }
+    snprintf(p, sizeof p, "%s/scene.obj", d);
+    write_text(p, obj);
+    tnd_result r;
+    char *log = load_capturing(p, &r);
+    CHECK(r == TND_OK, "scene.obj: %s", tnd_error_detail());
+    CHECK(log && strstr(log, "m.mtl:22: MTL statement 'Tf' is not used"),
+          "the unused statement named with its line: %s", log ? log : "(no capture)");
+    free(log);
+    tnd_scene *s = NULL;
+    REQUIRE_OK(tnd_scene_load(p, &s));
+    const tnd_material *pl = material(s, "plastic"), *me = material(s, "metal"),
+                       *gl = material(s, "glass"), *la = material(s, "lamp"),
+                       *le = material(s, "leaf"), *bu = material(s, "bumpy");
+    REQUIRE(pl && me && gl && la && le && bu, "the six materials");
+    CHECK(pl->metallic == 0 && pl->base_color[0] == 0.8f && pl->specular == 1.0f &&
+              fabsf(pl->roughness - powf(2.0f / 100.0f, 0.25f)) < 1e-6f,
+          "plastic: metallic %g, base %g, specular %g, roughness %g", (double)pl->metallic,
+          (double)pl->base_color[0], (double)pl->specular, (double)pl->roughness);
+    CHECK(me->metallic == 1 && me->base_color[1] == 0.6f, "metal: metallic %g, base %g",
+          (double)me->metallic, (double)me->base_color[1]);
+    CHECK(gl->kind == TND_MAT_THIN_GLASS && fabsf(gl->ior - 1.45f) < 1e-6f && !gl->alpha_test,
+          "glass: kind %d, ior %g", (int)gl->kind, (double)gl->ior);
+    CHECK(la->emission[0] == 5 && s->emitter_count == 2, "lamp: emission %g, %u emitters",
+          (double)la->emission[0], s->emitter_count);
+    CHECK(le->alpha_test && le->tex_base_color >= 0, "leaf: alpha-tested with a texture");
+    if (le->tex_base_color >= 0) { /* the mask's left half in the alpha, over the colour */
+        const tnd_texture *t = &s->textures[le->tex_base_color];
+        CHECK(t->width == 2 && t->rgba8[3] == 255 && t->rgba8[7] == 0 && t->rgba8[0] == 255,
+              "merged texture: %ux%u, alpha %d %d", t->width, t->height, t->rgba8[3], t->rgba8[7]);
+    }
+    CHECK(bu->specular == 0 && bu->tex_normal >= 0, "bumpy: Lambert with a normal map");
+    if (bu->tex_normal >= 0) { /* a ramp rising along +x: normals lean towards -x */
+        const tnd_texture *t = &s->textures[bu->tex_normal];
+        CHECK(t->rgba8[4 * 1] < 128 && t->rgba8[4 * 1 + 2] > 128 && !t->srgb,
+              "normal from height: %d %d %d", t->rgba8[4], t->rgba8[5], t->rgba8[6]);
+    }
+    CHECK(s->features & TND_FEATURE(ALPHA), "features %#x", s->features);
+    tnd_scene_destroy(s);
+    s = NULL;
+    /* a face index out of range */
+    snprintf(p, sizeof p, "%s/bad.obj", d);
+    write_text(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+    r = tnd_scene_load(p, &s);
+    CHECK(r != TND_OK && !s && strstr(tnd_error_detail(), p), "index out of range: %s",
+          tnd_error_detail());
+cleanup:
+    tnd_scene_destroy(s);
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", d);
+    CHECK(system(cmd) == 0, "cleanup");
+}
+
 TND_TEST_MAIN(T(test_shipped_scenes), T(test_values), T(test_animation), T(test_stress),
               T(test_light_pick), T(test_bad_input), T(test_defaults),
-              T(test_unsupported_named), T(test_other_formats))
+              T(test_unsupported_named), T(test_other_formats), T(test_obj_mtl))
