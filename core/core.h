@@ -622,6 +622,24 @@ struct tnd_material;
  * -ln(attenuation colour) / attenuation distance (0 without a distance or a colour below 1). */
 void tnd_material_sigma(const struct tnd_material *m, float sigma[3]);
 
+/* A texture's coordinates (glTF textureInfo.texCoord and KHR_texture_transform): from set
+ * `set` (TEXCOORD_0 or _1), u' = m0 u + m1 v + m2, v' = m3 u + m4 v + m5 (offset x rotation x
+ * scale, glTF's order). */
+typedef struct tnd_uv_xform {
+    float m[6];
+    uint32_t set;
+    float lod_shift; /* 0.5 log2 |det|: the transformed coordinates cover |det| times the area */
+} tnd_uv_xform;
+enum { TND_TEX_BASE = 0, TND_TEX_METAL_ROUGH, TND_TEX_NORMAL, TND_TEX_EMISSION, TND_TEX_SLOTS };
+#define TND_UV_IDENTITY {{1, 0, 0, 0, 1, 0}, 0, 0.0f}
+/* Apply a transform to (u, v). */
+static inline void tnd_uv_apply(const tnd_uv_xform *x, float u, float v, float *ou, float *ov)
+{
+    *ou = x->m[0] * u + x->m[1] * v + x->m[2];
+    *ov = x->m[3] * u + x->m[4] * v + x->m[5];
+}
+
+
 typedef struct tnd_material {
     char name[64];
     tnd_material_kind kind;
@@ -633,6 +651,7 @@ typedef struct tnd_material {
     float attenuation_color[3], attenuation_distance, thickness; /* KHR_materials_volume */
     float normal_scale;
     int32_t tex_base_color, tex_metal_rough, tex_normal, tex_emission; /* -1: none */
+    tnd_uv_xform uvx[TND_TEX_SLOTS]; /* per texture above (TND_TEX_*) */
     bool double_sided;
     /* glTF alphaMode MASK, and BLEND taken as a cut-out (docs/scenes.md): the surface is there
      * for every ray where base colour alpha x the texture's alpha (level 0) >= alpha_cutoff */
@@ -780,6 +799,7 @@ const char *tnd_feature_name(uint32_t bit);
 typedef struct tnd_scene {
     char path[1024];
     float *positions, *normals, *uvs, *tangents; /* 3, 3, 2, 4 floats per vertex */
+    float *uvs1; /* TEXCOORD_1, 2 floats per vertex; NULL when no mesh has one (set 1 reads set 0) */
     uint32_t vertex_count;
     uint32_t *indices;
     uint32_t index_count;
@@ -830,9 +850,10 @@ tnd_result tnd_scene_load_with(const char *path, const tnd_scene_options *o, tnd
 void tnd_scene_destroy(tnd_scene *scene);
 /* Triangles over all instances (what the tracer sees). */
 uint64_t tnd_scene_triangles(const tnd_scene *s);
-/* Whether a ray meets material m's surface at texture coordinate (u, v): always, or for an
- * alpha-tested material, where its alpha (factor x base colour texture at level 0, bilinear)
- * reaches the cutoff. The GLSL mirror is pt_scene.glsl's alpha_pass. */
+/* Whether a ray meets material m's surface at (u, v), the coordinates of the set its base
+ * colour texture reads (m->uvx[TND_TEX_BASE].set), before that texture's transform: always, or
+ * for an alpha-tested material, where its alpha (factor x base colour texture at level 0,
+ * bilinear) reaches the cutoff. The GLSL mirror is pt_scene.glsl's alpha_pass. */
 bool tnd_material_alpha_pass(const tnd_scene *s, const tnd_material *m, float u, float v);
 
 /* The scene at one moment. */

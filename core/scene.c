@@ -52,6 +52,7 @@ void tnd_scene_destroy(tnd_scene *s)
     free(s->positions);
     free(s->normals);
     free(s->uvs);
+    free(s->uvs1);
     free(s->tangents);
     free(s->indices);
     free(s->meshes);
@@ -202,6 +203,9 @@ tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o)
             for (int c = 0; c < 3; c++)
                 ok &= isfinite(p[c]) && isfinite(n[c]);
             ok &= isfinite(uv[0]) && isfinite(uv[1]);
+            if (s->uvs1)
+                ok &= isfinite(s->uvs1[2 * (size_t)(me->first_vertex + v)]) &&
+                      isfinite(s->uvs1[2 * (size_t)(me->first_vertex + v) + 1]);
             if (!ok)
                 return tnd_fail(TND_ERR_BAD_INPUT,
                                 "scene: %s: mesh %u '%s': vertex %u has a non-finite position, "
@@ -401,8 +405,9 @@ bool tnd_material_alpha_pass(const tnd_scene *s, const tnd_material *m, float u,
         return true;
     float a = m->base_color[3];
     if (m->tex_base_color >= 0) {
-        float t[4];
-        tnd_texture_sample(&s->textures[m->tex_base_color], u, v, 0.0f, t);
+        float t[4], tu, tv;
+        tnd_uv_apply(&m->uvx[TND_TEX_BASE], u, v, &tu, &tv);
+        tnd_texture_sample(&s->textures[m->tex_base_color], tu, tv, 0.0f, t);
         a *= t[3];
     }
     return a >= m->alpha_cutoff;
@@ -587,6 +592,8 @@ static tnd_result stress_scene(const char *spec, const tnd_scene_options *o, tnd
         mt->specular = 1.0f;
         mt->normal_scale = 1;
         mt->tex_base_color = mt->tex_metal_rough = mt->tex_normal = mt->tex_emission = -1;
+        for (int k = 0; k < TND_TEX_SLOTS; k++)
+            mt->uvx[k] = (tnd_uv_xform)TND_UV_IDENTITY;
         if (m == 2)
             mt->emission[0] = mt->emission[1] = mt->emission[2] = 20.0f;
     }

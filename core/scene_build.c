@@ -40,7 +40,8 @@ tnd_material tnd_material_default(const char *name)
                       .tex_base_color = -1,
                       .tex_metal_rough = -1,
                       .tex_normal = -1,
-                      .tex_emission = -1};
+                      .tex_emission = -1,
+                      .uvx = {TND_UV_IDENTITY, TND_UV_IDENTITY, TND_UV_IDENTITY, TND_UV_IDENTITY}};
     snprintf(m.name, sizeof m.name, "%s", name);
     return m;
 }

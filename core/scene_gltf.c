@@ -29,6 +29,7 @@ static const char *const supported_ext[] = {
     "KHR_lights_punctual",        "KHR_materials_emissive_strength",
     "KHR_materials_transmission", "KHR_materials_ior",
     "KHR_materials_volume",       "KHR_materials_specular",
+    "KHR_texture_transform",
 };
 enum { SUPPORTED_EXT_COUNT = sizeof supported_ext / sizeof *supported_ext };
 
@@ -382,6 +383,40 @@ static int32_t load_texture(gltf_ctx *c, const struct aiMaterial *m, enum aiText
     return (int32_t)s->texture_count++;
 }
 
+/* A textureInfo's texCoord and KHR_texture_transform (offset, rotation, scale, texCoord) as one
+ * affine map, T(offset) R(rotation) S(scale) with R = [cos sin; -sin cos] (the extension's). */
+static tnd_result parse_uv_xform(const gltf_ctx *c, uint32_t mi, const char *mname,
+                                 const cJSON *info, tnd_uv_xform *x)
+{
+    *x = (tnd_uv_xform)TND_UV_IDENTITY;
+    if (!info)
+        return TND_OK;
+    double set = jnum(info, "texCoord", 0);
+    const cJSON *tt = jget(jget(info, "extensions"), "KHR_texture_transform");
+    double off[2] = {0, 0}, sc[2] = {1, 1}, rot = jnum(tt, "rotation", 0);
+    const cJSON *o = jget(tt, "offset"), *s = jget(tt, "scale");
+    for (int k = 0; k < 2; k++) {
+        if (cJSON_GetArraySize(o) == 2)
+            off[k] = cJSON_GetArrayItem(o, k)->valuedouble;
+        if (cJSON_GetArraySize(s) == 2)
+            sc[k] = cJSON_GetArrayItem(s, k)->valuedouble;
+    }
+    if (jget(tt, "texCoord"))
+        set = jnum(tt, "texCoord", set);
+    if (!(set == 0 || set == 1) || !isfinite(off[0] + off[1] + sc[0] + sc[1] + rot))
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "scene: %s: material %u '%s': texture coordinates: texCoord %g (Tandem "
+                        "reads TEXCOORD_0 and _1) or a non-finite KHR_texture_transform",
+                        c->path, mi, mname, set);
+    double cr = cos(rot), sr = sin(rot);
+    x->m[0] = (float)(cr * sc[0]), x->m[1] = (float)(sr * sc[1]), x->m[2] = (float)off[0];
+    x->m[3] = (float)(-sr * sc[0]), x->m[4] = (float)(cr * sc[1]), x->m[5] = (float)off[1];
+    x->set = (uint32_t)set;
+    double det = fabs(sc[0] * sc[1]);
+    x->lod_shift = det > 0 ? (float)(0.5 * log2(det)) : 0.0f;
+    return TND_OK;
+}
+
 static tnd_result load_materials(gltf_ctx *c)
 {
     tnd_result res = TND_OK;
@@ -395,6 +430,7 @@ static tnd_result load_materials(gltf_ctx *c)
     for (uint32_t i = 0; i < ai->mNumMaterials; i++) {
         const struct aiMaterial *am = ai->mMaterials[i];
         tnd_material *m = &s->materials[i];
+        *m = tnd_material_default("");
         struct aiString nm;
         if (aiGetMaterialString(am, AI_MATKEY_NAME, &nm) == aiReturn_SUCCESS)
             put_name(m->name, sizeof m->name, nm.data);
@@ -451,6 +487,16 @@ static tnd_result load_materials(gltf_ctx *c)
                 m->attenuation_color[k] = (float)cJSON_GetArrayItem(ac, k)->valuedouble;
         }
         m->normal_scale = (float)jnum(jget(jm, "normalTexture"), "scale", 1.0);
+        /* each texture's coordinate set and KHR_texture_transform */
+        const cJSON *pbr = jget(jm, "pbrMetallicRoughness");
+        const cJSON *infos[TND_TEX_SLOTS] = {jget(pbr, "baseColorTexture"),
+                                             jget(pbr, "metallicRoughnessTexture"),
+                                             jget(jm, "normalTexture"), jget(jm, "emissiveTexture")};
+        for (int k = 0; k < TND_TEX_SLOTS; k++) {
+            tnd_result xr = parse_uv_xform(c, i, m->name, infos[k], &m->uvx[k]);
+            if (xr != TND_OK)
+                return xr;
+        }
         /* alphaMode: MASK cuts at alphaCutoff (default 0.5); BLEND is taken as a cut-out at
          * 0.5 (docs/scenes.md says why); OPAQUE, the default, ignores alpha */
         const cJSON *am_mode = jget(jm, "alphaMode");
@@ -519,6 +565,11 @@ static tnd_result load_meshes(gltf_ctx *c)
     s->positions = calloc(nv * 3 + 3, sizeof(float));
     s->normals = calloc(nv * 3 + 3, sizeof(float));
     s->uvs = calloc(nv * 2 + 2, sizeof(float));
+    bool set1 = false;
+    for (unsigned i = 0; i < ai->mNumMeshes; i++)
+        set1 |= ai->mMeshes[i]->mTextureCoords[1] != NULL;
+    if (set1 && !(s->uvs1 = calloc(nv * 2 + 2, sizeof(float))))
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: %s: out of memory", c->path);
     s->tangents = calloc(nv * 4 + 4, sizeof(float));
     s->indices = calloc(ni + 3, sizeof(uint32_t));
     s->meshes = calloc(ai->mNumMeshes + 1, sizeof *s->meshes);
@@ -542,6 +593,12 @@ static tnd_result load_meshes(gltf_ctx *c)
                 s->uvs[2 * (size_t)(v + k)] = am->mTextureCoords[0][k].x;
                 /* assimp flips V for glTF (aiProcess_FlipUVs not set): undo to glTF's top-left */
                 s->uvs[2 * (size_t)(v + k) + 1] = 1.0f - am->mTextureCoords[0][k].y;
+            }
+            if (s->uvs1) { /* TEXCOORD_1 (a mesh without one reads set 0 there) */
+                const struct aiVector3D *t1 =
+                    am->mTextureCoords[1] ? am->mTextureCoords[1] : am->mTextureCoords[0];
+                s->uvs1[2 * (size_t)(v + k)] = t1 ? t1[k].x : 0.0f;
+                s->uvs1[2 * (size_t)(v + k) + 1] = t1 ? 1.0f - t1[k].y : 0.0f;
             }
             float *t = s->tangents + 4 * (size_t)(v + k);
             if (am->mTangents && am->mBitangents) {

@@ -50,9 +50,10 @@ static void alpha_filter(const struct RTCFilterFunctionNArguments *a)
         uint32_t prim = ((const uint32_t *)a->hit)[5 * a->N + i];
         float bu = hf[3 * a->N + i], bv = hf[4 * a->N + i];
         const uint32_t *ix = s->indices + me->first_index + 3 * (size_t)prim;
-        const float *t0 = s->uvs + 2 * (size_t)(me->first_vertex + ix[0]);
-        const float *t1 = s->uvs + 2 * (size_t)(me->first_vertex + ix[1]);
-        const float *t2 = s->uvs + 2 * (size_t)(me->first_vertex + ix[2]);
+        const float *uvs = m->uvx[TND_TEX_BASE].set && s->uvs1 ? s->uvs1 : s->uvs;
+        const float *t0 = uvs + 2 * (size_t)(me->first_vertex + ix[0]);
+        const float *t1 = uvs + 2 * (size_t)(me->first_vertex + ix[1]);
+        const float *t2 = uvs + 2 * (size_t)(me->first_vertex + ix[2]);
         float w0 = 1.0f - bu - bv;
         float u = w0 * t0[0] + bu * t1[0] + bv * t2[0];
         float v = w0 * t0[1] + bu * t1[1] + bv * t2[1];
@@ -328,39 +329,60 @@ static void surface_textures(const femb_context *c, femb_surfaces *S, uint32_t i
     uint32_t i0 = m->first_vertex + ix[0], i1 = m->first_vertex + ix[1], i2 = m->first_vertex + ix[2];
     float u = S->u[i], v = S->v[i], w0 = 1.0f - u - v;
     v3 ng = FEMB_LD3(S->ng, i), ns = FEMB_LD3(S->ns, i);
-    const float *t0 = sc->uvs + 2 * (size_t)i0, *t1 = sc->uvs + 2 * (size_t)i1,
-                *t2 = sc->uvs + 2 * (size_t)i2;
-    float tu = w0 * t0[0] + u * t1[0] + v * t2[0], tv = w0 * t0[1] + u * t1[1] + v * t2[1];
-    float lod_base = 0.0f;
-    float uv_area = fabsf((t1[0] - t0[0]) * (t2[1] - t0[1]) - (t2[0] - t0[0]) * (t1[1] - t0[1]));
+    /* both coordinate sets (set 1 reads set 0 where the scene has none) and their level of
+     * detail before a texture's transform */
+    float tuv[2][2], lod_set[2] = {0.0f, 0.0f};
     v3 we1 = xf_dir(X, e1), we2 = xf_dir(X, e2);
     float world_area = sqrtf(dot(cross(we1, we2), cross(we1, we2)));
     float cosv = fabsf(dot(ng, dir));
-    if (uv_area > 0 && world_area > 0)
-        lod_base = log2f(cone_width / fmx(cosv, 1e-3f)) + 0.5f * log2f(uv_area / world_area);
+    for (int set = 0; set < 2; set++) {
+        const float *uvs = set && sc->uvs1 ? sc->uvs1 : sc->uvs;
+        const float *t0 = uvs + 2 * (size_t)i0, *t1 = uvs + 2 * (size_t)i1,
+                    *t2 = uvs + 2 * (size_t)i2;
+        tuv[set][0] = w0 * t0[0] + u * t1[0] + v * t2[0];
+        tuv[set][1] = w0 * t0[1] + u * t1[1] + v * t2[1];
+        float uv_area =
+            fabsf((t1[0] - t0[0]) * (t2[1] - t0[1]) - (t2[0] - t0[0]) * (t1[1] - t0[1]));
+        if (uv_area > 0 && world_area > 0)
+            lod_set[set] =
+                log2f(cone_width / fmx(cosv, 1e-3f)) + 0.5f * log2f(uv_area / world_area);
+    }
     float texel[4];
-#define LOD(t) (lod_base + 0.5f * log2f((float)(t)->width * (float)(t)->height))
+    /* texture slot k's coordinates (its set, its transform) and level of detail */
+    float tu, tv, lod;
+#define TEX_AT(k, t)                                                                               \
+    do {                                                                                           \
+        const tnd_uv_xform *x_ = &mat->uvx[k];                                                     \
+        uint32_t s_ = x_->set ? 1 : 0;                                                             \
+        tnd_uv_apply(x_, tuv[s_][0], tuv[s_][1], &tu, &tv);                                        \
+        lod = lod_set[s_] + x_->lod_shift +                                                 \
+              0.5f * log2f((float)(t)->width * (float)(t)->height);                                \
+    } while (0)
     if (mat->tex_base_color >= 0) {
         const tnd_texture *t = &sc->textures[mat->tex_base_color];
-        tnd_texture_sample(t, tu, tv, LOD(t), texel);
+        TEX_AT(TND_TEX_BASE, t);
+        tnd_texture_sample(t, tu, tv, lod, texel);
         for (int k = 0; k < 3; k++)
             S->base[k][i] *= texel[k];
     }
     if (mat->tex_metal_rough >= 0) {
         const tnd_texture *t = &sc->textures[mat->tex_metal_rough];
-        tnd_texture_sample(t, tu, tv, LOD(t), texel);
+        TEX_AT(TND_TEX_METAL_ROUGH, t);
+        tnd_texture_sample(t, tu, tv, lod, texel);
         S->roughness[i] *= texel[1];
         S->metallic[i] *= texel[2];
     }
     if (mat->tex_emission >= 0) {
         const tnd_texture *t = &sc->textures[mat->tex_emission];
-        tnd_texture_sample(t, tu, tv, LOD(t), texel);
+        TEX_AT(TND_TEX_EMISSION, t);
+        tnd_texture_sample(t, tu, tv, lod, texel);
         for (int k = 0; k < 3; k++)
             S->emission[k][i] *= texel[k];
     }
     if (mat->tex_normal >= 0) {
         const tnd_texture *t = &sc->textures[mat->tex_normal];
-        tnd_texture_sample(t, tu, tv, LOD(t), texel);
+        TEX_AT(TND_TEX_NORMAL, t);
+        tnd_texture_sample(t, tu, tv, lod, texel);
         const float *tg0 = sc->tangents + 4 * (size_t)i0;
         v3 T = {w0 * tg0[0] + u * sc->tangents[4 * (size_t)i1] + v * sc->tangents[4 * (size_t)i2],
                 w0 * tg0[1] + u * sc->tangents[4 * (size_t)i1 + 1] + v * sc->tangents[4 * (size_t)i2 + 1],
@@ -374,7 +396,7 @@ static void surface_textures(const femb_context *c, femb_surfaces *S, uint32_t i
         if (dot(T, T) > 0.5f && dot(nm, nm) > 0.5f)
             FEMB_ST3(S->ns, i, nm);
     }
-#undef LOD
+#undef TEX_AT
 }
 
 /* femb_surface_eval_batch and femb_surface_eval_eye: `eye` (a constant in each) tells whether

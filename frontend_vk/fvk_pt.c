@@ -15,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { SCENE_BINDINGS = 15 };
+enum { SCENE_BINDINGS = 16 };
 
 static tnd_result create_layouts(fvk_context *c)
 {
@@ -151,7 +151,8 @@ static void write_scene_set(fvk_context *c)
                                               &c->normals,   &c->uvs,       &c->tangents,
                                               &c->indices,   &c->meshes,    &c->materials,
                                               &c->instances, &c->lights,    &c->gradients,
-                                              NULL,          NULL,          &c->env};
+                                              NULL,          NULL,          &c->env,
+                                              &c->uvs1};
     VkDescriptorImageInfo acc = {VK_NULL_HANDLE, c->accum.view, VK_IMAGE_LAYOUT_GENERAL};
     VkDescriptorBufferInfo bi[SCENE_BINDINGS];
     VkWriteDescriptorSet w[SCENE_BINDINGS];

@@ -115,7 +115,7 @@ void fvk_scene_free(fvk_context *c)
     tnd_vk *vk = c->vk;
     tnd_buffer *bufs[] = {&c->positions, &c->normals, &c->uvs,      &c->tangents,
                           &c->indices,   &c->meshes,  &c->materials, &c->instances,
-                          &c->lights,    &c->frame_ubo, &c->gradients, &c->env};
+                          &c->lights,    &c->frame_ubo, &c->gradients, &c->env, &c->uvs1};
     for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
         tnd_buffer_destroy(vk, bufs[i]);
     for (uint32_t i = 0; c->textures && i < c->texture_count; i++)
@@ -148,6 +148,8 @@ tnd_result fvk_scene_upload(fvk_context *c)
     TND_TRY(upload_array(vk, s->normals, (size_t)s->vertex_count * 12, "scene.normals",
                          &c->normals));
     TND_TRY(upload_array(vk, s->uvs, (size_t)s->vertex_count * 8, "scene.uvs", &c->uvs));
+    TND_TRY(upload_array(vk, s->uvs1 ? s->uvs1 : s->uvs, (size_t)s->vertex_count * 8,
+                         "scene.uvs1", &c->uvs1));
     TND_TRY(upload_array(vk, s->tangents, (size_t)s->vertex_count * 16, "scene.tangents",
                          &c->tangents));
     TND_TRY(upload_array(vk, s->indices, (size_t)s->index_count * 4, "scene.indices", &c->indices));
@@ -179,8 +181,14 @@ tnd_result fvk_scene_upload(fvk_context *c)
             {mt->roughness, mt->specular, mt->normal_scale, mt->double_sided ? 1.0f : 0.0f},
             {mt->tex_base_color, mt->tex_metal_rough, mt->tex_normal, mt->tex_emission},
             {sigma[0], sigma[1], sigma[2], mt->ior > 0 ? mt->ior : 1.5f},
-            {(uint32_t)mt->kind, mt->alpha_test ? 1u : 0u, 0, 0}};
+            {(uint32_t)mt->kind, mt->alpha_test ? 1u : 0u, 0, 0},
+            .uvx = {{0, 0, 0, 0}}};
         memcpy(&gmat[m].info.z, &mt->alpha_cutoff, sizeof(float));
+        for (int k = 0; k < TND_TEX_SLOTS; k++) {
+            const tnd_uv_xform *x = &mt->uvx[k];
+            gmat[m].uvx[2 * k] = (tnd_gvec4){x->m[0], x->m[1], x->m[2], (float)x->set};
+            gmat[m].uvx[2 * k + 1] = (tnd_gvec4){x->m[3], x->m[4], x->m[5], x->lod_shift};
+        }
     }
     TND_TRY(upload_array(vk, gm, s->mesh_count * sizeof *gm, "scene.meshes", &c->meshes));
     TND_TRY(upload_array(vk, gmat, s->material_count * sizeof *gmat, "scene.materials",

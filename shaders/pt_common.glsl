@@ -165,6 +165,15 @@ vec4 sample_tex(int t, vec2 uv, float lod_base)
     return a + f * (b - a);
 }
 
+/* Texture t of material slot k at the slot's coordinate set, through its transform, at that
+ * set's level of detail plus the transform's shift. */
+vec4 sample_slot(tnd_gpu_material mat, uint k, int t, vec2 tuv[2], float lod_set[2])
+{
+    vec4 a = mat.uvx[2u * k], b = mat.uvx[2u * k + 1u];
+    uint set = a.w != 0.0 ? 1u : 0u;
+    return sample_tex(t, uv_xform(a, b, tuv[set]), lod_set[set] + b.w);
+}
+
 surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width)
 {
     surface s;
@@ -189,18 +198,25 @@ surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width
         ng = -ng;
         ns = -ns;
     }
-    vec2 t0 = vuv(i0), t1 = vuv(i1), t2 = vuv(i2);
-    vec2 tuv = w0 * t0 + u * t1 + v * t2;
-    float lod_base = 0.0;
+    /* both coordinate sets and their level of detail before a texture's transform
+     * (femb_scene.c's surface_textures) */
+    vec2 tuv[2];
+    float lod_set[2];
     bool textured = USES(TND_USES_TEXTURES) &&
                     (mat.tex.x >= 0 || mat.tex.y >= 0 || mat.tex.z >= 0 || mat.tex.w >= 0);
     if (textured) {
-        float uv_area = abs((t1.x - t0.x) * (t2.y - t0.y) - (t2.x - t0.x) * (t1.y - t0.y));
         vec3 we1 = xf_dir(I, e1), we2 = xf_dir(I, e2);
         float world_area = length(cross(we1, we2));
         float cosv = abs(dot(ng, dir));
-        if (uv_area > 0.0 && world_area > 0.0)
-            lod_base = log2(cone_width / max(cosv, 1e-3)) + 0.5 * log2(uv_area / world_area);
+        for (uint set = 0u; set < 2u; set++) {
+            vec2 t0 = vuv_set(set, i0), t1 = vuv_set(set, i1), t2 = vuv_set(set, i2);
+            tuv[set] = w0 * t0 + u * t1 + v * t2;
+            float uv_area = abs((t1.x - t0.x) * (t2.y - t0.y) - (t2.x - t0.x) * (t1.y - t0.y));
+            lod_set[set] = 0.0;
+            if (uv_area > 0.0 && world_area > 0.0)
+                lod_set[set] =
+                    log2(cone_width / max(cosv, 1e-3)) + 0.5 * log2(uv_area / world_area);
+        }
     }
     s.base = mat.base_color.rgb;
     s.metallic = mat.emission.w;
@@ -211,16 +227,16 @@ surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width
     s.ior = mat.vol.w;
     s.sigma = mat.vol.xyz;
     if (textured && mat.tex.x >= 0)
-        s.base *= sample_tex(mat.tex.x, tuv, lod_base).rgb;
+        s.base *= sample_slot(mat, TND_TEX_BASE, mat.tex.x, tuv, lod_set).rgb;
     if (textured && mat.tex.y >= 0) {
-        vec4 mr = sample_tex(mat.tex.y, tuv, lod_base);
+        vec4 mr = sample_slot(mat, TND_TEX_METAL_ROUGH, mat.tex.y, tuv, lod_set);
         s.roughness *= mr.g;
         s.metallic *= mr.b;
     }
     if (textured && mat.tex.w >= 0)
-        s.emission *= sample_tex(mat.tex.w, tuv, lod_base).rgb;
+        s.emission *= sample_slot(mat, TND_TEX_EMISSION, mat.tex.w, tuv, lod_set).rgb;
     if (USES(TND_USES_NORMAL_MAPS) && mat.tex.z >= 0) {
-        vec4 texel = sample_tex(mat.tex.z, tuv, lod_base);
+        vec4 texel = sample_slot(mat, TND_TEX_NORMAL, mat.tex.z, tuv, lod_set);
         vec4 tg0 = vtan(i0);
         vec3 T = w0 * tg0.xyz + u * vtan(i1).xyz + v * vtan(i2).xyz;
         T = xf_dir(I, T);

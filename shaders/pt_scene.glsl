@@ -23,6 +23,8 @@ layout(set = 0, binding = 10, std430) readonly buffer Lights { tnd_light_gpu lig
 layout(set = 0, binding = 11, std430) readonly buffer Gradients { tnd_gpu_gradient gradients[]; };
 layout(set = 0, binding = 12) uniform sampler2D textures[];
 layout(set = 0, binding = 14, std430) readonly buffer Env { float env_data[]; };
+/* TEXCOORD_1 (the scene's TEXCOORD_0 again when no mesh has a second set) */
+layout(set = 0, binding = 15, std430) readonly buffer Uvs1 { float uvs1[]; };
 #include "env.h"
 
 
@@ -35,6 +37,15 @@ layout(constant_id = 0) const uint TND_USES = TND_USES_ALL;
 vec3 vpos(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
 vec3 vnrm(uint i) { return vec3(normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]); }
 vec2 vuv(uint i) { return vec2(uvs[2 * i], uvs[2 * i + 1]); }
+vec2 vuv_set(uint set, uint i)
+{
+    return set == 0u ? vuv(i) : vec2(uvs1[2 * i], uvs1[2 * i + 1]);
+}
+/* A texture transform (tnd_uv_apply): a = (m0, m1, m2, set), b = (m3, m4, m5, lod shift). */
+vec2 uv_xform(vec4 a, vec4 b, vec2 uv)
+{
+    return vec2(a.x * uv.x + a.y * uv.y + a.z, b.x * uv.x + b.y * uv.y + b.z);
+}
 vec4 vtan(uint i)
 {
     return vec4(tangents[4 * i], tangents[4 * i + 1], tangents[4 * i + 2], tangents[4 * i + 3]);
@@ -80,10 +91,13 @@ bool alpha_pass(uint inst, uint prim, vec2 bary)
     float a = mat.base_color.a;
     if (USES(TND_USES_TEXTURES) && mat.tex.x >= 0) {
         uint fi = M.range.z + 3u * prim;
-        vec2 t0 = vuv(M.range.x + indices[fi]), t1 = vuv(M.range.x + indices[fi + 1u]),
-             t2 = vuv(M.range.x + indices[fi + 2u]);
+        vec4 xa = mat.uvx[2u * TND_TEX_BASE], xb = mat.uvx[2u * TND_TEX_BASE + 1u];
+        uint set = xa.w != 0.0 ? 1u : 0u;
+        vec2 t0 = vuv_set(set, M.range.x + indices[fi]),
+             t1 = vuv_set(set, M.range.x + indices[fi + 1u]),
+             t2 = vuv_set(set, M.range.x + indices[fi + 2u]);
         float w0 = 1.0 - bary.x - bary.y;
-        vec2 uv = w0 * t0 + bary.x * t1 + bary.y * t2;
+        vec2 uv = uv_xform(xa, xb, w0 * t0 + bary.x * t1 + bary.y * t2);
         if (tnd_nonfinite(uv.x) || tnd_nonfinite(uv.y))
             uv = vec2(0.0);
         uv -= floor(uv);

@@ -28,7 +28,15 @@ struct tnd_gpu_material {
     vec4 vol;            /* glass: Beer-Lambert sigma_a rgb (1/m), w: index of refraction */
     uvec4 info;          /* x: kind (TND_KIND_*, specular.h), y: 1 alpha-tested, z: alpha cutoff
                             (float bits) */
+    vec4 uvx[8];         /* texture slot k (TND_TEX_*): [2k] = (m0, m1, m2, coordinate set),
+                            [2k + 1] = (m3, m4, m5, level-of-detail shift): tnd_uv_xform */
 };
+#ifdef TND_GLSL /* (C: core.h's enum, the same values) */
+#define TND_TEX_BASE 0u
+#define TND_TEX_METAL_ROUGH 1u
+#define TND_TEX_NORMAL 2u
+#define TND_TEX_EMISSION 3u
+#endif
 
 struct tnd_gpu_instance {
     vec4 xform[3];      /* object to world, 3x4 row-major, this frame */
@@ -60,7 +68,7 @@ typedef struct tnd_gpu_material tnd_gpu_material;
 typedef struct tnd_gpu_instance tnd_gpu_instance;
 typedef struct tnd_gpu_frame tnd_gpu_frame;
 _Static_assert(sizeof(tnd_gpu_mesh) == 32, "mesh layout");
-_Static_assert(sizeof(tnd_gpu_material) == 96, "material layout");
+_Static_assert(sizeof(tnd_gpu_material) == 224, "material layout");
 _Static_assert(sizeof(tnd_gpu_instance) == 112, "instance layout");
 _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 7 * 16, "frame layout");
 #endif

@@ -14,6 +14,7 @@
 #include "tests/motion_reference.h"
 #include "tests/tnd_test.h"
 #include "shaders/specular.h"
+#include <unistd.h>
 
 #define SCENES TND_SOURCE_DIR "/data/scenes/"
 
@@ -1104,7 +1105,58 @@ cleanup:
     tnd_scene_destroy(s);
 }
 
-TND_TEST_MAIN(T(test_furnace_lambert), T(test_env_sphere), T(test_alpha_cutout), T(test_furnace_ggx), T(test_furnace_glass),
+/* KHR_texture_transform on Khronos' TextureTransformTest (Debian's assimp-testmodels): its top
+ * row offsets the UV texture by (0.5, 0), (0, 0.5) and (0.5, 0.5) so that each quad shows a
+ * green, a blue and a cyan square with a tick (yellow where the offset is not applied). The
+ * G-buffer's albedo over each quad's pixels must have that colour. (The rotation and scale quads'
+ * arrows: docs/scenes.md shows them; the two front-ends' albedo: test_gbuffer_matches_embree.) */
+static void test_texture_transform(void)
+{
+    const char *path = "/usr/share/assimp/models/glTF2/textureTransform/TextureTransformTest.gltf";
+    if (access(path, R_OK) != 0) {
+        printf("     skip: %s absent (assimp-testmodels)\n", path);
+        return;
+    }
+    rig r;
+    enum { W = 160, H = 120 };
+    tnd_frame f = {0};
+    REQUIRE_OK(rig_open(&r, path, 2));
+    REQUIRE_OK(rig_frame(&r, 0, 0, 0, W, H, &f));
+    const char *names[3] = {"Offset U", "Offset V", "Offset UV"};
+    for (int k = 0; k < 3; k++) {
+        double sum[3] = {0, 0, 0};
+        int n = 0;
+        for (int q = 0; q < W * H; q++) {
+            uint32_t inst = tnd_frame_u(&f, TND_CT_VIS_ID)[2 * q];
+            if (inst == TND_VIS_NONE)
+                continue;
+            const tnd_material *m = &r.s->materials[r.s->meshes[r.s->instances[inst].mesh].material];
+            if (strcmp(m->name, names[k]) != 0)
+                continue;
+            for (int c = 0; c < 3; c++)
+                sum[c] += tnd_frame_f(&f, TND_CT_ALBEDO)[3 * q + c];
+            n++;
+        }
+        for (int c = 0; c < 3; c++)
+            sum[c] /= n > 0 ? n : 1;
+        printf("     %s: %d pixels, mean albedo %.2f %.2f %.2f\n", names[k], n, sum[0], sum[1],
+               sum[2]);
+        CHECK(n > 100, "%s: %d pixels", names[k], n);
+        /* green: G over R and B; blue: B over R and G; cyan: G and B over R (yellow: R and G
+         * over B) */
+        bool ok = k == 0   ? sum[1] > 1.5 * sum[0] && sum[1] > 1.5 * sum[2]
+                  : k == 1 ? sum[2] > 1.5 * sum[0] && sum[2] > 1.5 * sum[1]
+                           : sum[1] > 1.5 * sum[0] && sum[2] > 1.5 * sum[0];
+        CHECK(ok, "%s shows the wrong part of its texture (%.2f %.2f %.2f)", names[k], sum[0],
+              sum[1], sum[2]);
+    }
+cleanup:
+    tnd_frame_destroy(&f);
+    rig_close(&r);
+}
+
+TND_TEST_MAIN(T(test_furnace_lambert), T(test_env_sphere), T(test_alpha_cutout),
+              T(test_texture_transform), T(test_furnace_ggx), T(test_furnace_glass),
               T(test_total_internal_reflection), T(test_rotated_instance_normals),
               T(test_mirror_gbuffer), T(test_composite_equals_radiance),
               T(test_deterministic_threads), T(test_gradient_samples_reproduce), T(test_batch_independent),

@@ -119,6 +119,57 @@ static const tnd_light *light(const tnd_scene *s, const char *name)
     return NULL;
 }
 
+/* KHR_texture_transform and texCoord on Khronos' models in Debian's assimp-testmodels:
+ * TextureTransformTest's offsets, rotation and scale as the affine map T R S; boxTexcoords'
+ * metal-rough texture on TEXCOORD_1, loaded beside TEXCOORD_0. */
+static void test_texture_coordinates(void)
+{
+    const char *tt = "/usr/share/assimp/models/glTF2/textureTransform/TextureTransformTest.gltf";
+    const char *bt = "/usr/share/assimp/models/glTF2/BoxTexcoords-glTF/boxTexcoords.gltf";
+    if (access(tt, R_OK) != 0 || access(bt, R_OK) != 0) {
+        printf("     skip: assimp-testmodels absent\n");
+        return;
+    }
+    tnd_scene *s = NULL;
+    REQUIRE_OK(tnd_scene_load(tt, &s));
+    const tnd_material *ou = material(s, "Offset UV"), *ro = material(s, "Rotation"),
+                       *al = material(s, "All"), *co = material(s, "Correct");
+    REQUIRE(ou && ro && al && co, "materials");
+    const float *m = ou->uvx[TND_TEX_BASE].m;
+    CHECK(m[0] == 1 && m[1] == 0 && m[2] == 0.5f && m[3] == 0 && m[4] == 1 && m[5] == 0.5f,
+          "Offset UV: %g %g %g / %g %g %g", m[0], m[1], m[2], m[3], m[4], m[5]);
+    double c = cos(0.39269908169872414), sn = sin(0.39269908169872414);
+    m = ro->uvx[TND_TEX_BASE].m;
+    CHECK(fabs(m[0] - c) < 1e-6 && fabs(m[1] - sn) < 1e-6 && fabs(m[3] + sn) < 1e-6 &&
+              fabs(m[4] - c) < 1e-6 && m[2] == 0 && m[5] == 0,
+          "Rotation: %g %g %g / %g %g %g", m[0], m[1], m[2], m[3], m[4], m[5]);
+    /* All: offset (-0.2, -0.1), rotation 0.3, scale 1.5: T R S */
+    m = al->uvx[TND_TEX_BASE].m;
+    c = cos(0.3), sn = sin(0.3);
+    CHECK(fabs(m[0] - 1.5 * c) < 1e-6 && fabs(m[1] - 1.5 * sn) < 1e-6 &&
+              fabs(m[2] + 0.2) < 1e-6 && fabs(m[3] + 1.5 * sn) < 1e-6 &&
+              fabs(m[4] - 1.5 * c) < 1e-6 && fabs(m[5] + 0.1) < 1e-6 &&
+              fabs(al->uvx[TND_TEX_BASE].lod_shift - 0.5 * log2(2.25)) < 1e-6,
+          "All: %g %g %g / %g %g %g", m[0], m[1], m[2], m[3], m[4], m[5]);
+    m = co->uvx[TND_TEX_BASE].m;
+    CHECK(m[0] == 1 && m[4] == 1 && m[1] == 0 && m[2] == 0 && co->uvx[0].lod_shift == 0,
+          "Correct: the identity");
+    tnd_scene_destroy(s);
+    s = NULL;
+    REQUIRE_OK(tnd_scene_load(bt, &s));
+    const tnd_material *bm = &s->materials[s->meshes[0].material];
+    CHECK(s->uvs1 != NULL && bm->uvx[TND_TEX_BASE].set == 0 &&
+              bm->uvx[TND_TEX_METAL_ROUGH].set == 1,
+          "boxTexcoords: TEXCOORD_1 %s, sets %u %u", s->uvs1 ? "loaded" : "missing",
+          bm->uvx[TND_TEX_BASE].set, bm->uvx[TND_TEX_METAL_ROUGH].set);
+    int differ = 0;
+    for (uint32_t v = 0; s->uvs1 && v < 2 * s->vertex_count; v++)
+        differ += s->uvs1[v] != s->uvs[v];
+    CHECK(differ > 0, "the two sets are the same");
+cleanup:
+    tnd_scene_destroy(s);
+}
+
 /* Values assimp drops or alters come through exactly. */
 static void test_values(void)
 {
@@ -750,4 +801,5 @@ cleanup:
 
 TND_TEST_MAIN(T(test_shipped_scenes), T(test_values), T(test_animation), T(test_stress),
               T(test_light_pick), T(test_bad_input), T(test_defaults),
-              T(test_unsupported_named), T(test_other_formats), T(test_obj_mtl))
+              T(test_unsupported_named), T(test_other_formats), T(test_obj_mtl),
+              T(test_texture_coordinates))
