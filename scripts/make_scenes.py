@@ -11,7 +11,7 @@ Tandem-specific data lives in glTF `extras`:
   node.extras.tandem_light_schedule = {"fps": F, "keys": [[frame, scale], ...]}
                                                         step-wise intensity scale of a light node
 """
-import base64, json, math, os, struct, sys, zlib
+import base64, json, math, os, random, struct, sys, zlib
 
 
 class Gltf:
@@ -444,6 +444,137 @@ def cutout(out):
     g.write(out)
 
 
+def cylinder(r, h, seg, rings):
+    """A cylinder of radius r from y = 0 to h, seg x rings quads, smooth normals, no caps."""
+    pos, nrm, uv, idx = [], [], [], []
+    for j in range(rings + 1):
+        y = h * j / rings
+        for i in range(seg + 1):
+            a = 2 * math.pi * i / seg
+            n = (math.cos(a), 0.0, math.sin(a))
+            pos.append((r * n[0], y, r * n[2]))
+            nrm.append(n)
+            uv.append((i / seg * 2 * math.pi * r, y))
+    for j in range(rings):
+        for i in range(seg):
+            a, b = j * (seg + 1) + i, (j + 1) * (seg + 1) + i
+            idx += [a, b, a + 1, a + 1, b, b + 1]
+    return pos, nrm, uv, idx
+
+
+def grid(w, d, nx, nz, tile):
+    """A w x d floor in the XZ plane facing +Y, nx x nz quads, UVs in units of `tile` metres."""
+    pos, nrm, uv, idx = [], [], [], []
+    for j in range(nz + 1):
+        for i in range(nx + 1):
+            x, z = -w / 2 + w * i / nx, -d / 2 + d * j / nz
+            pos.append((x, 0.0, z))
+            nrm.append((0.0, 1.0, 0.0))
+            uv.append((x / tile, z / tile))
+    for j in range(nz):
+        for i in range(nx):
+            a, b = j * (nx + 1) + i, (j + 1) * (nx + 1) + i
+            idx += [a, b, a + 1, a + 1, b, b + 1]
+    return pos, nrm, uv, idx
+
+
+def atrium(out):
+    """What real scenes stress, at a size benchmarks feel: a 16 x 24 m courtyard open to the sky
+    (courtyard.exr from Debian's blender-data, through the roof's opening) and a low sun; stone
+    floor tiles and columns (over 500k triangles traced: 16 columns of 30k, instanced), wooden
+    beams and benches, a stone fountain, galleries behind a cut-out railing (MASK) and planters of
+    alpha-tested leaf cards (BLEND); a camera path through the colonnade (8 s)."""
+    g = Gltf("atrium")
+    rng = random.Random(7)
+
+    def stone_px(x, y):
+        grout = (x % 64) < 2 or (y % 64) < 2
+        n = rng.randint(-12, 12)
+        v = 90 if grout else 178 + n + ((x // 64 + y // 64) % 3) * 6
+        return (v, v - 6, v - 16, 255)
+
+    def wood_px(x, y):
+        r = 0.5 + 0.5 * math.sin(0.35 * x + 2.5 * math.sin(0.05 * y) + 0.2 * math.sin(0.9 * x))
+        return (int(110 + 60 * r), int(70 + 40 * r), int(35 + 20 * r), 255)
+
+    def leaf_px(x, y):
+        rr = math.hypot((x - 31.5) / 14.0, (y - 31.5) / 30.0)
+        a = max(0.0, min(1.0, (1.08 - rr) / 0.16))
+        return (50 + (y % 7) * 4, 105 + (x * 3) % 50, 35, int(round(255 * a)))
+
+    def rail_px(x, y):
+        bar = (x % 16) < 3 or y < 4 or y > 59 or (y % 32) < 2
+        return (40, 38, 36, 255 if bar else 0)
+    stone_t = png("atrium_stone.png", 256, 256, stone_px)
+    wood_t = png("atrium_wood.png", 256, 256, wood_px)
+    leaf_t = png("atrium_leaf.png", 64, 64, leaf_px)
+    rail_t = png("atrium_rail.png", 64, 64, rail_px)
+    stone = g.material("stone", (1, 1, 1), roughness=0.85, base_tex=stone_t)
+    column_m = g.material("column", (0.92, 0.9, 0.86), roughness=0.7, base_tex=stone_t)
+    plaster = g.material("plaster", (0.78, 0.74, 0.66), roughness=0.9)
+    wood = g.material("wood", (1, 1, 1), roughness=0.55, base_tex=wood_t)
+    leaf = g.material("leaf", (1, 1, 1), roughness=0.6, base_tex=leaf_t, double_sided=True,
+                      alpha=("BLEND", None))
+    rail = g.material("railing", (1, 1, 1), metallic=0.0, roughness=0.4, base_tex=rail_t,
+                      double_sided=True, alpha=("MASK", 0.5))
+    W, D, H = 16.0, 24.0, 9.0
+    g.node("floor", g.mesh("floor", grid(W, D, 80, 120, 1.0), stone))
+    # walls (facing inwards) and a roof with an 8 x 14 m opening
+    wall_ns, wall_ew = g.mesh("wall_ns", quad(W, H), plaster), g.mesh("wall_ew", quad(D, H), plaster)
+    g.node("wall_n", wall_ns, t=(0, H / 2, -D / 2), r=quat_axis((1, 0, 0), 90))
+    g.node("wall_s", wall_ns, t=(0, H / 2, D / 2),
+           r=quat_mul(quat_axis((0, 1, 0), 180), quat_axis((1, 0, 0), 90)))
+    g.node("wall_w", wall_ew, t=(-W / 2, H / 2, 0),
+           r=quat_mul(quat_axis((0, 1, 0), 90), quat_axis((1, 0, 0), 90)))
+    g.node("wall_e", wall_ew, t=(W / 2, H / 2, 0),
+           r=quat_mul(quat_axis((0, 1, 0), -90), quat_axis((1, 0, 0), 90)))
+    roof_side = g.mesh("roof_side", box(4.0, 0.4, D), plaster)
+    roof_end = g.mesh("roof_end", box(8.0, 0.4, 5.0), plaster)
+    for x in (-6.0, 6.0):
+        g.node("roof_%+d" % x, roof_side, t=(x, H + 0.2, 0))
+    for z in (-9.5, 9.5):
+        g.node("roof_end_%+d" % z, roof_end, t=(0, H + 0.2, z))
+    # colonnades on both sides, galleries above them behind a railing
+    column = g.mesh("column", cylinder(0.3, 4.0, 64, 240), column_m)
+    capital = g.mesh("capital", box(0.8, 0.25, 0.8), stone)
+    for k, z in enumerate([-9.8 + 2.8 * i for i in range(8)]):
+        for x in (-4.5, 4.5):
+            g.node("column_%d_%+d" % (k, x), column, t=(x, 0, z))
+            g.node("capital_%d_%+d" % (k, x), capital, t=(x, 4.125, z))
+    gallery = g.mesh("gallery", box(3.5, 0.3, D), stone)
+    railing = g.mesh("railing", quad(D, 1.0), rail)
+    for x in (-1, 1):
+        g.node("gallery_%+d" % x, gallery, t=(x * 6.25, 4.4, 0))
+        g.node("railing_%+d" % x, railing, t=(x * 4.55, 5.05, 0),
+               r=quat_mul(quat_axis((0, 1, 0), 90), quat_axis((1, 0, 0), 90)))
+    # beams across the opening, benches, the fountain, planters with leaf cards
+    beam = g.mesh("beam", box(8.0, 0.3, 0.3), wood)
+    for z in (-5.0, -1.7, 1.7, 5.0):
+        g.node("beam_%+.1f" % z, beam, t=(0, H - 0.6, z))
+    bench = g.mesh("bench", box(1.8, 0.45, 0.5), wood)
+    for k, (x, z, yaw) in enumerate([(-2.5, -6, 0), (2.5, -6, 0), (-2.5, 6, 0), (2.5, 6, 0)]):
+        g.node("bench_%d" % k, bench, t=(x, 0.225, z), r=quat_axis((0, 1, 0), yaw))
+    bowl = g.mesh("fountain", sphere(1.0, 128, 64), column_m)
+    g.node("fountain", bowl, t=(0, 0.35, 0), s=(1.6, 0.5, 1.6))
+    planter = g.mesh("planter", box(1.0, 0.6, 1.0), plaster)
+    card = g.mesh("leaf_card", quad(0.45, 0.9), leaf)
+    for k, (x, z) in enumerate([(-6.5, -9), (6.5, -9), (-6.5, 9), (6.5, 9), (-2.8, 0),
+                                (2.8, 0), (-6.5, 0), (6.5, 0)]):
+        g.node("planter_%d" % k, planter, t=(x, 0.3, z))
+        for c in range(40):
+            yaw, tilt = rng.uniform(0, 360), rng.uniform(20, 75)
+            g.node("leaf_%d_%d" % (k, c), card,
+                   t=(x + rng.uniform(-0.3, 0.3), 0.9 + rng.uniform(0, 0.9), z + rng.uniform(-0.3, 0.3)),
+                   r=quat_mul(quat_axis((0, 1, 0), yaw), quat_axis((1, 0, 0), tilt)))
+    sl = g.light("sun", "directional", (1.0, 0.93, 0.8), 4.0)
+    g.light_node("sun", sl, r=quat_mul(quat_axis((0, 1, 0), 35), quat_axis((1, 0, 0), -62)))
+    g.doc["scenes"][0]["extras"] = {"tandem_env": {
+        "uri": "/usr/share/blender/datafiles/studiolights/world/courtyard.exr", "intensity": 1.0}}
+    camera_path(g, "camera", [(0.0, (-2.0, 1.7, 10.5), -15, 2), (4.0, (-1.5, 1.7, 2.5), 10, 8),
+                              (8.0, (1.5, 1.8, -6.0), 35, 14)], yfov=60.0)
+    g.write(out)
+
+
 def extremes(out):
     """Numerical extremes: a tiny very bright light beside a large dim one, geometry 1e5 units
     from the origin, roughness 0 and 1, metallic 0 and 1, grazing views."""
@@ -480,7 +611,7 @@ def main():
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "..", "data", "scenes")
     os.makedirs(out, exist_ok=True)
-    for f in (cornell, materials, dynamic, sun, extremes, cutout):
+    for f in (cornell, materials, dynamic, sun, extremes, cutout, atrium):
         f(out)
 
 
