@@ -24,6 +24,7 @@ typedef struct render_opts {
     const char *taa, *tonemap, *exposure;
     double bloom, min_alpha;
     unsigned frames, start, threads, bounces, spp, camera, atrous, reflect_depth;
+    unsigned ref_bounces; /* reference: bounces per path (0: full paths, unbiased) */
     unsigned size[2];
     double fps;
     bool capture, video;
@@ -38,7 +39,8 @@ static const app_cmd render_cmd = {
     NULL};
 static const app_cmd reference_cmd = {
     "reference",
-    "Render converged reference frames (unbiased path tracing, --spp samples per pixel) of a\n"
+    "Render converged reference frames (unbiased path tracing, --spp samples per pixel; with\n"
+    "--bounces N, paths of the real-time estimator's length: a matched reference) of a\n"
     "scene's camera path: DIR/frame_NNNN.exr, linear HDR radiance.",
     "--out DIR [--scene PATH] [--frontend embree] [--frames N] [--size WxH] [--spp K]", NULL};
 
@@ -110,6 +112,9 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"camera", APP_OPT_UINT, &o->camera, "I", "scene camera (default 0)"},
         {"threads", APP_OPT_UINT, &o->threads, "N", "CPU threads (default: all cores)"},
         {"spp", APP_OPT_UINT, &o->spp, "K", "samples per pixel (default 256)"},
+        {"bounces", APP_OPT_UINT, &o->ref_bounces, "N",
+         "bounces per path, as `render --bounces N` traces them: a reference matched to the "
+         "real-time estimator (default: full paths with Russian roulette, unbiased)"},
         APP_ENV_OPTS(&o->env),
         {0},
     };
@@ -420,8 +425,10 @@ static int run(bool reference, int argc, char **argv)
             ref_progress rp = {&bar, i, o.frames};
             if (use_vk) {
                 TND_TRY(fvk_set_frame(gv, cur, prev, f, o.size[0], o.size[1]));
+                fvk_set_reference_bounces(gv, o.ref_bounces);
                 TND_TRY(fvk_reference(gv, o.spp, rgb, NULL, &err, on_ref_progress, &rp));
             } else {
+                femb_set_reference_bounces(fe, o.ref_bounces);
                 TND_TRY(femb_reference(fe, o.spp, rgb, NULL, &err, on_ref_progress, &rp));
             }
             snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);

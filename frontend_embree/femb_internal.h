@@ -105,6 +105,7 @@ struct femb_context {
     float pixel_spread; /* ray-cone spread angle per pixel (radians) */
     bool specular;      /* the scene has mirrors or glass: the primary pass follows them */
     uint32_t reflect_depth; /* at most this many specular vertices in the primary chain */
+    uint32_t ref_bounces;   /* femb_set_reference_bounces (0: full paths) */
     tnd_light_list lights;
     bool triangle_lights_only; /* every light of the list is an emissive triangle */
     bool select_lights; /* at most FEMB_SELECT_LIGHTS lights: NEE selects their records into

@@ -498,6 +498,11 @@ typedef struct shade_job {
     float *radiance;
 } shade_job;
 
+void femb_set_reference_bounces(femb_context *c, uint32_t bounces)
+{
+    c->ref_bounces = bounces;
+}
+
 /* A tile's pixels that see a surface go to the estimator in batches; the others show the sky
  * (its radiance is the primary pass's emission) and carry no shading. */
 static void shade_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
@@ -622,7 +627,7 @@ typedef struct ref_job {
 static void reference_batch(femb_context *c, ref_job *j, femb_paths *P, const uint32_t *pixels)
 {
     float L[3][FEMB_LANES];
-    femb_trace_paths(c, P, 0, 64, 3, L);
+    femb_trace_paths(c, P, 0, c->ref_bounces ? c->ref_bounces : TND_REFERENCE_MAX_BOUNCES, 3, L);
     for (uint32_t i = 0; i < P->n; i++) {
         size_t q = pixels[i];
         for (int k = 0; k < 3; k++)

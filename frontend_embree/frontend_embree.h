@@ -80,6 +80,10 @@ tnd_result femb_shade_gradients(femb_context *ctx, const femb_params *p,
  * standard error of the pixel means. Sample s of frame f draws the random-number stream
  * (pixel, f, tnd_reference_sample(s)): frames never share samples. Calls
  * `progress(done, total, user)` after each sample pass when given. */
+/* The reference's path length: 0 (the default) full paths, Russian roulette from the third
+ * bounce, unbiased; n > 0: n bounces after the primary vertex, as femb_params.bounces traces them
+ * (a reference matched to the real-time estimator, for evaluating denoisers). */
+void femb_set_reference_bounces(femb_context *ctx, uint32_t bounces);
 tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, float *lum_se,
                           double *rel_error, void (*progress)(uint32_t, uint32_t, void *),
                           void *user);

@@ -110,6 +110,8 @@ tnd_result fvk_shade_gradient_slots(fvk_context *ctx, const fvk_params *p, VkBuf
  * the same keys): spp samples per pixel, radiance in rgb (3 floats per pixel), the standard error
  * of each pixel's luminance mean in lum_se (optional), mean relative standard error in rel_error
  * (optional), progress after each batch of samples. */
+/* As femb_set_reference_bounces: 0 full paths (the default), n > 0 a matched reference. */
+void fvk_set_reference_bounces(fvk_context *ctx, uint32_t bounces);
 tnd_result fvk_reference(fvk_context *ctx, uint32_t spp, float *rgb, float *lum_se,
                          double *rel_error,
                          void (*progress)(uint32_t done, uint32_t total, void *user), void *user);

@@ -36,6 +36,7 @@ struct fvk_context {
     fvk_rt_api api;
     uint32_t uses;            /* TND_USES_*: the specialization of every pass */
     uint32_t reflect_depth;   /* specular vertices of the primary chain (frame params.w) */
+    uint32_t ref_bounces;     /* fvk_set_reference_bounces (0: full paths; frame params.x) */
     char variant[160];
     tnd_sbt sbt;
     VkDescriptorPool pool;

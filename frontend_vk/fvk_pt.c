@@ -503,6 +503,11 @@ tnd_result fvk_shade_gradient_slots(fvk_context *c, const fvk_params *p, VkBuffe
     return launch_gradients(c, p, slots, t);
 }
 
+void fvk_set_reference_bounces(fvk_context *c, uint32_t bounces)
+{
+    c->ref_bounces = bounces;
+}
+
 tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se,
                          double *rel_error, void (*progress)(uint32_t, uint32_t, void *),
                          void *user)
@@ -511,6 +516,7 @@ tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se
     float *acc = NULL;
     if (!c->have_frame || spp == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: reference needs a frame and spp > 0");
+    ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.x = c->ref_bounces; /* (0: full paths) */
     const uint32_t batch = 16;
     for (uint32_t s0 = 0; s0 < spp; s0 += batch) {
         VkCommandBuffer cmd;

@@ -14,7 +14,9 @@ void pt_reference_main(uvec2 launch)
     float jx = tnd_rand(key.x, key.y, key.z, TND_DIM_JITTER_X);
     float jy = tnd_rand(key.x, key.y, key.z, TND_DIM_JITTER_Y);
     vec3 dir = camera_dir(vec2(launch) + vec2(jx, jy));
-    vec3 L = trace_path(key, fr.cam_pos.xyz, fr.cam_pos.xyz, dir, 0u, 64u, 3u, 0.0, 0.0);
+    /* params.x: the bounces of a matched reference (fvk_set_reference_bounces), 0: full paths */
+    uint max_bounce = fr.params.x != 0u ? fr.params.x : TND_REFERENCE_MAX_BOUNCES;
+    vec3 L = trace_path(key, fr.cam_pos.xyz, fr.cam_pos.xyz, dir, 0u, max_bounce, 3u, 0.0, 0.0);
     float lum = tnd_luminance(L.r, L.g, L.b);
     vec4 a = pc.sample_index == 0u ? vec4(0.0) : imageLoad(accum, ip);
     imageStore(accum, ip, a + vec4(L, lum * lum));

@@ -38,6 +38,10 @@
 #define TND_DIMS_PER_BOUNCE 8u
 #define TND_SAMPLE_REALTIME 0u
 
+/* A full path of the reference mode: at most this many bounces (Russian roulette, from the third,
+ * ends them long before); a matched reference traces the real-time estimator's count instead. */
+#define TND_REFERENCE_MAX_BOUNCES 64u
+
 #ifdef TND_GLSL
 #define TND_DIM_ENUM(name, off, text) const uint TND_DIM_##name = uint(off);
 TND_DIM_LIST(TND_DIM_ENUM)

@@ -824,6 +824,33 @@ static void means_and_references(tnd_vk *vk, const char *path, const tnd_scene_o
     }
     CHECK(outside == 0, "%s: %d pixel means differ beyond 4 standard errors", name, outside);
     static float sea[W * H], seb[W * H];
+    if (!o) {
+        /* a matched reference (2 bounces, as the frames above) is the real-time estimator's
+         * expectation: the image means agree within 4 standard errors (the frames' spread, the
+         * reference's own) */
+        femb_set_reference_bounces(p.fe, 2);
+        fvk_set_reference_bounces(p.gv, 2);
+        REQUIRE_OK(femb_reference(p.fe, SPP, ra, sea, NULL, NULL, NULL));
+        REQUIRE_OK(fvk_reference(p.gv, SPP, rb, seb, NULL, NULL, NULL));
+        double mr = 0, mrb = 0, mt = 0, vr = 0, vt = 0;
+        for (int q = 0; q < W * H; q++) {
+            mr += tnd_luminance(ra[3 * q], ra[3 * q + 1], ra[3 * q + 2]) / (W * H);
+            mrb += tnd_luminance(rb[3 * q], rb[3 * q + 1], rb[3 * q + 2]) / (W * H);
+            vr += (double)sea[q] * sea[q] / ((double)W * H * W * H);
+            double m = sa[q] / N;
+            mt += m / (W * H);
+            vt += fmax(qa[q] / N - m * m, 0) / N / ((double)W * H * W * H);
+        }
+        double se = sqrt(vr + vt);
+        printf("     %s: real-time mean %.5f, matched reference (2 bounces) %.5f / %.5f "
+               "(se %.2g)\n",
+               name, mt, mr, mrb, se);
+        CHECK(fabs(mt - mr) < 4 * se, "%s: the real-time mean %.5f is not the matched "
+              "reference's %.5f", name, mt, mr);
+        CHECK(fabs(mr - mrb) < 1e-4 * mr, "%s: matched references differ", name);
+        femb_set_reference_bounces(p.fe, 0);
+        fvk_set_reference_bounces(p.gv, 0);
+    }
     REQUIRE_OK(femb_reference(p.fe, SPP, ra, sea, NULL, NULL, NULL));
     REQUIRE_OK(fvk_reference(p.gv, SPP, rb, seb, NULL, NULL, NULL));
     double worst = 0;
