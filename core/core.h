@@ -799,7 +799,8 @@ const char *tnd_feature_name(uint32_t bit);
 typedef struct tnd_scene {
     char path[1024];
     float *positions, *normals, *uvs, *tangents; /* 3, 3, 2, 4 floats per vertex */
-    float *uvs1; /* TEXCOORD_1, 2 floats per vertex; NULL when no mesh has one (set 1 reads set 0) */
+    float *uvs1; /* TEXCOORD_1, 2 floats per vertex; NULL when no mesh has one (set 1 then
+                    reads set 0) */
     uint32_t vertex_count;
     uint32_t *indices;
     uint32_t index_count;

@@ -334,7 +334,8 @@ tnd_result tnd_exr_read(const char *path, tnd_exr_file *f)
     exr_compression_t comp;
     EXR_TRY(exr_get_compression(ctx, 0, &comp), "compression");
     if (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB) {
-        TND_TRY(read_rgba_imf(f, dw.min.x, dw.min.y, comp == EXR_COMPRESSION_DWAA ? "DWAA" : "DWAB"));
+        TND_TRY(read_rgba_imf(f, dw.min.x, dw.min.y,
+                              comp == EXR_COMPRESSION_DWAA ? "DWAA" : "DWAB"));
         current_msgs = NULL;
         return TND_OK;
     }

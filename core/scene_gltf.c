@@ -489,9 +489,9 @@ static tnd_result load_materials(gltf_ctx *c)
         m->normal_scale = (float)jnum(jget(jm, "normalTexture"), "scale", 1.0);
         /* each texture's coordinate set and KHR_texture_transform */
         const cJSON *pbr = jget(jm, "pbrMetallicRoughness");
-        const cJSON *infos[TND_TEX_SLOTS] = {jget(pbr, "baseColorTexture"),
-                                             jget(pbr, "metallicRoughnessTexture"),
-                                             jget(jm, "normalTexture"), jget(jm, "emissiveTexture")};
+        const cJSON *infos[TND_TEX_SLOTS] = {
+            jget(pbr, "baseColorTexture"), jget(pbr, "metallicRoughnessTexture"),
+            jget(jm, "normalTexture"), jget(jm, "emissiveTexture")};
         for (int k = 0; k < TND_TEX_SLOTS; k++) {
             tnd_result xr = parse_uv_xform(c, i, m->name, infos[k], &m->uvx[k]);
             if (xr != TND_OK)

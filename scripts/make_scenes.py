@@ -520,7 +520,8 @@ def atrium(out):
     W, D, H = 16.0, 24.0, 9.0
     g.node("floor", g.mesh("floor", grid(W, D, 80, 120, 1.0), stone))
     # walls (facing inwards) and a roof with an 8 x 14 m opening
-    wall_ns, wall_ew = g.mesh("wall_ns", quad(W, H), plaster), g.mesh("wall_ew", quad(D, H), plaster)
+    wall_ns = g.mesh("wall_ns", quad(W, H), plaster)
+    wall_ew = g.mesh("wall_ew", quad(D, H), plaster)
     g.node("wall_n", wall_ns, t=(0, H / 2, -D / 2), r=quat_axis((1, 0, 0), 90))
     g.node("wall_s", wall_ns, t=(0, H / 2, D / 2),
            r=quat_mul(quat_axis((0, 1, 0), 180), quat_axis((1, 0, 0), 90)))
@@ -563,8 +564,9 @@ def atrium(out):
         g.node("planter_%d" % k, planter, t=(x, 0.3, z))
         for c in range(40):
             yaw, tilt = rng.uniform(0, 360), rng.uniform(20, 75)
-            g.node("leaf_%d_%d" % (k, c), card,
-                   t=(x + rng.uniform(-0.3, 0.3), 0.9 + rng.uniform(0, 0.9), z + rng.uniform(-0.3, 0.3)),
+            t = (x + rng.uniform(-0.3, 0.3), 0.9 + rng.uniform(0, 0.9),
+                 z + rng.uniform(-0.3, 0.3))
+            g.node("leaf_%d_%d" % (k, c), card, t=t,
                    r=quat_mul(quat_axis((0, 1, 0), yaw), quat_axis((1, 0, 0), tilt)))
     sl = g.light("sun", "directional", (1.0, 0.93, 0.8), 4.0)
     g.light_node("sun", sl, r=quat_mul(quat_axis((0, 1, 0), 35), quat_axis((1, 0, 0), -62)))

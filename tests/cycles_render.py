@@ -8,7 +8,8 @@ specularFactor 0, so Tandem's material is Lambert too); an emissive material add
 emissiveFactor x KHR_materials_emissive_strength (radiance, as Tandem's nits) on its front face
 only, unless the material is doubleSided (Cycles' mesh emission is two-sided by itself); a black
 world, or the scene's tandem_env as an Environment Texture (equirectangular, Closest: the nearest
-texel, as Tandem reads it; strength = its intensity); a box pixel filter one pixel wide (Tandem's reference jitters uniformly over the pixel);
+texel, as Tandem reads it; strength = its intensity); a box pixel filter one pixel wide
+(Tandem's reference jitters uniformly over the pixel);
 128 bounces, no clamping, no light threshold, no adaptive sampling, no denoising; linear float
 EXR."""
 import json

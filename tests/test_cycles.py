@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """tests/test_cycles.py [--quick] TANDEM: Tandem's unbiased reference against Blender Cycles, an independent
 renderer set up to model the same thing (tests/cycles_render.py says how), on two small closed
-rooms and an open yard of pure-Lambert materials (KHR_materials_specular specularFactor 0) made here:
+rooms and an open yard of pure-Lambert materials (KHR_materials_specular specularFactor 0) made
+here:
   room_one_sided   lit by a one-sided emissive quad under the ceiling, facing down;
   room_two_sided   lit by a double-sided emissive panel standing in the room, facing the red
                    and the green wall (Tandem's NEE once lit only its front: -40% on the walls);

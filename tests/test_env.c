@@ -149,8 +149,9 @@ static void test_importance_vs_uniform(void)
              * subdivision of each texel */
             double exact = 0;
             for (uint32_t y = 0; y < 4 * e.height; y++) {
-                double th0 = TND_PI * y / (4.0 * e.height), th1 = TND_PI * (y + 1) / (4.0 * e.height);
-                double th = 0.5 * (th0 + th1), dw = 2 * TND_PI / (4.0 * e.width) * (cos(th0) - cos(th1));
+                double th0 = TND_PI * y / (4.0 * e.height);
+                double th1 = TND_PI * (y + 1) / (4.0 * e.height), th = 0.5 * (th0 + th1);
+                double dw = 2 * TND_PI / (4.0 * e.width) * (cos(th0) - cos(th1));
                 for (uint32_t x = 0; x < 4 * e.width; x++) {
                     double ph = 2 * TND_PI * ((x + 0.5) / (4.0 * e.width) - 0.5);
                     double d[3] = {cos(ph) * sin(th), cos(th), sin(ph) * sin(th)};
@@ -170,7 +171,8 @@ static void test_importance_vs_uniform(void)
                 double v = pdf > 0 && c > 0 ? tnd_luminance(rgb[0], rgb[1], rgb[2]) * c / pdf : 0;
                 si += v, si2 += v * v;
                 /* uniform on the sphere */
-                float z = 1 - 2 * frand(), r = sqrtf(fmaxf(0, 1 - z * z)), a = 2 * (float)TND_PI * frand();
+                float z = 1 - 2 * frand(), r = sqrtf(fmaxf(0, 1 - z * z));
+                float a = 2 * (float)TND_PI * frand();
                 float du[3] = {r * cosf(a), z, r * sinf(a)};
                 tnd_env_lookup(&e, du, rgb);
                 c = dot3(du, n);

@@ -1130,7 +1130,8 @@ static void test_texture_transform(void)
             uint32_t inst = tnd_frame_u(&f, TND_CT_VIS_ID)[2 * q];
             if (inst == TND_VIS_NONE)
                 continue;
-            const tnd_material *m = &r.s->materials[r.s->meshes[r.s->instances[inst].mesh].material];
+            const tnd_scene *sc = r.s;
+            const tnd_material *m = &sc->materials[sc->meshes[sc->instances[inst].mesh].material];
             if (strcmp(m->name, names[k]) != 0)
                 continue;
             for (int c = 0; c < 3; c++)

@@ -720,7 +720,8 @@ static void test_obj_mtl(void)
                   "newmtl bumpy\nKd 0.5 0.5 0.5\nKs 0 0 0\nmap_Bump h.png\n");
     /* textures: 2x2 colour, 4x4 mask (left half opaque), 4x4 height ramp along x */
     {
-        static const uint8_t px[16] = {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 9, 9, 9, 255};
+        static const uint8_t px[16] = {255, 0, 0,   255, 0, 255, 0, 255,
+                                       0,   0, 255, 255, 9, 9,   9, 255};
         uint8_t mask[4 * 4 * 4], h[4 * 4 * 4];
         for (int i = 0; i < 16; i++) {
             uint8_t m = (i % 4) < 2 ? 255 : 0, v = (uint8_t)(60 * (i % 4));
