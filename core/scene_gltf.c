@@ -383,6 +383,26 @@ static int32_t load_texture(gltf_ctx *c, const struct aiMaterial *m, enum aiText
     return (int32_t)s->texture_count++;
 }
 
+/* One material per assimp material, each glTF's defaults (tnd_material_default) under its
+ * name; the loaders fill in the rest. */
+static tnd_result alloc_materials(gltf_ctx *c)
+{
+    tnd_scene *s = c->s;
+    const struct aiScene *ai = c->ai;
+    s->material_count = ai->mNumMaterials;
+    s->materials = calloc(s->material_count ? s->material_count : 1, sizeof *s->materials);
+    if (!s->materials)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: %s: out of memory", c->path);
+    for (uint32_t i = 0; i < ai->mNumMaterials; i++) {
+        tnd_material *m = &s->materials[i];
+        *m = tnd_material_default("");
+        struct aiString nm;
+        if (aiGetMaterialString(ai->mMaterials[i], AI_MATKEY_NAME, &nm) == aiReturn_SUCCESS)
+            put_name(m->name, sizeof m->name, nm.data);
+    }
+    return TND_OK;
+}
+
 /* A textureInfo's texCoord and KHR_texture_transform (offset, rotation, scale, texCoord) as one
  * affine map, T(offset) R(rotation) S(scale) with R = [cos sin; -sin cos] (the extension's). */
 static tnd_result parse_uv_xform(const gltf_ctx *c, uint32_t mi, const char *mname,
@@ -422,18 +442,11 @@ static tnd_result load_materials(gltf_ctx *c)
     tnd_result res = TND_OK;
     tnd_scene *s = c->s;
     const struct aiScene *ai = c->ai;
-    s->material_count = ai->mNumMaterials;
-    s->materials = calloc(s->material_count ? s->material_count : 1, sizeof *s->materials);
-    if (!s->materials)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    TND_TRY_RETURN(alloc_materials(c));
     const cJSON *jmats = jget(c->json, "materials");
     for (uint32_t i = 0; i < ai->mNumMaterials; i++) {
         const struct aiMaterial *am = ai->mMaterials[i];
         tnd_material *m = &s->materials[i];
-        *m = tnd_material_default("");
-        struct aiString nm;
-        if (aiGetMaterialString(am, AI_MATKEY_NAME, &nm) == aiReturn_SUCCESS)
-            put_name(m->name, sizeof m->name, nm.data);
         float v4[4] = {1, 1, 1, 1};
         unsigned n = 4;
         if (aiGetMaterialFloatArray(am, AI_MATKEY_BASE_COLOR, v4, &n) != aiReturn_SUCCESS) {
@@ -1023,18 +1036,11 @@ static tnd_result load_materials_assimp(gltf_ctx *c)
 {
     const struct aiScene *ai = c->ai;
     tnd_scene *s = c->s;
-    s->materials = calloc(ai->mNumMaterials + 1, sizeof *s->materials);
-    if (!s->materials)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: %s: out of memory", c->path);
-    s->material_count = ai->mNumMaterials;
+    TND_TRY_RETURN(alloc_materials(c));
     tnd_result res = TND_OK;
     for (unsigned i = 0; i < ai->mNumMaterials; i++) {
         const struct aiMaterial *am = ai->mMaterials[i];
         tnd_material *m = &s->materials[i];
-        *m = tnd_material_default("");
-        struct aiString nm;
-        if (aiGetMaterialString(am, AI_MATKEY_NAME, &nm) == aiReturn_SUCCESS)
-            put_name(m->name, sizeof m->name, nm.data);
         float kd[4] = {0.8f, 0.8f, 0.8f, 1}, ks[4] = {0, 0, 0, 1}, ke[4] = {0, 0, 0, 1};
         float ns = 0, d = 1, tr = 0, ni = 1.5f, bm = 1;
         int illum = 2;
