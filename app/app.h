@@ -87,6 +87,9 @@ void app_progress_end(app_progress *p);
  * dumps of the last frame to DIR/NAME_STEM.exr. */
 struct dn_context;
 tnd_result app_parse_dump(const char *list, uint32_t *mask);
+/* --taa on|off|W (a new-frame weight in (0, 1]) into the post chain's description. */
+struct cmp_desc;
+tnd_result app_taa_parse(const char *taa, struct cmp_desc *d);
 tnd_result app_write_dumps(struct dn_context *dn, uint32_t mask, const char *dir, const char *stem);
 /* The median of v[0..n) (sorts v in place; 0 when n is 0). */
 double app_median(double *v, unsigned n);

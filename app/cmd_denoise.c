@@ -26,6 +26,7 @@ static int cmp_names(const void *a, const void *b)
 int cmd_denoise(int argc, char **argv)
 {
     const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf", *dump = NULL;
+    const char *taa = "on";
     double yfov_deg = 40.0;
     const app_opt opts[] = {
         {"captures", APP_OPT_STRING, &captures, "DIR", "directory of frame_NNNN.exr (or DIR/capture)"},
@@ -34,6 +35,9 @@ int cmd_denoise(int argc, char **argv)
         {"dump", APP_OPT_STRING, &dump, "LIST",
          "also write back-end buffers to DIR/dump/NAME_NNNN.exr (names: see tandem render --help)"},
         {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "asvgf (default; runs as svgf on captures), svgf or off"},
+        {"taa", APP_OPT_STRING, &taa, "on|off|W",
+         "temporal anti-aliasing of the output (on: new-frame weight 0.1; off: the composite "
+         "itself)"},
         {"yfov", APP_OPT_FLOAT, &yfov_deg, "DEG",
          "vertical field of view for captures without camera matrices (default 40)"},
         {0},
@@ -56,6 +60,9 @@ int cmd_denoise(int argc, char **argv)
                           tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out/--captures: path too long"));
     uint32_t dump_mask = 0;
     if ((res = app_parse_dump(dump, &dump_mask)) != TND_OK)
+        return app_report("denoise", res);
+    cmp_desc post_d = {0};
+    if ((res = app_taa_parse(taa, &post_d)) != TND_OK)
         return app_report("denoise", res);
     /* A-SVGF re-shades its gradient samples with a front-end; a capture is only the contract */
     bool asked_asvgf = mode == DN_MODE_ASVGF;
@@ -117,13 +124,13 @@ int cmd_denoise(int argc, char **argv)
             TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
             TND_TRY(dn_create(&vk, w, h, &(dn_desc){.mode = mode, .precision = f.precision}, &dn));
             TND_TRY(tnd_contract_gpu_create(&vk, w, h, f.precision, &ct));
-            /* the post chain with render's defaults (TAA, auto exposure, ACES) */
+            /* the post chain with render's defaults (auto exposure, ACES), TAA as asked */
             /* the interleave when the captures carry split paths (checked on the first frame) */
             bool split = false;
             for (size_t q = 0; f.present[TND_CT_PATH] && q < (size_t)w * h && !split; q++)
                 split = (tnd_frame_u(&f, TND_CT_PATH)[q] & TND_PATH_SPLIT) != 0;
-            TND_TRY(cmp_create(&vk, w, h, f.precision, &(cmp_desc){.taa = true, .interleave = split},
-                               &post));
+            post_d.interleave = split;
+            TND_TRY(cmp_create(&vk, w, h, f.precision, &post_d, &post));
             rgb = malloc((size_t)w * h * 3 * sizeof *rgb);
             display = malloc((size_t)w * h * 3);
             if (!rgb || !display) {

@@ -170,24 +170,31 @@ static void on_ref_progress(uint32_t done, uint32_t total, void *user)
 }
 
 /* the post chain's settings from the options */
+tnd_result app_taa_parse(const char *taa, struct cmp_desc *d)
+{
+    char *end;
+    if (strcmp(taa, "on") == 0) {
+        d->taa = true;
+    } else if (strcmp(taa, "off") == 0) {
+        d->taa = false;
+    } else {
+        double w = strtod(taa, &end);
+        if (*end || !(w > 0 && w <= 1))
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                            "--taa '%s': expected on, off or a new-frame weight in (0, 1]", taa);
+        d->taa = true;
+        d->taa_weight = (float)w;
+    }
+    return TND_OK;
+}
+
 static tnd_result post_desc(const render_opts *o, cmp_desc *d)
 {
     tnd_result res = cmp_curve_parse(o->tonemap, &d->curve);
     if (res != TND_OK)
         return res;
     char *end;
-    if (strcmp(o->taa, "on") == 0) {
-        d->taa = true;
-    } else if (strcmp(o->taa, "off") == 0) {
-        d->taa = false;
-    } else {
-        double w = strtod(o->taa, &end);
-        if (*end || !(w > 0 && w <= 1))
-            return tnd_fail(TND_ERR_INVALID_ARGUMENT,
-                            "--taa '%s': expected on, off or a new-frame weight in (0, 1]", o->taa);
-        d->taa = true;
-        d->taa_weight = (float)w;
-    }
+    TND_TRY_RETURN(app_taa_parse(o->taa, d));
     if (strcmp(o->exposure, "auto") != 0) {
         double ev = strtod(o->exposure, &end);
         if (*end || !isfinite(ev))

@@ -219,6 +219,10 @@ typedef struct map_entry {
     bool planar_to_distance;
     float miss_at; /* depth: values >= this (and <= 0) mean "no hit"; 0 = only non-positive */
     int divide_by; /* contract entry or -1 */
+    int subtract;  /* contract entry or -1: taken off before divide_by (emission out of radiance) */
+    bool on_miss;  /* where depth is a miss the entry reads miss_chan instead (the background) */
+    char miss_chan[4][MAP_ALTS][128];
+    int miss_alts[4];
 } map_entry;
 
 struct tnd_capture_map {
@@ -280,7 +284,7 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
         goto fail;
     }
     for (int i = 0; i < TND_CT_COUNT; i++)
-        m->e[i].divide_by = -1;
+        m->e[i].divide_by = m->e[i].subtract = -1;
     const cJSON *it;
     cJSON_ArrayForEach(it, entries)
     {
@@ -374,6 +378,50 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
             }
             me->divide_by = (int)d->id;
         }
+        const cJSON *mc = cJSON_GetObjectItemCaseSensitive(it, "miss_channels");
+        if (mc) {
+            bool good = cJSON_IsArray(mc) && cJSON_GetArraySize(mc) == (int)ci->comps &&
+                        ci->kind == TND_CT_FLOAT && ci->id != TND_CT_DEPTH;
+            for (uint32_t k = 0; good && k < ci->comps; k++) {
+                const cJSON *c = cJSON_GetArrayItem(mc, (int)k), *a;
+                if (cJSON_IsString(c)) {
+                    snprintf(me->miss_chan[k][0], sizeof me->miss_chan[k][0], "%s",
+                             c->valuestring);
+                    me->miss_alts[k] = 1;
+                } else if (cJSON_IsArray(c)) {
+                    cJSON_ArrayForEach(a, c)
+                    {
+                        if (cJSON_IsString(a) && me->miss_alts[k] < MAP_ALTS)
+                            snprintf(me->miss_chan[k][me->miss_alts[k]++],
+                                     sizeof me->miss_chan[k][0], "%s", a->valuestring);
+                    }
+                }
+                good = me->miss_alts[k] > 0;
+            }
+            if (!good) {
+                snprintf(msg, sizeof msg,
+                         "entry '%s': \"miss_channels\" must list %u channel name(s) (float "
+                         "entries but depth)",
+                         ci->name, ci->comps);
+                res = map_error(path, msg);
+                goto fail;
+            }
+            me->on_miss = true;
+        }
+        const cJSON *sub = cJSON_GetObjectItemCaseSensitive(it, "subtract");
+        if (sub) {
+            const tnd_ct_info *d = cJSON_IsString(sub) ? tnd_ct_find(sub->valuestring) : NULL;
+            if (!d || d->comps != ci->comps || d->id == ci->id ||
+                (me->divide_by >= 0 && d->id == (tnd_ct)me->divide_by)) {
+                snprintf(msg, sizeof msg,
+                         "entry '%s': \"subtract\" must name another entry with %u components "
+                         "(not its divide_by)",
+                         ci->name, ci->comps);
+                res = map_error(path, msg);
+                goto fail;
+            }
+            me->subtract = (int)d->id;
+        }
         me->fed = true;
     }
     *out = m;
@@ -409,11 +457,11 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
     TND_TRY(tnd_frame_create(x.width, x.height, f));
     read_camera(&x, f);
     size_t npx = (size_t)x.width * x.height;
-    /* Two passes so that divide_by sees its divisor already converted. */
+    /* Two passes so that divide_by and subtract see their entries already converted. */
     for (int pass = 0; pass < 2; pass++)
         for (int i = 0; i < TND_CT_COUNT; i++) {
             const map_entry *me = &map->e[i];
-            if (!me->fed || (me->divide_by >= 0) != (pass == 1))
+            if (!me->fed || (me->divide_by >= 0 || me->subtract >= 0) != (pass == 1))
                 continue;
             const tnd_ct_info *e = tnd_ct_get((tnd_ct)i);
             const float *src[4] = {0};
@@ -480,10 +528,35 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
                             *d = (float)(*d * sqrt(1.0 + u * u + v * v));
                     }
             }
+            if (me->subtract >= 0) {
+                const float *sb = f->data[me->subtract];
+                for (size_t q = 0; q < npx * e->comps; q++)
+                    dst[q] = fmaxf(dst[q] - sb[q], 0.0f);
+            }
             if (me->divide_by >= 0) {
                 const float *div = f->data[me->divide_by];
                 for (size_t q = 0; q < npx * e->comps; q++)
                     dst[q] /= fmaxf(div[q], 0.01f);
+            }
+            if (me->on_miss) { /* (depth, entry 4, is converted before any later entry) */
+                const float *depth = f->data[TND_CT_DEPTH];
+                for (uint32_t k = 0; k < e->comps; k++) {
+                    char full[300] = "";
+                    const tnd_exr_channel *c = NULL;
+                    for (int a = 0; a < me->miss_alts[k] && !c; a++) {
+                        snprintf(full, sizeof full, "%s%s", map->prefix, me->miss_chan[k][a]);
+                        c = tnd_exr_find(&x, full);
+                    }
+                    if (!c || !c->data || c->type == TND_EXR_UINT) {
+                        add_problem(&p, "entry '%s': miss channel '%s%s' not in the file as float",
+                                    e->name, map->prefix, me->miss_chan[k][0]);
+                        break;
+                    }
+                    check_finite(&p, full, c->data, x.width, x.height);
+                    for (size_t q = 0; q < npx; q++)
+                        if (depth[q] >= (float)TND_DEPTH_MISS)
+                            dst[q * e->comps + k] = ((const float *)c->data)[q];
+                }
             }
             f->present[i] = true;
         }

@@ -165,6 +165,22 @@ void tnd_frame_quantize(tnd_frame *f, tnd_precision p)
 tnd_result tnd_frame_derive(tnd_frame *f, const char *source)
 {
     size_t n = (size_t)f->width * f->height;
+    /* A capture without a visibility buffer (another renderer's) still shows surfaces: every
+     * pixel whose depth is a hit is surface (instance 0, triangle 0: one "object", so that the
+     * back-end's same-instance tests pass and its depth, normal and motion tests alone decide
+     * reprojection), the others are misses. Left at its default (all misses) the composite
+     * showed only emission, black, and no history was ever kept. */
+    if (!f->present[TND_CT_VIS_ID] && f->present[TND_CT_DEPTH]) {
+        tnd_debug("contract", "%s: visibility derived from depth (one object)", source);
+        uint32_t *vis = tnd_frame_u(f, TND_CT_VIS_ID);
+        const float *depth = tnd_frame_f(f, TND_CT_DEPTH);
+        for (size_t k = 0; k < n; k++) {
+            bool hit = depth[k] < (float)TND_DEPTH_MISS;
+            vis[2 * k] = hit ? 0u : TND_VIS_NONE;
+            vis[2 * k + 1] = hit ? 0u : TND_VIS_NONE;
+        }
+        f->present[TND_CT_VIS_ID] = true;
+    }
     if (!f->present[TND_CT_GEO_NORMAL] && f->present[TND_CT_NORMAL]) {
         memcpy(f->data[TND_CT_GEO_NORMAL], f->data[TND_CT_NORMAL], n * 3 * sizeof(float));
         f->present[TND_CT_GEO_NORMAL] = true;

@@ -384,7 +384,14 @@ static void test_capture_validation(void)
     CHECK_OK(tnd_capture_read(p, &f));
     CHECK(f.present[TND_CT_GEO_NORMAL] && !f.present[TND_CT_RNG], "derived geo_normal, no rng");
     CHECK(tnd_frame_f(&f, TND_CT_ROUGHNESS)[5] == 1.0f, "default roughness 1");
-    CHECK(tnd_frame_u(&f, TND_CT_VIS_ID)[0] == TND_VIS_NONE, "default visibility");
+    /* no visibility buffer: derived from depth, a surface (0, 0) where it is a hit */
+    for (int q = 0; q < W * H; q++) {
+        bool hit = tnd_frame_f(&f, TND_CT_DEPTH)[q] < (float)TND_DEPTH_MISS;
+        const uint32_t *v = tnd_frame_u(&f, TND_CT_VIS_ID) + 2 * q;
+        CHECK(f.present[TND_CT_VIS_ID] && v[0] == (hit ? 0u : TND_VIS_NONE) &&
+                  v[1] == (hit ? 0u : TND_VIS_NONE),
+              "derived visibility at %d: %u %u", q, v[0], v[1]);
+    }
     tnd_frame_destroy(&f);
 
     /* missing required entry, named */
@@ -490,12 +497,14 @@ cleanup:
 static void test_cycles_mapping(void)
 {
     enum { W = 16, H = 8 };
-    static float noisy[3][W * H], albedo[3][W * H], normal[3][W * H], depth[W * H], vec[4][W * H];
+    static float noisy[3][W * H], albedo[3][W * H], normal[3][W * H], depth[W * H], vec[4][W * H],
+        emit[3][W * H];
     for (int i = 0; i < W * H; i++) {
         for (int c = 0; c < 3; c++) {
             albedo[c][i] = 0.2f + 0.2f * (float)c;
             noisy[c][i] = albedo[c][i] * (1.0f + (float)i / 10.0f);
             normal[c][i] = c == 2 ? 2.0f : 0.0f; /* unnormalised +Z */
+            emit[c][i] = i == 40 ? 0.25f : 0.0f;    /* an emitter at pixel 40 */
         }
         depth[i] = 5.0f;
         vec[0][i] = 1.5f, vec[1][i] = -2.0f, vec[2][i] = 0, vec[3][i] = 0;
@@ -507,17 +516,20 @@ static void test_cycles_mapping(void)
                            "ViewLayer.Denoising Normal.X", "ViewLayer.Denoising Normal.Y",
                            "ViewLayer.Denoising Normal.Z", "ViewLayer.Depth.Z",
                            "ViewLayer.Vector.X",           "ViewLayer.Vector.Y",
-                           "ViewLayer.Vector.Z",           "ViewLayer.Vector.W"};
+                           "ViewLayer.Vector.Z",           "ViewLayer.Vector.W",
+                           "ViewLayer.Emit.R",             "ViewLayer.Emit.G",
+                           "ViewLayer.Emit.B"};
     const float *srcs[] = {noisy[0],  noisy[1],  noisy[2],  albedo[0], albedo[1],
                            albedo[2], normal[0], normal[1], normal[2], depth,
-                           vec[0],    vec[1],    vec[2],    vec[3]};
-    tnd_exr_channel_desc ch[14];
-    for (int i = 0; i < 14; i++)
+                           vec[0],    vec[1],    vec[2],    vec[3],    emit[0],
+                           emit[1],   emit[2]};
+    tnd_exr_channel_desc ch[17];
+    for (int i = 0; i < 17; i++)
         ch[i] = (tnd_exr_channel_desc){names[i], i < 9 ? TND_EXR_HALF : TND_EXR_FLOAT, srcs[i], 1};
     const char *p = tmp_path("cycles.exr");
     tnd_capture_map *map = NULL;
     tnd_frame f = {0};
-    REQUIRE_OK(tnd_exr_write(p, W, H, ch, 14, NULL, 0, TND_EXR_ZIP));
+    REQUIRE_OK(tnd_exr_write(p, W, H, ch, 17, NULL, 0, TND_EXR_ZIP));
     REQUIRE_OK(tnd_capture_map_load(TND_SOURCE_DIR "/data/mappings/blender_cycles.json", &map));
     REQUIRE_OK(tnd_capture_read_mapped(p, map, &f));
     const float *hf = tnd_frame_f(&f, TND_CT_HF), *n = tnd_frame_f(&f, TND_CT_NORMAL);
@@ -527,8 +539,19 @@ static void test_cycles_mapping(void)
     float half_alb = tnd_half_to_float(tnd_half_from_float(albedo[1][i]));
     CHECK_NEAR(hf[3 * i + 1], half_noisy / half_alb, 1e-6, "hf = noisy / albedo");
     CHECK_NEAR(n[3 * i + 2], 1.0, 1e-6, "normal normalised");
-    CHECK_NEAR(m[3 * i], -1.5, 0, "motion x: Cycles current-minus-previous negated");
-    CHECK_NEAR(m[3 * i + 1], -2.0, 0, "motion y: y-up sign folded into the flip");
+    /* Cycles' Vector.X/Y is previous minus current, y up (measured on a real capture:
+     * tests/test_blender_capture.py): x kept, y flipped to Tandem's y down */
+    CHECK_NEAR(m[3 * i], 1.5, 0, "motion x: Cycles' previous-minus-current");
+    CHECK_NEAR(m[3 * i + 1], 2.0, 0, "motion y: y up flipped to y down");
+    /* the emitter: its emission apart, the rest demodulated; the background pixel's noisy
+     * radiance is its emission (the composite shows a miss's emission) */
+    const float *em = tnd_frame_f(&f, TND_CT_EMISSION);
+    float h40 = tnd_half_to_float(tnd_half_from_float(noisy[1][40]));
+    float a40 = tnd_half_to_float(tnd_half_from_float(albedo[1][40]));
+    CHECK_NEAR(em[3 * 40 + 1], 0.25, 0, "emission from the Emit pass");
+    CHECK_NEAR(hf[3 * 40 + 1], (h40 - 0.25f) / a40, 1e-6, "hf = (noisy - emission) / albedo");
+    CHECK_NEAR(em[1], tnd_half_to_float(tnd_half_from_float(noisy[1][0])), 0,
+               "a miss's emission is its noisy radiance");
     /* planar depth 5 at pixel (5,2) through the mapping's 39.6 degree horizontal field of view */
     double fx = 0.5 * W / tan(0.5 * 39.6 * TND_PI / 180.0);
     double u = (5 + 0.5 - 8) / fx, v = (2 + 0.5 - 4) / fx;
