@@ -87,6 +87,14 @@ void app_progress_end(app_progress *p);
  * dumps of the last frame to DIR/NAME_STEM.exr. */
 struct dn_context;
 tnd_result app_parse_dump(const char *list, uint32_t *mask);
+/* The frame_NNNN.exr files of a capture directory (DIR/capture where it exists, else DIR),
+ * sorted, into *names (free with app_capture_list_free); the directory into dir. No frames is
+ * an error naming the directory. */
+tnd_result app_capture_list(const char *captures, char *dir, size_t dir_cap, char ***names,
+                            size_t *count);
+void app_capture_list_free(char **names, size_t count);
+/* tandem info --capture DIR [--map M] [--json] (app/capture_info.c). */
+int app_capture_info(const char *captures, const char *map_path, bool json);
 /* --taa on|off|W (a new-frame weight in (0, 1]) into the post chain's description. */
 struct cmp_desc;
 tnd_result app_taa_parse(const char *taa, struct cmp_desc *d);

@@ -18,11 +18,6 @@ static const app_cmd denoise_cmd = {
     "renderer's through --map) and write the denoised frames.",
     "--captures DIR --out DIR [--map MAPPING.json] [--denoiser asvgf|svgf|off] [--dump LIST]", NULL};
 
-static int cmp_names(const void *a, const void *b)
-{
-    return strcmp(*(const char *const *)a, *(const char *const *)b);
-}
-
 int cmd_denoise(int argc, char **argv)
 {
     const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf", *dump = NULL;
@@ -69,29 +64,10 @@ int cmd_denoise(int argc, char **argv)
     if (asked_asvgf)
         mode = DN_MODE_SVGF;
     char dir[1100], path[2300];
-    struct stat st;
-    snprintf(dir, sizeof dir, "%s/capture", captures);
-    if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
-        snprintf(dir, sizeof dir, "%s", captures);
-    DIR *d = opendir(dir);
-    if (!d)
-        return app_report("denoise", tnd_fail(TND_ERR_IO, "%s: cannot open directory", dir));
     char **names = NULL;
     size_t n = 0;
-    for (struct dirent *e; (e = readdir(d));) {
-        size_t l = strlen(e->d_name);
-        if (l > 4 && strcmp(e->d_name + l - 4, ".exr") == 0 && strncmp(e->d_name, "frame_", 6) == 0) {
-            char **nn = realloc(names, (n + 1) * sizeof *nn);
-            if (!nn || !(nn[n] = strdup(e->d_name))) {
-                free(nn ? nn : names);
-                closedir(d);
-                return app_report("denoise", tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory"));
-            }
-            names = nn;
-            n++;
-        }
-    }
-    closedir(d);
+    if ((res = app_capture_list(captures, dir, sizeof dir, &names, &n)) != TND_OK)
+        return app_report("denoise", res);
     tnd_capture_map *map = NULL;
     tnd_vk vk = {0};
     dn_context *dn = NULL;
@@ -104,11 +80,6 @@ int cmd_denoise(int argc, char **argv)
     int status = APP_EXIT_FAIL;
     uint32_t w = 0, h = 0;
     float prev_jitter[2] = {0, 0};
-    if (n == 0) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "denoise: %s: no frame_NNNN.exr files", dir);
-        goto fail;
-    }
-    qsort(names, n, sizeof *names, cmp_names);
     if (map_path)
         TND_TRY(tnd_capture_map_load(map_path, &map));
     app_progress bar;
@@ -230,8 +201,6 @@ fail:
     if (vk.device || vk.instance)
         tnd_vk_destroy(&vk);
     tnd_capture_map_destroy(map);
-    for (size_t i = 0; i < n; i++)
-        free(names[i]);
-    free(names);
+    app_capture_list_free(names, n);
     return status;
 }

@@ -196,7 +196,7 @@ static void device_text(const tnd_vk_device_info *d, bool chosen)
 int cmd_info(int argc, char **argv)
 {
     bool json = false;
-    const char *device = NULL, *scene = NULL;
+    const char *device = NULL, *scene = NULL, *capture = NULL, *map = NULL;
     app_env env = APP_ENV_INIT;
     const app_opt opts[] = {
         {"json", APP_OPT_FLAG, &json, NULL, "print the same information as JSON on stdout"},
@@ -206,6 +206,9 @@ int cmd_info(int argc, char **argv)
         {"scene", APP_OPT_STRING, &scene, "PATH",
          "describe a scene (.gltf/.glb, or stress:N) instead of the devices"},
         APP_ENV_OPTS(&env),
+        {"capture", APP_OPT_STRING, &capture, "DIR",
+         "describe a capture (frame_NNNN.exr) instead: entries, ranges, a motion check"},
+        {"map", APP_OPT_STRING, &map, "JSON", "--capture: read it through this mapping"},
         {0},
     };
     const char *pos[1];
@@ -215,6 +218,8 @@ int cmd_info(int argc, char **argv)
         return rc;
     if (scene)
         return scene_info(scene, &env, json);
+    if (capture)
+        return app_capture_info(capture, map, json);
 
     tnd_vk_device_info devs[16];
     uint32_t n = 0;

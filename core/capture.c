@@ -433,6 +433,46 @@ fail:
     return res;
 }
 
+const char *tnd_capture_map_name(const tnd_capture_map *map)
+{
+    return map->name;
+}
+
+bool tnd_capture_map_source(const tnd_capture_map *map, tnd_ct e, char *buf, size_t cap)
+{
+    const map_entry *me = &map->e[e];
+    if (!me->fed)
+        return false;
+    size_t n = 0;
+#define PUT(...)                                                                                   \
+    do {                                                                                           \
+        int w_ = snprintf(buf + n, n < cap ? cap - n : 0, __VA_ARGS__);                            \
+        n += w_ > 0 && (size_t)w_ < cap - n ? (size_t)w_ : 0;                                      \
+    } while (0)
+    buf[0] = '\0';
+    for (uint32_t k = 0; k < tnd_ct_get(e)->comps; k++) {
+        if (me->alts[k] == 0)
+            PUT("%s%g", k ? ", " : "", (double)me->offset[k]);
+        else
+            PUT("%s%s%s%s", k ? ", " : "", map->prefix, me->chan[k][0],
+                me->alts[k] > 1 ? " (or alternatives)" : "");
+        if (me->alts[k] && (me->scale[k] != 1.0f || me->offset[k] != 0.0f))
+            PUT(" x %g + %g", (double)me->scale[k], (double)me->offset[k]);
+    }
+    if (me->planar_to_distance)
+        PUT("; planar depth to distance");
+    if (me->normalize)
+        PUT("; normalised");
+    if (me->subtract >= 0)
+        PUT("; minus %s", tnd_ct_get((tnd_ct)me->subtract)->name);
+    if (me->divide_by >= 0)
+        PUT("; divided by %s", tnd_ct_get((tnd_ct)me->divide_by)->name);
+    if (me->on_miss)
+        PUT("; on a miss: %s%s...", map->prefix, me->miss_chan[0][0]);
+#undef PUT
+    return true;
+}
+
 void tnd_capture_map_destroy(tnd_capture_map *map)
 {
     free(map);

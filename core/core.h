@@ -583,6 +583,10 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **map);
 void tnd_capture_map_destroy(tnd_capture_map *map);
 /* Read a foreign EXR through a mapping; an unfed REQUIRED entry is an error naming it. */
 tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map, tnd_frame *f);
+/* The mapping's name, and what feeds entry e in words ("ViewLayer.Depth.Z (planar to
+ * distance)"); false when the mapping does not feed it. */
+const char *tnd_capture_map_name(const tnd_capture_map *map);
+bool tnd_capture_map_source(const tnd_capture_map *map, tnd_ct e, char *buf, size_t cap);
 
 /* ---------------------------------------------------------------------------------------------
  * Math: column-major 4x4 matrices (m[col * 4 + row]), quaternions (x, y, z, w)

@@ -94,6 +94,29 @@ def main():
                                  % (FRAMES - 1)), ["history"])
         check(hist.mean() > 12, "svgf history after %d frames: mean length %.2f"
               % (FRAMES, hist.mean()))
+        # tandem info --capture: the motion check agrees best with the mapping as it is, and a
+        # mapping with the motion signs flipped (the old one) is flagged
+        flipped = os.path.join(tmp, "flipped.json")
+        with open(mapping) as f:
+            m = json.load(f)
+        m["entries"]["motion"]["scale"] = [-1, 1, 0]
+        with open(flipped, "w") as f:
+            json.dump(m, f)
+        infos = {}
+        for name, mp in (("mapping", mapping), ("flipped", flipped)):
+            r = subprocess.run([tandem, "info", "--capture", os.path.join(tmp, "capture"),
+                                "--map", mp, "--json"], check=True, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+            infos[name] = (json.loads(r.stdout)["motion_check"], r.stderr)
+            mc = infos[name][0]
+            print("  info --capture (%s): motion check %.1f%% as given, %.1f%% x negated, %.1f%% "
+                  "y negated, %.1f%% both" % (name, 100 * mc["as given"], 100 * mc["x negated"],
+                                              100 * mc["y negated"],
+                                              100 * mc["x and y negated"]))
+        check(infos["mapping"][0]["best"] == "as given" and "warning" not in infos["mapping"][1],
+              "the motion check agrees with the mapping")
+        check(infos["flipped"][0]["best"] != "as given" and "warning" in infos["flipped"][1],
+              "a flipped motion sign is flagged")
         rn, rd = runs["off"][1]["relmse"], runs["svgf"][1]["relmse"]
         check(rd <= 0.5 * rn, "relMSE against converged Cycles (%d spp): noisy %.4f, svgf %.4f "
               "(%.1fx lower)" % (REF_SPP, rn, rd, rn / rd if rd > 0 else float("inf")))
