@@ -125,6 +125,7 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
     double agree[4] = {0, 0, 0, 0};
     uint64_t tested = 0;
     bool present[TND_CT_COUNT] = {false};
+    uint64_t nonfinite[TND_CT_COUNT] = {0};
     for (size_t i = 0; i < n; i++) {
         snprintf(path, sizeof path, "%s/%s", dir, names[i]);
         tnd_frame_destroy(&prev);
@@ -139,6 +140,7 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
         size_t npx = (size_t)cur.width * cur.height;
         for (int e = 0; e < TND_CT_COUNT; e++) {
             present[e] |= cur.present[e];
+            nonfinite[e] += cur.nonfinite[e];
             const tnd_ct_info *ci = tnd_ct_get((tnd_ct)e);
             if (!cur.present[e] || ci->kind != TND_CT_FLOAT)
                 continue;
@@ -175,7 +177,8 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
         for (uint32_t c = 0; c < x.channel_count; c++)
             printf("%s %s", c ? "," : "", x.channels[c].name);
         printf("\n  read %s\n", map ? tnd_capture_map_name(map) : "as a Tandem capture");
-        printf("  %-11s %-8s %-12s %-12s %s\n", "entry", "how", "min", "max", "from");
+        printf("  %-11s %-8s %-12s %-12s %-10s %s\n", "entry", "how", "min", "max", "non-finite",
+               "from");
     }
     cJSON *entries = o ? cJSON_AddObjectToObject(o, "entries") : NULL;
     for (int e = 0; e < TND_CT_COUNT; e++) {
@@ -212,11 +215,13 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
                 cJSON_AddNumberToObject(je, "min", lo[e]);
                 cJSON_AddNumberToObject(je, "max", hi[e]);
             }
+            cJSON_AddNumberToObject(je, "nonfinite_replaced", (double)nonfinite[e]);
         } else {
             char a[32] = "-", b[32] = "-";
             if (ranged)
                 snprintf(a, sizeof a, "%.4g", lo[e]), snprintf(b, sizeof b, "%.4g", hi[e]);
-            printf("  %-11s %-8s %-12s %-12s %s\n", ci->name, how, a, b, src);
+            printf("  %-11s %-8s %-12s %-12s %-10llu %s\n", ci->name, how, a, b,
+                   (unsigned long long)nonfinite[e], src);
         }
     }
     double frac[4];

@@ -525,10 +525,7 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
                                         : "wrong size (subsampled)");
                     ok = false;
                 } else {
-                    size_t before = (size_t)p.count;
-                    check_finite(&p, full, c->data, x.width, x.height);
-                    ok &= (size_t)p.count == before;
-                    src[k] = c->data;
+                    src[k] = c->data; /* (non-finite values: counted and replaced below) */
                 }
             }
             if (!ok || e->kind != TND_CT_FLOAT)
@@ -538,6 +535,23 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
                 for (uint32_t k = 0; k < e->comps; k++)
                     dst[q * e->comps + k] =
                         (src[k] ? src[k][q] : 0.0f) * me->scale[k] + me->offset[k];
+            /* Another renderer's NaN and infinities (a division by zero, a firefly past half's
+             * range) never enter the back-end: counted, said once per file and entry, and
+             * replaced by a miss (depth) or 0 (anything else: no light, no motion), before any
+             * conversion could hide them */
+            size_t bad = 0, first = 0;
+            for (size_t q = 0; q < npx * e->comps; q++)
+                if (!isfinite(dst[q])) {
+                    if (bad++ == 0)
+                        first = q / e->comps;
+                    dst[q] = i == TND_CT_DEPTH ? (float)TND_DEPTH_MISS : 0.0f;
+                }
+            if (bad)
+                tnd_warn("capture",
+                         "%s: entry '%s': %zu non-finite value%s (first at pixel %zu,%zu) set to %s",
+                         path, e->name, bad, bad == 1 ? "" : "s", first % x.width,
+                         first / x.width, i == TND_CT_DEPTH ? "a miss" : "0");
+            f->nonfinite[i] = (uint32_t)(bad < UINT32_MAX ? bad : UINT32_MAX);
             if (me->normalize)
                 for (size_t q = 0; q < npx; q++) {
                     float *v = dst + q * e->comps;
@@ -592,12 +606,17 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
                                     e->name, map->prefix, me->miss_chan[k][0]);
                         break;
                     }
-                    check_finite(&p, full, c->data, x.width, x.height);
                     for (size_t q = 0; q < npx; q++)
                         if (depth[q] >= (float)TND_DEPTH_MISS)
                             dst[q * e->comps + k] = ((const float *)c->data)[q];
                 }
             }
+            /* (what the conversions could still make non-finite, and the miss channels) */
+            for (size_t q = 0; q < npx * e->comps; q++)
+                if (!isfinite(dst[q])) {
+                    dst[q] = i == TND_CT_DEPTH ? (float)TND_DEPTH_MISS : 0.0f;
+                    f->nonfinite[i] += f->nonfinite[i] < UINT32_MAX;
+                }
             f->present[i] = true;
         }
     if (p.count) {

@@ -469,6 +469,7 @@ typedef struct tnd_frame {
     bool present[TND_CT_COUNT];
     void *data[TND_CT_COUNT]; /* planes inside `block` */
     void *block;
+    uint32_t nonfinite[TND_CT_COUNT]; /* values a mapped capture's reader replaced (NaN, Inf) */
 } tnd_frame;
 
 /* Allocate every entry, filled with defaults (position/geo_normal zero until derived). */

@@ -559,6 +559,27 @@ static void test_cycles_mapping(void)
     CHECK(dd[0] == (float)TND_DEPTH_MISS, "background depth becomes TND_DEPTH_MISS");
     CHECK(!f.present[TND_CT_RNG], "no rng: the back-end will run as SVGF");
     tnd_frame_destroy(&f);
+    /* another renderer's NaN and infinities: counted per entry and replaced (a miss for depth,
+     * 0 otherwise), never refused and never passed on */
+    noisy[1][50] = NAN;
+    depth[51] = NAN;
+    vec[0][52] = -INFINITY;
+    REQUIRE_OK(tnd_exr_write(p, W, H, ch, 17, NULL, 0, TND_EXR_ZIP));
+    REQUIRE_OK(tnd_capture_read_mapped(p, map, &f));
+    CHECK(f.nonfinite[TND_CT_HF] == 1 && f.nonfinite[TND_CT_DEPTH] == 1 &&
+              f.nonfinite[TND_CT_MOTION] == 1 && f.nonfinite[TND_CT_ALBEDO] == 0,
+          "non-finite counted: hf %u, depth %u, motion %u", f.nonfinite[TND_CT_HF],
+          f.nonfinite[TND_CT_DEPTH], f.nonfinite[TND_CT_MOTION]);
+    CHECK(tnd_frame_f(&f, TND_CT_HF)[3 * 50 + 1] == 0.0f &&
+              tnd_frame_f(&f, TND_CT_DEPTH)[51] == (float)TND_DEPTH_MISS &&
+              tnd_frame_f(&f, TND_CT_MOTION)[3 * 52] == 0.0f,
+          "non-finite replaced");
+    for (int e = 0; e < TND_CT_COUNT; e++) {
+        const tnd_ct_info *ci = tnd_ct_get((tnd_ct)e);
+        for (size_t q = 0; ci->kind == TND_CT_FLOAT && q < (size_t)W * H * ci->comps; q++)
+            CHECK(isfinite(tnd_frame_f(&f, (tnd_ct)e)[q]), "%s[%zu] finite", ci->name, q);
+    }
+    tnd_frame_destroy(&f);
     tnd_capture_map_destroy(map);
     map = NULL;
 
