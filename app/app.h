@@ -93,6 +93,8 @@ tnd_result app_parse_dump(const char *list, uint32_t *mask);
 tnd_result app_capture_list(const char *captures, char *dir, size_t dir_cap, char ***names,
                             size_t *count);
 void app_capture_list_free(char **names, size_t count);
+/* Remove a directory and the files in it (no subdirectories): an output left by a failed run. */
+bool app_remove_flat_dir(const char *dir);
 /* tandem info --capture DIR [--map M] [--json] (app/capture_info.c). */
 int app_capture_info(const char *captures, const char *map_path, bool json);
 /* --taa on|off|W (a new-frame weight in (0, 1]) into the post chain's description. */

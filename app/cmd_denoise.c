@@ -6,7 +6,6 @@
 #include "composite/composite.h"
 #include "denoise/denoise.h"
 
-#include <dirent.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -68,6 +67,10 @@ int cmd_denoise(int argc, char **argv)
     size_t n = 0;
     if ((res = app_capture_list(captures, dir, sizeof dir, &names, &n)) != TND_OK)
         return app_report("denoise", res);
+    /* no partial output: what this run wrote goes again if a later frame fails */
+    struct stat out_st;
+    bool out_existed = stat(out, &out_st) == 0, dump_made = false;
+    size_t written = 0;
     tnd_capture_map *map = NULL;
     tnd_vk vk = {0};
     dn_context *dn = NULL;
@@ -110,7 +113,9 @@ int cmd_denoise(int argc, char **argv)
             }
             TND_TRY(tnd_mkdirs(out));
             if (dump_mask) {
+                struct stat dst;
                 snprintf(dump_dir, sizeof dump_dir, "%s/dump", out);
+                dump_made = stat(dump_dir, &dst) != 0;
                 TND_TRY(tnd_mkdirs(dump_dir));
             }
             snprintf(path, sizeof path, "%s/timings.json", out);
@@ -169,6 +174,7 @@ int cmd_denoise(int argc, char **argv)
         size_t l = strlen(path);
         memcpy(path + l - 4, ".png", 5);
         TND_TRY(app_write_png(path, display, w, h));
+        written = i + 1;
         app_progress_step(&bar, (unsigned)i + 1);
     }
     app_progress_end(&bar);
@@ -192,6 +198,22 @@ fail:
         app_report("denoise", res);
     if (timings)
         fclose(timings);
+    if (status != APP_EXIT_OK && w) { /* (w: the output was begun) */
+        if (dump_made)
+            app_remove_flat_dir(dump_dir);
+        if (!out_existed) {
+            app_remove_flat_dir(out);
+        } else { /* only this run's files */
+            for (size_t i = 0; i < written + 1 && i < n; i++) {
+                snprintf(path, sizeof path, "%s/%s", out, names[i]);
+                remove(path);
+                memcpy(path + strlen(path) - 4, ".png", 5);
+                remove(path);
+            }
+            snprintf(path, sizeof path, "%s/timings.json", out);
+            remove(path);
+        }
+    }
     free(rgb);
     free(display);
     cmp_destroy(post);

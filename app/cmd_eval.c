@@ -5,7 +5,6 @@
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
-#include <dirent.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -69,23 +68,6 @@ static char *settings_json(const app_eval *e, const char *out, const char *expos
 }
 
 /* Remove a directory this command created and filled with files only (the report). */
-static bool remove_flat_dir(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return false;
-    bool ok = true;
-    for (struct dirent *e; (e = readdir(d));) {
-        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0)
-            continue;
-        char path[2400];
-        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-        ok &= remove(path) == 0;
-    }
-    closedir(d);
-    return ok && rmdir(dir) == 0;
-}
-
 int cmd_eval(int argc, char **argv)
 {
     const char *out = NULL, *refdir = NULL, *report = NULL, *exposure = "auto";
@@ -171,7 +153,7 @@ int cmd_eval(int argc, char **argv)
         app_eval_regions_html(&e, &html);
         res = app_eval_report(&e, report, title, settings, html.s);
         ev_text_free(&html);
-        if (res != TND_OK && made_report && !remove_flat_dir(report)) /* no partial report */
+        if (res != TND_OK && made_report && !app_remove_flat_dir(report)) /* no partial report */
             fprintf(stderr, "tandem: eval: could not remove the partial report %s\n", report);
     }
     if (res == TND_OK) {

@@ -2,6 +2,7 @@
  * text generated from the same table, and the progress bar. */
 #include "app/app.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
@@ -193,4 +194,21 @@ tnd_result app_scene_load(const char *path, const app_env *env, tnd_scene **scen
                            .env_intensity = env ? (float)env->intensity : 1.0f,
                            .env_rotation = env ? (float)env->rotation : 0.0f};
     return tnd_scene_load_with(path, &o, scene);
+}
+
+bool app_remove_flat_dir(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return false;
+    bool ok = true;
+    for (struct dirent *e; (e = readdir(d));) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0)
+            continue;
+        char path[2400];
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        ok &= remove(path) == 0;
+    }
+    closedir(d);
+    return ok && rmdir(dir) == 0;
 }

@@ -354,6 +354,17 @@ check "denoise of a missing directory exits 1 with no output" $?
 [ $rc -eq 0 ] && grep -q "running as svgf: captures carry no gradient samples" "$tmp/err" &&
     grep -q '"denoiser": "svgf"' "$tmp/den3/timings.json"
 check "denoise runs asvgf (the default) as svgf on captures and says so" $?
+# a sequence whose third frame is broken: exit 1 naming it, and no output left behind (neither a
+# new directory nor, in an existing one, the frames written before the failure)
+mkdir -p "$tmp/broken_cap" "$tmp/den_existing"
+cp "$tmp/embree/capture/frame_0000.exr" "$tmp/embree/capture/frame_0001.exr" "$tmp/broken_cap/"
+head -c 300 "$tmp/embree/capture/frame_0001.exr" >"$tmp/broken_cap/frame_0002.exr"
+touch "$tmp/den_existing/notes.txt"
+"$T" denoise --captures "$tmp/broken_cap" --out "$tmp/den_broken" --denoiser off 2>"$tmp/err"; rc1=$?
+"$T" denoise --captures "$tmp/broken_cap" --out "$tmp/den_existing" --denoiser off 2>/dev/null; rc2=$?
+[ $rc1 -eq 1 ] && [ $rc2 -eq 1 ] && grep -q "frame_0002.exr" "$tmp/err" && [ ! -e "$tmp/den_broken" ] &&
+    [ "$(ls "$tmp/den_existing")" = "notes.txt" ]
+check "denoise of a sequence with a broken frame exits 1 naming it, no partial output" $?
 
 # A-SVGF: the back-end picks gradient samples, either front-end re-shades them
 for fe in embree vk; do
