@@ -93,6 +93,11 @@ int cmd_denoise(int argc, char **argv)
         snprintf(path, sizeof path, "%s/%s", dir, names[i]);
         tnd_frame_destroy(&f);
         TND_TRY(map ? tnd_capture_read_mapped(path, map, &f) : tnd_capture_read(path, &f));
+        if (i > 0 && (f.width != w || f.height != h)) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: %ux%u, the sequence's first frame "
+                           "is %ux%u", path, f.width, f.height, w, h);
+            goto fail;
+        }
         if (i == 0) {
             w = f.width, h = f.height;
             TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));

@@ -365,6 +365,14 @@ touch "$tmp/den_existing/notes.txt"
 [ $rc1 -eq 1 ] && [ $rc2 -eq 1 ] && grep -q "frame_0002.exr" "$tmp/err" && [ ! -e "$tmp/den_broken" ] &&
     [ "$(ls "$tmp/den_existing")" = "notes.txt" ]
 check "denoise of a sequence with a broken frame exits 1 naming it, no partial output" $?
+# a frame of another size
+"$T" render --frontend embree --scene "$SRC/data/scenes/cornell.gltf" --frames 1 --size 32x24 \
+    --capture --denoiser off --out "$tmp/small" --quiet
+cp "$tmp/small/capture/frame_0000.exr" "$tmp/broken_cap/frame_0002.exr"
+"$T" denoise --captures "$tmp/broken_cap" --out "$tmp/den_sized" --denoiser off 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ] && grep -q "frame_0002.exr: 32x24, the sequence's first frame is 40x24" "$tmp/err" &&
+    [ ! -e "$tmp/den_sized" ]
+check "denoise of a sequence whose frames differ in size exits 1 naming the file and both sizes" $?
 
 # A-SVGF: the back-end picks gradient samples, either front-end re-shades them
 for fe in embree vk; do
