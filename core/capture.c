@@ -238,6 +238,41 @@ static tnd_result map_error(const char *path, const char *what)
     return tnd_fail(TND_ERR_BAD_INPUT, "mapping: %s: %s", path, what);
 }
 
+/* One component's channel: a name, or a list of alternatives (the first present wins), into
+ * names[0..*alts); false for anything else (null: a constant, for the caller to allow). */
+static bool parse_alts(const cJSON *c, char names[MAP_ALTS][128], int *alts)
+{
+    *alts = 0;
+    if (cJSON_IsString(c)) {
+        snprintf(names[0], 128, "%s", c->valuestring);
+        *alts = 1;
+        return true;
+    }
+    if (!cJSON_IsArray(c))
+        return false;
+    const cJSON *a;
+    cJSON_ArrayForEach(a, c)
+    {
+        if (cJSON_IsString(a) && *alts < MAP_ALTS)
+            snprintf(names[(*alts)++], 128, "%s", a->valuestring);
+    }
+    return true;
+}
+
+/* The first of a component's alternatives present in the file (its full name into full), or
+ * NULL. */
+static const tnd_exr_channel *find_alt(const tnd_exr_file *x, const char *prefix,
+                                       const char names[MAP_ALTS][128], int alts, char *full,
+                                       size_t cap)
+{
+    const tnd_exr_channel *c = NULL;
+    for (int a = 0; a < alts && !c; a++) {
+        snprintf(full, cap, "%s%s", prefix, names[a]);
+        c = tnd_exr_find(x, full);
+    }
+    return c;
+}
+
 tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
 {
     tnd_result res = TND_OK;
@@ -305,18 +340,7 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
         for (uint32_t k = 0; k < ci->comps; k++) {
             const cJSON *c = cJSON_GetArrayItem(chans, (int)k);
             me->scale[k] = 1.0f;
-            if (cJSON_IsString(c)) {
-                snprintf(me->chan[k][0], sizeof me->chan[k][0], "%s", c->valuestring);
-                me->alts[k] = 1;
-            } else if (cJSON_IsArray(c)) {
-                const cJSON *a;
-                cJSON_ArrayForEach(a, c)
-                {
-                    if (cJSON_IsString(a) && me->alts[k] < MAP_ALTS)
-                        snprintf(me->chan[k][me->alts[k]++], sizeof me->chan[k][0], "%s",
-                                 a->valuestring);
-                }
-            } else if (!cJSON_IsNull(c)) {
+            if (!parse_alts(c, me->chan[k], &me->alts[k]) && !cJSON_IsNull(c)) {
                 snprintf(msg, sizeof msg,
                          "entry '%s': channel %u must be a name, a list of names or null", ci->name,
                          k);
@@ -382,22 +406,10 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
         if (mc) {
             bool good = cJSON_IsArray(mc) && cJSON_GetArraySize(mc) == (int)ci->comps &&
                         ci->kind == TND_CT_FLOAT && ci->id != TND_CT_DEPTH;
-            for (uint32_t k = 0; good && k < ci->comps; k++) {
-                const cJSON *c = cJSON_GetArrayItem(mc, (int)k), *a;
-                if (cJSON_IsString(c)) {
-                    snprintf(me->miss_chan[k][0], sizeof me->miss_chan[k][0], "%s",
-                             c->valuestring);
-                    me->miss_alts[k] = 1;
-                } else if (cJSON_IsArray(c)) {
-                    cJSON_ArrayForEach(a, c)
-                    {
-                        if (cJSON_IsString(a) && me->miss_alts[k] < MAP_ALTS)
-                            snprintf(me->miss_chan[k][me->miss_alts[k]++],
-                                     sizeof me->miss_chan[k][0], "%s", a->valuestring);
-                    }
-                }
-                good = me->miss_alts[k] > 0;
-            }
+            for (uint32_t k = 0; good && k < ci->comps; k++)
+                good = parse_alts(cJSON_GetArrayItem(mc, (int)k), me->miss_chan[k],
+                                  &me->miss_alts[k]) &&
+                       me->miss_alts[k] > 0;
             if (!good) {
                 snprintf(msg, sizeof msg,
                          "entry '%s': \"miss_channels\" must list %u channel name(s) (float "
@@ -509,12 +521,9 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
             for (uint32_t k = 0; k < e->comps; k++) {
                 if (me->alts[k] == 0)
                     continue; /* constant: offset */
-                const tnd_exr_channel *c = NULL;
                 char full[300] = "";
-                for (int a = 0; a < me->alts[k] && !c; a++) {
-                    snprintf(full, sizeof full, "%s%s", map->prefix, me->chan[k][a]);
-                    c = tnd_exr_find(&x, full);
-                }
+                const tnd_exr_channel *c =
+                    find_alt(&x, map->prefix, me->chan[k], me->alts[k], full, sizeof full);
                 if (!c) {
                     add_problem(&p, "entry '%s': channel '%s%s' not in the file", e->name,
                                 map->prefix, me->chan[k][0]);
@@ -596,11 +605,8 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
                 const float *depth = f->data[TND_CT_DEPTH];
                 for (uint32_t k = 0; k < e->comps; k++) {
                     char full[300] = "";
-                    const tnd_exr_channel *c = NULL;
-                    for (int a = 0; a < me->miss_alts[k] && !c; a++) {
-                        snprintf(full, sizeof full, "%s%s", map->prefix, me->miss_chan[k][a]);
-                        c = tnd_exr_find(&x, full);
-                    }
+                    const tnd_exr_channel *c = find_alt(&x, map->prefix, me->miss_chan[k],
+                                                        me->miss_alts[k], full, sizeof full);
                     if (!c || !c->data || c->type == TND_EXR_UINT) {
                         add_problem(&p, "entry '%s': miss channel '%s%s' not in the file as float",
                                     e->name, map->prefix, me->miss_chan[k][0]);

@@ -943,6 +943,39 @@ static tnd_result load_animation(gltf_ctx *c)
     return TND_OK;
 }
 
+/* A context for `path`: its scene allocated and named, the directory relative names are read
+ * from. */
+static tnd_result ctx_begin(gltf_ctx *c, const char *path)
+{
+    memset(c, 0, sizeof *c);
+    c->path = path;
+    c->s = calloc(1, sizeof *c->s);
+    if (!c->s)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    snprintf(c->s->path, sizeof c->s->path, "%s", path);
+    const char *slash = strrchr(path, '/');
+    if (slash)
+        snprintf(c->dir, sizeof c->dir, "%.*s/", (int)(slash - path), path);
+    return TND_OK;
+}
+
+/* assimp's import of the file, triangulated with smooth normals and tangents (plus `flags`);
+ * refused when assimp fails or finds the scene incomplete (without meshes, when `meshes`). */
+static tnd_result ctx_import(gltf_ctx *c, unsigned flags, bool meshes)
+{
+    c->ai = aiImportFile(c->path, aiProcess_Triangulate | aiProcess_CalcTangentSpace |
+                                      aiProcess_GenSmoothNormals |
+                                      aiProcess_ValidateDataStructure | flags);
+    if (!c->ai)
+        return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: cannot import: %s", c->path,
+                        aiGetErrorString());
+    if (!c->ai->mRootNode || (c->ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE) ||
+        (meshes && !c->ai->mNumMeshes))
+        return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: incomplete scene (no nodes or meshes)",
+                        c->path);
+    return TND_OK;
+}
+
 /* ---- OBJ + MTL, and the other formats assimp reads ------------------------------------------ */
 /* A new texture appended to the scene (rgba8 of w x h, owned by the scene); its index, or -1
  * (out of memory: *res says so). */
@@ -1208,14 +1241,8 @@ static void warn_mtl(const char *obj_path, const char *dir)
 tnd_result scene_load_assimp(const char *path, const tnd_scene_options *o, tnd_scene **out)
 {
     tnd_result res = TND_OK;
-    gltf_ctx c = {.path = path};
-    c.s = calloc(1, sizeof *c.s);
-    if (!c.s)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
-    snprintf(c.s->path, sizeof c.s->path, "%s", path);
-    const char *slash = strrchr(path, '/');
-    if (slash)
-        snprintf(c.dir, sizeof c.dir, "%.*s/", (int)(slash - path), path);
+    gltf_ctx c;
+    TND_TRY_RETURN(ctx_begin(&c, path));
     FILE *probe = fopen(path, "rb");
     if (!probe) {
         res = tnd_fail(TND_ERR_IO, "scene: %s: cannot open", path);
@@ -1225,17 +1252,7 @@ tnd_result scene_load_assimp(const char *path, const tnd_scene_options *o, tnd_s
     const char *dot = strrchr(path, '.');
     if (dot && strcasecmp(dot, ".obj") == 0)
         warn_mtl(path, c.dir);
-    c.ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_CalcTangentSpace |
-                                  aiProcess_GenSmoothNormals | aiProcess_ValidateDataStructure |
-                                  aiProcess_JoinIdenticalVertices);
-    if (!c.ai) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: cannot import: %s", path, aiGetErrorString());
-        goto fail;
-    }
-    if (!c.ai->mRootNode || (c.ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE) || !c.ai->mNumMeshes) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: incomplete scene (no nodes or meshes)", path);
-        goto fail;
-    }
+    TND_TRY(ctx_import(&c, aiProcess_JoinIdenticalVertices, true));
     if (c.ai->mNumCameras || c.ai->mNumLights || c.ai->mNumAnimations)
         tnd_warn("scene", "%s: its %u camera(s), %u light(s) and %u animation(s) are not imported "
                  "(glTF carries them)",
@@ -1257,30 +1274,15 @@ fail:
 tnd_result scene_load_gltf(const char *path, const tnd_scene_options *o, tnd_scene **out)
 {
     tnd_result res = TND_OK;
-    gltf_ctx c = {.path = path};
+    gltf_ctx c;
     void *bytes = NULL;
     size_t size = 0;
-    c.s = calloc(1, sizeof *c.s);
-    if (!c.s)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
-    snprintf(c.s->path, sizeof c.s->path, "%s", path);
-    const char *slash = strrchr(path, '/');
-    if (slash)
-        snprintf(c.dir, sizeof c.dir, "%.*s/", (int)(slash - path), path);
+    TND_TRY_RETURN(ctx_begin(&c, path));
     TND_TRY(tnd_file_read(path, &bytes, &size));
     TND_TRY(parse_json(&c, bytes, size));
     bool glb = size >= 12 && memcmp(bytes, "glTF", 4) == 0;
     TND_TRY(validate_indices(&c, glb ? bytes : NULL, glb ? size : 0));
-    c.ai = aiImportFile(path, aiProcess_Triangulate | aiProcess_CalcTangentSpace |
-                                  aiProcess_GenSmoothNormals | aiProcess_ValidateDataStructure);
-    if (!c.ai) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: cannot import: %s", path, aiGetErrorString());
-        goto fail;
-    }
-    if (!c.ai->mRootNode || (c.ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: incomplete scene (no nodes or meshes)", path);
-        goto fail;
-    }
+    TND_TRY(ctx_import(&c, 0, false));
     TND_TRY(load_meshes(&c));
     TND_TRY(load_materials(&c));
     uint32_t cap = 0;

@@ -33,13 +33,14 @@ struct hit_info {
     vec2 bary;
 };
 
+/* Every ray is opaque (no any-hit shader or candidate test runs) unless the scene has
+ * alpha-tested geometry; then the geometry without it is still marked opaque in its BLAS, and
+ * pt_alpha.rahit (or alpha_candidates) tests the rest. */
+const uint RAY_OPAQUE = USES(TND_USES_ALPHA) ? gl_RayFlagsNoneEXT : gl_RayFlagsOpaqueEXT;
+
 #ifndef TND_RAY_QUERY
 layout(location = 0) rayPayloadEXT hit_info payload;
 layout(location = 1) rayPayloadEXT uint shadow_payload;
-
-/* Every ray is opaque (no any-hit shader runs) unless the scene has alpha-tested geometry; then
- * the geometry without it is still marked opaque in its BLAS, and pt_alpha.rahit tests the rest. */
-const uint RAY_OPAQUE = USES(TND_USES_ALPHA) ? gl_RayFlagsNoneEXT : gl_RayFlagsOpaqueEXT;
 
 bool trace_closest(vec3 org, vec3 dir, float tmax, out hit_info h)
 {
@@ -58,7 +59,6 @@ bool trace_occluded(vec3 org, vec3 dir, float tmax)
     return shadow_payload != 0u;
 }
 #else
-const uint RAY_OPAQUE = USES(TND_USES_ALPHA) ? gl_RayFlagsNoneEXT : gl_RayFlagsOpaqueEXT;
 
 /* The candidate loop of a ray query: a triangle of alpha-tested geometry (not opaque in its
  * BLAS) is confirmed where alpha_pass says the surface is there. */

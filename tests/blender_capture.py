@@ -16,19 +16,14 @@ import sys
 
 import bpy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_common import cycles, import_gltf  # noqa: E402
+
 argv = sys.argv[sys.argv.index("--") + 1:]
 scene_path, out_dir = argv[0], argv[1]
 frames, size, spp, ref_spp = int(argv[2]), int(argv[3]), int(argv[4]), int(argv[5])
 
-# Debian's Blender 3.4 glTF importer calls numpy.bool, which Debian 12's numpy 1.24 has removed
-import numpy  # noqa: E402
-
-if "bool" not in numpy.__dict__:
-    numpy.bool = bool
-
-bpy.ops.wm.read_factory_settings(use_empty=True)
-bpy.ops.import_scene.gltf(filepath=scene_path)
-scene = bpy.context.scene
+scene = import_gltf(scene_path)
 cams = [o for o in scene.objects if o.type == "CAMERA"]
 if not cams:
     sys.exit("blender_capture: %s: no camera" % scene_path)
@@ -55,19 +50,8 @@ world.use_nodes = True
 world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
 scene.world = world
 
-scene.render.engine = "CYCLES"
-cy = scene.cycles
-cy.device = "CPU"
-cy.use_adaptive_sampling = False
-cy.use_denoising = False
-cy.seed = 3
-cy.use_animated_seed = True
-cy.max_bounces = cy.diffuse_bounces = cy.glossy_bounces = 8
-cy.sample_clamp_direct = cy.sample_clamp_indirect = 0.0
+cy = cycles(scene, size, 3, True, 8)
 scene.render.use_motion_blur = False
-scene.render.resolution_x = scene.render.resolution_y = size
-scene.render.resolution_percentage = 100
-scene.view_settings.view_transform = "Standard"
 
 vl = scene.view_layers[0]
 vl.name = "ViewLayer"

@@ -18,18 +18,13 @@ import sys
 
 import bpy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_common import cycles, import_gltf  # noqa: E402
+
 argv = sys.argv[sys.argv.index("--") + 1:]
 scene_path, out_path, spp, size, seed = argv[0], argv[1], int(argv[2]), int(argv[3]), int(argv[4])
 
-# Debian's Blender 3.4 glTF importer calls numpy.bool, an alias that Debian 12's numpy 1.24 has
-# removed ("module 'numpy' has no attribute 'bool'"): give it back the builtin it stood for.
-import numpy  # noqa: E402
-
-if "bool" not in numpy.__dict__:
-    numpy.bool = bool
-
-bpy.ops.wm.read_factory_settings(use_empty=True)
-bpy.ops.import_scene.gltf(filepath=scene_path)
+import_gltf(scene_path)
 with open(scene_path) as f:
     doc = json.load(f)
 
@@ -99,25 +94,11 @@ else:
     bg.inputs["Strength"].default_value = env.get("intensity", 1.0)
 scene.world = world
 
-scene.render.engine = "CYCLES"
-cy = scene.cycles
-cy.device = "CPU"
+cy = cycles(scene, size, seed, False, 128)
 cy.samples = spp
-cy.use_adaptive_sampling = False
-cy.use_denoising = False
-cy.seed = seed
-cy.use_animated_seed = False
-cy.max_bounces = cy.diffuse_bounces = cy.glossy_bounces = cy.transmission_bounces = 128
-cy.transparent_max_bounces = cy.volume_bounces = 128
-cy.sample_clamp_direct = cy.sample_clamp_indirect = 0.0
-cy.light_sampling_threshold = 0.0
 cy.pixel_filter_type = "BOX"
 cy.filter_width = 1.0
-scene.render.resolution_x = scene.render.resolution_y = size
-scene.render.resolution_percentage = 100
 scene.render.film_transparent = False
-scene.view_settings.view_transform = "Standard"
-scene.view_settings.exposure = 0.0
 scene.render.image_settings.file_format = "OPEN_EXR"
 scene.render.image_settings.color_depth = "32"
 scene.render.image_settings.exr_codec = "NONE"

@@ -27,30 +27,41 @@
 enum { ES_SKY = 0, ES_ENV = 1 };
 enum { ES_W = 40, ES_H = 40 };
 
+/* A UV sphere of radius 1 at the origin, ES_SEG x ES_RINGS segments, its positions (which are
+ * also its normals) and indices; the vertex and triangle-index counts. (Also the white furnace's
+ * sphere, test_frontend_embree.c.) */
+enum { ES_SEG = 64, ES_RINGS = 32 };
+static void es_uv_sphere(float pos[(ES_SEG + 1) * (ES_RINGS + 1) * 3],
+                         uint32_t idx[ES_SEG * ES_RINGS * 6], uint32_t *nv, uint32_t *ni)
+{
+    uint32_t n = 0, t = 0;
+    for (int j = 0; j <= ES_RINGS; j++)
+        for (int i = 0; i <= ES_SEG; i++, n++) {
+            double th = TND_PI * j / ES_RINGS, ph = 2 * TND_PI * i / ES_SEG;
+            pos[3 * n] = (float)(sin(th) * cos(ph));
+            pos[3 * n + 1] = (float)cos(th);
+            pos[3 * n + 2] = (float)(sin(th) * sin(ph));
+        }
+    for (int j = 0; j < ES_RINGS; j++)
+        for (int i = 0; i < ES_SEG; i++) {
+            uint32_t a = j * (ES_SEG + 1) + i, b = (j + 1) * (ES_SEG + 1) + i;
+            if (j != 0)
+                idx[t++] = a, idx[t++] = a + 1, idx[t++] = b;
+            if (j != ES_RINGS - 1)
+                idx[t++] = a + 1, idx[t++] = b + 1, idx[t++] = b;
+        }
+    *nv = n, *ni = t;
+}
+
 static tnd_scene *es_scene(float albedo, int light)
 {
     tnd_scene *s = NULL;
     if (tnd_scene_new("env sphere", &s) != TND_OK)
         return NULL;
-    enum { SEG = 64, RINGS = 32 };
-    static float pos[(SEG + 1) * (RINGS + 1) * 3];
-    static uint32_t idx[SEG * RINGS * 6];
-    uint32_t n = 0, t = 0;
-    for (int j = 0; j <= RINGS; j++)
-        for (int i = 0; i <= SEG; i++, n++) {
-            double th = TND_PI * j / RINGS, ph = 2 * TND_PI * i / SEG;
-            pos[3 * n] = (float)(sin(th) * cos(ph));
-            pos[3 * n + 1] = (float)cos(th);
-            pos[3 * n + 2] = (float)(sin(th) * sin(ph));
-        }
-    for (int j = 0; j < RINGS; j++)
-        for (int i = 0; i < SEG; i++) {
-            uint32_t a = j * (SEG + 1) + i, b = (j + 1) * (SEG + 1) + i;
-            if (j != 0)
-                idx[t++] = a, idx[t++] = a + 1, idx[t++] = b;
-            if (j != RINGS - 1)
-                idx[t++] = a + 1, idx[t++] = b + 1, idx[t++] = b;
-        }
+    static float pos[(ES_SEG + 1) * (ES_RINGS + 1) * 3];
+    static uint32_t idx[ES_SEG * ES_RINGS * 6];
+    uint32_t n, t;
+    es_uv_sphere(pos, idx, &n, &t);
     tnd_material m = tnd_material_default("lambert");
     m.metallic = 0, m.roughness = 1, m.specular = 0;
     m.base_color[0] = m.base_color[1] = m.base_color[2] = albedo;
@@ -124,6 +135,39 @@ static void es_check(const char *who, int light, float albedo, const float *rgb)
           (double)albedo);
     CHECK(fabs(mean - albedo) <= 5 * se + 2e-3 * albedo, "%s: %.5f vs %.2f beyond 5 se (%.2g)",
           who, mean, (double)albedo, se);
+}
+
+/* A front-end's reference of scene s in state st: ES_W x ES_H, 64 samples per pixel, into rgb. */
+typedef tnd_result (*es_render_fn)(tnd_scene *s, const tnd_scene_state *st, float *rgb,
+                                   void *user);
+
+/* The four cases (the uniform sky and the constant map, albedo 0.5 and 1) rendered by `render`
+ * and checked. */
+static void es_run(const char *who, es_render_fn render, void *user)
+{
+    float *rgb = malloc(ES_W * ES_H * 3 * sizeof(float));
+    for (int light = ES_SKY; light <= ES_ENV && rgb; light++)
+        for (int a = 0; a < 2; a++) {
+            float albedo = a ? 1.0f : 0.5f;
+            tnd_scene *s = es_scene(albedo, light);
+            CHECK(s, "sphere scene: %s", tnd_error_detail());
+            if (!s)
+                continue;
+            CHECK(light == ES_SKY ? (s->features & TND_FEATURE(SKY)) != 0
+                                  : (s->features & TND_FEATURE(ENV_MAP)) != 0,
+                  "features %#x", s->features);
+            tnd_scene_state st = {0};
+            tnd_result r = tnd_scene_evaluate(s, 0, 0, 1.0f, &st);
+            if (r == TND_OK)
+                r = render(s, &st, rgb, user);
+            CHECK(r == TND_OK, "%s: %s", who, tnd_error_detail());
+            if (r == TND_OK)
+                es_check(who, light, albedo, rgb);
+            tnd_scene_state_free(&st);
+            tnd_scene_destroy(s);
+        }
+    CHECK(rgb, "out of memory");
+    free(rgb);
 }
 
 #endif

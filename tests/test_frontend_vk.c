@@ -929,32 +929,27 @@ cleanup:
 
 /* The Lambert sphere under a uniform sky and a constant environment map, as in the Embree
  * front-end's test (tests/env_sphere.h): the albedo within 0.5% in the reference mode. */
+static tnd_result env_sphere_render(tnd_scene *s, const tnd_scene_state *st, float *rgb,
+                                    void *user)
+{
+    fvk_context *gv = NULL;
+    tnd_result r = fvk_create(user, s,
+                              &(fvk_desc){.precision = TND_PRECISION_F32,
+                                          .rt_api = FVK_RT_PIPELINE},
+                              &gv);
+    if (r == TND_OK)
+        r = fvk_set_frame(gv, st, st, 0, ES_W, ES_H);
+    if (r == TND_OK)
+        r = fvk_reference(gv, 64, rgb, NULL, NULL, NULL, NULL);
+    fvk_destroy(gv);
+    return r;
+}
+
 static void test_env_sphere_vk(void)
 {
     tnd_vk *vk = gpu_begin();
     REQUIRE(vk, "no context");
-    for (int light = ES_SKY; light <= ES_ENV; light++)
-        for (int a = 0; a < 2; a++) {
-            float albedo = a ? 1.0f : 0.5f;
-            tnd_scene *s = es_scene(albedo, light);
-            fvk_context *gv = NULL;
-            tnd_scene_state st = {0};
-            float *rgb = malloc(ES_W * ES_H * 3 * sizeof(float));
-            REQUIRE(s, "sphere scene: %s", tnd_error_detail());
-            REQUIRE_OK(fvk_create(vk, s,
-                                  &(fvk_desc){.precision = TND_PRECISION_F32,
-                                              .rt_api = FVK_RT_PIPELINE},
-                                  &gv));
-            REQUIRE_OK(tnd_scene_evaluate(s, 0, 0, 1.0f, &st));
-            REQUIRE_OK(fvk_set_frame(gv, &st, &st, 0, ES_W, ES_H));
-            REQUIRE_OK(fvk_reference(gv, 64, rgb, NULL, NULL, NULL, NULL));
-            es_check("vulkan", light, albedo, rgb);
-        cleanup:
-            free(rgb);
-            tnd_scene_state_free(&st);
-            fvk_destroy(gv);
-            tnd_scene_destroy(s);
-        }
+    es_run("vulkan", env_sphere_render, vk);
     gpu_end();
 }
 
