@@ -64,39 +64,43 @@ tnd_result app_capture_list(const char *captures, char *dir, size_t dir_cap, cha
     return TND_OK;
 }
 
-/* The fraction of frame b's surface pixels whose motion (x sx, y sy) lands on a surface of frame
- * a (the previous) with the same albedo (within 0.1 of the larger value, + 0.02) and depth
- * (within 5%, after the motion's depth change): what the back-end's reprojection needs. */
-static double motion_agreement(const tnd_frame *a, const tnd_frame *b, float sx, float sy,
-                               uint64_t *tested)
+/* The motion check of frame b against a (the previous), for the four sign variants of the
+ * motion's x and y (signs[s]) in one pass: agree[s] counts frame b's surface pixels whose moved
+ * position lands on a surface of frame a with the same albedo (within 0.1 of the larger value,
+ * + 0.02) and depth (within 5%, after the motion's depth change): what the back-end's
+ * reprojection needs. Returns the surface pixels tested. */
+static uint64_t motion_agreement(const tnd_frame *a, const tnd_frame *b, const float signs[4][2],
+                                 double agree[4])
 {
     uint32_t W = b->width, H = b->height;
     const float *da = tnd_frame_f(a, TND_CT_DEPTH), *db = tnd_frame_f(b, TND_CT_DEPTH);
     const float *aa = tnd_frame_f(a, TND_CT_ALBEDO), *ab = tnd_frame_f(b, TND_CT_ALBEDO);
     const float *mo = tnd_frame_f(b, TND_CT_MOTION);
-    uint64_t n = 0, ok = 0;
+    uint64_t n = 0;
     for (uint32_t y = 0; y < H; y++)
         for (uint32_t x = 0; x < W; x++) {
             size_t p = (size_t)y * W + x;
             if (!(db[p] < (float)TND_DEPTH_MISS))
                 continue;
             n++;
-            float qx = (float)x + sx * mo[3 * p], qy = (float)y + sy * mo[3 * p + 1];
-            long ix = lroundf(qx), iy = lroundf(qy);
-            if (!isfinite(qx) || !isfinite(qy) || ix < 0 || iy < 0 || ix >= (long)W ||
-                iy >= (long)H)
-                continue;
-            size_t q = (size_t)iy * W + (size_t)ix;
-            if (!(da[q] < (float)TND_DEPTH_MISS))
-                continue;
-            bool same = fabsf(da[q] - (db[p] + mo[3 * p + 2])) <= 0.05f * db[p];
-            for (int k = 0; k < 3; k++)
-                same &= fabsf(aa[3 * q + k] - ab[3 * p + k]) <=
-                        0.1f * fmaxf(aa[3 * q + k], ab[3 * p + k]) + 0.02f;
-            ok += same;
+            for (int s = 0; s < 4; s++) {
+                float qx = (float)x + signs[s][0] * mo[3 * p];
+                float qy = (float)y + signs[s][1] * mo[3 * p + 1];
+                long ix = lroundf(qx), iy = lroundf(qy);
+                if (!isfinite(qx) || !isfinite(qy) || ix < 0 || iy < 0 || ix >= (long)W ||
+                    iy >= (long)H)
+                    continue;
+                size_t q = (size_t)iy * W + (size_t)ix;
+                if (!(da[q] < (float)TND_DEPTH_MISS))
+                    continue;
+                bool same = fabsf(da[q] - (db[p] + mo[3 * p + 2])) <= 0.05f * db[p];
+                for (int k = 0; k < 3; k++)
+                    same &= fabsf(aa[3 * q + k] - ab[3 * p + k]) <=
+                            0.1f * fmaxf(aa[3 * q + k], ab[3 * p + k]) + 0.02f;
+                agree[s] += same;
+            }
         }
-    *tested += n;
-    return (double)ok;
+    return n;
 }
 
 int app_capture_info(const char *captures, const char *map_path, bool json)
@@ -151,12 +155,8 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
                 lo[e] = fmin(lo[e], v[q]), hi[e] = fmax(hi[e], v[q]);
             }
         }
-        for (int s = 0; i > 0 && s < 4; s++) {
-            uint64_t t = 0;
-            agree[s] += motion_agreement(&prev, &cur, signs[s][0], signs[s][1], &t);
-            if (s == 0)
-                tested += t;
-        }
+        if (i > 0)
+            tested += motion_agreement(&prev, &cur, signs, agree);
     }
     int best = 0;
     for (int s = 1; s < 4; s++)
