@@ -42,7 +42,7 @@ tnd_result app_capture_list(const char *captures, char *dir, size_t dir_cap, cha
     for (struct dirent *e; (e = readdir(d));) {
         size_t l = strlen(e->d_name);
         if (l > 4 && strcmp(e->d_name + l - 4, ".exr") == 0 &&
-            strncmp(e->d_name, "frame_", 6) == 0) {
+            strncmp(e->d_name, "frame_", 6) == 0 && !tnd_capture_is_gradients_file(e->d_name)) {
             char **nv = realloc(v, (n + 1) * sizeof *nv);
             if (!nv || !(nv[n] = strdup(e->d_name))) {
                 app_capture_list_free(nv ? nv : v, n);
@@ -130,6 +130,7 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
     uint64_t tested = 0;
     bool present[TND_CT_COUNT] = {false};
     uint64_t nonfinite[TND_CT_COUNT] = {0};
+    size_t grad_frames = 0, grad_files = 0; /* rendered with A-SVGF; with a samples file */
     for (size_t i = 0; i < n; i++) {
         snprintf(path, sizeof path, "%s/%s", dir, names[i]);
         tnd_frame_destroy(&prev);
@@ -140,6 +141,13 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
             res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: %ux%u, frame 0 is %ux%u", path,
                            cur.width, cur.height, prev.width, prev.height);
             goto fail;
+        }
+        if (cur.gradients) {
+            char gp[2400];
+            struct stat gst;
+            tnd_capture_gradients_path(path, gp, sizeof gp);
+            grad_frames++;
+            grad_files += stat(gp, &gst) == 0;
         }
         size_t npx = (size_t)cur.width * cur.height;
         for (int e = 0; e < TND_CT_COUNT; e++) {
@@ -170,6 +178,8 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
         cJSON_AddNumberToObject(o, "width", cur.width);
         cJSON_AddNumberToObject(o, "height", cur.height);
         cJSON_AddStringToObject(o, "mapping", map ? tnd_capture_map_name(map) : "");
+        cJSON_AddNumberToObject(o, "asvgf_frames", (double)grad_frames);
+        cJSON_AddNumberToObject(o, "gradient_sample_files", (double)grad_files);
     } else {
         printf("capture %s: %zu frames (%s .. %s), %ux%u\n", dir, n, names[0], names[n - 1],
                cur.width, cur.height);
@@ -177,6 +187,12 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
         for (uint32_t c = 0; c < x.channel_count; c++)
             printf("%s %s", c ? "," : "", x.channels[c].name);
         printf("\n  read %s\n", map ? tnd_capture_map_name(map) : "as a Tandem capture");
+        if (grad_frames)
+            printf("  rendered with A-SVGF: %zu frames, %zu with gradient samples beside them "
+                   "(FRAME.gradients.exr; the first has no history): denoise replays asvgf\n",
+                   grad_frames, grad_files);
+        else
+            printf("  no gradient samples: denoise runs asvgf as svgf\n");
         printf("  %-11s %-8s %-12s %-12s %-10s %s\n", "entry", "how", "min", "max", "non-finite",
                "from");
     }
@@ -205,7 +221,7 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
         else if (!strcmp(how, "default"))
             snprintf(src, sizeof src, "%s%s",
                      ci->default_value == 4294967295.0 ? "0xFFFFFFFF" : "",
-                     e == TND_CT_RNG ? " (no gradient samples: the back-end runs SVGF)" : "");
+                     e == TND_CT_RNG ? " (no random-number keys)" : "");
         bool ranged = present[e] && ci->kind == TND_CT_FLOAT && lo[e] <= hi[e];
         if (entries) {
             cJSON *je = cJSON_AddObjectToObject(entries, ci->name);

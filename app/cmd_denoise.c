@@ -17,6 +17,41 @@ static const app_cmd denoise_cmd = {
     "renderer's through --map) and write the denoised frames.",
     "--captures DIR --out DIR [--map MAPPING.json] [--denoiser asvgf|svgf|off] [--dump LIST]", NULL};
 
+/* A-SVGF on a capture that keeps its samples: the back-end selects on the frame as rendered,
+ * exactly as live, which must give the capture's selection; then the re-shaded values are
+ * patched in (the front-end's part) and the frame goes up again. */
+static tnd_result replay_gradients(dn_context *dn, tnd_vk *vk, tnd_contract_gpu *ct,
+                                   const dn_frame *df, tnd_frame *f, const char *path,
+                                   uint32_t *words, tnd_gradient_samples *gs)
+{
+    tnd_result res = TND_OK;
+    uint32_t n = 0;
+    char gpath[2400];
+    tnd_gradient_samples_free(gs);
+    TND_TRY(dn_select_gradients(dn, ct, df, words, &n));
+    tnd_capture_gradients_path(path, gpath, sizeof gpath);
+    struct stat st;
+    if (n == 0 && stat(gpath, &st) != 0)
+        return TND_OK; /* (a frame without history: no samples, no file) */
+    if (stat(gpath, &st) != 0)
+        return tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: missing (the back-end selected %u "
+                        "gradient samples for %s)", gpath, n, path);
+    TND_TRY(tnd_capture_read_gradients(gpath, f->width, f->height, gs));
+    bool same = gs->count == n;
+    for (uint32_t k = 0; same && k < n; k++)
+        same = gs->pixel[k] == words[(size_t)k * DN_GRADIENT_WORDS];
+    if (!same)
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "capture: %s: %u gradient samples, but the back-end selected %u%s (a "
+                        "replay must start at the sequence's first frame, as rendered; or run "
+                        "--denoiser svgf)",
+                        gpath, gs->count, n, gs->count == n ? " at other pixels" : "");
+    tnd_gradient_samples_apply(gs, f);
+    TND_TRY(tnd_contract_upload(vk, ct, f));
+fail:
+    return res;
+}
+
 int cmd_denoise(int argc, char **argv)
 {
     const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf", *dump = NULL;
@@ -28,7 +63,7 @@ int cmd_denoise(int argc, char **argv)
         {"map", APP_OPT_STRING, &map_path, "JSON", "channel mapping for other renderers' EXRs"},
         {"dump", APP_OPT_STRING, &dump, "LIST",
          "also write back-end buffers to DIR/dump/NAME_NNNN.exr (names: see tandem render --help)"},
-        {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "asvgf (default; runs as svgf on captures), svgf or off"},
+        {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "asvgf (default; as svgf on captures without gradient samples), svgf or off"},
         {"taa", APP_OPT_STRING, &taa, "on|off|W",
          "temporal anti-aliasing of the output (on: new-frame weight 0.1; off: the composite "
          "itself)"},
@@ -58,11 +93,10 @@ int cmd_denoise(int argc, char **argv)
     cmp_desc post_d = {0};
     if ((res = app_taa_parse(taa, &post_d)) != TND_OK)
         return app_report("denoise", res);
-    /* A-SVGF re-shades its gradient samples with a front-end; a capture is only the contract */
+    /* A-SVGF re-shades its gradient samples with a front-end: it runs on captures that keep
+     * them (tandem render --capture --denoiser asvgf), and as svgf on the others */
     bool asked_asvgf = mode == DN_MODE_ASVGF;
-    if (asked_asvgf)
-        mode = DN_MODE_SVGF;
-    char dir[1100], path[2300];
+    char dir[1100], path[2300], src[2300]; /* src: this frame's capture */
     char **names = NULL;
     size_t n = 0;
     if ((res = app_capture_list(captures, dir, sizeof dir, &names, &n)) != TND_OK)
@@ -83,26 +117,42 @@ int cmd_denoise(int argc, char **argv)
     int status = APP_EXIT_FAIL;
     uint32_t w = 0, h = 0;
     float prev_jitter[2] = {0, 0};
+    uint32_t *grads = NULL; /* the back-end's selection, DN_GRADIENT_WORDS words per sample */
+    tnd_gradient_samples gs = {0};
     if (map_path)
         TND_TRY(tnd_capture_map_load(map_path, &map));
     app_progress bar;
     app_progress_begin(&bar, "denoise", (unsigned)n);
-    bool said_svgf = false;
     char dump_dir[1100];
     for (size_t i = 0; i < n; i++) {
-        snprintf(path, sizeof path, "%s/%s", dir, names[i]);
+        snprintf(src, sizeof src, "%s/%s", dir, names[i]);
         tnd_frame_destroy(&f);
-        TND_TRY(map ? tnd_capture_read_mapped(path, map, &f) : tnd_capture_read(path, &f));
+        TND_TRY(map ? tnd_capture_read_mapped(src, map, &f) : tnd_capture_read(src, &f));
         if (i > 0 && (f.width != w || f.height != h)) {
             res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: %ux%u, the sequence's first frame "
-                           "is %ux%u", path, f.width, f.height, w, h);
+                           "is %ux%u", src, f.width, f.height, w, h);
             goto fail;
         }
         if (i == 0) {
             w = f.width, h = f.height;
+            if (asked_asvgf && !f.gradients) {
+                mode = DN_MODE_SVGF;
+                if (!app_quiet())
+                    fprintf(stderr,
+                            "tandem: denoise: %s: running as svgf: the capture carries no "
+                            "gradient samples (A-SVGF needs a front-end to re-shade them: "
+                            "tandem render --capture --denoiser asvgf keeps them)\n",
+                            names[i]);
+            }
             TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
             TND_TRY(dn_create(&vk, w, h, &(dn_desc){.mode = mode, .precision = f.precision}, &dn));
             TND_TRY(tnd_contract_gpu_create(&vk, w, h, f.precision, &ct));
+            if (mode == DN_MODE_ASVGF &&
+                !(grads = malloc((size_t)dn_gradient_capacity(dn) * DN_GRADIENT_WORDS *
+                                 sizeof *grads))) {
+                res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
+                goto fail;
+            }
             /* the post chain with render's defaults (auto exposure, ACES), TAA as asked */
             /* the interleave when the captures carry split paths (checked on the first frame) */
             bool split = false;
@@ -130,17 +180,11 @@ int cmd_denoise(int argc, char **argv)
             }
             fprintf(timings, "{\n  \"denoiser\": \"%s\",\n  \"device\": \"%s\",\n  \"frames\": [",
                     dn_mode_name(mode), vk.info.name);
-        } else if (f.width != w || f.height != h) {
-            res = tnd_fail(TND_ERR_BAD_INPUT, "denoise: %s: %ux%u, but the sequence is %ux%u",
-                           path, f.width, f.height, w, h);
-            goto fail;
         }
-        if (!said_svgf && asked_asvgf && !app_quiet()) {
-            fprintf(stderr,
-                    "tandem: denoise: %s: running as svgf: captures carry no gradient samples "
-                    "(A-SVGF needs a front-end to re-shade them: tandem render --denoiser asvgf)\n",
-                    names[i]);
-            said_svgf = true;
+        if (mode == DN_MODE_ASVGF && !f.gradients) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: no gradient samples, but the "
+                           "sequence's first frame has them (run --denoiser svgf)", src);
+            goto fail;
         }
         double tan_half = f.has_camera && f.camera.proj[5] != 0.0f
                               ? 1.0 / fabs((double)f.camera.proj[5])
@@ -152,6 +196,8 @@ int cmd_denoise(int argc, char **argv)
         memcpy(prev_jitter, f.camera.jitter, sizeof prev_jitter);
         dn_timings tm;
         TND_TRY(tnd_contract_upload(&vk, &ct, &f));
+        if (mode == DN_MODE_ASVGF)
+            TND_TRY(replay_gradients(dn, &vk, &ct, &df, &f, src, grads, &gs));
         TND_TRY(dn_run(dn, &ct, &df, &tm));
         if (dump_mask) {
             char stem[1024];
@@ -221,6 +267,8 @@ fail:
     }
     free(rgb);
     free(display);
+    free(grads);
+    tnd_gradient_samples_free(&gs);
     cmp_destroy(post);
     tnd_frame_destroy(&f);
     tnd_contract_gpu_destroy(&vk, &ct);

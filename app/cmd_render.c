@@ -301,6 +301,29 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     return ok ? TND_OK : tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);
 }
 
+/* A-SVGF's samples of frame f beside its capture: the pixels of the back-end's selection
+ * (DN_GRADIENT_WORDS words each, the pixel first) and the contract there after re-shading. */
+static tnd_result write_gradients(const char *dir, unsigned f, const tnd_frame *reshaded,
+                                  const uint32_t *words, uint32_t n)
+{
+    tnd_result res = TND_OK;
+    tnd_gradient_samples g = {0};
+    uint32_t *pixels = malloc((size_t)n * sizeof *pixels);
+    if (!pixels)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "render: out of memory");
+    for (uint32_t k = 0; k < n; k++)
+        pixels[k] = words[(size_t)k * DN_GRADIENT_WORDS];
+    char cap[1700], path[1800];
+    snprintf(cap, sizeof cap, "%s/frame_%04u.exr", dir, f);
+    tnd_capture_gradients_path(cap, path, sizeof path);
+    TND_TRY(tnd_gradient_samples_gather(reshaded, pixels, n, &g));
+    TND_TRY(tnd_capture_write_gradients(path, &g, reshaded->width, reshaded->height, TND_EXR_ZIP));
+fail:
+    tnd_gradient_samples_free(&g);
+    free(pixels);
+    return res;
+}
+
 static int run(bool reference, int argc, char **argv)
 {
     render_opts o;
@@ -335,7 +358,7 @@ static int run(bool reference, int argc, char **argv)
                                          "--denoiser off composites on the CPU)"));
     FILE *timings = NULL;
     tnd_scene_state st[2] = {{0}};
-    tnd_frame frame = {0};
+    tnd_frame frame = {0}, reshaded = {0}; /* (reshaded: vk's contract after A-SVGF's samples) */
     float *rgb = NULL;
     uint32_t *grads = NULL;             /* A-SVGF samples, DN_GRADIENT_WORDS each */
     femb_gradient_sample *femb_grads = NULL;
@@ -365,7 +388,8 @@ static int run(bool reference, int argc, char **argv)
         goto fail;
     if (use_dn)
         TND_TRY(cmp_create(&vk, o.size[0], o.size[1], prec, &pd, &post));
-    if (use_dn && dmode == DN_MODE_ASVGF && !use_vk) { /* the Vulkan front-end reads the GPU list */
+    /* the Vulkan front-end reads the GPU list, unless the capture keeps the samples */
+    if (use_dn && dmode == DN_MODE_ASVGF && (!use_vk || o.capture)) {
         uint32_t cap = dn_gradient_capacity(dn);
         grads = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *grads);
         femb_grads = malloc((size_t)cap * sizeof *femb_grads);
@@ -472,6 +496,7 @@ static int run(bool reference, int argc, char **argv)
         }
         if (o.capture) {
             snprintf(path, sizeof path, "%s/frame_%04u.exr", dir, f);
+            frame.gradients = use_dn && dmode == DN_MODE_ASVGF; /* the samples come beside it */
             TND_TRY(tnd_capture_write(path, &frame, TND_EXR_ZIP));
         }
         dn_timings dt = {0};
@@ -485,7 +510,19 @@ static int run(bool reference, int argc, char **argv)
                 /* A-SVGF: the back-end picks pixels, the front-end re-shades them with the
                  * previous frame's random numbers on the surface seen there */
                 uint32_t n = 0;
-                if (use_vk) { /* the sample list stays on the GPU */
+                if (use_vk && o.capture) { /* the list comes to the host, for the capture */
+                    fvk_timings tg = {0};
+                    TND_TRY(dn_select_gradients(dn, ct, &df, grads, &n));
+                    TND_TRY(fvk_shade_gradients(gv, &(fvk_params){.bounces = o.bounces}, grads,
+                                                n, &tg));
+                    ms_gradients = tg.gradient_ms;
+                    if (n) { /* the contract as re-shaded, at the samples */
+                        if (!reshaded.block)
+                            TND_TRY(tnd_frame_create(o.size[0], o.size[1], &reshaded));
+                        TND_TRY(tnd_contract_download(&vk, fvk_contract(gv), &reshaded));
+                        TND_TRY(write_gradients(dir, f, &reshaded, grads, n));
+                    }
+                } else if (use_vk) { /* the sample list stays on the GPU */
                     fvk_timings tg = {0};
                     VkBuffer slots_buf;
                     TND_TRY(dn_select_gradients_gpu(dn, ct, &df, &slots_buf, &n));
@@ -502,6 +539,8 @@ static int run(bool reference, int argc, char **argv)
                     ms_gradients = 1e3 * (tnd_now() - ta);
                     tnd_frame_quantize(&frame, prec);
                     TND_TRY(tnd_contract_upload(&vk, &upload, &frame));
+                    if (o.capture)
+                        TND_TRY(write_gradients(dir, f, &frame, grads, n));
                 }
             }
             TND_TRY(dn_run(dn, ct, &df, &dt));
@@ -579,6 +618,7 @@ fail:
     if (status != APP_EXIT_OK)
         app_report(what, res);
     tnd_frame_destroy(&frame);
+    tnd_frame_destroy(&reshaded);
     free(rgb);
     free(grads);
     free(femb_grads);

@@ -14,9 +14,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-tnd_result tnd_capture_write(const char *path, const tnd_frame *f, tnd_exr_compression c)
+/* The frame's present entries as channels, the camera and `extra` (channels and attributes of
+ * the caller's) beside them. */
+static tnd_result write_frame(const char *path, const tnd_frame *f, const tnd_exr_channel_desc *xc,
+                              uint32_t nxc, const tnd_exr_attr *xa, uint32_t nxa,
+                              tnd_exr_compression c)
 {
-    tnd_exr_channel_desc ch[TND_CT_COUNT * 4];
+    tnd_exr_channel_desc ch[TND_CT_COUNT * 4 + 4];
     char names[TND_CT_COUNT * 4][64];
     uint32_t n = 0;
     for (int i = 0; i < TND_CT_COUNT; i++) {
@@ -35,7 +39,9 @@ tnd_result tnd_capture_write(const char *path, const tnd_frame *f, tnd_exr_compr
     }
     if (n == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "capture: %s: frame has no entries", path);
-    tnd_exr_attr at[8] = {
+    for (uint32_t k = 0; k < nxc && k < 4; k++)
+        ch[n++] = xc[k];
+    tnd_exr_attr at[12] = {
         {.name = "tandem.contractVersion", .type = TND_ATTR_INT, .i = TND_CONTRACT_VERSION},
         {.name = "tandem.precision",
          .type = TND_ATTR_STRING,
@@ -55,7 +61,16 @@ tnd_result tnd_capture_write(const char *path, const tnd_frame *f, tnd_exr_compr
             memcpy(at[na++].f, mv[m], 16 * sizeof(float));
         }
     }
+    if (f->gradients)
+        at[na++] = (tnd_exr_attr){.name = "tandem.gradients", .type = TND_ATTR_INT, .i = 1};
+    for (uint32_t k = 0; k < nxa && na < 12; k++)
+        at[na++] = xa[k];
     return tnd_exr_write(path, f->width, f->height, ch, n, at, na, c);
+}
+
+tnd_result tnd_capture_write(const char *path, const tnd_frame *f, tnd_exr_compression c)
+{
+    return write_frame(path, f, NULL, 0, NULL, 0, c);
 }
 
 /* Problems found while validating, reported together. */
@@ -104,17 +119,16 @@ static void read_camera(const tnd_exr_file *x, tnd_frame *f)
     tnd_exr_attr_v2f(x, "tandem.jitter", f->camera.jitter);
 }
 
-tnd_result tnd_capture_read(const char *path, tnd_frame *f)
+/* The contract of an open Tandem EXR (a capture or its gradient samples) into f, validated;
+ * `derive`: fill the derived entries it lacks (not for samples: their pixels are not a grid). */
+static tnd_result read_frame(const tnd_exr_file *xp, const char *path, bool derive, tnd_frame *f)
 {
-    tnd_exr_file x;
+    const tnd_exr_file x = *xp;
+    tnd_result res = TND_OK;
     memset(f, 0, sizeof *f);
-    tnd_result res = tnd_exr_read(path, &x);
-    if (res != TND_OK)
-        return res;
     problems p = {{0}, 0};
-    int32_t version = 0;
+    int32_t version = 0, grad = 0;
     if (!tnd_exr_attr_int(&x, "tandem.contractVersion", &version)) {
-        tnd_exr_close(&x);
         return tnd_fail(TND_ERR_BAD_INPUT,
                         "capture: %s: not a Tandem capture (no tandem.contractVersion; other "
                         "renderers' files need a mapping: --map)",
@@ -122,7 +136,6 @@ tnd_result tnd_capture_read(const char *path, tnd_frame *f)
     }
     /* version 1 lacks only the path flags (a DEFAULT entry: 0, no specular chain) */
     if (version < 1 || version > TND_CONTRACT_VERSION) {
-        tnd_exr_close(&x);
         return tnd_fail(TND_ERR_UNSUPPORTED,
                         "capture: %s: contract version %d (this Tandem reads 1 to %d)", path,
                         version, TND_CONTRACT_VERSION);
@@ -133,6 +146,7 @@ tnd_result tnd_capture_read(const char *path, tnd_frame *f)
     if (tnd_precision_parse(prec, &f->precision) != TND_OK)
         add_problem(&p, "attribute 'tandem.precision': '%s'", prec);
     read_camera(&x, f);
+    f->gradients = tnd_exr_attr_int(&x, "tandem.gradients", &grad) && grad == 1;
     size_t npx = (size_t)x.width * x.height;
     for (int i = 0; i < TND_CT_COUNT; i++) {
         const tnd_ct_info *e = tnd_ct_get((tnd_ct)i);
@@ -198,12 +212,153 @@ tnd_result tnd_capture_read(const char *path, tnd_frame *f)
                        p.count == 1 ? "" : "s", p.text);
         goto fail;
     }
-    TND_TRY(tnd_frame_derive(f, path));
+    if (derive)
+        TND_TRY(tnd_frame_derive(f, path));
+    return TND_OK;
+fail:
+    tnd_frame_destroy(f);
+    return res;
+}
+
+tnd_result tnd_capture_read(const char *path, tnd_frame *f)
+{
+    tnd_exr_file x;
+    memset(f, 0, sizeof *f);
+    tnd_result res = tnd_exr_read(path, &x);
+    if (res == TND_OK)
+        res = read_frame(&x, path, true, f);
+    tnd_exr_close(&x);
+    return res;
+}
+
+/* ---- gradient samples ------------------------------------------------------------------------ */
+void tnd_gradient_samples_free(tnd_gradient_samples *g)
+{
+    free(g->pixel);
+    tnd_frame_destroy(&g->values);
+    memset(g, 0, sizeof *g);
+}
+
+tnd_result tnd_gradient_samples_gather(const tnd_frame *f, const uint32_t *pixels, uint32_t count,
+                                       tnd_gradient_samples *g)
+{
+    tnd_result res = TND_OK;
+    memset(g, 0, sizeof *g);
+    if (count == 0)
+        return TND_OK;
+    g->pixel = malloc((size_t)count * sizeof *g->pixel);
+    if (!g->pixel)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "capture: out of memory for %u gradient samples",
+                        count);
+    TND_TRY(tnd_frame_create(count, 1, &g->values));
+    g->count = count;
+    g->values.precision = f->precision;
+    for (int i = 0; i < TND_CT_COUNT; i++) {
+        g->values.present[i] = f->present[i];
+        size_t sz = tnd_ct_get((tnd_ct)i)->comps * sizeof(uint32_t);
+        for (uint32_t k = 0; k < count; k++) {
+            if (pixels[k] >= f->width * f->height) {
+                res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                               "capture: gradient sample %u: pixel %u outside the %ux%u frame", k,
+                               pixels[k], f->width, f->height);
+                goto fail;
+            }
+            memcpy((char *)g->values.data[i] + k * sz, (const char *)f->data[i] + pixels[k] * sz,
+                   sz);
+        }
+    }
+    memcpy(g->pixel, pixels, (size_t)count * sizeof *pixels);
+    return TND_OK;
+fail:
+    tnd_gradient_samples_free(g);
+    return res;
+}
+
+void tnd_gradient_samples_apply(const tnd_gradient_samples *g, tnd_frame *f)
+{
+    for (int i = 0; i < TND_CT_COUNT; i++) {
+        if (!g->values.present[i] || !f->present[i])
+            continue;
+        size_t sz = tnd_ct_get((tnd_ct)i)->comps * sizeof(uint32_t);
+        for (uint32_t k = 0; k < g->count; k++)
+            memcpy((char *)f->data[i] + (size_t)g->pixel[k] * sz,
+                   (const char *)g->values.data[i] + k * sz, sz);
+    }
+}
+
+static const char gradients_suffix[] = ".gradients.exr";
+
+void tnd_capture_gradients_path(const char *capture, char *out, size_t cap)
+{
+    size_t l = strlen(capture);
+    if (l > 4 && strcmp(capture + l - 4, ".exr") == 0)
+        l -= 4;
+    snprintf(out, cap, "%.*s%s", (int)l, capture, gradients_suffix);
+}
+
+bool tnd_capture_is_gradients_file(const char *name)
+{
+    size_t l = strlen(name), s = sizeof gradients_suffix - 1;
+    return l >= s && strcmp(name + l - s, gradients_suffix) == 0;
+}
+
+tnd_result tnd_capture_write_gradients(const char *path, const tnd_gradient_samples *g,
+                                       uint32_t frame_width, uint32_t frame_height,
+                                       tnd_exr_compression c)
+{
+    if (g->count == 0)
+        return TND_OK;
+    tnd_exr_channel_desc pc = {"gradient.pixel", TND_EXR_UINT, g->pixel, 1};
+    tnd_exr_attr at[2] = {
+        {.name = "tandem.frameWidth", .type = TND_ATTR_INT, .i = (int32_t)frame_width},
+        {.name = "tandem.frameHeight", .type = TND_ATTR_INT, .i = (int32_t)frame_height},
+    };
+    return write_frame(path, &g->values, &pc, 1, at, 2, c);
+}
+
+tnd_result tnd_capture_read_gradients(const char *path, uint32_t frame_width,
+                                      uint32_t frame_height, tnd_gradient_samples *g)
+{
+    tnd_exr_file x;
+    memset(g, 0, sizeof *g);
+    tnd_result res = tnd_exr_read(path, &x);
+    if (res != TND_OK)
+        return res;
+    int32_t fw = 0, fh = 0;
+    const tnd_exr_channel *pc = tnd_exr_find(&x, "gradient.pixel");
+    if (!pc || pc->type != TND_EXR_UINT || !pc->data || x.height != 1 ||
+        !tnd_exr_attr_int(&x, "tandem.frameWidth", &fw) ||
+        !tnd_exr_attr_int(&x, "tandem.frameHeight", &fh)) {
+        res = tnd_fail(TND_ERR_BAD_INPUT,
+                       "capture: %s: not a Tandem capture's gradient samples (a single row with a "
+                       "UINT channel 'gradient.pixel' and tandem.frameWidth/Height expected)",
+                       path);
+        goto fail;
+    }
+    if ((uint32_t)fw != frame_width || (uint32_t)fh != frame_height) {
+        res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: gradient samples of a %dx%d frame, the "
+                       "frame is %ux%u", path, fw, fh, frame_width, frame_height);
+        goto fail;
+    }
+    TND_TRY(read_frame(&x, path, false, &g->values));
+    g->count = x.width;
+    g->pixel = malloc((size_t)g->count * sizeof *g->pixel);
+    if (!g->pixel) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "capture: %s: out of memory", path);
+        goto fail;
+    }
+    memcpy(g->pixel, pc->data, (size_t)g->count * sizeof *g->pixel);
+    for (uint32_t k = 0; k < g->count; k++)
+        if (g->pixel[k] >= frame_width * frame_height) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: sample %u: pixel %u outside the "
+                           "%ux%u frame", path, k, g->pixel[k], frame_width, frame_height);
+            goto fail;
+        }
     tnd_exr_close(&x);
     return TND_OK;
 fail:
     tnd_exr_close(&x);
-    tnd_frame_destroy(f);
+    tnd_gradient_samples_free(g);
     return res;
 }
 

@@ -470,6 +470,9 @@ typedef struct tnd_frame {
     void *data[TND_CT_COUNT]; /* planes inside `block` */
     void *block;
     uint32_t nonfinite[TND_CT_COUNT]; /* values a mapped capture's reader replaced (NaN, Inf) */
+    /* rendered with A-SVGF: the frame's gradient samples are stored beside it
+     * (tnd_capture_gradients_path; none on a frame without history) */
+    bool gradients;
 } tnd_frame;
 
 /* Allocate every entry, filled with defaults (position/geo_normal zero until derived). */
@@ -577,6 +580,34 @@ tnd_result tnd_capture_write(const char *path, const tnd_frame *f, tnd_exr_compr
 /* Read and validate a Tandem capture: every channel of every entry is checked (missing, wrong
  * type, non-finite values), and all problems are reported at once, per channel. */
 tnd_result tnd_capture_read(const char *path, tnd_frame *f);
+
+/* A-SVGF's gradient samples of a frame: the back-end's selection (the sample pixels, y*W+x, in
+ * its order) and the contract at those pixels after the front-end re-shaded them with the
+ * previous frame's random numbers (`values`: count x 1 pixels, sample i at pixel i). A capture
+ * rendered with asvgf keeps them beside each frame, so that a replay re-runs the selection on
+ * the frame as rendered and then patches these values in, as the live render did. */
+typedef struct tnd_gradient_samples {
+    uint32_t count;
+    uint32_t *pixel;
+    tnd_frame values;
+} tnd_gradient_samples;
+/* The samples at `pixels` (count of them, each < W*H) of the re-shaded frame. count 0: empty. */
+tnd_result tnd_gradient_samples_gather(const tnd_frame *reshaded, const uint32_t *pixels,
+                                       uint32_t count, tnd_gradient_samples *g);
+/* Patch the samples into f (every entry present in both). */
+void tnd_gradient_samples_apply(const tnd_gradient_samples *g, tnd_frame *f);
+void tnd_gradient_samples_free(tnd_gradient_samples *g);
+/* "DIR/frame_0003.gradients.exr" for "DIR/frame_0003.exr". */
+void tnd_capture_gradients_path(const char *capture, char *out, size_t cap);
+bool tnd_capture_is_gradients_file(const char *name);
+/* The samples as an EXR of count x 1 pixels: the contract's channels plus `gradient.pixel`
+ * (UINT), with the frame's size as attributes; count 0 writes nothing. */
+tnd_result tnd_capture_write_gradients(const char *path, const tnd_gradient_samples *g,
+                                       uint32_t frame_width, uint32_t frame_height,
+                                       tnd_exr_compression c);
+/* Read them back, checking that they belong to a frame of this size (pixels inside it). */
+tnd_result tnd_capture_read_gradients(const char *path, uint32_t frame_width,
+                                      uint32_t frame_height, tnd_gradient_samples *g);
 
 /* A mapping from another renderer's EXR channels onto the contract (docs/captures.md). */
 typedef struct tnd_capture_map tnd_capture_map;

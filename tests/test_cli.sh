@@ -351,7 +351,7 @@ check "denoise --captures reproduces render's denoised frames exactly" $?
 [ $rc -eq 1 ] && grep -q "nowhere" "$tmp/err" && [ ! -e "$tmp/den2" ]
 check "denoise of a missing directory exits 1 with no output" $?
 "$T" denoise --captures "$tmp/embree" --out "$tmp/den3" 2>"$tmp/err"; rc=$?
-[ $rc -eq 0 ] && grep -q "running as svgf: captures carry no gradient samples" "$tmp/err" &&
+[ $rc -eq 0 ] && grep -q "running as svgf: the capture carries no gradient samples" "$tmp/err" &&
     grep -q '"denoiser": "svgf"' "$tmp/den3/timings.json"
 check "denoise runs asvgf (the default) as svgf on captures and says so" $?
 # a sequence whose third frame is broken: exit 1 naming it, and no output left behind (neither a
@@ -389,6 +389,49 @@ for fe in ("embree", "vk"):
     assert all(x["denoise_gradient_ms"] > 0 and x["denoise_select_ms"] > 0 for x in f[1:]), f
 PY
 check "render's default denoiser, asvgf, runs the gradient passes with both front-ends" $?
+# replays: a capture rendered with each denoiser, denoised again from its files, gives render's
+# frames bit for bit (asvgf: the capture keeps the gradient samples beside each frame). Embree's
+# `off` composites on the CPU in render and on the GPU in denoise: equal to float rounding.
+ok=0
+for fe in embree vk; do
+    for d in asvgf svgf off; do
+        "$T" render --frontend $fe --scene "$SRC/data/scenes/dynamic.gltf" --frames 4 \
+            --size 40x24 --capture --denoiser $d --out "$tmp/rp_${fe}_$d" --quiet || ok=1
+        taa=on; [ $fe$d = embreeoff ] && taa=off
+        "$T" denoise --captures "$tmp/rp_${fe}_$d" --out "$tmp/rd_${fe}_$d" --denoiser $d \
+            --taa $taa 2>"$tmp/err_rp_${fe}_$d" || ok=1
+        [ $d = asvgf ] && { grep -q "running as svgf" "$tmp/err_rp_${fe}_$d" && ok=1; }
+        [ $fe$d = embreeoff ] && continue
+        for k in 0 1 2 3; do
+            cmp -s "$tmp/rp_${fe}_$d/frame_000$k.exr" "$tmp/rd_${fe}_$d/frame_000$k.exr" ||
+                { echo "     replay $fe $d frame $k differs"; ok=1; }
+        done
+    done
+done
+[ -f "$tmp/rp_vk_asvgf/capture/frame_0003.gradients.exr" ] &&
+    [ ! -e "$tmp/rp_vk_asvgf/capture/frame_0000.gradients.exr" ] || ok=1
+$PY - "$tmp" <<'PY' || ok=1
+import sys, numpy as np, OpenImageIO as oiio
+for k in range(4):
+    a = oiio.ImageBuf(f"{sys.argv[1]}/rp_embree_off/frame_000{k}.exr").get_pixels(oiio.FLOAT)
+    b = oiio.ImageBuf(f"{sys.argv[1]}/rd_embree_off/frame_000{k}.exr").get_pixels(oiio.FLOAT)
+    assert np.abs(a - b).max() <= 1e-6 * max(1.0, np.abs(a).max()), (k, np.abs(a - b).max())
+PY
+check "denoise replays render's frames bit for bit: asvgf, svgf, off, both front-ends" $ok
+# A-SVGF's replay must start where the render did: a sequence without its first frame selects
+# other samples (no history on the first frame replayed); a missing samples file is named
+mkdir -p "$tmp/rp_late" "$tmp/rp_nograd"
+cp "$tmp/rp_vk_asvgf/capture/frame_0002"* "$tmp/rp_vk_asvgf/capture/frame_0003"* "$tmp/rp_late/"
+"$T" denoise --captures "$tmp/rp_late" --out "$tmp/rd_late" 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ] && grep -q "frame_0002.gradients.exr: .* gradient samples, but the back-end selected" \
+    "$tmp/err" && [ ! -e "$tmp/rd_late" ]
+check "an A-SVGF replay that does not start at the first frame exits 1 naming the samples file" $?
+cp "$tmp/rp_vk_asvgf/capture/frame_000"[0-3].exr "$tmp/rp_nograd/"
+"$T" denoise --captures "$tmp/rp_nograd" --out "$tmp/rd_nograd" 2>"$tmp/err"; rc=$?
+[ $rc -eq 1 ] && grep -q "frame_0001.gradients.exr: missing" "$tmp/err" && [ ! -e "$tmp/rd_nograd" ]
+"$T" denoise --captures "$tmp/rp_nograd" --out "$tmp/rd_nograd2" --denoiser svgf --quiet; rc2=$?
+[ $rc -eq 1 ] && [ $rc2 -eq 0 ]
+check "an A-SVGF capture without its samples files exits 1 naming one; svgf still runs" $?
 "$T" render --frames 2 --size 24x12 --dump temporal.hf,gradients --out "$tmp/dump" --quiet; rc=$?
 [ $rc -eq 0 ] && [ -f "$tmp/dump/dump/temporal.hf_0001.exr" ] && [ -f "$tmp/dump/dump/gradients_0001.exr" ] &&
     [ ! -e "$tmp/dump/dump/output_0001.exr" ]
