@@ -25,8 +25,20 @@ void app_capture_list_free(char **names, size_t n)
     free(names);
 }
 
-tnd_result app_capture_list(const char *captures, char *dir, size_t dir_cap, char ***names,
-                            size_t *count)
+tnd_result app_capture_same_entries(const tnd_frame *first, const tnd_frame *f, const char *path)
+{
+    for (int e = 0; e < TND_CT_COUNT; e++)
+        if (first->present[e] != f->present[e])
+            return tnd_fail(TND_ERR_BAD_INPUT,
+                            "capture: %s: entry '%s' is %s here but %s in the sequence's first "
+                            "frame (every frame must carry the same entries)",
+                            path, tnd_ct_get((tnd_ct)e)->name, f->present[e] ? "present" : "absent",
+                            first->present[e] ? "present" : "absent");
+    return TND_OK;
+}
+
+tnd_result app_capture_list(const char *captures, const tnd_capture_map *map, char *dir,
+                            size_t dir_cap, char ***names, size_t *count)
 {
     *names = NULL;
     *count = 0;
@@ -34,6 +46,8 @@ tnd_result app_capture_list(const char *captures, char *dir, size_t dir_cap, cha
     snprintf(dir, dir_cap, "%s/capture", captures);
     if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
         snprintf(dir, dir_cap, "%s", captures);
+    if (map)
+        return tnd_capture_map_list(map, dir, names, count);
     DIR *d = opendir(dir);
     if (!d)
         return tnd_fail(TND_ERR_IO, "%s: cannot open directory", dir);
@@ -113,10 +127,10 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
     tnd_exr_file x = {0};
     cJSON *o = NULL;
     int status = APP_EXIT_FAIL;
-    tnd_result res = app_capture_list(captures, dir, sizeof dir, &names, &n);
-    if (res != TND_OK)
-        return app_report("info", res);
+    tnd_result res = TND_OK;
     if (map_path && (res = tnd_capture_map_load(map_path, &map)) != TND_OK)
+        return app_report("info", res);
+    if ((res = app_capture_list(captures, map, dir, sizeof dir, &names, &n)) != TND_OK)
         goto fail;
     snprintf(path, sizeof path, "%s/%s", dir, names[0]);
     TND_TRY(tnd_exr_read(path, &x));
@@ -136,12 +150,15 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
         tnd_frame_destroy(&prev);
         prev = cur;
         memset(&cur, 0, sizeof cur);
-        TND_TRY(map ? tnd_capture_read_mapped(path, map, &cur) : tnd_capture_read(path, &cur));
+        TND_TRY(map ? tnd_capture_read_mapped(path, map, i ? &prev.camera : NULL, &cur)
+                    : tnd_capture_read(path, &cur));
         if (i > 0 && (cur.width != prev.width || cur.height != prev.height)) {
             res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: %ux%u, frame 0 is %ux%u", path,
                            cur.width, cur.height, prev.width, prev.height);
             goto fail;
         }
+        if (i > 0)
+            TND_TRY(app_capture_same_entries(&prev, &cur, path));
         if (cur.gradients) {
             char gp[2400];
             struct stat gst;

@@ -99,17 +99,21 @@ int cmd_denoise(int argc, char **argv)
     char dir[1100], path[2300], src[2300]; /* src: this frame's capture */
     char **names = NULL;
     size_t n = 0;
-    if ((res = app_capture_list(captures, dir, sizeof dir, &names, &n)) != TND_OK)
+    tnd_capture_map *map = NULL;
+    if (map_path && (res = tnd_capture_map_load(map_path, &map)) != TND_OK)
         return app_report("denoise", res);
+    if ((res = app_capture_list(captures, map, dir, sizeof dir, &names, &n)) != TND_OK) {
+        tnd_capture_map_destroy(map);
+        return app_report("denoise", res);
+    }
     /* no partial output: what this run wrote goes again if a later frame fails */
     struct stat out_st;
     bool out_existed = stat(out, &out_st) == 0, dump_made = false;
     size_t written = 0;
-    tnd_capture_map *map = NULL;
     tnd_vk vk = {0};
     dn_context *dn = NULL;
     tnd_contract_gpu ct = {0};
-    tnd_frame f = {0};
+    tnd_frame f = {0}, before = {0}; /* the frame before: entries and camera */
     float *rgb = NULL;
     uint8_t *display = NULL;
     cmp_context *post = NULL;
@@ -119,20 +123,23 @@ int cmd_denoise(int argc, char **argv)
     float prev_jitter[2] = {0, 0};
     uint32_t *grads = NULL; /* the back-end's selection, DN_GRADIENT_WORDS words per sample */
     tnd_gradient_samples gs = {0};
-    if (map_path)
-        TND_TRY(tnd_capture_map_load(map_path, &map));
     app_progress bar;
     app_progress_begin(&bar, "denoise", (unsigned)n);
     char dump_dir[1100];
     for (size_t i = 0; i < n; i++) {
         snprintf(src, sizeof src, "%s/%s", dir, names[i]);
-        tnd_frame_destroy(&f);
-        TND_TRY(map ? tnd_capture_read_mapped(src, map, &f) : tnd_capture_read(src, &f));
+        tnd_frame_destroy(&before);
+        before = f;
+        memset(&f, 0, sizeof f);
+        TND_TRY(map ? tnd_capture_read_mapped(src, map, i ? &before.camera : NULL, &f)
+                    : tnd_capture_read(src, &f));
         if (i > 0 && (f.width != w || f.height != h)) {
             res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: %ux%u, the sequence's first frame "
                            "is %ux%u", src, f.width, f.height, w, h);
             goto fail;
         }
+        if (i > 0)
+            TND_TRY(app_capture_same_entries(&before, &f, src));
         if (i == 0) {
             w = f.width, h = f.height;
             if (asked_asvgf && !f.gradients) {
@@ -271,6 +278,7 @@ fail:
     tnd_gradient_samples_free(&gs);
     cmp_destroy(post);
     tnd_frame_destroy(&f);
+    tnd_frame_destroy(&before);
     tnd_contract_gpu_destroy(&vk, &ct);
     dn_destroy(dn);
     if (vk.device || vk.instance)

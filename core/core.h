@@ -613,8 +613,15 @@ tnd_result tnd_capture_read_gradients(const char *path, uint32_t frame_width,
 typedef struct tnd_capture_map tnd_capture_map;
 tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **map);
 void tnd_capture_map_destroy(tnd_capture_map *map);
-/* Read a foreign EXR through a mapping; an unfed REQUIRED entry is an error naming it. */
-tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map, tnd_frame *f);
+/* The frames of a directory under a mapping: the names of its primary files (its first "files"
+ * pattern; frame_{frame}.exr without one), in natural order. */
+tnd_result tnd_capture_map_list(const tnd_capture_map *map, const char *dir, char ***names,
+                                size_t *count);
+/* Read a foreign frame through a mapping (`path`: its primary file; the others are found beside
+ * it); an unfed REQUIRED entry is an error naming it. `prev`: the camera of the frame before in
+ * the sequence (NULL for the first), for motion reconstructed from positions. */
+tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
+                                   const tnd_camera_state *prev, tnd_frame *f);
 /* The mapping's name, and what feeds entry e in words ("ViewLayer.Depth.Z (planar to
  * distance)"); false when the mapping does not feed it. */
 const char *tnd_capture_map_name(const tnd_capture_map *map);

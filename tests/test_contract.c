@@ -531,7 +531,7 @@ static void test_cycles_mapping(void)
     tnd_frame f = {0};
     REQUIRE_OK(tnd_exr_write(p, W, H, ch, 17, NULL, 0, TND_EXR_ZIP));
     REQUIRE_OK(tnd_capture_map_load(TND_SOURCE_DIR "/data/mappings/blender_cycles.json", &map));
-    REQUIRE_OK(tnd_capture_read_mapped(p, map, &f));
+    REQUIRE_OK(tnd_capture_read_mapped(p, map, NULL, &f));
     const float *hf = tnd_frame_f(&f, TND_CT_HF), *n = tnd_frame_f(&f, TND_CT_NORMAL);
     const float *m = tnd_frame_f(&f, TND_CT_MOTION), *dd = tnd_frame_f(&f, TND_CT_DEPTH);
     int i = 37;
@@ -565,7 +565,7 @@ static void test_cycles_mapping(void)
     depth[51] = NAN;
     vec[0][52] = -INFINITY;
     REQUIRE_OK(tnd_exr_write(p, W, H, ch, 17, NULL, 0, TND_EXR_ZIP));
-    REQUIRE_OK(tnd_capture_read_mapped(p, map, &f));
+    REQUIRE_OK(tnd_capture_read_mapped(p, map, NULL, &f));
     CHECK(f.nonfinite[TND_CT_HF] == 1 && f.nonfinite[TND_CT_DEPTH] == 1 &&
               f.nonfinite[TND_CT_MOTION] == 1 && f.nonfinite[TND_CT_ALBEDO] == 0,
           "non-finite counted: hf %u, depth %u, motion %u", f.nonfinite[TND_CT_HF],
@@ -592,7 +592,7 @@ static void test_cycles_mapping(void)
                        "\"motion\": {\"channels\": [null, null, null]}}}";
     REQUIRE_OK(tnd_file_write_atomic(mp, json, strlen(json)));
     REQUIRE_OK(tnd_capture_map_load(mp, &map));
-    tnd_result r = tnd_capture_read_mapped(p, map, &f);
+    tnd_result r = tnd_capture_read_mapped(p, map, NULL, &f);
     CHECK(r == TND_ERR_BAD_INPUT && strstr(tnd_error_detail(), "required entry 'hf' is not fed"),
           "unfed hf: %s", tnd_error_detail());
     tnd_capture_map_destroy(map);
