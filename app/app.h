@@ -188,6 +188,7 @@ int cmd_reference(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_compare(int argc, char **argv);
 int cmd_denoise(int argc, char **argv);
+int cmd_convert(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 /* `tandem bench --sweep` (app/cmd_sweep.c) */
 int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,

@@ -14,6 +14,8 @@ static const app_cmd commands[] = {
      "--captures DIR --out DIR [--map JSON]", cmd_denoise},
     {"bench", "Measure a front-end: ms per pass, Mrays/s, and the raw ray-casting rate.",
      "[--scene PATH] [--size WxH] [--repeats N] [--json]", cmd_bench},
+    {"convert", "Read another renderer's EXR sequence through a mapping; write Tandem captures.",
+     "--captures DIR --map JSON --out DIR", cmd_convert},
     {"compare", "Compare two capture directories channel by channel (front-end cross-check).",
      "A B [options]", cmd_compare},
     {"eval", "Evaluate a run against converged references: metrics, JSON/CSV, HTML report.",
