@@ -53,8 +53,10 @@ int cmd_convert(int argc, char **argv)
         memset(&f, 0, sizeof f);
         TND_TRY(tnd_capture_read_mapped(src, map, i ? &before.camera : NULL, &f));
         if (i > 0 && (f.width != before.width || f.height != before.height)) {
-            res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: %ux%u, the sequence's first frame "
-                           "is %ux%u", src, f.width, f.height, before.width, before.height);
+            res = tnd_fail(TND_ERR_BAD_INPUT,
+                           "capture: %s: %ux%u, the sequence's first frame "
+                           "is %ux%u",
+                           src, f.width, f.height, before.width, before.height);
             goto fail;
         }
         if (i > 0)

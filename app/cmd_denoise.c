@@ -58,12 +58,14 @@ int cmd_denoise(int argc, char **argv)
     const char *taa = "on";
     double yfov_deg = 40.0;
     const app_opt opts[] = {
-        {"captures", APP_OPT_STRING, &captures, "DIR", "directory of frame_NNNN.exr (or DIR/capture)"},
+        {"captures", APP_OPT_STRING, &captures, "DIR",
+         "directory of frame_NNNN.exr (or DIR/capture; another renderer's with --map)"},
         {"out", APP_OPT_STRING, &out, "DIR", "output directory (created)"},
         {"map", APP_OPT_STRING, &map_path, "JSON", "channel mapping for other renderers' EXRs"},
         {"dump", APP_OPT_STRING, &dump, "LIST",
          "also write back-end buffers to DIR/dump/NAME_NNNN.exr (names: see tandem render --help)"},
-        {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "asvgf (default; as svgf on captures without gradient samples), svgf or off"},
+        {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
+         "asvgf (default; as svgf on captures without gradient samples), svgf or off"},
         {"taa", APP_OPT_STRING, &taa, "on|off|W",
          "temporal anti-aliasing of the output (on: new-frame weight 0.1; off: the composite "
          "itself)"},

@@ -96,7 +96,8 @@ static void check_finite(cap_problems *p, const char *name, const float *d, uint
         if (!isfinite(d[k]) && bad++ == 0)
             first = k;
     if (bad)
-        cap_problem_add(p, "channel '%s': %zu non-finite value%s (first at pixel %zu,%zu: %g)", name,
+        cap_problem_add(p, "channel '%s': %zu non-finite value%s (first at pixel %zu,%zu: %g)",
+                        name,
                     bad, bad == 1 ? "" : "s", first % w, first / w, (double)d[first]);
 }
 

@@ -37,8 +37,8 @@ typedef struct map_entry {
     bool camera_space; /* normals, position: in the renderer's camera space */
     bool face_camera;  /* normals: flipped to face the primary ray */
     bool reconstruct;  /* motion: from the position and this frame's and the last frame's camera */
-    float miss_at; /* depth: values >= this (and <= 0) mean "no hit"; 0 = only non-positive */
-    int divide_by; /* contract entry or -1 */
+    float miss_at;     /* depth: values >= this (and <= 0) mean "no hit"; 0 = only non-positive */
+    int divide_by;     /* contract entry or -1 */
     int subtract;  /* contract entry or -1: taken off before divide_by (emission out of radiance) */
     bool on_miss;  /* where depth is a miss the entry reads miss_chan instead (the background) */
     int miss_file; /* the role of the file miss_chan are in */
@@ -296,8 +296,9 @@ static bool load_camera(tnd_capture_map *m, const cJSON *root, char *msg, size_t
             snprintf(m->cam_attr[1], sizeof m->cam_attr[1], "%s", b);
     } else if (file) {
         if (!conv || strcmp(conv, "mitsuba") != 0) {
-            snprintf(msg, cap, "camera.file needs \"convention\": \"mitsuba\" (to_world, fov, "
-                               "fov_axis per frame)");
+            snprintf(msg, cap,
+                     "camera.file needs \"convention\": \"mitsuba\" (to_world, fov, "
+                     "fov_axis per frame)");
             return false;
         }
         m->camera = CAM_MITSUBA_FILE;
@@ -329,19 +330,22 @@ static bool load_entry_options(tnd_capture_map *m, const tnd_ct_info *ci, const 
     }
     if (!str_item(it, "miss_file"))
         me->miss_file = me->file;
-    bool vec3 = ci->id == TND_CT_NORMAL || ci->id == TND_CT_GEO_NORMAL ||
-                ci->id == TND_CT_POSITION;
+    bool vec3 = ci->id == TND_CT_NORMAL || ci->id == TND_CT_GEO_NORMAL || ci->id == TND_CT_POSITION;
     const char *space = str_item(it, "space");
     if (space) {
         if (!vec3 || (strcmp(space, "camera") != 0 && strcmp(space, "world") != 0)) {
-            snprintf(msg, cap, "entry '%s': \"space\": \"camera\" or \"world\", on normal, "
-                               "geo_normal and position only", ci->name);
+            snprintf(msg, cap,
+                     "entry '%s': \"space\": \"camera\" or \"world\", on normal, "
+                     "geo_normal and position only",
+                     ci->name);
             return false;
         }
         me->camera_space = strcmp(space, "camera") == 0;
         if (me->camera_space && m->camera == CAM_NONE) {
-            snprintf(msg, cap, "entry '%s': camera space needs a camera (camera.header or "
-                               "camera.file)", ci->name);
+            snprintf(msg, cap,
+                     "entry '%s': camera space needs a camera (camera.header or "
+                     "camera.file)",
+                     ci->name);
             return false;
         }
     }
@@ -359,9 +363,9 @@ static bool load_entry_options(tnd_capture_map *m, const tnd_ct_info *ci, const 
                     cJSON_GetArraySize(zero) >= 1 && cJSON_GetArraySize(zero) <= 4;
         me->nzero = good ? (uint32_t)cJSON_GetArraySize(zero) : 0;
         for (uint32_t k = 0; good && k < me->nzero; k++)
-            good = parse_alts(cJSON_GetArrayItem(zero, (int)k), me->zero_chan[k],
-                              &me->zero_alts[k]) &&
-                   me->zero_alts[k] > 0;
+            good =
+                parse_alts(cJSON_GetArrayItem(zero, (int)k), me->zero_chan[k], &me->zero_alts[k]) &&
+                me->zero_alts[k] > 0;
         if (!good) {
             snprintf(msg, cap, "\"miss_where_zero\": 1 to 4 channel names, on depth only");
             return false;
@@ -379,15 +383,16 @@ static bool load_entry_options(tnd_capture_map *m, const tnd_ct_info *ci, const 
         if (good && y)
             good = !strcmp(y, "down") || !strcmp(y, "up");
         if (!good) {
-            snprintf(msg, cap, "motion \"convention\": {\"difference\": \"previous_minus_current\" "
-                               "| \"current_minus_previous\", \"unit\": \"pixels\" | \"uv\" | "
-                               "\"ndc\", \"y\": \"down\" | \"up\"}");
+            snprintf(msg, cap,
+                     "motion \"convention\": {\"difference\": \"previous_minus_current\" "
+                     "| \"current_minus_previous\", \"unit\": \"pixels\" | \"uv\" | "
+                     "\"ndc\", \"y\": \"down\" | \"up\"}");
             return false;
         }
         me->mv_negate = dif && !strcmp(dif, "current_minus_previous");
         me->mv_unit = !unit || !strcmp(unit, "pixels") ? MV_PIXELS
-                      : !strcmp(unit, "uv")             ? MV_UV
-                                                        : MV_NDC;
+                      : !strcmp(unit, "uv")            ? MV_UV
+                                                       : MV_NDC;
         me->mv_y_up = y && !strcmp(y, "up");
     }
     return true;
@@ -457,8 +462,7 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
         const char *conv = str_item(it, "convert");
         const char *rec = str_item(it, "reconstruct");
         if (rec) {
-            if (ci->id != TND_CT_MOTION || strcmp(rec, "position") != 0 ||
-                m->camera == CAM_NONE) {
+            if (ci->id != TND_CT_MOTION || strcmp(rec, "position") != 0 || m->camera == CAM_NONE) {
                 res = map_error(path, "\"reconstruct\": \"position\", on motion only, with a "
                                       "camera (camera.header or camera.file)");
                 goto fail;
@@ -489,7 +493,8 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
         const cJSON *chans = cJSON_GetObjectItemCaseSensitive(it, "channels");
         if (!cJSON_IsArray(chans) || cJSON_GetArraySize(chans) != (int)me->nchan) {
             snprintf(msg, sizeof msg, "entry '%s': \"channels\" must list %u channel(s)%s",
-                     ci->name, me->nchan, me->length ? " (a vector whose length is the depth)" : "");
+                     ci->name, me->nchan,
+                     me->length ? " (a vector whose length is the depth)" : "");
             res = map_error(path, msg);
             goto fail;
         }
@@ -635,7 +640,9 @@ bool tnd_capture_map_source(const tnd_capture_map *map, tnd_ct e, char *buf, siz
         PUT("; facing the camera");
     if (e == TND_CT_MOTION && (me->mv_negate || me->mv_unit != MV_PIXELS || me->mv_y_up))
         PUT("; %s in %s, y %s", me->mv_negate ? "current - previous" : "previous - current",
-            me->mv_unit == MV_UV ? "uv" : me->mv_unit == MV_NDC ? "ndc" : "pixels",
+            me->mv_unit == MV_UV    ? "uv"
+            : me->mv_unit == MV_NDC ? "ndc"
+                                    : "pixels",
             me->mv_y_up ? "up" : "down");
     if (me->normalize)
         PUT("; normalised");
@@ -717,8 +724,7 @@ static tnd_result camera_mitsuba(const tnd_capture_map *map, const char *dir, co
     TND_TRY(tnd_file_read(path, &text, &size));
     root = cJSON_ParseWithLength(text, size);
     const cJSON *frames = root ? cJSON_GetObjectItemCaseSensitive(root, "frames") : NULL;
-    const cJSON *fr = cJSON_IsObject(frames) ? cJSON_GetObjectItemCaseSensitive(frames, key)
-                                             : NULL;
+    const cJSON *fr = cJSON_IsObject(frames) ? cJSON_GetObjectItemCaseSensitive(frames, key) : NULL;
     const cJSON *tw = fr ? cJSON_GetObjectItemCaseSensitive(fr, "to_world") : NULL;
     const cJSON *fov = fr ? cJSON_GetObjectItemCaseSensitive(fr, "fov") : NULL;
     const char *axis = fr ? str_item(fr, "fov_axis") : NULL;
@@ -743,8 +749,8 @@ static tnd_result camera_mitsuba(const tnd_capture_map *map, const char *dir, co
     }
     row_major(a, tow);
     if (!tnd_mat4_inverse(tow, C)) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: frame '%s': to_world is singular", path,
-                       key);
+        res =
+            tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: frame '%s': to_world is singular", path, key);
         goto fail;
     }
     float k[3];
@@ -789,8 +795,8 @@ static const tnd_exr_file *frame_file(const tnd_capture_map *map, map_files *mf,
     mf->open[r] = true;
     if (mf->x[r].width != mf->x[0].width || mf->x[r].height != mf->x[0].height) {
         cap_problem_add(p, "%s: %ux%u, the frame's %s file is %ux%u", path, mf->x[r].width,
-                        mf->x[r].height, map->role[0][0] ? map->role[0] : "first",
-                        mf->x[0].width, mf->x[0].height);
+                        mf->x[r].height, map->role[0][0] ? map->role[0] : "first", mf->x[0].width,
+                        mf->x[0].height);
         return NULL;
     }
     return &mf->x[r];
@@ -858,7 +864,7 @@ static void finish_frame(const tnd_capture_map *map, int cam_kind, const tnd_cam
         }
     }
     if (map->z_up && f->has_camera) { /* view' = view R^T: column 1 is column 2, column 2 is
-                                          * minus column 1 */
+                                       * minus column 1 */
         for (int r = 0; r < 4; r++) {
             float c1 = f->camera.view[4 + r], c2 = f->camera.view[8 + r];
             f->camera.view[4 + r] = c2;
@@ -915,8 +921,8 @@ static void finish_after_derive(const tnd_capture_map *map, tnd_frame *f)
                     now[0] = x + 0.5, now[1] = y + 0.5;
             } else { /* a point at infinity along the pixel's ray */
                 float o[3], d[3];
-                tnd_camera_ray(&f->camera, f->width, f->height, (float)x + 0.5f, (float)y + 0.5f,
-                               o, d);
+                tnd_camera_ray(&f->camera, f->width, f->height, (float)x + 0.5f, (float)y + 0.5f, o,
+                               d);
                 for (int c = 0; c < 3; c++)
                     p[c] = d[c];
             }
@@ -985,13 +991,16 @@ static void read_entry(const tnd_capture_map *map, int i, const tnd_exr_file *x,
             dst[q] = i == TND_CT_DEPTH ? (float)TND_DEPTH_MISS : 0.0f;
         }
     if (bad)
-        tnd_warn("capture", "%s: entry '%s': %zu non-finite value%s (first at pixel %zu,%zu) set to %s",
-                 path, e->name, bad, bad == 1 ? "" : "s", first % x->width, first / x->width,
+        tnd_warn("capture",
+                 "%s: entry '%s': %zu non-finite value%s (first at pixel %zu,%zu) set to %s", path,
+                 e->name, bad, bad == 1 ? "" : "s", first % x->width, first / x->width,
                  i == TND_CT_DEPTH ? "a miss" : "0");
     f->nonfinite[i] = (uint32_t)(bad < UINT32_MAX ? bad : UINT32_MAX);
     if (i == TND_CT_MOTION) { /* to previous - current, pixels, y down */
-        float sx = me->mv_unit == MV_UV ? (float)x->width : me->mv_unit == MV_NDC ? 0.5f * x->width : 1;
-        float sy = me->mv_unit == MV_UV   ? (float)x->height
+        float sx = me->mv_unit == MV_UV    ? (float)x->width
+                   : me->mv_unit == MV_NDC ? 0.5f * x->width
+                                           : 1;
+        float sy = me->mv_unit == MV_UV    ? (float)x->height
                    : me->mv_unit == MV_NDC ? 0.5f * x->height
                                            : 1;
         float sg = me->mv_negate ? -1.0f : 1.0f;
@@ -1015,11 +1024,13 @@ static void read_entry(const tnd_capture_map *map, int i, const tnd_exr_file *x,
         const float *zero[4] = {0};
         for (uint32_t k = 0; k < me->nzero; k++) {
             char full[300] = "";
-            const tnd_exr_channel *c = find_alt(x, map->prefix, me->zero_chan[k],
-                                                me->zero_alts[k], full, sizeof full);
+            const tnd_exr_channel *c =
+                find_alt(x, map->prefix, me->zero_chan[k], me->zero_alts[k], full, sizeof full);
             if (!c || !c->data || c->type == TND_EXR_UINT) {
-                cap_problem_add(p, "depth: miss_where_zero channel '%s%s' not in the file as "
-                                   "float", map->prefix, me->zero_chan[k][0]);
+                cap_problem_add(p,
+                                "depth: miss_where_zero channel '%s%s' not in the file as "
+                                "float",
+                                map->prefix, me->zero_chan[k][0]);
                 return;
             }
             zero[k] = c->data;
@@ -1115,13 +1126,17 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
     int cam_kind = CAM_NONE;
     if (!f->has_camera && map->camera == CAM_PBRT) {
         if (!camera_pbrt(map, x0, &f->camera))
-            cap_problem_add(&p, "no camera: the header lacks m44f '%s' and '%s' (or they are "
-                                "singular)", map->cam_attr[0], map->cam_attr[1]);
+            cap_problem_add(&p,
+                            "no camera: the header lacks m44f '%s' and '%s' (or they are "
+                            "singular)",
+                            map->cam_attr[0], map->cam_attr[1]);
         f->has_camera = p.count == 0, cam_kind = CAM_PBRT;
     } else if (!f->has_camera && map->camera == CAM_MITSUBA_FILE) {
         if (!keyed) {
-            res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: the name does not match '%s' (mapping "
-                           "%s)", path, map->pattern[0], map->name);
+            res = tnd_fail(TND_ERR_BAD_INPUT,
+                           "capture: %s: the name does not match '%s' (mapping "
+                           "%s)",
+                           path, map->pattern[0], map->name);
             goto fail;
         }
         TND_TRY(camera_mitsuba(map, dir, key, path, x0->width, x0->height, &f->camera));
