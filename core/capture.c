@@ -97,8 +97,7 @@ static void check_finite(cap_problems *p, const char *name, const float *d, uint
             first = k;
     if (bad)
         cap_problem_add(p, "channel '%s': %zu non-finite value%s (first at pixel %zu,%zu: %g)",
-                        name,
-                    bad, bad == 1 ? "" : "s", first % w, first / w, (double)d[first]);
+                        name, bad, bad == 1 ? "" : "s", first % w, first / w, (double)d[first]);
 }
 
 void cap_read_tandem_camera(const tnd_exr_file *x, tnd_frame *f)
