@@ -24,7 +24,9 @@ typedef struct render_opts {
     const char *taa, *tonemap, *exposure;
     double bloom, min_alpha;
     unsigned frames, start, threads, bounces, spp, camera, atrous, reflect_depth;
-    unsigned ref_bounces; /* reference: bounces per path (0: full paths, unbiased) */
+    unsigned ref_bounces; /* reference: bounces per path (0: full paths, unbiased; ~0: not given) */
+    const char *estimator; /* reference: "unbiased" or "realtime" (a matched reference) */
+    double until_noise;    /* reference: stop a frame once its mean relative error is below */
     unsigned size[2];
     double fps;
     bool capture, video;
@@ -39,9 +41,11 @@ static const app_cmd render_cmd = {
     NULL};
 static const app_cmd reference_cmd = {
     "reference",
-    "Render converged reference frames (unbiased path tracing, --spp samples per pixel; with\n"
-    "--bounces N, paths of the real-time estimator's length: a matched reference) of a\n"
-    "scene's camera path: DIR/frame_NNNN.exr, linear HDR radiance.",
+    "Render converged reference frames of a scene's camera path: DIR/frame_NNNN.exr (linear HDR\n"
+    "radiance) and DIR/reference.json (the samples and remaining noise of every frame). The\n"
+    "unbiased path tracer (default), or with --estimator realtime the converged expectation of\n"
+    "the real-time estimator `render` runs with the same --bounces and --reflect-depth (a\n"
+    "matched reference: what a denoiser of that estimator can reach at best).",
     "--out DIR [--scene PATH] [--frontend embree] [--frames N] [--size WxH] [--spp K]", NULL};
 
 static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int argc, char **argv)
@@ -59,6 +63,8 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                        .frames = 8,
                        .bounces = 1,
                        .spp = 256,
+                       .ref_bounces = ~0u,
+                       .estimator = "unbiased",
                        .size = {320, 180},
                        .fps = 30.0};
     const app_opt render_opts_tbl[] = {
@@ -112,9 +118,18 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"camera", APP_OPT_UINT, &o->camera, "I", "scene camera (default 0)"},
         {"threads", APP_OPT_UINT, &o->threads, "N", "CPU threads (default: all cores)"},
         {"spp", APP_OPT_UINT, &o->spp, "K", "samples per pixel (default 256)"},
+        {"estimator", APP_OPT_STRING, &o->estimator, "E",
+         "unbiased (full paths, Russian roulette; the default) or realtime (the expectation of "
+         "render's estimator: samples of it with fresh random numbers and pixel offsets, "
+         "composited and averaged)"},
         {"bounces", APP_OPT_UINT, &o->ref_bounces, "N",
-         "bounces per path, as `render --bounces N` traces them: a reference matched to the "
-         "real-time estimator (default: full paths with Russian roulette, unbiased)"},
+         "realtime: the estimator's indirect bounces (as render --bounces; default 1); "
+         "unbiased: a cap on the path length (default none)"},
+        {"reflect-depth", APP_OPT_UINT, &o->reflect_depth, "N",
+         "realtime: mirrors and glass the primary pass looks through (as render; default 4)"},
+        {"until-noise", APP_OPT_FLOAT, &o->until_noise, "P",
+         "stop each frame once its mean relative standard error is below P (checked every 16 "
+         "samples; --spp stays the most)"},
         APP_ENV_OPTS(&o->env),
         {0},
     };
@@ -150,6 +165,21 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                 cmd->name);
         return APP_EXIT_USAGE;
     }
+    if (reference && strcmp(o->estimator, "unbiased") != 0 && strcmp(o->estimator, "realtime")) {
+        fprintf(stderr, "tandem %s: --estimator %s: expected unbiased or realtime\n", cmd->name,
+                o->estimator);
+        return APP_EXIT_USAGE;
+    }
+    if (reference && (o->until_noise < 0 || o->until_noise >= 1)) {
+        fprintf(stderr, "tandem %s: --until-noise is a fraction in (0, 1)\n", cmd->name);
+        return APP_EXIT_USAGE;
+    }
+    if (reference) { /* --bounces: the estimator's (default 1) or the path length cap (none) */
+        bool rt = strcmp(o->estimator, "realtime") == 0;
+        if (rt)
+            o->bounces = o->ref_bounces == ~0u ? 1 : o->ref_bounces;
+        o->ref_bounces = rt || o->ref_bounces == ~0u ? 0 : o->ref_bounces;
+    }
     if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0)) {
         fprintf(stderr, "tandem %s: --frames, --fps and --spp must be positive\n", cmd->name);
         return APP_EXIT_USAGE;
@@ -167,6 +197,105 @@ static void on_ref_progress(uint32_t done, uint32_t total, void *user)
     ref_progress *p = user;
     app_progress_step(p->bar, p->frame * total + done);
     (void)p->frames;
+}
+
+/* A matched reference of the current frame: spp samples of the real-time estimator, sample s
+ * drawing the sample word tnd_reference_sample(s) and one pixel offset for the whole image
+ * (uniform in the pixel, so that over the samples each pixel's area is integrated as the
+ * unbiased reference does), composited as `render --denoiser off` does (composite and
+ * interleave) and averaged; stops early as stats->until_noise says. */
+static tnd_result matched_reference(fvk_context *gv, tnd_vk *vk, femb_context *fe,
+                                    const render_opts *o, unsigned f, tnd_frame *frame,
+                                    float *rgb, float *lum_se, tnd_ref_stats *stats,
+                                    ref_progress *rp)
+{
+    tnd_result res = TND_OK;
+    size_t n = (size_t)o->size[0] * o->size[1];
+    double *sum = calloc(3 * n, sizeof *sum), *sum2 = calloc(n, sizeof *sum2);
+    float *one = malloc(3 * n * sizeof *one);
+    uint32_t done = o->spp;
+    if (!sum || !sum2 || !one) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "reference: out of memory");
+        goto fail;
+    }
+    for (uint32_t s = 0; s < o->spp; s++) {
+        uint32_t key = tnd_reference_sample(s);
+        float jit[2] = {tnd_rand(0, f, key, TND_DIM_JITTER_X) - 0.5f,
+                        tnd_rand(0, f, key, TND_DIM_JITTER_Y) - 0.5f};
+        if (gv) {
+            fvk_params p = {.bounces = o->bounces, .sample = key, .set_jitter = true,
+                            .jitter = {jit[0], jit[1]}};
+            TND_TRY(fvk_render(gv, &p, NULL));
+            TND_TRY(tnd_contract_download(vk, fvk_contract(gv), frame));
+        } else {
+            femb_params p = {.bounces = o->bounces, .sample = key, .set_jitter = true,
+                             .jitter = {jit[0], jit[1]}};
+            TND_TRY(femb_render(fe, &p, frame, NULL));
+        }
+        tnd_frame_composite(frame, one);
+        tnd_frame_interleave(frame, one);
+        for (size_t q = 0; q < n; q++) {
+            for (int k = 0; k < 3; k++)
+                sum[3 * q + k] += one[3 * q + k];
+            double l = tnd_luminance(one[3 * q], one[3 * q + 1], one[3 * q + 2]);
+            sum2[q] += l * l;
+        }
+        on_ref_progress(s + 1, o->spp, rp);
+        if (stats->until_noise > 0 && (s + 1) % TND_REF_CHECK_EVERY == 0 && s + 1 < o->spp &&
+            tnd_ref_finish(sum, sum2, n, s + 1, NULL, NULL) < stats->until_noise) {
+            done = s + 1;
+            break;
+        }
+    }
+    stats->rel_error = tnd_ref_finish(sum, sum2, n, done, rgb, lum_se);
+    stats->spp = done;
+fail:
+    free(sum);
+    free(sum2);
+    free(one);
+    return res;
+}
+
+/* What a reference's own noise adds to a relMSE measured against it: the mean over pixels of
+ * se^2 / (mean^2 + eps), from the luminance's standard error (eval's relMSE denominator). */
+static double noise_relmse(const float *rgb, const float *lum_se, size_t n)
+{
+    double s = 0;
+    for (size_t q = 0; q < n; q++) {
+        double l = tnd_luminance(rgb[3 * q], rgb[3 * q + 1], rgb[3 * q + 2]);
+        s += (double)lum_se[q] * lum_se[q] / (l * l + EV_RELMSE_EPS);
+    }
+    return n ? s / (double)n : 0.0;
+}
+
+/* DIR/reference.json: the estimator and, per frame, the samples taken and the remaining noise. */
+static tnd_result write_reference_json(const render_opts *o, const char *device,
+                                       const tnd_ref_stats *rs, const double *noise)
+{
+    char path[1600];
+    snprintf(path, sizeof path, "%s/reference.json", o->out);
+    FILE *fp = fopen(path, "w");
+    if (!fp)
+        return tnd_fail(TND_ERR_IO, "reference: %s: cannot create", path);
+    bool rt = strcmp(o->estimator, "realtime") == 0;
+    fprintf(fp, "{\n  \"estimator\": \"%s\",\n  \"frontend\": \"%s\",\n  \"device\": \"%s\",\n",
+            o->estimator, o->frontend, device);
+    if (rt)
+        fprintf(fp, "  \"bounces\": %u,\n  \"reflect_depth\": %u,\n", o->bounces,
+                o->reflect_depth ? o->reflect_depth : 4);
+    else
+        fprintf(fp, "  \"max_bounces\": %u,\n", o->ref_bounces);
+    fprintf(fp, "  \"spp_max\": %u,\n  \"until_noise\": %g,\n  \"frames\": [", o->spp,
+            o->until_noise);
+    for (unsigned i = 0; i < o->frames; i++)
+        fprintf(fp,
+                "%s\n    {\"frame\": %u, \"spp\": %u, \"rel_error\": %.6g, "
+                "\"noise_relmse\": %.6g}",
+                i ? "," : "", o->start + i, rs[i].spp, rs[i].rel_error, noise[i]);
+    fprintf(fp, "\n  ]\n}\n");
+    if (fclose(fp) != 0)
+        return tnd_fail(TND_ERR_IO, "reference: %s: write failed", path);
+    return TND_OK;
 }
 
 /* the post chain's settings from the options */
@@ -361,6 +490,10 @@ static int run(bool reference, int argc, char **argv)
     tnd_frame frame = {0}, reshaded = {0}; /* (reshaded: vk's contract after A-SVGF's samples) */
     float *rgb = NULL;
     uint32_t *grads = NULL;             /* A-SVGF samples, DN_GRADIENT_WORDS each */
+    bool matched = reference && strcmp(o.estimator, "realtime") == 0;
+    tnd_ref_stats *ref_stats = NULL; /* reference: per frame */
+    double *ref_noise = NULL;
+    float *lum_se = NULL;
     femb_gradient_sample *femb_grads = NULL;
     char path[2048], dir[1600];
     if (strlen(o.out) > 1500)
@@ -434,7 +567,12 @@ static int run(bool reference, int argc, char **argv)
         TND_TRY(tnd_mkdirs(dump_dir));
     rgb = malloc((size_t)o.size[0] * o.size[1] * 3 * sizeof(float));
     display = malloc((size_t)o.size[0] * o.size[1] * 3);
-    if (!rgb || !display) {
+    if (reference) {
+        ref_stats = calloc(o.frames, sizeof *ref_stats);
+        ref_noise = calloc(o.frames, sizeof *ref_noise);
+        lum_se = malloc((size_t)o.size[0] * o.size[1] * sizeof *lum_se);
+    }
+    if (!rgb || !display || (reference && (!ref_stats || !ref_noise || !lum_se))) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
         goto fail;
     }
@@ -452,16 +590,24 @@ static int run(bool reference, int argc, char **argv)
         if (!use_vk)
             TND_TRY(femb_set_frame(fe, cur, prev, f, o.size[0], o.size[1]));
         if (reference) {
-            double err = 0;
+            tnd_ref_stats *rs = &ref_stats[i];
+            rs->until_noise = o.until_noise;
             ref_progress rp = {&bar, i, o.frames};
-            if (use_vk) {
+            if (use_vk)
                 TND_TRY(fvk_set_frame(gv, cur, prev, f, o.size[0], o.size[1]));
+            if (matched) {
+                TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
+                TND_TRY(matched_reference(gv, &vk, fe, &o, f, &frame, rgb, lum_se, rs, &rp));
+                tnd_frame_destroy(&frame);
+            } else if (use_vk) {
                 fvk_set_reference_bounces(gv, o.ref_bounces);
-                TND_TRY(fvk_reference(gv, o.spp, rgb, NULL, &err, on_ref_progress, &rp));
+                TND_TRY(fvk_reference(gv, o.spp, rgb, lum_se, rs, on_ref_progress, &rp));
             } else {
                 femb_set_reference_bounces(fe, o.ref_bounces);
-                TND_TRY(femb_reference(fe, o.spp, rgb, NULL, &err, on_ref_progress, &rp));
+                TND_TRY(femb_reference(fe, o.spp, rgb, lum_se, rs, on_ref_progress, &rp));
             }
+            ref_noise[i] = noise_relmse(rgb, lum_se, (size_t)o.size[0] * o.size[1]);
+            double err = rs->rel_error;
             snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
             TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
             snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
@@ -469,7 +615,7 @@ static int run(bool reference, int argc, char **argv)
             if (!app_quiet())
                 fprintf(stderr, "%sreference: frame %u: %u spp, remaining noise %.2f%% (mean "
                                 "relative standard error)\n",
-                        bar.enabled ? "\n" : "", f, o.spp, 100.0 * err);
+                        bar.enabled ? "\n" : "", f, rs->spp, 100.0 * err);
             continue;
         }
         TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
@@ -590,6 +736,9 @@ static int run(bool reference, int argc, char **argv)
         }
         timings = NULL;
     }
+    if (reference)
+        TND_TRY(write_reference_json(&o, use_vk ? vk.info.name : "CPU (Embree)", ref_stats,
+                                     ref_noise));
     if (!reference)
         TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
                                use_dn ? dn_mode_name(dmode) : "off (CPU composite)",
@@ -619,6 +768,9 @@ fail:
         app_report(what, res);
     tnd_frame_destroy(&frame);
     tnd_frame_destroy(&reshaded);
+    free(ref_stats);
+    free(ref_noise);
+    free(lum_se);
     free(rgb);
     free(grads);
     free(femb_grads);

@@ -10,6 +10,7 @@
 #ifndef TND_CORE_H
 #define TND_CORE_H
 
+#include <math.h>
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stddef.h>
@@ -570,6 +571,31 @@ bool tnd_exr_attr_int(const tnd_exr_file *f, const char *name, int32_t *v);
 bool tnd_exr_attr_v2f(const tnd_exr_file *f, const char *name, float v[2]);
 bool tnd_exr_attr_m44f(const tnd_exr_file *f, const char *name, float m[16]);
 bool tnd_exr_attr_string(const tnd_exr_file *f, const char *name, char *out, size_t cap);
+
+/* A progressive reference's statistics (both front-ends' references, the matched reference). */
+typedef struct tnd_ref_stats {
+    double until_noise; /* in: stop once rel_error is below it, checked every
+                           TND_REF_CHECK_EVERY samples (0: take every sample asked for) */
+    uint32_t spp;       /* out: samples taken */
+    double rel_error;   /* out: mean relative standard error of the pixels' luminance means (over
+                           pixels whose mean is above 1e-6) */
+} tnd_ref_stats;
+#define TND_REF_CHECK_EVERY 16u
+/* The standard error of a pixel's luminance mean after spp samples, from the means of its
+ * luminance and of the luminance squared (the sample variance with Bessel's correction). */
+static inline double tnd_ref_pixel_se(double mean, double mean_sq, uint32_t spp)
+{
+    if (spp < 2)
+        return 0.0;
+    double var = (mean_sq - mean * mean) * spp / (spp - 1);
+    return var > 0 ? sqrt(var / spp) : 0.0;
+}
+
+/* A reference's result after spp samples from per-pixel sums of the samples' RGB (3 per
+ * pixel) and of their luminance squared: the mean into rgb, each pixel's standard error of its
+ * luminance mean into lum_se (both optional); returns the mean relative standard error. */
+double tnd_ref_finish(const double *sum_rgb, const double *sum_lum2, size_t n, uint32_t spp,
+                      float *rgb, float *lum_se);
 
 /* ---------------------------------------------------------------------------------------------
  * Captures: one EXR per frame holding the whole contract

@@ -1,6 +1,7 @@
 /* core/math.c: the little linear algebra Tandem needs on the CPU: 4x4 matrices (column-major,
  * as GLSL), glTF TRS composition, a Vulkan perspective, quaternion slerp, camera rays. */
 #include "core/core.h"
+#include "shaders/brdf.h"
 
 #include <math.h>
 #include <string.h>
@@ -164,4 +165,28 @@ void tnd_camera_ray(const tnd_camera_state *c, uint32_t width, uint32_t height, 
     double n = sqrt((double)d[0] * d[0] + (double)d[1] * d[1] + (double)d[2] * d[2]);
     for (int i = 0; i < 3; i++)
         dir[i] = n > 0 ? (float)(d[i] / n) : 0.0f;
+}
+
+double tnd_ref_finish(const double *sum_rgb, const double *sum_lum2, size_t n, uint32_t spp,
+                      float *rgb, float *lum_se)
+{
+    double err = 0;
+    uint32_t counted = 0;
+    for (size_t q = 0; q < n; q++) {
+        double m[3];
+        for (int k = 0; k < 3; k++)
+            m[k] = sum_rgb[3 * q + k] / spp;
+        if (rgb)
+            for (int k = 0; k < 3; k++)
+                rgb[3 * q + k] = (float)m[k];
+        double ml = tnd_luminance((float)m[0], (float)m[1], (float)m[2]);
+        double se = tnd_ref_pixel_se(ml, sum_lum2[q] / spp, spp);
+        if (lum_se)
+            lum_se[q] = (float)se;
+        if (ml > 1e-6 && spp > 1) {
+            err += se / ml;
+            counted++;
+        }
+    }
+    return counted ? err / counted : 0;
 }

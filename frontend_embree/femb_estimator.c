@@ -766,7 +766,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
     uint8_t live[NL]; /* the lane sees a surface */
     const tnd_frame *g = staged ? in : f; /* the G-buffer read */
     P.n = n;
-    P.key_sample = TND_SAMPLE_REALTIME;
+    P.key_sample = p->sample; /* (TND_SAMPLE_REALTIME but in a matched reference) */
     const uint32_t *rng = tnd_frame_u(g, TND_CT_RNG), *vis = tnd_frame_u(g, TND_CT_VIS_ID);
     const float *T = tnd_frame_f(g, TND_CT_THROUGHPUT), *E = tnd_frame_f(g, TND_CT_EMISSION);
     LANES (i, n) {

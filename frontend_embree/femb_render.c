@@ -542,8 +542,18 @@ static void mark_shading(tnd_frame *f)
 
 static const femb_params default_params = {.bounces = 1};
 
+/* The frame's jitter, or the one the parameters set (a matched reference's sample). */
+static void params_jitter(femb_context *c, const femb_params *p)
+{
+    if (p && p->set_jitter)
+        memcpy(c->jitter, p->jitter, sizeof c->jitter);
+    else
+        tnd_jitter(c->frame, c->jitter);
+}
+
 tnd_result femb_render(femb_context *c, const femb_params *p, tnd_frame *f, float *radiance)
 {
+    params_jitter(c, p);
     tnd_result res = primary_frame(c, f, &(primary_job){f, p ? p : &default_params, radiance});
     if (res == TND_OK)
         mark_shading(f);
@@ -571,11 +581,13 @@ void femb_gradient_unpack(const uint32_t *w, uint32_t n, femb_gradient_sample *g
     }
 }
 
-tnd_result femb_shade_gradients(femb_context *c, const femb_params *p,
+tnd_result femb_shade_gradients(femb_context *c, const femb_params *pp,
                                 const femb_gradient_sample *g, uint32_t n, tnd_frame *f)
 {
-    if (!p)
-        p = &default_params;
+    /* (the previous frame's own numbers: the real-time sample word whatever pp says) */
+    femb_params own = pp ? *pp : default_params;
+    own.sample = TND_SAMPLE_REALTIME;
+    const femb_params *p = &own;
     for (uint32_t i = 0; i < n; i++) {
         if (g[i].pixel >= c->width * c->height || g[i].instance >= c->scene->instance_count ||
             g[i].primitive >=
@@ -669,7 +681,7 @@ static void reference_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x
 }
 
 tnd_result femb_reference(femb_context *c, uint32_t spp, float *rgb, float *lum_se,
-                          double *rel_error, void (*progress)(uint32_t, uint32_t, void *),
+                          tnd_ref_stats *stats, void (*progress)(uint32_t, uint32_t, void *),
                           void *user)
 {
     size_t n = (size_t)c->width * c->height;
@@ -681,31 +693,22 @@ tnd_result femb_reference(femb_context *c, uint32_t spp, float *rgb, float *lum_
         free(j.sum2);
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
     }
+    double until = stats ? stats->until_noise : 0.0;
+    uint32_t done = spp;
     for (uint32_t s = 0; s < spp; s++) {
         j.sample = s;
         femb_parallel_tiles(c, reference_tile, &j);
         if (progress)
             progress(s + 1, spp, user);
-    }
-    double err = 0;
-    uint32_t counted = 0;
-    for (size_t q = 0; q < n; q++) {
-        double m[3];
-        for (int k = 0; k < 3; k++) {
-            m[k] = j.sum[3 * q + k] / spp;
-            rgb[3 * q + k] = (float)m[k];
-        }
-        double ml = tnd_luminance((float)m[0], (float)m[1], (float)m[2]);
-        double var = spp > 1 ? (j.sum2[q] / spp - ml * ml) * spp / (spp - 1) : 0;
-        if (lum_se)
-            lum_se[q] = (float)sqrt(fmax(var, 0) / spp);
-        if (ml > 1e-6 && spp > 1) {
-            err += sqrt(fmax(var, 0) / spp) / ml;
-            counted++;
+        if (until > 0 && (s + 1) % TND_REF_CHECK_EVERY == 0 && s + 1 < spp &&
+            tnd_ref_finish(j.sum, j.sum2, n, s + 1, NULL, NULL) < until) {
+            done = s + 1;
+            break;
         }
     }
-    if (rel_error)
-        *rel_error = counted ? err / counted : 0;
+    double err = tnd_ref_finish(j.sum, j.sum2, n, done, rgb, lum_se);
+    if (stats)
+        stats->spp = done, stats->rel_error = err;
     free(j.sum);
     free(j.sum2);
     return TND_OK;

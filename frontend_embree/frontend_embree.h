@@ -20,6 +20,13 @@ typedef struct femb_desc {
 typedef struct femb_params {
     uint32_t bounces; /* indirect bounces after the primary surface: 0 direct only, 1 (Q2RTX's
                          default), more with Russian roulette from the second on */
+    /* the sample word of the random numbers: TND_SAMPLE_REALTIME (0) for the frame's own; a
+     * matched reference's sample s draws tnd_reference_sample(s) (shaders/sampling.h) */
+    uint32_t sample;
+    /* replace the frame's Halton jitter by `jitter` (pixels; a matched reference's per-sample
+     * offset) */
+    bool set_jitter;
+    float jitter[2];
 } femb_params;
 
 typedef struct femb_context femb_context;
@@ -76,8 +83,9 @@ tnd_result femb_shade_gradients(femb_context *ctx, const femb_params *p,
 /* Reference: unbiased progressive path tracing, spp samples per pixel (full paths with Russian
  * roulette, next-event estimation with MIS, no clamping), radiance in rgb (3 floats per pixel).
  * `lum_se` (optional, 1 float per pixel) receives the standard error of each pixel's luminance
- * mean, sqrt(sample variance / spp) (0 with one sample); `rel_error` (optional) the mean relative
- * standard error of the pixel means. Sample s of frame f draws the random-number stream
+ * mean, sqrt(sample variance / spp) (0 with one sample); `stats` (optional) the samples taken
+ * and the mean relative standard error of the pixel means, and with until_noise set, stops
+ * early once that error is below it. Sample s of frame f draws the random-number stream
  * (pixel, f, tnd_reference_sample(s)): frames never share samples. Calls
  * `progress(done, total, user)` after each sample pass when given. */
 /* The reference's path length: 0 (the default) full paths, Russian roulette from the third
@@ -85,7 +93,7 @@ tnd_result femb_shade_gradients(femb_context *ctx, const femb_params *p,
  * (a reference matched to the real-time estimator, for evaluating denoisers). */
 void femb_set_reference_bounces(femb_context *ctx, uint32_t bounces);
 tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, float *lum_se,
-                          double *rel_error, void (*progress)(uint32_t, uint32_t, void *),
+                          tnd_ref_stats *stats, void (*progress)(uint32_t, uint32_t, void *),
                           void *user);
 
 /* Benchmark: the front-end's rays per frame and their raw rate. Records every ray of one

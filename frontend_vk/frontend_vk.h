@@ -70,6 +70,9 @@ typedef struct fvk_desc {
 
 typedef struct fvk_params {
     uint32_t bounces; /* as femb_params */
+    uint32_t sample;  /* as femb_params: 0 (TND_SAMPLE_REALTIME), or a matched reference's */
+    bool set_jitter;  /* as femb_params */
+    float jitter[2];
 } fvk_params;
 
 /* GPU times of the last fvk_render / fvk_shade_gradients, per pass. */
@@ -108,12 +111,13 @@ tnd_result fvk_shade_gradient_slots(fvk_context *ctx, const fvk_params *p, VkBuf
                                     uint32_t slots, fvk_timings *t);
 /* Reference: unbiased progressive path tracing on the GPU, as femb_reference (same paths for
  * the same keys): spp samples per pixel, radiance in rgb (3 floats per pixel), the standard error
- * of each pixel's luminance mean in lum_se (optional), mean relative standard error in rel_error
- * (optional), progress after each batch of samples. */
+ * of each pixel's luminance mean in lum_se (optional), the samples taken and the mean relative
+ * standard error in stats (optional; its until_noise stops early), progress after each batch of
+ * samples. */
 /* As femb_set_reference_bounces: 0 full paths (the default), n > 0 a matched reference. */
 void fvk_set_reference_bounces(fvk_context *ctx, uint32_t bounces);
 tnd_result fvk_reference(fvk_context *ctx, uint32_t spp, float *rgb, float *lum_se,
-                         double *rel_error,
+                         tnd_ref_stats *stats,
                          void (*progress)(uint32_t done, uint32_t total, void *user), void *user);
 /* The API the passes use (after AUTO was resolved). */
 fvk_rt_api fvk_api(const fvk_context *ctx);

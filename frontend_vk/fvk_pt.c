@@ -359,7 +359,14 @@ static void set_params(fvk_context *c, const fvk_params *p)
 {
     tnd_gpu_frame *f = c->frame_ubo.mapped;
     f->params.x = p ? p->bounces : 1;
+    f->params.y = p ? p->sample : TND_SAMPLE_REALTIME;
     f->params.w = c->reflect_depth;
+    float jit[2];
+    if (p && p->set_jitter)
+        memcpy(jit, p->jitter, sizeof jit);
+    else
+        tnd_jitter(c->frame, jit);
+    f->jitter.x = jit[0], f->jitter.y = jit[1];
 }
 
 /* Bind the passes' pipeline(s) and sets, push the mode. */
@@ -508,16 +515,45 @@ void fvk_set_reference_bounces(fvk_context *c, uint32_t bounces)
     c->ref_bounces = bounces;
 }
 
+/* The statistics of the accumulation image after `spp` samples (as femb's reference_stats). */
+static double reference_stats(const float *a, size_t n, uint32_t spp, float *rgb, float *lum_se)
+{
+    double err = 0;
+    uint32_t counted = 0;
+    for (size_t q = 0; q < n; q++) {
+        float m[3];
+        for (int k = 0; k < 3; k++)
+            m[k] = a[4 * q + k] / (float)spp;
+        if (rgb)
+            memcpy(rgb + 3 * q, m, sizeof m);
+        double ml = tnd_luminance(m[0], m[1], m[2]);
+        double se = tnd_ref_pixel_se(ml, a[4 * q + 3] / spp, spp);
+        if (lum_se)
+            lum_se[q] = (float)se;
+        if (ml > 1e-6 && spp > 1) {
+            err += se / ml;
+            counted++;
+        }
+    }
+    return counted ? err / counted : 0;
+}
+
 tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se,
-                         double *rel_error, void (*progress)(uint32_t, uint32_t, void *),
+                         tnd_ref_stats *stats, void (*progress)(uint32_t, uint32_t, void *),
                          void *user)
 {
     tnd_result res = TND_OK;
     float *acc = NULL;
     if (!c->have_frame || spp == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: reference needs a frame and spp > 0");
+    size_t n = (size_t)c->width * c->height;
+    acc = malloc(n * 16);
+    if (!acc)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
     ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.x = c->ref_bounces; /* (0: full paths) */
-    const uint32_t batch = 16;
+    const uint32_t batch = TND_REF_CHECK_EVERY;
+    double until = stats ? stats->until_noise : 0.0;
+    uint32_t done = spp;
     for (uint32_t s0 = 0; s0 < spp; s0 += batch) {
         VkCommandBuffer cmd;
         TND_TRY(tnd_cmd_begin(c->vk, &cmd));
@@ -529,33 +565,21 @@ tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se
             tnd_cmd_barrier(cmd);
         }
         TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+        uint32_t taken = s0 + batch < spp ? s0 + batch : spp;
         if (progress)
-            progress(s0 + batch < spp ? s0 + batch : spp, spp, user);
-    }
-    size_t n = (size_t)c->width * c->height;
-    acc = malloc(n * 16);
-    if (!acc) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
-        goto fail;
-    }
-    TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
-    const float *a = acc;
-    double err = 0;
-    uint32_t counted = 0;
-    for (size_t q = 0; q < n; q++) {
-        for (int k = 0; k < 3; k++)
-            rgb[3 * q + k] = a[4 * q + k] / (float)spp;
-        double ml = tnd_luminance(rgb[3 * q], rgb[3 * q + 1], rgb[3 * q + 2]);
-        double var = spp > 1 ? (a[4 * q + 3] / spp - ml * ml) * spp / (spp - 1) : 0;
-        if (lum_se)
-            lum_se[q] = (float)sqrt(var > 0 ? var / spp : 0);
-        if (ml > 1e-6 && spp > 1) {
-            err += sqrt(var > 0 ? var / spp : 0) / ml;
-            counted++;
+            progress(taken, spp, user);
+        if (until > 0 && taken < spp) {
+            TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
+            if (reference_stats(acc, n, taken, NULL, NULL) < until) {
+                done = taken;
+                break;
+            }
         }
     }
-    if (rel_error)
-        *rel_error = counted ? err / counted : 0;
+    TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
+    double err = reference_stats(acc, n, done, rgb, lum_se);
+    if (stats)
+        stats->spp = done, stats->rel_error = err;
 fail:
     free(acc);
     return res;

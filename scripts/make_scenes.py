@@ -295,6 +295,25 @@ def cornell(out):
     g.write(out)
 
 
+def closed_box(out):
+    """A closed Lambert box (albedo 0.7 everywhere, one emitting ceiling panel) seen from a static
+    camera inside it: light bounces many times, so the 1-bounce real-time estimator's expectation
+    lies far below the unbiased reference (docs/metrics.md: estimator bias against denoiser
+    error)."""
+    g = Gltf("closed_box")
+    wall = g.material("wall", (0.7, 0.7, 0.7))
+    light = g.material("light", (0.7, 0.7, 0.7), emission=(1.0, 1.0, 1.0), strength=10.0)
+    S = 2.0  # inside a cube of 2 m, floor at y = 0; every face points inwards
+    g.node("box", g.mesh("box", box(S, S, S, inward=True), wall), t=(0, S / 2, 0))
+    g.node("light", g.mesh("light", quad(0.6, 0.6), light), t=(0, S - 0.001, 0),
+           r=quat_axis((1, 0, 0), 180))
+    g.node("block", g.mesh("block", box(0.5, 0.8, 0.5), wall), t=(0.3, 0.4, -0.2),
+           r=quat_axis((0, 1, 0), 25))
+    cam = g.camera("camera", 70.0, 1.0)
+    g.node("camera", t=(-0.2, 1.0, 0.9), r=look_rot(-12, -8), camera=cam)
+    g.write(out)
+
+
 def materials(out):
     g = Gltf("materials")
     checker = png("materials_checker.png", 64, 64,
@@ -613,7 +632,7 @@ def main():
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "..", "data", "scenes")
     os.makedirs(out, exist_ok=True)
-    for f in (cornell, materials, dynamic, sun, extremes, cutout, atrium):
+    for f in (cornell, materials, dynamic, sun, extremes, cutout, atrium, closed_box):
         f(out)
 
 

@@ -45,7 +45,7 @@ void pt_shade_main(uvec2 launch)
     } else {
         ip = ivec2(launch);
         uvec2 r = imageLoad(img_rng, ip).xy;
-        key = uvec3(r.y, r.x, TND_SAMPLE_REALTIME);
+        key = uvec3(r.y, r.x, fr.params.y); /* (TND_SAMPLE_REALTIME but in a matched reference) */
     }
     vec3 hf = vec3(0.0), spec = vec3(0.0);
     vec4 sh = vec4(0.0);

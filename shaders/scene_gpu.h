@@ -54,8 +54,9 @@ struct tnd_gpu_frame {
     vec4 env;            /* environment map (shaders/env.h): cos, sin of its rotation, width,
                             height (0: none) */
     uvec4 frame;         /* x: frame index, y: width, z: height, w: light count */
-    uvec4 params;        /* x: bounces, y: reference sample index, z: gradient count,
-                            w: specular vertices the primary chain follows */
+    uvec4 params;        /* x: bounces, y: the real-time pass's sample word (0; a matched
+                            reference's samples: s + 1), z: gradient count, w: specular
+                            vertices the primary chain follows */
 };
 
 #ifndef TND_GLSL
