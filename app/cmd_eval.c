@@ -246,7 +246,7 @@ int cmd_eval(int argc, char **argv)
         if (res == TND_OK && (b.count != e.count ||
                               memcmp(b.frames, e.frames, e.count * sizeof *e.frames) != 0))
             res = tnd_fail(TND_ERR_BAD_INPUT,
-                           "eval: %s and %s hold other frames (%u and %u in common with the run)",
+                           "%s and %s hold other frames (%u and %u in common with the run)",
                            matched, unbiased, e.count, b.count);
     }
     if (res == TND_OK && matched)
