@@ -1,8 +1,10 @@
 /* app/cmd_sweep.c: `tandem bench --scene S --sweep key=v1,v2,... [--sweep ...] --out DIR`: the
  * real-time pipeline over the cartesian product of knob values. Per combination: a `tandem
- * render` run (GPU ms per pass from its timestamps, medians over the frames after the warm-up)
- * and its metrics against one reference; then DIR/sweep.json, DIR/sweep.csv and DIR/report
- * (the Pareto fronts of time against relMSE and against FLIP, and the table). */
+ * render` run (GPU ms per pass from its timestamps, medians over the frames after the warm-up),
+ * its denoiser's error against the matched reference of its estimator (bounces, resolution;
+ * made once per estimator under DIR/matched) and its error against the unbiased reference; then
+ * DIR/sweep.json, DIR/sweep.csv and DIR/report (the Pareto fronts of time against the denoiser's
+ * relMSE and FLIP, and the table). */
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
@@ -40,9 +42,32 @@ enum { PASSES = sizeof passes / sizeof passes[0] };
 typedef struct sweep_run {
     const char *value[MAX_KEYS];
     double pass_ms[PASSES], total_ms;
-    ev_summary metrics;
+    ev_summary metrics;    /* the denoiser's error: against the cell's matched reference */
+    ev_summary whole;      /* against the unbiased reference: denoiser error and estimator bias */
+    int estimator;         /* index into the sweep's estimators (matched references) */
     bool pareto_relmse, pareto_flip;
 } sweep_run;
+
+/* One estimator of the sweep: the knobs that change the real-time estimator's expectation (its
+ * bounce count and resolution); cells with the same one share its matched reference. */
+typedef struct sweep_estimator {
+    char bounces[16], size[32], dir[1100];
+    ev_summary bias; /* its matched reference against the unbiased one */
+} sweep_estimator;
+
+/* Metrics of `dir`'s frames after the warm-up against `ref` (resampled to its size). */
+static tnd_result eval_against(const char *dir, const char *ref, unsigned warmup, ev_summary *m)
+{
+    app_eval e = {.min_frame = warmup, .resample = true};
+    snprintf(e.ref, sizeof e.ref, "%s", ref);
+    tnd_result res = app_eval_add(&e, "run", dir, false);
+    if (res == TND_OK)
+        res = app_eval_run(&e);
+    if (res == TND_OK)
+        *m = e.series[0].summary;
+    app_eval_free(&e);
+    return res;
+}
 
 static tnd_result read_timings(const char *dir, unsigned warmup, sweep_run *r)
 {
@@ -94,6 +119,8 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
     const char *values[MAX_KEYS][MAX_VALUES];
     int nvalues[MAX_KEYS], nkeys = sweeps->n;
     sweep_run *runs = NULL;
+    sweep_estimator *ests = NULL;
+    int nests = 0;
     tnd_result res = TND_OK;
     int status = APP_EXIT_USAGE;
     ev_text html = {0};
@@ -190,11 +217,17 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
             goto fail;
         }
     }
+    ests = calloc((size_t)total, sizeof *ests);
+    if (!ests) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+        goto fail;
+    }
     app_progress bar;
     app_progress_begin(&bar, "sweep", (unsigned)total);
     for (int i = 0; i < total; i++) {
         sweep_run *r = &runs[i];
         char dir[1300], run_size[32];
+        const char *bounces = "1";
         snprintf(dir, sizeof dir, "%s/runs/%03d", out, i);
         snprintf(run_size, sizeof run_size, "%s", sz);
         char *args[64] = {"render", "--scene", (char *)scene, "--frames", fr, "--out", dir,
@@ -211,28 +244,44 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
                          (unsigned)fmax(1, lround(size[1] * s)));
                 continue;
             }
+            if (strcmp(key, "bounces") == 0)
+                bounces = v;
             args[na++] = (char *)keys[k]->option;
             args[na++] = strcmp(key, "gradient") == 0 ? (strcmp(v, "on") == 0 ? "asvgf" : "svgf")
                                                        : (char *)v;
         }
         args[na++] = "--size";
         args[na++] = run_size;
+        /* the cell's estimator and its matched reference (made once per estimator) */
+        r->estimator = -1;
+        for (int k = 0; k < nests; k++)
+            if (!strcmp(ests[k].bounces, bounces) && !strcmp(ests[k].size, run_size))
+                r->estimator = k;
+        if (r->estimator < 0) {
+            sweep_estimator *es = &ests[nests];
+            snprintf(es->bounces, sizeof es->bounces, "%s", bounces);
+            snprintf(es->size, sizeof es->size, "%s", run_size);
+            snprintf(es->dir, sizeof es->dir, "%s/matched/bounces%s_%s", out, bounces, run_size);
+            char *margs[] = {"reference", "--estimator", "realtime", "--frontend", "vk",
+                             "--scene", (char *)scene, "--frames", fr, "--size", run_size,
+                             "--bounces", (char *)bounces, "--spp", sp, "--out", es->dir,
+                             "--quiet"};
+            if (cmd_reference((int)(sizeof margs / sizeof margs[0]), margs) != APP_EXIT_OK) {
+                app_progress_end(&bar);
+                res = tnd_fail(TND_ERR_IO, "bench: the matched reference %s failed", es->dir);
+                goto fail;
+            }
+            TND_TRY(eval_against(es->dir, refdir, warmup, &es->bias));
+            r->estimator = nests++;
+        }
         if (cmd_render(na, args) != APP_EXIT_OK) {
             app_progress_end(&bar);
             res = tnd_fail(TND_ERR_IO, "bench: sweep run %d (%s) failed", i, dir);
             goto fail;
         }
         TND_TRY(read_timings(dir, warmup, r));
-        app_eval e = {.min_frame = warmup, .resample = true};
-        snprintf(e.ref, sizeof e.ref, "%s", refdir);
-        res = app_eval_add(&e, "run", dir, false);
-        if (res == TND_OK)
-            res = app_eval_run(&e);
-        if (res == TND_OK)
-            r->metrics = e.series[0].summary;
-        app_eval_free(&e);
-        if (res != TND_OK)
-            goto fail;
+        TND_TRY(eval_against(dir, ests[r->estimator].dir, warmup, &r->metrics));
+        TND_TRY(eval_against(dir, refdir, warmup, &r->whole));
         app_progress_step(&bar, (unsigned)i + 1);
     }
     app_progress_end(&bar);
@@ -292,19 +341,26 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
     ev_text_add(&csv, "total_ms");
     for (int p = 0; p < PASSES; p++)
         ev_text_add(&csv, ",%s", passes[p]);
-    ev_text_add(&csv, ",relmse,smape,psnr,ssim,flip,temporal,pareto_relmse,pareto_flip\n");
+    ev_text_add(&csv, ",relmse,smape,psnr,ssim,flip,temporal,pareto_relmse,pareto_flip,"
+                      "relmse_unbiased,flip_unbiased,estimator_bias_relmse\n");
     ev_text_add(&html, "<h2>Runs</h2>\n<p>%d combinations of %s at %ux%u, %u frames, medians after "
-                       "%u warm-up frames; metrics against <code>",
-                total, scene, size[0], size[1], frames, warmup);
+                       "%u warm-up frames. relMSE, FLIP, SSIM, PSNR and temporal: the "
+                       "denoiser's error, against each cell's <b>matched reference</b> (the "
+                       "converged expectation of its real-time estimator: its bounces and "
+                       "resolution; %d of them); \"vs unbiased\": against <code>",
+                total, scene, size[0], size[1], frames, warmup, nests);
     ev_text_escaped(&html, refdir);
-    ev_text_add(&html, "</code>. Bold: on a Pareto front.</p>\n<img src=\"pareto_relmse.svg\" "
+    ev_text_add(&html, "</code>, the denoiser's error and the estimator's bias together; "
+                       "\"bias\": the matched reference against the unbiased one. Bold: on a "
+                       "Pareto front.</p>\n<img src=\"pareto_relmse.svg\" "
                        "width=\"680\" height=\"320\" alt=\"pareto relMSE\"> <img "
                        "src=\"pareto_flip.svg\" width=\"680\" height=\"320\" alt=\"pareto FLIP\">\n"
                        "<table><tr>");
     for (int k = 0; k < nkeys; k++)
         ev_text_add(&html, "<th>%s</th>", keys[k]->key);
     ev_text_add(&html, "<th>GPU ms</th><th>front-end ms</th><th>denoise ms</th><th>post ms</th>"
-                       "<th>relMSE</th><th>FLIP</th><th>SSIM</th><th>PSNR</th><th>temporal</th></tr>\n");
+                       "<th>relMSE</th><th>FLIP</th><th>SSIM</th><th>PSNR</th><th>temporal</th>"
+                       "<th>relMSE vs unbiased</th><th>bias relMSE</th></tr>\n");
     for (int i = 0; i < total; i++) {
         sweep_run *r = &runs[i];
         r->pareto_relmse = pa[i];
@@ -339,8 +395,15 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
         cJSON_AddNumberToObject(o, "temporal", m->temporal);
         cJSON_AddBoolToObject(o, "pareto_relmse", pa[i]);
         cJSON_AddBoolToObject(o, "pareto_flip", pb[i]);
-        ev_text_add(&csv, ",%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%d\n", m->relmse, m->smape, m->psnr,
-                    m->ssim, m->flip, m->temporal, pa[i], pb[i]);
+        const sweep_estimator *es = &ests[r->estimator];
+        cJSON_AddStringToObject(o, "matched_reference", es->dir);
+        cJSON_AddNumberToObject(o, "relmse_unbiased", r->whole.relmse);
+        cJSON_AddNumberToObject(o, "flip_unbiased", r->whole.flip);
+        cJSON_AddNumberToObject(o, "estimator_bias_relmse", es->bias.relmse);
+        cJSON_AddNumberToObject(o, "estimator_bias_flip", es->bias.flip);
+        ev_text_add(&csv, ",%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%d,%.9g,%.9g,%.9g\n", m->relmse,
+                    m->smape, m->psnr, m->ssim, m->flip, m->temporal, pa[i], pb[i],
+                    r->whole.relmse, r->whole.flip, es->bias.relmse);
         ev_text_add(&html, "<tr%s>", pa[i] || pb[i] ? " style=\"font-weight:bold\"" : "");
         for (int k = 0; k < nkeys; k++) {
             ev_text_add(&html, "<td>");
@@ -348,8 +411,10 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
             ev_text_add(&html, "</td>");
         }
         ev_text_add(&html, "<td>%.3f</td><td>%.3f</td><td>%.3f</td><td>%.3f</td><td>%.5g</td>"
-                           "<td>%.4f</td><td>%.4f</td><td>%.2f</td><td>%.4g</td></tr>\n",
-                    r->total_ms, fe, dn, post, m->relmse, m->flip, m->ssim, m->psnr, m->temporal);
+                           "<td>%.4f</td><td>%.4f</td><td>%.2f</td><td>%.4g</td><td>%.5g</td>"
+                           "<td>%.5g</td></tr>\n",
+                    r->total_ms, fe, dn, post, m->relmse, m->flip, m->ssim, m->psnr, m->temporal,
+                    r->whole.relmse, es->bias.relmse);
     }
     ev_text_add(&html, "</table>\n");
     free(tx), free(ya), free(yb), free(pa), free(pb), free(label), free(labels);
@@ -386,8 +451,10 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
             printf(" ");
             for (int k = 0; k < nkeys; k++)
                 printf(" %s=%s", keys[k]->key, runs[i].value[k]);
-            printf(": %.3f ms, relMSE %.4g, FLIP %.4f%s\n", runs[i].total_ms,
-                   runs[i].metrics.relmse, runs[i].metrics.flip,
+            printf(": %.3f ms, relMSE %.4g, FLIP %.4f (vs unbiased %.4g, estimator bias "
+                   "%.4g)%s\n",
+                   runs[i].total_ms, runs[i].metrics.relmse, runs[i].metrics.flip,
+                   runs[i].whole.relmse, ests[runs[i].estimator].bias.relmse,
                    runs[i].pareto_relmse || runs[i].pareto_flip ? "  (Pareto)" : "");
         }
     }
@@ -399,5 +466,6 @@ fail:
     for (int k = 0; k < MAX_KEYS; k++)
         free(values_buf[k]);
     free(runs);
+    free(ests);
     return status;
 }

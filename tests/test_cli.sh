@@ -234,24 +234,32 @@ chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --
 grep -q 'data-status="ok"' "$tmp/dom" && grep -q "Contract agreement" "$tmp/cmpx/report/index.html"
 check "the compare report (agreement table, both series) loads in Chromium" $?
 
-# speed/accuracy sweep: 3 knobs, 8 runs, Pareto fronts; the report opens in Chromium
-"$T" bench --scene "$SRC/data/scenes/cornell.gltf" --size 40x24 --frames 5 --warmup 2 --spp 8 \
-    --sweep atrous=1,4 --sweep taa=on,off --sweep gradient=on,off --out "$tmp/sweep" --quiet >"$tmp/sw_out" 2>"$tmp/err"; rc=$?
+# speed/accuracy sweep: 3 knobs, 8 runs, Pareto fronts; each cell against the matched reference
+# of its estimator (two: bounces 1 and 2), and against the unbiased one; the report opens in
+# Chromium
+"$T" bench --scene "$SRC/data/scenes/cornell.gltf" --size 40x24 --frames 5 --warmup 2 --spp 32 \
+    --sweep bounces=1,2 --sweep atrous=1,4 --sweep gradient=on,off --out "$tmp/sweep" --quiet \
+    >"$tmp/sw_out" 2>"$tmp/err"; rc=$?
 [ $rc -eq 0 ] && $PY - "$tmp/sweep/sweep.json" "$tmp/sweep/sweep.csv" <<'PY'
 import json, math, sys
 d = json.load(open(sys.argv[1]))
 runs = d["runs"]
-assert d["knobs"] == ["atrous", "taa", "gradient"] and len(runs) == 8
+assert d["knobs"] == ["bounces", "atrous", "gradient"] and len(runs) == 8
 assert len({tuple(sorted(r["knobs"].items())) for r in runs}) == 8
 for r in runs:
     assert r["total_ms"] > 0 and r["pass_ms"]["denoise_atrous_ms"] > 0, r
     assert math.isfinite(r["relmse"]) and 0 < r["flip"] < 1, r
+    assert math.isfinite(r["relmse_unbiased"]) and r["estimator_bias_relmse"] > 0, r
     assert (r["pass_ms"]["denoise_gradient_ms"] > 0) == (r["knobs"]["gradient"] == "on"), r
-    assert (r["pass_ms"]["taa_ms"] > 0) == (r["knobs"]["taa"] == "on"), r
+    assert r["matched_reference"].endswith("bounces%s_40x24" % r["knobs"]["bounces"]), r
+matched = {r["knobs"]["bounces"]: r["matched_reference"] for r in runs}
+assert len(set(matched.values())) == 2  # one per estimator, shared by its 4 cells
+bias = {r["knobs"]["bounces"]: r["estimator_bias_relmse"] for r in runs}
+assert bias["2"] < bias["1"], bias  # a second bounce brings the expectation nearer the truth
 assert any(r["pareto_relmse"] for r in runs) and any(r["pareto_flip"] for r in runs)
 assert len(open(sys.argv[2]).read().strip().split("\n")) == 9
 PY
-check "bench --sweep over 3 knobs: 8 runs with pass times, metrics and Pareto fronts" $?
+check "bench --sweep over 3 knobs: 8 runs, each against its estimator's matched reference" $?
 chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom \
     "file://$tmp/sweep/report/index.html" >"$tmp/dom" 2>/dev/null
 grep -q 'data-images="2" data-broken="" data-status="ok"' "$tmp/dom"
