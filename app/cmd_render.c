@@ -256,6 +256,30 @@ fail:
     return res;
 }
 
+/* REFDIR/frame_NNNN.motion.exr: the frame's motion and depth at the pixel centres (the primary
+ * pass without jitter), for eval's motion-compensated metrics. */
+static tnd_result write_reference_motion(fvk_context *gv, tnd_vk *vk, femb_context *fe,
+                                         const render_opts *o, unsigned f, tnd_frame *frame)
+{
+    tnd_result res = TND_OK;
+    if (gv) {
+        TND_TRY(fvk_render(gv, &(fvk_params){.bounces = 0, .set_jitter = true}, NULL));
+        TND_TRY(tnd_contract_download(vk, fvk_contract(gv), frame));
+    } else {
+        TND_TRY(femb_render(fe, &(femb_params){.bounces = 0, .set_jitter = true}, frame, NULL));
+    }
+    const float *m = tnd_frame_f(frame, TND_CT_MOTION), *d = tnd_frame_f(frame, TND_CT_DEPTH);
+    tnd_exr_channel_desc ch[4] = {{"motion.X", TND_EXR_FLOAT, (const uint32_t *)m, 3},
+                                  {"motion.Y", TND_EXR_FLOAT, (const uint32_t *)m + 1, 3},
+                                  {"motion.Z", TND_EXR_FLOAT, (const uint32_t *)m + 2, 3},
+                                  {"depth.Z", TND_EXR_FLOAT, (const uint32_t *)d, 1}};
+    char path[1600];
+    snprintf(path, sizeof path, "%s/frame_%04u.motion.exr", o->out, f);
+    TND_TRY(tnd_exr_write(path, o->size[0], o->size[1], ch, 4, NULL, 0, TND_EXR_ZIP));
+fail:
+    return res;
+}
+
 /* What a reference's own noise adds to a relMSE measured against it: the mean over pixels of
  * se^2 / (mean^2 + eps), from the luminance's standard error (eval's relMSE denominator). */
 static double noise_relmse(const float *rgb, const float *lum_se, size_t n)
@@ -595,10 +619,13 @@ static int run(bool reference, int argc, char **argv)
             ref_progress rp = {&bar, i, o.frames};
             if (use_vk)
                 TND_TRY(fvk_set_frame(gv, cur, prev, f, o.size[0], o.size[1]));
-            if (matched) {
-                TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
+            TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
+            TND_TRY(write_reference_motion(gv, &vk, fe, &o, f, &frame));
+            if (matched)
                 TND_TRY(matched_reference(gv, &vk, fe, &o, f, &frame, rgb, lum_se, rs, &rp));
-                tnd_frame_destroy(&frame);
+            tnd_frame_destroy(&frame);
+            if (matched) {
+                /* (done above, in the frame's contract) */
             } else if (use_vk) {
                 fvk_set_reference_bounces(gv, o.ref_bounces);
                 TND_TRY(fvk_reference(gv, o.spp, rgb, lum_se, rs, on_ref_progress, &rp));

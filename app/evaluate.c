@@ -205,13 +205,49 @@ static void region_add(app_region *r, int bit, const uint8_t *mask, const ev_ima
         }
 }
 
+/* The reference's motion and depth of a frame (REF/frame_NNNN.motion.exr, written by `tandem
+ * reference`), for the motion-compensated metrics; false when absent or unusable. */
+static bool load_motion(const app_eval *e, uint32_t frame, float *motion, float *depth)
+{
+    char path[1300];
+    snprintf(path, sizeof path, "%s/frame_%04u.motion.exr", e->ref, frame);
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return false;
+    tnd_exr_file x;
+    if (tnd_exr_read(path, &x) != TND_OK) {
+        tnd_warn("eval", "%s: unreadable (%s): no motion-compensated metrics", path,
+                 tnd_error_detail());
+        tnd_error_clear();
+        return false;
+    }
+    const char *names[4] = {"motion.X", "motion.Y", "motion.Z", "depth.Z"};
+    const tnd_exr_channel *c[4];
+    bool ok = x.width == e->width && x.height == e->height;
+    for (int k = 0; k < 4 && ok; k++)
+        ok = (c[k] = tnd_exr_find(&x, names[k])) && c[k]->data && c[k]->type != TND_EXR_UINT;
+    if (ok) {
+        size_t n = (size_t)x.width * x.height;
+        for (size_t q = 0; q < n; q++) {
+            for (int k = 0; k < 3; k++)
+                motion[3 * q + k] = ((const float *)c[k]->data)[q];
+            depth[q] = ((const float *)c[3]->data)[q];
+        }
+    } else {
+        tnd_warn("eval", "%s: not the frame's motion (motion.X/Y/Z, depth.Z at %ux%u): no "
+                         "motion-compensated metrics", path, e->width, e->height);
+    }
+    tnd_exr_close(&x);
+    return ok;
+}
+
 tnd_result app_eval_run(app_eval *e)
 {
     tnd_result res = common_frames(e);
     ev_image img = {0}, ref = {0};
     ev_sequence *seq[APP_EVAL_MAX_SERIES] = {0};
     uint8_t *mask = NULL;
-    float *flip = NULL;
+    float *flip = NULL, *motion = NULL, *depth = NULL;
     tnd_frame cap = {0};
     if (res != TND_OK)
         return res;
@@ -247,7 +283,9 @@ tnd_result app_eval_run(app_eval *e)
             size_t n = (size_t)ref.width * ref.height;
             mask = malloc(n);
             flip = malloc(n * sizeof(float));
-            if (!mask || !flip) {
+            motion = malloc(n * 3 * sizeof(float));
+            depth = malloc(n * sizeof(float));
+            if (!mask || !flip || !motion || !depth) {
                 res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
                 goto fail;
             }
@@ -261,6 +299,11 @@ tnd_result app_eval_run(app_eval *e)
         }
         tnd_frame_destroy(&cap);
         bool regions = region_masks(e, e->frames[k], ref.width, ref.height, mask, &cap);
+        /* the reference's motion, frame after frame (a gap: the next frame starts afresh) */
+        bool consecutive = k == 0 || e->frames[k] == e->frames[k - 1] + 1;
+        if (consecutive && load_motion(e, e->frames[k], motion, depth))
+            for (uint32_t i = 0; i < e->nseries; i++)
+                ev_sequence_motion(seq[i], motion, depth);
         for (uint32_t i = 0; i < e->nseries; i++) {
             uint64_t bad = 0;
             TND_TRY(load(e, &e->series[i], e->frames[k], &img, &bad, regions ? &cap : NULL));
@@ -297,6 +340,8 @@ fail:
     ev_image_free(&ref);
     free(mask);
     free(flip);
+    free(motion);
+    free(depth);
     tnd_frame_destroy(&cap);
     return res;
 }

@@ -53,6 +53,10 @@ typedef struct ev_frame_metrics {
     uint32_t frame;
     double relmse, smape, rmse, psnr, ssim, flip;
     double temporal;    /* vs the previous frame of the sequence; < 0 for the first */
+    /* with the reference's motion (ev_sequence_motion): the frame-to-frame change after warping
+     * the previous frame along the motion, over pixels visible in both frames, against the
+     * reference's (< 0: no motion or the first frame); the fraction of pixels disoccluded */
+    double mc_temporal, disoccluded;
     uint64_t nonfinite; /* NaN/Inf values in the output (counted as 0 in the metrics) */
 } ev_frame_metrics;
 
@@ -60,6 +64,14 @@ typedef struct ev_summary {
     double relmse, smape, rmse, psnr, ssim, flip, temporal; /* means over frames */
     double lag;          /* mean lag over the lighting changes, frames; < 0: none measured */
     uint32_t changes;    /* lighting changes found in the reference */
+    /* with the reference's motion: the mean motion-compensated temporal error; flicker: the mean
+     * over pixels static through the sequence of the temporal standard deviation of the
+     * tone-mapped luminance, the output's and the reference's (< 0: none); the mean lag after
+     * a disocclusion (frames until the disoccluded pixels' error is back to the rest's) over
+     * `disocclusions` events (< 0: none) */
+    double mc_temporal, flicker, flicker_ref, disocclusion_lag;
+    uint32_t disocclusions;
+    uint64_t static_pixels;
     uint64_t nonfinite;
 } ev_summary;
 
@@ -73,6 +85,16 @@ void ev_sequence_destroy(ev_sequence *seq);
  * when flip_map is not NULL. */
 tnd_result ev_sequence_add(ev_sequence *seq, uint32_t frame, const ev_image *out,
                            const ev_image *ref, ev_frame_metrics *m, float *flip_map);
+/* The reference's motion (3 floats per pixel: previous minus current position in pixels, depth
+ * change) and depth (1 float per pixel, TND_DEPTH_MISS on a miss) of the frame ev_sequence_add
+ * takes next: the motion-compensated metrics (docs/metrics.md). Copied. */
+void ev_sequence_motion(ev_sequence *seq, const float *motion, const float *depth);
+/* The disocclusion lag's settings: an event is a frame with disoccluded pixels; it settles at the
+ * first frame k (0 ..) where their mean |Y_o - Y_r| is at most EV_DISOCC_RATIO x the other
+ * visible pixels' + EV_DISOCC_ABS, or counts EV_DISOCC_FRAMES. */
+#define EV_DISOCC_FRAMES 16
+#define EV_DISOCC_RATIO 1.25
+#define EV_DISOCC_ABS 0.002
 /* The last frame's tone-mapped output and reference (3 floats per pixel, valid until the next
  * ev_sequence_add). */
 void ev_sequence_display(const ev_sequence *seq, const float **out, const float **ref);

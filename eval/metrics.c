@@ -525,6 +525,13 @@ uint32_t ev_lag(const ev_image *out, const ev_image *ref, uint32_t count, double
     return n;
 }
 
+/* A disocclusion event: the pixels a frame disoccluded, followed until they settle. */
+typedef struct disocc_event {
+    uint8_t *mask;
+    uint32_t age; /* frames since the event */
+    bool active;
+} disocc_event;
+
 struct ev_sequence {
     uint32_t w, h, count, cap;
     double exposure, ppd;
@@ -533,6 +540,16 @@ struct ev_sequence {
     lag_stats *lag;
     ev_summary sum;
     uint32_t temporal_count;
+    /* motion-compensated metrics (ev_sequence_motion) */
+    float *motion, *depth, *prev_depth; /* this frame's (set before add), the last one's depth */
+    bool have_motion, have_prev_depth;
+    uint8_t *valid, *still;  /* this frame's visibility in the last; static so far */
+    double *ysum;            /* per pixel: sum Y_o, Y_o^2, Y_r, Y_r^2 over frames with motion */
+    uint32_t yframes, mc_count;
+    double mc_sum;
+    disocc_event ev[EV_DISOCC_FRAMES];
+    double lag_sum;
+    uint32_t lag_events;
 };
 
 void ev_sequence_destroy(ev_sequence *s)
@@ -545,7 +562,157 @@ void ev_sequence_destroy(ev_sequence *s)
     free(s->pr);
     ev_image_free(&s->prev_ref);
     free(s->lag);
+    free(s->motion);
+    free(s->depth);
+    free(s->prev_depth);
+    free(s->valid);
+    free(s->still);
+    free(s->ysum);
+    for (int k = 0; k < EV_DISOCC_FRAMES; k++)
+        free(s->ev[k].mask);
     free(s);
+}
+
+void ev_sequence_motion(ev_sequence *s, const float *motion, const float *depth)
+{
+    size_t n = (size_t)s->w * s->h;
+    if (!s->motion) {
+        s->motion = malloc(n * 3 * sizeof(float));
+        s->depth = malloc(n * sizeof(float));
+        s->prev_depth = malloc(n * sizeof(float));
+        s->valid = malloc(n);
+        s->still = malloc(n);
+        s->ysum = calloc(n * 4, sizeof(double));
+        for (int k = 0; k < EV_DISOCC_FRAMES; k++)
+            s->ev[k].mask = malloc(n);
+        bool ok = s->motion && s->depth && s->prev_depth && s->valid && s->still && s->ysum;
+        for (int k = 0; k < EV_DISOCC_FRAMES; k++)
+            ok &= s->ev[k].mask != NULL;
+        if (!ok)
+            return; /* (ev_sequence_add then measures without motion) */
+        memset(s->still, 1, n);
+    }
+    memcpy(s->motion, motion, n * 3 * sizeof(float));
+    memcpy(s->depth, depth, n * sizeof(float));
+    s->have_motion = true;
+}
+
+/* Bilinear lookup of a 3-channel image at pixel-centre coordinates (x, y) (pixel i's centre at
+ * i), clamped to the edge. */
+static void bilinear3(const float *img, uint32_t w, uint32_t h, double x, double y, double out[3])
+{
+    double fx = floor(x), fy = floor(y), ax = x - fx, ay = y - fy;
+    long x0 = (long)fx, y0 = (long)fy;
+    long xs[2] = {x0 < 0 ? 0 : x0 >= (long)w ? (long)w - 1 : x0,
+                  x0 + 1 < 0 ? 0 : x0 + 1 >= (long)w ? (long)w - 1 : x0 + 1};
+    long ys[2] = {y0 < 0 ? 0 : y0 >= (long)h ? (long)h - 1 : y0,
+                  y0 + 1 < 0 ? 0 : y0 + 1 >= (long)h ? (long)h - 1 : y0 + 1};
+    for (int c = 0; c < 3; c++) {
+        double a = img[3 * ((size_t)ys[0] * w + xs[0]) + c], b = img[3 * ((size_t)ys[0] * w + xs[1]) + c];
+        double d = img[3 * ((size_t)ys[1] * w + xs[0]) + c], e = img[3 * ((size_t)ys[1] * w + xs[1]) + c];
+        out[c] = (1 - ay) * ((1 - ax) * a + ax * b) + ay * ((1 - ax) * d + ax * e);
+    }
+}
+
+static double luma3(const float *p)
+{
+    return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+}
+
+/* The motion-compensated metrics of the frame just tone-mapped into s->to / s->tr (the last
+ * frame's in s->po / s->pr). */
+static void motion_metrics(ev_sequence *s, ev_frame_metrics *f)
+{
+    uint32_t w = s->w, h = s->h;
+    size_t n = (size_t)w * h;
+    const float miss = 1e29f;
+    double acc = 0;
+    uint64_t nvalid = 0, ndis = 0;
+    bool prev = s->count > 0 && s->have_prev_depth;
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t p = (size_t)y * w + x;
+            const float *m = s->motion + 3 * p;
+            double xp = x + (double)m[0], yp = y + (double)m[1], d = s->depth[p];
+            bool hit = d < miss, valid = false;
+            if (prev && isfinite(xp) && isfinite(yp) && xp >= -0.5 && yp >= -0.5 &&
+                xp < w - 0.5 && yp < h - 0.5) {
+                long ix = lround(xp), iy = lround(yp); /* (the nearest pixel, inside) */
+                ix = ix < 0 ? 0 : ix >= (long)w ? (long)w - 1 : ix;
+                iy = iy < 0 ? 0 : iy >= (long)h ? (long)h - 1 : iy;
+                double dp = s->prev_depth[(size_t)iy * w + ix];
+                valid = hit ? dp < miss && fabs(dp - (d + m[2])) <= 0.05 * d : !(dp < miss);
+            }
+            s->valid[p] = valid;
+            ndis += prev && hit && !valid;
+            if (valid) {
+                double wo[3], wr[3];
+                bilinear3(s->po, w, h, xp, yp, wo);
+                bilinear3(s->pr, w, h, xp, yp, wr);
+                for (int c = 0; c < 3; c++)
+                    acc += fabs((s->to[3 * p + c] - wo[c]) - (s->tr[3 * p + c] - wr[c]));
+                nvalid++;
+            }
+            /* static through the sequence: visible in the last frame and unmoved */
+            if (prev)
+                s->still[p] &= valid && fabsf(m[0]) < 0.01f && fabsf(m[1]) < 0.01f &&
+                               (!hit || fabs(m[2]) <= 1e-3 * d);
+            double yo = luma3(s->to + 3 * p), yr = luma3(s->tr + 3 * p);
+            double *ys = s->ysum + 4 * p;
+            ys[0] += yo, ys[1] += yo * yo, ys[2] += yr, ys[3] += yr * yr;
+        }
+    s->yframes++;
+    f->mc_temporal = prev && nvalid ? acc / (3.0 * (double)nvalid) : -1.0;
+    f->disoccluded = prev ? (double)ndis / (double)n : 0.0;
+    if (f->mc_temporal >= 0) {
+        s->mc_sum += f->mc_temporal;
+        s->mc_count++;
+    }
+    /* disocclusions: this frame's is a new event; every event settles when its pixels' error is
+     * back to the other visible pixels' */
+    if (prev && ndis) {
+        disocc_event *e = NULL;
+        for (int k = 0; k < EV_DISOCC_FRAMES && !e; k++)
+            if (!s->ev[k].active)
+                e = &s->ev[k];
+        if (e) { /* (at most one a frame, each settled within EV_DISOCC_FRAMES: always free) */
+            for (size_t p = 0; p < n; p++)
+                e->mask[p] = s->depth[p] < miss && !s->valid[p];
+            e->age = 0;
+            e->active = true;
+        }
+    }
+    double base = 0;
+    uint64_t nb = 0;
+    for (size_t p = 0; p < n; p++)
+        if (s->valid[p]) {
+            base += fabs(luma3(s->to + 3 * p) - luma3(s->tr + 3 * p));
+            nb++;
+        }
+    base = nb ? base / (double)nb : 0.0;
+    for (int k = 0; k < EV_DISOCC_FRAMES; k++) {
+        disocc_event *e = &s->ev[k];
+        if (!e->active)
+            continue;
+        double err = 0;
+        uint64_t ne = 0;
+        for (size_t p = 0; p < n; p++)
+            if (e->mask[p]) {
+                err += fabs(luma3(s->to + 3 * p) - luma3(s->tr + 3 * p));
+                ne++;
+            }
+        err = ne ? err / (double)ne : 0.0;
+        if (err <= EV_DISOCC_RATIO * base + EV_DISOCC_ABS || e->age + 1 >= EV_DISOCC_FRAMES) {
+            s->lag_sum += err <= EV_DISOCC_RATIO * base + EV_DISOCC_ABS ? e->age : EV_DISOCC_FRAMES;
+            s->lag_events++;
+            e->active = false;
+        } else {
+            e->age++;
+        }
+    }
+    memcpy(s->prev_depth, s->depth, n * sizeof(float));
+    s->have_prev_depth = true;
+    s->have_motion = false;
 }
 
 tnd_result ev_sequence_create(uint32_t w, uint32_t h, double exposure, double ppd, ev_sequence **out)
@@ -595,6 +762,11 @@ tnd_result ev_sequence_add(ev_sequence *s, uint32_t frame, const ev_image *out, 
     TND_TRY(ev_ssim(s->to, s->tr, s->w, s->h, &f->ssim));
     TND_TRY(ev_flip(s->tr, s->to, s->w, s->h, s->ppd, flip_map, &f->flip));
     f->temporal = -1.0;
+    f->mc_temporal = -1.0;
+    if (s->have_motion)
+        motion_metrics(s, f);
+    else
+        s->have_prev_depth = false; /* (motion must be given for consecutive frames) */
     if (s->count > 0) {
         double t = 0;
         for (size_t k = 0; k < n * 3; k++)
@@ -642,4 +814,24 @@ void ev_sequence_summary(const ev_sequence *s, ev_summary *out)
     out->flip *= k;
     out->temporal = s->temporal_count ? s->sum.temporal / s->temporal_count : -1.0;
     out->changes = lag_of(s->lag, s->count, &out->lag);
+    out->mc_temporal = s->mc_count ? s->mc_sum / s->mc_count : -1.0;
+    out->disocclusions = s->lag_events;
+    out->disocclusion_lag = s->lag_events ? s->lag_sum / s->lag_events : -1.0;
+    out->flicker = out->flicker_ref = -1.0;
+    out->static_pixels = 0;
+    if (s->ysum && s->yframes >= 3) { /* population standard deviations over the frames */
+        double fo = 0, fr = 0, inv = 1.0 / s->yframes;
+        for (size_t p = 0; p < (size_t)s->w * s->h; p++) {
+            if (!s->still[p])
+                continue;
+            const double *y = s->ysum + 4 * p;
+            fo += sqrt(fmax(0.0, y[1] * inv - (y[0] * inv) * (y[0] * inv)));
+            fr += sqrt(fmax(0.0, y[3] * inv - (y[2] * inv) * (y[2] * inv)));
+            out->static_pixels++;
+        }
+        if (out->static_pixels) {
+            out->flicker = fo / (double)out->static_pixels;
+            out->flicker_ref = fr / (double)out->static_pixels;
+        }
+    }
 }

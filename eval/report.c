@@ -76,20 +76,29 @@ static tnd_result write_file(const char *dir, const char *name, const ev_text *t
 }
 
 /* ---- metrics.json / metrics.csv ------------------------------------------------------------- */
-static const char *const metric_names[] = {"relmse", "smape", "rmse", "psnr", "ssim", "flip",
-                                           "temporal"};
-enum { METRICS = 7 };
+static const char *const metric_names[] = {"relmse", "smape",    "rmse",        "psnr",
+                                           "ssim",   "flip",     "temporal",    "mc_temporal",
+                                           "disoccluded"};
+enum { METRICS = 9 };
 
 static double frame_metric(const ev_frame_metrics *f, int k)
 {
-    const double v[METRICS] = {f->relmse, f->smape, f->rmse, f->psnr, f->ssim, f->flip, f->temporal};
+    const double v[METRICS] = {f->relmse, f->smape,    f->rmse,        f->psnr,       f->ssim,
+                               f->flip,   f->temporal, f->mc_temporal, f->disoccluded};
     return v[k];
 }
 
 static double summary_metric(const ev_summary *s, int k)
 {
-    const double v[METRICS] = {s->relmse, s->smape, s->rmse, s->psnr, s->ssim, s->flip, s->temporal};
+    const double v[METRICS] = {s->relmse, s->smape,    s->rmse,        s->psnr, s->ssim,
+                               s->flip,   s->temporal, s->mc_temporal, -1.0};
     return v[k];
+}
+
+/* temporal, mc_temporal: none for the first frame (or without motion); null in JSON */
+static bool metric_missing(int k, double v)
+{
+    return (k == 6 || k == 7 || k == 8) && v < 0;
 }
 
 static int metric_index(const char *name)
@@ -117,8 +126,19 @@ tnd_result ev_write_metrics(const char *dir, const ev_series *s, uint32_t nserie
         cJSON_AddItemToArray(arr, o);
         cJSON_AddStringToObject(o, "name", s[i].name);
         cJSON *sum = cJSON_AddObjectToObject(o, "summary");
-        for (int k = 0; k < METRICS; k++)
-            cJSON_AddNumberToObject(sum, metric_names[k], summary_metric(&s[i].summary, k));
+        for (int k = 0; k < METRICS; k++) {
+            double v = summary_metric(&s[i].summary, k);
+            if (metric_missing(k, v))
+                cJSON_AddNullToObject(sum, metric_names[k]);
+            else
+                cJSON_AddNumberToObject(sum, metric_names[k], v);
+        }
+        const ev_summary *sm = &s[i].summary;
+        cJSON_AddNumberToObject(sum, "flicker", sm->flicker);
+        cJSON_AddNumberToObject(sum, "flicker_reference", sm->flicker_ref);
+        cJSON_AddNumberToObject(sum, "static_pixels", (double)sm->static_pixels);
+        cJSON_AddNumberToObject(sum, "disocclusion_lag", sm->disocclusion_lag);
+        cJSON_AddNumberToObject(sum, "disocclusions", sm->disocclusions);
         cJSON_AddNumberToObject(sum, "lag", s[i].summary.lag);
         cJSON_AddNumberToObject(sum, "lighting_changes", s[i].summary.changes);
         cJSON_AddNumberToObject(sum, "nonfinite", (double)s[i].summary.nonfinite);
@@ -134,7 +154,7 @@ tnd_result ev_write_metrics(const char *dir, const ev_series *s, uint32_t nserie
             ev_text_add(&csv, "%s,%u", s[i].name, m->frame);
             for (int k = 0; k < METRICS; k++) {
                 double v = frame_metric(m, k);
-                if (k == 6 && v < 0) { /* no temporal error for the first frame */
+                if (metric_missing(k, v)) { /* no temporal error for the first frame */
                     cJSON_AddNullToObject(x, metric_names[k]);
                     ev_text_add(&csv, ",");
                 } else {
@@ -148,8 +168,13 @@ tnd_result ev_write_metrics(const char *dir, const ev_series *s, uint32_t nserie
     }
     for (uint32_t i = 0; i < nseries; i++) {
         ev_text_add(&csv, "%s,mean", s[i].name);
-        for (int k = 0; k < METRICS; k++)
-            ev_text_add(&csv, ",%.9g", summary_metric(&s[i].summary, k));
+        for (int k = 0; k < METRICS; k++) {
+            double v = summary_metric(&s[i].summary, k);
+            if (metric_missing(k, v))
+                ev_text_add(&csv, ",");
+            else
+                ev_text_add(&csv, ",%.9g", v);
+        }
         ev_text_add(&csv, ",%llu\n", (unsigned long long)s[i].summary.nonfinite);
     }
     char *txt = cJSON_Print(root);
@@ -325,7 +350,9 @@ tnd_result ev_plot_metric(const char *path, const char *metric, const ev_series 
         "relMSE (linear, eps 0.01), lower is better", "SMAPE (linear), lower is better",
         "RMSE (linear), lower is better", "PSNR (tone-mapped sRGB, dB), higher is better",
         "SSIM (tone-mapped sRGB), higher is better", "LDR-FLIP (67 ppd), lower is better",
-        "temporal error (tone-mapped), lower is better"};
+        "temporal error (tone-mapped), lower is better",
+        "motion-compensated temporal error (tone-mapped), lower is better",
+        "disoccluded fraction of the pixels (the reference's motion)"};
     double *v = malloc((size_t)nseries * count * sizeof(double) + 16);
     double *fr = malloc((size_t)count * sizeof(double) + 16);
     if (!v || !fr) {
@@ -336,7 +363,7 @@ tnd_result ev_plot_metric(const char *path, const char *metric, const ev_series 
     for (uint32_t i = 0; i < nseries; i++)
         for (uint32_t f = 0; f < count; f++) {
             double x = frame_metric(&s[i].m[f], k);
-            v[i * count + f] = k == 6 && x < 0 ? NAN : x;
+            v[i * count + f] = metric_missing(k, x) ? NAN : x;
         }
     for (uint32_t f = 0; f < count; f++)
         fr[f] = nseries ? s[0].m[f].frame : f;
@@ -461,22 +488,33 @@ tnd_result ev_report_write(const ev_report *r)
     ev_text_add(&t, "</h1>\n");
     if (r->series && r->nseries) {
         ev_text_add(&t, "<h2>Summary (means over frames)</h2>\n<table><tr><th>series</th>");
-        static const char *const head[METRICS] = {"relMSE", "SMAPE", "RMSE", "PSNR dB", "SSIM",
-                                                  "FLIP", "temporal"};
-        for (int k = 0; k < METRICS; k++)
+        static const char *const head[METRICS] = {"relMSE", "SMAPE",    "RMSE",
+                                                  "PSNR dB", "SSIM",    "FLIP",
+                                                  "temporal", "temporal (motion-comp.)", ""};
+        for (int k = 0; k < METRICS - 1; k++)
             ev_text_add(&t, "<th>%s</th>", head[k]);
-        ev_text_add(&t, "<th>lag (frames)</th><th>non-finite</th></tr>\n");
+        ev_text_add(&t, "<th>flicker (static pixels; reference)</th><th>lag after a "
+                        "disocclusion</th><th>lag (frames)</th><th>non-finite</th></tr>\n");
         for (uint32_t i = 0; i < r->nseries; i++) {
             ev_text_add(&t, "<tr><td>");
             ev_text_escaped(&t, r->series[i].name);
             ev_text_add(&t, "</td>");
-            for (int k = 0; k < METRICS; k++) {
+            for (int k = 0; k < METRICS - 1; k++) {
                 double v = summary_metric(&r->series[i].summary, k);
-                if (k == 6 && v < 0)
+                if (metric_missing(k, v))
                     ev_text_add(&t, "<td>-</td>");
                 else
                     ev_text_add(&t, "<td>%.5g</td>", v);
             }
+            const ev_summary *sm = &r->series[i].summary;
+            if (sm->flicker >= 0)
+                ev_text_add(&t, "<td>%.4g (%.4g)</td>", sm->flicker, sm->flicker_ref);
+            else
+                ev_text_add(&t, "<td>-</td>");
+            if (sm->disocclusion_lag >= 0)
+                ev_text_add(&t, "<td>%.2f (%u)</td>", sm->disocclusion_lag, sm->disocclusions);
+            else
+                ev_text_add(&t, "<td>-</td>");
             if (r->series[i].summary.lag >= 0)
                 ev_text_add(&t, "<td>%.2f (%u change%s)</td>", r->series[i].summary.lag,
                             r->series[i].summary.changes, r->series[i].summary.changes == 1 ? "" : "s");

@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
-"""tests/metrics_reference.py OUT REF FRAME... : an independent implementation of docs/metrics.md
+"""tests/metrics_reference.py OUT REF FRAME... [--motion]: an independent implementation of docs/metrics.md
 (numpy + OpenImageIO, written from the definitions, not from eval/'s C): prints per-frame
 relMSE, SMAPE, RMSE, PSNR, SSIM and LDR-FLIP of OUT/frame_NNNN.exr against REF/frame_NNNN.exr,
-with the automatic exposure of the whole sequence, as JSON. tests/test_cli.sh compares it with
-`tandem eval`'s metrics.json."""
+with the automatic exposure of the whole sequence, as JSON; with --motion also the
+motion-compensated temporal error per frame, the flicker on static pixels and the lag after a
+disocclusion over the whole sequence (REF/frame_NNNN.motion.exr). tests/test_cli.sh compares it
+with `tandem eval`'s metrics.json."""
 import glob
 import json
 import os
@@ -124,8 +126,93 @@ def flip(ref, test, ppd=0.7 * 3840 / 0.7 * np.pi / 180):
     return float(np.mean(color ** (1 - df)))
 
 
+def read_motion(path):
+    img = oiio.ImageInput.open(path)
+    if img is None:
+        raise SystemExit(f"cannot open {path}")
+    spec = img.spec()
+    names = list(spec.channelnames)
+    px = np.asarray(img.read_image(format="float"), np.float64).reshape(
+        spec.height, spec.width, spec.nchannels)
+    img.close()
+    m = np.stack([px[:, :, names.index(f"motion.{c}")] for c in "XYZ"], -1)
+    return m, px[:, :, names.index("depth.Z")]
+
+
+def bilinear(img, x, y):
+    """img at pixel-centre coordinates (x, y) (pixel i's centre at i), edge-clamped."""
+    h, w = img.shape[:2]
+    x0, y0 = np.floor(x), np.floor(y)
+    ax, ay = (x - x0)[..., None], (y - y0)[..., None]
+    xi = [np.clip(x0 + k, 0, w - 1).astype(int) for k in (0, 1)]
+    yi = [np.clip(y0 + k, 0, h - 1).astype(int) for k in (0, 1)]
+    top = (1 - ax) * img[yi[0], xi[0]] + ax * img[yi[0], xi[1]]
+    bot = (1 - ax) * img[yi[1], xi[0]] + ax * img[yi[1], xi[1]]
+    return (1 - ay) * top + ay * bot
+
+
+def motion_metrics(tos, trs, motions, depths):
+    """docs/metrics.md's motion-compensated temporal error, flicker on static pixels and lag after
+    a disocclusion, from the tone-mapped frames and the reference's motion and depth."""
+    h, w = depths[0].shape
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    miss = 1e29
+    still = np.ones((h, w), bool)
+    yo_all, yr_all, frames, events, lags = [], [], [], [], []
+    for t, (to, tr, m, d) in enumerate(zip(tos, trs, motions, depths)):
+        hit = d < miss
+        valid = np.zeros((h, w), bool)
+        rec = {"mc_temporal": None, "disoccluded": 0.0}
+        if t > 0:
+            xp, yp = xx + m[..., 0], yy + m[..., 1]
+            inside = np.isfinite(xp) & np.isfinite(yp) & (xp >= -0.5) & (yp >= -0.5) & \
+                (xp < w - 0.5) & (yp < h - 0.5)
+            rnd = lambda v: np.where(v >= 0, np.floor(v + 0.5), -np.floor(-v + 0.5))
+            ix = np.clip(rnd(np.nan_to_num(xp)), 0, w - 1).astype(int)
+            iy = np.clip(rnd(np.nan_to_num(yp)), 0, h - 1).astype(int)
+            dp = depths[t - 1][iy, ix]
+            same = np.where(hit, (dp < miss) & (np.abs(dp - (d + m[..., 2])) <= 0.05 * d),
+                            dp >= miss)
+            valid = inside & same
+            wo = bilinear(tos[t - 1], np.nan_to_num(xp), np.nan_to_num(yp))
+            wr = bilinear(trs[t - 1], np.nan_to_num(xp), np.nan_to_num(yp))
+            diff = np.abs((to - wo) - (tr - wr))[valid]
+            rec["mc_temporal"] = float(diff.mean()) if valid.any() else None
+            dis = hit & ~valid
+            rec["disoccluded"] = float(dis.mean())
+            still &= valid & (np.abs(m[..., 0]) < 0.01) & (np.abs(m[..., 1]) < 0.01) & \
+                (~hit | (np.abs(m[..., 2]) <= 1e-3 * d))
+            if dis.any():
+                events.append({"mask": dis, "age": 0})
+        frames.append(rec)
+        yo, yr = luma(to), luma(tr)
+        yo_all.append(yo)
+        yr_all.append(yr)
+        err = np.abs(yo - yr)
+        base = err[valid].mean() if valid.any() else 0.0
+        left = []
+        for ev in events:
+            e = err[ev["mask"]].mean()
+            if e <= 1.25 * base + 0.002 or ev["age"] + 1 >= 16:
+                lags.append(ev["age"] if e <= 1.25 * base + 0.002 else 16)
+            else:
+                ev["age"] += 1
+                left.append(ev)
+        events = left
+    mc = [f["mc_temporal"] for f in frames if f["mc_temporal"] is not None]
+    out = {"frames": frames, "mc_temporal": float(np.mean(mc)) if mc else None,
+           "static_pixels": int(still.sum()), "disocclusions": len(lags),
+           "disocclusion_lag": float(np.mean(lags)) if lags else -1.0}
+    if len(tos) >= 3 and still.any():
+        out["flicker"] = float(np.std(np.stack(yo_all), axis=0)[still].mean())
+        out["flicker_reference"] = float(np.std(np.stack(yr_all), axis=0)[still].mean())
+    return out
+
+
 def main():
-    out_dir, ref_dir, frames = sys.argv[1], sys.argv[2], [int(f) for f in sys.argv[3:]]
+    motion = "--motion" in sys.argv
+    args = [a for a in sys.argv[1:] if a != "--motion"]
+    out_dir, ref_dir, frames = args[0], args[1], [int(f) for f in args[2:]]
     outs = [np.nan_to_num(read(f"{out_dir}/frame_{f:04d}.exr"), nan=0, posinf=0, neginf=0) for f in frames]
     refs = [read(f"{ref_dir}/frame_{f:04d}.exr") for f in frames]
     # the exposure comes from every reference frame the run also has (as `tandem eval` does)
@@ -145,7 +232,17 @@ def main():
                     "psnr": float(10 * np.log10(1 / max(mse, 1e-10))),
                     "ssim": ssim(to, tr),
                     "flip": flip(tr, to)})
-    print(json.dumps({"exposure": e, "frames": res}))
+    result = {"exposure": e, "frames": res}
+    if motion:  # over every frame the run shares with the reference, in order
+        seq = [int(os.path.basename(p)[6:10]) for p in every]
+        tos = [tonemap(np.nan_to_num(read(f"{out_dir}/frame_{f:04d}.exr"), nan=0, posinf=0,
+                                     neginf=0), e) for f in seq]
+        trs = [tonemap(read(f"{ref_dir}/frame_{f:04d}.exr"), e) for f in seq]
+        mo = [read_motion(f"{ref_dir}/frame_{f:04d}.motion.exr") for f in seq]
+        result["motion"] = motion_metrics(tos, trs, [m for m, _ in mo], [d for _, d in mo])
+        for f, r in zip(seq, result["motion"]["frames"]):
+            r["frame"] = f
+    print(json.dumps(result))
 
 
 if __name__ == "__main__":

@@ -196,7 +196,7 @@ PY=python3; [ -x /usr/bin/python3 ] && PY=/usr/bin/python3   # Debian's, with nu
 [ $rc -eq 0 ] && [ -f "$tmp/ev_run/metrics.json" ] && [ -f "$tmp/ev_run/metrics.csv" ] &&
     grep -q "^denoised,mean," "$tmp/ev_run/metrics.csv" && grep -q "^noisy (1 spp),3," "$tmp/ev_run/metrics.csv"
 check "eval writes metrics.json and metrics.csv (denoised and noisy series)" $?
-$PY "$SRC/tests/metrics_reference.py" "$tmp/ev_run" "$tmp/ev_ref" 0 3 5 >"$tmp/ev_py.json" 2>"$tmp/err" &&
+$PY "$SRC/tests/metrics_reference.py" "$tmp/ev_run" "$tmp/ev_ref" 0 3 5 --motion >"$tmp/ev_py.json" 2>"$tmp/err" &&
 $PY - "$tmp/ev_py.json" "$tmp/ev_run/metrics.json" <<'PY'
 import json, sys
 py = json.load(open(sys.argv[1]))
@@ -210,8 +210,20 @@ for p in py["frames"]:
         assert abs(a - b) <= 1e-3 * abs(a), (p["frame"], k, a, b)
 s = c["series"]
 assert s[0]["summary"]["relmse"] < s[1]["summary"]["relmse"], "denoised must beat noisy"
+# with the reference's motion (frame_NNNN.motion.exr): per frame and over the sequence
+mo = py["motion"]
+for p in mo["frames"]:
+    a, b = p["mc_temporal"], den[p["frame"]]["mc_temporal"]
+    assert (a is None) == (b is None) and (a is None or abs(a - b) <= 1e-3 * a), (p, b)
+    assert abs(p["disoccluded"] - den[p["frame"]]["disoccluded"]) < 1e-9, p
+sm = s[0]["summary"]
+for k in ("mc_temporal", "flicker", "flicker_reference"):
+    assert abs(mo[k] - sm[k]) <= 1e-3 * abs(mo[k]), (k, mo[k], sm[k])
+for k in ("static_pixels", "disocclusions", "disocclusion_lag"):
+    assert mo[k] == sm[k], (k, mo[k], sm[k])
+assert sm["disocclusions"] > 0 and sm["static_pixels"] > 0, sm  # (the cube moves, a wall stays)
 PY
-check "eval's relMSE, SMAPE, RMSE, PSNR, SSIM and FLIP match numpy + OpenImageIO within 1e-3" $?
+check "eval's relMSE, SMAPE, RMSE, PSNR, SSIM, FLIP and motion-compensated metrics match numpy within 1e-3" $?
 chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom \
     "file://$tmp/ev_report/index.html" >"$tmp/dom" 2>/dev/null
 n_img=$(grep -o '<img ' "$tmp/ev_report/index.html" | wc -l)
