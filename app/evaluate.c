@@ -5,6 +5,7 @@
  * app_eval_report, app_eval_free, app_list_frames. */
 #include "app/app.h"
 
+#include <cjson/cJSON.h>
 #include <dirent.h>
 #include <math.h>
 #include <stdio.h>
@@ -432,6 +433,122 @@ static void crop(const float *rgb, uint32_t w, uint32_t x0, uint32_t y0, uint32_
                     rgb[3 * ((size_t)(y0 + y / s) * w + x0 + x / s) + k];
 }
 
+/* The report you can watch: REPORT/viewer.html and viewer.js, every frame of the reference and
+ * of every series (frames/fNNNN.js, linear HDR at most EV_VIEWER_MAX_SIZE a side), each series'
+ * FLIP map per frame (frames/fNNNN_sI_flip.png) and report.js (the frames, the per-frame
+ * metrics the plots draw, the settings, the run's frame rate). */
+static tnd_result write_viewer(app_eval *e, const char *dir, const char *title,
+                               const char *settings)
+{
+    tnd_result res = TND_OK;
+    uint32_t w = e->width, h = e->height, ns = e->nseries, f = ev_viewer_scale(w, h);
+    uint32_t vw = w / f, vh = h / f;
+    size_t n = (size_t)w * h;
+    char fdir[1300], path[1500];
+    ev_image ref = {0}, img[APP_EVAL_MAX_SERIES] = {{0}};
+    float *tr = malloc(n * 3 * sizeof(float)), *tm = malloc(n * 3 * sizeof(float));
+    float *map = malloc(n * sizeof(float)), *col = malloc(n * 3 * sizeof(float));
+    float *small = malloc((size_t)vw * vh * 3 * sizeof(float));
+    cJSON *root = NULL;
+    char *txt = NULL;
+    if (!tr || !tm || !map || !col || !small) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+        goto fail;
+    }
+    snprintf(fdir, sizeof fdir, "%s/frames", dir);
+    TND_TRY(tnd_mkdirs(fdir));
+    TND_TRY(ev_viewer_assets(dir));
+    for (uint32_t k = 0; k < e->count; k++) {
+        uint32_t fr = e->frames[k];
+        const float *hdr[APP_EVAL_MAX_SERIES + 1];
+        TND_TRY(load(e, NULL, fr, &ref, NULL, NULL));
+        hdr[0] = ref.rgb;
+        ev_tonemap(&ref, e->exposure, tr);
+        for (uint32_t i = 0; i < ns; i++) {
+            TND_TRY(load(e, &e->series[i], fr, &img[i], NULL, NULL));
+            hdr[i + 1] = img[i].rgb;
+            ev_tonemap(&img[i], e->exposure, tm);
+            double mean;
+            TND_TRY(ev_flip(tr, tm, w, h, e->ppd, map, &mean));
+            ev_colormap(map, n, col);
+            for (uint32_t y = 0; y < vh; y++) /* (box filter to the viewer's size) */
+                for (uint32_t x = 0; x < vw; x++)
+                    for (int c = 0; c < 3; c++) {
+                        double sum = 0;
+                        for (uint32_t j = 0; j < f; j++)
+                            for (uint32_t q = 0; q < f; q++)
+                                sum += col[3 * ((size_t)(y * f + j) * w + x * f + q) + c];
+                        small[3 * ((size_t)y * vw + x) + c] = (float)(sum / (f * f));
+                    }
+            snprintf(path, sizeof path, "%s/f%04u_s%u_flip.png", fdir, fr, i);
+            TND_TRY(ev_write_png(path, small, vw, vh));
+        }
+        snprintf(path, sizeof path, "%s/f%04u.js", fdir, fr);
+        TND_TRY(ev_viewer_frame(path, k, hdr, ns + 1, w, h));
+        ev_image_free(&ref);
+        for (uint32_t i = 0; i < ns; i++)
+            ev_image_free(&img[i]);
+    }
+    root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "title", title);
+    cJSON *set = settings ? cJSON_Parse(settings) : NULL;
+    const cJSON *fps = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(set, "run"),
+                                                        "fps");
+    cJSON_AddNumberToObject(root, "fps", cJSON_IsNumber(fps) ? fps->valuedouble : 30.0);
+    cJSON_AddNumberToObject(root, "width", vw);
+    cJSON_AddNumberToObject(root, "height", vh);
+    cJSON_AddNumberToObject(root, "exposure", e->exposure);
+    cJSON *frames = cJSON_AddArrayToObject(root, "frames");
+    cJSON *sources = cJSON_AddArrayToObject(root, "sources");
+    cJSON *series = cJSON_AddArrayToObject(root, "series");
+    for (uint32_t k = 0; k < e->count; k++)
+        cJSON_AddItemToArray(frames, cJSON_CreateNumber(e->frames[k]));
+    cJSON_AddItemToArray(sources, cJSON_CreateString("reference"));
+    for (uint32_t i = 0; i < ns; i++) {
+        cJSON_AddItemToArray(sources, cJSON_CreateString(e->series[i].name));
+        cJSON_AddItemToArray(series, cJSON_CreateString(e->series[i].name));
+    }
+    cJSON *metrics = cJSON_AddObjectToObject(root, "metrics");
+    const char *names[4] = {"relmse", "flip", "temporal", "mc_temporal"};
+    for (int m = 0; m < 4; m++) {
+        cJSON *rows = cJSON_AddArrayToObject(metrics, names[m]);
+        bool any = false;
+        for (uint32_t i = 0; i < ns; i++) {
+            cJSON *row = cJSON_CreateArray();
+            for (uint32_t k = 0; k < e->count; k++) {
+                const ev_frame_metrics *fm = &e->series[i].m[k];
+                double v = m == 0 ? fm->relmse : m == 1 ? fm->flip : m == 2 ? fm->temporal
+                                                                            : fm->mc_temporal;
+                any |= v >= 0 && m >= 2;
+                cJSON_AddItemToArray(row, v < 0 ? cJSON_CreateNull() : cJSON_CreateNumber(v));
+            }
+            cJSON_AddItemToArray(rows, row);
+        }
+        if (m >= 2 && !any) /* (no motion: no plot of it) */
+            cJSON_DeleteItemFromObject(metrics, names[m]);
+    }
+    cJSON_AddItemToObject(root, "settings", set ? set : cJSON_CreateObject());
+    txt = cJSON_PrintUnformatted(root);
+    if (!txt) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+        goto fail;
+    }
+    ev_text js = {0};
+    ev_text_add(&js, "var TND_REPORT = %s;\n", txt);
+    snprintf(path, sizeof path, "%s/report.js", dir);
+    res = js.failed ? tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory")
+                    : tnd_file_write_atomic(path, js.s, js.len);
+    ev_text_free(&js);
+fail:
+    cJSON_Delete(root);
+    free(txt);
+    ev_image_free(&ref);
+    for (uint32_t i = 0; i < ns; i++)
+        ev_image_free(&img[i]);
+    free(tr), free(tm), free(map), free(col), free(small);
+    return res;
+}
+
 tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, const char *settings,
                            const char *html)
 {
@@ -553,9 +670,19 @@ tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, cons
         crow->count = 1 + ns;
         ev_image_free(&ref);
     }
-    TND_TRY(ev_report_write(&(ev_report){.dir = dir, .title = title, .settings = settings,
-                                         .series = series, .nseries = ns, .plots = plots,
-                                         .nplots = 7, .rows = rows, .nrows = nrows, .html = html}));
+    TND_TRY(write_viewer(e, dir, title, settings));
+    ev_text page = {0}; /* the way to the viewer first, then the caller's sections */
+    ev_text_add(&page, "<p><b><a href=\"viewer.html\">Watch every frame</a></b>: a scrubber, "
+                       "play/pause, A/B swipe and side by side with linked zoom, exposure, error "
+                       "and FLIP maps per frame, plots linked to the frames.</p>\n%s",
+                html ? html : "");
+    res = page.failed ? tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory")
+                      : ev_report_write(&(ev_report){.dir = dir, .title = title,
+                                                     .settings = settings, .series = series,
+                                                     .nseries = ns, .plots = plots, .nplots = 7,
+                                                     .rows = rows, .nrows = nrows,
+                                                     .html = page.s});
+    ev_text_free(&page);
 fail:
     for (uint32_t i = 0; i < ns; i++)
         free(regions[i]);

@@ -166,6 +166,14 @@ typedef struct ev_report {
 /* DIR/index.html: works offline from the file system; its script marks <body data-status="ok">
  * once every image has loaded (data-images: how many), "error" otherwise (headless checks). */
 tnd_result ev_report_write(const ev_report *r);
+/* The report you can watch (REPORT/viewer.html, eval/viewer.c): its page and script; one frame's
+ * images (n linear RGB images of w x h, downscaled by ev_viewer_scale to at most
+ * EV_VIEWER_MAX_SIZE a side) as RGBE PNG data URIs in a script calling TND_FRAME(index, [...]). */
+#define EV_VIEWER_MAX_SIZE 640
+tnd_result ev_viewer_assets(const char *dir);
+uint32_t ev_viewer_scale(uint32_t w, uint32_t h);
+tnd_result ev_viewer_frame(const char *path, uint32_t index, const float *const *hdr, uint32_t n,
+                           uint32_t w, uint32_t h);
 /* Text with <, >, & and quotes escaped, appended to a growing buffer. */
 typedef struct ev_text {
     char *s;

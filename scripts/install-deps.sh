@@ -75,4 +75,17 @@ if ! mesa_ok; then
         mesa_ok || log "warning: mesa-vulkan-drivers < 24.1: lavapipe has no ray tracing here"
     fi
 fi
+# Browser tests of the HTML reports: Node.js and npm (Debian's, unless a node is already there),
+# then puppeteer-core from npm at the version package-lock.json pins (it drives Debian's
+# chromium; it downloads no browser).
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+    apt_update
+    log "installing nodejs npm"
+    $SUDO apt-get install -y -qq --no-install-recommends nodejs npm
+fi
+here=$(cd "$(dirname "$0")/.." && pwd)
+if [ ! -d "$here/tests/browser/node_modules/puppeteer-core" ]; then
+    log "npm ci (tests/browser: puppeteer-core)"
+    (cd "$here/tests/browser" && PUPPETEER_SKIP_DOWNLOAD=1 npm ci --no-audit --no-fund --silent)
+fi
 log "all dependencies present"
