@@ -262,7 +262,8 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
             snprintf(es->bounces, sizeof es->bounces, "%s", bounces);
             snprintf(es->size, sizeof es->size, "%s", run_size);
             snprintf(es->dir, sizeof es->dir, "%s/matched/bounces%s_%s", out, bounces, run_size);
-            char *margs[] = {"reference", "--estimator", "realtime", "--frontend", "vk",
+            /* (Embree: the same samples as Vulkan's, without a contract read back per sample) */
+            char *margs[] = {"reference", "--estimator", "realtime", "--frontend", "embree",
                              "--scene", (char *)scene, "--frames", fr, "--size", run_size,
                              "--bounces", (char *)bounces, "--spp", sp, "--out", es->dir,
                              "--quiet"};
