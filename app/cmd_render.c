@@ -6,8 +6,7 @@
 #include "shaders/specular.h"
 #include "composite/composite.h"
 #include "denoise/denoise.h"
-#include "frontend_embree/frontend_embree.h"
-#include "frontend_vk/frontend_vk.h"
+#include "pipeline/pipeline.h"
 #include "shaders/sampling.h"
 
 #include <cjson/cJSON.h>
@@ -204,10 +203,9 @@ static void on_ref_progress(uint32_t done, uint32_t total, void *user)
  * (uniform in the pixel, so that over the samples each pixel's area is integrated as the
  * unbiased reference does), composited as `render --denoiser off` does (composite and
  * interleave) and averaged; stops early as stats->until_noise says. */
-static tnd_result matched_reference(fvk_context *gv, tnd_vk *vk, femb_context *fe,
-                                    const render_opts *o, unsigned f, tnd_frame *frame,
-                                    float *rgb, float *lum_se, tnd_ref_stats *stats,
-                                    ref_progress *rp)
+static tnd_result matched_reference(pl_frontend *fr, const render_opts *o, unsigned f,
+                                    tnd_frame *frame, float *rgb, float *lum_se,
+                                    tnd_ref_stats *stats, ref_progress *rp)
 {
     tnd_result res = TND_OK;
     size_t n = (size_t)o->size[0] * o->size[1];
@@ -222,16 +220,9 @@ static tnd_result matched_reference(fvk_context *gv, tnd_vk *vk, femb_context *f
         uint32_t key = tnd_reference_sample(s);
         float jit[2] = {tnd_rand(0, f, key, TND_DIM_JITTER_X) - 0.5f,
                         tnd_rand(0, f, key, TND_DIM_JITTER_Y) - 0.5f};
-        if (gv) {
-            fvk_params p = {.bounces = o->bounces, .sample = key, .set_jitter = true,
-                            .jitter = {jit[0], jit[1]}};
-            TND_TRY(fvk_render(gv, &p, NULL));
-            TND_TRY(tnd_contract_download(vk, fvk_contract(gv), frame));
-        } else {
-            femb_params p = {.bounces = o->bounces, .sample = key, .set_jitter = true,
-                             .jitter = {jit[0], jit[1]}};
-            TND_TRY(femb_render(fe, &p, frame, NULL));
-        }
+        pl_params p = {.bounces = o->bounces, .sample = key, .set_jitter = true,
+                       .jitter = {jit[0], jit[1]}};
+        TND_TRY(pl_frontend_render(fr, &p, frame, NULL));
         tnd_frame_composite(frame, one);
         tnd_frame_interleave(frame, one);
         for (size_t q = 0; q < n; q++) {
@@ -258,16 +249,11 @@ fail:
 
 /* REFDIR/frame_NNNN.motion.exr: the frame's motion and depth at the pixel centres (the primary
  * pass without jitter), for eval's motion-compensated metrics. */
-static tnd_result write_reference_motion(fvk_context *gv, tnd_vk *vk, femb_context *fe,
-                                         const render_opts *o, unsigned f, tnd_frame *frame)
+static tnd_result write_reference_motion(pl_frontend *fr, const render_opts *o, unsigned f,
+                                         tnd_frame *frame)
 {
     tnd_result res = TND_OK;
-    if (gv) {
-        TND_TRY(fvk_render(gv, &(fvk_params){.bounces = 0, .set_jitter = true}, NULL));
-        TND_TRY(tnd_contract_download(vk, fvk_contract(gv), frame));
-    } else {
-        TND_TRY(femb_render(fe, &(femb_params){.bounces = 0, .set_jitter = true}, frame, NULL));
-    }
+    TND_TRY(pl_frontend_render(fr, &(pl_params){.bounces = 0, .set_jitter = true}, frame, NULL));
     const float *m = tnd_frame_f(frame, TND_CT_MOTION), *d = tnd_frame_f(frame, TND_CT_DEPTH);
     tnd_exr_channel_desc ch[4] = {{"motion.X", TND_EXR_FLOAT, (const uint32_t *)m, 3},
                                   {"motion.Y", TND_EXR_FLOAT, (const uint32_t *)m + 1, 3},
@@ -366,7 +352,7 @@ static tnd_result post_desc(const render_opts *o, cmp_desc *d)
  * post passes ran, and why the others did not. */
 static tnd_result write_run_json(const render_opts *o, const char *device, const char *dn_mode_s,
                                  const cmp_desc *pd, const char *passes, const tnd_scene *scene,
-                                 const fvk_context *gv)
+                                 const pl_frontend *fr)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddNumberToObject(j, "contract_version", TND_CONTRACT_VERSION);
@@ -393,7 +379,7 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
         if (scene->features & (1u << b))
             cJSON_AddItemToArray(feat, cJSON_CreateString(tnd_feature_name(b)));
     /* what the front-end's shaders model (Embree's CPU code has no variants) */
-    cJSON_AddStringToObject(j, "frontend_models", gv ? fvk_variant(gv) : "everything (CPU code, no variants)");
+    cJSON_AddStringToObject(j, "frontend_models", pl_frontend_models(fr));
     cJSON_AddNumberToObject(j, "width", o->size[0]);
     cJSON_AddNumberToObject(j, "height", o->size[1]);
     cJSON_AddNumberToObject(j, "frames", o->frames);
@@ -489,14 +475,13 @@ static int run(bool reference, int argc, char **argv)
     if (res != TND_OK)
         return app_report(what, res);
     tnd_scene *scene = NULL;
-    femb_context *fe = NULL;
     tnd_vk vk = {0};
-    fvk_context *gv = NULL;
+    pl_frontend *fr = NULL;
     dn_context *dn = NULL;
     cmp_context *post = NULL;
     uint8_t *display = NULL;
     tnd_contract_gpu upload = {0};
-    bool use_vk = strcmp(o.frontend, "vk") == 0;
+    bool use_vk = pl_frontend_needs_gpu(o.frontend); /* (the contract on the GPU) */
     dn_mode dmode = DN_MODE_SVGF;
     if (!reference && (res = dn_mode_parse(o.denoiser, &dmode)) != TND_OK)
         return app_report(what, res);
@@ -518,7 +503,6 @@ static int run(bool reference, int argc, char **argv)
     tnd_ref_stats *ref_stats = NULL; /* reference: per frame */
     double *ref_noise = NULL;
     float *lum_se = NULL;
-    femb_gradient_sample *femb_grads = NULL;
     char path[2048], dir[1600];
     if (strlen(o.out) > 1500)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
@@ -549,25 +533,19 @@ static int run(bool reference, int argc, char **argv)
     if (use_dn && dmode == DN_MODE_ASVGF && (!use_vk || o.capture)) {
         uint32_t cap = dn_gradient_capacity(dn);
         grads = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *grads);
-        femb_grads = malloc((size_t)cap * sizeof *femb_grads);
-        if (!grads || !femb_grads) {
+        if (!grads) {
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
             goto fail;
         }
     }
-    if (use_vk) {
-        fvk_rt_api api;
-        TND_TRY(fvk_rt_api_parse(o.rt_api, &api));
-        TND_TRY(fvk_create(&vk, scene,
-                           &(fvk_desc){.precision = prec, .rt_api = api,
-                                       .full_pipeline = strcmp(o.pipeline, "full") == 0,
-                                       .reflect_depth = o.reflect_depth},
-                           &gv));
-    } else {
-        TND_TRY(femb_create(scene, &(femb_desc){.threads = o.threads,
-                                                 .reflect_depth = o.reflect_depth},
-                            &fe));
-    }
+    TND_TRY(pl_frontend_create(o.frontend, scene,
+                               &(pl_frontend_desc){.vk = use_vk ? &vk : NULL, .precision = prec,
+                                                   .rt_api = o.rt_api,
+                                                   .full_pipeline =
+                                                       strcmp(o.pipeline, "full") == 0,
+                                                   .reflect_depth = o.reflect_depth,
+                                                   .threads = o.threads},
+                               &fr));
     TND_TRY(tnd_mkdirs(o.out));
     if (!reference) {
         snprintf(path, sizeof path, "%s/timings.json", o.out);
@@ -611,28 +589,19 @@ static int run(bool reference, int argc, char **argv)
         if (i == 0)
             TND_TRY(tnd_scene_evaluate(scene, f > 0 ? (f - 1) / o.fps : 0.0, o.camera, aspect,
                                        prev));
-        if (!use_vk)
-            TND_TRY(femb_set_frame(fe, cur, prev, f, o.size[0], o.size[1]));
+        TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o.size[0], o.size[1]));
         if (reference) {
             tnd_ref_stats *rs = &ref_stats[i];
             rs->until_noise = o.until_noise;
             ref_progress rp = {&bar, i, o.frames};
-            if (use_vk)
-                TND_TRY(fvk_set_frame(gv, cur, prev, f, o.size[0], o.size[1]));
             TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
-            TND_TRY(write_reference_motion(gv, &vk, fe, &o, f, &frame));
+            TND_TRY(write_reference_motion(fr, &o, f, &frame));
             if (matched)
-                TND_TRY(matched_reference(gv, &vk, fe, &o, f, &frame, rgb, lum_se, rs, &rp));
+                TND_TRY(matched_reference(fr, &o, f, &frame, rgb, lum_se, rs, &rp));
             tnd_frame_destroy(&frame);
-            if (matched) {
-                /* (done above, in the frame's contract) */
-            } else if (use_vk) {
-                fvk_set_reference_bounces(gv, o.ref_bounces);
-                TND_TRY(fvk_reference(gv, o.spp, rgb, lum_se, rs, on_ref_progress, &rp));
-            } else {
-                femb_set_reference_bounces(fe, o.ref_bounces);
-                TND_TRY(femb_reference(fe, o.spp, rgb, lum_se, rs, on_ref_progress, &rp));
-            }
+            if (!matched)
+                TND_TRY(pl_frontend_reference(fr, o.ref_bounces, o.spp, rgb, lum_se, rs,
+                                              on_ref_progress, &rp));
             ref_noise[i] = noise_relmse(rgb, lum_se, (size_t)o.size[0] * o.size[1]);
             double err = rs->rel_error;
             snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
@@ -646,27 +615,9 @@ static int run(bool reference, int argc, char **argv)
             continue;
         }
         TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
-        double ms_primary = 0, ms_shade = 0, ms_tlas = 0, ms_gradients = 0;
-        if (use_vk) {
-            fvk_timings tm;
-            TND_TRY(fvk_set_frame(gv, cur, prev, f, o.size[0], o.size[1]));
-            TND_TRY(fvk_render(gv, &(fvk_params){.bounces = o.bounces}, &tm));
-            TND_TRY(tnd_contract_download(&vk, fvk_contract(gv), &frame));
-            frame.has_camera = true;
-            memcpy(frame.camera.view, cur->camera.view, sizeof frame.camera.view);
-            memcpy(frame.camera.proj, cur->camera.proj, sizeof frame.camera.proj);
-            memcpy(frame.camera.prev_view, prev->camera.view, sizeof frame.camera.prev_view);
-            memcpy(frame.camera.prev_proj, prev->camera.proj, sizeof frame.camera.prev_proj);
-            tnd_jitter(f, frame.camera.jitter);
-            frame.camera.frame_index = f;
-            ms_primary = tm.primary_ms, ms_shade = tm.shade_ms, ms_tlas = tm.tlas_ms;
-        } else {
-            /* both passes in one sweep: one time for the two (primary_ms; shade_ms 0) */
-            double ta = tnd_now();
-            TND_TRY(femb_render(fe, &(femb_params){.bounces = o.bounces}, &frame, NULL));
-            ms_primary = 1e3 * (tnd_now() - ta), ms_shade = 0.0;
-            tnd_frame_quantize(&frame, prec);
-        }
+        pl_timings tm = {0};
+        const pl_params fp = {.bounces = o.bounces};
+        TND_TRY(pl_frontend_render(fr, &fp, &frame, &tm));
         if (o.capture) {
             snprintf(path, sizeof path, "%s/frame_%04u.exr", dir, f);
             frame.gradients = use_dn && dmode == DN_MODE_ASVGF; /* the samples come beside it */
@@ -676,7 +627,7 @@ static int run(bool reference, int argc, char **argv)
         cmp_timings pt = {0};
         if (use_dn) {
             dn_frame df = dn_frame_for_camera(cur->camera.proj, o.size[1], f, i == 0);
-            const tnd_contract_gpu *ct = use_vk ? fvk_contract(gv) : &upload;
+            const tnd_contract_gpu *ct = use_vk ? pl_frontend_contract(fr) : &upload;
             if (!use_vk)
                 TND_TRY(tnd_contract_upload(&vk, &upload, &frame));
             if (dmode == DN_MODE_ASVGF) {
@@ -684,33 +635,22 @@ static int run(bool reference, int argc, char **argv)
                  * previous frame's random numbers on the surface seen there */
                 uint32_t n = 0;
                 if (use_vk && o.capture) { /* the list comes to the host, for the capture */
-                    fvk_timings tg = {0};
                     TND_TRY(dn_select_gradients(dn, ct, &df, grads, &n));
-                    TND_TRY(fvk_shade_gradients(gv, &(fvk_params){.bounces = o.bounces}, grads,
-                                                n, &tg));
-                    ms_gradients = tg.gradient_ms;
+                    TND_TRY(pl_frontend_reshade(fr, &fp, grads, n, NULL, &tm));
                     if (n) { /* the contract as re-shaded, at the samples */
                         if (!reshaded.block)
                             TND_TRY(tnd_frame_create(o.size[0], o.size[1], &reshaded));
-                        TND_TRY(tnd_contract_download(&vk, fvk_contract(gv), &reshaded));
+                        TND_TRY(tnd_contract_download(&vk, ct, &reshaded));
                         TND_TRY(write_gradients(dir, f, &reshaded, grads, n));
                     }
                 } else if (use_vk) { /* the sample list stays on the GPU */
-                    fvk_timings tg = {0};
                     VkBuffer slots_buf;
                     TND_TRY(dn_select_gradients_gpu(dn, ct, &df, &slots_buf, &n));
-                    TND_TRY(fvk_shade_gradient_slots(gv, &(fvk_params){.bounces = o.bounces},
-                                                     slots_buf, n, &tg));
-                    ms_gradients = tg.gradient_ms;
+                    TND_TRY(pl_frontend_reshade_slots(fr, &fp, slots_buf, n, &tm));
                 } else if ((res = dn_select_gradients(dn, ct, &df, grads, &n)) != TND_OK) {
                     goto fail;
-                } else if (n) {
-                    double ta = tnd_now();
-                    femb_gradient_unpack(grads, n, femb_grads);
-                    TND_TRY(femb_shade_gradients(fe, &(femb_params){.bounces = o.bounces},
-                                                 femb_grads, n, &frame));
-                    ms_gradients = 1e3 * (tnd_now() - ta);
-                    tnd_frame_quantize(&frame, prec);
+                } else if (n) { /* re-shaded into the host frame, which goes up again */
+                    TND_TRY(pl_frontend_reshade(fr, &fp, grads, n, &frame, &tm));
                     TND_TRY(tnd_contract_upload(&vk, &upload, &frame));
                     if (o.capture)
                         TND_TRY(write_gradients(dir, f, &frame, grads, n));
@@ -739,7 +679,7 @@ static int run(bool reference, int argc, char **argv)
                 "\"composite_ms\": %.4f, "
                 "\"interleave_ms\": %.4f, \"taa_ms\": %.4f, \"bloom_ms\": %.4f, "
                 "\"exposure_ms\": %.4f, \"tonemap_ms\": %.4f}",
-                i ? "," : "", f, ms_primary, ms_shade, ms_tlas, ms_gradients, dt.select_ms,
+                i ? "," : "", f, tm.primary_ms, tm.shade_ms, tm.tlas_ms, tm.gradient_ms, dt.select_ms,
                 dt.gradient_ms, dt.temporal_ms, dt.lf_ms, dt.atrous_ms,
                 dt.lf_beside_atrous ? "true" : "false", dt.composite_ms,
                 pt.interleave_ms, pt.taa_ms, pt.bloom_ms, pt.exposure_ms, pt.tonemap_ms);
@@ -770,7 +710,7 @@ static int run(bool reference, int argc, char **argv)
         TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
                                use_dn ? dn_mode_name(dmode) : "off (CPU composite)",
                                post ? cmp_settings(post) : &pd,
-                               post ? cmp_passes(post) : NULL, scene, gv));
+                               post ? cmp_passes(post) : NULL, scene, fr));
     if (o.video)
         TND_TRY(app_write_video(o.out, o.start, o.frames, o.fps));
     if ((use_vk || use_dn) && vk.validation && tnd_vk_validation_errors(&vk)) {
@@ -779,12 +719,7 @@ static int run(bool reference, int argc, char **argv)
     }
     if (!app_quiet()) {
         char who[300];
-        if (use_vk)
-            snprintf(who, sizeof who, "Vulkan %s on %s",
-                     fvk_api(gv) == FVK_RT_QUERY ? "ray query" : "ray-tracing pipeline",
-                     vk.info.name);
-        else
-            snprintf(who, sizeof who, "Embree, %u threads", femb_thread_count(fe));
+        pl_frontend_describe(fr, who, sizeof who);
         fprintf(stderr, "tandem: %s: %u frame%s of %s at %ux%u in %.1f s (%s) -> %s/\n", what,
                 o.frames, o.frames == 1 ? "" : "s", o.scene, o.size[0], o.size[1],
                 tnd_now() - t0, who, o.out);
@@ -800,7 +735,6 @@ fail:
     free(lum_se);
     free(rgb);
     free(grads);
-    free(femb_grads);
     tnd_scene_state_free(&st[0]);
     tnd_scene_state_free(&st[1]);
     if (timings)
@@ -809,9 +743,8 @@ fail:
     free(display);
     dn_destroy(dn);
     tnd_contract_gpu_destroy(&vk, &upload);
-    fvk_destroy(gv);
+    pl_frontend_destroy(fr);
     tnd_vk_destroy(&vk);
-    femb_destroy(fe);
     tnd_scene_destroy(scene);
     return status;
 }

@@ -1,0 +1,77 @@
+/* pipeline: the frame, written once. A front-end is a table of operations (pl_frontend_ops)
+ * that every front-end implements: the Vulkan ray tracer and the Embree tracer are registered
+ * here, and app/ reaches them only through pl_frontend_*: it names no fvk_/femb_ function.
+ * Prefix pl_; depends on core/, frontend_vk/, frontend_embree/ (and denoise/ for the gradient
+ * layout). */
+#ifndef PL_PIPELINE_H
+#define PL_PIPELINE_H
+
+#include "core/core.h"
+
+/* One real-time frame's parameters (as femb_params / fvk_params). */
+typedef struct pl_params {
+    uint32_t bounces; /* indirect bounces after the primary surface */
+    uint32_t sample;  /* sample word: 0 (TND_SAMPLE_REALTIME), a matched reference's s + 1 */
+    bool set_jitter;  /* replace the frame's Halton jitter by `jitter` (pixels) */
+    float jitter[2];
+} pl_params;
+
+/* What the last call took: GPU timestamps (Vulkan) or the CPU's wall clock (Embree, which does
+ * both passes in one sweep: primary_ms, shade_ms 0). */
+typedef struct pl_timings {
+    double primary_ms, shade_ms, tlas_ms, gradient_ms;
+} pl_timings;
+
+enum {
+    PL_CAP_GPU_CONTRACT = 1u, /* fills the contract on the GPU (pl_frontend_contract) */
+    PL_CAP_RESHADE = 2u,      /* re-shades gradient samples (A-SVGF) */
+    PL_CAP_REFERENCE = 4u,    /* renders unbiased references */
+};
+
+typedef struct pl_frontend_desc {
+    tnd_vk *vk;              /* GPU front-ends: the caller's context (ray tracing on) */
+    tnd_precision precision; /* of the contract */
+    const char *rt_api;      /* vk: "pipeline", "query" or "auto" (NULL: auto) */
+    bool full_pipeline;      /* vk: every shader variant */
+    uint32_t reflect_depth;  /* mirrors/glass the primary pass follows (0: 4) */
+    uint32_t threads;        /* embree: CPU threads (0: all) */
+} pl_frontend_desc;
+
+typedef struct pl_frontend pl_frontend;
+
+/* The registered front-ends' names, comma-separated ("embree, vk"). */
+const char *pl_frontend_names(void);
+/* Whether the named front-end needs a Vulkan context with ray tracing (false for unknown). */
+bool pl_frontend_needs_gpu(const char *name);
+tnd_result pl_frontend_create(const char *name, const tnd_scene *scene, const pl_frontend_desc *d,
+                              pl_frontend **fe);
+void pl_frontend_destroy(pl_frontend *fe);
+uint32_t pl_frontend_caps(const pl_frontend *fe);
+/* "Vulkan ray-tracing pipeline on NAME", "Embree, 8 threads" */
+const char *pl_frontend_describe(const pl_frontend *fe, char *buf, size_t cap);
+/* The shader variant in use (what the scene needs), or a fixed text for CPU front-ends. */
+const char *pl_frontend_models(const pl_frontend *fe);
+tnd_result pl_frontend_set_frame(pl_frontend *fe, const tnd_scene_state *cur,
+                                 const tnd_scene_state *prev, uint32_t frame, uint32_t width,
+                                 uint32_t height);
+/* Fill the frame's contract: on the GPU for PL_CAP_GPU_CONTRACT front-ends, and into `host`
+ * (quantised to the precision; with the camera) when it is not NULL (a GPU front-end downloads
+ * it). */
+tnd_result pl_frontend_render(pl_frontend *fe, const pl_params *p, tnd_frame *host,
+                              pl_timings *t);
+/* The GPU contract of the last render (NULL for host front-ends). */
+const tnd_contract_gpu *pl_frontend_contract(const pl_frontend *fe);
+/* Re-shade gradient samples (DN_GRADIENT_WORDS words each, the back-end's host list): on the GPU
+ * contract for GPU front-ends (host untouched), else into `host` (then quantised). */
+tnd_result pl_frontend_reshade(pl_frontend *fe, const pl_params *p, const uint32_t *words,
+                               uint32_t count, tnd_frame *host, pl_timings *t);
+/* The same from the back-end's GPU slot buffer (GPU front-ends only). */
+tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuffer slots,
+                                     uint32_t count, pl_timings *t);
+/* An unbiased reference of the current frame (max_bounces 0: full paths). */
+tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t spp, float *rgb,
+                                 float *lum_se, tnd_ref_stats *stats,
+                                 void (*progress)(uint32_t done, uint32_t total, void *user),
+                                 void *user);
+
+#endif

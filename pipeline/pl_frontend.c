@@ -1,0 +1,407 @@
+/* pipeline/pl_frontend.c: the front-end interface and its registry. Each front-end is one table
+ * of operations (pl_frontend_ops); the Vulkan and Embree front-ends are adapted to it here, the
+ * only place outside their folders that names their functions.
+ * Entry points: pl_frontend_names, pl_frontend_needs_gpu, pl_frontend_create and the
+ * pl_frontend_* operations. */
+#include "pipeline/pipeline.h"
+#include "frontend_embree/frontend_embree.h"
+#include "frontend_vk/frontend_vk.h"
+#include "shaders/sampling.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct pl_frontend_ops {
+    const char *name;
+    uint32_t caps;
+    tnd_result (*create)(const tnd_scene *scene, const pl_frontend_desc *d, void **ctx);
+    void (*destroy)(void *ctx);
+    void (*describe)(const void *ctx, char *buf, size_t cap);
+    const char *(*models)(const void *ctx);
+    tnd_result (*set_frame)(void *ctx, const tnd_scene_state *cur, const tnd_scene_state *prev,
+                            uint32_t frame, uint32_t w, uint32_t h);
+    tnd_result (*render)(void *ctx, const pl_params *p, tnd_frame *host, pl_timings *t);
+    const tnd_contract_gpu *(*contract)(const void *ctx);
+    tnd_result (*reshade)(void *ctx, const pl_params *p, const uint32_t *words, uint32_t n,
+                          tnd_frame *host, pl_timings *t);
+    tnd_result (*reshade_slots)(void *ctx, const pl_params *p, VkBuffer slots, uint32_t n,
+                                pl_timings *t);
+    tnd_result (*reference)(void *ctx, uint32_t max_bounces, uint32_t spp, float *rgb,
+                            float *lum_se, tnd_ref_stats *stats,
+                            void (*progress)(uint32_t, uint32_t, void *), void *user);
+} pl_frontend_ops;
+
+struct pl_frontend {
+    const pl_frontend_ops *ops;
+    void *ctx;
+};
+
+/* ---- Vulkan ------------------------------------------------------------------------------------ */
+typedef struct vk_fe {
+    fvk_context *gv;
+    tnd_vk *vk;
+    tnd_camera_state cam; /* of the current frame, for the host copy */
+} vk_fe;
+
+static fvk_params vk_params(const pl_params *p)
+{
+    return p ? (fvk_params){p->bounces, p->sample, p->set_jitter, {p->jitter[0], p->jitter[1]}}
+             : (fvk_params){.bounces = 1};
+}
+
+static tnd_result vk_create(const tnd_scene *scene, const pl_frontend_desc *d, void **out)
+{
+    tnd_result res = TND_OK;
+    fvk_rt_api api;
+    if (!d->vk)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: the vk front-end needs a Vulkan context");
+    TND_TRY(fvk_rt_api_parse(d->rt_api ? d->rt_api : "auto", &api));
+    vk_fe *v = calloc(1, sizeof *v);
+    if (!v)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+    v->vk = d->vk;
+    res = fvk_create(d->vk, scene,
+                     &(fvk_desc){.precision = d->precision, .rt_api = api,
+                                 .full_pipeline = d->full_pipeline,
+                                 .reflect_depth = d->reflect_depth},
+                     &v->gv);
+    if (res != TND_OK) {
+        free(v);
+        return res;
+    }
+    *out = v;
+fail:
+    return res;
+}
+
+static void vk_destroy(void *ctx)
+{
+    vk_fe *v = ctx;
+    if (v)
+        fvk_destroy(v->gv);
+    free(v);
+}
+
+static void vk_describe(const void *ctx, char *buf, size_t cap)
+{
+    const vk_fe *v = ctx;
+    snprintf(buf, cap, "Vulkan %s on %s",
+             fvk_api(v->gv) == FVK_RT_QUERY ? "ray query" : "ray-tracing pipeline",
+             v->vk->info.name);
+}
+
+static const char *vk_models(const void *ctx)
+{
+    return fvk_variant(((const vk_fe *)ctx)->gv);
+}
+
+static tnd_result vk_set_frame(void *ctx, const tnd_scene_state *cur, const tnd_scene_state *prev,
+                               uint32_t frame, uint32_t w, uint32_t h)
+{
+    vk_fe *v = ctx;
+    if (!prev)
+        prev = cur;
+    memcpy(v->cam.view, cur->camera.view, sizeof v->cam.view);
+    memcpy(v->cam.proj, cur->camera.proj, sizeof v->cam.proj);
+    memcpy(v->cam.prev_view, prev->camera.view, sizeof v->cam.prev_view);
+    memcpy(v->cam.prev_proj, prev->camera.proj, sizeof v->cam.prev_proj);
+    tnd_jitter(frame, v->cam.jitter);
+    v->cam.frame_index = frame;
+    return fvk_set_frame(v->gv, cur, prev, frame, w, h);
+}
+
+static tnd_result vk_render(void *ctx, const pl_params *p, tnd_frame *host, pl_timings *t)
+{
+    tnd_result res = TND_OK;
+    vk_fe *v = ctx;
+    fvk_params fp = vk_params(p);
+    fvk_timings tm = {0};
+    TND_TRY(fvk_render(v->gv, &fp, t ? &tm : NULL));
+    if (t)
+        *t = (pl_timings){tm.primary_ms, tm.shade_ms, tm.tlas_ms, 0.0};
+    if (host) {
+        TND_TRY(tnd_contract_download(v->vk, fvk_contract(v->gv), host));
+        host->has_camera = true;
+        host->camera = v->cam;
+    }
+fail:
+    return res;
+}
+
+static const tnd_contract_gpu *vk_contract(const void *ctx)
+{
+    return fvk_contract(((const vk_fe *)ctx)->gv);
+}
+
+static tnd_result vk_reshade(void *ctx, const pl_params *p, const uint32_t *words, uint32_t n,
+                             tnd_frame *host, pl_timings *t)
+{
+    (void)host; /* (the GPU contract is patched; a caller that wants it on the host downloads) */
+    vk_fe *v = ctx;
+    fvk_params fp = vk_params(p);
+    fvk_timings tm = {0};
+    tnd_result res = fvk_shade_gradients(v->gv, &fp, words, n, &tm);
+    if (t)
+        t->gradient_ms = tm.gradient_ms;
+    return res;
+}
+
+static tnd_result vk_reshade_slots(void *ctx, const pl_params *p, VkBuffer slots, uint32_t n,
+                                   pl_timings *t)
+{
+    vk_fe *v = ctx;
+    fvk_params fp = vk_params(p);
+    fvk_timings tm = {0};
+    tnd_result res = fvk_shade_gradient_slots(v->gv, &fp, slots, n, &tm);
+    if (t)
+        t->gradient_ms = tm.gradient_ms;
+    return res;
+}
+
+static tnd_result vk_reference(void *ctx, uint32_t max_bounces, uint32_t spp, float *rgb,
+                               float *lum_se, tnd_ref_stats *stats,
+                               void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    vk_fe *v = ctx;
+    fvk_set_reference_bounces(v->gv, max_bounces);
+    return fvk_reference(v->gv, spp, rgb, lum_se, stats, progress, user);
+}
+
+static const pl_frontend_ops vk_ops = {
+    "vk",        PL_CAP_GPU_CONTRACT | PL_CAP_RESHADE | PL_CAP_REFERENCE,
+    vk_create,   vk_destroy,
+    vk_describe, vk_models,
+    vk_set_frame, vk_render,
+    vk_contract, vk_reshade,
+    vk_reshade_slots, vk_reference,
+};
+
+/* ---- Embree ------------------------------------------------------------------------------------ */
+typedef struct emb_fe {
+    femb_context *fe;
+    tnd_precision precision;
+} emb_fe;
+
+static femb_params emb_params(const pl_params *p)
+{
+    return p ? (femb_params){p->bounces, p->sample, p->set_jitter, {p->jitter[0], p->jitter[1]}}
+             : (femb_params){.bounces = 1};
+}
+
+static tnd_result emb_create(const tnd_scene *scene, const pl_frontend_desc *d, void **out)
+{
+    emb_fe *e = calloc(1, sizeof *e);
+    if (!e)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+    e->precision = d->precision;
+    tnd_result res = femb_create(
+        scene, &(femb_desc){.threads = d->threads, .reflect_depth = d->reflect_depth}, &e->fe);
+    if (res != TND_OK) {
+        free(e);
+        return res;
+    }
+    *out = e;
+    return TND_OK;
+}
+
+static void emb_destroy(void *ctx)
+{
+    emb_fe *e = ctx;
+    if (e)
+        femb_destroy(e->fe);
+    free(e);
+}
+
+static void emb_describe(const void *ctx, char *buf, size_t cap)
+{
+    snprintf(buf, cap, "Embree, %u threads", femb_thread_count(((const emb_fe *)ctx)->fe));
+}
+
+static const char *emb_models(const void *ctx)
+{
+    (void)ctx;
+    return "everything (CPU code, no variants)";
+}
+
+static tnd_result emb_set_frame(void *ctx, const tnd_scene_state *cur,
+                                const tnd_scene_state *prev, uint32_t frame, uint32_t w,
+                                uint32_t h)
+{
+    return femb_set_frame(((emb_fe *)ctx)->fe, cur, prev, frame, w, h);
+}
+
+static tnd_result emb_render(void *ctx, const pl_params *p, tnd_frame *host, pl_timings *t)
+{
+    emb_fe *e = ctx;
+    if (!host)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: the embree front-end fills a host frame");
+    femb_params fp = emb_params(p);
+    double t0 = tnd_now();
+    tnd_result res = femb_render(e->fe, &fp, host, NULL);
+    if (t) /* both passes in one sweep: one time for the two */
+        *t = (pl_timings){1e3 * (tnd_now() - t0), 0.0, 0.0, 0.0};
+    if (res == TND_OK)
+        tnd_frame_quantize(host, e->precision);
+    return res;
+}
+
+static const tnd_contract_gpu *emb_contract(const void *ctx)
+{
+    (void)ctx;
+    return NULL;
+}
+
+static tnd_result emb_reshade(void *ctx, const pl_params *p, const uint32_t *words, uint32_t n,
+                              tnd_frame *host, pl_timings *t)
+{
+    emb_fe *e = ctx;
+    if (n == 0)
+        return TND_OK;
+    if (!host)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: the embree front-end re-shades a host frame");
+    femb_gradient_sample *g = malloc((size_t)n * sizeof *g);
+    if (!g)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+    femb_params fp = emb_params(p);
+    double t0 = tnd_now();
+    femb_gradient_unpack(words, n, g);
+    tnd_result res = femb_shade_gradients(e->fe, &fp, g, n, host);
+    if (t)
+        t->gradient_ms = 1e3 * (tnd_now() - t0);
+    free(g);
+    if (res == TND_OK)
+        tnd_frame_quantize(host, e->precision);
+    return res;
+}
+
+static tnd_result emb_reference(void *ctx, uint32_t max_bounces, uint32_t spp, float *rgb,
+                                float *lum_se, tnd_ref_stats *stats,
+                                void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    emb_fe *e = ctx;
+    femb_set_reference_bounces(e->fe, max_bounces);
+    return femb_reference(e->fe, spp, rgb, lum_se, stats, progress, user);
+}
+
+static const pl_frontend_ops embree_ops = {
+    "embree",     PL_CAP_RESHADE | PL_CAP_REFERENCE,
+    emb_create,   emb_destroy,
+    emb_describe, emb_models,
+    emb_set_frame, emb_render,
+    emb_contract, emb_reshade,
+    NULL,         emb_reference,
+};
+
+/* ---- the registry -------------------------------------------------------------------------------- */
+static const pl_frontend_ops *const registry[] = {&embree_ops, &vk_ops};
+enum { REGISTERED = sizeof registry / sizeof registry[0] };
+
+static const pl_frontend_ops *find(const char *name)
+{
+    for (int i = 0; name && i < REGISTERED; i++)
+        if (strcmp(registry[i]->name, name) == 0)
+            return registry[i];
+    return NULL;
+}
+
+const char *pl_frontend_names(void)
+{
+    return "embree, vk";
+}
+
+bool pl_frontend_needs_gpu(const char *name)
+{
+    const pl_frontend_ops *o = find(name);
+    return o && (o->caps & PL_CAP_GPU_CONTRACT);
+}
+
+tnd_result pl_frontend_create(const char *name, const tnd_scene *scene, const pl_frontend_desc *d,
+                              pl_frontend **out)
+{
+    *out = NULL;
+    const pl_frontend_ops *o = find(name);
+    if (!o)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: front-end '%s': expected one of %s",
+                        name ? name : "(none)", pl_frontend_names());
+    pl_frontend *fe = calloc(1, sizeof *fe);
+    if (!fe)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+    fe->ops = o;
+    tnd_result res = o->create(scene, d, &fe->ctx);
+    if (res != TND_OK) {
+        free(fe);
+        return res;
+    }
+    *out = fe;
+    return TND_OK;
+}
+
+void pl_frontend_destroy(pl_frontend *fe)
+{
+    if (!fe)
+        return;
+    fe->ops->destroy(fe->ctx);
+    free(fe);
+}
+
+uint32_t pl_frontend_caps(const pl_frontend *fe)
+{
+    return fe->ops->caps;
+}
+
+const char *pl_frontend_describe(const pl_frontend *fe, char *buf, size_t cap)
+{
+    fe->ops->describe(fe->ctx, buf, cap);
+    return buf;
+}
+
+const char *pl_frontend_models(const pl_frontend *fe)
+{
+    return fe->ops->models(fe->ctx);
+}
+
+tnd_result pl_frontend_set_frame(pl_frontend *fe, const tnd_scene_state *cur,
+                                 const tnd_scene_state *prev, uint32_t frame, uint32_t width,
+                                 uint32_t height)
+{
+    return fe->ops->set_frame(fe->ctx, cur, prev, frame, width, height);
+}
+
+tnd_result pl_frontend_render(pl_frontend *fe, const pl_params *p, tnd_frame *host, pl_timings *t)
+{
+    return fe->ops->render(fe->ctx, p, host, t);
+}
+
+const tnd_contract_gpu *pl_frontend_contract(const pl_frontend *fe)
+{
+    return fe->ops->contract(fe->ctx);
+}
+
+tnd_result pl_frontend_reshade(pl_frontend *fe, const pl_params *p, const uint32_t *words,
+                               uint32_t count, tnd_frame *host, pl_timings *t)
+{
+    if (!(fe->ops->caps & PL_CAP_RESHADE))
+        return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' cannot re-shade",
+                        fe->ops->name);
+    return fe->ops->reshade(fe->ctx, p, words, count, host, t);
+}
+
+tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuffer slots,
+                                     uint32_t count, pl_timings *t)
+{
+    if (!fe->ops->reshade_slots)
+        return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' re-shades host lists only",
+                        fe->ops->name);
+    return fe->ops->reshade_slots(fe->ctx, p, slots, count, t);
+}
+
+tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t spp, float *rgb,
+                                 float *lum_se, tnd_ref_stats *stats,
+                                 void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    if (!(fe->ops->caps & PL_CAP_REFERENCE))
+        return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' renders no reference",
+                        fe->ops->name);
+    return fe->ops->reference(fe->ctx, max_bounces, spp, rgb, lum_se, stats, progress, user);
+}
