@@ -4,8 +4,7 @@
  * memory-bandwidth floor. Later it grows into the speed/accuracy sweeps of the eval issue. */
 #include "app/app.h"
 #include "denoise/denoise.h"
-#include "frontend_embree/frontend_embree.h"
-#include "frontend_vk/frontend_vk.h"
+#include "pipeline/pipeline.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>
@@ -29,11 +28,11 @@ static const app_cmd bench_cmd = {
 
 static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsigned frame,
                            const unsigned size[2], unsigned bounces, unsigned repeats,
-                           const char *rt_api, bool full, femb_bench *b, double *t_build)
+                           const char *rt_api, bool full, pl_bench *b, double *t_build)
 {
     tnd_result res = TND_OK;
     tnd_vk vk = {0};
-    fvk_context *gv = NULL;
+    pl_frontend *gv = NULL;
     double *tp = calloc(repeats + 1, sizeof *tp), *ts = calloc(repeats + 1, sizeof *ts);
     if (!tp || !ts) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
@@ -41,28 +40,29 @@ static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsign
     }
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
     double t0 = tnd_now();
-    fvk_rt_api api;
-    TND_TRY(fvk_rt_api_parse(rt_api, &api));
-    TND_TRY(fvk_create(&vk, s, &(fvk_desc){.rt_api = api, .full_pipeline = full}, &gv));
-    TND_TRY(fvk_set_frame(gv, st, st, frame, size[0], size[1]));
+    TND_TRY(pl_frontend_create("vk", s,
+                               &(pl_frontend_desc){.vk = &vk, .rt_api = rt_api,
+                                                   .full_pipeline = full},
+                               &gv));
+    TND_TRY(pl_frontend_set_frame(gv, st, st, frame, size[0], size[1]));
     *t_build = tnd_now() - t0;
     for (int w = 0; w < 3; w++)
-        TND_TRY(fvk_render(gv, &(fvk_params){.bounces = bounces}, NULL));
+        TND_TRY(pl_frontend_render(gv, &(pl_params){.bounces = bounces}, NULL, NULL));
     for (unsigned r = 0; r < repeats; r++) {
-        fvk_timings tm;
-        TND_TRY(fvk_render(gv, &(fvk_params){.bounces = bounces}, &tm));
+        pl_timings tm;
+        TND_TRY(pl_frontend_render(gv, &(pl_params){.bounces = bounces}, NULL, &tm));
         tp[r] = tm.primary_ms;
         ts[r] = tm.shade_ms;
     }
     b->primary_ms = app_median(tp, repeats);
     b->shade_ms = app_median(ts, repeats);
     b->raw_ms = 0;
-    printf("device: %s, %s\n", vk.info.name,
-           fvk_api(gv) == FVK_RT_QUERY ? "ray query" : "ray-tracing pipeline");
+    char who[300];
+    printf("device: %s\n", pl_frontend_describe(gv, who, sizeof who));
 fail:
     free(tp);
     free(ts);
-    fvk_destroy(gv);
+    pl_frontend_destroy(gv);
     tnd_vk_destroy(&vk);
     return res;
 }
@@ -82,7 +82,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
 {
     tnd_result res = TND_OK;
     tnd_vk vk = {0};
-    fvk_context *gv = NULL;
+    pl_frontend *gv = NULL;
     dn_context *dn = NULL;
     tnd_scene_state st[2] = {{0}};
     enum { WARM = 3 };
@@ -94,10 +94,10 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
             goto fail;
         }
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
-    fvk_rt_api api;
-    TND_TRY(fvk_rt_api_parse(rt_api, &api));
-    TND_TRY(fvk_create(&vk, s, &(fvk_desc){.precision = prec, .rt_api = api, .full_pipeline = full},
-                       &gv));
+    TND_TRY(pl_frontend_create("vk", s,
+                               &(pl_frontend_desc){.vk = &vk, .precision = prec, .rt_api = rt_api,
+                                                   .full_pipeline = full},
+                               &gv));
     TND_TRY(dn_create(&vk, size[0], size[1],
                       &(dn_desc){.mode = mode, .precision = prec, .dispatch_timing = per_dispatch},
                       &dn));
@@ -112,7 +112,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         goto fail;
     }
     float aspect = (float)size[0] / size[1];
-    fvk_params fp = {.bounces = bounces};
+    pl_params fp = {.bounces = bounces};
     for (unsigned i = 0; i < WARM + repeats; i++) {
         unsigned f = frame + i;
         tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
@@ -120,16 +120,16 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         if (i == 0)
             TND_TRY(tnd_scene_evaluate(s, f ? (f - 1) / 30.0 : 0.0, 0, aspect, prev));
         double t0 = tnd_now();
-        fvk_timings tm = {0}, tg = {0};
+        pl_timings tm = {0}, tg = {0};
         dn_timings dt = {0};
-        TND_TRY(fvk_set_frame(gv, cur, prev, f, size[0], size[1]));
-        TND_TRY(fvk_render(gv, &fp, &tm));
+        TND_TRY(pl_frontend_set_frame(gv, cur, prev, f, size[0], size[1]));
+        TND_TRY(pl_frontend_render(gv, &fp, NULL, &tm));
         dn_frame df = dn_frame_for_camera(cur->camera.proj, size[1], f, i == 0);
         uint32_t n = 0;
         VkBuffer slots_buf;
-        TND_TRY(dn_select_gradients_gpu(dn, fvk_contract(gv), &df, &slots_buf, &n));
-        TND_TRY(fvk_shade_gradient_slots(gv, &fp, slots_buf, n, &tg));
-        TND_TRY(dn_run(dn, fvk_contract(gv), &df, &dt));
+        TND_TRY(dn_select_gradients_gpu(dn, pl_frontend_contract(gv), &df, &slots_buf, &n));
+        TND_TRY(pl_frontend_reshade_slots(gv, &fp, slots_buf, n, &tg));
+        TND_TRY(dn_run(dn, pl_frontend_contract(gv), &df, &dt));
         double wall = 1e3 * (tnd_now() - t0);
         lf_beside = dt.lf_beside_atrous;
         if (i < WARM)
@@ -183,7 +183,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         cJSON_AddStringToObject(o, "denoiser", dn_mode_name(mode));
         cJSON_AddStringToObject(o, "precision", tnd_precision_name(prec));
         cJSON_AddStringToObject(o, "scene", scene_path);
-        cJSON_AddStringToObject(o, "frontend_models", fvk_variant(gv));
+        cJSON_AddStringToObject(o, "frontend_models", pl_frontend_models(gv));
         cJSON_AddStringToObject(o, "device", vk.info.name);
         cJSON_AddNumberToObject(o, "width", size[0]);
         cJSON_AddNumberToObject(o, "height", size[1]);
@@ -228,7 +228,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         printf("  device %s; copy bandwidth (%.0f MiB, bytes read + written): compute copy %.0f "
                "GB/s, vkCmdCopyBuffer %.0f GB/s\n",
                vk.info.name, copy_mib, compute_bw, transfer_bw);
-        printf("  front-end shaders model: %s\n", fvk_variant(gv));
+        printf("  front-end shaders model: %s\n", pl_frontend_models(gv));
         printf("  %-18s %9s %10s %9s %8s\n", "pass", "GPU ms", "MB moved", "floor ms",
                "of floor");
         for (int k = 0; k < BP_COUNT; k++) {
@@ -266,7 +266,7 @@ fail:
     tnd_scene_state_free(&st[0]);
     tnd_scene_state_free(&st[1]);
     dn_destroy(dn);
-    fvk_destroy(gv);
+    pl_frontend_destroy(gv);
     tnd_vk_destroy(&vk);
     return res;
 }
@@ -358,26 +358,30 @@ int cmd_bench(int argc, char **argv)
         return APP_EXIT_OK;
     }
     tnd_scene *s = NULL;
-    femb_context *c = NULL;
+    pl_frontend *c = NULL;
     tnd_scene_state st = {0};
-    femb_bench b;
+    pl_bench b;
+    uint32_t threads_used = 0;
+    const char *simd = NULL;
     int status = APP_EXIT_FAIL;
     double t_load = tnd_now();
     TND_TRY(tnd_scene_load(scene_path, &s));
     t_load = tnd_now() - t_load;
     double t_build = tnd_now();
-    TND_TRY(femb_create(s, &(femb_desc){.threads = threads}, &c));
+    /* the CPU front-end counts the rays (both front-ends trace the same ones) */
+    TND_TRY(pl_frontend_create("embree", s, &(pl_frontend_desc){.threads = threads}, &c));
+    pl_frontend_cpu(c, &threads_used, &simd);
     TND_TRY(tnd_scene_evaluate(s, frame / 30.0, 0, (float)size[0] / size[1], &st));
-    TND_TRY(femb_set_frame(c, &st, &st, frame, size[0], size[1]));
+    TND_TRY(pl_frontend_set_frame(c, &st, &st, frame, size[0], size[1]));
     t_build = tnd_now() - t_build;
-    TND_TRY(femb_benchmark(c, &(femb_params){.bounces = use_vk ? bounces : bounces},
-                           use_vk ? 1 : repeats, &b));
+    TND_TRY(pl_frontend_benchmark(c, &(pl_params){.bounces = bounces}, use_vk ? 1 : repeats,
+                                  &b));
     if (use_vk) {
         /* the GPU traces exactly the rays the Embree front-end counted (same random numbers,
          * same decisions): time its passes with timestamps, medians after a warm-up */
         TND_TRY(bench_vk(s, &st, frame, size, bounces, repeats, rt_api, full, &b, &t_build));
     }
-    /* Embree: the frame as femb_render sweeps it (both passes batch by batch); the GPU: its two
+    /* Embree: the frame as its render sweeps it (both passes batch by batch); the GPU: its two
      * passes' timestamps */
     double frame_ms = use_vk ? b.primary_ms + b.shade_ms : b.frame_ms;
     double fe_rate = b.rays / (frame_ms * 1e3);
@@ -389,9 +393,9 @@ int cmd_bench(int argc, char **argv)
         cJSON_AddNumberToObject(o, "triangles", (double)tnd_scene_triangles(s));
         cJSON_AddNumberToObject(o, "width", size[0]);
         cJSON_AddNumberToObject(o, "height", size[1]);
-        cJSON_AddNumberToObject(o, "threads", femb_thread_count(c));
+        cJSON_AddNumberToObject(o, "threads", threads_used);
         if (!use_vk)
-            cJSON_AddStringToObject(o, "simd", femb_simd());
+            cJSON_AddStringToObject(o, "simd", simd);
         cJSON_AddNumberToObject(o, "bounces", bounces);
         cJSON_AddNumberToObject(o, "rays_per_frame", (double)b.rays);
         cJSON_AddNumberToObject(o, "primary_ms", b.primary_ms);
@@ -417,13 +421,13 @@ int cmd_bench(int argc, char **argv)
                bounces == 1 ? "" : "s", use_vk ? " (GPU timestamps)" : "");
         printf("  scene load %.2f s, BVH build %.2f s\n", t_load, t_build);
         if (!use_vk)
-            printf("  %u threads, estimator lanes in %s\n", femb_thread_count(c), femb_simd());
+            printf("  %u threads, estimator lanes in %s\n", threads_used, simd);
         printf("  rays per frame    %llu (primary, shadow and bounce rays)\n",
                (unsigned long long)b.rays);
         printf("  primary pass      %8.2f ms%s\n  shading pass      %8.2f ms%s\n", b.primary_ms,
                use_vk ? "" : " (alone)", b.shade_ms, use_vk ? "" : " (alone)");
         printf("  front-end frame   %8.2f ms  %7.2f Mrays/s%s\n", frame_ms, fe_rate,
-               use_vk ? "" : " (both passes in one sweep, femb_render)");
+               use_vk ? "" : " (both passes in one sweep)");
         if (!use_vk) {
             printf("  raw Embree loop   %8.2f ms  %7.2f Mrays/s (same rays, rtcIntersect1/rtcOccluded1)\n",
                    b.raw_ms, raw_rate);
@@ -442,7 +446,7 @@ fail:
     if (status != APP_EXIT_OK)
         app_report("bench", res);
     tnd_scene_state_free(&st);
-    femb_destroy(c);
+    pl_frontend_destroy(c);
     tnd_scene_destroy(s);
     return status;
 }

@@ -26,6 +26,7 @@ enum {
     PL_CAP_GPU_CONTRACT = 1u, /* fills the contract on the GPU (pl_frontend_contract) */
     PL_CAP_RESHADE = 2u,      /* re-shades gradient samples (A-SVGF) */
     PL_CAP_REFERENCE = 4u,    /* renders unbiased references */
+    PL_CAP_BENCHMARK = 8u,    /* measures its rays against the bare tracer (pl_frontend_benchmark) */
 };
 
 typedef struct pl_frontend_desc {
@@ -68,6 +69,16 @@ tnd_result pl_frontend_reshade(pl_frontend *fe, const pl_params *p, const uint32
 /* The same from the back-end's GPU slot buffer (GPU front-ends only). */
 tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuffer slots,
                                      uint32_t count, pl_timings *t);
+/* A CPU front-end's benchmark of the current frame (PL_CAP_BENCHMARK): the frame, each pass
+ * alone, and the same rays replayed through the bare tracer (femb_benchmark's figures). */
+typedef struct pl_bench {
+    double frame_ms, primary_ms, shade_ms, raw_ms, raw_primary_ms;
+    uint64_t rays, primary_rays;
+} pl_bench;
+tnd_result pl_frontend_benchmark(pl_frontend *fe, const pl_params *p, uint32_t repeats,
+                                 pl_bench *out);
+/* A CPU front-end's threads and instruction set (0 and NULL for a GPU one). */
+void pl_frontend_cpu(const pl_frontend *fe, uint32_t *threads, const char **simd);
 /* An unbiased reference of the current frame (max_bounces 0: full paths). */
 tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t spp, float *rgb,
                                  float *lum_se, tnd_ref_stats *stats,

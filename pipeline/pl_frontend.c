@@ -30,6 +30,8 @@ typedef struct pl_frontend_ops {
     tnd_result (*reference)(void *ctx, uint32_t max_bounces, uint32_t spp, float *rgb,
                             float *lum_se, tnd_ref_stats *stats,
                             void (*progress)(uint32_t, uint32_t, void *), void *user);
+    tnd_result (*benchmark)(void *ctx, const pl_params *p, uint32_t repeats, pl_bench *out);
+    void (*cpu)(const void *ctx, uint32_t *threads, const char **simd);
 } pl_frontend_ops;
 
 struct pl_frontend {
@@ -175,6 +177,7 @@ static const pl_frontend_ops vk_ops = {
     vk_set_frame, vk_render,
     vk_contract, vk_reshade,
     vk_reshade_slots, vk_reference,
+    NULL,        NULL,
 };
 
 /* ---- Embree ------------------------------------------------------------------------------------ */
@@ -284,13 +287,31 @@ static tnd_result emb_reference(void *ctx, uint32_t max_bounces, uint32_t spp, f
     return femb_reference(e->fe, spp, rgb, lum_se, stats, progress, user);
 }
 
+static tnd_result emb_benchmark(void *ctx, const pl_params *p, uint32_t repeats, pl_bench *out)
+{
+    femb_params fp = emb_params(p);
+    femb_bench b;
+    tnd_result res = femb_benchmark(((emb_fe *)ctx)->fe, &fp, repeats, &b);
+    if (res == TND_OK)
+        *out = (pl_bench){b.frame_ms, b.primary_ms,   b.shade_ms,       b.raw_ms,
+                          b.raw_primary_ms, b.rays, b.primary_rays};
+    return res;
+}
+
+static void emb_cpu(const void *ctx, uint32_t *threads, const char **simd)
+{
+    *threads = femb_thread_count(((const emb_fe *)ctx)->fe);
+    *simd = femb_simd();
+}
+
 static const pl_frontend_ops embree_ops = {
-    "embree",     PL_CAP_RESHADE | PL_CAP_REFERENCE,
+    "embree",     PL_CAP_RESHADE | PL_CAP_REFERENCE | PL_CAP_BENCHMARK,
     emb_create,   emb_destroy,
     emb_describe, emb_models,
     emb_set_frame, emb_render,
     emb_contract, emb_reshade,
     NULL,         emb_reference,
+    emb_benchmark, emb_cpu,
 };
 
 /* ---- the registry -------------------------------------------------------------------------------- */
@@ -404,4 +425,21 @@ tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t
         return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' renders no reference",
                         fe->ops->name);
     return fe->ops->reference(fe->ctx, max_bounces, spp, rgb, lum_se, stats, progress, user);
+}
+
+tnd_result pl_frontend_benchmark(pl_frontend *fe, const pl_params *p, uint32_t repeats,
+                                 pl_bench *out)
+{
+    if (!fe->ops->benchmark)
+        return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' has no ray benchmark",
+                        fe->ops->name);
+    return fe->ops->benchmark(fe->ctx, p, repeats, out);
+}
+
+void pl_frontend_cpu(const pl_frontend *fe, uint32_t *threads, const char **simd)
+{
+    *threads = 0;
+    *simd = NULL;
+    if (fe->ops->cpu)
+        fe->ops->cpu(fe->ctx, threads, simd);
 }
