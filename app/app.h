@@ -87,15 +87,6 @@ void app_progress_end(app_progress *p);
  * dumps of the last frame to DIR/NAME_STEM.exr. */
 struct dn_context;
 tnd_result app_parse_dump(const char *list, uint32_t *mask);
-/* The frames of a capture directory (DIR/capture where it exists, else DIR), sorted, into
- * *names (free with app_capture_list_free); the directory into dir. Tandem's frame_NNNN.exr,
- * or with a mapping its primary files. No frames is an error naming the directory. */
-tnd_result app_capture_list(const char *captures, const tnd_capture_map *map, char *dir,
-                            size_t dir_cap, char ***names, size_t *count);
-/* Every frame of a sequence must carry the entries of its first: a message naming the file
- * and the entry otherwise. */
-tnd_result app_capture_same_entries(const tnd_frame *first, const tnd_frame *f, const char *path);
-void app_capture_list_free(char **names, size_t count);
 /* Remove a directory and the files in it (no subdirectories): an output left by a failed run. */
 bool app_remove_flat_dir(const char *dir);
 /* tandem info --capture DIR [--map M] [--json] (app/capture_info.c). */

@@ -1,82 +1,15 @@
-/* app/capture_info.c: a capture directory's frames (one listing for `denoise` and `info`), and
- * `tandem info --capture DIR [--map M]`: what the files hold, which contract entries come from
+/* app/capture_info.c: `tandem info --capture DIR [--map M]`: what the files hold, which contract entries come from
  * which channels or defaults, value ranges and non-finite counts, and a motion check (each frame
  * reprojected onto the previous one through its motion vectors, as the back-end does, also with
  * either axis negated, so that a wrong sign shows at once).
- * Entry points: app_capture_list, app_capture_list_free, app_capture_info. */
+ * Entry point: app_capture_info. */
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
-#include <dirent.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-
-static int cmp_names(const void *a, const void *b)
-{
-    return strcmp(*(char *const *)a, *(char *const *)b);
-}
-
-void app_capture_list_free(char **names, size_t n)
-{
-    for (size_t i = 0; i < n; i++)
-        free(names[i]);
-    free(names);
-}
-
-tnd_result app_capture_same_entries(const tnd_frame *first, const tnd_frame *f, const char *path)
-{
-    for (int e = 0; e < TND_CT_COUNT; e++)
-        if (first->present[e] != f->present[e])
-            return tnd_fail(TND_ERR_BAD_INPUT,
-                            "capture: %s: entry '%s' is %s here but %s in the sequence's first "
-                            "frame (every frame must carry the same entries)",
-                            path, tnd_ct_get((tnd_ct)e)->name, f->present[e] ? "present" : "absent",
-                            first->present[e] ? "present" : "absent");
-    return TND_OK;
-}
-
-tnd_result app_capture_list(const char *captures, const tnd_capture_map *map, char *dir,
-                            size_t dir_cap, char ***names, size_t *count)
-{
-    *names = NULL;
-    *count = 0;
-    struct stat st;
-    snprintf(dir, dir_cap, "%s/capture", captures);
-    if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
-        snprintf(dir, dir_cap, "%s", captures);
-    if (map)
-        return tnd_capture_map_list(map, dir, names, count);
-    DIR *d = opendir(dir);
-    if (!d)
-        return tnd_fail(TND_ERR_IO, "%s: cannot open directory", dir);
-    char **v = NULL;
-    size_t n = 0;
-    for (struct dirent *e; (e = readdir(d));) {
-        size_t l = strlen(e->d_name);
-        if (l > 4 && strcmp(e->d_name + l - 4, ".exr") == 0 &&
-            strncmp(e->d_name, "frame_", 6) == 0 && !tnd_capture_is_gradients_file(e->d_name)) {
-            char **nv = realloc(v, (n + 1) * sizeof *nv);
-            if (!nv || !(nv[n] = strdup(e->d_name))) {
-                app_capture_list_free(nv ? nv : v, n);
-                closedir(d);
-                return tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", dir);
-            }
-            v = nv;
-            n++;
-        }
-    }
-    closedir(d);
-    if (n == 0) {
-        free(v);
-        return tnd_fail(TND_ERR_BAD_INPUT, "%s: no frame_NNNN.exr files", dir);
-    }
-    qsort(v, n, sizeof *v, cmp_names);
-    *names = v;
-    *count = n;
-    return TND_OK;
-}
 
 /* The motion check of frame b against a (the previous), for the four sign variants of the
  * motion's x and y (signs[s]) in one pass: agree[s] counts frame b's surface pixels whose moved
@@ -130,7 +63,7 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
     tnd_result res = TND_OK;
     if (map_path && (res = tnd_capture_map_load(map_path, &map)) != TND_OK)
         return app_report("info", res);
-    if ((res = app_capture_list(captures, map, dir, sizeof dir, &names, &n)) != TND_OK)
+    if ((res = (tnd_capture_dir(captures, dir, sizeof dir), tnd_capture_map_list(map, dir, &names, &n))) != TND_OK)
         goto fail;
     snprintf(path, sizeof path, "%s/%s", dir, names[0]);
     TND_TRY(tnd_exr_read(path, &x));
@@ -158,7 +91,7 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
             goto fail;
         }
         if (i > 0)
-            TND_TRY(app_capture_same_entries(&prev, &cur, path));
+            TND_TRY(tnd_capture_check_entries(&prev, &cur, path));
         if (cur.gradients) {
             char gp[2400];
             struct stat gst;
@@ -293,6 +226,6 @@ fail:
     tnd_frame_destroy(&cur);
     tnd_frame_destroy(&prev);
     tnd_capture_map_destroy(map);
-    app_capture_list_free(names, n);
+    tnd_capture_list_free(names, n);
     return status;
 }

@@ -45,7 +45,7 @@ int cmd_convert(int argc, char **argv)
     size_t written = 0;
     int status = APP_EXIT_FAIL;
     TND_TRY(tnd_capture_map_load(map_path, &map));
-    TND_TRY(app_capture_list(captures, map, dir, sizeof dir, &names, &n));
+    TND_TRY((tnd_capture_dir(captures, dir, sizeof dir), tnd_capture_map_list(map, dir, &names, &n)));
     for (size_t i = 0; i < n; i++) {
         snprintf(src, sizeof src, "%s/%s", dir, names[i]);
         tnd_frame_destroy(&before);
@@ -60,7 +60,7 @@ int cmd_convert(int argc, char **argv)
             goto fail;
         }
         if (i > 0)
-            TND_TRY(app_capture_same_entries(&before, &f, src));
+            TND_TRY(tnd_capture_check_entries(&before, &f, src));
         if (!began) {
             TND_TRY(tnd_mkdirs(out));
             began = true;
@@ -89,6 +89,6 @@ fail:
     tnd_frame_destroy(&f);
     tnd_frame_destroy(&before);
     tnd_capture_map_destroy(map);
-    app_capture_list_free(names, n);
+    tnd_capture_list_free(names, n);
     return status;
 }

@@ -5,6 +5,7 @@
 #include "app/app.h"
 #include "composite/composite.h"
 #include "denoise/denoise.h"
+#include "pipeline/pipeline.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -16,41 +17,6 @@ static const app_cmd denoise_cmd = {
     "Run the denoising back-end on a captured EXR sequence (Tandem's captures, or another\n"
     "renderer's through --map) and write the denoised frames.",
     "--captures DIR --out DIR [--map MAPPING.json] [--denoiser asvgf|svgf|off] [--dump LIST]", NULL};
-
-/* A-SVGF on a capture that keeps its samples: the back-end selects on the frame as rendered,
- * exactly as live, which must give the capture's selection; then the re-shaded values are
- * patched in (the front-end's part) and the frame goes up again. */
-static tnd_result replay_gradients(dn_context *dn, tnd_vk *vk, tnd_contract_gpu *ct,
-                                   const dn_frame *df, tnd_frame *f, const char *path,
-                                   uint32_t *words, tnd_gradient_samples *gs)
-{
-    tnd_result res = TND_OK;
-    uint32_t n = 0;
-    char gpath[2400];
-    tnd_gradient_samples_free(gs);
-    TND_TRY(dn_select_gradients(dn, ct, df, words, &n));
-    tnd_capture_gradients_path(path, gpath, sizeof gpath);
-    struct stat st;
-    if (n == 0 && stat(gpath, &st) != 0)
-        return TND_OK; /* (a frame without history: no samples, no file) */
-    if (stat(gpath, &st) != 0)
-        return tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: missing (the back-end selected %u "
-                        "gradient samples for %s)", gpath, n, path);
-    TND_TRY(tnd_capture_read_gradients(gpath, f->width, f->height, gs));
-    bool same = gs->count == n;
-    for (uint32_t k = 0; same && k < n; k++)
-        same = gs->pixel[k] == words[(size_t)k * DN_GRADIENT_WORDS];
-    if (!same)
-        return tnd_fail(TND_ERR_BAD_INPUT,
-                        "capture: %s: %u gradient samples, but the back-end selected %u%s (a "
-                        "replay must start at the sequence's first frame, as rendered; or run "
-                        "--denoiser svgf)",
-                        gpath, gs->count, n, gs->count == n ? " at other pixels" : "");
-    tnd_gradient_samples_apply(gs, f);
-    TND_TRY(tnd_contract_upload(vk, ct, f));
-fail:
-    return res;
-}
 
 int cmd_denoise(int argc, char **argv)
 {
@@ -99,15 +65,18 @@ int cmd_denoise(int argc, char **argv)
      * them (tandem render --capture --denoiser asvgf), and as svgf on the others */
     bool asked_asvgf = mode == DN_MODE_ASVGF;
     char dir[1100], path[2300], src[2300]; /* src: this frame's capture */
-    char **names = NULL;
-    size_t n = 0;
     tnd_capture_map *map = NULL;
+    pl_frontend *rp = NULL; /* the captures, replayed as a front-end */
     if (map_path && (res = tnd_capture_map_load(map_path, &map)) != TND_OK)
         return app_report("denoise", res);
-    if ((res = app_capture_list(captures, map, dir, sizeof dir, &names, &n)) != TND_OK) {
+    if ((res = pl_frontend_create("replay", NULL,
+                                  &(pl_frontend_desc){.captures = captures, .map = map}, &rp)) !=
+        TND_OK) {
         tnd_capture_map_destroy(map);
         return app_report("denoise", res);
     }
+    tnd_capture_dir(captures, dir, sizeof dir);
+    size_t n = pl_frontend_length(rp);
     /* no partial output: what this run wrote goes again if a later frame fails */
     struct stat out_st;
     bool out_existed = stat(out, &out_st) == 0, dump_made = false;
@@ -124,34 +93,34 @@ int cmd_denoise(int argc, char **argv)
     uint32_t w = 0, h = 0;
     float prev_jitter[2] = {0, 0};
     uint32_t *grads = NULL; /* the back-end's selection, DN_GRADIENT_WORDS words per sample */
-    tnd_gradient_samples gs = {0};
     app_progress bar;
     app_progress_begin(&bar, "denoise", (unsigned)n);
     char dump_dir[1100];
     for (size_t i = 0; i < n; i++) {
-        snprintf(src, sizeof src, "%s/%s", dir, names[i]);
+        const char *name = pl_frontend_frame_name(rp, (uint32_t)i);
+        snprintf(src, sizeof src, "%s/%s", dir, name);
         tnd_frame_destroy(&before);
         before = f;
         memset(&f, 0, sizeof f);
-        TND_TRY(map ? tnd_capture_read_mapped(src, map, i ? &before.camera : NULL, &f)
-                    : tnd_capture_read(src, &f));
+        TND_TRY(pl_frontend_set_frame(rp, NULL, NULL, (uint32_t)i, 0, 0));
+        TND_TRY(pl_frontend_render(rp, NULL, &f, NULL));
         if (i > 0 && (f.width != w || f.height != h)) {
             res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: %ux%u, the sequence's first frame "
                            "is %ux%u", src, f.width, f.height, w, h);
             goto fail;
         }
         if (i > 0)
-            TND_TRY(app_capture_same_entries(&before, &f, src));
+            TND_TRY(tnd_capture_check_entries(&before, &f, src));
         if (i == 0) {
             w = f.width, h = f.height;
-            if (asked_asvgf && !f.gradients) {
+            if (asked_asvgf && !(pl_frontend_caps(rp) & PL_CAP_RESHADE)) {
                 mode = DN_MODE_SVGF;
                 if (!app_quiet())
                     fprintf(stderr,
                             "tandem: denoise: %s: running as svgf: the capture carries no "
                             "gradient samples (A-SVGF needs a front-end to re-shade them: "
                             "tandem render --capture --denoiser asvgf keeps them)\n",
-                            names[i]);
+                            name);
             }
             TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
             TND_TRY(dn_create(&vk, w, h, &(dn_desc){.mode = mode, .precision = f.precision}, &dn));
@@ -205,12 +174,17 @@ int cmd_denoise(int argc, char **argv)
         memcpy(prev_jitter, f.camera.jitter, sizeof prev_jitter);
         dn_timings tm;
         TND_TRY(tnd_contract_upload(&vk, &ct, &f));
-        if (mode == DN_MODE_ASVGF)
-            TND_TRY(replay_gradients(dn, &vk, &ct, &df, &f, src, grads, &gs));
+        if (mode == DN_MODE_ASVGF) { /* the replay patches the stored gradient samples in */
+            uint32_t ng = 0;
+            TND_TRY(dn_select_gradients(dn, &ct, &df, grads, &ng));
+            TND_TRY(pl_frontend_reshade(rp, NULL, grads, ng, &f, NULL));
+            if (ng)
+                TND_TRY(tnd_contract_upload(&vk, &ct, &f));
+        }
         TND_TRY(dn_run(dn, &ct, &df, &tm));
         if (dump_mask) {
             char stem[1024];
-            snprintf(stem, sizeof stem, "%s", names[i]);
+            snprintf(stem, sizeof stem, "%s", name);
             char *dot = strrchr(stem, '.');
             if (dot)
                 *dot = '\0';
@@ -226,10 +200,10 @@ int cmd_denoise(int argc, char **argv)
                 "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"denoise_lf_beside_atrous\": %s, "
                 "\"composite_ms\": %.4f, "
                 "\"taa_ms\": %.4f, \"exposure_ms\": %.4f, \"tonemap_ms\": %.4f}",
-                i ? "," : "", names[i], tm.temporal_ms, tm.lf_ms, tm.atrous_ms,
+                i ? "," : "", name, tm.temporal_ms, tm.lf_ms, tm.atrous_ms,
                 tm.lf_beside_atrous ? "true" : "false", tm.composite_ms,
                 pt.taa_ms, pt.exposure_ms, pt.tonemap_ms);
-        snprintf(path, sizeof path, "%s/%s", out, names[i]);
+        snprintf(path, sizeof path, "%s/%s", out, name);
         TND_TRY(app_write_rgb_exr(path, rgb, w, h));
         size_t l = strlen(path);
         memcpy(path + l - 4, ".png", 5);
@@ -265,7 +239,7 @@ fail:
             app_remove_flat_dir(out);
         } else { /* only this run's files */
             for (size_t i = 0; i < written + 1 && i < n; i++) {
-                snprintf(path, sizeof path, "%s/%s", out, names[i]);
+                snprintf(path, sizeof path, "%s/%s", out, pl_frontend_frame_name(rp, (uint32_t)i));
                 remove(path);
                 memcpy(path + strlen(path) - 4, ".png", 5);
                 remove(path);
@@ -277,7 +251,6 @@ fail:
     free(rgb);
     free(display);
     free(grads);
-    tnd_gradient_samples_free(&gs);
     cmp_destroy(post);
     tnd_frame_destroy(&f);
     tnd_frame_destroy(&before);
@@ -285,7 +258,7 @@ fail:
     dn_destroy(dn);
     if (vk.device || vk.instance)
         tnd_vk_destroy(&vk);
+    pl_frontend_destroy(rp);
     tnd_capture_map_destroy(map);
-    app_capture_list_free(names, n);
     return status;
 }

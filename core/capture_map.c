@@ -16,6 +16,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #define MAP_ALTS  4
 #define MAP_FILES 16
@@ -133,9 +134,38 @@ static int natural_cmp(const void *pa, const void *pb)
     return *a ? 1 : *b ? -1 : 0;
 }
 
+void tnd_capture_dir(const char *captures, char *dir, size_t cap)
+{
+    struct stat st;
+    snprintf(dir, cap, "%s/capture", captures);
+    if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
+        snprintf(dir, cap, "%s", captures);
+}
+
+void tnd_capture_list_free(char **names, size_t count)
+{
+    for (size_t i = 0; i < count; i++)
+        free(names[i]);
+    free(names);
+}
+
+tnd_result tnd_capture_check_entries(const tnd_frame *first, const tnd_frame *f, const char *path)
+{
+    for (int e = 0; e < TND_CT_COUNT; e++)
+        if (first->present[e] != f->present[e])
+            return tnd_fail(TND_ERR_BAD_INPUT,
+                            "capture: %s: entry '%s' is %s here but %s in the sequence's first "
+                            "frame (every frame must carry the same entries)",
+                            path, tnd_ct_get((tnd_ct)e)->name, f->present[e] ? "present" : "absent",
+                            first->present[e] ? "present" : "absent");
+    return TND_OK;
+}
+
 tnd_result tnd_capture_map_list(const tnd_capture_map *map, const char *dir, char ***names,
                                 size_t *count)
 {
+    static const char tandem_pattern[] = "frame_{frame}.exr";
+    const char *pattern = map ? map->pattern[0] : tandem_pattern;
     *names = NULL;
     *count = 0;
     DIR *d = opendir(dir);
@@ -145,7 +175,7 @@ tnd_result tnd_capture_map_list(const tnd_capture_map *map, const char *dir, cha
     size_t n = 0;
     for (struct dirent *e; (e = readdir(d));) {
         if (e->d_name[0] == '.' || tnd_capture_is_gradients_file(e->d_name) ||
-            !pattern_match(map->pattern[0], e->d_name, NULL, 0))
+            !pattern_match(pattern, e->d_name, NULL, 0))
             continue;
         char **nv = realloc(v, (n + 1) * sizeof *nv);
         if (nv)
@@ -162,8 +192,9 @@ tnd_result tnd_capture_map_list(const tnd_capture_map *map, const char *dir, cha
     closedir(d);
     if (n == 0) {
         free(v);
-        return tnd_fail(TND_ERR_BAD_INPUT, "%s: no files match '%s' (mapping %s)", dir,
-                        map->pattern[0], map->name);
+        return map ? tnd_fail(TND_ERR_BAD_INPUT, "%s: no files match '%s' (mapping %s)", dir,
+                              pattern, map->name)
+                   : tnd_fail(TND_ERR_BAD_INPUT, "%s: no frame_NNNN.exr files", dir);
     }
     qsort(v, n, sizeof *v, natural_cmp);
     *names = v;

@@ -639,10 +639,18 @@ tnd_result tnd_capture_read_gradients(const char *path, uint32_t frame_width,
 typedef struct tnd_capture_map tnd_capture_map;
 tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **map);
 void tnd_capture_map_destroy(tnd_capture_map *map);
-/* The frames of a directory under a mapping: the names of its primary files (its first "files"
- * pattern; frame_{frame}.exr without one), in natural order. */
+/* The frames of a directory: the names of a mapping's primary files (its first "files"
+ * pattern; frame_{frame}.exr without one), or with map NULL Tandem's frame_NNNN.exr, in natural
+ * order (free with tnd_capture_list_free); none is an error naming the directory. */
 tnd_result tnd_capture_map_list(const tnd_capture_map *map, const char *dir, char ***names,
                                 size_t *count);
+void tnd_capture_list_free(char **names, size_t count);
+/* The directory a capture's frames are in: DIR/capture where it exists (a render's output),
+ * else DIR. */
+void tnd_capture_dir(const char *captures, char *dir, size_t cap);
+/* Every frame of a sequence carries the entries of its first: an error naming the file and the
+ * entry otherwise. */
+tnd_result tnd_capture_check_entries(const tnd_frame *first, const tnd_frame *f, const char *path);
 /* Read a foreign frame through a mapping (`path`: its primary file; the others are found beside
  * it); an unfed REQUIRED entry is an error naming it. `prev`: the camera of the frame before in
  * the sequence (NULL for the first), for motion reconstructed from positions. */

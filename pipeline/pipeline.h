@@ -1,6 +1,8 @@
 /* pipeline: the frame, written once. A front-end is a table of operations (pl_frontend_ops)
- * that every front-end implements: the Vulkan ray tracer and the Embree tracer are registered
- * here, and app/ reaches them only through pl_frontend_*: it names no fvk_/femb_ function.
+ * that every front-end implements: the Vulkan ray tracer, the Embree tracer and capture replay
+ * ("replay": a recorded sequence that re-shades only from stored gradient samples) are
+ * registered here, and app/ reaches them only through pl_frontend_*: it names no fvk_/femb_
+ * function.
  * Prefix pl_; depends on core/, frontend_vk/, frontend_embree/ (and denoise/ for the gradient
  * layout). */
 #ifndef PL_PIPELINE_H
@@ -27,6 +29,7 @@ enum {
     PL_CAP_RESHADE = 2u,      /* re-shades gradient samples (A-SVGF) */
     PL_CAP_REFERENCE = 4u,    /* renders unbiased references */
     PL_CAP_BENCHMARK = 8u,    /* measures its rays against the bare tracer (pl_frontend_benchmark) */
+    PL_CAP_RECORDED = 16u,    /* a recorded sequence: pl_frontend_length frames, set by index */
 };
 
 typedef struct pl_frontend_desc {
@@ -36,6 +39,8 @@ typedef struct pl_frontend_desc {
     bool full_pipeline;      /* vk: every shader variant */
     uint32_t reflect_depth;  /* mirrors/glass the primary pass follows (0: 4) */
     uint32_t threads;        /* embree: CPU threads (0: all) */
+    const char *captures;    /* replay: the capture directory (or a run's output, DIR/capture) */
+    const struct tnd_capture_map *map; /* replay: another renderer's mapping (NULL: Tandem's) */
 } pl_frontend_desc;
 
 typedef struct pl_frontend pl_frontend;
@@ -69,6 +74,9 @@ tnd_result pl_frontend_reshade(pl_frontend *fe, const pl_params *p, const uint32
 /* The same from the back-end's GPU slot buffer (GPU front-ends only). */
 tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuffer slots,
                                      uint32_t count, pl_timings *t);
+/* A recorded front-end's frames (0 for a live one) and frame i's name (its file). */
+uint32_t pl_frontend_length(const pl_frontend *fe);
+const char *pl_frontend_frame_name(const pl_frontend *fe, uint32_t i);
 /* A CPU front-end's benchmark of the current frame (PL_CAP_BENCHMARK): the frame, each pass
  * alone, and the same rays replayed through the bare tracer (femb_benchmark's figures). */
 typedef struct pl_bench {

@@ -3,7 +3,7 @@
  * only place outside their folders that names their functions.
  * Entry points: pl_frontend_names, pl_frontend_needs_gpu, pl_frontend_create and the
  * pl_frontend_* operations. */
-#include "pipeline/pipeline.h"
+#include "pipeline/pl_internal.h"
 #include "frontend_embree/frontend_embree.h"
 #include "frontend_vk/frontend_vk.h"
 #include "shaders/sampling.h"
@@ -11,28 +11,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-typedef struct pl_frontend_ops {
-    const char *name;
-    uint32_t caps;
-    tnd_result (*create)(const tnd_scene *scene, const pl_frontend_desc *d, void **ctx);
-    void (*destroy)(void *ctx);
-    void (*describe)(const void *ctx, char *buf, size_t cap);
-    const char *(*models)(const void *ctx);
-    tnd_result (*set_frame)(void *ctx, const tnd_scene_state *cur, const tnd_scene_state *prev,
-                            uint32_t frame, uint32_t w, uint32_t h);
-    tnd_result (*render)(void *ctx, const pl_params *p, tnd_frame *host, pl_timings *t);
-    const tnd_contract_gpu *(*contract)(const void *ctx);
-    tnd_result (*reshade)(void *ctx, const pl_params *p, const uint32_t *words, uint32_t n,
-                          tnd_frame *host, pl_timings *t);
-    tnd_result (*reshade_slots)(void *ctx, const pl_params *p, VkBuffer slots, uint32_t n,
-                                pl_timings *t);
-    tnd_result (*reference)(void *ctx, uint32_t max_bounces, uint32_t spp, float *rgb,
-                            float *lum_se, tnd_ref_stats *stats,
-                            void (*progress)(uint32_t, uint32_t, void *), void *user);
-    tnd_result (*benchmark)(void *ctx, const pl_params *p, uint32_t repeats, pl_bench *out);
-    void (*cpu)(const void *ctx, uint32_t *threads, const char **simd);
-} pl_frontend_ops;
 
 struct pl_frontend {
     const pl_frontend_ops *ops;
@@ -171,13 +149,18 @@ static tnd_result vk_reference(void *ctx, uint32_t max_bounces, uint32_t spp, fl
 }
 
 static const pl_frontend_ops vk_ops = {
-    "vk",        PL_CAP_GPU_CONTRACT | PL_CAP_RESHADE | PL_CAP_REFERENCE,
-    vk_create,   vk_destroy,
-    vk_describe, vk_models,
-    vk_set_frame, vk_render,
-    vk_contract, vk_reshade,
-    vk_reshade_slots, vk_reference,
-    NULL,        NULL,
+    .name = "vk",
+    .caps = PL_CAP_GPU_CONTRACT | PL_CAP_RESHADE | PL_CAP_REFERENCE,
+    .create = vk_create,
+    .destroy = vk_destroy,
+    .describe = vk_describe,
+    .models = vk_models,
+    .set_frame = vk_set_frame,
+    .render = vk_render,
+    .contract = vk_contract,
+    .reshade = vk_reshade,
+    .reshade_slots = vk_reshade_slots,
+    .reference = vk_reference,
 };
 
 /* ---- Embree ------------------------------------------------------------------------------------ */
@@ -305,17 +288,23 @@ static void emb_cpu(const void *ctx, uint32_t *threads, const char **simd)
 }
 
 static const pl_frontend_ops embree_ops = {
-    "embree",     PL_CAP_RESHADE | PL_CAP_REFERENCE | PL_CAP_BENCHMARK,
-    emb_create,   emb_destroy,
-    emb_describe, emb_models,
-    emb_set_frame, emb_render,
-    emb_contract, emb_reshade,
-    NULL,         emb_reference,
-    emb_benchmark, emb_cpu,
+    .name = "embree",
+    .caps = PL_CAP_RESHADE | PL_CAP_REFERENCE | PL_CAP_BENCHMARK,
+    .create = emb_create,
+    .destroy = emb_destroy,
+    .describe = emb_describe,
+    .models = emb_models,
+    .set_frame = emb_set_frame,
+    .render = emb_render,
+    .contract = emb_contract,
+    .reshade = emb_reshade,
+    .reference = emb_reference,
+    .benchmark = emb_benchmark,
+    .cpu = emb_cpu,
 };
 
 /* ---- the registry -------------------------------------------------------------------------------- */
-static const pl_frontend_ops *const registry[] = {&embree_ops, &vk_ops};
+static const pl_frontend_ops *const registry[] = {&embree_ops, &vk_ops, &pl_replay_ops};
 enum { REGISTERED = sizeof registry / sizeof registry[0] };
 
 static const pl_frontend_ops *find(const char *name)
@@ -328,7 +317,7 @@ static const pl_frontend_ops *find(const char *name)
 
 const char *pl_frontend_names(void)
 {
-    return "embree, vk";
+    return "embree, vk, replay";
 }
 
 bool pl_frontend_needs_gpu(const char *name)
@@ -368,7 +357,20 @@ void pl_frontend_destroy(pl_frontend *fe)
 
 uint32_t pl_frontend_caps(const pl_frontend *fe)
 {
-    return fe->ops->caps;
+    uint32_t c = fe->ops->caps;
+    if (fe->ops->can_reshade && !fe->ops->can_reshade(fe->ctx))
+        c &= ~(uint32_t)PL_CAP_RESHADE;
+    return c;
+}
+
+uint32_t pl_frontend_length(const pl_frontend *fe)
+{
+    return fe->ops->length ? fe->ops->length(fe->ctx) : 0;
+}
+
+const char *pl_frontend_frame_name(const pl_frontend *fe, uint32_t i)
+{
+    return fe->ops->frame_name ? fe->ops->frame_name(fe->ctx, i) : NULL;
 }
 
 const char *pl_frontend_describe(const pl_frontend *fe, char *buf, size_t cap)
@@ -402,7 +404,7 @@ const tnd_contract_gpu *pl_frontend_contract(const pl_frontend *fe)
 tnd_result pl_frontend_reshade(pl_frontend *fe, const pl_params *p, const uint32_t *words,
                                uint32_t count, tnd_frame *host, pl_timings *t)
 {
-    if (!(fe->ops->caps & PL_CAP_RESHADE))
+    if (!(pl_frontend_caps(fe) & PL_CAP_RESHADE))
         return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' cannot re-shade",
                         fe->ops->name);
     return fe->ops->reshade(fe->ctx, p, words, count, host, t);

@@ -1,0 +1,40 @@
+/* pipeline/pl_internal.h: the table of operations a front-end implements (pl_frontend.c holds
+ * the registry and the Vulkan and Embree adapters, pl_replay.c the capture replay). */
+#ifndef PL_INTERNAL_H
+#define PL_INTERNAL_H
+
+#include "pipeline/pipeline.h"
+
+/* words per gradient sample in the back-end's host list (denoise.h's DN_GRADIENT_WORDS) */
+#define PL_GRADIENT_WORDS 7u
+
+typedef struct pl_frontend_ops {
+    const char *name;
+    uint32_t caps;
+    tnd_result (*create)(const tnd_scene *scene, const pl_frontend_desc *d, void **ctx);
+    void (*destroy)(void *ctx);
+    void (*describe)(const void *ctx, char *buf, size_t cap);
+    const char *(*models)(const void *ctx);
+    tnd_result (*set_frame)(void *ctx, const tnd_scene_state *cur, const tnd_scene_state *prev,
+                            uint32_t frame, uint32_t w, uint32_t h);
+    tnd_result (*render)(void *ctx, const pl_params *p, tnd_frame *host, pl_timings *t);
+    const tnd_contract_gpu *(*contract)(const void *ctx);
+    tnd_result (*reshade)(void *ctx, const pl_params *p, const uint32_t *words, uint32_t n,
+                          tnd_frame *host, pl_timings *t);
+    tnd_result (*reshade_slots)(void *ctx, const pl_params *p, VkBuffer slots, uint32_t n,
+                                pl_timings *t);
+    tnd_result (*reference)(void *ctx, uint32_t max_bounces, uint32_t spp, float *rgb,
+                            float *lum_se, tnd_ref_stats *stats,
+                            void (*progress)(uint32_t, uint32_t, void *), void *user);
+    tnd_result (*benchmark)(void *ctx, const pl_params *p, uint32_t repeats, pl_bench *out);
+    void (*cpu)(const void *ctx, uint32_t *threads, const char **simd);
+    /* recorded front-ends (PL_CAP_RECORDED) */
+    uint32_t (*length)(const void *ctx);
+    const char *(*frame_name)(const void *ctx, uint32_t i);
+    bool (*can_reshade)(const void *ctx); /* NULL: as caps says */
+} pl_frontend_ops;
+
+
+extern const pl_frontend_ops pl_replay_ops;
+
+#endif
