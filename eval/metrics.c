@@ -588,8 +588,18 @@ void ev_sequence_motion(ev_sequence *s, const float *motion, const float *depth)
         bool ok = s->motion && s->depth && s->prev_depth && s->valid && s->still && s->ysum;
         for (int k = 0; k < EV_DISOCC_FRAMES; k++)
             ok &= s->ev[k].mask != NULL;
-        if (!ok)
-            return; /* (ev_sequence_add then measures without motion) */
+        if (!ok) { /* (ev_sequence_add then measures without motion) */
+            free(s->motion), free(s->depth), free(s->prev_depth), free(s->valid), free(s->still);
+            free(s->ysum);
+            s->motion = s->depth = s->prev_depth = NULL;
+            s->valid = s->still = NULL;
+            s->ysum = NULL;
+            for (int k = 0; k < EV_DISOCC_FRAMES; k++) {
+                free(s->ev[k].mask);
+                s->ev[k].mask = NULL;
+            }
+            return;
+        }
         memset(s->still, 1, n);
     }
     memcpy(s->motion, motion, n * 3 * sizeof(float));
