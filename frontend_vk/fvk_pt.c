@@ -515,27 +515,18 @@ void fvk_set_reference_bounces(fvk_context *c, uint32_t bounces)
     c->ref_bounces = bounces;
 }
 
-/* The statistics of the accumulation image after `spp` samples (as femb's reference_stats). */
-static double reference_stats(const float *a, size_t n, uint32_t spp, float *rgb, float *lum_se)
+/* The statistics of the accumulation image (RGB sums, luminance^2 sum) after `spp` samples,
+ * through core's tnd_ref_finish (the same formulas as Embree's reference). */
+static double reference_stats(const float *a, size_t n, uint32_t spp, double *sums, float *rgb,
+                              float *lum_se)
 {
-    double err = 0;
-    uint32_t counted = 0;
+    double *s2 = sums + 3 * n;
     for (size_t q = 0; q < n; q++) {
-        float m[3];
         for (int k = 0; k < 3; k++)
-            m[k] = a[4 * q + k] / (float)spp;
-        if (rgb)
-            memcpy(rgb + 3 * q, m, sizeof m);
-        double ml = tnd_luminance(m[0], m[1], m[2]);
-        double se = tnd_ref_pixel_se(ml, a[4 * q + 3] / spp, spp);
-        if (lum_se)
-            lum_se[q] = (float)se;
-        if (ml > 1e-6 && spp > 1) {
-            err += se / ml;
-            counted++;
-        }
+            sums[3 * q + k] = a[4 * q + k];
+        s2[q] = a[4 * q + 3];
     }
-    return counted ? err / counted : 0;
+    return tnd_ref_finish(sums, s2, n, spp, rgb, lum_se);
 }
 
 tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se,
@@ -548,8 +539,12 @@ tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: reference needs a frame and spp > 0");
     size_t n = (size_t)c->width * c->height;
     acc = malloc(n * 16);
-    if (!acc)
+    double *sums = malloc(n * 4 * sizeof *sums);
+    if (!acc || !sums) {
+        free(acc);
+        free(sums);
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+    }
     ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.x = c->ref_bounces; /* (0: full paths) */
     const uint32_t batch = TND_REF_CHECK_EVERY;
     double until = stats ? stats->until_noise : 0.0;
@@ -570,17 +565,18 @@ tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se
             progress(taken, spp, user);
         if (until > 0 && taken < spp) {
             TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
-            if (reference_stats(acc, n, taken, NULL, NULL) < until) {
+            if (reference_stats(acc, n, taken, sums, NULL, NULL) < until) {
                 done = taken;
                 break;
             }
         }
     }
     TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
-    double err = reference_stats(acc, n, done, rgb, lum_se);
+    double err = reference_stats(acc, n, done, sums, rgb, lum_se);
     if (stats)
         stats->spp = done, stats->rel_error = err;
 fail:
     free(acc);
+    free(sums);
     return res;
 }

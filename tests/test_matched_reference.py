@@ -20,30 +20,20 @@ usage: test_matched_reference.py TANDEM
 import json
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 
 import numpy as np
 import OpenImageIO as oiio
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from tandem_cli import Checks  # noqa: E402
+
 TANDEM = os.path.abspath(sys.argv[1])
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 SCENE = os.path.join(ROOT, "data", "scenes", "closed_box.gltf")
-failures = []
-
-
-def check(name, ok, detail=""):
-    print(("ok   " if ok else "FAIL ") + name + (f"  ({detail})" if detail else ""))
-    if not ok:
-        failures.append(name)
-
-
-def run(*args, expect=0):
-    p = subprocess.run([TANDEM, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if expect is not None and p.returncode != expect:
-        sys.exit(f"tandem {' '.join(args)}: exit {p.returncode}\n{p.stderr}")
-    return p
+C = Checks(TANDEM)
+check, run = C.check, C.run
 
 
 def img(path):
@@ -127,5 +117,4 @@ try:
 finally:
     shutil.rmtree(tmp, ignore_errors=True)
 
-print(f"{'FAILED: ' + ', '.join(failures) if failures else 'all passed'}")
-sys.exit(1 if failures else 0)
+C.finish()

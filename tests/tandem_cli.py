@@ -1,0 +1,27 @@
+"""tests/tandem_cli.py: what the Python tests that drive the `tandem` command share: running it
+and counting checks (`ok   NAME` / `FAIL NAME (detail)`, exit 1 when any failed)."""
+import subprocess
+import sys
+
+
+class Checks:
+    def __init__(self, tandem):
+        self.tandem = tandem
+        self.failures = []
+
+    def check(self, name, ok, detail=""):
+        print(("ok   " if ok else "FAIL ") + name + (f"  ({detail})" if detail else ""))
+        if not ok:
+            self.failures.append(name)
+
+    def run(self, *args, expect=0):
+        """`tandem ARGS`; stops the test when the exit status is not `expect` (None: any)."""
+        p = subprocess.run([self.tandem, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True)
+        if expect is not None and p.returncode != expect:
+            sys.exit(f"tandem {' '.join(args)}: exit {p.returncode}\n{p.stderr}")
+        return p
+
+    def finish(self):
+        print("FAILED: " + ", ".join(self.failures) if self.failures else "all passed")
+        sys.exit(1 if self.failures else 0)
