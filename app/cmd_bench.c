@@ -83,7 +83,8 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
     tnd_result res = TND_OK;
     tnd_vk vk = {0};
     pl_frontend *gv = NULL;
-    dn_context *dn = NULL;
+    pl_chain *chain = NULL;
+    dn_context *dn = NULL; /* (the chain's) */
     tnd_scene_state st[2] = {{0}};
     enum { WARM = 3 };
     double *v[BP_COUNT] = {0}, *dv = NULL; /* dv: per dispatch (--per-dispatch) */
@@ -98,9 +99,13 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
                                &(pl_frontend_desc){.vk = &vk, .precision = prec, .rt_api = rt_api,
                                                    .full_pipeline = full},
                                &gv));
-    TND_TRY(dn_create(&vk, size[0], size[1],
-                      &(dn_desc){.mode = mode, .precision = prec, .dispatch_timing = per_dispatch},
-                      &dn));
+    TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = size[0], .height = size[1],
+                                             .precision = prec, .backend = true,
+                                             .denoise = {.mode = mode,
+                                                         .dispatch_timing = per_dispatch},
+                                             .no_post = true},
+                            &chain));
+    dn = pl_chain_denoiser(chain);
     /* per dispatch (--per-dispatch): times of each dispatch over the timed frames, when the
      * sequence of dispatches is the same every frame (it is after the first) */
     enum { MAXD = TND_TIMER_MAX_PASSES };
@@ -120,16 +125,13 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         if (i == 0)
             TND_TRY(tnd_scene_evaluate(s, f ? (f - 1) / 30.0 : 0.0, 0, aspect, prev));
         double t0 = tnd_now();
-        pl_timings tm = {0}, tg = {0};
-        dn_timings dt = {0};
         TND_TRY(pl_frontend_set_frame(gv, cur, prev, f, size[0], size[1]));
-        TND_TRY(pl_frontend_render(gv, &fp, NULL, &tm));
-        dn_frame df = dn_frame_for_camera(cur->camera.proj, size[1], f, i == 0);
-        uint32_t n = 0;
-        VkBuffer slots_buf;
-        TND_TRY(dn_select_gradients_gpu(dn, pl_frontend_contract(gv), &df, &slots_buf, &n));
-        TND_TRY(pl_frontend_reshade_slots(gv, &fp, slots_buf, n, &tg));
-        TND_TRY(dn_run(dn, pl_frontend_contract(gv), &df, &dt));
+        pl_step step = {.params = fp,
+                        .frame = dn_frame_for_camera(cur->camera.proj, size[1], f, i == 0)};
+        pl_step_result pr;
+        TND_TRY(pl_chain_run(chain, gv, &step, NULL, NULL, &pr));
+        const pl_timings tm = pr.fe, tg = pr.fe;
+        const dn_timings dt = pr.dn;
         double wall = 1e3 * (tnd_now() - t0);
         lf_beside = dt.lf_beside_atrous;
         if (i < WARM)
@@ -265,7 +267,7 @@ fail:
         free(v[k]);
     tnd_scene_state_free(&st[0]);
     tnd_scene_state_free(&st[1]);
-    dn_destroy(dn);
+    pl_chain_destroy(chain);
     pl_frontend_destroy(gv);
     tnd_vk_destroy(&vk);
     return res;

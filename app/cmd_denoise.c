@@ -18,6 +18,19 @@ static const app_cmd denoise_cmd = {
     "renderer's through --map) and write the denoised frames.",
     "--captures DIR --out DIR [--map MAPPING.json] [--denoiser asvgf|svgf|off] [--dump LIST]", NULL};
 
+/* The back-end's buffers of a frame (--dump), after the back-end ran. */
+typedef struct dump_ctx {
+    uint32_t mask;
+    const char *dir;
+    char stem[1024];
+} dump_ctx;
+
+static tnd_result dump_frame(dn_context *dn, void *user)
+{
+    const dump_ctx *d = user;
+    return app_write_dumps(dn, d->mask, d->dir, d->stem);
+}
+
 int cmd_denoise(int argc, char **argv)
 {
     const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf", *dump = NULL;
@@ -64,7 +77,7 @@ int cmd_denoise(int argc, char **argv)
     /* A-SVGF re-shades its gradient samples with a front-end: it runs on captures that keep
      * them (tandem render --capture --denoiser asvgf), and as svgf on the others */
     bool asked_asvgf = mode == DN_MODE_ASVGF;
-    char dir[1100], path[2300], src[2300]; /* src: this frame's capture */
+    char path[2300];
     tnd_capture_map *map = NULL;
     pl_frontend *rp = NULL; /* the captures, replayed as a front-end */
     if (map_path && (res = tnd_capture_map_load(map_path, &map)) != TND_OK)
@@ -75,126 +88,78 @@ int cmd_denoise(int argc, char **argv)
         tnd_capture_map_destroy(map);
         return app_report("denoise", res);
     }
-    tnd_capture_dir(captures, dir, sizeof dir);
     size_t n = pl_frontend_length(rp);
     /* no partial output: what this run wrote goes again if a later frame fails */
     struct stat out_st;
     bool out_existed = stat(out, &out_st) == 0, dump_made = false;
     size_t written = 0;
+    bool begun = false; /* the output was begun */
     tnd_vk vk = {0};
-    dn_context *dn = NULL;
-    tnd_contract_gpu ct = {0};
-    tnd_frame f = {0}, before = {0}; /* the frame before: entries and camera */
+    pl_chain *chain = NULL; /* selection, re-shading (the stored samples), back-end, post */
     float *rgb = NULL;
     uint8_t *display = NULL;
-    cmp_context *post = NULL;
     FILE *timings = NULL;
     int status = APP_EXIT_FAIL;
     uint32_t w = 0, h = 0;
-    float prev_jitter[2] = {0, 0};
-    uint32_t *grads = NULL; /* the back-end's selection, DN_GRADIENT_WORDS words per sample */
+    tnd_precision prec = TND_PRECISION_F32;
+    bool split = false;
+    char dump_dir[1100];
     app_progress bar;
     app_progress_begin(&bar, "denoise", (unsigned)n);
-    char dump_dir[1100];
+    pl_frontend_recorded(rp, &w, &h, &prec, &split);
+    if (asked_asvgf && !(pl_frontend_caps(rp) & PL_CAP_RESHADE)) {
+        mode = DN_MODE_SVGF;
+        if (!app_quiet())
+            fprintf(stderr,
+                    "tandem: denoise: %s: running as svgf: the capture carries no gradient "
+                    "samples (A-SVGF needs a front-end to re-shade them: tandem render --capture "
+                    "--denoiser asvgf keeps them)\n",
+                    pl_frontend_frame_name(rp, 0));
+    }
+    TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
+    /* the post chain with render's defaults (auto exposure, ACES), TAA as asked, the interleave
+     * when the captures carry split paths (the first frame says) */
+    post_d.interleave = split;
+    TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = w, .height = h,
+                                             .precision = prec, .backend = true,
+                                             .denoise = {.mode = mode}, .post = post_d},
+                            &chain));
+    rgb = malloc((size_t)w * h * 3 * sizeof *rgb);
+    display = malloc((size_t)w * h * 3);
+    if (!rgb || !display) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
+        goto fail;
+    }
+    TND_TRY(tnd_mkdirs(out));
+    begun = true;
+    if (dump_mask) {
+        struct stat dst;
+        snprintf(dump_dir, sizeof dump_dir, "%s/dump", out);
+        dump_made = stat(dump_dir, &dst) != 0;
+        TND_TRY(tnd_mkdirs(dump_dir));
+    }
+    snprintf(path, sizeof path, "%s/timings.json", out);
+    if (!(timings = fopen(path, "w"))) {
+        res = tnd_fail(TND_ERR_IO, "denoise: %s: cannot create", path);
+        goto fail;
+    }
+    fprintf(timings, "{\n  \"denoiser\": \"%s\",\n  \"device\": \"%s\",\n  \"frames\": [",
+            dn_mode_name(mode), vk.info.name);
     for (size_t i = 0; i < n; i++) {
         const char *name = pl_frontend_frame_name(rp, (uint32_t)i);
-        snprintf(src, sizeof src, "%s/%s", dir, name);
-        tnd_frame_destroy(&before);
-        before = f;
-        memset(&f, 0, sizeof f);
+        dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
+        snprintf(dc.stem, sizeof dc.stem, "%s", name);
+        char *dot = strrchr(dc.stem, '.');
+        if (dot)
+            *dot = '\0';
         TND_TRY(pl_frontend_set_frame(rp, NULL, NULL, (uint32_t)i, 0, 0));
-        TND_TRY(pl_frontend_render(rp, NULL, &f, NULL));
-        if (i > 0 && (f.width != w || f.height != h)) {
-            res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: %ux%u, the sequence's first frame "
-                           "is %ux%u", src, f.width, f.height, w, h);
-            goto fail;
-        }
-        if (i > 0)
-            TND_TRY(tnd_capture_check_entries(&before, &f, src));
-        if (i == 0) {
-            w = f.width, h = f.height;
-            if (asked_asvgf && !(pl_frontend_caps(rp) & PL_CAP_RESHADE)) {
-                mode = DN_MODE_SVGF;
-                if (!app_quiet())
-                    fprintf(stderr,
-                            "tandem: denoise: %s: running as svgf: the capture carries no "
-                            "gradient samples (A-SVGF needs a front-end to re-shade them: "
-                            "tandem render --capture --denoiser asvgf keeps them)\n",
-                            name);
-            }
-            TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
-            TND_TRY(dn_create(&vk, w, h, &(dn_desc){.mode = mode, .precision = f.precision}, &dn));
-            TND_TRY(tnd_contract_gpu_create(&vk, w, h, f.precision, &ct));
-            if (mode == DN_MODE_ASVGF &&
-                !(grads = malloc((size_t)dn_gradient_capacity(dn) * DN_GRADIENT_WORDS *
-                                 sizeof *grads))) {
-                res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
-                goto fail;
-            }
-            /* the post chain with render's defaults (auto exposure, ACES), TAA as asked */
-            /* the interleave when the captures carry split paths (checked on the first frame) */
-            bool split = false;
-            for (size_t q = 0; f.present[TND_CT_PATH] && q < (size_t)w * h && !split; q++)
-                split = (tnd_frame_u(&f, TND_CT_PATH)[q] & TND_PATH_SPLIT) != 0;
-            post_d.interleave = split;
-            TND_TRY(cmp_create(&vk, w, h, f.precision, &post_d, &post));
-            rgb = malloc((size_t)w * h * 3 * sizeof *rgb);
-            display = malloc((size_t)w * h * 3);
-            if (!rgb || !display) {
-                res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
-                goto fail;
-            }
-            TND_TRY(tnd_mkdirs(out));
-            if (dump_mask) {
-                struct stat dst;
-                snprintf(dump_dir, sizeof dump_dir, "%s/dump", out);
-                dump_made = stat(dump_dir, &dst) != 0;
-                TND_TRY(tnd_mkdirs(dump_dir));
-            }
-            snprintf(path, sizeof path, "%s/timings.json", out);
-            if (!(timings = fopen(path, "w"))) {
-                res = tnd_fail(TND_ERR_IO, "denoise: %s: cannot create", path);
-                goto fail;
-            }
-            fprintf(timings, "{\n  \"denoiser\": \"%s\",\n  \"device\": \"%s\",\n  \"frames\": [",
-                    dn_mode_name(mode), vk.info.name);
-        }
-        if (mode == DN_MODE_ASVGF && !f.gradients) {
-            res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: no gradient samples, but the "
-                           "sequence's first frame has them (run --denoiser svgf)", src);
-            goto fail;
-        }
-        double tan_half = f.has_camera && f.camera.proj[5] != 0.0f
-                              ? 1.0 / fabs((double)f.camera.proj[5])
-                              : tan(0.5 * yfov_deg * TND_PI / 180.0);
-        dn_frame df = {.jitter = {f.camera.jitter[0], f.camera.jitter[1]},
-                       .prev_jitter = {prev_jitter[0], prev_jitter[1]},
-                       .pixel_spread = (float)(2.0 * tan_half / h),
-                       .reset = i == 0};
-        memcpy(prev_jitter, f.camera.jitter, sizeof prev_jitter);
-        dn_timings tm;
-        TND_TRY(tnd_contract_upload(&vk, &ct, &f));
-        if (mode == DN_MODE_ASVGF) { /* the replay patches the stored gradient samples in */
-            uint32_t ng = 0;
-            TND_TRY(dn_select_gradients(dn, &ct, &df, grads, &ng));
-            TND_TRY(pl_frontend_reshade(rp, NULL, grads, ng, &f, NULL));
-            if (ng)
-                TND_TRY(tnd_contract_upload(&vk, &ct, &f));
-        }
-        TND_TRY(dn_run(dn, &ct, &df, &tm));
-        if (dump_mask) {
-            char stem[1024];
-            snprintf(stem, sizeof stem, "%s", name);
-            char *dot = strrchr(stem, '.');
-            if (dot)
-                *dot = '\0';
-            TND_TRY(app_write_dumps(dn, dump_mask, dump_dir, stem));
-        }
-        cmp_timings pt = {0};
-        TND_TRY(cmp_run(post, dn_output(dn), &ct, &(cmp_frame){.dt = 1.0f / 30, .reset = i == 0},
-                        &pt));
-        TND_TRY(cmp_download_hdr(post, rgb));
-        TND_TRY(cmp_download_display(post, display));
+        pl_step step = {.frame = {.reset = i == 0}, .frame_from_host = true, .yfov = yfov_deg,
+                        .dt = 1.0f / 30, .after_backend = dump_mask ? dump_frame : NULL,
+                        .user = &dc};
+        pl_step_result pr;
+        TND_TRY(pl_chain_run(chain, rp, &step, rgb, display, &pr));
+        const dn_timings tm = pr.dn;
+        const cmp_timings pt = pr.post;
         fprintf(timings,
                 "%s\n    {\"file\": \"%s\", \"denoise_temporal_ms\": %.4f, "
                 "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"denoise_lf_beside_atrous\": %s, "
@@ -232,7 +197,7 @@ fail:
         app_report("denoise", res);
     if (timings)
         fclose(timings);
-    if (status != APP_EXIT_OK && w) { /* (w: the output was begun) */
+    if (status != APP_EXIT_OK && begun) {
         if (dump_made)
             app_remove_flat_dir(dump_dir);
         if (!out_existed) {
@@ -250,12 +215,7 @@ fail:
     }
     free(rgb);
     free(display);
-    free(grads);
-    cmp_destroy(post);
-    tnd_frame_destroy(&f);
-    tnd_frame_destroy(&before);
-    tnd_contract_gpu_destroy(&vk, &ct);
-    dn_destroy(dn);
+    pl_chain_destroy(chain);
     if (vk.device || vk.instance)
         tnd_vk_destroy(&vk);
     pl_frontend_destroy(rp);

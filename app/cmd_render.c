@@ -440,27 +440,17 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     return ok ? TND_OK : tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);
 }
 
-/* A-SVGF's samples of frame f beside its capture: the pixels of the back-end's selection
- * (DN_GRADIENT_WORDS words each, the pixel first) and the contract there after re-shading. */
-static tnd_result write_gradients(const char *dir, unsigned f, const tnd_frame *reshaded,
-                                  const uint32_t *words, uint32_t n)
+/* The back-end's buffers of a frame (--dump), after the back-end ran. */
+typedef struct dump_ctx {
+    uint32_t mask;
+    const char *dir;
+    char stem[16];
+} dump_ctx;
+
+static tnd_result dump_frame(dn_context *dn, void *user)
 {
-    tnd_result res = TND_OK;
-    tnd_gradient_samples g = {0};
-    uint32_t *pixels = malloc((size_t)n * sizeof *pixels);
-    if (!pixels)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "render: out of memory");
-    for (uint32_t k = 0; k < n; k++)
-        pixels[k] = words[(size_t)k * DN_GRADIENT_WORDS];
-    char cap[1700], path[1800];
-    snprintf(cap, sizeof cap, "%s/frame_%04u.exr", dir, f);
-    tnd_capture_gradients_path(cap, path, sizeof path);
-    TND_TRY(tnd_gradient_samples_gather(reshaded, pixels, n, &g));
-    TND_TRY(tnd_capture_write_gradients(path, &g, reshaded->width, reshaded->height, TND_EXR_ZIP));
-fail:
-    tnd_gradient_samples_free(&g);
-    free(pixels);
-    return res;
+    const dump_ctx *d = user;
+    return app_write_dumps(dn, d->mask, d->dir, d->stem);
 }
 
 static int run(bool reference, int argc, char **argv)
@@ -477,10 +467,8 @@ static int run(bool reference, int argc, char **argv)
     tnd_scene *scene = NULL;
     tnd_vk vk = {0};
     pl_frontend *fr = NULL;
-    dn_context *dn = NULL;
-    cmp_context *post = NULL;
+    pl_chain *chain = NULL; /* selection, re-shading, back-end, post */
     uint8_t *display = NULL;
-    tnd_contract_gpu upload = {0};
     bool use_vk = pl_frontend_needs_gpu(o.frontend); /* (the contract on the GPU) */
     dn_mode dmode = DN_MODE_SVGF;
     if (!reference && (res = dn_mode_parse(o.denoiser, &dmode)) != TND_OK)
@@ -496,9 +484,8 @@ static int run(bool reference, int argc, char **argv)
                                          "--denoiser off composites on the CPU)"));
     FILE *timings = NULL;
     tnd_scene_state st[2] = {{0}};
-    tnd_frame frame = {0}, reshaded = {0}; /* (reshaded: vk's contract after A-SVGF's samples) */
+    tnd_frame frame = {0}; /* (reference: the frame's contract) */
     float *rgb = NULL;
-    uint32_t *grads = NULL;             /* A-SVGF samples, DN_GRADIENT_WORDS each */
     bool matched = reference && strcmp(o.estimator, "realtime") == 0;
     tnd_ref_stats *ref_stats = NULL; /* reference: per frame */
     double *ref_noise = NULL;
@@ -511,32 +498,22 @@ static int run(bool reference, int argc, char **argv)
     if (use_vk || use_dn) {
         TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !use_vk}, &vk));
     }
-    if (use_dn) {
-        float ma = (float)o.min_alpha;
-        TND_TRY(dn_create(&vk, o.size[0], o.size[1],
-                          &(dn_desc){.mode = dmode, .precision = prec, .iters_hf = o.atrous,
-                                     .iters_spec = o.atrous, .min_alpha_hf = ma,
-                                     .min_alpha_lf = ma, .min_alpha_spec = ma},
-                          &dn));
-        if (!use_vk)
-            TND_TRY(tnd_contract_gpu_create(&vk, o.size[0], o.size[1], prec, &upload));
-    }
     /* the interleave where the scene has surfaces that both reflect and refract (or forced) */
     cmp_desc pd = {.bloom = (float)o.bloom,
                    .interleave = (scene->features & TND_FEATURE(SPLIT)) != 0 ||
                                  strcmp(o.pipeline, "full") == 0};
     if (use_dn && (res = post_desc(&o, &pd)) != TND_OK)
         goto fail;
-    if (use_dn)
-        TND_TRY(cmp_create(&vk, o.size[0], o.size[1], prec, &pd, &post));
-    /* the Vulkan front-end reads the GPU list, unless the capture keeps the samples */
-    if (use_dn && dmode == DN_MODE_ASVGF && (!use_vk || o.capture)) {
-        uint32_t cap = dn_gradient_capacity(dn);
-        grads = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *grads);
-        if (!grads) {
-            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
-            goto fail;
-        }
+    if (!reference) {
+        float ma = (float)o.min_alpha;
+        TND_TRY(pl_chain_create(
+            &(pl_chain_desc){.vk = &vk, .width = o.size[0], .height = o.size[1], .precision = prec,
+                             .backend = use_dn,
+                             .denoise = {.mode = dmode, .iters_hf = o.atrous,
+                                         .iters_spec = o.atrous, .min_alpha_hf = ma,
+                                         .min_alpha_lf = ma, .min_alpha_spec = ma},
+                             .post = pd},
+            &chain));
     }
     TND_TRY(pl_frontend_create(o.frontend, scene,
                                &(pl_frontend_desc){.vk = use_vk ? &vk : NULL, .precision = prec,
@@ -614,62 +591,21 @@ static int run(bool reference, int argc, char **argv)
                         bar.enabled ? "\n" : "", f, rs->spp, 100.0 * err);
             continue;
         }
-        TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
-        pl_timings tm = {0};
-        const pl_params fp = {.bounces = o.bounces};
-        TND_TRY(pl_frontend_render(fr, &fp, &frame, &tm));
-        if (o.capture) {
-            snprintf(path, sizeof path, "%s/frame_%04u.exr", dir, f);
-            frame.gradients = use_dn && dmode == DN_MODE_ASVGF; /* the samples come beside it */
-            TND_TRY(tnd_capture_write(path, &frame, TND_EXR_ZIP));
-        }
-        dn_timings dt = {0};
-        cmp_timings pt = {0};
-        if (use_dn) {
-            dn_frame df = dn_frame_for_camera(cur->camera.proj, o.size[1], f, i == 0);
-            const tnd_contract_gpu *ct = use_vk ? pl_frontend_contract(fr) : &upload;
-            if (!use_vk)
-                TND_TRY(tnd_contract_upload(&vk, &upload, &frame));
-            if (dmode == DN_MODE_ASVGF) {
-                /* A-SVGF: the back-end picks pixels, the front-end re-shades them with the
-                 * previous frame's random numbers on the surface seen there */
-                uint32_t n = 0;
-                if (use_vk && o.capture) { /* the list comes to the host, for the capture */
-                    TND_TRY(dn_select_gradients(dn, ct, &df, grads, &n));
-                    TND_TRY(pl_frontend_reshade(fr, &fp, grads, n, NULL, &tm));
-                    if (n) { /* the contract as re-shaded, at the samples */
-                        if (!reshaded.block)
-                            TND_TRY(tnd_frame_create(o.size[0], o.size[1], &reshaded));
-                        TND_TRY(tnd_contract_download(&vk, ct, &reshaded));
-                        TND_TRY(write_gradients(dir, f, &reshaded, grads, n));
-                    }
-                } else if (use_vk) { /* the sample list stays on the GPU */
-                    VkBuffer slots_buf;
-                    TND_TRY(dn_select_gradients_gpu(dn, ct, &df, &slots_buf, &n));
-                    TND_TRY(pl_frontend_reshade_slots(fr, &fp, slots_buf, n, &tm));
-                } else if ((res = dn_select_gradients(dn, ct, &df, grads, &n)) != TND_OK) {
-                    goto fail;
-                } else if (n) { /* re-shaded into the host frame, which goes up again */
-                    TND_TRY(pl_frontend_reshade(fr, &fp, grads, n, &frame, &tm));
-                    TND_TRY(tnd_contract_upload(&vk, &upload, &frame));
-                    if (o.capture)
-                        TND_TRY(write_gradients(dir, f, &frame, grads, n));
-                }
-            }
-            TND_TRY(dn_run(dn, ct, &df, &dt));
-            if (dump_mask) {
-                char stem[16];
-                snprintf(stem, sizeof stem, "%04u", f);
-                TND_TRY(app_write_dumps(dn, dump_mask, dump_dir, stem));
-            }
-            TND_TRY(cmp_run(post, dn_output(dn), ct,
-                            &(cmp_frame){.dt = (float)(1.0 / o.fps), .reset = i == 0}, &pt));
-            TND_TRY(cmp_download_hdr(post, rgb));
-            TND_TRY(cmp_download_display(post, display));
-        } else {
-            tnd_frame_composite(&frame, rgb);
-            tnd_frame_interleave(&frame, rgb);
-        }
+        pl_step_result pr = {0};
+        char cap_path[1800];
+        snprintf(cap_path, sizeof cap_path, "%s/frame_%04u.exr", dir, f);
+        dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
+        snprintf(dc.stem, sizeof dc.stem, "%04u", f);
+        pl_step step = {.params = {.bounces = o.bounces},
+                        .frame = dn_frame_for_camera(cur->camera.proj, o.size[1], f, i == 0),
+                        .dt = (float)(1.0 / o.fps),
+                        .capture = o.capture ? cap_path : NULL,
+                        .after_backend = dump_mask ? dump_frame : NULL,
+                        .user = &dc};
+        TND_TRY(pl_chain_run(chain, fr, &step, rgb, use_dn ? display : NULL, &pr));
+        const pl_timings tm = pr.fe;
+        const dn_timings dt = pr.dn;
+        const cmp_timings pt = pr.post;
         /* front-end times: GPU timestamps (vk) or CPU wall clock (embree); back-end: GPU */
         fprintf(timings,
                 "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
@@ -709,8 +645,9 @@ static int run(bool reference, int argc, char **argv)
     if (!reference)
         TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
                                use_dn ? dn_mode_name(dmode) : "off (CPU composite)",
-                               post ? cmp_settings(post) : &pd,
-                               post ? cmp_passes(post) : NULL, scene, fr));
+                               pl_chain_post(chain) ? cmp_settings(pl_chain_post(chain)) : &pd,
+                               pl_chain_post(chain) ? cmp_passes(pl_chain_post(chain)) : NULL,
+                               scene, fr));
     if (o.video)
         TND_TRY(app_write_video(o.out, o.start, o.frames, o.fps));
     if ((use_vk || use_dn) && vk.validation && tnd_vk_validation_errors(&vk)) {
@@ -729,20 +666,16 @@ fail:
     if (status != APP_EXIT_OK)
         app_report(what, res);
     tnd_frame_destroy(&frame);
-    tnd_frame_destroy(&reshaded);
     free(ref_stats);
     free(ref_noise);
     free(lum_se);
     free(rgb);
-    free(grads);
     tnd_scene_state_free(&st[0]);
     tnd_scene_state_free(&st[1]);
     if (timings)
         fclose(timings);
-    cmp_destroy(post);
     free(display);
-    dn_destroy(dn);
-    tnd_contract_gpu_destroy(&vk, &upload);
+    pl_chain_destroy(chain);
     pl_frontend_destroy(fr);
     tnd_vk_destroy(&vk);
     tnd_scene_destroy(scene);

@@ -8,7 +8,9 @@
 #ifndef PL_PIPELINE_H
 #define PL_PIPELINE_H
 
+#include "composite/composite.h"
 #include "core/core.h"
+#include "denoise/denoise.h"
 
 /* One real-time frame's parameters (as femb_params / fvk_params). */
 typedef struct pl_params {
@@ -77,6 +79,10 @@ tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuff
 /* A recorded front-end's frames (0 for a live one) and frame i's name (its file). */
 uint32_t pl_frontend_length(const pl_frontend *fe);
 const char *pl_frontend_frame_name(const pl_frontend *fe, uint32_t i);
+/* A recorded front-end's frame size, precision and whether its first frame splits pixels into
+ * checkerboard fields (the post chain's interleave); false for a live one. */
+bool pl_frontend_recorded(const pl_frontend *fe, uint32_t *width, uint32_t *height,
+                          tnd_precision *precision, bool *split);
 /* A CPU front-end's benchmark of the current frame (PL_CAP_BENCHMARK): the frame, each pass
  * alone, and the same rays replayed through the bare tracer (femb_benchmark's figures). */
 typedef struct pl_bench {
@@ -92,5 +98,49 @@ tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t
                                  float *lum_se, tnd_ref_stats *stats,
                                  void (*progress)(uint32_t done, uint32_t total, void *user),
                                  void *user);
+
+/* ---- the frame after the front-end (pl_chain.c) -------------------------------------------- */
+typedef struct pl_chain_desc {
+    tnd_vk *vk;              /* the back-end's and post chain's context (backend) */
+    uint32_t width, height;
+    tnd_precision precision; /* of the contract */
+    bool backend;            /* the Vulkan back-end (false: the CPU composite, no Vulkan) */
+    dn_desc denoise;         /* its mode and knobs (the precision is the chain's) */
+    cmp_desc post;
+    bool no_post;            /* the back-end alone (bench) */
+} pl_chain_desc;
+
+typedef struct pl_step {
+    pl_params params;       /* the front-end's */
+    dn_frame frame;         /* jitter, spread, reset */
+    bool frame_from_host;   /* recorded frames: jitter and spread from the frame's camera (yfov
+                               when it has none), the previous jitter kept by the chain */
+    double yfov;            /* degrees */
+    float dt;               /* seconds since the previous frame (post) */
+    const char *capture;    /* write the frame's capture there (and its gradient samples beside) */
+    bool want_host;         /* keep the frame on the host too (pl_chain_host) */
+    /* called after the back-end ran, before the post chain (dumps) */
+    tnd_result (*after_backend)(dn_context *dn, void *user);
+    void *user;
+} pl_step;
+
+typedef struct pl_step_result {
+    pl_timings fe;
+    dn_timings dn;
+    cmp_timings post;
+} pl_step_result;
+
+typedef struct pl_chain pl_chain;
+tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **chain);
+void pl_chain_destroy(pl_chain *chain);
+/* One frame: the front-end's (set by the caller with pl_frontend_set_frame), then selection,
+ * re-shading, back-end and post; the linear HDR output (3 floats per pixel) and the display
+ * image (3 bytes) when asked (not NULL). Without the back-end, hdr receives the CPU composite. */
+tnd_result pl_chain_run(pl_chain *chain, pl_frontend *fe, const pl_step *step, float *hdr,
+                        uint8_t *display, pl_step_result *result);
+dn_context *pl_chain_denoiser(pl_chain *chain);
+cmp_context *pl_chain_post(pl_chain *chain);
+/* The frame as the front-end filled it (when it was on the host: captures, CPU front-ends). */
+const tnd_frame *pl_chain_host(const pl_chain *chain);
 
 #endif

@@ -445,3 +445,9 @@ void pl_frontend_cpu(const pl_frontend *fe, uint32_t *threads, const char **simd
     if (fe->ops->cpu)
         fe->ops->cpu(fe->ctx, threads, simd);
 }
+
+bool pl_frontend_recorded(const pl_frontend *fe, uint32_t *width, uint32_t *height,
+                          tnd_precision *precision, bool *split)
+{
+    return fe->ops->recorded && fe->ops->recorded(fe->ctx, width, height, precision, split);
+}

@@ -32,6 +32,7 @@ typedef struct pl_frontend_ops {
     uint32_t (*length)(const void *ctx);
     const char *(*frame_name)(const void *ctx, uint32_t i);
     bool (*can_reshade)(const void *ctx); /* NULL: as caps says */
+    bool (*recorded)(const void *ctx, uint32_t *w, uint32_t *h, tnd_precision *p, bool *split);
 } pl_frontend_ops;
 
 

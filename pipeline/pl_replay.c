@@ -18,6 +18,10 @@ typedef struct replay {
     size_t count;
     uint32_t index;       /* the frame set_frame chose */
     tnd_frame first;      /* frame 0, read at creation (its size, entries and gradients) */
+    uint32_t width, height;
+    tnd_precision precision;
+    bool split;           /* frame 0 splits pixels into checkerboard fields */
+    bool present[TND_CT_COUNT]; /* frame 0's entries: every frame must carry them */
     bool first_used;      /* (handed to the first render) */
     bool gradients;       /* frame 0 keeps gradient samples: the replay re-shades */
     tnd_camera_state prev_cam;
@@ -48,6 +52,13 @@ static tnd_result rp_create(const tnd_scene *scene, const pl_frontend_desc *d, v
     if (res == TND_OK)
         res = read_frame(r, 0, &r->first);
     r->gradients = res == TND_OK && r->first.gradients;
+    if (res == TND_OK) {
+        const tnd_frame *f = &r->first;
+        r->width = f->width, r->height = f->height, r->precision = f->precision;
+        memcpy(r->present, f->present, sizeof r->present);
+        for (size_t q = 0; f->present[TND_CT_PATH] && q < (size_t)f->width * f->height; q++)
+            r->split |= (tnd_frame_u(f, TND_CT_PATH)[q] & TND_PATH_SPLIT) != 0;
+    }
     if (res != TND_OK) {
         tnd_capture_list_free(r->names, r->count);
         free(r);
@@ -109,6 +120,14 @@ static tnd_result rp_render(void *ctx, const pl_params *p, tnd_frame *host, pl_t
         snprintf(r->path, sizeof r->path, "%s/%s", r->dir, r->names[0]);
     } else {
         TND_TRY(read_frame(r, r->index, host));
+        if (host->width != r->width || host->height != r->height) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: %ux%u, the sequence's first frame "
+                           "is %ux%u", r->path, host->width, host->height, r->width, r->height);
+            goto fail;
+        }
+        tnd_frame first = {.width = r->width, .height = r->height};
+        memcpy(first.present, r->present, sizeof first.present);
+        TND_TRY(tnd_capture_check_entries(&first, host, r->path));
     }
     if (t)
         *t = (pl_timings){1e3 * (tnd_now() - t0), 0.0, 0.0, 0.0};
@@ -132,6 +151,9 @@ static tnd_result rp_reshade(void *ctx, const pl_params *p, const uint32_t *word
     replay *r = ctx;
     char gpath[2400];
     tnd_gradient_samples_free(&r->gs);
+    if (r->gradients && !host->gradients)
+        return tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: no gradient samples, but the "
+                        "sequence's first frame has them (run --denoiser svgf)", r->path);
     tnd_capture_gradients_path(r->path, gpath, sizeof gpath);
     struct stat st;
     if (stat(gpath, &st) != 0) {
@@ -140,9 +162,7 @@ static tnd_result rp_reshade(void *ctx, const pl_params *p, const uint32_t *word
         return tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: missing (the back-end selected %u "
                         "gradient samples for %s)", gpath, n, r->path);
     }
-    if (!host->gradients)
-        return tnd_fail(TND_ERR_BAD_INPUT, "capture: %s: no gradient samples, but the "
-                        "sequence's first frame has them (run --denoiser svgf)", r->path);
+
     tnd_result res = tnd_capture_read_gradients(gpath, host->width, host->height, &r->gs);
     if (res != TND_OK)
         return res;
@@ -170,6 +190,13 @@ static const char *rp_frame_name(const void *ctx, uint32_t i)
     return i < r->count ? r->names[i] : NULL;
 }
 
+static bool rp_recorded(const void *ctx, uint32_t *w, uint32_t *h, tnd_precision *p, bool *split)
+{
+    const replay *r = ctx;
+    *w = r->width, *h = r->height, *p = r->precision, *split = r->split;
+    return true;
+}
+
 static bool rp_can_reshade(const void *ctx)
 {
     return ((const replay *)ctx)->gradients;
@@ -189,4 +216,5 @@ const pl_frontend_ops pl_replay_ops = {
     .length = rp_length,
     .frame_name = rp_frame_name,
     .can_reshade = rp_can_reshade,
+    .recorded = rp_recorded,
 };

@@ -1,0 +1,192 @@
+/* pipeline/pl_chain.c: the frame after the front-end, written once: (A-SVGF) gradient selection,
+ * re-shading by the front-end, the back-end, the post chain, and the outputs a caller asks for
+ * (the host frame, a capture with its gradient samples, the HDR and display images). render,
+ * denoise (capture replay) and bench run their frames through pl_chain_run. The contract stays on
+ * the GPU unless a capture or the CPU composite needs it on the host.
+ * Entry points: pl_chain_create, pl_chain_destroy, pl_chain_run, pl_chain_denoiser,
+ * pl_chain_post, pl_chain_host. */
+#include "pipeline/pl_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+_Static_assert(PL_GRADIENT_WORDS == DN_GRADIENT_WORDS, "the back-end's gradient list layout");
+
+struct pl_chain {
+    pl_chain_desc d;
+    dn_context *dn;
+    cmp_context *post;
+    tnd_contract_gpu upload;  /* host front-ends: their frame goes up here */
+    uint32_t *grads;          /* A-SVGF's host list, PL_GRADIENT_WORDS words per sample */
+    tnd_frame host, reshaded; /* (reshaded: a GPU contract after re-shading, for a capture) */
+    float prev_jitter[2];
+};
+
+tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **out)
+{
+    tnd_result res = TND_OK;
+    *out = NULL;
+    pl_chain *c = calloc(1, sizeof *c);
+    if (!c)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+    c->d = *d;
+    if (d->backend) {
+        dn_desc dd = d->denoise;
+        dd.precision = d->precision;
+        TND_TRY(dn_create(d->vk, d->width, d->height, &dd, &c->dn));
+        if (!d->no_post)
+            TND_TRY(cmp_create(d->vk, d->width, d->height, d->precision, &d->post, &c->post));
+        if (dd.mode == DN_MODE_ASVGF &&
+            !(c->grads = malloc((size_t)dn_gradient_capacity(c->dn) * PL_GRADIENT_WORDS *
+                                sizeof *c->grads))) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+            goto fail;
+        }
+    }
+    *out = c;
+    return TND_OK;
+fail:
+    pl_chain_destroy(c);
+    return res;
+}
+
+void pl_chain_destroy(pl_chain *c)
+{
+    if (!c)
+        return;
+    free(c->grads);
+    tnd_frame_destroy(&c->host);
+    tnd_frame_destroy(&c->reshaded);
+    if (c->upload.images[0].image)
+        tnd_contract_gpu_destroy(c->d.vk, &c->upload);
+    cmp_destroy(c->post);
+    dn_destroy(c->dn);
+    free(c);
+}
+
+dn_context *pl_chain_denoiser(pl_chain *c)
+{
+    return c->dn;
+}
+
+cmp_context *pl_chain_post(pl_chain *c)
+{
+    return c->post;
+}
+
+const tnd_frame *pl_chain_host(const pl_chain *c)
+{
+    return &c->host;
+}
+
+/* A-SVGF's samples of the frame beside its capture: the pixels of the back-end's selection and
+ * the contract there after re-shading. */
+static tnd_result write_gradients(const char *capture, const tnd_frame *reshaded,
+                                  const uint32_t *words, uint32_t n)
+{
+    tnd_result res = TND_OK;
+    tnd_gradient_samples g = {0};
+    uint32_t *pixels = malloc((size_t)n * sizeof *pixels);
+    if (!pixels)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+    for (uint32_t k = 0; k < n; k++)
+        pixels[k] = words[(size_t)k * PL_GRADIENT_WORDS];
+    char path[2200];
+    tnd_capture_gradients_path(capture, path, sizeof path);
+    TND_TRY(tnd_gradient_samples_gather(reshaded, pixels, n, &g));
+    TND_TRY(tnd_capture_write_gradients(path, &g, reshaded->width, reshaded->height, TND_EXR_ZIP));
+fail:
+    tnd_gradient_samples_free(&g);
+    free(pixels);
+    return res;
+}
+
+tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *hdr,
+                        uint8_t *display, pl_step_result *r)
+{
+    tnd_result res = TND_OK;
+    pl_step_result own = {0};
+    if (!r)
+        r = &own;
+    memset(r, 0, sizeof *r);
+    uint32_t caps = pl_frontend_caps(fe);
+    bool gpu = (caps & PL_CAP_GPU_CONTRACT) != 0, recorded = (caps & PL_CAP_RECORDED) != 0;
+    bool asvgf = c->d.backend && c->d.denoise.mode == DN_MODE_ASVGF;
+    bool need_host = !gpu || s->capture || s->want_host || !c->d.backend;
+    if (recorded)
+        tnd_frame_destroy(&c->host); /* (a recorded front-end reads into a fresh frame) */
+    else if (need_host && !c->host.block)
+        TND_TRY(tnd_frame_create(c->d.width, c->d.height, &c->host));
+    TND_TRY(pl_frontend_render(fe, &s->params, need_host ? &c->host : NULL, &r->fe));
+    dn_frame df = s->frame;
+    if (s->frame_from_host) { /* a recorded frame: its own jitter and projection */
+        const tnd_frame *f = &c->host;
+        double tan_half = f->has_camera && f->camera.proj[5] != 0.0f
+                              ? 1.0 / fabs((double)f->camera.proj[5])
+                              : tan(0.5 * s->yfov * TND_PI / 180.0);
+        memcpy(df.jitter, f->camera.jitter, sizeof df.jitter);
+        memcpy(df.prev_jitter, c->prev_jitter, sizeof df.prev_jitter);
+        df.pixel_spread = (float)(2.0 * tan_half / c->d.height);
+        memcpy(c->prev_jitter, f->camera.jitter, sizeof c->prev_jitter);
+    }
+    if (s->capture) {
+        c->host.gradients = asvgf; /* the samples come beside it */
+        TND_TRY(tnd_capture_write(s->capture, &c->host, TND_EXR_ZIP));
+    }
+    if (!c->d.backend) { /* the composite on the CPU */
+        tnd_frame_composite(&c->host, hdr);
+        tnd_frame_interleave(&c->host, hdr);
+        return TND_OK;
+    }
+    const tnd_contract_gpu *ct = gpu ? pl_frontend_contract(fe) : &c->upload;
+    if (!gpu) {
+        if (!c->upload.images[0].image)
+            TND_TRY(tnd_contract_gpu_create(c->d.vk, c->d.width, c->d.height, c->d.precision,
+                                            &c->upload));
+        TND_TRY(tnd_contract_upload(c->d.vk, &c->upload, &c->host));
+    }
+    if (asvgf) {
+        /* A-SVGF: the back-end picks pixels, the front-end re-shades them with the previous
+         * frame's random numbers on the surface seen there */
+        uint32_t n = 0;
+        if (gpu && s->capture) { /* the list comes to the host, for the capture */
+            TND_TRY(dn_select_gradients(c->dn, ct, &df, c->grads, &n));
+            TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, NULL, &r->fe));
+            if (n) { /* the contract as re-shaded, at the samples */
+                if (!c->reshaded.block)
+                    TND_TRY(tnd_frame_create(c->d.width, c->d.height, &c->reshaded));
+                TND_TRY(tnd_contract_download(c->d.vk, ct, &c->reshaded));
+                TND_TRY(write_gradients(s->capture, &c->reshaded, c->grads, n));
+            }
+        } else if (gpu) { /* the sample list stays on the GPU */
+            VkBuffer slots;
+            TND_TRY(dn_select_gradients_gpu(c->dn, ct, &df, &slots, &n));
+            TND_TRY(pl_frontend_reshade_slots(fe, &s->params, slots, n, &r->fe));
+        } else {
+            TND_TRY(dn_select_gradients(c->dn, ct, &df, c->grads, &n));
+            /* (a recorded front-end checks the selection even when it is empty) */
+            if (n || recorded)
+                TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, &c->host, &r->fe));
+            if (n) { /* re-shaded into the host frame, which goes up again */
+                TND_TRY(tnd_contract_upload(c->d.vk, &c->upload, &c->host));
+                if (s->capture)
+                    TND_TRY(write_gradients(s->capture, &c->host, c->grads, n));
+            }
+        }
+    }
+    TND_TRY(dn_run(c->dn, ct, &df, &r->dn));
+    if (s->after_backend)
+        TND_TRY(s->after_backend(c->dn, s->user));
+    if (c->post) {
+        TND_TRY(cmp_run(c->post, dn_output(c->dn), ct, &(cmp_frame){.dt = s->dt, .reset = df.reset},
+                        &r->post));
+        if (hdr)
+            TND_TRY(cmp_download_hdr(c->post, hdr));
+        if (display)
+            TND_TRY(cmp_download_display(c->post, display));
+    }
+fail:
+    return res;
+}
