@@ -95,6 +95,13 @@ int app_capture_info(const char *captures, const char *map_path, bool json);
 struct cmp_desc;
 tnd_result app_taa_parse(const char *taa, struct cmp_desc *d);
 tnd_result app_write_dumps(struct dn_context *dn, uint32_t mask, const char *dir, const char *stem);
+/* A frame's dumps as a pl_step's after_backend hook: user is an app_dump_ctx. */
+typedef struct app_dump_ctx {
+    uint32_t mask;
+    const char *dir;
+    char stem[1024];
+} app_dump_ctx;
+tnd_result app_dump_after_backend(struct dn_context *dn, void *user);
 /* The median of v[0..n) (sorts v in place; 0 when n is 0). */
 double app_median(double *v, unsigned n);
 /* Device bandwidth (GB/s, bytes read + written) of a vkCmdCopyBuffer and of a compute copy of

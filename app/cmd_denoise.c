@@ -18,19 +18,6 @@ static const app_cmd denoise_cmd = {
     "renderer's through --map) and write the denoised frames.",
     "--captures DIR --out DIR [--map MAPPING.json] [--denoiser asvgf|svgf|off] [--dump LIST]", NULL};
 
-/* The back-end's buffers of a frame (--dump), after the back-end ran. */
-typedef struct dump_ctx {
-    uint32_t mask;
-    const char *dir;
-    char stem[1024];
-} dump_ctx;
-
-static tnd_result dump_frame(dn_context *dn, void *user)
-{
-    const dump_ctx *d = user;
-    return app_write_dumps(dn, d->mask, d->dir, d->stem);
-}
-
 int cmd_denoise(int argc, char **argv)
 {
     const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf", *dump = NULL;
@@ -147,14 +134,14 @@ int cmd_denoise(int argc, char **argv)
             dn_mode_name(mode), vk.info.name);
     for (size_t i = 0; i < n; i++) {
         const char *name = pl_frontend_frame_name(rp, (uint32_t)i);
-        dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
+        app_dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
         snprintf(dc.stem, sizeof dc.stem, "%s", name);
         char *dot = strrchr(dc.stem, '.');
         if (dot)
             *dot = '\0';
         TND_TRY(pl_frontend_set_frame(rp, NULL, NULL, (uint32_t)i, 0, 0));
         pl_step step = {.frame = {.reset = i == 0}, .frame_from_host = true, .yfov = yfov_deg,
-                        .dt = 1.0f / 30, .after_backend = dump_mask ? dump_frame : NULL,
+                        .dt = 1.0f / 30, .after_backend = dump_mask ? app_dump_after_backend : NULL,
                         .user = &dc};
         pl_step_result pr;
         TND_TRY(pl_chain_run(chain, rp, &step, rgb, display, &pr));

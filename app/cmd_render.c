@@ -440,19 +440,6 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     return ok ? TND_OK : tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);
 }
 
-/* The back-end's buffers of a frame (--dump), after the back-end ran. */
-typedef struct dump_ctx {
-    uint32_t mask;
-    const char *dir;
-    char stem[16];
-} dump_ctx;
-
-static tnd_result dump_frame(dn_context *dn, void *user)
-{
-    const dump_ctx *d = user;
-    return app_write_dumps(dn, d->mask, d->dir, d->stem);
-}
-
 static int run(bool reference, int argc, char **argv)
 {
     render_opts o;
@@ -594,13 +581,13 @@ static int run(bool reference, int argc, char **argv)
         pl_step_result pr = {0};
         char cap_path[1800];
         snprintf(cap_path, sizeof cap_path, "%s/frame_%04u.exr", dir, f);
-        dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
+        app_dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
         snprintf(dc.stem, sizeof dc.stem, "%04u", f);
         pl_step step = {.params = {.bounces = o.bounces},
                         .frame = dn_frame_for_camera(cur->camera.proj, o.size[1], f, i == 0),
                         .dt = (float)(1.0 / o.fps),
                         .capture = o.capture ? cap_path : NULL,
-                        .after_backend = dump_mask ? dump_frame : NULL,
+                        .after_backend = dump_mask ? app_dump_after_backend : NULL,
                         .user = &dc};
         TND_TRY(pl_chain_run(chain, fr, &step, rgb, use_dn ? display : NULL, &pr));
         const pl_timings tm = pr.fe;
@@ -626,7 +613,6 @@ static int run(bool reference, int argc, char **argv)
             TND_TRY(app_write_png(path, display, o.size[0], o.size[1]));
         else
             TND_TRY(app_write_preview(path, rgb, o.size[0], o.size[1]));
-        tnd_frame_destroy(&frame);
         app_progress_step(&bar, i + 1);
     }
     app_progress_end(&bar);

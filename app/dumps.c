@@ -1,6 +1,6 @@
 /* app/dumps.c: --dump LIST for render and denoise: the back-end's buffers after each frame as
  * EXR files DIR/NAME_STEM.exr (4 named float channels; STEM: the frame number or input name).
- * Entry points: app_parse_dump, app_write_dumps. */
+ * Entry points: app_parse_dump, app_write_dumps, app_dump_after_backend. */
 #include "app/app.h"
 #include "denoise/denoise.h"
 
@@ -67,4 +67,10 @@ tnd_result app_write_dumps(dn_context *dn, uint32_t mask, const char *dir, const
 fail:
     free(px);
     return res;
+}
+
+tnd_result app_dump_after_backend(dn_context *dn, void *user)
+{
+    const app_dump_ctx *d = user;
+    return app_write_dumps(dn, d->mask, d->dir, d->stem);
 }

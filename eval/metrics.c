@@ -544,6 +544,7 @@ struct ev_sequence {
     float *motion, *depth, *prev_depth; /* this frame's (set before add), the last one's depth */
     bool have_motion, have_prev_depth;
     uint8_t *valid, *still;  /* this frame's visibility in the last; static so far */
+    float *yerr;             /* this frame's |Y_o - Y_r| per pixel (tone-mapped) */
     double *ysum;            /* per pixel: sum Y_o, Y_o^2, Y_r, Y_r^2 over frames with motion */
     uint32_t yframes, mc_count;
     double mc_sum;
@@ -568,6 +569,7 @@ void ev_sequence_destroy(ev_sequence *s)
     free(s->valid);
     free(s->still);
     free(s->ysum);
+    free(s->yerr);
     for (int k = 0; k < EV_DISOCC_FRAMES; k++)
         free(s->ev[k].mask);
     free(s);
@@ -583,15 +585,17 @@ void ev_sequence_motion(ev_sequence *s, const float *motion, const float *depth)
         s->valid = malloc(n);
         s->still = malloc(n);
         s->ysum = calloc(n * 4, sizeof(double));
+        s->yerr = malloc(n * sizeof(float));
         for (int k = 0; k < EV_DISOCC_FRAMES; k++)
             s->ev[k].mask = malloc(n);
-        bool ok = s->motion && s->depth && s->prev_depth && s->valid && s->still && s->ysum;
+        bool ok = s->motion && s->depth && s->prev_depth && s->valid && s->still && s->ysum &&
+                  s->yerr;
         for (int k = 0; k < EV_DISOCC_FRAMES; k++)
             ok &= s->ev[k].mask != NULL;
         if (!ok) { /* (ev_sequence_add then measures without motion) */
             free(s->motion), free(s->depth), free(s->prev_depth), free(s->valid), free(s->still);
-            free(s->ysum);
-            s->motion = s->depth = s->prev_depth = NULL;
+            free(s->ysum), free(s->yerr);
+            s->motion = s->depth = s->prev_depth = s->yerr = NULL;
             s->valid = s->still = NULL;
             s->ysum = NULL;
             for (int k = 0; k < EV_DISOCC_FRAMES; k++) {
@@ -670,6 +674,7 @@ static void motion_metrics(ev_sequence *s, ev_frame_metrics *f)
             double yo = luma3(s->to + 3 * p), yr = luma3(s->tr + 3 * p);
             double *ys = s->ysum + 4 * p;
             ys[0] += yo, ys[1] += yo * yo, ys[2] += yr, ys[3] += yr * yr;
+            s->yerr[p] = (float)fabs(yo - yr);
         }
     s->yframes++;
     f->mc_temporal = prev && nvalid ? acc / (3.0 * (double)nvalid) : -1.0;
@@ -696,7 +701,7 @@ static void motion_metrics(ev_sequence *s, ev_frame_metrics *f)
     uint64_t nb = 0;
     for (size_t p = 0; p < n; p++)
         if (s->valid[p]) {
-            base += fabs(luma3(s->to + 3 * p) - luma3(s->tr + 3 * p));
+            base += s->yerr[p];
             nb++;
         }
     base = nb ? base / (double)nb : 0.0;
@@ -708,12 +713,13 @@ static void motion_metrics(ev_sequence *s, ev_frame_metrics *f)
         uint64_t ne = 0;
         for (size_t p = 0; p < n; p++)
             if (e->mask[p]) {
-                err += fabs(luma3(s->to + 3 * p) - luma3(s->tr + 3 * p));
+                err += s->yerr[p];
                 ne++;
             }
         err = ne ? err / (double)ne : 0.0;
-        if (err <= EV_DISOCC_RATIO * base + EV_DISOCC_ABS || e->age + 1 >= EV_DISOCC_FRAMES) {
-            s->lag_sum += err <= EV_DISOCC_RATIO * base + EV_DISOCC_ABS ? e->age : EV_DISOCC_FRAMES;
+        bool settled = err <= EV_DISOCC_RATIO * base + EV_DISOCC_ABS;
+        if (settled || e->age + 1 >= EV_DISOCC_FRAMES) {
+            s->lag_sum += settled ? e->age : EV_DISOCC_FRAMES;
             s->lag_events++;
             e->active = false;
         } else {

@@ -118,7 +118,6 @@ typedef struct pl_step {
     double yfov;            /* degrees */
     float dt;               /* seconds since the previous frame (post) */
     const char *capture;    /* write the frame's capture there (and its gradient samples beside) */
-    bool want_host;         /* keep the frame on the host too (pl_chain_host) */
     /* called after the back-end ran, before the post chain (dumps) */
     tnd_result (*after_backend)(dn_context *dn, void *user);
     void *user;
@@ -140,7 +139,5 @@ tnd_result pl_chain_run(pl_chain *chain, pl_frontend *fe, const pl_step *step, f
                         uint8_t *display, pl_step_result *result);
 dn_context *pl_chain_denoiser(pl_chain *chain);
 cmp_context *pl_chain_post(pl_chain *chain);
-/* The frame as the front-end filled it (when it was on the host: captures, CPU front-ends). */
-const tnd_frame *pl_chain_host(const pl_chain *chain);
 
 #endif

@@ -4,7 +4,7 @@
  * denoise (capture replay) and bench run their frames through pl_chain_run. The contract stays on
  * the GPU unless a capture or the CPU composite needs it on the host.
  * Entry points: pl_chain_create, pl_chain_destroy, pl_chain_run, pl_chain_denoiser,
- * pl_chain_post, pl_chain_host. */
+ * pl_chain_post. */
 #include "pipeline/pl_internal.h"
 
 #include <math.h>
@@ -76,11 +76,6 @@ cmp_context *pl_chain_post(pl_chain *c)
     return c->post;
 }
 
-const tnd_frame *pl_chain_host(const pl_chain *c)
-{
-    return &c->host;
-}
-
 /* A-SVGF's samples of the frame beside its capture: the pixels of the back-end's selection and
  * the contract there after re-shading. */
 static tnd_result write_gradients(const char *capture, const tnd_frame *reshaded,
@@ -114,7 +109,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     uint32_t caps = pl_frontend_caps(fe);
     bool gpu = (caps & PL_CAP_GPU_CONTRACT) != 0, recorded = (caps & PL_CAP_RECORDED) != 0;
     bool asvgf = c->d.backend && c->d.denoise.mode == DN_MODE_ASVGF;
-    bool need_host = !gpu || s->capture || s->want_host || !c->d.backend;
+    bool need_host = !gpu || s->capture || !c->d.backend;
     if (recorded)
         tnd_frame_destroy(&c->host); /* (a recorded front-end reads into a fresh frame) */
     else if (need_host && !c->host.block)

@@ -4,7 +4,7 @@
  * and shows them: A/B swipe, side by side (zoom and pan linked), false-colour error, FLIP maps;
  * a scrubber, play/pause at the run's frame rate, plots linked to the scrubber. Plain script, no
  * network. For tests, <body> carries data-ready, data-frame, data-shown (a checksum of the
- * shown pixels), data-zoom and data-errors. */
+ * shown pixels; "flip" once a FLIP map is drawn), data-zoom and data-errors. */
 (function () {
   "use strict";
   var body = document.body;
@@ -183,7 +183,6 @@
     layout();
     var p0 = panes[st.mode === "flip" ? 2 : 0], g = p0.canvas.getContext("2d");
     place(g);
-    var readable = true;
     if (st.mode === "swipe") {
       g.drawImage(canvasOf(k, st.a), 0, 0);
       g.save();
@@ -210,7 +209,8 @@
       g.drawImage(errorCanvas(k), 0, 0);
       p0.cap.textContent = "|A - B| / (B + 0.01): " + R.sources[st.a] + " against " + R.sources[st.b];
     } else {
-      var si = flipSeries();
+      /* (a file image taints the canvas: no checksum; "flip" once the map is drawn) */
+      var si = flipSeries(), shown = "flip-none";
       if (si < 0) {
         p0.cap.textContent = "FLIP: choose a series as A or B";
       } else {
@@ -221,13 +221,17 @@
           flipImg[key].onerror = function () { fail("missing FLIP map of frame " + k); };
           flipImg[key].src = "frames/f" + pad(R.frames[k]) + "_s" + si + "_flip.png";
         }
-        if (flipImg[key].complete && flipImg[key].naturalWidth)
+        shown = "flip-loading"; /* (drawn again when the map has loaded) */
+        if (flipImg[key].complete && flipImg[key].naturalWidth) {
           g.drawImage(flipImg[key], 0, 0, W, H);
+          shown = "flip";
+        }
         p0.cap.textContent = "FLIP: " + R.sources[si + 1] + " against the reference";
       }
-      readable = false; /* (a file image taints the canvas) */
+      body.setAttribute("data-shown", shown);
     }
-    body.setAttribute("data-shown", readable ? checksum(p0.canvas) : "flip");
+    if (st.mode !== "flip")
+      body.setAttribute("data-shown", checksum(p0.canvas));
     body.setAttribute("data-zoom", String(st.zoom));
   }
   function checksum(c) {

@@ -89,11 +89,7 @@ function check(name, ok, detail) {
     const herr = await attr("data-shown");
     check("the false-colour error view draws", herr && herr !== "flip");
     await page.select("#mode", "flip");
-    await page.waitForFunction(() => {
-      const i = [...document.images];
-      return document.body.getAttribute("data-shown") === "flip";
-    });
-    await new Promise((r) => setTimeout(r, 300));
+    await waitAttr("data-shown", "v === 'flip'"); /* (set once the map has loaded and is drawn) */
     check("the FLIP view shows the frame's FLIP map", (await attr("data-shown")) === "flip");
     await page.select("#mode", "swipe");
     if (shot) await page.screenshot({ path: shot });
