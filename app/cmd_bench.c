@@ -273,11 +273,108 @@ fail:
     return res;
 }
 
+/* The whole frame (front-end, back-end, post) back to back, three ways in one run: the
+ * contract brought to the host and every pass waited for (what the chain did before it kept the
+ * contract on the GPU), the contract on the GPU with every frame waited for, and frames recorded
+ * without waiting for the previous one. Blocks of frames take turns (noise on these machines
+ * drifts in minutes); each way has its own front-end and chain, so histories do not mix. */
+enum { OV_HOST, OV_GPU, OV_NO_WAIT, OV_COUNT };
+static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const unsigned size[2],
+                                unsigned bounces, unsigned blocks, dn_mode mode,
+                                tnd_precision prec, bool json)
+{
+    static const char *const ov_name[OV_COUNT] = {"host_contract_blocking", "gpu_contract_blocking",
+                                                  "gpu_contract_no_wait"};
+    enum { BLOCK = 8, WARM = 2 };
+    tnd_result res = TND_OK;
+    tnd_vk vk = {0};
+    pl_frontend *fe[OV_COUNT] = {0};
+    pl_chain *chain[OV_COUNT] = {0};
+    tnd_scene_state st[2] = {{0}};
+    double *ms[OV_COUNT] = {0};
+    for (int m = 0; m < OV_COUNT; m++)
+        if (!(ms[m] = calloc(blocks, sizeof(double)))) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+            goto fail;
+        }
+    TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !pl_frontend_needs_gpu(fe_name)}, &vk));
+    cmp_desc pd = {.taa = true, .interleave = (s->features & TND_FEATURE(SPLIT)) != 0};
+    for (int m = 0; m < OV_COUNT; m++) {
+        TND_TRY(pl_frontend_create(fe_name, s, &(pl_frontend_desc){.vk = &vk, .precision = prec},
+                                   &fe[m]));
+        TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = size[0], .height = size[1],
+                                                 .precision = prec, .backend = true,
+                                                 .denoise = {.mode = mode}, .post = pd,
+                                                 .host_contract = m == OV_HOST},
+                                &chain[m]));
+    }
+    float aspect = (float)size[0] / size[1];
+    for (unsigned b = 0; b < WARM + blocks; b++)
+        for (int m = 0; m < OV_COUNT; m++) {
+            double t0 = tnd_now();
+            for (unsigned i = 0; i < BLOCK; i++) {
+                unsigned f = b * BLOCK + i; /* the same frames for every way */
+                tnd_scene_state *cur = &st[f & 1], *prev = &st[(f + 1) & 1];
+                TND_TRY(tnd_scene_evaluate(s, f / 30.0, 0, aspect, cur));
+                TND_TRY(tnd_scene_evaluate(s, f ? (f - 1) / 30.0 : 0.0, 0, aspect, prev));
+                TND_TRY(pl_frontend_set_frame(fe[m], cur, prev, f, size[0], size[1]));
+                pl_step step = {.params = {.bounces = bounces},
+                                .frame = dn_frame_for_camera(cur->camera.proj, size[1], f, f == 0),
+                                .dt = 1.0f / 30.0f,
+                                .no_wait = m == OV_NO_WAIT};
+                TND_TRY(pl_chain_run(chain[m], fe[m], &step, NULL, NULL, NULL));
+            }
+            TND_TRY(pl_chain_finish(chain[m], NULL));
+            if (b >= WARM)
+                ms[m][b - WARM] = 1e3 * (tnd_now() - t0) / BLOCK;
+        }
+    double med[OV_COUNT];
+    for (int m = 0; m < OV_COUNT; m++)
+        med[m] = app_median(ms[m], blocks);
+    char who[300];
+    pl_frontend_describe(fe[0], who, sizeof who);
+    if (json) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "frontend", fe_name);
+        cJSON_AddStringToObject(o, "device", who);
+        cJSON_AddStringToObject(o, "denoiser", dn_mode_name(mode));
+        cJSON_AddNumberToObject(o, "width", size[0]);
+        cJSON_AddNumberToObject(o, "height", size[1]);
+        cJSON_AddNumberToObject(o, "frames_per_block", BLOCK);
+        cJSON_AddNumberToObject(o, "blocks", blocks);
+        for (int m = 0; m < OV_COUNT; m++)
+            cJSON_AddNumberToObject(o, ov_name[m], med[m]);
+        cJSON_AddNumberToObject(o, "gpu_over_host", med[OV_GPU] / med[OV_HOST]);
+        cJSON_AddNumberToObject(o, "no_wait_over_host", med[OV_NO_WAIT] / med[OV_HOST]);
+        char *txt = cJSON_Print(o);
+        printf("%s\n", txt);
+        free(txt);
+        cJSON_Delete(o);
+    } else {
+        printf("bench --overlap: %s, %ux%u, %s, %s (wall ms per frame, medians of %u blocks of "
+               "%d frames taking turns)\n",
+               who, size[0], size[1], dn_mode_name(mode), tnd_precision_name(prec), blocks, BLOCK);
+        for (int m = 0; m < OV_COUNT; m++)
+            printf("  %-24s %9.3f ms  %5.3fx\n", ov_name[m], med[m], med[m] / med[OV_HOST]);
+    }
+fail:
+    for (int m = 0; m < OV_COUNT; m++) {
+        pl_chain_destroy(chain[m]);
+        pl_frontend_destroy(fe[m]);
+        free(ms[m]);
+    }
+    tnd_scene_state_free(&st[0]);
+    tnd_scene_state_free(&st[1]);
+    tnd_vk_destroy(&vk);
+    return res;
+}
+
 int cmd_bench(int argc, char **argv)
 {
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
     unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
     bool json = false, extremes = false, scene_given = false, per_dispatch = false;
+    bool overlap = false;
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
     const char *out = NULL, *reference = NULL;
     app_list sweeps = {0};
@@ -286,6 +383,9 @@ int cmd_bench(int argc, char **argv)
         {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
          "with --frontend vk: time the whole frame with this back-end (asvgf, svgf or off)"},
         {"precision", APP_OPT_STRING, &precision, "P", "contract precision: float32 or packed"},
+        {"overlap", APP_OPT_FLAG, &overlap, NULL,
+         "the whole frame (front-end, back-end, post) back to back with the contract brought to "
+         "the host, kept on the GPU, and with frames not waited for: wall ms and ratios"},
         {"per-dispatch", APP_OPT_FLAG, &per_dispatch, NULL,
          "with --denoiser: also time every back-end dispatch (each a-trous iteration, ...)"},
         {"rt-api", APP_OPT_STRING, &rt_api, "API", "vk: pipeline, query or auto"},
@@ -334,6 +434,25 @@ int cmd_bench(int argc, char **argv)
                             size, frames);
     if (sweeps.n)
         return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup);
+    if (overlap) {
+        dn_mode mode;
+        tnd_precision prec;
+        if ((res = dn_mode_parse(denoiser ? denoiser : "svgf", &mode)) != TND_OK ||
+            (res = tnd_precision_parse(precision, &prec)) != TND_OK) {
+            app_report("bench", res);
+            return APP_EXIT_USAGE;
+        }
+        tnd_scene *sc = NULL;
+        res = tnd_scene_load(scene_path, &sc);
+        if (res == TND_OK)
+            res = bench_overlap(sc, frontend, size, bounces, repeats, mode, prec, json);
+        tnd_scene_destroy(sc);
+        if (res != TND_OK) {
+            app_report("bench", res);
+            return APP_EXIT_FAIL;
+        }
+        return APP_EXIT_OK;
+    }
     if (denoiser) {
         dn_mode mode;
         tnd_precision prec;

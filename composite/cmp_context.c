@@ -31,6 +31,10 @@ struct cmp_context {
     const tnd_image *last_in; /* the input of the last frame (the HDR output with TAA off) */
     bool have_history;
     char passes[128];
+    tnd_pending pending; /* the frame in flight (cmp_submit) */
+    int rec[5];          /* its timestamp slots: taa, bloom, exposure, tonemap, interleave */
+    bool due;            /* its timestamps not read yet */
+    cmp_timings last;
 };
 
 static const char *const curve_names[] = {"aces", "agx", "reinhard", "linear"};
@@ -58,6 +62,7 @@ void cmp_destroy(cmp_context *c)
     tnd_vk *vk = c->vk;
     if (vk->device)
         vkDeviceWaitIdle(vk->device);
+    tnd_pending_destroy(vk, &c->pending);
     tnd_timer_destroy(vk, &c->timer);
     for (int i = 0; i < P_COUNT; i++)
         if (c->pipes[i])
@@ -272,6 +277,7 @@ tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision
     write_own_set(c);
     describe_passes(c);
     TND_TRY(tnd_timer_create(vk, &c->timer));
+    TND_TRY(tnd_pending_create(vk, &c->pending));
     *out = c;
     return TND_OK;
 fail:
@@ -289,10 +295,51 @@ static void dispatch(cmp_context *c, VkCommandBuffer cmd, int pass, uint32_t w, 
     tnd_cmd_barrier(cmd);
 }
 
+/* Wait for the frame in flight and read its timestamps (c->last). */
+static tnd_result settle(cmp_context *c)
+{
+    tnd_result res = TND_OK;
+    TND_TRY(tnd_pending_wait(c->vk, &c->pending));
+    if (!c->due)
+        return TND_OK;
+    c->due = false;
+    double ms[5] = {0, 0, 0, 0, 0};
+    TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
+    cmp_timings *t = &c->last;
+    *t = (cmp_timings){0};
+    int k = 0;
+    if (c->rec[4] >= 0)
+        t->interleave_ms = ms[k++];
+    if (c->rec[0] >= 0)
+        t->taa_ms = ms[k++];
+    if (c->rec[1] >= 0)
+        t->bloom_ms = ms[k++];
+    t->exposure_ms = ms[k++];
+    t->tonemap_ms = ms[k];
+fail:
+    return res;
+}
+
 tnd_result cmp_run(cmp_context *c, const tnd_image *hdr, const tnd_contract_gpu *ct,
                    const cmp_frame *f, cmp_timings *t)
 {
+    tnd_result res = cmp_submit(c, hdr, ct, f);
+    return res == TND_OK ? cmp_wait(c, t) : res;
+}
+
+tnd_result cmp_wait(cmp_context *c, cmp_timings *t)
+{
+    tnd_result res = settle(c);
+    if (res == TND_OK && t)
+        *t = c->last;
+    return res;
+}
+
+tnd_result cmp_submit(cmp_context *c, const tnd_image *hdr, const tnd_contract_gpu *ct,
+                      const cmp_frame *f)
+{
     tnd_result res = TND_OK;
+    TND_TRY(settle(c));
     if (hdr->width != c->width || hdr->height != c->height || ct->width != c->width ||
         ct->height != c->height)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "composite: input %ux%u, expected %ux%u",
@@ -355,21 +402,9 @@ tnd_result cmp_run(cmp_context *c, const tnd_image *hdr, const tnd_contract_gpu 
                           .dstAccessMask = VK_ACCESS_HOST_READ_BIT};
     vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
                          &hb, 0, NULL, 0, NULL);
-    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
-    if (t) {
-        double ms[5] = {0, 0, 0, 0, 0};
-        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
-        *t = (cmp_timings){0};
-        int k = 0;
-        if (s[4] >= 0)
-            t->interleave_ms = ms[k++];
-        if (s[0] >= 0)
-            t->taa_ms = ms[k++];
-        if (s[1] >= 0)
-            t->bloom_ms = ms[k++];
-        t->exposure_ms = ms[k++];
-        t->tonemap_ms = ms[k];
-    }
+    memcpy(c->rec, s, sizeof c->rec);
+    TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->pending));
+    c->due = true;
     c->have_history = true;
     c->frame++;
 fail:
@@ -413,6 +448,9 @@ tnd_result cmp_download_display(cmp_context *c, uint8_t *rgb8)
 
 tnd_result cmp_exposure(cmp_context *c, float *exposure, float *log2_luminance)
 {
+    tnd_result res = settle(c); /* (the read-back buffer is the host's once waited for) */
+    if (res != TND_OK)
+        return res;
     const cp_histogram *h = c->hist_host.mapped;
     *exposure = h->exposure;
     *log2_luminance = h->adapted_log_lum;

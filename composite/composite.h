@@ -45,6 +45,11 @@ void cmp_destroy(cmp_context *ctx);
 /* One frame (blocks): `hdr` is the back-end's output (RGBA32F, width x height). */
 tnd_result cmp_run(cmp_context *ctx, const tnd_image *hdr, const tnd_contract_gpu *contract,
                    const cmp_frame *frame, cmp_timings *t);
+/* cmp_run in two halves: record and submit without waiting (the next call into the context
+ * waits first; downloads run after it on the device), and wait for it with its GPU times. */
+tnd_result cmp_submit(cmp_context *ctx, const tnd_image *hdr, const tnd_contract_gpu *contract,
+                      const cmp_frame *frame);
+tnd_result cmp_wait(cmp_context *ctx, cmp_timings *t);
 /* After cmp_run: the linear HDR image after TAA (3 floats per pixel), and the display image
  * (3 bytes per pixel, sRGB). */
 tnd_result cmp_download_hdr(cmp_context *ctx, float *rgb);

@@ -305,6 +305,24 @@ uint32_t tnd_vk_memory_type(const tnd_vk *vk, uint32_t bits, VkMemoryPropertyFla
 tnd_result tnd_cmd_begin(tnd_vk *vk, VkCommandBuffer *cmd);
 tnd_result tnd_cmd_submit_wait(tnd_vk *vk, VkCommandBuffer cmd);
 
+/* A submission the host does not wait for: the commands run while the host goes on (the next
+ * frame's CPU work, another pass's recording). Every Tandem command buffer starts with a full
+ * barrier, so a later submission on the one queue runs after it on the device; the host must
+ * wait (tnd_pending_wait) before it writes what the commands read from host memory (uniform
+ * buffers, descriptor sets) or reads what they wrote (timestamps, read-back buffers). A blocking
+ * tnd_cmd_submit_wait also finishes every earlier submission (a fence covers all of them). */
+typedef struct tnd_pending {
+    VkFence fence;
+    VkCommandBuffer cmd; /* VK_NULL_HANDLE when nothing is in flight */
+} tnd_pending;
+tnd_result tnd_pending_create(tnd_vk *vk, tnd_pending *p);
+/* Waits for what is in flight first. */
+void tnd_pending_destroy(tnd_vk *vk, tnd_pending *p);
+/* End and submit `cmd` (freed once waited for); `p` must have nothing in flight. */
+tnd_result tnd_cmd_submit_pending(tnd_vk *vk, VkCommandBuffer cmd, tnd_pending *p);
+/* Wait for what `p` has in flight (nothing: returns at once). */
+tnd_result tnd_pending_wait(tnd_vk *vk, tnd_pending *p);
+
 /* Full memory barrier between passes (compute, ray tracing, transfer, AS build). Coarse on
  * purpose: passes are separated by one call, which is cheap next to a pass. */
 void tnd_cmd_barrier(VkCommandBuffer cmd);

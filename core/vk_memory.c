@@ -314,6 +314,56 @@ fail:
     return res;
 }
 
+tnd_result tnd_pending_create(tnd_vk *vk, tnd_pending *p)
+{
+    tnd_result res = TND_OK;
+    *p = (tnd_pending){0};
+    VkFenceCreateInfo fci = {.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    TND_VK_TRY(vkCreateFence(vk->device, &fci, NULL, &p->fence));
+fail:
+    return res;
+}
+
+void tnd_pending_destroy(tnd_vk *vk, tnd_pending *p)
+{
+    if (!p->fence)
+        return;
+    (void)tnd_pending_wait(vk, p);
+    vkDestroyFence(vk->device, p->fence, NULL);
+    *p = (tnd_pending){0};
+}
+
+tnd_result tnd_cmd_submit_pending(tnd_vk *vk, VkCommandBuffer cmd, tnd_pending *p)
+{
+    tnd_result res = TND_OK;
+    if (p->cmd) {
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "vulkan: a submission is still in flight");
+        goto fail;
+    }
+    TND_VK_TRY(vkEndCommandBuffer(cmd));
+    VkSubmitInfo si = {
+        .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &cmd};
+    TND_VK_TRY(vkResetFences(vk->device, 1, &p->fence));
+    TND_VK_TRY(vkQueueSubmit(vk->queue, 1, &si, p->fence));
+    p->cmd = cmd;
+    return TND_OK;
+fail:
+    vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
+    return res;
+}
+
+tnd_result tnd_pending_wait(tnd_vk *vk, tnd_pending *p)
+{
+    tnd_result res = TND_OK;
+    if (!p->cmd)
+        return TND_OK;
+    TND_VK_TRY(vkWaitForFences(vk->device, 1, &p->fence, VK_TRUE, UINT64_MAX));
+fail: /* (a lost device: the command buffer goes all the same) */
+    vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &p->cmd);
+    p->cmd = VK_NULL_HANDLE;
+    return res;
+}
+
 /* A global memory barrier: `write` accesses in `stage` before `read` and `write` ones there. */
 static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags stage, VkAccessFlags write,
                            VkAccessFlags read)

@@ -76,9 +76,18 @@ uint32_t dn_dispatch_times(const dn_context *ctx, const char **names, double *ms
 tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc *desc,
                      dn_context **ctx);
 void dn_destroy(dn_context *ctx);
-/* Denoise one frame (blocks): the contract images of this frame in, the output image out. */
+/* Denoise one frame (blocks): the contract images of this frame in, the output image out.
+ * dn_run is dn_submit then dn_wait. */
 tnd_result dn_run(dn_context *ctx, const tnd_contract_gpu *contract, const dn_frame *frame,
                   dn_timings *t);
+/* Record and submit the frame without waiting for it: the host goes on (the next frame's
+ * front-end) while the device denoises. Later passes on the device (post chain, downloads, the
+ * next front-end) run after it in submission order; the contract must not change on the host's
+ * side until then (GPU front-ends write it in later submissions, which is fine). The next call
+ * into the context waits first. */
+tnd_result dn_submit(dn_context *ctx, const tnd_contract_gpu *contract, const dn_frame *frame);
+/* Wait for the frame submitted last; its GPU times (t may be NULL). */
+tnd_result dn_wait(dn_context *ctx, dn_timings *t);
 /* A-SVGF (mode asvgf; count 0 otherwise): pick this frame's gradient samples, at most one per
  * 3x3 stratum (dn_gradient_capacity), as DN_GRADIENT_WORDS words each: pixel, previous rng frame,
  * previous rng pixel, previous instance, previous primitive, u and v bits (the layout of

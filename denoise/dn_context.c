@@ -52,6 +52,14 @@ struct dn_context {
     bool batching; /* dispatches recorded now are independent: no barrier after each */
     bool fine_on;  /* recording dn_run with desc.dispatch_timing: time each dispatch */
     bool have_history;
+    /* the frame in flight (dn_submit) and its timestamp slots; `last` its timings once read */
+    tnd_pending pending;
+    struct {
+        int grad, temporal, lf, atrous, composite;
+        double select_ms;
+        bool due; /* timestamps not read yet */
+    } rec;
+    dn_timings last;
 };
 
 /* The back-end's images that are neither ping-ponged nor the gradient pair: where they live in
@@ -112,6 +120,7 @@ void dn_destroy(dn_context *c)
     tnd_vk *vk = c->vk;
     if (vk->device)
         vkDeviceWaitIdle(vk->device);
+    tnd_pending_destroy(vk, &c->pending);
     tnd_timer_destroy(vk, &c->timer);
     tnd_timer_destroy(vk, &c->select_timer);
     tnd_timer_destroy(vk, &c->fine);
@@ -325,6 +334,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                               &c->params));
     TND_TRY(create_pipelines(c));
     write_own_set(c);
+    TND_TRY(tnd_pending_create(vk, &c->pending));
     TND_TRY(tnd_timer_create(vk, &c->timer));
     TND_TRY(tnd_timer_create(vk, &c->select_timer));
     if (c->desc.dispatch_timing)
@@ -463,12 +473,45 @@ static void dispatch_lf(dn_context *c, VkCommandBuffer cmd, uint32_t k)
         dispatch_third(c, cmd, c->lf, "lf", k);
 }
 
+/* Wait for the frame in flight and read its timestamps (c->last); every entry point that writes
+ * the parameters or descriptor sets, or reads the back-end's images, settles first. */
+static tnd_result settle(dn_context *c)
+{
+    tnd_result res = TND_OK;
+    TND_TRY(tnd_pending_wait(c->vk, &c->pending));
+    if (!c->rec.due)
+        return TND_OK;
+    c->rec.due = false;
+    double ms[5] = {0, 0, 0, 0, 0};
+    TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
+    dn_timings *t = &c->last;
+    *t = (dn_timings){0};
+    int k = 0;
+    if (c->rec.grad >= 0) {
+        t->select_ms = c->rec.select_ms;
+        t->gradient_ms = ms[k++];
+    }
+    if (c->rec.temporal >= 0)
+        t->temporal_ms = ms[k++];
+    if (c->rec.lf >= 0)
+        t->lf_ms = ms[k++];
+    if (c->rec.atrous >= 0)
+        t->atrous_ms = ms[k++];
+    t->lf_beside_atrous = c->rec.atrous >= 0 && c->rec.lf < 0;
+    t->composite_ms = ms[k];
+    if (c->desc.dispatch_timing)
+        TND_TRY(tnd_timer_read(c->vk, &c->fine, c->fine_ms));
+fail:
+    return res;
+}
+
 /* The selection pass; `host`: also copy the list to the read-back buffer. */
 static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f,
                               bool host)
 {
     tnd_result res = TND_OK;
     TND_TRY(check_contract(c, ct));
+    TND_TRY(settle(c));
     tnd_contract_write_set(c->vk, c->sets[1], ct);
     fill_params(c, f, false);
     VkCommandBuffer cmd;
@@ -542,8 +585,23 @@ uint32_t dn_gradient_capacity(const dn_context *c)
 
 tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, dn_timings *t)
 {
+    tnd_result res = dn_submit(c, ct, f);
+    return res == TND_OK ? dn_wait(c, t) : res;
+}
+
+tnd_result dn_wait(dn_context *c, dn_timings *t)
+{
+    tnd_result res = settle(c);
+    if (res == TND_OK && t)
+        *t = c->last;
+    return res;
+}
+
+tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f)
+{
     tnd_result res = TND_OK;
     TND_TRY(check_contract(c, ct));
+    TND_TRY(settle(c));
     tnd_contract_write_set(c->vk, c->sets[1], ct);
     const dn_desc *d = &c->desc;
     bool gradients = d->mode == DN_MODE_ASVGF && c->selected_frame == c->frame + 1 &&
@@ -616,27 +674,14 @@ tnd_result dn_run(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f, 
     tnd_cmd_barrier(cmd); /* the output is read by other passes (post chain, downloads) */
     tnd_timer_end(cmd, &c->timer, s_c);
     c->fine_on = false;
-    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
-    if (t) {
-        double ms[5] = {0, 0, 0, 0, 0};
-        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
-        *t = (dn_timings){0};
-        int k = 0;
-        if (s_g >= 0) {
-            t->select_ms = c->select_ms;
-            t->gradient_ms = ms[k++];
-        }
-        if (s_t >= 0)
-            t->temporal_ms = ms[k++];
-        if (s_l >= 0)
-            t->lf_ms = ms[k++];
-        if (s_a >= 0)
-            t->atrous_ms = ms[k++];
-        t->lf_beside_atrous = s_a >= 0 && s_l < 0;
-        t->composite_ms = ms[k];
-    }
-    if (d->dispatch_timing)
-        TND_TRY(tnd_timer_read(c->vk, &c->fine, c->fine_ms));
+    c->rec.grad = s_g;
+    c->rec.temporal = s_t;
+    c->rec.lf = s_l;
+    c->rec.atrous = s_a;
+    c->rec.composite = s_c;
+    c->rec.select_ms = c->select_ms;
+    TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->pending));
+    c->rec.due = true;
     c->have_history = true;
     c->frame++;
 fail:

@@ -108,6 +108,8 @@ typedef struct pl_chain_desc {
     dn_desc denoise;         /* its mode and knobs (the precision is the chain's) */
     cmp_desc post;
     bool no_post;            /* the back-end alone (bench) */
+    bool host_contract;      /* bring a GPU front-end's contract to the host every frame (what
+                                the chain did before it kept it on the GPU; for measurements) */
 } pl_chain_desc;
 
 typedef struct pl_step {
@@ -121,12 +123,18 @@ typedef struct pl_step {
     /* called after the back-end ran, before the post chain (dumps) */
     tnd_result (*after_backend)(dn_context *dn, void *user);
     void *user;
+    /* do not wait for this frame's back-end and post: the host goes on to the next frame while
+     * the device works (ignored when the caller takes its pixels: hdr, display, after_backend) */
+    bool no_wait;
 } pl_step;
 
 typedef struct pl_step_result {
     pl_timings fe;
     dn_timings dn;
     cmp_timings post;
+    /* dn and post hold the previous frame's GPU times (that frame was not waited for; a frame
+     * not waited for leaves them 0 for the next call or pl_chain_finish) */
+    bool lagged;
 } pl_step_result;
 
 typedef struct pl_chain pl_chain;
@@ -137,6 +145,8 @@ void pl_chain_destroy(pl_chain *chain);
  * image (3 bytes) when asked (not NULL). Without the back-end, hdr receives the CPU composite. */
 tnd_result pl_chain_run(pl_chain *chain, pl_frontend *fe, const pl_step *step, float *hdr,
                         uint8_t *display, pl_step_result *result);
+/* Wait for a frame run with no_wait; its back-end and post times (lagged; zero when none). */
+tnd_result pl_chain_finish(pl_chain *chain, pl_step_result *result);
 dn_context *pl_chain_denoiser(pl_chain *chain);
 cmp_context *pl_chain_post(pl_chain *chain);
 

@@ -22,6 +22,7 @@ struct pl_chain {
     uint32_t *grads;          /* A-SVGF's host list, PL_GRADIENT_WORDS words per sample */
     tnd_frame host, reshaded; /* (reshaded: a GPU contract after re-shading, for a capture) */
     float prev_jitter[2];
+    bool in_flight; /* the last frame's back-end and post were not waited for */
 };
 
 tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **out)
@@ -109,7 +110,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     uint32_t caps = pl_frontend_caps(fe);
     bool gpu = (caps & PL_CAP_GPU_CONTRACT) != 0, recorded = (caps & PL_CAP_RECORDED) != 0;
     bool asvgf = c->d.backend && c->d.denoise.mode == DN_MODE_ASVGF;
-    bool need_host = !gpu || s->capture || !c->d.backend;
+    bool need_host = !gpu || s->capture || !c->d.backend || c->d.host_contract;
     if (recorded)
         tnd_frame_destroy(&c->host); /* (a recorded front-end reads into a fresh frame) */
     else if (need_host && !c->host.block)
@@ -171,17 +172,49 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
             }
         }
     }
-    TND_TRY(dn_run(c->dn, ct, &df, &r->dn));
+    /* the times of the frame in flight before this one, when it was not waited for */
+    bool wait = !s->no_wait || hdr || display || s->after_backend;
+    if (c->in_flight && !wait) {
+        TND_TRY(dn_wait(c->dn, &r->dn));
+        if (c->post)
+            TND_TRY(cmp_wait(c->post, &r->post));
+        r->lagged = true;
+    }
+    c->in_flight = false;
+    TND_TRY(dn_submit(c->dn, ct, &df));
+    if (wait)
+        TND_TRY(dn_wait(c->dn, &r->dn));
     if (s->after_backend)
         TND_TRY(s->after_backend(c->dn, s->user));
     if (c->post) {
-        TND_TRY(cmp_run(c->post, dn_output(c->dn), ct, &(cmp_frame){.dt = s->dt, .reset = df.reset},
-                        &r->post));
+        TND_TRY(cmp_submit(c->post, dn_output(c->dn), ct,
+                           &(cmp_frame){.dt = s->dt, .reset = df.reset}));
+        if (wait)
+            TND_TRY(cmp_wait(c->post, &r->post));
         if (hdr)
             TND_TRY(cmp_download_hdr(c->post, hdr));
         if (display)
             TND_TRY(cmp_download_display(c->post, display));
     }
+    c->in_flight = !wait;
+fail:
+    return res;
+}
+
+tnd_result pl_chain_finish(pl_chain *c, pl_step_result *r)
+{
+    tnd_result res = TND_OK;
+    pl_step_result own;
+    if (!r)
+        r = &own;
+    memset(r, 0, sizeof *r);
+    if (c->in_flight) {
+        TND_TRY(dn_wait(c->dn, &r->dn));
+        if (c->post)
+            TND_TRY(cmp_wait(c->post, &r->post));
+        r->lagged = true;
+    }
+    c->in_flight = false;
 fail:
     return res;
 }
