@@ -7,6 +7,7 @@
 #include <stdio.h>
 
 #include "core/core.h"
+#include "denoise/denoise.h"
 #include "eval/eval.h"
 
 enum { APP_EXIT_OK = 0, APP_EXIT_FAIL = 1, APP_EXIT_USAGE = 2 };
@@ -87,6 +88,9 @@ void app_progress_end(app_progress *p);
  * dumps of the last frame to DIR/NAME_STEM.exr. */
 struct dn_context;
 tnd_result app_parse_dump(const char *list, uint32_t *mask);
+/* --denoiser: asvgf, svgf, off, or plugin:PATH (then *plugin is PATH and *mode off: the
+ * back-end composites the noisy radiance the plugin may read). */
+tnd_result app_denoiser_parse(const char *s, dn_mode *mode, const char **plugin);
 /* Remove a directory and the files in it (no subdirectories): an output left by a failed run. */
 bool app_remove_flat_dir(const char *dir);
 /* tandem info --capture DIR [--map M] [--json] (app/capture_info.c). */

@@ -31,7 +31,8 @@ int cmd_denoise(int argc, char **argv)
         {"dump", APP_OPT_STRING, &dump, "LIST",
          "also write back-end buffers to DIR/dump/NAME_NNNN.exr (names: see tandem render --help)"},
         {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
-         "asvgf (default; as svgf on captures without gradient samples), svgf or off"},
+         "asvgf (default; as svgf on captures without gradient samples), svgf, off or "
+         "plugin:PATH.so"},
         {"taa", APP_OPT_STRING, &taa, "on|off|W",
          "temporal anti-aliasing of the output (on: new-frame weight 0.1; off: the composite "
          "itself)"},
@@ -50,8 +51,13 @@ int cmd_denoise(int argc, char **argv)
     }
     tnd_result res = TND_OK;
     dn_mode mode;
-    if ((res = dn_mode_parse(denoiser, &mode)) != TND_OK)
+    const char *dn_plugin = NULL; /* --denoiser plugin:PATH */
+    if ((res = app_denoiser_parse(denoiser, &mode, &dn_plugin)) != TND_OK)
         return app_report("denoise", res);
+    if (dn_plugin && dump)
+        return app_report("denoise", tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                                              "--dump shows the back-end's buffers: with a "
+                                              "denoiser plugin they are not the denoiser's"));
     if (strlen(out) > 1000 || strlen(captures) > 1000)
         return app_report("denoise",
                           tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out/--captures: path too long"));
@@ -109,7 +115,8 @@ int cmd_denoise(int argc, char **argv)
     post_d.interleave = split;
     TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = w, .height = h,
                                              .precision = prec, .backend = true,
-                                             .denoise = {.mode = mode}, .post = post_d},
+                                             .denoise = {.mode = mode}, .post = post_d,
+                                             .denoiser_plugin = dn_plugin},
                             &chain));
     rgb = malloc((size_t)w * h * 3 * sizeof *rgb);
     display = malloc((size_t)w * h * 3);
@@ -131,7 +138,7 @@ int cmd_denoise(int argc, char **argv)
         goto fail;
     }
     fprintf(timings, "{\n  \"denoiser\": \"%s\",\n  \"device\": \"%s\",\n  \"frames\": [",
-            dn_mode_name(mode), vk.info.name);
+            dn_plugin ? denoiser : dn_mode_name(mode), vk.info.name);
     for (size_t i = 0; i < n; i++) {
         const char *name = pl_frontend_frame_name(rp, (uint32_t)i);
         app_dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
@@ -177,7 +184,7 @@ int cmd_denoise(int argc, char **argv)
     }
     if (!app_quiet())
         fprintf(stderr, "tandem: denoise: %zu frame%s (%s) -> %s/\n", n, n == 1 ? "" : "s",
-                dn_mode_name(mode), out);
+                dn_plugin ? denoiser : dn_mode_name(mode), out);
     status = APP_EXIT_OK;
 fail:
     if (status != APP_EXIT_OK)

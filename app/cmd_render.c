@@ -146,9 +146,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         fprintf(stderr, "tandem %s: --pipeline %s: expected scene or full\n", cmd->name, o->pipeline);
         return APP_EXIT_USAGE;
     }
-    if (strcmp(o->frontend, "embree") != 0 && strcmp(o->frontend, "vk") != 0) {
-        fprintf(stderr, "tandem %s: --frontend '%s': expected embree or vk\n", cmd->name,
-                o->frontend);
+    if (strcmp(o->frontend, "embree") != 0 && strcmp(o->frontend, "vk") != 0 &&
+        (strncmp(o->frontend, "plugin:", 7) != 0 || !o->frontend[7])) {
+        fprintf(stderr, "tandem %s: --frontend '%s': expected embree, vk or plugin:PATH.so\n",
+                cmd->name, o->frontend);
         return APP_EXIT_USAGE;
     }
     if (o->reflect_depth > 16) {
@@ -458,10 +459,15 @@ static int run(bool reference, int argc, char **argv)
     uint8_t *display = NULL;
     bool use_vk = pl_frontend_needs_gpu(o.frontend); /* (the contract on the GPU) */
     dn_mode dmode = DN_MODE_SVGF;
-    if (!reference && (res = dn_mode_parse(o.denoiser, &dmode)) != TND_OK)
+    const char *dn_plugin = NULL; /* --denoiser plugin:PATH */
+    if (!reference && (res = app_denoiser_parse(o.denoiser, &dmode, &dn_plugin)) != TND_OK)
         return app_report(what, res);
-    /* the back-end runs on Vulkan; only "embree + off" stays on the CPU */
-    bool use_dn = !reference && !(dmode == DN_MODE_OFF && !use_vk);
+    /* the back-end runs on Vulkan; only a host front-end with "off" stays on the CPU */
+    bool use_dn = !reference && (dn_plugin || !(dmode == DN_MODE_OFF && !use_vk));
+    if (dn_plugin && o.dump)
+        return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                                         "--dump shows the back-end's buffers: with a denoiser "
+                                         "plugin they are not the denoiser's"));
     uint32_t dump_mask = 0;
     if ((res = app_parse_dump(o.dump, &dump_mask)) != TND_OK)
         return app_report(what, res);
@@ -491,6 +497,32 @@ static int run(bool reference, int argc, char **argv)
                                  strcmp(o.pipeline, "full") == 0};
     if (use_dn && (res = post_desc(&o, &pd)) != TND_OK)
         goto fail;
+    TND_TRY(pl_frontend_create(o.frontend, scene,
+                               &(pl_frontend_desc){.vk = use_vk ? &vk : NULL, .precision = prec,
+                                                   .rt_api = o.rt_api,
+                                                   .full_pipeline =
+                                                       strcmp(o.pipeline, "full") == 0,
+                                                   .reflect_depth = o.reflect_depth,
+                                                   .threads = o.threads,
+                                                   .scene_path = o.scene},
+                               &fr));
+    /* A-SVGF needs a front-end that re-shades its gradient samples; others run svgf */
+    if (!reference && dmode == DN_MODE_ASVGF && !(pl_frontend_caps(fr) & PL_CAP_RESHADE)) {
+        dmode = DN_MODE_SVGF;
+        if (!app_quiet())
+            fprintf(stderr, "tandem: render: --frontend %s cannot re-shade gradient samples: "
+                            "running svgf instead of asvgf\n", o.frontend);
+    }
+    if (reference && !matched && !(pl_frontend_caps(fr) & PL_CAP_REFERENCE)) {
+        res = tnd_fail(TND_ERR_UNSUPPORTED,
+                       "--frontend %s renders no unbiased reference (--estimator realtime "
+                       "renders the matched one)", o.frontend);
+        goto fail;
+    }
+    /* the denoiser as run.json and timings.json name it */
+    const char *dn_name = dn_plugin                                      ? o.denoiser
+                          : use_dn                                       ? dn_mode_name(dmode)
+                                                                         : "off (CPU composite)";
     if (!reference) {
         float ma = (float)o.min_alpha;
         TND_TRY(pl_chain_create(
@@ -499,17 +531,9 @@ static int run(bool reference, int argc, char **argv)
                              .denoise = {.mode = dmode, .iters_hf = o.atrous,
                                          .iters_spec = o.atrous, .min_alpha_hf = ma,
                                          .min_alpha_lf = ma, .min_alpha_spec = ma},
-                             .post = pd},
+                             .post = pd, .denoiser_plugin = dn_plugin},
             &chain));
     }
-    TND_TRY(pl_frontend_create(o.frontend, scene,
-                               &(pl_frontend_desc){.vk = use_vk ? &vk : NULL, .precision = prec,
-                                                   .rt_api = o.rt_api,
-                                                   .full_pipeline =
-                                                       strcmp(o.pipeline, "full") == 0,
-                                                   .reflect_depth = o.reflect_depth,
-                                                   .threads = o.threads},
-                               &fr));
     TND_TRY(tnd_mkdirs(o.out));
     if (!reference) {
         snprintf(path, sizeof path, "%s/timings.json", o.out);
@@ -521,7 +545,7 @@ static int run(bool reference, int argc, char **argv)
         fprintf(timings,
                 "{\n  \"frontend\": \"%s\",\n  \"denoiser\": \"%s\",\n  \"device\": \"%s\",\n"
                 "  \"frames\": [",
-                o.frontend, use_dn ? dn_mode_name(dmode) : "off (CPU composite)",
+                o.frontend, dn_name,
                 use_vk || use_dn ? vk.info.name : "CPU (Embree)");
     }
     snprintf(dir, sizeof dir, "%s/capture", o.out);
@@ -601,11 +625,14 @@ static int run(bool reference, int argc, char **argv)
                 "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"denoise_lf_beside_atrous\": %s, "
                 "\"composite_ms\": %.4f, "
                 "\"interleave_ms\": %.4f, \"taa_ms\": %.4f, \"bloom_ms\": %.4f, "
-                "\"exposure_ms\": %.4f, \"tonemap_ms\": %.4f}",
+                "\"exposure_ms\": %.4f, \"tonemap_ms\": %.4f",
                 i ? "," : "", f, tm.primary_ms, tm.shade_ms, tm.tlas_ms, tm.gradient_ms, dt.select_ms,
                 dt.gradient_ms, dt.temporal_ms, dt.lf_ms, dt.atrous_ms,
                 dt.lf_beside_atrous ? "true" : "false", dt.composite_ms,
                 pt.interleave_ms, pt.taa_ms, pt.bloom_ms, pt.exposure_ms, pt.tonemap_ms);
+        if (dn_plugin) /* (composite_ms: the noisy radiance it reads) */
+            fprintf(timings, ", \"denoiser_plugin_ms\": %.4f", pr.plugin_ms);
+        fputc('}', timings);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
@@ -630,7 +657,7 @@ static int run(bool reference, int argc, char **argv)
                                      ref_noise));
     if (!reference)
         TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
-                               use_dn ? dn_mode_name(dmode) : "off (CPU composite)",
+                               dn_name,
                                pl_chain_post(chain) ? cmp_settings(pl_chain_post(chain)) : &pd,
                                pl_chain_post(chain) ? cmp_passes(pl_chain_post(chain)) : NULL,
                                scene, fr));

@@ -212,3 +212,19 @@ bool app_remove_flat_dir(const char *dir)
     closedir(d);
     return ok && rmdir(dir) == 0;
 }
+
+tnd_result app_denoiser_parse(const char *s, dn_mode *mode, const char **plugin)
+{
+    *plugin = NULL;
+    if (strncmp(s, "plugin:", 7) == 0) {
+        if (!s[7])
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoiser plugin: needs a path");
+        *plugin = s + 7;
+        *mode = DN_MODE_OFF;
+        return TND_OK;
+    }
+    if (dn_mode_parse(s, mode) != TND_OK)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "denoiser '%s' (expected asvgf, svgf, off or plugin:PATH.so)", s);
+    return TND_OK;
+}

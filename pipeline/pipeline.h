@@ -43,11 +43,22 @@ typedef struct pl_frontend_desc {
     uint32_t threads;        /* embree: CPU threads (0: all) */
     const char *captures;    /* replay: the capture directory (or a run's output, DIR/capture) */
     const struct tnd_capture_map *map; /* replay: another renderer's mapping (NULL: Tandem's) */
+    const char *scene_path;  /* plugins: what the user passed as the scene */
+    const char *plugin;      /* set by pl_frontend_create from "plugin:PATH" */
 } pl_frontend_desc;
+
+/* The camera of a front-end's current frame (pl_frontend_set_frame): matrices of this and the
+ * previous frame, the Halton jitter, the position and the scene time. */
+typedef struct pl_camera {
+    tnd_camera_state state;
+    float position[3];
+    double time;
+} pl_camera;
 
 typedef struct pl_frontend pl_frontend;
 
-/* The registered front-ends' names, comma-separated ("embree, vk"). */
+/* The registered front-ends' names, comma-separated ("embree, vk"); "plugin:PATH" loads a
+ * front-end plugin (include/tandem/tandem_plugin.h) from a shared object. */
 const char *pl_frontend_names(void);
 /* Whether the named front-end needs a Vulkan context with ray tracing (false for unknown). */
 bool pl_frontend_needs_gpu(const char *name);
@@ -62,6 +73,8 @@ const char *pl_frontend_models(const pl_frontend *fe);
 tnd_result pl_frontend_set_frame(pl_frontend *fe, const tnd_scene_state *cur,
                                  const tnd_scene_state *prev, uint32_t frame, uint32_t width,
                                  uint32_t height);
+/* The current frame's camera (NULL before the first set_frame). */
+const pl_camera *pl_frontend_camera(const pl_frontend *fe);
 /* Fill the frame's contract: on the GPU for PL_CAP_GPU_CONTRACT front-ends, and into `host`
  * (quantised to the precision; with the camera) when it is not NULL (a GPU front-end downloads
  * it). */
@@ -108,6 +121,10 @@ typedef struct pl_chain_desc {
     dn_desc denoise;         /* its mode and knobs (the precision is the chain's) */
     cmp_desc post;
     bool no_post;            /* the back-end alone (bench) */
+    /* a denoiser plugin (include/tandem/tandem_plugin.h) in place of the back-end's filters:
+     * the back-end runs in mode off (the noisy radiance the plugin may read), the plugin's
+     * output goes to the post chain */
+    const char *denoiser_plugin;
     bool host_contract;      /* bring a GPU front-end's contract to the host every frame (what
                                 the chain did before it kept it on the GPU; for measurements) */
 } pl_chain_desc;
@@ -135,6 +152,7 @@ typedef struct pl_step_result {
     /* dn and post hold the previous frame's GPU times (that frame was not waited for; a frame
      * not waited for leaves them 0 for the next call or pl_chain_finish) */
     bool lagged;
+    double plugin_ms; /* a denoiser plugin's GPU time (lagged as dn) */
 } pl_step_result;
 
 typedef struct pl_chain pl_chain;
@@ -148,6 +166,8 @@ tnd_result pl_chain_run(pl_chain *chain, pl_frontend *fe, const pl_step *step, f
 /* Wait for a frame run with no_wait; its back-end and post times (lagged; zero when none). */
 tnd_result pl_chain_finish(pl_chain *chain, pl_step_result *result);
 dn_context *pl_chain_denoiser(pl_chain *chain);
+/* A denoiser plugin's name (NULL without one). */
+const char *pl_chain_plugin_name(const pl_chain *chain);
 cmp_context *pl_chain_post(pl_chain *chain);
 
 #endif

@@ -23,6 +23,12 @@ struct pl_chain {
     tnd_frame host, reshaded; /* (reshaded: a GPU contract after re-shading, for a capture) */
     float prev_jitter[2];
     bool in_flight; /* the last frame's back-end and post were not waited for */
+    /* a denoiser plugin: its commands in flight, their timestamps */
+    pl_dnp *plugin;
+    tnd_pending plugin_pending;
+    tnd_timer plugin_timer;
+    bool plugin_due;
+    double plugin_ms;
 };
 
 tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **out)
@@ -33,9 +39,21 @@ tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **out)
     if (!c)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
     c->d = *d;
+    if (d->denoiser_plugin && !d->backend) {
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: a denoiser plugin needs the back-end");
+        goto fail;
+    }
     if (d->backend) {
         dn_desc dd = d->denoise;
         dd.precision = d->precision;
+        if (d->denoiser_plugin) { /* the back-end composites the noisy radiance only */
+            dd.mode = DN_MODE_OFF;
+            c->d.denoise.mode = DN_MODE_OFF;
+            TND_TRY(pl_dnp_create(d->vk, d->denoiser_plugin, d->width, d->height, d->precision,
+                                  &c->plugin));
+            TND_TRY(tnd_pending_create(d->vk, &c->plugin_pending));
+            TND_TRY(tnd_timer_create(d->vk, &c->plugin_timer));
+        }
         TND_TRY(dn_create(d->vk, d->width, d->height, &dd, &c->dn));
         if (!d->no_post)
             TND_TRY(cmp_create(d->vk, d->width, d->height, d->precision, &d->post, &c->post));
@@ -58,6 +76,11 @@ void pl_chain_destroy(pl_chain *c)
     if (!c)
         return;
     free(c->grads);
+    if (c->plugin) {
+        tnd_pending_destroy(c->d.vk, &c->plugin_pending);
+        tnd_timer_destroy(c->d.vk, &c->plugin_timer);
+        pl_dnp_destroy(c->plugin);
+    }
     tnd_frame_destroy(&c->host);
     tnd_frame_destroy(&c->reshaded);
     if (c->upload.images[0].image)
@@ -70,6 +93,67 @@ void pl_chain_destroy(pl_chain *c)
 dn_context *pl_chain_denoiser(pl_chain *c)
 {
     return c->dn;
+}
+
+const char *pl_chain_plugin_name(const pl_chain *c)
+{
+    return c->plugin ? pl_dnp_name(c->plugin) : NULL;
+}
+
+/* The camera's position from its world-to-camera matrix (column-major): -R^T t. */
+static void camera_position(const float view[16], float pos[3])
+{
+    for (int i = 0; i < 3; i++)
+        pos[i] = -(view[i * 4 + 0] * view[12] + view[i * 4 + 1] * view[13] +
+                   view[i * 4 + 2] * view[14]);
+}
+
+/* Wait for the plugin's frame in flight and read its time. */
+static tnd_result plugin_settle(pl_chain *c)
+{
+    tnd_result res = TND_OK;
+    TND_TRY(tnd_pending_wait(c->d.vk, &c->plugin_pending));
+    if (c->plugin_due) {
+        c->plugin_due = false;
+        TND_TRY(tnd_timer_read(c->d.vk, &c->plugin_timer, &c->plugin_ms));
+    }
+fail:
+    return res;
+}
+
+/* The plugin's frame: its settings (the camera from the recorded frame or the front-end), its
+ * commands between full barriers, submitted after the back-end's composite of the noisy
+ * radiance. */
+static tnd_result plugin_submit(pl_chain *c, pl_frontend *fe, const pl_step *s,
+                                const dn_frame *df, const tnd_contract_gpu *ct, bool recorded)
+{
+    tnd_result res = TND_OK;
+    TND_TRY(plugin_settle(c));
+    pl_camera cam = {0};
+    if (recorded) {
+        cam.state = c->host.camera;
+        camera_position(c->host.camera.view, cam.position);
+    } else if (pl_frontend_camera(fe)) {
+        cam = *pl_frontend_camera(fe);
+    }
+    tandem_frame_settings fs;
+    pl_plugin_settings(&cam, c->d.width, c->d.height, s->params.bounces, s->params.sample, df,
+                       s->dt, c->d.precision, &fs);
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(c->d.vk, &cmd));
+    tnd_timer_reset(cmd, &c->plugin_timer);
+    int slot = tnd_timer_begin(cmd, &c->plugin_timer, "plugin");
+    res = pl_dnp_record(c->plugin, cmd, &fs, ct, dn_output(c->dn));
+    tnd_timer_end(cmd, &c->plugin_timer, slot);
+    if (res != TND_OK) {
+        vkEndCommandBuffer(cmd);
+        vkFreeCommandBuffers(c->d.vk->device, c->d.vk->cmd_pool, 1, &cmd);
+        return res;
+    }
+    TND_TRY(tnd_cmd_submit_pending(c->d.vk, cmd, &c->plugin_pending));
+    c->plugin_due = true;
+fail:
+    return res;
 }
 
 cmp_context *pl_chain_post(pl_chain *c)
@@ -178,16 +262,28 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
         TND_TRY(dn_wait(c->dn, &r->dn));
         if (c->post)
             TND_TRY(cmp_wait(c->post, &r->post));
+        if (c->plugin) {
+            TND_TRY(plugin_settle(c));
+            r->plugin_ms = c->plugin_ms;
+        }
         r->lagged = true;
     }
     c->in_flight = false;
     TND_TRY(dn_submit(c->dn, ct, &df));
-    if (wait)
+    if (c->plugin)
+        TND_TRY(plugin_submit(c, fe, s, &df, ct, recorded));
+    if (wait) {
         TND_TRY(dn_wait(c->dn, &r->dn));
+        if (c->plugin) {
+            TND_TRY(plugin_settle(c));
+            r->plugin_ms = c->plugin_ms;
+        }
+    }
     if (s->after_backend)
         TND_TRY(s->after_backend(c->dn, s->user));
     if (c->post) {
-        TND_TRY(cmp_submit(c->post, dn_output(c->dn), ct,
+        const tnd_image *out = c->plugin ? pl_dnp_output(c->plugin) : dn_output(c->dn);
+        TND_TRY(cmp_submit(c->post, out, ct,
                            &(cmp_frame){.dt = s->dt, .reset = df.reset}));
         if (wait)
             TND_TRY(cmp_wait(c->post, &r->post));
@@ -212,6 +308,10 @@ tnd_result pl_chain_finish(pl_chain *c, pl_step_result *r)
         TND_TRY(dn_wait(c->dn, &r->dn));
         if (c->post)
             TND_TRY(cmp_wait(c->post, &r->post));
+        if (c->plugin) {
+            TND_TRY(plugin_settle(c));
+            r->plugin_ms = c->plugin_ms;
+        }
         r->lagged = true;
     }
     c->in_flight = false;

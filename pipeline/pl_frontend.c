@@ -15,7 +15,25 @@
 struct pl_frontend {
     const pl_frontend_ops *ops;
     void *ctx;
+    pl_camera cam;
+    bool have_cam;
 };
+
+void pl_camera_from_states(const tnd_scene_state *cur, const tnd_scene_state *prev,
+                           uint32_t frame, pl_camera *cam)
+{
+    if (!prev)
+        prev = cur;
+    memset(cam, 0, sizeof *cam);
+    memcpy(cam->state.view, cur->camera.view, sizeof cam->state.view);
+    memcpy(cam->state.proj, cur->camera.proj, sizeof cam->state.proj);
+    memcpy(cam->state.prev_view, prev->camera.view, sizeof cam->state.prev_view);
+    memcpy(cam->state.prev_proj, prev->camera.proj, sizeof cam->state.prev_proj);
+    tnd_jitter(frame, cam->state.jitter);
+    cam->state.frame_index = frame;
+    memcpy(cam->position, cur->camera_position, sizeof cam->position);
+    cam->time = cur->time;
+}
 
 /* ---- Vulkan ------------------------------------------------------------------------------------ */
 typedef struct vk_fe {
@@ -80,14 +98,11 @@ static tnd_result vk_set_frame(void *ctx, const tnd_scene_state *cur, const tnd_
                                uint32_t frame, uint32_t w, uint32_t h)
 {
     vk_fe *v = ctx;
+    pl_camera cam;
+    pl_camera_from_states(cur, prev, frame, &cam);
+    v->cam = cam.state;
     if (!prev)
         prev = cur;
-    memcpy(v->cam.view, cur->camera.view, sizeof v->cam.view);
-    memcpy(v->cam.proj, cur->camera.proj, sizeof v->cam.proj);
-    memcpy(v->cam.prev_view, prev->camera.view, sizeof v->cam.prev_view);
-    memcpy(v->cam.prev_proj, prev->camera.proj, sizeof v->cam.prev_proj);
-    tnd_jitter(frame, v->cam.jitter);
-    v->cam.frame_index = frame;
     return fvk_set_frame(v->gv, cur, prev, frame, w, h);
 }
 
@@ -317,12 +332,18 @@ static const pl_frontend_ops *find(const char *name)
 
 const char *pl_frontend_names(void)
 {
-    return "embree, vk, replay";
+    return "embree, vk, replay, plugin:PATH";
+}
+
+/* "plugin:PATH": the path, else NULL */
+static const char *plugin_path(const char *name)
+{
+    return name && strncmp(name, "plugin:", 7) == 0 ? name + 7 : NULL;
 }
 
 bool pl_frontend_needs_gpu(const char *name)
 {
-    const pl_frontend_ops *o = find(name);
+    const pl_frontend_ops *o = plugin_path(name) ? &pl_plugin_frontend_ops : find(name);
     return o && (o->caps & PL_CAP_GPU_CONTRACT);
 }
 
@@ -330,7 +351,16 @@ tnd_result pl_frontend_create(const char *name, const tnd_scene *scene, const pl
                               pl_frontend **out)
 {
     *out = NULL;
-    const pl_frontend_ops *o = find(name);
+    const char *plugin = plugin_path(name);
+    pl_frontend_desc dp;
+    if (plugin) {
+        if (!*plugin)
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: front-end 'plugin:': no path");
+        dp = *d;
+        dp.plugin = plugin;
+        d = &dp;
+    }
+    const pl_frontend_ops *o = plugin ? &pl_plugin_frontend_ops : find(name);
     if (!o)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: front-end '%s': expected one of %s",
                         name ? name : "(none)", pl_frontend_names());
@@ -388,7 +418,15 @@ tnd_result pl_frontend_set_frame(pl_frontend *fe, const tnd_scene_state *cur,
                                  const tnd_scene_state *prev, uint32_t frame, uint32_t width,
                                  uint32_t height)
 {
+    fe->have_cam = cur != NULL; /* (a recorded front-end's frames carry their cameras) */
+    if (cur)
+        pl_camera_from_states(cur, prev, frame, &fe->cam);
     return fe->ops->set_frame(fe->ctx, cur, prev, frame, width, height);
+}
+
+const pl_camera *pl_frontend_camera(const pl_frontend *fe)
+{
+    return fe->have_cam ? &fe->cam : NULL;
 }
 
 tnd_result pl_frontend_render(pl_frontend *fe, const pl_params *p, tnd_frame *host, pl_timings *t)

@@ -38,4 +38,28 @@ typedef struct pl_frontend_ops {
 
 extern const pl_frontend_ops pl_replay_ops;
 
+/* ---- plugins (pl_plugin.c) --------------------------------------------------------------------- */
+#include "include/tandem/tandem_plugin.h"
+
+extern const pl_frontend_ops pl_plugin_frontend_ops;
+/* The camera of frame `frame` from the scene's states (prev NULL: cur). */
+void pl_camera_from_states(const tnd_scene_state *cur, const tnd_scene_state *prev,
+                           uint32_t frame, pl_camera *cam);
+/* The ABI's per-frame settings; df NULL: no jitter history, spread or reset. */
+void pl_plugin_settings(const pl_camera *cam, uint32_t w, uint32_t h, uint32_t bounces,
+                        uint32_t sample, const dn_frame *df, float dt, tnd_precision precision,
+                        tandem_frame_settings *s);
+
+/* A denoiser plugin: its state, its output image (RGBA32F). */
+typedef struct pl_dnp pl_dnp;
+tnd_result pl_dnp_create(tnd_vk *vk, const char *path, uint32_t w, uint32_t h,
+                         tnd_precision precision, pl_dnp **out);
+void pl_dnp_destroy(pl_dnp *d);
+uint64_t pl_dnp_reads(const pl_dnp *d);
+const char *pl_dnp_name(const pl_dnp *d);
+const tnd_image *pl_dnp_output(const pl_dnp *d);
+/* Record the plugin's frame into cmd, between full barriers. */
+tnd_result pl_dnp_record(pl_dnp *d, VkCommandBuffer cmd, const tandem_frame_settings *s,
+                         const tnd_contract_gpu *ct, const tnd_image *radiance);
+
 #endif

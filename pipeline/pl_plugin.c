@@ -1,0 +1,434 @@
+/* pipeline/pl_plugin.c: plugins from shared objects (include/tandem/tandem_plugin.h): the
+ * loader and its checks, the front-end adapter (a plugin that fills host buffers becomes a
+ * pl_frontend_ops) and the denoiser plugin that the chain runs in place of the back-end's
+ * filters. A plugin's description is checked once when it is loaded: ABI version, kind, the
+ * operations it must have, the entries it declares.
+ * Entry points: pl_plugin_frontend_ops, pl_dnp_create, pl_dnp_destroy, pl_dnp_record,
+ * pl_dnp_reads, pl_dnp_name, pl_plugin_settings. */
+#include "pipeline/pl_internal.h"
+#include "shaders/sampling.h"
+
+#include <dlfcn.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The ABI's entry numbers are the contract table's. */
+#define PL_SAME(ID) _Static_assert((int)TANDEM_ENTRY_##ID == (int)TND_CT_##ID, #ID);
+PL_SAME(ALBEDO) PL_SAME(NORMAL) PL_SAME(GEO_NORMAL) PL_SAME(POSITION) PL_SAME(DEPTH)
+PL_SAME(MOTION) PL_SAME(ROUGHNESS) PL_SAME(METALLIC) PL_SAME(EMISSION) PL_SAME(VIS_ID)
+PL_SAME(VIS_BARY) PL_SAME(THROUGHPUT) PL_SAME(RNG) PL_SAME(HF) PL_SAME(LF_SH) PL_SAME(LF_COCG)
+PL_SAME(SPEC) PL_SAME(PATH)
+#undef PL_SAME
+_Static_assert((int)TANDEM_ENTRY_COUNT == (int)TND_CT_COUNT, "the contract's entries");
+_Static_assert((int)TANDEM_PRECISION_FLOAT32 == (int)TND_PRECISION_F32 &&
+                   (int)TANDEM_PRECISION_PACKED == (int)TND_PRECISION_PACKED,
+               "precisions");
+
+#define ALL_ENTRIES ((UINT64_C(1) << TANDEM_ENTRY_COUNT) - 1)
+
+/* A field of a struct the plugin filled, when its struct_size covers it. */
+#define HAS_FIELD(p, type, field)                                                                  \
+    ((p)->struct_size >= offsetof(type, field) + sizeof(((type *)0)->field))
+
+typedef struct pl_plugin {
+    void *dl;
+    const tandem_plugin *desc;
+    char path[1024];
+} pl_plugin;
+
+static void plugin_close(pl_plugin *p)
+{
+    if (!p)
+        return;
+    if (p->dl)
+        dlclose(p->dl);
+    free(p);
+}
+
+static const char *kind_name(uint32_t k)
+{
+    return k == TANDEM_PLUGIN_FRONTEND ? "front-end" : k == TANDEM_PLUGIN_DENOISER ? "denoiser"
+                                                                                 : "unknown kind";
+}
+
+/* Load PATH and check that it is a plugin of `kind` that Tandem can use. */
+static tnd_result plugin_open(const char *path, uint32_t kind, pl_plugin **out)
+{
+    tnd_result res = TND_OK;
+    *out = NULL;
+    pl_plugin *p = calloc(1, sizeof *p);
+    if (!p)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "plugin: out of memory");
+    snprintf(p->path, sizeof p->path, "%s", path);
+    /* dlopen searches the library path for a bare name: a plugin is a file */
+    char full[1100];
+    snprintf(full, sizeof full, "%s%s", strchr(path, '/') ? "" : "./", path);
+    dlerror();
+    if (!(p->dl = dlopen(full, RTLD_NOW | RTLD_LOCAL))) {
+        const char *e = dlerror();
+        res = tnd_fail(TND_ERR_IO, "plugin %s: cannot load: %s", path, e ? e : "unknown error");
+        goto fail;
+    }
+    tandem_plugin_entry_fn entry;
+    void *sym = dlsym(p->dl, TANDEM_PLUGIN_ENTRY_NAME);
+    memcpy(&entry, &sym, sizeof entry); /* (object to function pointer, as POSIX allows) */
+    if (!sym) {
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "plugin %s: no function %s: not a Tandem plugin",
+                       path, TANDEM_PLUGIN_ENTRY_NAME);
+        goto fail;
+    }
+    const tandem_plugin *d = entry(TANDEM_PLUGIN_ABI_VERSION);
+    if (!d) {
+        res = tnd_fail(TND_ERR_UNSUPPORTED, "plugin %s: does not speak plugin ABI version %u",
+                       path, TANDEM_PLUGIN_ABI_VERSION);
+        goto fail;
+    }
+    if (!HAS_FIELD(d, tandem_plugin, denoiser)) {
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                       "plugin %s: its description has struct_size %u, at least %zu expected",
+                       path, d->struct_size, offsetof(tandem_plugin, denoiser) + sizeof(void *));
+        goto fail;
+    }
+    if (d->abi_version != TANDEM_PLUGIN_ABI_VERSION) {
+        res = tnd_fail(TND_ERR_UNSUPPORTED, "plugin %s: built for ABI version %u, Tandem speaks %u",
+                       path, d->abi_version, TANDEM_PLUGIN_ABI_VERSION);
+        goto fail;
+    }
+    const char *name = d->name ? d->name : "(unnamed)";
+    if (d->kind != kind) {
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "plugin %s (%s): a %s, not a %s", path, name,
+                       kind_name(d->kind), kind_name(kind));
+        goto fail;
+    }
+    if (kind == TANDEM_PLUGIN_FRONTEND) {
+        const tandem_frontend_plugin *f = d->frontend;
+        if (!f || !HAS_FIELD(f, tandem_frontend_plugin, render) || !f->create || !f->destroy ||
+            !f->render) {
+            res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                           "plugin %s (%s): its front-end lacks create, destroy or render", path,
+                           name);
+            goto fail;
+        }
+        if (f->writes & ~ALL_ENTRIES) {
+            res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                           "plugin %s (%s): writes entries Tandem does not know (mask %#llx)",
+                           path, name, (unsigned long long)(f->writes & ~ALL_ENTRIES));
+            goto fail;
+        }
+        for (int e = 0; e < TANDEM_ENTRY_COUNT; e++)
+            if ((TANDEM_ENTRIES_REQUIRED & TANDEM_ENTRY_BIT(e)) && !(f->writes & TANDEM_ENTRY_BIT(e))) {
+                res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                               "plugin %s (%s): does not write the required entry '%s'", path,
+                               name, tnd_ct_get((tnd_ct)e)->name);
+                goto fail;
+            }
+    } else {
+        const tandem_denoiser_plugin *n = d->denoiser;
+        if (!n || !HAS_FIELD(n, tandem_denoiser_plugin, record) || !n->create || !n->destroy ||
+            !n->record) {
+            res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                           "plugin %s (%s): its denoiser lacks create, destroy or record", path,
+                           name);
+            goto fail;
+        }
+        if (n->reads & ~(ALL_ENTRIES | TANDEM_INPUT_RADIANCE)) {
+            res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                           "plugin %s (%s): reads entries Tandem does not know (mask %#llx)",
+                           path, name,
+                           (unsigned long long)(n->reads & ~(ALL_ENTRIES | TANDEM_INPUT_RADIANCE)));
+            goto fail;
+        }
+    }
+    p->desc = d;
+    *out = p;
+    return TND_OK;
+fail:
+    plugin_close(p);
+    return res;
+}
+
+static const char *plugin_name(const pl_plugin *p)
+{
+    return p->desc->name ? p->desc->name : "(unnamed)";
+}
+
+void pl_plugin_settings(const pl_camera *cam, uint32_t w, uint32_t h, uint32_t bounces,
+                        uint32_t sample, const dn_frame *df, float dt, tnd_precision precision,
+                        tandem_frame_settings *s)
+{
+    *s = (tandem_frame_settings){.struct_size = sizeof *s,
+                                 .width = w,
+                                 .height = h,
+                                 .frame_index = cam->state.frame_index,
+                                 .reset = df && df->reset,
+                                 .pixel_spread = df ? df->pixel_spread : 0.0f,
+                                 .time_s = (float)cam->time,
+                                 .dt_s = dt,
+                                 .bounces = bounces,
+                                 .sample = sample,
+                                 .precision = (uint32_t)precision};
+    memcpy(s->view, cam->state.view, sizeof s->view);
+    memcpy(s->proj, cam->state.proj, sizeof s->proj);
+    memcpy(s->prev_view, cam->state.prev_view, sizeof s->prev_view);
+    memcpy(s->prev_proj, cam->state.prev_proj, sizeof s->prev_proj);
+    memcpy(s->jitter, df ? df->jitter : cam->state.jitter, sizeof s->jitter);
+    if (df)
+        memcpy(s->prev_jitter, df->prev_jitter, sizeof s->prev_jitter);
+    memcpy(s->camera_position, cam->position, sizeof s->camera_position);
+}
+
+/* ---- front-ends -------------------------------------------------------------------------------- */
+typedef struct plugin_fe {
+    pl_plugin *p;
+    void *state;
+    bool have_state;
+    tnd_precision precision;
+    pl_camera cam;
+    uint32_t width, height;
+    float dt;
+} plugin_fe;
+
+static void pfe_destroy(void *ctx)
+{
+    plugin_fe *f = ctx;
+    if (!f)
+        return;
+    if (f->have_state)
+        f->p->desc->frontend->destroy(f->state);
+    plugin_close(f->p);
+    free(f);
+}
+
+static tnd_result pfe_create(const tnd_scene *scene, const pl_frontend_desc *d, void **out)
+{
+    (void)scene; /* (the plugin traces its own scene; it gets the path) */
+    tnd_result res = TND_OK;
+    *out = NULL;
+    plugin_fe *f = calloc(1, sizeof *f);
+    if (!f)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "plugin: out of memory");
+    f->precision = d->precision;
+    TND_TRY(plugin_open(d->plugin, TANDEM_PLUGIN_FRONTEND, &f->p));
+    char err[512] = "";
+    tandem_frontend_create_info ci = {.struct_size = sizeof ci,
+                                      .scene_path = d->scene_path ? d->scene_path : "",
+                                      .threads = d->threads};
+    if (f->p->desc->frontend->create(&ci, &f->state, err, sizeof err) != 0) {
+        err[sizeof err - 1] = 0;
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "plugin %s (%s): create failed: %s", d->plugin,
+                       plugin_name(f->p), err[0] ? err : "no message");
+        goto fail;
+    }
+    f->have_state = true;
+    *out = f;
+    return TND_OK;
+fail:
+    pfe_destroy(f);
+    return res;
+}
+
+static void pfe_describe(const void *ctx, char *buf, size_t cap)
+{
+    const plugin_fe *f = ctx;
+    snprintf(buf, cap, "plugin %s (%s)%s%s", plugin_name(f->p), f->p->path,
+             f->p->desc->description ? ": " : "",
+             f->p->desc->description ? f->p->desc->description : "");
+}
+
+static const char *pfe_models(const void *ctx)
+{
+    (void)ctx;
+    return "plugin (its own)";
+}
+
+static tnd_result pfe_set_frame(void *ctx, const tnd_scene_state *cur, const tnd_scene_state *prev,
+                                uint32_t frame, uint32_t w, uint32_t h)
+{
+    plugin_fe *f = ctx;
+    pl_camera_from_states(cur, prev, frame, &f->cam);
+    f->width = w;
+    f->height = h;
+    f->dt = prev && cur->time > prev->time ? (float)(cur->time - prev->time) : 0.0f;
+    return TND_OK;
+}
+
+static tnd_result pfe_render(void *ctx, const pl_params *p, tnd_frame *host, pl_timings *t)
+{
+    plugin_fe *f = ctx;
+    const tandem_frontend_plugin *fp = f->p->desc->frontend;
+    if (!host)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: a plugin front-end fills a host frame");
+    if (host->width != f->width || host->height != f->height)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: host frame %ux%u, frame %ux%u",
+                        host->width, host->height, f->width, f->height);
+    pl_camera cam = f->cam;
+    if (p && p->set_jitter)
+        memcpy(cam.state.jitter, p->jitter, sizeof cam.state.jitter);
+    float spread = 2.0f / (fabsf(cam.state.proj[5]) > 0 ? fabsf(cam.state.proj[5]) : 1.0f) /
+                   (float)f->height;
+    dn_frame df = {.pixel_spread = spread};
+    memcpy(df.jitter, cam.state.jitter, sizeof df.jitter);
+    tnd_jitter(cam.state.frame_index ? cam.state.frame_index - 1 : 0, df.prev_jitter);
+    tandem_frame_settings s;
+    pl_plugin_settings(&cam, f->width, f->height, p ? p->bounces : 1, p ? p->sample : 0, &df,
+                       f->dt, f->precision, &s);
+    tandem_host_frame hf = {.struct_size = sizeof hf, .width = f->width, .height = f->height};
+    for (int e = 0; e < TANDEM_ENTRY_COUNT; e++)
+        hf.entries[e] = (fp->writes & TANDEM_ENTRY_BIT(e)) ? host->data[e] : NULL;
+    char err[512] = "";
+    double t0 = tnd_now();
+    if (fp->render(f->state, &s, &hf, err, sizeof err) != 0) {
+        err[sizeof err - 1] = 0;
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "plugin %s (%s): frame %u: %s", f->p->path,
+                        plugin_name(f->p), s.frame_index, err[0] ? err : "render failed");
+    }
+    if (t)
+        *t = (pl_timings){1e3 * (tnd_now() - t0), 0.0, 0.0, 0.0};
+    /* what it wrote is present; the derived entries follow from it every frame */
+    for (int e = 0; e < TANDEM_ENTRY_COUNT; e++)
+        host->present[e] = (fp->writes & TANDEM_ENTRY_BIT(e)) != 0;
+    host->camera = cam.state;
+    host->has_camera = true;
+    tnd_result res = tnd_frame_derive(host, f->p->path);
+    if (res == TND_OK)
+        tnd_frame_quantize(host, f->precision);
+    return res;
+}
+
+static const tnd_contract_gpu *pfe_contract(const void *ctx)
+{
+    (void)ctx;
+    return NULL;
+}
+
+const pl_frontend_ops pl_plugin_frontend_ops = {
+    .name = "plugin",
+    .caps = 0, /* a host contract; no re-shading, reference or ray benchmark in ABI 1 */
+    .create = pfe_create,
+    .destroy = pfe_destroy,
+    .describe = pfe_describe,
+    .models = pfe_models,
+    .set_frame = pfe_set_frame,
+    .render = pfe_render,
+    .contract = pfe_contract,
+};
+
+/* ---- denoisers --------------------------------------------------------------------------------- */
+struct pl_dnp {
+    pl_plugin *p;
+    tnd_vk *vk;
+    void *state;
+    bool have_state;
+    tnd_image out;
+    tandem_vulkan vulkan;
+};
+
+void pl_dnp_destroy(pl_dnp *d)
+{
+    if (!d)
+        return;
+    if (d->vk && d->vk->device)
+        vkDeviceWaitIdle(d->vk->device);
+    if (d->have_state)
+        d->p->desc->denoiser->destroy(d->state);
+    if (d->out.image)
+        tnd_image_destroy(d->vk, &d->out);
+    plugin_close(d->p);
+    free(d);
+}
+
+tnd_result pl_dnp_create(tnd_vk *vk, const char *path, uint32_t w, uint32_t h,
+                         tnd_precision precision, pl_dnp **out)
+{
+    tnd_result res = TND_OK;
+    *out = NULL;
+    pl_dnp *d = calloc(1, sizeof *d);
+    if (!d)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "plugin: out of memory");
+    d->vk = vk;
+    TND_TRY(plugin_open(path, TANDEM_PLUGIN_DENOISER, &d->p));
+    const tandem_denoiser_plugin *n = d->p->desc->denoiser;
+    if (!(n->precisions & TANDEM_PRECISION_BIT(precision))) {
+        res = tnd_fail(TND_ERR_UNSUPPORTED,
+                       "plugin %s (%s): does not accept the %s contract precision", path,
+                       plugin_name(d->p), tnd_precision_name(precision));
+        goto fail;
+    }
+    TND_TRY(tnd_image_create(vk,
+                             &(tnd_image_desc){.width = w, .height = h,
+                                               .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                               .name = "plugin.output"},
+                             &d->out));
+    d->vulkan = (tandem_vulkan){.struct_size = sizeof d->vulkan,
+                                .instance = vk->instance,
+                                .physical_device = vk->phys,
+                                .device = vk->device,
+                                .queue = vk->queue,
+                                .queue_family = vk->queue_family,
+                                .get_instance_proc_addr = vkGetInstanceProcAddr,
+                                .get_device_proc_addr = vkGetDeviceProcAddr,
+                                .api_version = vk->info.api_version};
+    tandem_denoiser_create_info ci = {.struct_size = sizeof ci,
+                                      .vulkan = &d->vulkan,
+                                      .width = w,
+                                      .height = h,
+                                      .precision = (uint32_t)precision};
+    char err[512] = "";
+    TND_VK_TRY(vkDeviceWaitIdle(vk->device)); /* (it may submit to the queue) */
+    if (n->create(&ci, &d->state, err, sizeof err) != 0) {
+        err[sizeof err - 1] = 0;
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "plugin %s (%s): create failed: %s", path,
+                       plugin_name(d->p), err[0] ? err : "no message");
+        goto fail;
+    }
+    d->have_state = true;
+    *out = d;
+    return TND_OK;
+fail:
+    pl_dnp_destroy(d);
+    return res;
+}
+
+uint64_t pl_dnp_reads(const pl_dnp *d)
+{
+    return d->p->desc->denoiser->reads;
+}
+
+const char *pl_dnp_name(const pl_dnp *d)
+{
+    return plugin_name(d->p);
+}
+
+const tnd_image *pl_dnp_output(const pl_dnp *d)
+{
+    return &d->out;
+}
+
+static tandem_image image_of(const tnd_image *i)
+{
+    return (tandem_image){i->image, i->view, i->format};
+}
+
+tnd_result pl_dnp_record(pl_dnp *d, VkCommandBuffer cmd, const tandem_frame_settings *s,
+                         const tnd_contract_gpu *ct, const tnd_image *radiance)
+{
+    uint64_t reads = d->p->desc->denoiser->reads;
+    tandem_denoiser_io io = {.struct_size = sizeof io, .output = image_of(&d->out)};
+    for (int e = 0; e < TANDEM_ENTRY_COUNT; e++)
+        if (reads & TANDEM_ENTRY_BIT(e))
+            io.entries[e] = image_of(&ct->images[e]);
+    if (reads & TANDEM_INPUT_RADIANCE)
+        io.radiance = image_of(radiance);
+    char err[512] = "";
+    tnd_cmd_barrier(cmd);
+    if (d->p->desc->denoiser->record(d->state, cmd, s, &io, err, sizeof err) != 0) {
+        err[sizeof err - 1] = 0;
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "plugin %s (%s): frame %u: %s", d->p->path,
+                        plugin_name(d->p), s->frame_index, err[0] ? err : "record failed");
+    }
+    tnd_cmd_barrier(cmd);
+    return TND_OK;
+}
