@@ -13,6 +13,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #ifndef TND_DATA_DIR
 #define TND_DATA_DIR "data"
@@ -441,6 +442,38 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     return ok ? TND_OK : tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);
 }
 
+/* A run that failed leaves nothing of itself: the output directory when it made it, else the
+ * files of the frames it began (images, captures with their gradient samples, motion, dumps'
+ * directory when it made it) and its timings. */
+static void remove_partial(const render_opts *o, bool out_existed, bool dumps_made,
+                           unsigned begun)
+{
+    char path[2400];
+    snprintf(path, sizeof path, "%s/dump", o->out);
+    if (dumps_made || !out_existed)
+        app_remove_flat_dir(path);
+    if (!out_existed) {
+        snprintf(path, sizeof path, "%s/capture", o->out);
+        app_remove_flat_dir(path);
+        app_remove_flat_dir(o->out);
+        return;
+    }
+    static const char *const names[] = {"%s/frame_%04u.exr", "%s/frame_%04u.png",
+                                        "%s/frame_%04u.motion.exr", "%s/capture/frame_%04u.exr"};
+    for (unsigned i = 0; i < begun; i++) {
+        for (int k = 0; k < 4; k++) {
+            snprintf(path, sizeof path, names[k], o->out, o->start + i);
+            remove(path);
+        }
+        char cap[2400];
+        snprintf(cap, sizeof cap, "%s/capture/frame_%04u.exr", o->out, o->start + i);
+        tnd_capture_gradients_path(cap, path, sizeof path);
+        remove(path);
+    }
+    snprintf(path, sizeof path, "%s/timings.json", o->out);
+    remove(path);
+}
+
 static int run(bool reference, int argc, char **argv)
 {
     render_opts o;
@@ -487,6 +520,8 @@ static int run(bool reference, int argc, char **argv)
     if (strlen(o.out) > 1500)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
     int status = APP_EXIT_FAIL;
+    bool out_existed = false, dumps_made = false, begun_output = false;
+    unsigned frames_begun = 0;
     TND_TRY(app_scene_load(o.scene, &o.env, &scene));
     if (use_vk || use_dn) {
         TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !use_vk}, &vk));
@@ -534,6 +569,11 @@ static int run(bool reference, int argc, char **argv)
                              .post = pd, .denoiser_plugin = dn_plugin},
             &chain));
     }
+    struct stat out_st, dump_st;
+    out_existed = stat(o.out, &out_st) == 0;
+    snprintf(path, sizeof path, "%s/dump", o.out);
+    dumps_made = dump_mask && stat(path, &dump_st) != 0;
+    begun_output = true;
     TND_TRY(tnd_mkdirs(o.out));
     if (!reference) {
         snprintf(path, sizeof path, "%s/timings.json", o.out);
@@ -572,6 +612,7 @@ static int run(bool reference, int argc, char **argv)
     double t0 = tnd_now();
     for (unsigned i = 0; i < o.frames; i++) {
         unsigned f = o.start + i;
+        frames_begun = i + 1;
         tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
         TND_TRY(tnd_scene_evaluate(scene, f / o.fps, o.camera, aspect, cur));
         if (i == 0)
@@ -678,6 +719,11 @@ static int run(bool reference, int argc, char **argv)
 fail:
     if (status != APP_EXIT_OK)
         app_report(what, res);
+    if (timings)
+        fclose(timings);
+    timings = NULL;
+    if (status != APP_EXIT_OK && begun_output)
+        remove_partial(&o, out_existed, dumps_made, frames_begun);
     tnd_frame_destroy(&frame);
     free(ref_stats);
     free(ref_noise);
