@@ -10,7 +10,7 @@ ifeq ($(CI),true)
 CMAKE_FLAGS += -DTND_WERROR=ON
 endif
 
-.PHONY: all deps configure build build-asan demo test test-release test-asan clean
+.PHONY: all deps configure build build-asan demo test test-release test-asan install clean
 
 all: build
 
@@ -47,6 +47,12 @@ test-asan: build-asan
 # Both builds are made first, then every suite runs in both; one closing line counts them all.
 test: build build-asan
 	scripts/run-tests.sh $(BUILD) $(ASAN_BUILD)
+
+# libtandem (shared and static), its headers, pkg-config file and CMake package, and the
+# tandem command, under PREFIX (default /usr/local): make install PREFIX=$$HOME/.local
+PREFIX ?= /usr/local
+install: build
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 clean:
 	rm -rf $(BUILD) $(ASAN_BUILD)

@@ -353,8 +353,8 @@ tnd_result ev_plot_metric(const char *path, const char *metric, const ev_series 
         "temporal error (tone-mapped), lower is better",
         "motion-compensated temporal error (tone-mapped), lower is better",
         "disoccluded fraction of the pixels (the reference's motion)"};
-    double *v = malloc((size_t)nseries * count * sizeof(double) + 16);
-    double *fr = malloc((size_t)count * sizeof(double) + 16);
+    double *v = calloc((size_t)nseries * count + 2, sizeof(double));
+    double *fr = calloc((size_t)count + 2, sizeof(double));
     if (!v || !fr) {
         free(v);
         free(fr);

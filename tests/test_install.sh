@@ -1,0 +1,62 @@
+#!/bin/bash
+# tests/test_install.sh BUILD TANDEM [SANITIZE_FLAGS]: libtandem as users get it. Installs the
+# build under a temporary prefix (cmake --install, what `make install PREFIX=` runs), copies
+# tests/install/ outside the source tree, builds its program twice against the installed files
+# (pkg-config and the shared library; CMake's find_package and the static library), feeds both a
+# capture, and checks their frames equal `tandem denoise --denoiser svgf` bit for bit (idiff
+# with every threshold 0). SANITIZE_FLAGS: the build's sanitizer flags, which a program linked
+# to a sanitized library needs too.
+set -euo pipefail
+BUILD=$1 TANDEM=$2 SAN=${3:-}
+SRC=$(cd "$(dirname "$0")/.." && pwd)
+TMP=$(mktemp -d /tmp/tandem_install.XXXXXX)
+trap 'rm -rf "$TMP"' EXIT
+pass=0 failn=0
+ok() { echo "ok   $1"; pass=$((pass + 1)); }
+bad() { echo "FAIL $1"; failn=$((failn + 1)); }
+
+cmake --install "$BUILD" --prefix "$TMP/prefix" > "$TMP/install.log"
+for f in include/tandem/tandem.h include/tandem/tandem_plugin.h lib/libtandem.a \
+         lib/libtandem.so lib/pkgconfig/tandem.pc lib/cmake/Tandem/TandemConfig.cmake bin/tandem; do
+    [ -e "$TMP/prefix/$f" ] && ok "installed $f" || bad "installed $f"
+done
+
+# a capture, and what tandem denoise makes of it
+"$TANDEM" render --scene "$SRC/data/scenes/dynamic.gltf" --frontend embree --denoiser off \
+    --frames 4 --size 64x40 --capture --out "$TMP/run" --quiet
+"$TANDEM" denoise --captures "$TMP/run" --denoiser svgf --out "$TMP/expected" --quiet
+
+mkdir "$TMP/consumer"
+cp "$SRC/tests/install/denoise_capture.c" "$SRC/tests/install/CMakeLists.txt" "$TMP/consumer/"
+cd "$TMP/consumer"
+
+# 1. pkg-config, the shared library
+export PKG_CONFIG_PATH="$TMP/prefix/lib/pkgconfig"
+cc -std=c11 -Wall -Werror $SAN denoise_capture.c $(pkg-config --cflags --libs tandem) \
+    -o denoise_pc
+LD_LIBRARY_PATH="$TMP/prefix/lib" ./denoise_pc "$TMP/run" "$TMP/out_pc"
+if LD_LIBRARY_PATH="$TMP/prefix/lib" ldd ./denoise_pc | grep -q "$TMP/prefix/lib/libtandem.so"
+then ok "pkg-config: linked to the installed libtandem.so"
+else bad "pkg-config: not linked to the installed libtandem.so"; fi
+
+# 2. CMake's find_package, the static library
+cmake -S . -B build -DCMAKE_PREFIX_PATH="$TMP/prefix" -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_C_FLAGS="$SAN" -DCMAKE_EXE_LINKER_FLAGS="$SAN" > cmake.log
+cmake --build build > build.log
+./build/denoise_capture "$TMP/run" "$TMP/out_cmake"
+if ldd ./build/denoise_capture | grep -q libtandem; then bad "CMake: static (no libtandem.so)"
+else ok "CMake: Tandem::tandem_static linked in"; fi
+
+for i in 0 1 2 3; do
+    f=frame_000$i.exr
+    for v in pc cmake; do
+        if idiff -q -fail 0 -failpercent 0 -warn 0 -warnpercent 0 \
+               "$TMP/expected/$f" "$TMP/out_$v/$f" > /dev/null; then
+            ok "$v: $f equals tandem denoise's"
+        else
+            bad "$v: $f differs from tandem denoise's"
+        fi
+    done
+done
+echo "$pass passed, $failn failed"
+[ "$failn" -eq 0 ]
