@@ -18,6 +18,8 @@ bins=("$B/tandem")
 for t in "$B"/tests/test_*; do [ -x "$t" ] && [ -f "$t" ] && bins+=("$t"); done
 cp "${bins[@]}" .gpu/bin/
 cp tests/*.sh .gpu/bin/ 2>/dev/null || true
+mkdir -p .gpu/plugins
+cp "$B"/plugins/*.so .gpu/plugins/ 2>/dev/null || true
 skip='^(libc|libm|libpthread|libdl|librt|ld-linux.*|libgcc_s|libstdc\+\+)\.so'
 LAYER=/usr/lib/x86_64-linux-gnu/libVkLayer_khronos_validation.so
 [ "$VALIDATION" -eq 1 ] || LAYER=
