@@ -88,6 +88,55 @@ void app_progress_end(app_progress *p);
  * dumps of the last frame to DIR/NAME_STEM.exr. */
 struct dn_context;
 tnd_result app_parse_dump(const char *list, uint32_t *mask);
+/* The viewer's repro state (app/view_state.c): its settings and the camera of every frame since
+ * the history last restarted; tandem render --view FILE reproduces it frame for frame. */
+typedef struct app_view_cam {
+    uint32_t frame;
+    double position[3], yaw, pitch; /* radians: yaw about +Y from -Z towards +X, pitch up */
+} app_view_cam;
+typedef struct app_view_state {
+    char scene[1024], frontend[1100], denoiser[1100], precision[16], taa[16], tonemap[16];
+    char exposure[32], env[1024], view[64];
+    double min_alpha, bloom, fps, env_intensity, env_rotation;
+    uint32_t bounces, atrous, camera, size[2];
+    bool split; /* noisy | denoised */
+    app_view_cam *path;
+    uint32_t path_len, path_cap;
+} app_view_state;
+tnd_result app_view_state_read(const char *path, app_view_state *s);
+tnd_result app_view_state_write(const char *path, const app_view_state *s);
+void app_view_state_free(app_view_state *s);
+tnd_result app_view_state_push(app_view_state *s, const app_view_cam *c);
+/* The frame's camera into a scene state (its view matrix and position; the projection stays). */
+void app_view_camera_apply(const app_view_cam *c, tnd_scene_state *st);
+void app_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, app_view_cam *c);
+
+/* render's and reference's options (app/cmd_render.c); the viewer fills them from its
+ * settings, so that both build the same pipeline (app_pipeline_open). */
+typedef struct app_render_opts {
+    const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump, *pipeline;
+    const char *taa, *tonemap, *exposure;
+    double bloom, min_alpha;
+    unsigned frames, start, threads, bounces, spp, camera, atrous, reflect_depth;
+    unsigned ref_bounces; /* reference: bounces per path (0: full paths, unbiased; ~0: not given) */
+    const char *estimator; /* reference: "unbiased" or "realtime" (a matched reference) */
+    double until_noise;    /* reference: stop a frame once its mean relative error is below */
+    unsigned size[2];
+    double fps;
+    bool capture, video;
+    app_env env;
+    const app_view_state *view; /* --view FILE: its settings and camera path */
+} app_render_opts;
+struct pl_frontend;
+struct pl_chain;
+struct cmp_desc;
+/* The front-end and the chain as render builds them from its options (the post chain's settings
+ * into *pd); dmode may turn svgf where the front-end cannot re-shade (said on stderr). */
+tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, tnd_vk *vk,
+                             bool use_vk, bool use_dn, tnd_precision prec, dn_mode *dmode,
+                             const char *dn_plugin, bool reference, struct pl_frontend **fr,
+                             struct pl_chain **chain, struct cmp_desc *pd);
+
 /* --denoiser: asvgf, svgf, off, or plugin:PATH (then *plugin is PATH and *mode off: the
  * back-end composites the noisy radiance the plugin may read). */
 tnd_result app_denoiser_parse(const char *s, dn_mode *mode, const char **plugin);
@@ -186,6 +235,7 @@ void app_eval_regions_html(const app_eval *e, ev_text *t);
 int cmd_info(int argc, char **argv);
 int cmd_contract(int argc, char **argv);
 int cmd_render(int argc, char **argv);
+int cmd_view(int argc, char **argv);
 int cmd_reference(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_compare(int argc, char **argv);

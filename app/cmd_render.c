@@ -19,19 +19,7 @@
 #define TND_DATA_DIR "data"
 #endif
 
-typedef struct render_opts {
-    const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump, *pipeline;
-    const char *taa, *tonemap, *exposure;
-    double bloom, min_alpha;
-    unsigned frames, start, threads, bounces, spp, camera, atrous, reflect_depth;
-    unsigned ref_bounces; /* reference: bounces per path (0: full paths, unbiased; ~0: not given) */
-    const char *estimator; /* reference: "unbiased" or "realtime" (a matched reference) */
-    double until_noise;    /* reference: stop a frame once its mean relative error is below */
-    unsigned size[2];
-    double fps;
-    bool capture, video;
-    app_env env;
-} render_opts;
+typedef app_render_opts render_opts;
 
 static const app_cmd render_cmd = {
     "render",
@@ -48,8 +36,38 @@ static const app_cmd reference_cmd = {
     "matched reference: what a denoiser of that estimator can reach at best).",
     "--out DIR [--scene PATH] [--frontend embree] [--frames N] [--size WxH] [--spp K]", NULL};
 
+/* render --view FILE: the viewer's settings and camera path (lives for the run) */
+static app_view_state view_state;
+
+/* The view state's settings over the options: what the viewer ran with. */
+static void apply_view_state(render_opts *o, const app_view_state *v)
+{
+    o->scene = v->scene;
+    o->frontend = v->frontend;
+    o->denoiser = v->denoiser;
+    o->precision = v->precision;
+    o->taa = v->taa;
+    o->tonemap = v->tonemap;
+    o->exposure = v->exposure;
+    o->env.path = v->env[0] ? v->env : NULL;
+    o->env.intensity = v->env_intensity;
+    o->env.rotation = v->env_rotation;
+    o->min_alpha = v->min_alpha;
+    o->bloom = v->bloom;
+    o->fps = v->fps;
+    o->bounces = v->bounces;
+    o->atrous = v->atrous;
+    o->camera = v->camera;
+    o->size[0] = v->size[0];
+    o->size[1] = v->size[1];
+    o->start = v->path[0].frame;
+    o->frames = v->path_len;
+    o->view = v;
+}
+
 static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int argc, char **argv)
 {
+    const char *view_path = NULL;
     *o = (render_opts){.scene = TND_DATA_DIR "/scenes/cornell.gltf",
                        .env = APP_ENV_INIT,
                        .frontend = "embree",
@@ -103,6 +121,9 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
          "auto exposure from the luminance histogram (default), or a fixed EV100"},
         {"bloom", APP_OPT_FLOAT, &o->bloom, "I", "bloom intensity (default 0: off)"},
         {"video", APP_OPT_FLAG, &o->video, NULL, "also write DIR/video.mp4 from the PNGs (needs ffmpeg)"},
+        {"view", APP_OPT_STRING, &view_path, "FILE",
+         "a repro state of tandem view: its scene, settings and camera path, frame for frame "
+         "(over the options that set the same)"},
         APP_ENV_OPTS(&o->env),
         {0},
     };
@@ -138,6 +159,16 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     int rc = app_parse(cmd, reference ? ref_opts_tbl : render_opts_tbl, argc, argv, pos, 0, &npos);
     if (rc >= 0)
         return rc;
+    if (view_path) {
+        tnd_result vr = app_view_state_read(view_path, &view_state);
+        if (vr == TND_OK && view_state.path_len == 0)
+            vr = tnd_fail(TND_ERR_BAD_INPUT, "view state %s: no camera path", view_path);
+        if (vr != TND_OK) {
+            app_report(cmd->name, vr);
+            return APP_EXIT_FAIL;
+        }
+        apply_view_state(o, &view_state);
+    }
     if (!o->out) {
         fprintf(stderr, "tandem %s: --out DIR is required (see tandem %s --help)\n", cmd->name,
                 cmd->name);
@@ -442,6 +473,50 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     return ok ? TND_OK : tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);
 }
 
+/* The front-end and the chain as render builds them (tandem view builds its own with it). */
+tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, tnd_vk *vk,
+                             bool use_vk, bool use_dn, tnd_precision prec, dn_mode *dmode,
+                             const char *dn_plugin, bool reference, pl_frontend **fr,
+                             pl_chain **chain, cmp_desc *pd)
+{
+    tnd_result res = TND_OK;
+    /* the interleave where the scene has surfaces that both reflect and refract (or forced) */
+    *pd = (cmp_desc){.bloom = (float)o->bloom,
+                   .interleave = (scene->features & TND_FEATURE(SPLIT)) != 0 ||
+                                 strcmp(o->pipeline, "full") == 0};
+    if (use_dn && (res = post_desc(o, pd)) != TND_OK)
+        goto fail;
+    TND_TRY(pl_frontend_create(o->frontend, scene,
+                               &(pl_frontend_desc){.vk = use_vk ? vk : NULL, .precision = prec,
+                                                   .rt_api = o->rt_api,
+                                                   .full_pipeline =
+                                                       strcmp(o->pipeline, "full") == 0,
+                                                   .reflect_depth = o->reflect_depth,
+                                                   .threads = o->threads,
+                                                   .scene_path = o->scene},
+                               fr));
+    /* A-SVGF needs a front-end that re-shades its gradient samples; others run svgf */
+    if (!reference && *dmode == DN_MODE_ASVGF && !(pl_frontend_caps(*fr) & PL_CAP_RESHADE)) {
+        *dmode = DN_MODE_SVGF;
+        if (!app_quiet())
+            fprintf(stderr, "tandem: render: --frontend %s cannot re-shade gradient samples: "
+                            "running svgf instead of asvgf\n", o->frontend);
+    }
+    if (!reference) {
+        float ma = (float)o->min_alpha;
+        TND_TRY(pl_chain_create(
+            &(pl_chain_desc){.vk = vk, .width = o->size[0], .height = o->size[1], .precision = prec,
+                             .backend = use_dn,
+                             .denoise = {.mode = *dmode, .iters_hf = o->atrous,
+                                         .iters_spec = o->atrous, .min_alpha_hf = ma,
+                                         .min_alpha_lf = ma, .min_alpha_spec = ma},
+                             .post = *pd, .denoiser_plugin = dn_plugin},
+            chain));
+    }
+fail:
+    return res;
+}
+
 /* A run that failed leaves nothing of itself: the output directory when it made it, else the
  * files of the frames it began (images, captures with their gradient samples, motion, dumps'
  * directory when it made it) and its timings. */
@@ -496,7 +571,8 @@ static int run(bool reference, int argc, char **argv)
     if (!reference && (res = app_denoiser_parse(o.denoiser, &dmode, &dn_plugin)) != TND_OK)
         return app_report(what, res);
     /* the back-end runs on Vulkan; only a host front-end with "off" stays on the CPU */
-    bool use_dn = !reference && (dn_plugin || !(dmode == DN_MODE_OFF && !use_vk));
+    /* (a viewer's state: its back-end, always on the GPU) */
+    bool use_dn = !reference && (dn_plugin || o.view || !(dmode == DN_MODE_OFF && !use_vk));
     if (dn_plugin && o.dump)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT,
                                          "--dump shows the back-end's buffers: with a denoiser "
@@ -526,28 +602,9 @@ static int run(bool reference, int argc, char **argv)
     if (use_vk || use_dn) {
         TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !use_vk}, &vk));
     }
-    /* the interleave where the scene has surfaces that both reflect and refract (or forced) */
-    cmp_desc pd = {.bloom = (float)o.bloom,
-                   .interleave = (scene->features & TND_FEATURE(SPLIT)) != 0 ||
-                                 strcmp(o.pipeline, "full") == 0};
-    if (use_dn && (res = post_desc(&o, &pd)) != TND_OK)
-        goto fail;
-    TND_TRY(pl_frontend_create(o.frontend, scene,
-                               &(pl_frontend_desc){.vk = use_vk ? &vk : NULL, .precision = prec,
-                                                   .rt_api = o.rt_api,
-                                                   .full_pipeline =
-                                                       strcmp(o.pipeline, "full") == 0,
-                                                   .reflect_depth = o.reflect_depth,
-                                                   .threads = o.threads,
-                                                   .scene_path = o.scene},
-                               &fr));
-    /* A-SVGF needs a front-end that re-shades its gradient samples; others run svgf */
-    if (!reference && dmode == DN_MODE_ASVGF && !(pl_frontend_caps(fr) & PL_CAP_RESHADE)) {
-        dmode = DN_MODE_SVGF;
-        if (!app_quiet())
-            fprintf(stderr, "tandem: render: --frontend %s cannot re-shade gradient samples: "
-                            "running svgf instead of asvgf\n", o.frontend);
-    }
+    cmp_desc pd = {0};
+    TND_TRY(app_pipeline_open(&o, scene, &vk, use_vk, use_dn, prec, &dmode, dn_plugin, reference,
+                              &fr, &chain, &pd));
     if (reference && !matched && !(pl_frontend_caps(fr) & PL_CAP_REFERENCE)) {
         res = tnd_fail(TND_ERR_UNSUPPORTED,
                        "--frontend %s renders no unbiased reference (--estimator realtime "
@@ -558,17 +615,6 @@ static int run(bool reference, int argc, char **argv)
     const char *dn_name = dn_plugin                                      ? o.denoiser
                           : use_dn                                       ? dn_mode_name(dmode)
                                                                          : "off (CPU composite)";
-    if (!reference) {
-        float ma = (float)o.min_alpha;
-        TND_TRY(pl_chain_create(
-            &(pl_chain_desc){.vk = &vk, .width = o.size[0], .height = o.size[1], .precision = prec,
-                             .backend = use_dn,
-                             .denoise = {.mode = dmode, .iters_hf = o.atrous,
-                                         .iters_spec = o.atrous, .min_alpha_hf = ma,
-                                         .min_alpha_lf = ma, .min_alpha_spec = ma},
-                             .post = pd, .denoiser_plugin = dn_plugin},
-            &chain));
-    }
     struct stat out_st, dump_st;
     out_existed = stat(o.out, &out_st) == 0;
     snprintf(path, sizeof path, "%s/dump", o.out);
@@ -618,6 +664,11 @@ static int run(bool reference, int argc, char **argv)
         if (i == 0)
             TND_TRY(tnd_scene_evaluate(scene, f > 0 ? (f - 1) / o.fps : 0.0, o.camera, aspect,
                                        prev));
+        if (o.view) { /* the viewer's camera (its first frame: no camera motion before it) */
+            app_view_camera_apply(&o.view->path[i], cur);
+            if (i == 0)
+                app_view_camera_apply(&o.view->path[0], prev);
+        }
         TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o.size[0], o.size[1]));
         if (reference) {
             tnd_ref_stats *rs = &ref_stats[i];
@@ -738,6 +789,7 @@ fail:
     pl_frontend_destroy(fr);
     tnd_vk_destroy(&vk);
     tnd_scene_destroy(scene);
+    app_view_state_free(&view_state);
     return status;
 }
 

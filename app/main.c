@@ -8,6 +8,8 @@ static const app_cmd commands[] = {
      "[--json] [--device NAME] [--scene PATH]", cmd_info},
     {"render", "Render a scene's camera path through a front-end (contract, composite, preview).",
      "--out DIR [options]", cmd_render},
+    {"view", "The pipeline live in a window: fly the camera, turn the knobs, see every buffer.",
+     "[--scene PATH] [--script FILE] [options]", cmd_view},
     {"reference", "Render converged reference frames (unbiased path tracing).",
      "--out DIR [options]", cmd_reference},
     {"denoise", "Run the denoising back-end on a captured EXR sequence (Tandem's or another's).",

@@ -446,6 +446,11 @@ tnd_result cmp_download_display(cmp_context *c, uint8_t *rgb8)
     return download_rgb(c, &c->display, NULL, rgb8);
 }
 
+const tnd_image *cmp_display_image(const cmp_context *c)
+{
+    return &c->display;
+}
+
 tnd_result cmp_exposure(cmp_context *c, float *exposure, float *log2_luminance)
 {
     tnd_result res = settle(c); /* (the read-back buffer is the host's once waited for) */

@@ -54,6 +54,9 @@ tnd_result cmp_wait(cmp_context *ctx, cmp_timings *t);
  * (3 bytes per pixel, sRGB). */
 tnd_result cmp_download_hdr(cmp_context *ctx, float *rgb);
 tnd_result cmp_download_display(cmp_context *ctx, uint8_t *rgb8);
+/* The display image of the last frame on the device (RGBA32F, display-encoded in [0, 1]): what
+ * cmp_download_display reads, for a window to show without a round trip. */
+const tnd_image *cmp_display_image(const cmp_context *ctx);
 /* The exposure applied to the last frame (scale before the curve) and its adapted log2 mean. */
 tnd_result cmp_exposure(cmp_context *ctx, float *exposure, float *log2_luminance);
 /* The settings in force (defaults filled in). */

@@ -137,6 +137,7 @@ typedef struct tnd_vk_device_info {
     bool accel_struct;   /* VK_KHR_acceleration_structure + its feature */
     bool ray_query;      /* VK_KHR_ray_query + its feature */
     bool pipeline_executable_info; /* VK_KHR_pipeline_executable_properties */
+    bool swapchain;      /* VK_KHR_swapchain (a window can present) */
     bool buffer_address; /* bufferDeviceAddress */
     bool timestamps;     /* compute queue has timestampValidBits > 0 */
     bool compute_ok;     /* Vulkan >= 1.2, buffer device address, a compute queue */
@@ -198,7 +199,12 @@ typedef struct tnd_vk_desc {
     const char *device;  /* substring of the device name; NULL: $TANDEM_DEVICE, then default */
     bool validation;     /* enable VK_LAYER_KHRONOS_validation (also $TANDEM_VALIDATION=1) */
     bool no_ray_tracing; /* accept devices without ray tracing (compute-only back-end) */
+    /* a window: the instance extensions its surfaces need, and VK_KHR_swapchain on the device */
+    const char *const *instance_extensions;
+    uint32_t instance_extension_count; /* at most TND_VK_MAX_INSTANCE_EXTENSIONS */
+    bool swapchain;
 } tnd_vk_desc;
+#define TND_VK_MAX_INSTANCE_EXTENSIONS 8
 
 typedef struct tnd_vk_messages tnd_vk_messages; /* validation message counters (internal) */
 

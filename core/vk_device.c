@@ -48,7 +48,8 @@ static bool env_true(const char *name)
 }
 
 /* Instance with VK_EXT_debug_utils when available and the validation layer when asked for. */
-static tnd_result create_instance(bool validation, VkInstance *inst, bool *debug_utils)
+static tnd_result create_instance(bool validation, const tnd_vk_desc *desc, VkInstance *inst,
+                                  bool *debug_utils)
 {
     tnd_result res = TND_OK;
     VkExtensionProperties *exts = NULL;
@@ -97,13 +98,31 @@ static tnd_result create_instance(bool validation, VkInstance *inst, bool *debug
         .apiVersion =
             loader_version >= VK_API_VERSION_1_3 ? VK_API_VERSION_1_3 : VK_API_VERSION_1_2,
     };
-    const char *ext_names[1] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+    /* debug utils, then what the caller needs (a window system's surfaces) */
+    const char *ext_names[1 + TND_VK_MAX_INSTANCE_EXTENSIONS];
+    uint32_t next = 0;
+    if (*debug_utils)
+        ext_names[next++] = VK_EXT_DEBUG_UTILS_EXTENSION_NAME;
+    uint32_t extra = desc ? desc->instance_extension_count : 0;
+    if (extra > TND_VK_MAX_INSTANCE_EXTENSIONS) {
+        res = tnd_fail(TND_ERR_LIMIT, "vulkan: %u instance extensions asked for (at most %d)",
+                       extra, TND_VK_MAX_INSTANCE_EXTENSIONS);
+        goto fail;
+    }
+    for (uint32_t i = 0; i < extra; i++) {
+        if (!has_extension(exts, n, desc->instance_extensions[i])) {
+            res = tnd_fail(TND_ERR_UNSUPPORTED, "vulkan: the instance lacks %s",
+                           desc->instance_extensions[i]);
+            goto fail;
+        }
+        ext_names[next++] = desc->instance_extensions[i];
+    }
     VkInstanceCreateInfo ci = {
         .sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO,
         .pApplicationInfo = &app,
         .enabledLayerCount = validation ? 1 : 0,
         .ppEnabledLayerNames = validation ? &layer : NULL,
-        .enabledExtensionCount = *debug_utils ? 1 : 0,
+        .enabledExtensionCount = next,
         .ppEnabledExtensionNames = ext_names,
     };
     TND_VK_TRY(vkCreateInstance(&ci, NULL, inst));
@@ -132,6 +151,7 @@ static tnd_result query_device(VkPhysicalDevice pd, uint32_t index, tnd_vk_devic
     bool has_rq = has_extension(exts, n, VK_KHR_RAY_QUERY_EXTENSION_NAME);
     d->pipeline_executable_info =
         has_extension(exts, n, VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
+    d->swapchain = has_extension(exts, n, VK_KHR_SWAPCHAIN_EXTENSION_NAME);
 
     VkPhysicalDeviceProperties base;
     vkGetPhysicalDeviceProperties(pd, &base);
@@ -247,7 +267,7 @@ tnd_result tnd_vk_list_devices(tnd_vk_device_info *out, uint32_t cap, uint32_t *
     VkPhysicalDevice pds[16];
     bool debug_utils;
     *count = 0;
-    TND_TRY(create_instance(false, &inst, &debug_utils));
+    TND_TRY(create_instance(false, NULL, &inst, &debug_utils));
     uint32_t n = 16;
     TND_VK_TRY(vkEnumeratePhysicalDevices(inst, &n, pds));
     *count = n;
@@ -345,7 +365,7 @@ tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "vulkan: out of memory");
 
     bool debug_utils = false;
-    TND_TRY(create_instance(vk->validation, &vk->instance, &debug_utils));
+    TND_TRY(create_instance(vk->validation, desc, &vk->instance, &debug_utils));
     if (debug_utils) {
         PFN_vkCreateDebugUtilsMessengerEXT create_messenger =
             (PFN_vkCreateDebugUtilsMessengerEXT)vkGetInstanceProcAddr(
@@ -436,8 +456,16 @@ tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk)
                 .samplerAnisotropy = have.features.samplerAnisotropy,
             },
     };
-    const char *exts[5];
+    const char *exts[6];
     uint32_t next = 0;
+    if (desc->swapchain) {
+        if (!vk->info.swapchain) {
+            res = tnd_fail(TND_ERR_UNSUPPORTED, "vulkan: %s has no VK_KHR_swapchain",
+                           vk->info.name);
+            goto fail;
+        }
+        exts[next++] = VK_KHR_SWAPCHAIN_EXTENSION_NAME;
+    }
     void **chain = &f12.pNext;
     VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR pe = {
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR,

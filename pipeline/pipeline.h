@@ -166,6 +166,9 @@ tnd_result pl_chain_run(pl_chain *chain, pl_frontend *fe, const pl_step *step, f
 /* Wait for a frame run with no_wait; its back-end and post times (lagged; zero when none). */
 tnd_result pl_chain_finish(pl_chain *chain, pl_step_result *result);
 dn_context *pl_chain_denoiser(pl_chain *chain);
+/* The contract the last frame ran on, on the GPU (the front-end's, or the chain's upload of a
+ * host front-end's); NULL before the first frame or without the back-end. */
+const tnd_contract_gpu *pl_chain_contract(const pl_chain *chain);
 /* A denoiser plugin's name (NULL without one). */
 const char *pl_chain_plugin_name(const pl_chain *chain);
 cmp_context *pl_chain_post(pl_chain *chain);

@@ -23,6 +23,7 @@ struct pl_chain {
     tnd_frame host, reshaded; /* (reshaded: a GPU contract after re-shading, for a capture) */
     float prev_jitter[2];
     bool in_flight; /* the last frame's back-end and post were not waited for */
+    const tnd_contract_gpu *last_ct; /* the contract of the last frame */
     /* a denoiser plugin: its commands in flight, their timestamps */
     pl_dnp *plugin;
     tnd_pending plugin_pending;
@@ -93,6 +94,11 @@ void pl_chain_destroy(pl_chain *c)
 dn_context *pl_chain_denoiser(pl_chain *c)
 {
     return c->dn;
+}
+
+const tnd_contract_gpu *pl_chain_contract(const pl_chain *c)
+{
+    return c->last_ct;
 }
 
 const char *pl_chain_plugin_name(const pl_chain *c)
@@ -221,6 +227,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
         return TND_OK;
     }
     const tnd_contract_gpu *ct = gpu ? pl_frontend_contract(fe) : &c->upload;
+    c->last_ct = ct;
     if (!gpu) {
         if (!c->upload.images[0].image)
             TND_TRY(tnd_contract_gpu_create(c->d.vk, c->d.width, c->d.height, c->d.precision,

@@ -19,11 +19,13 @@ export DEBIAN_FRONTEND=noninteractive
 # Build, Vulkan, libraries, and the independent tools the tests check our files with (blender:
 # Cycles, the independent renderer tests/test_cycles.py compares the reference with;
 # assimp-testmodels: real glTF and OBJ models nobody here wrote; blender-data: real HDRIs from
-# HDRI Haven, CC0, in /usr/share/blender/datafiles/studiolights/world).
+# HDRI Haven, CC0, in /usr/share/blender/datafiles/studiolights/world); GLFW for `tandem view`'s
+# window, Xvfb for its tests on a machine without a display).
 PKGS=(
     build-essential cmake pkg-config git
     libvulkan-dev glslang-tools vulkan-validationlayers vulkan-tools
     libembree-dev libtbb-dev libopenexr-dev libassimp-dev libcjson-dev libstb-dev
+    libglfw3-dev xvfb xauth
     openexr openimageio-tools python3 ffmpeg
     python3-numpy python3-openimageio chromium
     blender blender-data assimp-testmodels

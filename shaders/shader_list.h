@@ -47,6 +47,7 @@
     X(post_interleave_f32, "post_interleave.comp", "TND_PACKED=0") \
     X(post_interleave_packed, "post_interleave.comp", "TND_PACKED=1") \
     X(post_tonemap,        "post_tonemap.comp",   "TND_PACKED=0") \
+    X(view_compose,        "view_compose.comp",   "") \
     X(dn_lf_f32,           "dn_lf.comp",          "TND_PACKED=0") \
     X(dn_lf_packed,        "dn_lf.comp",          "TND_PACKED=1") \
     X(dn_lf_down_f32,      "dn_lf_down.comp",     "TND_PACKED=0") \

@@ -1,0 +1,873 @@
+/* app/cmd_view.c: `tandem view`: the pipeline live in a window. The frame is render's (the same
+ * front-end and chain, built by app_pipeline_open from the same options), the camera flies
+ * (WASD/QE, mouse drag), keys change the knobs (each change restarts the history), V cycles the
+ * views (the final image, every contract entry, the back-end's dumps, in false colour where it
+ * helps), TAB splits the window (noisy | denoised), and an overlay shows the device, the GPU time
+ * of every pass, a frame-time graph and the settings. F12 writes a screenshot with its repro
+ * state (app/view_state.c), which `tandem render --view` reproduces frame for frame; F11 writes
+ * the next frame's contract as a capture. --script FILE plays timed key, mouse and resize events
+ * and exits: the tests drive the window that way under Xvfb. */
+#include "app/app.h"
+#include "pipeline/pipeline.h"
+#include "viewer/viewer.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <stb/stb_easy_font.h>
+
+#ifndef TND_DATA_DIR
+#define TND_DATA_DIR "data"
+#endif
+
+static const app_cmd view_cmd = {
+    "view",
+    "The pipeline live in a window: fly the camera (WASD, Q/E down/up, drag to look; shift\n"
+    "faster, control slower), change the knobs (1/2/3 asvgf/svgf/off, F front-end, [ ] bounces,\n"
+    "P precision, T TAA, K tone curve, B bloom, , . a-trous iterations), V cycles the views\n"
+    "(final, contract entries, back-end dumps), TAB splits noisy | denoised, O the overlay,\n"
+    "F12 writes a screenshot (PNG, EXR and its repro state for\n"
+    "`tandem render --view`), F11 the next frame's capture, ESC quits.",
+    "[--scene PATH] [--frontend NAME] [--denoiser MODE] [--size WxH] [--state FILE] "
+    "[--script FILE] [--out DIR]",
+    NULL};
+
+enum { GRAPH = 120, MAX_EVENTS = 4096, OVERLAY_W = 420, OVERLAY_H = 150 };
+
+typedef struct script_event {
+    uint32_t frame;
+    enum { EV_KEY, EV_TAP, EV_MOUSE, EV_RESIZE, EV_SHOT, EV_EXIT } kind;
+    int key;
+    bool down, drag;
+    double dx, dy;
+    uint32_t w, h;
+} script_event;
+
+/* the views: the final image, then every contract entry, then the back-end's dumps */
+static uint32_t view_count(void)
+{
+    return 1 + TND_CT_COUNT + dn_dump_count();
+}
+
+static void view_name(uint32_t v, char *buf, size_t cap)
+{
+    if (v == 0)
+        snprintf(buf, cap, "final");
+    else if (v <= TND_CT_COUNT)
+        snprintf(buf, cap, "%s", tnd_ct_get((tnd_ct)(v - 1))->name);
+    else
+        snprintf(buf, cap, "dump:%s", dn_dump_name(v - 1 - TND_CT_COUNT, NULL));
+}
+
+static uint32_t view_find(const char *name)
+{
+    char buf[64];
+    for (uint32_t v = 0; v < view_count(); v++) {
+        view_name(v, buf, sizeof buf);
+        if (strcmp(buf, name) == 0)
+            return v;
+    }
+    return 0;
+}
+
+typedef struct viewer {
+    app_view_state st; /* the settings and the flight since the last restart */
+    tnd_vk vk;
+    vw_window *win;
+    vw_compose *compose;
+    tnd_scene *scene;
+    pl_frontend *fe[2]; /* [1]: the noisy half of a split */
+    pl_chain *chain[2];
+    dn_mode dmode;
+    tnd_image shown, debug, overlay;
+    uint8_t *overlay_px;
+    float *debug_px;
+    tnd_frame host;
+    tnd_scene_state ss[2];
+    uint32_t frame, steps; /* the scene's frame index; frames shown since the start */
+    bool rebuild, show_overlay, quit, want_shot, want_capture;
+    app_view_cam cam;
+    bool keys[512];
+    uint32_t view;
+    double graph[GRAPH];
+    uint32_t graph_n;
+    pl_step_result last;
+    const char *out;
+    uint32_t shots, captures;
+    char note[200];
+    double t_last;
+    bool scripted;
+} viewer;
+
+/* ---- input ----------------------------------------------------------------------------------- */
+static const char *const frontends[] = {"vk", "embree"};
+static const char *const curves[] = {"aces", "agx", "reinhard", "linear"};
+
+static void set_note(viewer *v, const char *fmt, const char *arg)
+{
+    char a[120];
+    size_t n = strlen(arg) < sizeof a - 1 ? strlen(arg) : sizeof a - 1;
+    memcpy(a, arg, n);
+    a[n] = 0;
+    snprintf(v->note, sizeof v->note, fmt, a);
+}
+
+static void on_key(viewer *v, int key, bool down)
+{
+    if (key >= 0 && key < 512)
+        v->keys[key] = down;
+    if (!down)
+        return;
+    app_view_state *s = &v->st;
+    const char *dn = NULL;
+    switch (key) {
+    case '1': dn = "asvgf"; break;
+    case '2': dn = "svgf"; break;
+    case '3': dn = "off"; break;
+    case 'F': {
+        int k = strcmp(s->frontend, frontends[0]) == 0 ? 1 : 0;
+        snprintf(s->frontend, sizeof s->frontend, "%s", frontends[k]);
+        v->rebuild = true;
+        set_note(v, "front-end %s", s->frontend);
+        break;
+    }
+    case '[': case ']':
+        if (key == '[' && s->bounces > 0)
+            s->bounces--;
+        else if (key == ']' && s->bounces < 16)
+            s->bounces++;
+        v->rebuild = true;
+        break;
+    case ',': case '.':
+        s->atrous = key == ',' ? (s->atrous > 1 ? s->atrous - 1 : 1)
+                               : (s->atrous == 0 ? 5 : (s->atrous < 5 ? s->atrous + 1 : 5));
+        v->rebuild = true;
+        break;
+    case 'P':
+        snprintf(s->precision, sizeof s->precision, "%s",
+                 strcmp(s->precision, "float32") == 0 ? "packed" : "float32");
+        v->rebuild = true;
+        set_note(v, "precision %s", s->precision);
+        break;
+    case 'T':
+        snprintf(s->taa, sizeof s->taa, "%s", strcmp(s->taa, "off") == 0 ? "on" : "off");
+        v->rebuild = true;
+        break;
+    case 'K': {
+        int k = 0;
+        while (k < 4 && strcmp(curves[k], s->tonemap) != 0)
+            k++;
+        snprintf(s->tonemap, sizeof s->tonemap, "%s", curves[(k + 1) % 4]);
+        v->rebuild = true;
+        break;
+    }
+    case 'B':
+        s->bloom = s->bloom > 0 ? 0.0 : 0.05;
+        v->rebuild = true;
+        break;
+    case 'V': {
+        v->view = (v->view + 1) % view_count();
+        char nm[64];
+        view_name(v->view, nm, sizeof nm);
+        snprintf(s->view, sizeof s->view, "%s", nm);
+        break;
+    }
+    case 258: /* TAB */
+        s->split = !s->split;
+        v->rebuild = true;
+        break;
+    case 'O': v->show_overlay = !v->show_overlay; break;
+    case 301: v->want_shot = true; break;    /* F12 */
+    case 300: v->want_capture = true; break; /* F11 */
+    case 256: v->quit = true; break;         /* ESC */
+    default: break;
+    }
+    if (dn) {
+        snprintf(s->denoiser, sizeof s->denoiser, "%s", dn);
+        v->rebuild = true;
+        set_note(v, "denoiser %s", dn);
+    }
+}
+
+static void on_event(const vw_event *e, void *user)
+{
+    viewer *v = user;
+    if (e->kind == VW_KEY)
+        on_key(v, e->key, e->down);
+    else if (e->kind == VW_MOUSE && e->drag) {
+        v->cam.yaw += 0.004 * e->dx;
+        v->cam.pitch = fmax(-1.5, fmin(1.5, v->cam.pitch - 0.004 * e->dy));
+    } else if (e->kind == VW_RESIZE) {
+        v->rebuild = true;
+    }
+}
+
+/* the camera moves by the keys held: `dt` seconds at 1.5 scene units per second (shift x4,
+ * control x0.25) */
+static void fly(viewer *v, double dt)
+{
+    double speed = 1.5 * dt * (v->keys[340] ? 4.0 : 1.0) * (v->keys[341] ? 0.25 : 1.0);
+    double cy = cos(v->cam.yaw), sy = sin(v->cam.yaw), cp = cos(v->cam.pitch);
+    double f[3] = {sy * cp, sin(v->cam.pitch), -cy * cp}, r[3] = {cy, 0, sy};
+    double m[3] = {0, 0, 0};
+    for (int k = 0; k < 3; k++) {
+        m[k] += (v->keys['W'] - v->keys['S']) * f[k] + (v->keys['D'] - v->keys['A']) * r[k];
+        if (k == 1)
+            m[k] += v->keys['E'] - v->keys['Q'];
+    }
+    for (int k = 0; k < 3; k++)
+        v->cam.position[k] += speed * m[k];
+}
+
+/* ---- the pipeline ------------------------------------------------------------------------------ */
+static void close_pipeline(viewer *v)
+{
+    for (int i = 0; i < 2; i++) {
+        pl_chain_destroy(v->chain[i]);
+        pl_frontend_destroy(v->fe[i]);
+        v->chain[i] = NULL;
+        v->fe[i] = NULL;
+    }
+    tnd_image_destroy(&v->vk, &v->shown);
+    tnd_image_destroy(&v->vk, &v->debug);
+    tnd_frame_destroy(&v->host);
+    free(v->debug_px);
+    v->debug_px = NULL;
+}
+
+/* render's options from the view state (one place: the viewer's frame is render's) */
+static void options_of(const app_view_state *s, const char *denoiser, app_render_opts *o)
+{
+    *o = (app_render_opts){.scene = s->scene, .frontend = s->frontend, .denoiser = denoiser,
+                           .precision = s->precision, .rt_api = "auto", .pipeline = "scene",
+                           .taa = s->taa, .tonemap = s->tonemap, .exposure = s->exposure,
+                           .bloom = s->bloom, .min_alpha = s->min_alpha, .bounces = s->bounces,
+                           .atrous = s->atrous, .camera = s->camera, .fps = s->fps,
+                           .size = {s->size[0], s->size[1]},
+                           .env = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation}};
+}
+
+static tnd_result open_pipeline(viewer *v)
+{
+    tnd_result res = TND_OK;
+    close_pipeline(v);
+    app_view_state *s = &v->st;
+    tnd_precision prec;
+    TND_TRY(tnd_precision_parse(s->precision, &prec));
+    for (int i = 0; i < (s->split ? 2 : 1); i++) {
+        const char *plugin = NULL;
+        dn_mode mode;
+        TND_TRY(app_denoiser_parse(i ? "off" : s->denoiser, &mode, &plugin));
+        app_render_opts o;
+        options_of(s, i ? "off" : s->denoiser, &o);
+        cmp_desc pd;
+        TND_TRY(app_pipeline_open(&o, v->scene, &v->vk, pl_frontend_needs_gpu(s->frontend), true,
+                                  prec, &mode, plugin, false, &v->fe[i], &v->chain[i], &pd));
+        if (i == 0)
+            v->dmode = mode;
+    }
+    uint32_t w = s->size[0], h = s->size[1];
+    TND_TRY(tnd_image_create(&v->vk, &(tnd_image_desc){.width = w, .height = h,
+                                                      .format = VK_FORMAT_R8G8B8A8_UNORM,
+                                                      .name = "view.shown"},
+                             &v->shown));
+    TND_TRY(tnd_image_create(&v->vk, &(tnd_image_desc){.width = w, .height = h,
+                                                      .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                      .name = "view.debug"},
+                             &v->debug));
+    if (!(v->debug_px = malloc((size_t)w * h * 16))) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
+        goto fail;
+    }
+    TND_TRY(tnd_frame_create(w, h, &v->host));
+    /* the history restarts: a new flight */
+    s->path_len = 0;
+    v->rebuild = false;
+fail:
+    return res;
+}
+
+/* ---- views in false colour ------------------------------------------------------------------------ */
+static float enc(float x) /* linear [0, inf) to display: Reinhard, then a 2.2 gamma */
+{
+    x = x > 0 ? x / (1.0f + x) : 0.0f;
+    return powf(x, 1.0f / 2.2f);
+}
+
+static void hue(float h, float out[3]) /* h in [0, 1) around the colour wheel */
+{
+    for (int k = 0; k < 3; k++) {
+        float t = fabsf(fmodf(h * 6.0f + (float)(4 - 2 * k) + 6.0f, 6.0f) - 3.0f) - 1.0f;
+        out[k] = fminf(1.0f, fmaxf(0.0f, t));
+    }
+}
+
+static void colour_id(uint32_t a, uint32_t b, float out[3])
+{
+    uint32_t h = a * 0x9E3779B9u ^ b * 0x85EBCA6Bu;
+    h ^= h >> 15;
+    h *= 0x2C1B3C6Du;
+    h ^= h >> 12;
+    hue((float)(h & 0xffff) / 65536.0f, out);
+}
+
+/* one contract entry of the host frame, or a dump (4 floats per texel), as display colours */
+static void false_colour(viewer *v, uint32_t view, const float *dump, uint32_t dw, uint32_t dh)
+{
+    uint32_t w = v->st.size[0], h = v->st.size[1];
+    float *o = v->debug_px;
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t q = (size_t)y * w + x;
+            float c[3] = {0, 0, 0};
+            if (view > TND_CT_COUNT) { /* a dump: 1/3-res ones stretched */
+                uint32_t dx = x * dw / w, dy = y * dh / h;
+                const float *d = dump + 4 * ((size_t)dy * dw + dx);
+                const char *nm = dn_dump_name(view - 1 - TND_CT_COUNT, NULL);
+                if (strcmp(nm, "temporal.hf") == 0) { /* the history length, 0 to 32 frames */
+                    hue(0.7f * (1.0f - fminf(d[3], 32.0f) / 32.0f), c);
+                } else if (strcmp(nm, "gradients") == 0) { /* |gradient| x 4, per signal */
+                    for (int k = 0; k < 3; k++)
+                        c[k] = fminf(1.0f, 4.0f * fabsf(d[k]));
+                } else {
+                    for (int k = 0; k < 3; k++)
+                        c[k] = enc(d[k]);
+                }
+            } else {
+                tnd_ct id = (tnd_ct)(view - 1);
+                const tnd_ct_info *e = tnd_ct_get(id);
+                const float *f = tnd_frame_f(&v->host, id) + (size_t)e->comps * q;
+                const uint32_t *u = tnd_frame_u(&v->host, id) + (size_t)e->comps * q;
+                switch (id) {
+                case TND_CT_NORMAL: case TND_CT_GEO_NORMAL:
+                    for (int k = 0; k < 3; k++)
+                        c[k] = 0.5f + 0.5f * f[k];
+                    break;
+                case TND_CT_POSITION:
+                    for (int k = 0; k < 3; k++)
+                        c[k] = f[k] - floorf(f[k]);
+                    break;
+                case TND_CT_DEPTH:
+                    c[0] = c[1] = c[2] = f[0] >= (float)TND_DEPTH_MISS ? 0.0f : 1.0f / (1.0f + f[0]);
+                    if (f[0] >= (float)TND_DEPTH_MISS)
+                        c[2] = 0.25f;
+                    break;
+                case TND_CT_MOTION: { /* direction as hue, length as value (4 pixels: full) */
+                    float len = sqrtf(f[0] * f[0] + f[1] * f[1]);
+                    hue(atan2f(f[1], f[0]) / (2.0f * (float)TND_PI) + 0.5f, c);
+                    for (int k = 0; k < 3; k++)
+                        c[k] *= fminf(1.0f, len / 4.0f);
+                    break;
+                }
+                case TND_CT_VIS_ID: case TND_CT_RNG:
+                    if (u[0] != TND_VIS_NONE)
+                        colour_id(u[0], id == TND_CT_VIS_ID ? u[1] : 0, c);
+                    break;
+                case TND_CT_PATH:
+                    c[0] = (u[0] & TND_PATH_SPLIT) ? 1.0f : 0.0f;
+                    c[1] = (u[0] & TND_PATH_MIRROR) ? 1.0f : 0.0f;
+                    c[2] = (u[0] & (TND_PATH_GLASS | TND_PATH_REFRACT)) ? 1.0f : 0.0f;
+                    break;
+                case TND_CT_LF_SH:
+                    c[0] = c[1] = c[2] = enc(f[3]);
+                    break;
+                case TND_CT_LF_COCG:
+                    c[0] = 0.5f + f[0];
+                    c[1] = 0.5f + f[1];
+                    c[2] = 0.5f;
+                    break;
+                case TND_CT_ROUGHNESS: case TND_CT_METALLIC:
+                    c[0] = c[1] = c[2] = f[0];
+                    break;
+                case TND_CT_VIS_BARY:
+                    c[0] = f[0];
+                    c[1] = f[1];
+                    break;
+                case TND_CT_ALBEDO: case TND_CT_THROUGHPUT:
+                    for (int k = 0; k < 3; k++)
+                        c[k] = powf(fminf(1.0f, fmaxf(0.0f, f[k])), 1.0f / 2.2f);
+                    break;
+                default: /* radiance: hf, spec, emission */
+                    for (int k = 0; k < 3; k++)
+                        c[k] = enc(f[k]);
+                }
+            }
+            for (int k = 0; k < 3; k++)
+                o[4 * q + k] = c[k];
+            o[4 * q + 3] = 1.0f;
+        }
+}
+
+static tnd_result debug_view(viewer *v)
+{
+    tnd_result res = TND_OK;
+    uint32_t w = v->st.size[0], h = v->st.size[1];
+    float *dump = NULL;
+    uint32_t dw = 0, dh = 0;
+    if (v->view <= TND_CT_COUNT) {
+        TND_TRY(tnd_contract_download(&v->vk, pl_chain_contract(v->chain[0]), &v->host));
+    } else {
+        uint32_t i = v->view - 1 - TND_CT_COUNT;
+        dn_context *dn = pl_chain_denoiser(v->chain[0]);
+        TND_TRY(dn_dump_size(dn, i, &dw, &dh));
+        if (!(dump = malloc((size_t)dw * dh * 16))) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
+            goto fail;
+        }
+        TND_TRY(dn_dump(dn, i, dump));
+    }
+    false_colour(v, v->view, dump, dw, dh);
+    TND_TRY(tnd_image_upload(&v->vk, &v->debug, v->debug_px, (size_t)w * h * 16));
+fail:
+    free(dump);
+    return res;
+}
+
+/* ---- the overlay ------------------------------------------------------------------------------- */
+static void fill(uint8_t *px, int x0, int y0, int x1, int y1, const uint8_t c[4])
+{
+    for (int y = y0 < 0 ? 0 : y0; y < y1 && y < OVERLAY_H; y++)
+        for (int x = x0 < 0 ? 0 : x0; x < x1 && x < OVERLAY_W; x++)
+            memcpy(px + 4 * ((size_t)y * OVERLAY_W + x), c, 4);
+}
+
+static void text(uint8_t *px, int x, int y, const char *s, const uint8_t c[4])
+{
+    static char buf[60000];
+    char t[400];
+    snprintf(t, sizeof t, "%s", s);
+    int quads = stb_easy_font_print((float)x, (float)y, t, NULL, buf, sizeof buf);
+    for (int i = 0; i < quads; i++) { /* each quad: 4 vertices of x, y, z, colour */
+        const float *q = (const float *)(buf + (size_t)i * 64);
+        fill(px, (int)q[0], (int)q[1], (int)q[8], (int)q[9], c);
+    }
+}
+
+static void draw_overlay(viewer *v, const char *device, double fps)
+{
+    uint8_t *px = v->overlay_px;
+    const uint8_t bg[4] = {0, 0, 0, 150}, fg[4] = {235, 235, 235, 255},
+                  bar[4] = {80, 200, 120, 230}, hot[4] = {240, 120, 60, 230};
+    fill(px, 0, 0, OVERLAY_W, OVERLAY_H, bg);
+    const app_view_state *s = &v->st;
+    char line[400], who[300], vn[64];
+    const pl_timings *f = &v->last.fe;
+    const dn_timings *d = &v->last.dn;
+    const cmp_timings *p = &v->last.post;
+    view_name(v->view, vn, sizeof vn);
+    int y = 4;
+    snprintf(line, sizeof line, "tandem view   %.1f fps   %.1f ms   %s", fps,
+             fps > 0 ? 1e3 / fps : 0.0, device);
+    text(px, 4, y, line, fg);
+    y += 10;
+    snprintf(line, sizeof line, "front-end %s  [%s]",
+             pl_frontend_describe(v->fe[0], who, sizeof who), pl_frontend_models(v->fe[0]));
+    text(px, 4, y, line, fg);
+    y += 10;
+    snprintf(line, sizeof line, "denoiser %.60s  bounces %u  %s  a-trous %u  TAA %s  %s  bloom %.2f",
+             v->chain[0] && pl_chain_plugin_name(v->chain[0]) ? s->denoiser
+                                                              : dn_mode_name(v->dmode),
+             s->bounces, s->precision, s->atrous ? s->atrous : 4, s->taa, s->tonemap, s->bloom);
+    text(px, 4, y, line, fg);
+    y += 10;
+    snprintf(line, sizeof line, "view %s%s   frame %u   history %u frames", vn,
+             s->split ? "  (split: noisy | denoised)" : "", v->frame, s->path_len);
+    text(px, 4, y, line, fg);
+    y += 10;
+    snprintf(line, sizeof line,
+             "GPU ms: primary %.2f shade %.2f gradients %.2f | select %.2f gradient %.2f "
+             "temporal %.2f", f->primary_ms, f->shade_ms, f->gradient_ms, d->select_ms,
+             d->gradient_ms, d->temporal_ms);
+    text(px, 4, y, line, fg);
+    y += 10;
+    snprintf(line, sizeof line,
+             "        a-trous+lf %.2f composite %.2f | taa %.2f exposure %.2f tonemap %.2f",
+             d->atrous_ms + d->lf_ms, d->composite_ms, p->taa_ms, p->exposure_ms, p->tonemap_ms);
+    text(px, 4, y, line, fg);
+    y += 10;
+    snprintf(line, sizeof line, "camera (%.2f, %.2f, %.2f) yaw %.1f pitch %.1f   %s",
+             v->cam.position[0], v->cam.position[1], v->cam.position[2],
+             v->cam.yaw * 180.0 / TND_PI, v->cam.pitch * 180.0 / TND_PI, v->note);
+    text(px, 4, y, line, fg);
+    y += 10;
+    text(px, 4, y, "WASD QE drag | 1 2 3 F [ ] P T K B , . | V TAB O | F12 F11 ESC", fg);
+    /* the frame-time graph: the last frames' wall clock, 100 ms at full height */
+    int gy = OVERLAY_H - 4, gh = 50;
+    for (uint32_t i = 0; i < v->graph_n && i < GRAPH; i++) {
+        double ms = v->graph[(v->graph_n - 1 - i) % GRAPH];
+        int hgt = (int)fmin(gh, ms / 100.0 * gh);
+        int x = OVERLAY_W - 8 - 3 * (int)i;
+        fill(px, x, gy - hgt, x + 2, gy, ms > 33.4 ? hot : bar);
+    }
+}
+
+/* ---- screenshots ----------------------------------------------------------------------------- */
+static tnd_result screenshot(viewer *v)
+{
+    tnd_result res = TND_OK;
+    uint32_t w = v->st.size[0], h = v->st.size[1];
+    size_t n = (size_t)w * h;
+    uint8_t *rgb8 = malloc(n * 3), *shown = malloc(n * 4);
+    float *rgb = malloc(n * 3 * sizeof *rgb);
+    char path[2200];
+    if (!rgb8 || !shown || !rgb) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
+        goto fail;
+    }
+    cmp_context *post = pl_chain_post(v->chain[0]);
+    TND_TRY(pl_chain_finish(v->chain[0], NULL));
+    TND_TRY(cmp_download_display(post, rgb8));
+    snprintf(path, sizeof path, "%s/shot_%04u.png", v->out, v->shots);
+    TND_TRY(app_write_png(path, rgb8, w, h));
+    TND_TRY(cmp_download_hdr(post, rgb));
+    snprintf(path, sizeof path, "%s/shot_%04u.exr", v->out, v->shots);
+    TND_TRY(app_write_rgb_exr(path, rgb, w, h));
+    TND_TRY(tnd_image_download(&v->vk, &v->shown, shown, n * 4)); /* as shown */
+    for (size_t q = 0; q < n; q++)
+        memcpy(rgb8 + 3 * q, shown + 4 * q, 3);
+    snprintf(path, sizeof path, "%s/shot_%04u.view.png", v->out, v->shots);
+    TND_TRY(app_write_png(path, rgb8, w, h));
+    snprintf(path, sizeof path, "%s/shot_%04u.json", v->out, v->shots);
+    TND_TRY(app_view_state_write(path, &v->st));
+    if (!app_quiet())
+        fprintf(stderr, "tandem: view: %s/shot_%04u.{png,exr,view.png,json} (frame %u)\n", v->out,
+                v->shots, v->frame - 1);
+    v->shots++;
+fail:
+    free(rgb8);
+    free(shown);
+    free(rgb);
+    return res;
+}
+
+/* ---- the script -------------------------------------------------------------------------------- */
+static tnd_result load_script(const char *path, script_event **out, uint32_t *count)
+{
+    tnd_result res = TND_OK;
+    void *buf = NULL;
+    size_t n = 0;
+    *out = NULL;
+    *count = 0;
+    TND_TRY_RETURN(tnd_file_read(path, &buf, &n));
+    cJSON *j = cJSON_ParseWithLength(buf, n), *e;
+    free(buf);
+    const cJSON *evs = cJSON_GetObjectItem(j, "events");
+    if (!j || !cJSON_IsArray(evs)) {
+        cJSON_Delete(j);
+        return tnd_fail(TND_ERR_BAD_INPUT, "view script %s: {\"events\": [...]} expected", path);
+    }
+    script_event *ev = calloc((size_t)cJSON_GetArraySize(evs) + 1, sizeof *ev);
+    if (!ev) {
+        cJSON_Delete(j);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
+    }
+    uint32_t k = 0;
+    cJSON_ArrayForEach(e, evs)
+    {
+        script_event s = {0};
+        const cJSON *f = cJSON_GetObjectItem(e, "frame"), *key = cJSON_GetObjectItem(e, "key");
+        const cJSON *mouse = cJSON_GetObjectItem(e, "mouse"), *rs = cJSON_GetObjectItem(e, "resize");
+        if (!cJSON_IsNumber(f) || f->valuedouble < 0 || (k && f->valuedouble < ev[k - 1].frame)) {
+            res = tnd_fail(TND_ERR_BAD_INPUT,
+                           "view script %s: event %u: \"frame\" (frames shown so far, in order) "
+                           "expected", path, k);
+            goto fail;
+        }
+        s.frame = (uint32_t)f->valuedouble;
+        if (cJSON_IsString(key)) {
+            s.key = vw_key_code(key->valuestring);
+            if (s.key < 0) {
+                res = tnd_fail(TND_ERR_BAD_INPUT, "view script %s: event %u: key \"%s\" unknown",
+                               path, k, key->valuestring);
+                goto fail;
+            }
+            const cJSON *down = cJSON_GetObjectItem(e, "down");
+            s.kind = down ? EV_KEY : EV_TAP;
+            s.down = cJSON_IsTrue(down);
+        } else if (cJSON_GetArraySize(mouse) == 2) {
+            s.kind = EV_MOUSE;
+            s.dx = cJSON_GetArrayItem(mouse, 0)->valuedouble;
+            s.dy = cJSON_GetArrayItem(mouse, 1)->valuedouble;
+            s.drag = !cJSON_IsFalse(cJSON_GetObjectItem(e, "drag"));
+        } else if (cJSON_GetArraySize(rs) == 2 && cJSON_GetArrayItem(rs, 0)->valuedouble >= 16 &&
+                   cJSON_GetArrayItem(rs, 1)->valuedouble >= 16) {
+            s.kind = EV_RESIZE;
+            s.w = (uint32_t)cJSON_GetArrayItem(rs, 0)->valuedouble;
+            s.h = (uint32_t)cJSON_GetArrayItem(rs, 1)->valuedouble;
+        } else if (cJSON_IsTrue(cJSON_GetObjectItem(e, "screenshot"))) {
+            s.kind = EV_SHOT;
+        } else if (cJSON_IsTrue(cJSON_GetObjectItem(e, "exit"))) {
+            s.kind = EV_EXIT;
+        } else {
+            res = tnd_fail(TND_ERR_BAD_INPUT,
+                           "view script %s: event %u: one of key, mouse [dx, dy], resize [w, h] "
+                           "(16 or more), screenshot or exit expected", path, k);
+            goto fail;
+        }
+        ev[k++] = s;
+    }
+    *out = ev;
+    *count = k;
+    ev = NULL;
+fail:
+    free(ev);
+    cJSON_Delete(j);
+    return res;
+}
+
+/* Apply the script's events of this frame; a resize waits (2 s at most) for the window. */
+static tnd_result play(viewer *v, const script_event *ev, uint32_t n, uint32_t *next)
+{
+    while (*next < n && ev[*next].frame <= v->steps) {
+        const script_event *e = &ev[(*next)++];
+        switch (e->kind) {
+        case EV_KEY: on_key(v, e->key, e->down); break;
+        case EV_TAP:
+            on_key(v, e->key, true);
+            on_key(v, e->key, false);
+            break;
+        case EV_MOUSE:
+            on_event(&(vw_event){.kind = VW_MOUSE, .dx = e->dx, .dy = e->dy, .drag = e->drag}, v);
+            break;
+        case EV_RESIZE: {
+            vw_window_set_size(v->win, e->w, e->h);
+            double t0 = tnd_now();
+            uint32_t w = 0, h = 0;
+            while (tnd_now() - t0 < 2.0) {
+                vw_window_poll(v->win);
+                vw_window_size(v->win, &w, &h);
+                if (w == e->w && h == e->h)
+                    break;
+            }
+            if (w != e->w || h != e->h)
+                return tnd_fail(TND_ERR_UNSUPPORTED,
+                                "view: the window system kept the window at %ux%u (asked %ux%u)",
+                                w, h, e->w, e->h);
+            v->rebuild = true;
+            break;
+        }
+        case EV_SHOT: v->want_shot = true; break;
+        case EV_EXIT: v->quit = true; break;
+        }
+    }
+    return TND_OK;
+}
+
+/* ---- the loop ---------------------------------------------------------------------------------- */
+static tnd_result frame(viewer *v)
+{
+    tnd_result res = TND_OK;
+    app_view_state *s = &v->st;
+    uint32_t w = s->size[0], h = s->size[1];
+    float aspect = (float)w / (float)h;
+    uint32_t f = v->frame;
+    bool first = s->path_len == 0;
+    tnd_scene_state *cur = &v->ss[f & 1], *prev = &v->ss[(f + 1) & 1];
+    TND_TRY(tnd_scene_evaluate(v->scene, f / s->fps, s->camera, aspect, cur));
+    v->cam.frame = f;
+    app_view_camera_apply(&v->cam, cur);
+    if (first) { /* as render --view: the previous frame at the same camera */
+        TND_TRY(tnd_scene_evaluate(v->scene, f > 0 ? (f - 1) / s->fps : 0.0, s->camera, aspect,
+                                   prev));
+        app_view_camera_apply(&v->cam, prev);
+    }
+    TND_TRY(app_view_state_push(s, &v->cam));
+    char cap[2200];
+    snprintf(cap, sizeof cap, "%s/capture_%04u.exr", v->out, v->captures);
+    for (int i = 0; i < (s->split ? 2 : 1); i++) {
+        TND_TRY(pl_frontend_set_frame(v->fe[i], cur, prev, f, w, h));
+        pl_step step = {.params = {.bounces = s->bounces},
+                        .frame = dn_frame_for_camera(cur->camera.proj, h, f, first),
+                        .dt = (float)(1.0 / s->fps),
+                        .capture = i == 0 && v->want_capture ? cap : NULL,
+                        .no_wait = true};
+        pl_step_result r;
+        TND_TRY(pl_chain_run(v->chain[i], v->fe[i], &step, NULL, NULL, &r));
+        if (i == 0 && r.lagged)
+            v->last = r;
+    }
+    if (v->want_capture) {
+        if (!app_quiet())
+            fprintf(stderr, "tandem: view: %s\n", cap);
+        v->captures++;
+        v->want_capture = false;
+    }
+    if (v->view)
+        TND_TRY(debug_view(v));
+    const tnd_image *a = v->view ? &v->debug : cmp_display_image(pl_chain_post(v->chain[0]));
+    const tnd_image *b = s->split ? cmp_display_image(pl_chain_post(v->chain[1])) : NULL;
+    if (s->split) /* noisy on the left, the denoised (or the view) on the right */
+        a = cmp_display_image(pl_chain_post(v->chain[1])),
+        b = v->view ? &v->debug : cmp_display_image(pl_chain_post(v->chain[0]));
+    TND_TRY(tnd_image_upload(&v->vk, &v->overlay, v->overlay_px,
+                             (size_t)OVERLAY_W * OVERLAY_H * 4));
+    TND_TRY(vw_compose_run(v->compose, a, b, (int)w / 2, &v->overlay, &v->shown));
+    TND_TRY(vw_window_present(v->win, &v->shown));
+    v->frame++; /* (scene time follows the frame: render --view replays it)*/
+fail:
+    return res;
+}
+
+int cmd_view(int argc, char **argv)
+{
+    viewer *v = calloc(1, sizeof *v);
+    if (!v)
+        return app_report("view", tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory"));
+    const char *scene = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "vk",
+               *denoiser = "asvgf", *state = NULL, *script = NULL, *out = ".";
+    unsigned size[2] = {640, 360}, frames = 0;
+    app_env env = APP_ENV_INIT;
+    const app_opt opts[] = {
+        {"scene", APP_OPT_STRING, &scene, "PATH", "glTF scene (default: cornell)"},
+        {"frontend", APP_OPT_STRING, &frontend, "NAME", "vk (default), embree or plugin:PATH.so"},
+        {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "asvgf (default), svgf, off or plugin:PATH.so"},
+        {"size", APP_OPT_SIZE, size, "WxH", "window size (default 640x360)"},
+        {"state", APP_OPT_STRING, &state, "FILE", "start from a repro state (a screenshot's .json)"},
+        {"script", APP_OPT_STRING, &script, "FILE",
+         "play timed key, mouse and resize events, then exit (docs/viewer.md)"},
+        {"frames", APP_OPT_UINT, &frames, "N", "exit after N frames (default: when closed)"},
+        {"out", APP_OPT_STRING, &out, "DIR", "where screenshots and captures go (default .)"},
+        APP_ENV_OPTS(&env),
+        {0},
+    };
+    const char *pos[1];
+    int npos, status = APP_EXIT_FAIL;
+    int rc = app_parse(&view_cmd, opts, argc, argv, pos, 0, &npos);
+    if (rc >= 0) {
+        free(v);
+        return rc;
+    }
+    tnd_result res = TND_OK;
+    script_event *events = NULL;
+    uint32_t n_events = 0, next_event = 0;
+    app_view_state *s = &v->st;
+    *s = (app_view_state){.bounces = 1, .fps = 30.0, .env_intensity = env.intensity,
+                          .env_rotation = env.rotation, .size = {size[0], size[1]}};
+    snprintf(s->scene, sizeof s->scene, "%s", scene);
+    snprintf(s->frontend, sizeof s->frontend, "%s", frontend);
+    snprintf(s->denoiser, sizeof s->denoiser, "%s", denoiser);
+    snprintf(s->precision, sizeof s->precision, "float32");
+    snprintf(s->taa, sizeof s->taa, "on");
+    snprintf(s->tonemap, sizeof s->tonemap, "aces");
+    snprintf(s->exposure, sizeof s->exposure, "auto");
+    snprintf(s->env, sizeof s->env, "%s", env.path ? env.path : "");
+    snprintf(s->view, sizeof s->view, "final");
+    bool from_state = false;
+    if (state) { /* its settings, and its last camera */
+        TND_TRY(app_view_state_read(state, s));
+        from_state = s->path_len > 0;
+        if (from_state)
+            v->cam = s->path[s->path_len - 1];
+        v->view = view_find(s->view);
+    }
+    v->out = out;
+    v->show_overlay = true;
+    if (script) {
+        TND_TRY(load_script(script, &events, &n_events));
+        v->scripted = true;
+    }
+    TND_TRY(tnd_mkdirs(out));
+    TND_TRY(vw_window_create("tandem view", s->size[0], s->size[1], on_event, v, &v->win));
+    uint32_t n_ext = 0;
+    const char *const *ext = vw_window_instance_extensions(&n_ext);
+    TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !pl_frontend_needs_gpu(s->frontend),
+                                         .instance_extensions = ext,
+                                         .instance_extension_count = n_ext,
+                                         .swapchain = true},
+                          &v->vk));
+    TND_TRY(vw_window_attach(v->win, &v->vk));
+    TND_TRY(vw_compose_create(&v->vk, &v->compose));
+    TND_TRY(tnd_image_create(&v->vk, &(tnd_image_desc){.width = OVERLAY_W, .height = OVERLAY_H,
+                                                      .format = VK_FORMAT_R8G8B8A8_UNORM,
+                                                      .name = "view.overlay"},
+                             &v->overlay));
+    if (!(v->overlay_px = calloc((size_t)OVERLAY_W * OVERLAY_H, 4))) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
+        goto fail;
+    }
+    app_env scene_env = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation};
+    TND_TRY(app_scene_load(s->scene, &scene_env, &v->scene));
+    if (!from_state) { /* the scene's camera at the first frame */
+        tnd_scene_state st0 = {0};
+        res = tnd_scene_evaluate(v->scene, 0.0, s->camera, (float)s->size[0] / s->size[1], &st0);
+        if (res == TND_OK)
+            app_view_camera_from_state(&st0, 0, &v->cam);
+        tnd_scene_state_free(&st0);
+        TND_TRY(res);
+    } else {
+        v->frame = s->path[s->path_len - 1].frame + 1;
+    }
+    TND_TRY(open_pipeline(v));
+    char device[300];
+    snprintf(device, sizeof device, "%s", v->vk.info.name);
+    v->t_last = tnd_now();
+    double fps = 0, t_start = tnd_now();
+    while (!v->quit && vw_window_poll(v->win)) {
+        if (v->scripted)
+            TND_TRY(play(v, events, n_events, &next_event));
+        uint32_t w, h;
+        vw_window_size(v->win, &w, &h);
+        if (w == 0 || h == 0) /* minimised */
+            continue;
+        if (w != s->size[0] || h != s->size[1]) {
+            s->size[0] = w;
+            s->size[1] = h;
+            v->rebuild = true;
+        }
+        if (v->rebuild)
+            TND_TRY(open_pipeline(v));
+        double now = tnd_now(), dt = now - v->t_last;
+        v->t_last = now;
+        fly(v, v->scripted ? 1.0 / s->fps : fmin(dt, 0.1));
+        v->graph[v->graph_n++ % GRAPH] = 1e3 * dt;
+        fps = dt > 0 ? 0.9 * fps + 0.1 / dt : fps;
+        if (v->show_overlay)
+            draw_overlay(v, device, fps);
+        else
+            memset(v->overlay_px, 0, (size_t)OVERLAY_W * OVERLAY_H * 4);
+        TND_TRY(frame(v));
+        v->steps++;
+        if (v->want_shot) {
+            v->want_shot = false;
+            TND_TRY(screenshot(v));
+        }
+        if (frames && v->steps >= frames)
+            break;
+        if (v->scripted && next_event >= n_events && !v->want_shot)
+            break; /* the script ran out */
+    }
+    if (v->vk.validation && tnd_vk_validation_errors(&v->vk)) {
+        res = tnd_fail(TND_ERR_VULKAN, "%u Vulkan validation error(s)",
+                       tnd_vk_validation_errors(&v->vk));
+        goto fail;
+    }
+    if (!app_quiet())
+        fprintf(stderr, "tandem: view: %u frames in %.2f s (%.1f fps) at %ux%u on %s, %u "
+                "screenshot%s\n", v->steps, tnd_now() - t_start,
+                v->steps / fmax(1e-9, tnd_now() - t_start), s->size[0], s->size[1], device,
+                v->shots, v->shots == 1 ? "" : "s");
+    status = APP_EXIT_OK;
+fail:
+    if (status != APP_EXIT_OK)
+        app_report("view", res);
+    if (v->vk.device) {
+        vkDeviceWaitIdle(v->vk.device);
+        close_pipeline(v);
+        tnd_image_destroy(&v->vk, &v->overlay);
+        vw_compose_destroy(v->compose);
+    }
+    vw_window_destroy(v->win);
+    tnd_scene_state_free(&v->ss[0]);
+    tnd_scene_state_free(&v->ss[1]);
+    tnd_scene_destroy(v->scene);
+    if (v->vk.device || v->vk.instance)
+        tnd_vk_destroy(&v->vk);
+    app_view_state_free(s);
+    free(v->overlay_px);
+    free(events);
+    free(v);
+    return status;
+}

@@ -1,0 +1,240 @@
+/* app/view_state.c: the viewer's repro state: the settings `tandem view` ran with and the camera
+ * of every frame since its history last restarted (the flight), as a small JSON file that
+ * `tandem render --view FILE` reproduces frame for frame. The camera of a frame is a position,
+ * a yaw about +Y and a pitch (no roll), turned into the view matrix the same way by both.
+ * Entry points: app_view_state_read, app_view_state_write, app_view_state_free,
+ * app_view_state_push, app_view_camera_apply, app_view_camera_from_state. */
+#include "app/app.h"
+
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void app_view_state_free(app_view_state *s)
+{
+    free(s->path);
+    s->path = NULL;
+    s->path_len = s->path_cap = 0;
+}
+
+tnd_result app_view_state_push(app_view_state *s, const app_view_cam *c)
+{
+    if (s->path_len == s->path_cap) {
+        uint32_t cap = s->path_cap ? 2 * s->path_cap : 64;
+        app_view_cam *p = realloc(s->path, cap * sizeof *p);
+        if (!p)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
+        s->path = p;
+        s->path_cap = cap;
+    }
+    s->path[s->path_len++] = *c;
+    return TND_OK;
+}
+
+void app_view_camera_apply(const app_view_cam *c, tnd_scene_state *st)
+{
+    double cy = cos(c->yaw), sy = sin(c->yaw), cp = cos(c->pitch), sp = sin(c->pitch);
+    double f[3] = {sy * cp, sp, -cy * cp}; /* forward */
+    double r[3] = {cy, 0.0, sy};           /* right: forward x +Y, normalised */
+    double u[3] = {r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]};
+    const double *p = c->position;
+    float *m = st->camera.view; /* column-major, rows right, up, -forward */
+    for (int k = 0; k < 3; k++) {
+        m[k * 4 + 0] = (float)r[k];
+        m[k * 4 + 1] = (float)u[k];
+        m[k * 4 + 2] = (float)-f[k];
+        m[k * 4 + 3] = 0.0f;
+    }
+    m[12] = (float)-(r[0] * p[0] + r[1] * p[1] + r[2] * p[2]);
+    m[13] = (float)-(u[0] * p[0] + u[1] * p[1] + u[2] * p[2]);
+    m[14] = (float)(f[0] * p[0] + f[1] * p[1] + f[2] * p[2]);
+    m[15] = 1.0f;
+    for (int k = 0; k < 3; k++)
+        st->camera_position[k] = (float)p[k];
+}
+
+void app_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, app_view_cam *c)
+{
+    const float *m = st->camera.view;
+    double f[3] = {-m[2], -m[6], -m[10]};
+    double l = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+    for (int k = 0; k < 3; k++)
+        f[k] = l > 0 ? f[k] / l : (k == 2 ? -1.0 : 0.0);
+    *c = (app_view_cam){.frame = frame, .yaw = atan2(f[0], -f[2]),
+                        .pitch = asin(fmax(-1.0, fmin(1.0, f[1])))};
+    for (int k = 0; k < 3; k++)
+        c->position[k] = st->camera_position[k];
+}
+
+static const struct {
+    const char *key;
+    size_t offset, cap; /* a string field */
+} text_fields[] = {
+#define F(k, field) {k, offsetof(app_view_state, field), sizeof(((app_view_state *)0)->field)}
+    F("scene", scene),         F("frontend", frontend), F("denoiser", denoiser),
+    F("precision", precision), F("taa", taa),           F("tonemap", tonemap),
+    F("exposure", exposure),   F("env", env),           F("view", view),
+#undef F
+};
+static const struct {
+    const char *key;
+    size_t offset;
+} number_fields[] = {
+#define F(k, field) {k, offsetof(app_view_state, field)}
+    F("min_alpha", min_alpha), F("bloom", bloom), F("fps", fps),
+    F("env_intensity", env_intensity), F("env_rotation", env_rotation),
+#undef F
+};
+static const struct {
+    const char *key;
+    size_t offset;
+} uint_fields[] = {
+#define F(k, field) {k, offsetof(app_view_state, field)}
+    F("bounces", bounces), F("atrous", atrous), F("camera", camera),
+#undef F
+};
+
+tnd_result app_view_state_write(const char *path, const app_view_state *s)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddNumberToObject(j, "tandem_view_state", 1);
+    for (size_t i = 0; i < sizeof text_fields / sizeof text_fields[0]; i++)
+        cJSON_AddStringToObject(j, text_fields[i].key, (const char *)s + text_fields[i].offset);
+    for (size_t i = 0; i < sizeof number_fields / sizeof number_fields[0]; i++)
+        cJSON_AddNumberToObject(j, number_fields[i].key,
+                                *(const double *)((const char *)s + number_fields[i].offset));
+    for (size_t i = 0; i < sizeof uint_fields / sizeof uint_fields[0]; i++)
+        cJSON_AddNumberToObject(j, uint_fields[i].key,
+                                *(const uint32_t *)((const char *)s + uint_fields[i].offset));
+    cJSON *size = cJSON_AddArrayToObject(j, "size");
+    cJSON_AddItemToArray(size, cJSON_CreateNumber(s->size[0]));
+    cJSON_AddItemToArray(size, cJSON_CreateNumber(s->size[1]));
+    cJSON_AddBoolToObject(j, "split", s->split);
+    cJSON *p = cJSON_AddArrayToObject(j, "path");
+    for (uint32_t i = 0; i < s->path_len; i++) {
+        const app_view_cam *c = &s->path[i];
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddNumberToObject(e, "frame", c->frame);
+        cJSON *pos = cJSON_AddArrayToObject(e, "position");
+        for (int k = 0; k < 3; k++)
+            cJSON_AddItemToArray(pos, cJSON_CreateNumber(c->position[k]));
+        cJSON_AddNumberToObject(e, "yaw", c->yaw);
+        cJSON_AddNumberToObject(e, "pitch", c->pitch);
+        cJSON_AddItemToArray(p, e);
+    }
+    char *txt = cJSON_Print(j);
+    cJSON_Delete(j);
+    if (!txt)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
+    tnd_result res = tnd_file_write_atomic(path, txt, strlen(txt));
+    free(txt);
+    return res;
+}
+
+static tnd_result bad(const char *path, const char *what)
+{
+    return tnd_fail(TND_ERR_BAD_INPUT, "view state %s: %s", path, what);
+}
+
+tnd_result app_view_state_read(const char *path, app_view_state *s)
+{
+    tnd_result res = TND_OK;
+    void *buf = NULL;
+    size_t n = 0;
+    TND_TRY_RETURN(tnd_file_read(path, &buf, &n));
+    cJSON *j = cJSON_ParseWithLength(buf, n);
+    free(buf);
+    app_view_state_free(s);
+    if (!j)
+        return bad(path, "not JSON");
+    if (!cJSON_IsNumber(cJSON_GetObjectItem(j, "tandem_view_state"))) {
+        res = bad(path, "no \"tandem_view_state\": not a view state");
+        goto fail;
+    }
+    for (size_t i = 0; i < sizeof text_fields / sizeof text_fields[0]; i++) {
+        const cJSON *v = cJSON_GetObjectItem(j, text_fields[i].key);
+        if (!v)
+            continue;
+        if (!cJSON_IsString(v) || strlen(v->valuestring) >= text_fields[i].cap) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "view state %s: \"%s\": a string expected", path,
+                           text_fields[i].key);
+            goto fail;
+        }
+        strcpy((char *)s + text_fields[i].offset, v->valuestring);
+    }
+    for (size_t i = 0; i < sizeof number_fields / sizeof number_fields[0]; i++) {
+        const cJSON *v = cJSON_GetObjectItem(j, number_fields[i].key);
+        if (v && (!cJSON_IsNumber(v) || !isfinite(v->valuedouble))) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "view state %s: \"%s\": a number expected", path,
+                           number_fields[i].key);
+            goto fail;
+        }
+        if (v)
+            *(double *)((char *)s + number_fields[i].offset) = v->valuedouble;
+    }
+    for (size_t i = 0; i < sizeof uint_fields / sizeof uint_fields[0]; i++) {
+        const cJSON *v = cJSON_GetObjectItem(j, uint_fields[i].key);
+        if (v && (!cJSON_IsNumber(v) || v->valuedouble < 0 || v->valuedouble > 1e6)) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "view state %s: \"%s\": a count expected", path,
+                           uint_fields[i].key);
+            goto fail;
+        }
+        if (v)
+            *(uint32_t *)((char *)s + uint_fields[i].offset) = (uint32_t)v->valuedouble;
+    }
+    const cJSON *size = cJSON_GetObjectItem(j, "size");
+    if (size) {
+        const cJSON *w = cJSON_GetArrayItem(size, 0), *h = cJSON_GetArrayItem(size, 1);
+        if (!cJSON_IsNumber(w) || !cJSON_IsNumber(h) || w->valuedouble < 1 ||
+            h->valuedouble < 1 || w->valuedouble > 16384 || h->valuedouble > 16384) {
+            res = bad(path, "\"size\": [width, height] expected");
+            goto fail;
+        }
+        s->size[0] = (uint32_t)w->valuedouble;
+        s->size[1] = (uint32_t)h->valuedouble;
+    }
+    s->split = cJSON_IsTrue(cJSON_GetObjectItem(j, "split"));
+    const cJSON *p = cJSON_GetObjectItem(j, "path"), *e;
+    if (p && !cJSON_IsArray(p)) {
+        res = bad(path, "\"path\": an array expected");
+        goto fail;
+    }
+    cJSON_ArrayForEach(e, p)
+    {
+        app_view_cam c = {0};
+        const cJSON *f = cJSON_GetObjectItem(e, "frame"), *pos = cJSON_GetObjectItem(e, "position");
+        const cJSON *yaw = cJSON_GetObjectItem(e, "yaw"), *pitch = cJSON_GetObjectItem(e, "pitch");
+        bool ok = cJSON_IsNumber(f) && f->valuedouble >= 0 && cJSON_IsNumber(yaw) &&
+                  cJSON_IsNumber(pitch) && cJSON_GetArraySize(pos) == 3;
+        for (int k = 0; ok && k < 3; k++) {
+            const cJSON *v = cJSON_GetArrayItem(pos, k);
+            ok = cJSON_IsNumber(v) && isfinite(v->valuedouble);
+            if (ok)
+                c.position[k] = v->valuedouble;
+        }
+        if (!ok || !isfinite(yaw->valuedouble) || !isfinite(pitch->valuedouble)) {
+            res = tnd_fail(TND_ERR_BAD_INPUT,
+                           "view state %s: path entry %u: frame, position [x, y, z], yaw and "
+                           "pitch expected", path, s->path_len);
+            goto fail;
+        }
+        c.frame = (uint32_t)f->valuedouble;
+        c.yaw = yaw->valuedouble;
+        c.pitch = pitch->valuedouble;
+        if (s->path_len && c.frame != s->path[s->path_len - 1].frame + 1) {
+            res = tnd_fail(TND_ERR_BAD_INPUT,
+                           "view state %s: path entry %u: frame %u after %u (frames follow "
+                           "each other)", path, s->path_len, c.frame,
+                           s->path[s->path_len - 1].frame);
+            goto fail;
+        }
+        TND_TRY(app_view_state_push(s, &c));
+    }
+fail:
+    cJSON_Delete(j);
+    if (res != TND_OK)
+        app_view_state_free(s);
+    return res;
+}

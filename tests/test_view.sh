@@ -1,0 +1,116 @@
+#!/bin/bash
+# tests/test_view.sh TANDEM: `tandem view` under Xvfb on the Vulkan device (lavapipe in CI),
+# driven by scripts (--script: timed key, mouse and resize events):
+#  - no display: a clear message and exit 1;
+#  - a session opens the window, flies (W, mouse drag), resizes it, switches the denoiser, the
+#    front-end, the views and the split, takes screenshots and exits 0;
+#  - every final-image screenshot equals `tandem render --view` of its repro state bit for bit
+#    (PNG bytes and EXR pixels): the viewer's frame is render's, the camera path and settings
+#    the state's;
+#  - a repro state round-trips (--state, then a screenshot at once: the same settings, the path
+#    one frame longer at the same camera);
+#  - a bad script is refused by name.
+# The validation layer is on (the test's environment): an error fails the session.
+set -uo pipefail
+T=$1
+SRC=$(cd "$(dirname "$0")/.." && pwd)
+TMP=$(mktemp -d /tmp/tandem_view.XXXXXX)
+trap 'rm -rf "$TMP"' EXIT
+pass=0 failn=0
+ok() { echo "ok   $1"; pass=$((pass + 1)); }
+bad() { echo "FAIL $1"; failn=$((failn + 1)); }
+check() { if eval "$2"; then ok "$1"; else bad "$1"; fi; }
+XVFB=(xvfb-run -a -s "-screen 0 1024x768x24")
+PY=/usr/bin/python3
+
+# no display
+DISPLAY= WAYLAND_DISPLAY= "$T" view --frames 1 --out "$TMP/none" > "$TMP/none.log" 2>&1
+rc=$?
+check "no display: exit 1 with a message" \
+    "[ $rc -eq 1 ] && grep -q 'cannot open a window' '$TMP/none.log'"
+
+cat > "$TMP/session.json" <<'JSON'
+{"events": [
+  {"frame": 2, "key": "W", "down": true},
+  {"frame": 6, "key": "W", "down": false},
+  {"frame": 7, "mouse": [40, -12]},
+  {"frame": 9, "screenshot": true},
+  {"frame": 10, "resize": [200, 120]},
+  {"frame": 11, "key": "2"},
+  {"frame": 12, "key": "A", "down": true},
+  {"frame": 14, "key": "A", "down": false},
+  {"frame": 17, "screenshot": true},
+  {"frame": 18, "key": "V"},
+  {"frame": 18, "key": "V"},
+  {"frame": 19, "key": "TAB"},
+  {"frame": 21, "screenshot": true},
+  {"frame": 22, "key": "TAB"},
+  {"frame": 22, "key": "F"},
+  {"frame": 22, "key": "3"},
+  {"frame": 26, "screenshot": true},
+  {"frame": 27, "exit": true}
+]}
+JSON
+"${XVFB[@]}" "$T" view --scene "$SRC/data/scenes/cornell.gltf" --size 160x90 \
+    --script "$TMP/session.json" --out "$TMP/shots" > "$TMP/session.log" 2>&1
+rc=$?
+check "scripted session: exit 0" "[ $rc -eq 0 ]" || cat "$TMP/session.log"
+check "scripted session: 4 screenshots (final, HDR, as shown, state)" \
+    "[ \$(ls '$TMP/shots' | grep -c '^shot_000[0-3]\.\(png\|exr\|view\.png\|json\)$') -eq 16 ]"
+$PY - "$TMP/shots" > "$TMP/states.txt" <<'PYEOF'
+import json, sys
+d = sys.argv[1]
+for i in range(4):
+    j = json.load(open(f"{d}/shot_{i:04d}.json"))
+    print(i, j["size"][0], j["size"][1], j["denoiser"], j["frontend"], j["view"], j["split"],
+          len(j["path"]))
+PYEOF
+cat "$TMP/states.txt"
+check "the states follow the session (resize, denoiser, view, split, front-end)" \
+    "grep -q '^0 160 90 asvgf vk final False 10$' '$TMP/states.txt' &&
+     grep -q '^1 200 120 svgf vk final False' '$TMP/states.txt' &&
+     grep -q '^2 200 120 svgf vk normal True' '$TMP/states.txt' &&
+     grep -q '^3 200 120 off embree normal False' '$TMP/states.txt'"
+
+# each screenshot's final image = render --view of its state
+for i in 0 1 2 3; do
+    st="$TMP/shots/shot_000$i.json"
+    last=$($PY -c "import json; print(json.load(open('$st'))['path'][-1]['frame'])")
+    "$T" render --view "$st" --out "$TMP/render$i" --quiet > "$TMP/render$i.log" 2>&1 ||
+        cat "$TMP/render$i.log"
+    f=$(printf 'frame_%04d' "$last")
+    check "shot $i: render --view gives the same PNG, byte for byte" \
+        "cmp -s '$TMP/render$i/$f.png' '$TMP/shots/shot_000$i.png'"
+    check "shot $i: and the same HDR pixels" \
+        "idiff -q -fail 0 -failpercent 0 -warn 0 '$TMP/render$i/$f.exr' \
+             '$TMP/shots/shot_000$i.exr' > /dev/null"
+done
+check "the split and the view show in the window (shot 2 as shown differs from its final)" \
+    "! cmp -s '$TMP/shots/shot_0002.view.png' '$TMP/shots/shot_0002.png'"
+
+# the repro state round-trips
+echo '{"events": [{"frame": 0, "screenshot": true}, {"frame": 1, "exit": true}]}' \
+    > "$TMP/once.json"
+"${XVFB[@]}" "$T" view --state "$TMP/shots/shot_0001.json" --script "$TMP/once.json" \
+    --out "$TMP/again" > "$TMP/again.log" 2>&1
+check "--state: exit 0" "[ $? -eq 0 ]" || cat "$TMP/again.log"
+$PY - "$TMP/shots/shot_0001.json" "$TMP/again/shot_0000.json" <<'PYEOF'
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+pa, pb = a.pop("path"), b.pop("path")
+assert a == b, (a, b)
+# a new flight from the state's last camera: one frame, the next frame index
+assert len(pb) == 1 and pb[0]["frame"] == pa[-1]["frame"] + 1, pb
+for k in ("position", "yaw", "pitch"):
+    assert pb[0][k] == pa[-1][k], (k, pb[0][k], pa[-1][k])
+PYEOF
+check "the repro state round-trips (settings equal, camera kept)" "[ $? -eq 0 ]"
+
+# a bad script
+echo '{"events": [{"frame": 0, "key": "NOPE"}]}' > "$TMP/bad.json"
+"${XVFB[@]}" "$T" view --script "$TMP/bad.json" --out "$TMP/bad" > "$TMP/bad.log" 2>&1
+rc=$?
+check "bad script: exit 1 naming the key" "[ $rc -eq 1 ] && grep -q 'key \"NOPE\" unknown' '$TMP/bad.log'"
+
+echo "$pass passed, $failn failed"
+[ "$failn" -eq 0 ]
