@@ -97,9 +97,10 @@ typedef struct app_view_cam {
 typedef struct app_view_state {
     char scene[1024], frontend[1100], denoiser[1100], precision[16], taa[16], tonemap[16];
     char exposure[32], env[1024], view[64];
-    double min_alpha, bloom, fps, env_intensity, env_rotation;
+    double min_alpha, bloom, fps, env_intensity, env_rotation, antilag, exposure_bias;
+    char split_mode[16];                  /* off, noisy, denoiser, frontend */
+    char split_denoiser[1100], split_frontend[1100]; /* the right half's, when split */
     uint32_t bounces, atrous, camera, size[2];
-    bool split; /* noisy | denoised */
     app_view_cam *path;
     uint32_t path_len, path_cap;
 } app_view_state;
@@ -116,7 +117,7 @@ void app_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, app_v
 typedef struct app_render_opts {
     const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump, *pipeline;
     const char *taa, *tonemap, *exposure;
-    double bloom, min_alpha;
+    double bloom, min_alpha, antilag, exposure_bias;
     unsigned frames, start, threads, bounces, spp, camera, atrous, reflect_depth;
     unsigned ref_bounces; /* reference: bounces per path (0: full paths, unbiased; ~0: not given) */
     const char *estimator; /* reference: "unbiased" or "realtime" (a matched reference) */

@@ -53,6 +53,8 @@ static void apply_view_state(render_opts *o, const app_view_state *v)
     o->env.intensity = v->env_intensity;
     o->env.rotation = v->env_rotation;
     o->min_alpha = v->min_alpha;
+    o->antilag = v->antilag;
+    o->exposure_bias = v->exposure_bias;
     o->bloom = v->bloom;
     o->fps = v->fps;
     o->bounces = v->bounces;
@@ -120,6 +122,11 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"exposure", APP_OPT_STRING, &o->exposure, "auto|EV100",
          "auto exposure from the luminance histogram (default), or a fixed EV100"},
         {"bloom", APP_OPT_FLOAT, &o->bloom, "I", "bloom intensity (default 0: off)"},
+        {"exposure-bias", APP_OPT_FLOAT, &o->exposure_bias, "STOPS",
+         "added to the exposure, auto or fixed (default 0)"},
+        {"antilag", APP_OPT_FLOAT, &o->antilag, "G",
+         "asvgf: the hf antilag gain (how fast history drops where the signal changed; "
+         "default 1)"},
         {"video", APP_OPT_FLAG, &o->video, NULL, "also write DIR/video.mp4 from the PNGs (needs ffmpeg)"},
         {"view", APP_OPT_STRING, &view_path, "FILE",
          "a repro state of tandem view: its scene, settings and camera path, frame for frame "
@@ -375,6 +382,7 @@ static tnd_result post_desc(const render_opts *o, cmp_desc *d)
         d->fixed_exposure = true;
         d->ev100 = (float)ev;
     }
+    d->bias = (float)o->exposure_bias;
     if (!(o->bloom >= 0 && o->bloom <= 1))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--bloom %g: expected an intensity in [0, 1]",
                         o->bloom);
@@ -508,6 +516,7 @@ tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, t
             &(pl_chain_desc){.vk = vk, .width = o->size[0], .height = o->size[1], .precision = prec,
                              .backend = use_dn,
                              .denoise = {.mode = *dmode, .iters_hf = o->atrous,
+                                         .antilag_hf = (float)o->antilag,
                                          .iters_spec = o->atrous, .min_alpha_hf = ma,
                                          .min_alpha_lf = ma, .min_alpha_spec = ma},
                              .post = *pd, .denoiser_plugin = dn_plugin},

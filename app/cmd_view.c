@@ -27,15 +27,17 @@ static const app_cmd view_cmd = {
     "view",
     "The pipeline live in a window: fly the camera (WASD, Q/E down/up, drag to look; shift\n"
     "faster, control slower), change the knobs (1/2/3 asvgf/svgf/off, F front-end, [ ] bounces,\n"
-    "P precision, T TAA, K tone curve, B bloom, , . a-trous iterations), V cycles the views\n"
-    "(final, contract entries, back-end dumps), TAB splits noisy | denoised, O the overlay,\n"
-    "F12 writes a screenshot (PNG, EXR and its repro state for\n"
-    "`tandem render --view`), F11 the next frame's capture, ESC quits.",
+    "P precision, T TAA, K tone curve, B bloom, , . a-trous iterations, M minimum alpha,\n"
+    "G antilag gain, - = exposure bias, 7 8 environment rotation, 9 0 its intensity), V cycles\n"
+    "the views (final, contract entries, back-end dumps), TAB the splits (noisy | denoised,\n"
+    "denoiser A | B, front-end A | B), R a progressive reference of a still camera, O the\n"
+    "overlay, F12 writes a screenshot (PNG, EXR and its repro state for `tandem render\n"
+    "--view`), F11 the next frame's capture, ESC quits.",
     "[--scene PATH] [--frontend NAME] [--denoiser MODE] [--size WxH] [--state FILE] "
     "[--script FILE] [--out DIR]",
     NULL};
 
-enum { GRAPH = 120, MAX_EVENTS = 4096, OVERLAY_W = 420, OVERLAY_H = 150 };
+enum { GRAPH = 120, OVERLAY_W = 420, OVERLAY_H = 160 };
 
 typedef struct script_event {
     uint32_t frame;
@@ -88,10 +90,12 @@ typedef struct viewer {
     tnd_frame host;
     tnd_scene_state ss[2];
     uint32_t frame, steps; /* the scene's frame index; frames shown since the start */
-    bool rebuild, show_overlay, quit, want_shot, want_capture;
+    bool rebuild, reload, show_overlay, ref_on, quit, want_shot, want_capture;
     app_view_cam cam;
     bool keys[512];
-    uint32_t view;
+    uint32_t view, ref_spp; /* ref_spp: the progressive reference's samples shown */
+    float *ref_rgb;
+    char plugin_fe[1100]; /* a front-end plugin given at the start (F cycles to it) */
     double graph[GRAPH];
     uint32_t graph_n;
     pl_step_result last;
@@ -103,7 +107,7 @@ typedef struct viewer {
 } viewer;
 
 /* ---- input ----------------------------------------------------------------------------------- */
-static const char *const frontends[] = {"vk", "embree"};
+static const char *const split_modes[] = {"off", "noisy", "denoiser", "frontend"};
 static const char *const curves[] = {"aces", "agx", "reinhard", "linear"};
 
 static void set_note(viewer *v, const char *fmt, const char *arg)
@@ -127,13 +131,39 @@ static void on_key(viewer *v, int key, bool down)
     case '1': dn = "asvgf"; break;
     case '2': dn = "svgf"; break;
     case '3': dn = "off"; break;
-    case 'F': {
-        int k = strcmp(s->frontend, frontends[0]) == 0 ? 1 : 0;
-        snprintf(s->frontend, sizeof s->frontend, "%s", frontends[k]);
+    case 'F': { /* vk -> embree (-> the plugin) -> vk */
+        const char *next = strcmp(s->frontend, "vk") == 0       ? "embree"
+                           : strcmp(s->frontend, "embree") == 0 && v->plugin_fe[0] ? v->plugin_fe
+                                                                                 : "vk";
+        snprintf(s->frontend, sizeof s->frontend, "%s", next);
         v->rebuild = true;
         set_note(v, "front-end %s", s->frontend);
         break;
     }
+    case 'M': /* the minimum alpha: the default, .05, .1, .2 */
+        s->min_alpha = s->min_alpha == 0 ? 0.05 : s->min_alpha < 0.2 ? 2 * s->min_alpha : 0;
+        v->rebuild = true;
+        break;
+    case 'G': /* the antilag gain: the default (1), 2, 0.5 */
+        s->antilag = s->antilag == 0 ? 2.0 : s->antilag == 2.0 ? 0.5 : 0;
+        v->rebuild = true;
+        break;
+    case '-': case '=':
+        s->exposure_bias += key == '-' ? -0.5 : 0.5;
+        v->rebuild = true;
+        break;
+    case '7': case '8':
+        s->env_rotation = fmod(s->env_rotation + (key == '7' ? -15.0 : 15.0) + 360.0, 360.0);
+        v->reload = true;
+        break;
+    case '9': case '0':
+        s->env_intensity *= key == '9' ? 0.5 : 2.0;
+        v->reload = true;
+        break;
+    case 'R':
+        v->ref_on = !v->ref_on;
+        v->ref_spp = 0;
+        break;
     case '[': case ']':
         if (key == '[' && s->bounces > 0)
             s->bounces--;
@@ -175,10 +205,19 @@ static void on_key(viewer *v, int key, bool down)
         snprintf(s->view, sizeof s->view, "%s", nm);
         break;
     }
-    case 258: /* TAB */
-        s->split = !s->split;
+    case 258: { /* TAB: off, noisy | denoised, denoiser A | B, front-end A | B */
+        int k = 0;
+        while (k < 4 && strcmp(split_modes[k], s->split_mode) != 0)
+            k++;
+        snprintf(s->split_mode, sizeof s->split_mode, "%s", split_modes[(k + 1) % 4]);
+        snprintf(s->split_denoiser, sizeof s->split_denoiser, "%s",
+                 strcmp(s->denoiser, "svgf") == 0 ? "asvgf" : "svgf");
+        snprintf(s->split_frontend, sizeof s->split_frontend, "%s",
+                 strcmp(s->frontend, "vk") == 0 ? "embree" : "vk");
         v->rebuild = true;
+        set_note(v, "split %s", s->split_mode);
         break;
+    }
     case 'O': v->show_overlay = !v->show_overlay; break;
     case 301: v->want_shot = true; break;    /* F12 */
     case 300: v->want_capture = true; break; /* F11 */
@@ -198,6 +237,7 @@ static void on_event(const vw_event *e, void *user)
     if (e->kind == VW_KEY)
         on_key(v, e->key, e->down);
     else if (e->kind == VW_MOUSE && e->drag) {
+        v->ref_spp = 0; /* (the reference starts again) */
         v->cam.yaw += 0.004 * e->dx;
         v->cam.pitch = fmax(-1.5, fmin(1.5, v->cam.pitch - 0.004 * e->dy));
     } else if (e->kind == VW_RESIZE) {
@@ -220,6 +260,13 @@ static void fly(viewer *v, double dt)
     }
     for (int k = 0; k < 3; k++)
         v->cam.position[k] += speed * m[k];
+    if (m[0] != 0 || m[1] != 0 || m[2] != 0)
+        v->ref_spp = 0;
+}
+
+static bool split(const app_view_state *s)
+{
+    return s->split_mode[0] && strcmp(s->split_mode, "off") != 0;
 }
 
 /* ---- the pipeline ------------------------------------------------------------------------------ */
@@ -236,6 +283,8 @@ static void close_pipeline(viewer *v)
     tnd_frame_destroy(&v->host);
     free(v->debug_px);
     v->debug_px = NULL;
+    free(v->ref_rgb);
+    v->ref_rgb = NULL;
 }
 
 /* render's options from the view state (one place: the viewer's frame is render's) */
@@ -245,6 +294,7 @@ static void options_of(const app_view_state *s, const char *denoiser, app_render
                            .precision = s->precision, .rt_api = "auto", .pipeline = "scene",
                            .taa = s->taa, .tonemap = s->tonemap, .exposure = s->exposure,
                            .bloom = s->bloom, .min_alpha = s->min_alpha, .bounces = s->bounces,
+                           .antilag = s->antilag, .exposure_bias = s->exposure_bias,
                            .atrous = s->atrous, .camera = s->camera, .fps = s->fps,
                            .size = {s->size[0], s->size[1]},
                            .env = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation}};
@@ -257,14 +307,21 @@ static tnd_result open_pipeline(viewer *v)
     app_view_state *s = &v->st;
     tnd_precision prec;
     TND_TRY(tnd_precision_parse(s->precision, &prec));
-    for (int i = 0; i < (s->split ? 2 : 1); i++) {
+    for (int i = 0; i < (split(s) ? 2 : 1); i++) {
+        /* the right half: the noisy input, the other denoiser, or the other front-end */
+        const char *dn = i == 0                                     ? s->denoiser
+                         : strcmp(s->split_mode, "noisy") == 0    ? "off"
+                         : strcmp(s->split_mode, "denoiser") == 0 ? s->split_denoiser
+                                                                    : s->denoiser;
         const char *plugin = NULL;
         dn_mode mode;
-        TND_TRY(app_denoiser_parse(i ? "off" : s->denoiser, &mode, &plugin));
+        TND_TRY(app_denoiser_parse(dn, &mode, &plugin));
         app_render_opts o;
-        options_of(s, i ? "off" : s->denoiser, &o);
+        options_of(s, dn, &o);
+        if (i == 1 && strcmp(s->split_mode, "frontend") == 0)
+            o.frontend = s->split_frontend;
         cmp_desc pd;
-        TND_TRY(app_pipeline_open(&o, v->scene, &v->vk, pl_frontend_needs_gpu(s->frontend), true,
+        TND_TRY(app_pipeline_open(&o, v->scene, &v->vk, pl_frontend_needs_gpu(o.frontend), true,
                                   prec, &mode, plugin, false, &v->fe[i], &v->chain[i], &pd));
         if (i == 0)
             v->dmode = mode;
@@ -278,13 +335,15 @@ static tnd_result open_pipeline(viewer *v)
                                                       .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                       .name = "view.debug"},
                              &v->debug));
-    if (!(v->debug_px = malloc((size_t)w * h * 16))) {
+    if (!(v->debug_px = malloc((size_t)w * h * 16)) ||
+        !(v->ref_rgb = malloc((size_t)w * h * 3 * sizeof(float)))) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
         goto fail;
     }
     TND_TRY(tnd_frame_create(w, h, &v->host));
     /* the history restarts: a new flight */
     s->path_len = 0;
+    v->ref_spp = 0;
     v->rebuild = false;
 fail:
     return res;
@@ -426,6 +485,29 @@ fail:
     return res;
 }
 
+/* A still camera's unbiased reference, 1, 2, 4, ... samples per pixel (each rendered afresh:
+ * the front-ends key their samples by index), shown with the current exposure and Reinhard. */
+static tnd_result progressive_reference(viewer *v)
+{
+    tnd_result res = TND_OK;
+    uint32_t w = v->st.size[0], h = v->st.size[1];
+    uint32_t spp = v->ref_spp ? (v->ref_spp < 4096 ? 2 * v->ref_spp : 4096) : 1;
+    if (spp != v->ref_spp) {
+        TND_TRY(pl_frontend_reference(v->fe[0], 0, spp, v->ref_rgb, NULL, NULL, NULL, NULL));
+        v->ref_spp = spp;
+    }
+    float exposure = 1.0f, log2_lum = 0.0f;
+    TND_TRY(cmp_exposure(pl_chain_post(v->chain[0]), &exposure, &log2_lum));
+    for (size_t q = 0; q < (size_t)w * h; q++) {
+        for (int k = 0; k < 3; k++)
+            v->debug_px[4 * q + k] = enc(exposure * v->ref_rgb[3 * q + k]);
+        v->debug_px[4 * q + 3] = 1.0f;
+    }
+    TND_TRY(tnd_image_upload(&v->vk, &v->debug, v->debug_px, (size_t)w * h * 16));
+fail:
+    return res;
+}
+
 /* ---- the overlay ------------------------------------------------------------------------------- */
 static void fill(uint8_t *px, int x0, int y0, int x1, int y1, const uint8_t c[4])
 {
@@ -473,8 +555,17 @@ static void draw_overlay(viewer *v, const char *device, double fps)
              s->bounces, s->precision, s->atrous ? s->atrous : 4, s->taa, s->tonemap, s->bloom);
     text(px, 4, y, line, fg);
     y += 10;
-    snprintf(line, sizeof line, "view %s%s   frame %u   history %u frames", vn,
-             s->split ? "  (split: noisy | denoised)" : "", v->frame, s->path_len);
+    char sp[200] = "";
+    if (split(s))
+        snprintf(sp, sizeof sp, "  split %.16s: %.40s | %.40s", s->split_mode,
+                 strcmp(s->split_mode, "frontend") == 0 ? s->frontend : s->denoiser,
+                 strcmp(s->split_mode, "frontend") == 0 ? s->split_frontend
+                 : strcmp(s->split_mode, "noisy") == 0  ? "off"
+                                                        : s->split_denoiser);
+    if (v->ref_on)
+        snprintf(sp, sizeof sp, "  reference %u spp (unbiased, Reinhard)", v->ref_spp);
+    snprintf(line, sizeof line, "view %s%s   frame %u   history %u frames", vn, sp, v->frame,
+             s->path_len);
     text(px, 4, y, line, fg);
     y += 10;
     snprintf(line, sizeof line,
@@ -493,7 +584,19 @@ static void draw_overlay(viewer *v, const char *device, double fps)
              v->cam.yaw * 180.0 / TND_PI, v->cam.pitch * 180.0 / TND_PI, v->note);
     text(px, 4, y, line, fg);
     y += 10;
-    text(px, 4, y, "WASD QE drag | 1 2 3 F [ ] P T K B , . | V TAB O | F12 F11 ESC", fg);
+    char feat[160] = "";
+    for (uint32_t b = 0, n = 0; b < TND_FEATURE_COUNT; b++)
+        if (v->scene->features & (1u << b))
+            n += (uint32_t)snprintf(feat + n, n < sizeof feat ? sizeof feat - n : 0, "%s%s",
+                                    n ? " " : "", tnd_feature_name(b));
+    snprintf(line, sizeof line, "min alpha %.2f  antilag %.1f  exposure bias %+.1f  env x%.2f "
+             "%.0f deg  scene: %s", s->min_alpha, s->antilag ? s->antilag : 1.0,
+             s->exposure_bias, s->env_intensity, s->env_rotation, feat);
+    text(px, 4, y, line, fg);
+    y += 10;
+    y += 10;
+    text(px, 4, y, "WASD QE drag | 1 2 3 F [ ] P T K B , . M G - = 7 8 9 0 | V TAB R O | F12 F11 ESC",
+         fg);
     /* the frame-time graph: the last frames' wall clock, 100 ms at full height */
     int gy = OVERLAY_H - 4, gh = 50;
     for (uint32_t i = 0; i < v->graph_n && i < GRAPH; i++) {
@@ -677,7 +780,7 @@ static tnd_result frame(viewer *v)
     TND_TRY(app_view_state_push(s, &v->cam));
     char cap[2200];
     snprintf(cap, sizeof cap, "%s/capture_%04u.exr", v->out, v->captures);
-    for (int i = 0; i < (s->split ? 2 : 1); i++) {
+    for (int i = 0; i < (split(s) ? 2 : 1); i++) {
         TND_TRY(pl_frontend_set_frame(v->fe[i], cur, prev, f, w, h));
         pl_step step = {.params = {.bounces = s->bounces},
                         .frame = dn_frame_for_camera(cur->camera.proj, h, f, first),
@@ -695,13 +798,14 @@ static tnd_result frame(viewer *v)
         v->captures++;
         v->want_capture = false;
     }
-    if (v->view)
+    bool shown_debug = v->view || v->ref_on;
+    if (v->ref_on && (pl_frontend_caps(v->fe[0]) & PL_CAP_REFERENCE))
+        TND_TRY(progressive_reference(v));
+    else if (v->view)
         TND_TRY(debug_view(v));
-    const tnd_image *a = v->view ? &v->debug : cmp_display_image(pl_chain_post(v->chain[0]));
-    const tnd_image *b = s->split ? cmp_display_image(pl_chain_post(v->chain[1])) : NULL;
-    if (s->split) /* noisy on the left, the denoised (or the view) on the right */
-        a = cmp_display_image(pl_chain_post(v->chain[1])),
-        b = v->view ? &v->debug : cmp_display_image(pl_chain_post(v->chain[0]));
+    /* A (the main pipeline, or its view) on the left, B on the right */
+    const tnd_image *a = shown_debug ? &v->debug : cmp_display_image(pl_chain_post(v->chain[0]));
+    const tnd_image *b = split(s) ? cmp_display_image(pl_chain_post(v->chain[1])) : NULL;
     TND_TRY(tnd_image_upload(&v->vk, &v->overlay, v->overlay_px,
                              (size_t)OVERLAY_W * OVERLAY_H * 4));
     TND_TRY(vw_compose_run(v->compose, a, b, (int)w / 2, &v->overlay, &v->shown));
@@ -755,6 +859,7 @@ int cmd_view(int argc, char **argv)
     snprintf(s->exposure, sizeof s->exposure, "auto");
     snprintf(s->env, sizeof s->env, "%s", env.path ? env.path : "");
     snprintf(s->view, sizeof s->view, "final");
+    snprintf(s->split_mode, sizeof s->split_mode, "off");
     bool from_state = false;
     if (state) { /* its settings, and its last camera */
         TND_TRY(app_view_state_read(state, s));
@@ -764,6 +869,8 @@ int cmd_view(int argc, char **argv)
         v->view = view_find(s->view);
     }
     v->out = out;
+    if (strncmp(s->frontend, "plugin:", 7) == 0)
+        memcpy(v->plugin_fe, s->frontend, sizeof v->plugin_fe);
     v->show_overlay = true;
     if (script) {
         TND_TRY(load_script(script, &events, &n_events));
@@ -815,6 +922,15 @@ int cmd_view(int argc, char **argv)
         if (w != s->size[0] || h != s->size[1]) {
             s->size[0] = w;
             s->size[1] = h;
+            v->rebuild = true;
+        }
+        if (v->reload) { /* the environment changed: the scene again */
+            close_pipeline(v);
+            tnd_scene_destroy(v->scene);
+            v->scene = NULL;
+            app_env e = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation};
+            TND_TRY(app_scene_load(s->scene, &e, &v->scene));
+            v->reload = false;
             v->rebuild = true;
         }
         if (v->rebuild)

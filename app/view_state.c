@@ -76,6 +76,8 @@ static const struct {
     F("scene", scene),         F("frontend", frontend), F("denoiser", denoiser),
     F("precision", precision), F("taa", taa),           F("tonemap", tonemap),
     F("exposure", exposure),   F("env", env),           F("view", view),
+    F("split", split_mode),    F("split_denoiser", split_denoiser),
+    F("split_frontend", split_frontend),
 #undef F
 };
 static const struct {
@@ -84,7 +86,8 @@ static const struct {
 } number_fields[] = {
 #define F(k, field) {k, offsetof(app_view_state, field)}
     F("min_alpha", min_alpha), F("bloom", bloom), F("fps", fps),
-    F("env_intensity", env_intensity), F("env_rotation", env_rotation),
+    F("env_intensity", env_intensity), F("env_rotation", env_rotation), F("antilag", antilag),
+    F("exposure_bias", exposure_bias),
 #undef F
 };
 static const struct {
@@ -111,7 +114,6 @@ tnd_result app_view_state_write(const char *path, const app_view_state *s)
     cJSON *size = cJSON_AddArrayToObject(j, "size");
     cJSON_AddItemToArray(size, cJSON_CreateNumber(s->size[0]));
     cJSON_AddItemToArray(size, cJSON_CreateNumber(s->size[1]));
-    cJSON_AddBoolToObject(j, "split", s->split);
     cJSON *p = cJSON_AddArrayToObject(j, "path");
     for (uint32_t i = 0; i < s->path_len; i++) {
         const app_view_cam *c = &s->path[i];
@@ -195,7 +197,6 @@ tnd_result app_view_state_read(const char *path, app_view_state *s)
         s->size[0] = (uint32_t)w->valuedouble;
         s->size[1] = (uint32_t)h->valuedouble;
     }
-    s->split = cJSON_IsTrue(cJSON_GetObjectItem(j, "split"));
     const cJSON *p = cJSON_GetObjectItem(j, "path"), *e;
     if (p && !cJSON_IsArray(p)) {
         res = bad(path, "\"path\": an array expected");

@@ -47,6 +47,11 @@ cat > "$TMP/session.json" <<'JSON'
   {"frame": 22, "key": "TAB"},
   {"frame": 22, "key": "F"},
   {"frame": 22, "key": "3"},
+  {"frame": 22, "key": "M"},
+  {"frame": 22, "key": "G"},
+  {"frame": 22, "key": "EQUAL"},
+  {"frame": 23, "key": "R"},
+  {"frame": 24, "key": "TAB"},
   {"frame": 26, "screenshot": true},
   {"frame": 27, "exit": true}
 ]}
@@ -63,14 +68,14 @@ d = sys.argv[1]
 for i in range(4):
     j = json.load(open(f"{d}/shot_{i:04d}.json"))
     print(i, j["size"][0], j["size"][1], j["denoiser"], j["frontend"], j["view"], j["split"],
-          len(j["path"]))
+          len(j["path"]), j["min_alpha"], j["antilag"], j["exposure_bias"])
 PYEOF
 cat "$TMP/states.txt"
-check "the states follow the session (resize, denoiser, view, split, front-end)" \
-    "grep -q '^0 160 90 asvgf vk final False 10$' '$TMP/states.txt' &&
-     grep -q '^1 200 120 svgf vk final False' '$TMP/states.txt' &&
-     grep -q '^2 200 120 svgf vk normal True' '$TMP/states.txt' &&
-     grep -q '^3 200 120 off embree normal False' '$TMP/states.txt'"
+check "the states follow the session (resize, denoiser, view, split, front-end, knobs)" \
+    "grep -q '^0 160 90 asvgf vk final off 10 0 0 0$' '$TMP/states.txt' &&
+     grep -q '^1 200 120 svgf vk final off 7 ' '$TMP/states.txt' &&
+     grep -q '^2 200 120 svgf vk normal noisy 3 ' '$TMP/states.txt' &&
+     grep -q '^3 200 120 off embree normal frontend 3 0.05 2 0.5$' '$TMP/states.txt'"
 
 # each screenshot's final image = render --view of its state
 for i in 0 1 2 3; do
