@@ -37,7 +37,7 @@ static const app_cmd view_cmd = {
     "[--script FILE] [--out DIR]",
     NULL};
 
-enum { GRAPH = 120, OVERLAY_W = 420, OVERLAY_H = 160 };
+enum { GRAPH = 120, OVERLAY_W = 600, OVERLAY_H = 180 };
 
 typedef struct script_event {
     uint32_t frame;
@@ -356,12 +356,12 @@ static float enc(float x) /* linear [0, inf) to display: Reinhard, then a 2.2 ga
     return powf(x, 1.0f / 2.2f);
 }
 
-static void hue(float h, float out[3]) /* h in [0, 1) around the colour wheel */
+static void hue(float h, float out[3]) /* h in [0, 1) around the colour wheel, 0 red */
 {
-    for (int k = 0; k < 3; k++) {
-        float t = fabsf(fmodf(h * 6.0f + (float)(4 - 2 * k) + 6.0f, 6.0f) - 3.0f) - 1.0f;
-        out[k] = fminf(1.0f, fmaxf(0.0f, t));
-    }
+    h = (h - floorf(h)) * 6.0f;
+    out[0] = fminf(1.0f, fmaxf(0.0f, fabsf(h - 3.0f) - 1.0f));
+    out[1] = fminf(1.0f, fmaxf(0.0f, 2.0f - fabsf(h - 2.0f)));
+    out[2] = fminf(1.0f, fmaxf(0.0f, 2.0f - fabsf(h - 4.0f)));
 }
 
 static void colour_id(uint32_t a, uint32_t b, float out[3])
@@ -386,8 +386,8 @@ static void false_colour(viewer *v, uint32_t view, const float *dump, uint32_t d
                 uint32_t dx = x * dw / w, dy = y * dh / h;
                 const float *d = dump + 4 * ((size_t)dy * dw + dx);
                 const char *nm = dn_dump_name(view - 1 - TND_CT_COUNT, NULL);
-                if (strcmp(nm, "temporal.hf") == 0) { /* the history length, 0 to 32 frames */
-                    hue(0.7f * (1.0f - fminf(d[3], 32.0f) / 32.0f), c);
+                if (strcmp(nm, "temporal.hf") == 0) { /* history length: 0 red .. 32+ green */
+                    hue(0.33f * fminf(d[3], 32.0f) / 32.0f, c);
                 } else if (strcmp(nm, "gradients") == 0) { /* |gradient| x 4, per signal */
                     for (int k = 0; k < 3; k++)
                         c[k] = fminf(1.0f, 4.0f * fabsf(d[k]));
@@ -597,11 +597,16 @@ static void draw_overlay(viewer *v, const char *device, double fps)
     y += 10;
     text(px, 4, y, "WASD QE drag | 1 2 3 F [ ] P T K B , . M G - = 7 8 9 0 | V TAB R O | F12 F11 ESC",
          fg);
-    /* the frame-time graph: the last frames' wall clock, 100 ms at full height */
+    /* the frame-time graph: the last frames' wall clock, full height a multiple of 50 ms */
     int gy = OVERLAY_H - 4, gh = 50;
+    double top = 50.0;
+    for (uint32_t i = 0; i < v->graph_n && i < GRAPH; i++)
+        top = fmax(top, 50.0 * ceil(v->graph[(v->graph_n - 1 - i) % GRAPH] / 50.0));
+    snprintf(line, sizeof line, "frame time, last %d frames: 0 - %.0f ms", GRAPH, top);
+    text(px, OVERLAY_W - 8 - 3 * GRAPH, gy - gh - 12, line, fg);
     for (uint32_t i = 0; i < v->graph_n && i < GRAPH; i++) {
         double ms = v->graph[(v->graph_n - 1 - i) % GRAPH];
-        int hgt = (int)fmin(gh, ms / 100.0 * gh);
+        int hgt = (int)fmin(gh, ms / top * gh);
         int x = OVERLAY_W - 8 - 3 * (int)i;
         fill(px, x, gy - hgt, x + 2, gy, ms > 33.4 ? hot : bar);
     }
@@ -911,7 +916,7 @@ int cmd_view(int argc, char **argv)
     char device[300];
     snprintf(device, sizeof device, "%s", v->vk.info.name);
     v->t_last = tnd_now();
-    double fps = 0, t_start = tnd_now();
+    double avg_dt = 0, t_start = tnd_now();
     while (!v->quit && vw_window_poll(v->win)) {
         if (v->scripted)
             TND_TRY(play(v, events, n_events, &next_event));
@@ -939,7 +944,8 @@ int cmd_view(int argc, char **argv)
         v->t_last = now;
         fly(v, v->scripted ? 1.0 / s->fps : fmin(dt, 0.1));
         v->graph[v->graph_n++ % GRAPH] = 1e3 * dt;
-        fps = dt > 0 ? 0.9 * fps + 0.1 / dt : fps;
+        avg_dt = avg_dt > 0 ? 0.9 * avg_dt + 0.1 * dt : dt;
+        double fps = avg_dt > 0 ? 1.0 / avg_dt : 0.0;
         if (v->show_overlay)
             draw_overlay(v, device, fps);
         else
