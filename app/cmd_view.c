@@ -9,6 +9,7 @@
  * and exits: the tests drive the window that way under Xvfb. */
 #include "app/app.h"
 #include "pipeline/pipeline.h"
+#include "shaders/shader_list.h"
 #include "viewer/viewer.h"
 
 #include <cjson/cJSON.h>
@@ -16,6 +17,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include <stb/stb_easy_font.h>
 
@@ -32,7 +34,8 @@ static const app_cmd view_cmd = {
     "the views (final, contract entries, back-end dumps), TAB the splits (noisy | denoised,\n"
     "denoiser A | B, front-end A | B), R a progressive reference of a still camera, O the\n"
     "overlay, F12 writes a screenshot (PNG, EXR and its repro state for `tandem render\n"
-    "--view`), F11 the next frame's capture, ESC quits.",
+    "--view`), F11 the next frame's capture, F5 reloads the shaders from $TANDEM_SHADER_DIR\n"
+    "(scripts/compile-shaders.sh), ESC quits.",
     "[--scene PATH] [--frontend NAME] [--denoiser MODE] [--size WxH] [--state FILE] "
     "[--script FILE] [--out DIR]",
     NULL};
@@ -41,7 +44,8 @@ enum { GRAPH = 120, OVERLAY_W = 600, OVERLAY_H = 180 };
 
 typedef struct script_event {
     uint32_t frame;
-    enum { EV_KEY, EV_TAP, EV_MOUSE, EV_RESIZE, EV_SHOT, EV_EXIT } kind;
+    enum { EV_KEY, EV_TAP, EV_MOUSE, EV_RESIZE, EV_SHOT, EV_EXIT, EV_WAIT } kind;
+    char path[1024]; /* EV_WAIT: the file to wait for */
     int key;
     bool down, drag;
     double dx, dy;
@@ -90,7 +94,7 @@ typedef struct viewer {
     tnd_frame host;
     tnd_scene_state ss[2];
     uint32_t frame, steps; /* the scene's frame index; frames shown since the start */
-    bool rebuild, reload, show_overlay, ref_on, quit, want_shot, want_capture;
+    bool rebuild, reload, reload_shaders, show_overlay, ref_on, quit, want_shot, want_capture;
     app_view_cam cam;
     bool keys[512];
     uint32_t view, ref_spp; /* ref_spp: the progressive reference's samples shown */
@@ -221,6 +225,10 @@ static void on_key(viewer *v, int key, bool down)
     case 'O': v->show_overlay = !v->show_overlay; break;
     case 301: v->want_shot = true; break;    /* F12 */
     case 300: v->want_capture = true; break; /* F11 */
+    case 294: /* F5: the shaders again from $TANDEM_SHADER_DIR */
+        v->reload_shaders = true;
+        v->rebuild = true;
+        break;
     case 256: v->quit = true; break;         /* ESC */
     default: break;
     }
@@ -595,7 +603,7 @@ static void draw_overlay(viewer *v, const char *device, double fps)
     text(px, 4, y, line, fg);
     y += 10;
     y += 10;
-    text(px, 4, y, "WASD QE drag | 1 2 3 F [ ] P T K B , . M G - = 7 8 9 0 | V TAB R O | F12 F11 ESC",
+    text(px, 4, y, "WASD QE drag | 1 2 3 F [ ] P T K B , . M G - = 7 8 9 0 | V TAB R O | F12 F11 F5 ESC",
          fg);
     /* the frame-time graph: the last frames' wall clock, full height a multiple of 50 ms */
     int gy = OVERLAY_H - 4, gh = 50;
@@ -709,10 +717,15 @@ static tnd_result load_script(const char *path, script_event **out, uint32_t *co
             s.kind = EV_SHOT;
         } else if (cJSON_IsTrue(cJSON_GetObjectItem(e, "exit"))) {
             s.kind = EV_EXIT;
+        } else if (cJSON_IsString(cJSON_GetObjectItem(e, "wait_for")) &&
+                   strlen(cJSON_GetObjectItem(e, "wait_for")->valuestring) < sizeof s.path) {
+            s.kind = EV_WAIT;
+            strcpy(s.path, cJSON_GetObjectItem(e, "wait_for")->valuestring);
         } else {
             res = tnd_fail(TND_ERR_BAD_INPUT,
                            "view script %s: event %u: one of key, mouse [dx, dy], resize [w, h] "
-                           "(16 or more), screenshot or exit expected", path, k);
+                           "(16 or more), screenshot, wait_for (a file) or exit expected", path,
+                           k);
             goto fail;
         }
         ev[k++] = s;
@@ -758,6 +771,19 @@ static tnd_result play(viewer *v, const script_event *ev, uint32_t n, uint32_t *
             break;
         }
         case EV_SHOT: v->want_shot = true; break;
+        case EV_WAIT: { /* until another process made the file (30 s at most) */
+            double t0 = tnd_now();
+            FILE *fp = NULL;
+            while (!(fp = fopen(e->path, "rb")) && tnd_now() - t0 < 30.0) {
+                vw_window_poll(v->win);
+                struct timespec ts = {0, 20 * 1000 * 1000};
+                nanosleep(&ts, NULL);
+            }
+            if (!fp)
+                return tnd_fail(TND_ERR_IO, "view: script: %s did not appear in 30 s", e->path);
+            fclose(fp);
+            break;
+        }
         case EV_EXIT: v->quit = true; break;
         }
     }
@@ -937,6 +963,19 @@ int cmd_view(int argc, char **argv)
             TND_TRY(app_scene_load(s->scene, &e, &v->scene));
             v->reload = false;
             v->rebuild = true;
+        }
+        if (v->reload_shaders) { /* every pipeline again, the compositor's too */
+            close_pipeline(v);
+            vw_compose_destroy(v->compose);
+            v->compose = NULL;
+            uint32_t n = tnd_spirv_reload();
+            char msg[64];
+            snprintf(msg, sizeof msg, "%u", n);
+            set_note(v, "%s shaders from TANDEM_SHADER_DIR", msg);
+            if (!app_quiet())
+                fprintf(stderr, "tandem: view: %s\n", v->note);
+            TND_TRY(vw_compose_create(&v->vk, &v->compose));
+            v->reload_shaders = false;
         }
         if (v->rebuild)
             TND_TRY(open_pipeline(v));

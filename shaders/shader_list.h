@@ -68,5 +68,8 @@ typedef enum tnd_shader {
 /* The SPIR-V of shader `id` (NULL if out of range); its size in bytes and source file name go to
  * the optional out-parameters. The code is static and lives for the whole program. */
 const uint32_t *tnd_spirv_code(tnd_shader id, size_t *bytes, const char **file);
+/* Read $TANDEM_SHADER_DIR's overrides again (scripts/compile-shaders.sh writes them): pipelines
+ * created after this use them (tandem view's F5). Returns how many shaders are overridden. */
+uint32_t tnd_spirv_reload(void);
 
 #endif

@@ -9,6 +9,7 @@
 #    the state's;
 #  - a repro state round-trips (--state, then a screenshot at once: the same settings, the path
 #    one frame longer at the same camera);
+#  - F5 reloads the shaders from $TANDEM_SHADER_DIR (an edited compositor inverts the window);
 #  - a bad script is refused by name.
 # The validation layer is on (the test's environment): an error fails the session.
 set -uo pipefail
@@ -110,6 +111,45 @@ for k in ("position", "yaw", "pitch"):
     assert pb[0][k] == pa[-1][k], (k, pb[0][k], pa[-1][k])
 PYEOF
 check "the repro state round-trips (settings equal, camera kept)" "[ $? -eq 0 ]"
+
+# F5: the shaders again from $TANDEM_SHADER_DIR (scripts/compile-shaders.sh). The session
+# starts with the directory empty (the embedded code), takes a screenshot, waits until the test
+# compiled an inverting view_compose.comp into it, reloads, takes another. The overlay is off, so
+# that what the window shows is the final image itself, then its inverse.
+mkdir -p "$TMP/spv"
+cp -r "$SRC/shaders" "$TMP/src"
+sed -i 's/imageStore(result, p, vec4(clamp(c, 0.0, 1.0), 1.0));/imageStore(result, p, vec4(1.0 - clamp(c, 0.0, 1.0), 1.0));/' \
+    "$TMP/src/view_compose.comp"
+grep -q '1.0 - clamp' "$TMP/src/view_compose.comp" || bad "the test could not edit view_compose.comp"
+cat > "$TMP/reload.json" <<JSON
+{"events": [{"frame": 0, "key": "O"}, {"frame": 3, "screenshot": true},
+  {"frame": 4, "wait_for": "$TMP/spv/ready"}, {"frame": 4, "key": "F5"},
+  {"frame": 7, "screenshot": true}, {"frame": 8, "exit": true}]}
+JSON
+TANDEM_SHADER_DIR="$TMP/spv" "${XVFB[@]}" "$T" view --scene "$SRC/data/scenes/cornell.gltf" \
+    --size 96x64 --script "$TMP/reload.json" --out "$TMP/reload" > "$TMP/reload.log" 2>&1 &
+vpid=$!
+for _ in $(seq 600); do [ -e "$TMP/reload/shot_0000.json" ] && break; sleep 0.1; done
+"$SRC/scripts/compile-shaders.sh" "$TMP/spv" "$TMP/src" view_compose > /dev/null && touch "$TMP/spv/ready"
+wait $vpid
+check "F5: exit 0, one shader reloaded" \
+    "grep -q '1 shaders from TANDEM_SHADER_DIR' '$TMP/reload.log'" || cat "$TMP/reload.log"
+$PY - "$TMP/reload" <<'PYEOF'
+import sys
+import numpy as np, OpenImageIO as oiio
+d = sys.argv[1]
+def rd(p):
+    i = oiio.ImageInput.open(p); a = i.read_image(format="uint8"); i.close(); return np.asarray(a, int)
+f0, v0 = rd(f"{d}/shot_0000.png"), rd(f"{d}/shot_0000.view.png")
+f1, v1 = rd(f"{d}/shot_0001.png"), rd(f"{d}/shot_0001.view.png")
+assert (v0 == f0).all(), "before: the window shows the final image"
+assert np.abs(v1 - (255 - f1)).max() <= 1, "after F5: its inverse"
+PYEOF
+check "F5: the window shows the final image, then (the edited shader) its inverse" "[ $? -eq 0 ]"
+"$T" render --view "$TMP/reload/shot_0001.json" --out "$TMP/reload_r" --quiet
+last=$($PY -c "import json; print(json.load(open('$TMP/reload/shot_0001.json'))['path'][-1]['frame'])")
+check "F5: the final image still equals render --view (only the compositor changed)" \
+    "cmp -s '$TMP/reload_r/$(printf frame_%04d "$last").png' '$TMP/reload/shot_0001.png'"
 
 # a bad script
 echo '{"events": [{"frame": 0, "key": "NOPE"}]}' > "$TMP/bad.json"
