@@ -28,7 +28,8 @@
 static const app_cmd view_cmd = {
     "view",
     "The pipeline live in a window: fly the camera (WASD, Q/E down/up, drag to look; shift\n"
-    "faster, control slower), change the knobs (1/2/3 asvgf/svgf/off, F front-end, [ ] bounces,\n"
+    "faster, control slower), change the knobs (1/2/3/4 asvgf/svgf/off/the denoiser plugin,\n"
+    "F front-end (vk, embree, the front-end plugin), [ ] bounces,\n"
     "P precision, T TAA, K tone curve, B bloom, , . a-trous iterations, M minimum alpha,\n"
     "G antilag gain, - = exposure bias, 7 8 environment rotation, 9 0 its intensity), V cycles\n"
     "the views (final, contract entries, back-end dumps), TAB the splits (noisy | denoised,\n"
@@ -100,6 +101,7 @@ typedef struct viewer {
     uint32_t view, ref_spp; /* ref_spp: the progressive reference's samples shown */
     float *ref_rgb;
     char plugin_fe[1100]; /* a front-end plugin given at the start (F cycles to it) */
+    char plugin_dn[1100]; /* a denoiser plugin given at the start (key 4) */
     double graph[GRAPH];
     uint32_t graph_n;
     pl_step_result last;
@@ -135,6 +137,10 @@ static void on_key(viewer *v, int key, bool down)
     case '1': dn = "asvgf"; break;
     case '2': dn = "svgf"; break;
     case '3': dn = "off"; break;
+    case '4': /* the denoiser plugin given at the start */
+        if (v->plugin_dn[0])
+            dn = v->plugin_dn;
+        break;
     case 'F': { /* vk -> embree (-> the plugin) -> vk */
         const char *next = strcmp(s->frontend, "vk") == 0       ? "embree"
                            : strcmp(s->frontend, "embree") == 0 && v->plugin_fe[0] ? v->plugin_fe
@@ -603,7 +609,7 @@ static void draw_overlay(viewer *v, const char *device, double fps)
     text(px, 4, y, line, fg);
     y += 10;
     y += 10;
-    text(px, 4, y, "WASD QE drag | 1 2 3 F [ ] P T K B , . M G - = 7 8 9 0 | V TAB R O | F12 F11 F5 ESC",
+    text(px, 4, y, "WASD QE drag | 1 2 3 4 F [ ] P T K B , . M G - = 7 8 9 0 | V TAB R O | F12 F11 F5 ESC",
          fg);
     /* the frame-time graph: the last frames' wall clock, full height a multiple of 50 ms */
     int gy = OVERLAY_H - 4, gh = 50;
@@ -902,6 +908,8 @@ int cmd_view(int argc, char **argv)
     v->out = out;
     if (strncmp(s->frontend, "plugin:", 7) == 0)
         memcpy(v->plugin_fe, s->frontend, sizeof v->plugin_fe);
+    if (strncmp(s->denoiser, "plugin:", 7) == 0)
+        memcpy(v->plugin_dn, s->denoiser, sizeof v->plugin_dn);
     v->show_overlay = true;
     if (script) {
         TND_TRY(load_script(script, &events, &n_events));
