@@ -10,7 +10,7 @@ ifeq ($(CI),true)
 CMAKE_FLAGS += -DTND_WERROR=ON
 endif
 
-.PHONY: all deps configure build build-asan demo test test-release test-asan install clean
+.PHONY: all deps configure build build-asan demo test test-release test-asan install fuzz clean
 
 all: build
 
@@ -44,9 +44,22 @@ test-release: build
 test-asan: build-asan
 	scripts/run-tests.sh $(ASAN_BUILD)
 
-# Both builds are made first, then every suite runs in both; one closing line counts them all.
+# Both builds are made first, then every suite runs in both; one closing line counts them all;
+# then every fuzz target runs for a minute.
 test: build build-asan
 	scripts/run-tests.sh $(BUILD) $(ASAN_BUILD)
+	$(MAKE) fuzz FUZZ_SECONDS=60
+
+# The readers under libFuzzer (clang; tests/fuzz/): FUZZ_SECONDS per target, FUZZ_TARGETS to
+# pick some. Its corpus grows in $(FUZZ_BUILD)/corpus; what it finds lands in artifacts/.
+FUZZ_BUILD   ?= build-fuzz
+FUZZ_SECONDS ?= 60
+FUZZ_TARGETS ?=
+fuzz: build
+	CC=clang cmake -S . -B $(FUZZ_BUILD) -DTND_FUZZ=ON -DTND_WERROR=OFF \
+		-DCMAKE_BUILD_TYPE=RelWithDebInfo
+	cmake --build $(FUZZ_BUILD) -j $(JOBS)
+	scripts/fuzz.sh $(FUZZ_BUILD) $(BUILD)/tandem $(FUZZ_SECONDS) $(FUZZ_TARGETS)
 
 # libtandem (shared and static), its headers, pkg-config file and CMake package, and the
 # tandem command, under PREFIX (default /usr/local): make install PREFIX=$$HOME/.local
@@ -55,4 +68,4 @@ install: build
 	cmake --install $(BUILD) --prefix $(PREFIX)
 
 clean:
-	rm -rf $(BUILD) $(ASAN_BUILD)
+	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)

@@ -20,12 +20,13 @@ export DEBIAN_FRONTEND=noninteractive
 # Cycles, the independent renderer tests/test_cycles.py compares the reference with;
 # assimp-testmodels: real glTF and OBJ models nobody here wrote; blender-data: real HDRIs from
 # HDRI Haven, CC0, in /usr/share/blender/datafiles/studiolights/world); GLFW for `tandem view`'s
-# window, Xvfb for its tests on a machine without a display).
+# window, Xvfb for its tests on a machine without a display; clang and its runtime for
+# libFuzzer, make fuzz).
 PKGS=(
     build-essential cmake pkg-config git
     libvulkan-dev glslang-tools vulkan-validationlayers vulkan-tools
     libembree-dev libtbb-dev libopenexr-dev libassimp-dev libcjson-dev libstb-dev
-    libglfw3-dev xvfb xauth
+    libglfw3-dev xvfb xauth clang libclang-rt-dev
     openexr openimageio-tools python3 ffmpeg
     python3-numpy python3-openimageio chromium
     blender blender-data assimp-testmodels

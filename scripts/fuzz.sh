@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# scripts/fuzz.sh FUZZ_BUILD TANDEM SECONDS [TARGET...]: run each fuzz target (default: all) for
+# SECONDS on its corpus (FUZZ_BUILD/corpus/<target>, seeded from tests/fuzz/seeds.sh the first
+# time) with its dictionary; crashes, leaks, timeouts and out-of-memory inputs go to
+# FUZZ_BUILD/artifacts/<target>/ and fail the run. One line per target: executions, coverage
+# (edges), features, corpus size, crashes. Leaks inside C++ libraries (assimp) are suppressed:
+# tests/fuzz/lsan.supp says why.
+set -uo pipefail
+B=$1 T=$2 SECONDS_EACH=$3
+shift 3
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(gltf obj capture mapping env)
+if [ ! -d "$B/corpus" ]; then
+    "$ROOT/tests/fuzz/seeds.sh" "$B/seeds" "$T" || exit 1
+    mkdir -p "$B/corpus"
+    for t in gltf obj capture mapping env; do cp -r "$B/seeds/$t" "$B/corpus/$t"; done
+fi
+export LSAN_OPTIONS="suppressions=$ROOT/tests/fuzz/lsan.supp"
+status=0
+summary="$B/fuzz-summary.txt"
+: > "$summary"
+for t in "${targets[@]}"; do
+    dict="$ROOT/tests/fuzz/$t.dict"
+    [ -f "$dict" ] || dict="$ROOT/tests/fuzz/exr.dict"
+    art="$B/artifacts/$t"
+    mkdir -p "$art" "$B/corpus/$t"
+    log="$B/fuzz-$t.log"
+    "$B/tests/fuzz/fuzz_$t" "$B/corpus/$t" -dict="$dict" -max_total_time="$SECONDS_EACH" \
+        -artifact_prefix="$art/" -print_final_stats=1 -rss_limit_mb=2048 -timeout=25 \
+        -report_slow_units=1000000 > "$log" 2>&1
+    rc=$?
+    execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
+    last=$(grep -E '^#[0-9]+' "$log" | tail -1)
+    cov=$(echo "$last" | sed -n 's/.*cov: \([0-9]*\).*/\1/p')
+    ft=$(echo "$last" | sed -n 's/.*ft: \([0-9]*\).*/\1/p')
+    corp=$(echo "$last" | sed -n 's/.*corp: \([0-9]*\)\/.*/\1/p')
+    found=$(ls "$art" | grep -cE '^(crash|leak|timeout|oom)-' || true)
+    line="fuzz $t: ${SECONDS_EACH} s, ${execs:-0} executions, cov ${cov:-?}, ft ${ft:-?}, corpus ${corp:-?}, crashes $found"
+    echo "$line" | tee -a "$summary"
+    if [ $rc -ne 0 ] || [ "$found" -ne 0 ]; then
+        status=1
+        grep -E 'ERROR|SUMMARY|Test unit written' "$log" | head -5
+    fi
+done
+exit $status
