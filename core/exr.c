@@ -227,6 +227,60 @@ void tnd_exr_close(tnd_exr_file *f)
     memset(f, 0, sizeof *f);
 }
 
+/* Every attribute of the (single-part) header fits in the file. OpenEXR 3.1's C++ reader trusts
+ * a declared size and allocates it before reading (a 3 KB file whose "Software" string says
+ * 1.9 GB took 2 GB: found by tests/fuzz/fuzz_env); OpenEXRCore had read the same header. */
+static tnd_result check_header_sizes(const char *path)
+{
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return tnd_fail(TND_ERR_IO, "exr: %s: cannot open", path);
+    tnd_result res = TND_OK;
+    long file_size = fseek(fp, 0, SEEK_END) == 0 ? ftell(fp) : -1;
+    if (file_size < 8 || fseek(fp, 8, SEEK_SET) != 0) { /* magic and version */
+        res = tnd_fail(TND_ERR_BAD_INPUT, "exr: %s: shorter than a header", path);
+        goto done;
+    }
+    for (int attr = 0;; attr++) {
+        char name[2][256];
+        for (int part = 0; part < 2; part++) { /* the attribute's name, then its type */
+            int len = 0, ch;
+            while ((ch = fgetc(fp)) > 0 && len < 255)
+                name[part][len++] = (char)ch;
+            name[part][len] = 0;
+            if (ch < 0 || (ch > 0 && len == 255)) {
+                res = tnd_fail(TND_ERR_BAD_INPUT, "exr: %s: header attribute %d: a name of "
+                               "more than 255 bytes or the file ends", path, attr);
+                goto done;
+            }
+            if (part == 0 && len == 0) /* the header's end */
+                goto done;
+        }
+        uint8_t b[4];
+        if (fread(b, 1, 4, fp) != 4) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "exr: %s: header attribute '%s': the file ends",
+                           path, name[0]);
+            goto done;
+        }
+        int64_t size = (int32_t)((uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 |
+                                 (uint32_t)b[3] << 24);
+        long at = ftell(fp);
+        if (size < 0 || at < 0 || size > (int64_t)file_size - at) {
+            res = tnd_fail(TND_ERR_BAD_INPUT,
+                           "exr: %s: header attribute '%s' (%s) declares %lld bytes, more than "
+                           "the file holds", path, name[0], name[1], (long long)size);
+            goto done;
+        }
+        if (fseek(fp, (long)size, SEEK_CUR) != 0) {
+            res = tnd_fail(TND_ERR_IO, "exr: %s: cannot seek", path);
+            goto done;
+        }
+    }
+done:
+    fclose(fp);
+    return res;
+}
+
 /* DWAA/DWAB, which OpenEXRCore 3.1 cannot decode (HDRIs come so: Blender's, HDRI Haven's): the
  * C interface of the C++ library's RGBA reader, for R, G, B and A (any other channel is
  * refused by name). It delivers half values; DWA is lossy and stores half precision anyway. */
@@ -245,6 +299,7 @@ static tnd_result read_rgba_imf(tnd_exr_file *f, int x0, int y0, const char *cod
                             f->path, codec, f->channels[c].name);
         dst[k] = &f->channels[c];
     }
+    TND_TRY_RETURN(check_header_sizes(f->path));
     size_t w = f->width, h = f->height;
     ImfRgba *px = malloc(w * h * sizeof *px);
     if (!px)
