@@ -378,8 +378,15 @@ tnd_result tnd_exr_read(const char *path, tnd_exr_file *f)
                                                      : TND_EXR_FLOAT;
         ch->x_sampling = e->x_sampling;
         ch->y_sampling = e->y_sampling;
-        if (e->x_sampling != 1 || e->y_sampling != 1)
-            continue; /* subsampled channels are listed but not loaded */
+        /* (OpenEXRCore 3.1 decodes into a null pointer when a subsampled channel is skipped:
+         * a 1x4 channel in an uncompressed file crashed it, found by tests/fuzz/fuzz_env) */
+        if (e->x_sampling != 1 || e->y_sampling != 1) {
+            res = tnd_fail(TND_ERR_UNSUPPORTED,
+                           "exr: %s: channel '%s' is subsampled (%dx%d): Tandem reads "
+                           "full-resolution channels only", path, ch->name, e->x_sampling,
+                           e->y_sampling);
+            goto fail;
+        }
         ch->data = calloc((size_t)w * (size_t)h, 4);
         if (!ch->data) {
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "exr: %s: out of memory", path);

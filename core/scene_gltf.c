@@ -21,7 +21,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <signal.h>
 #include <strings.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 /* The glTF extensions Tandem applies: the one list that the checks of extensionsRequired and
  * extensionsUsed and their messages read. */
@@ -959,13 +962,52 @@ static tnd_result ctx_begin(gltf_ctx *c, const char *path)
     return TND_OK;
 }
 
-/* assimp's import of the file, triangulated with smooth normals and tangents (plus `flags`);
- * refused when assimp fails or finds the scene incomplete (without meshes, when `meshes`). */
+/* assimp's import flags: triangulated with smooth normals and tangents (plus `flags`) */
+static unsigned import_flags(unsigned flags)
+{
+    return aiProcess_Triangulate | aiProcess_CalcTangentSpace | aiProcess_GenSmoothNormals |
+           aiProcess_ValidateDataStructure | flags;
+}
+
+/* The formats Tandem does not pre-parse (OBJ and MTL, FBX, ...) are imported once in a child
+ * process first: assimp 5.2.5's OBJ/MTL parser dereferences wild pointers on some malformed
+ * files (found by tests/fuzz/fuzz_obj), which would take Tandem down with it. A crash of the
+ * child refuses the file by name; a child that could not be made leaves the import as it was.
+ * (glTF is checked by Tandem's own pre-pass: JSON, buffers, accessors, indices.) */
+static tnd_result probe_import(const char *path, unsigned flags)
+{
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid < 0)
+        return TND_OK;
+    if (pid == 0) { /* the child: the import alone, its crash a plain signal */
+        signal(SIGSEGV, SIG_DFL);
+        signal(SIGBUS, SIG_DFL);
+        signal(SIGFPE, SIG_DFL);
+        signal(SIGILL, SIG_DFL);
+        signal(SIGABRT, SIG_DFL);
+        const struct aiScene *ai = aiImportFile(path, import_flags(flags));
+        _exit(ai ? 0 : 3);
+    }
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0)
+        ;
+    if (WIFSIGNALED(st))
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "scene: %s: malformed: the importer (assimp) crashed reading it (signal "
+                        "%d)", path, WTERMSIG(st));
+    if (WIFEXITED(st) && WEXITSTATUS(st) != 0 && WEXITSTATUS(st) != 3)
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "scene: %s: malformed: the importer (assimp) failed reading it (exit %d)",
+                        path, WEXITSTATUS(st));
+    return TND_OK;
+}
+
+/* assimp's import of the file; refused when assimp fails or finds the scene incomplete
+ * (without meshes, when `meshes`). */
 static tnd_result ctx_import(gltf_ctx *c, unsigned flags, bool meshes)
 {
-    c->ai = aiImportFile(c->path, aiProcess_Triangulate | aiProcess_CalcTangentSpace |
-                                      aiProcess_GenSmoothNormals |
-                                      aiProcess_ValidateDataStructure | flags);
+    c->ai = aiImportFile(c->path, import_flags(flags));
     if (!c->ai)
         return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: cannot import: %s", c->path,
                         aiGetErrorString());
@@ -1252,6 +1294,7 @@ tnd_result scene_load_assimp(const char *path, const tnd_scene_options *o, tnd_s
     const char *dot = strrchr(path, '.');
     if (dot && strcasecmp(dot, ".obj") == 0)
         warn_mtl(path, c.dir);
+    TND_TRY(probe_import(path, aiProcess_JoinIdenticalVertices));
     TND_TRY(ctx_import(&c, aiProcess_JoinIdenticalVertices, true));
     if (c.ai->mNumCameras || c.ai->mNumLights || c.ai->mNumAnimations)
         tnd_warn("scene", "%s: its %u camera(s), %u light(s) and %u animation(s) are not imported "
