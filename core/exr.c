@@ -13,6 +13,7 @@
 #include <ImfCRgbaFile.h>
 #include <openexr.h>
 #include <stddef.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -364,6 +365,23 @@ tnd_result tnd_exr_read(const char *path, tnd_exr_file *f)
     const exr_attr_chlist_t *chl = NULL;
     EXR_TRY(exr_get_channels(ctx, 0, &chl), "channels");
     f->channel_count = (uint32_t)chl->num_channels;
+    /* What the pixels take once read (4 bytes a channel) against what the file holds: no
+     * compression OpenEXR has packs more than some thousand to one, and a header may declare
+     * any size (a 1.8 KB file declaring 1.6 billion pixels asked for 6.6 GB: found by
+     * tests/fuzz/fuzz_env). 256 MiB are allowed whatever the file's size. */
+    FILE *fp = fopen(path, "rb");
+    long file_size = fp && fseek(fp, 0, SEEK_END) == 0 ? ftell(fp) : -1;
+    if (fp)
+        fclose(fp);
+    double need = (double)w * (double)h * 4.0 * (double)chl->num_channels;
+    double allowed = fmax(256.0 * 1048576.0, 2048.0 * (double)(file_size > 0 ? file_size : 0));
+    if (need > allowed) {
+        res = tnd_fail(TND_ERR_BAD_INPUT,
+                       "exr: %s: declares %lldx%lld pixels of %d channels (%.0f MB) in a file of "
+                       "%ld bytes: more than any compression packs", path, (long long)w,
+                       (long long)h, chl->num_channels, need / 1048576.0, file_size);
+        goto fail;
+    }
     f->channels = calloc(f->channel_count ? f->channel_count : 1, sizeof *f->channels);
     if (!f->channels) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "exr: %s: out of memory", path);

@@ -26,6 +26,7 @@ for t in "${targets[@]}"; do
     art="$B/artifacts/$t"
     mkdir -p "$art" "$B/corpus/$t"
     log="$B/fuzz-$t.log"
+    touch "$art/.start" # (artifacts of earlier runs stay; this run's are counted)
     extra=()
     # assimp's OBJ importer leaks on nearly every malformed input: a leak check each time takes
     # the target from hundreds of executions a second to one (docs/reliability.md)
@@ -40,7 +41,8 @@ for t in "${targets[@]}"; do
     cov=$(echo "$last" | sed -n 's/.*cov: \([0-9]*\).*/\1/p')
     ft=$(echo "$last" | sed -n 's/.*ft: \([0-9]*\).*/\1/p')
     corp=$(echo "$last" | sed -n 's/.*corp: \([0-9]*\)\/.*/\1/p')
-    found=$(ls "$art" | grep -cE '^(crash|leak|timeout|oom)-' || true)
+    found=$(find "$art" -newer "$art/.start" -type f \( -name 'crash-*' -o -name 'leak-*' \
+        -o -name 'timeout-*' -o -name 'oom-*' \) | wc -l)
     line="fuzz $t: ${SECONDS_EACH} s, ${execs:-0} executions, cov ${cov:-?}, ft ${ft:-?}, corpus ${corp:-?}, crashes $found"
     echo "$line" | tee -a "$summary"
     if [ $rc -ne 0 ] || [ "$found" -ne 0 ]; then
