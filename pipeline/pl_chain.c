@@ -189,6 +189,22 @@ fail:
     return res;
 }
 
+/* The frame in flight: wait for it, its GPU times into r (lagged: not this call's frame). */
+static tnd_result collect(pl_chain *c, pl_step_result *r)
+{
+    tnd_result res = TND_OK;
+    TND_TRY(dn_wait(c->dn, &r->dn));
+    if (c->post)
+        TND_TRY(cmp_wait(c->post, &r->post));
+    if (c->plugin) {
+        TND_TRY(plugin_settle(c));
+        r->plugin_ms = c->plugin_ms;
+    }
+    r->lagged = true;
+fail:
+    return res;
+}
+
 tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *hdr,
                         uint8_t *display, pl_step_result *r)
 {
@@ -265,16 +281,8 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     }
     /* the times of the frame in flight before this one, when it was not waited for */
     bool wait = !s->no_wait || hdr || display || s->after_backend;
-    if (c->in_flight && !wait) {
-        TND_TRY(dn_wait(c->dn, &r->dn));
-        if (c->post)
-            TND_TRY(cmp_wait(c->post, &r->post));
-        if (c->plugin) {
-            TND_TRY(plugin_settle(c));
-            r->plugin_ms = c->plugin_ms;
-        }
-        r->lagged = true;
-    }
+    if (c->in_flight && !wait)
+        TND_TRY(collect(c, r));
     c->in_flight = false;
     TND_TRY(dn_submit(c->dn, ct, &df));
     if (c->plugin)
@@ -311,16 +319,8 @@ tnd_result pl_chain_finish(pl_chain *c, pl_step_result *r)
     if (!r)
         r = &own;
     memset(r, 0, sizeof *r);
-    if (c->in_flight) {
-        TND_TRY(dn_wait(c->dn, &r->dn));
-        if (c->post)
-            TND_TRY(cmp_wait(c->post, &r->post));
-        if (c->plugin) {
-            TND_TRY(plugin_settle(c));
-            r->plugin_ms = c->plugin_ms;
-        }
-        r->lagged = true;
-    }
+    if (c->in_flight)
+        TND_TRY(collect(c, r));
     c->in_flight = false;
 fail:
     return res;

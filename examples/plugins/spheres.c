@@ -44,6 +44,23 @@ static void normalize3(float v[3])
         v[k] /= l;
 }
 
+static void cross3(const float a[3], const float b[3], float out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Two unit vectors a, b completing unit w to an orthonormal basis. */
+static void basis(const float w[3], float a[3], float b[3])
+{
+    const float helper[3] = {fabsf(w[0]) > 0.5f ? 0.0f : 1.0f, fabsf(w[0]) > 0.5f ? 1.0f : 0.0f,
+                             0.0f};
+    cross3(helper, w, a);
+    normalize3(a);
+    cross3(w, a, b);
+}
+
 /* A hash of (frame, pixel, sample, dimension) to [0, 1): the random numbers differ per frame and
  * per matched-reference sample, and repeat for the same key. */
 static float rnd(uint32_t frame, uint32_t pixel, uint32_t sample, uint32_t dim)
@@ -229,17 +246,9 @@ static int sp_render(void *ctx, const tandem_frame_settings *fs, tandem_host_fra
             uint32_t smp = fs->sample;
             float u1 = rnd(fs->frame_index, q, smp, 0), u2 = rnd(fs->frame_index, q, smp, 1);
             float ct = 1.0f - u1 * (1.0f - sun_cos_max), stt = sqrtf(1.0f - ct * ct);
-            float a[3], b[3], w[3], L[3];
-            memcpy(w, st->sun_dir, sizeof w);
-            float helper[3] = {fabsf(w[0]) > 0.5f ? 0.0f : 1.0f, fabsf(w[0]) > 0.5f ? 1.0f : 0.0f,
-                               0.0f};
-            a[0] = helper[1] * w[2] - helper[2] * w[1];
-            a[1] = helper[2] * w[0] - helper[0] * w[2];
-            a[2] = helper[0] * w[1] - helper[1] * w[0];
-            normalize3(a);
-            b[0] = w[1] * a[2] - w[2] * a[1];
-            b[1] = w[2] * a[0] - w[0] * a[2];
-            b[2] = w[0] * a[1] - w[1] * a[0];
+            float a[3], b[3], L[3];
+            const float *w = st->sun_dir;
+            basis(w, a, b);
             for (int k = 0; k < 3; k++)
                 L[k] = w[k] * ct + (a[k] * cosf(2 * PI * u2) + b[k] * sinf(2 * PI * u2)) * stt;
             float cosn = dot3(n, L), th;
@@ -252,15 +261,7 @@ static int sp_render(void *ctx, const tandem_frame_settings *fs, tandem_host_fra
             /* the sky: cosine-weighted, so that E / pi = the sky's radiance where it is seen */
             float v1 = rnd(fs->frame_index, q, smp, 2), v2 = rnd(fs->frame_index, q, smp, 3);
             float r = sqrtf(v1), phi = 2 * PI * v2, na[3], nb[3];
-            float h2[3] = {fabsf(n[0]) > 0.5f ? 0.0f : 1.0f, fabsf(n[0]) > 0.5f ? 1.0f : 0.0f,
-                           0.0f};
-            na[0] = h2[1] * n[2] - h2[2] * n[1];
-            na[1] = h2[2] * n[0] - h2[0] * n[2];
-            na[2] = h2[0] * n[1] - h2[1] * n[0];
-            normalize3(na);
-            nb[0] = n[1] * na[2] - n[2] * na[1];
-            nb[1] = n[2] * na[0] - n[0] * na[2];
-            nb[2] = n[0] * na[1] - n[1] * na[0];
+            basis(n, na, nb);
             float sd[3], zz = sqrtf(fmaxf(0.0f, 1.0f - v1));
             for (int k = 0; k < 3; k++)
                 sd[k] = na[k] * r * cosf(phi) + nb[k] * r * sinf(phi) + n[k] * zz;
