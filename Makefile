@@ -51,7 +51,7 @@ test: build build-asan
 	$(MAKE) fuzz FUZZ_SECONDS=60
 
 # The readers under libFuzzer (clang; tests/fuzz/): FUZZ_SECONDS per target, FUZZ_TARGETS to
-# pick some. Its corpus grows in $(FUZZ_BUILD)/corpus; what it finds lands in artifacts/.
+# pick some, FUZZ_JOBS targets at once (a long run: make fuzz FUZZ_SECONDS=3600 FUZZ_JOBS=5). Its corpus grows in $(FUZZ_BUILD)/corpus; what it finds lands in artifacts/.
 FUZZ_BUILD   ?= build-fuzz
 FUZZ_SECONDS ?= 60
 FUZZ_TARGETS ?=

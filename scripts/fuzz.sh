@@ -4,7 +4,8 @@
 # time) with its dictionary; crashes, leaks, timeouts and out-of-memory inputs go to
 # FUZZ_BUILD/artifacts/<target>/ and fail the run. One line per target: executions, coverage
 # (edges), features, corpus size, crashes. Leaks inside C++ libraries (assimp) are suppressed:
-# tests/fuzz/lsan.supp says why.
+# tests/fuzz/lsan.supp says why. FUZZ_JOBS=N runs N targets at once (each one process), so a long
+# run keeps every core busy; the lines come in the order of the targets either way.
 set -uo pipefail
 B=$1 T=$2 SECONDS_EACH=$3
 shift 3
@@ -20,7 +21,9 @@ export LSAN_OPTIONS="suppressions=$ROOT/tests/fuzz/lsan.supp"
 status=0
 summary="$B/fuzz-summary.txt"
 : > "$summary"
-for t in "${targets[@]}"; do
+jobs_max=${FUZZ_JOBS:-1}
+run_target() { # target: writes $B/fuzz-<target>.line, returns non-zero on any finding
+    local t=$1 dict art log extra rc execs last cov ft corp found line
     dict="$ROOT/tests/fuzz/$t.dict"
     [ -f "$dict" ] || dict="$ROOT/tests/fuzz/exr.dict"
     art="$B/artifacts/$t"
@@ -43,11 +46,30 @@ for t in "${targets[@]}"; do
     corp=$(echo "$last" | sed -n 's/.*corp: \([0-9]*\)\/.*/\1/p')
     found=$(find "$art" -newer "$art/.start" -type f \( -name 'crash-*' -o -name 'leak-*' \
         -o -name 'timeout-*' -o -name 'oom-*' \) | wc -l)
-    line="fuzz $t: ${SECONDS_EACH} s, ${execs:-0} executions, cov ${cov:-?}, ft ${ft:-?}, corpus ${corp:-?}, crashes $found"
-    echo "$line" | tee -a "$summary"
+    line="fuzz $t: ${SECONDS_EACH} s, ${execs:-0} executions, cov ${cov:-?}, ft ${ft:-?}"
+    line="$line, corpus ${corp:-?}, crashes $found"
     if [ $rc -ne 0 ] || [ "$found" -ne 0 ]; then
-        status=1
-        grep -E 'ERROR|SUMMARY|Test unit written' "$log" | head -5
+        line="$line"$'\n'"$(grep -E 'ERROR|SUMMARY|Test unit written' "$log" | head -5)"
+        echo "$line" > "$B/fuzz-$t.line"
+        return 1
     fi
+    echo "$line" > "$B/fuzz-$t.line"
+}
+running=0
+for t in "${targets[@]}"; do
+    rm -f "$B/fuzz-$t.line"
+    if [ "$jobs_max" -le 1 ]; then
+        run_target "$t" || status=1
+        cat "$B/fuzz-$t.line"
+        continue
+    fi
+    if [ $running -ge "$jobs_max" ]; then wait -n || status=1; running=$((running - 1)); fi
+    run_target "$t" &
+    running=$((running + 1))
+done
+while [ $running -gt 0 ]; do wait -n || status=1; running=$((running - 1)); done
+for t in "${targets[@]}"; do
+    [ "$jobs_max" -le 1 ] || cat "$B/fuzz-$t.line"
+    head -1 "$B/fuzz-$t.line" >> "$summary"
 done
 exit $status
