@@ -680,6 +680,33 @@ static void reference_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x
         reference_batch(c, j, &P, pixels);
 }
 
+tnd_result femb_reference_add(femb_context *c, uint32_t first, uint32_t count, double *sum_rgb,
+                              double *sum_lum2, tnd_ref_stats *stats,
+                              void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    size_t n = (size_t)c->width * c->height;
+    if (count == 0 || first > UINT32_MAX - count)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "embree: reference samples [%u, +%u): empty or "
+                        "past 2^32", first, count);
+    ref_job j = {0, sum_rgb, sum_lum2};
+    double until = stats ? stats->until_noise : 0.0;
+    uint32_t end = first + count, done = end;
+    for (uint32_t s = first; s < end; s++) {
+        j.sample = s;
+        femb_parallel_tiles(c, reference_tile, &j);
+        if (progress)
+            progress(s + 1 - first, count, user);
+        if (until > 0 && (s + 1) % TND_REF_CHECK_EVERY == 0 && s + 1 < end &&
+            tnd_ref_finish(j.sum, j.sum2, n, s + 1, NULL, NULL) < until) {
+            done = s + 1;
+            break;
+        }
+    }
+    if (stats)
+        stats->spp = done;
+    return TND_OK;
+}
+
 tnd_result femb_reference(femb_context *c, uint32_t spp, float *rgb, float *lum_se,
                           tnd_ref_stats *stats, void (*progress)(uint32_t, uint32_t, void *),
                           void *user)
@@ -687,30 +714,18 @@ tnd_result femb_reference(femb_context *c, uint32_t spp, float *rgb, float *lum_
     size_t n = (size_t)c->width * c->height;
     if (spp == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "embree: reference with 0 samples per pixel");
-    ref_job j = {0, calloc(3 * n, sizeof(double)), calloc(n, sizeof(double))};
-    if (!j.sum || !j.sum2) {
-        free(j.sum);
-        free(j.sum2);
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
+    double *sum = calloc(3 * n, sizeof(double)), *sum2 = calloc(n, sizeof(double));
+    tnd_ref_stats st = {.until_noise = stats ? stats->until_noise : 0.0};
+    tnd_result res = sum && sum2 ? TND_OK : tnd_fail(TND_ERR_OUT_OF_MEMORY, "embree: out of memory");
+    if (res == TND_OK)
+        res = femb_reference_add(c, 0, spp, sum, sum2, &st, progress, user);
+    if (res == TND_OK) {
+        st.rel_error = tnd_ref_finish(sum, sum2, n, st.spp, rgb, lum_se);
+        if (stats)
+            *stats = st;
     }
-    double until = stats ? stats->until_noise : 0.0;
-    uint32_t done = spp;
-    for (uint32_t s = 0; s < spp; s++) {
-        j.sample = s;
-        femb_parallel_tiles(c, reference_tile, &j);
-        if (progress)
-            progress(s + 1, spp, user);
-        if (until > 0 && (s + 1) % TND_REF_CHECK_EVERY == 0 && s + 1 < spp &&
-            tnd_ref_finish(j.sum, j.sum2, n, s + 1, NULL, NULL) < until) {
-            done = s + 1;
-            break;
-        }
-    }
-    double err = tnd_ref_finish(j.sum, j.sum2, n, done, rgb, lum_se);
-    if (stats)
-        stats->spp = done, stats->rel_error = err;
-    free(j.sum);
-    free(j.sum2);
-    return TND_OK;
+    free(sum);
+    free(sum2);
+    return res;
 }
 

@@ -95,6 +95,15 @@ void femb_set_reference_bounces(femb_context *ctx, uint32_t bounces);
 tnd_result femb_reference(femb_context *ctx, uint32_t spp, float *rgb, float *lum_se,
                           tnd_ref_stats *stats, void (*progress)(uint32_t, uint32_t, void *),
                           void *user);
+/* The same samples one range at a time (shards of a reference): samples [first, first + count)
+ * added to per-pixel sums of their RGB (3 doubles per pixel) and luminance^2 (1 per pixel),
+ * one sample after another, in the order femb_reference adds them. With stats->until_noise,
+ * stops early as femb_reference does (the sums hold samples [0, first) before); stats->spp:
+ * the samples the sums hold after. */
+tnd_result femb_reference_add(femb_context *ctx, uint32_t first, uint32_t count,
+                              double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
+                              void (*progress)(uint32_t done, uint32_t total, void *user),
+                              void *user);
 
 /* Benchmark: the front-end's rays per frame and their raw rate. Records every ray of one
  * primary + shading pass (untimed), then times, `repeats` times in turn: a frame through

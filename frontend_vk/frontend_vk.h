@@ -119,6 +119,14 @@ void fvk_set_reference_bounces(fvk_context *ctx, uint32_t bounces);
 tnd_result fvk_reference(fvk_context *ctx, uint32_t spp, float *rgb, float *lum_se,
                          tnd_ref_stats *stats,
                          void (*progress)(uint32_t done, uint32_t total, void *user), void *user);
+/* As femb_reference_add: samples [first, first + count) added to per-pixel double sums (RGB,
+ * luminance^2). The GPU sums each batch (the samples between multiples of TND_REF_CHECK_EVERY)
+ * in float, from zero, and the host adds the batches in double: a range split at multiples of
+ * TND_REF_CHECK_EVERY sums every batch as the whole range does. */
+tnd_result fvk_reference_add(fvk_context *ctx, uint32_t first, uint32_t count, double *sum_rgb,
+                             double *sum_lum2, tnd_ref_stats *stats,
+                             void (*progress)(uint32_t done, uint32_t total, void *user),
+                             void *user);
 /* The API the passes use (after AUTO was resolved). */
 fvk_rt_api fvk_api(const fvk_context *ctx);
 /* The contract images of the last render. */

@@ -36,7 +36,8 @@ static tnd_result create_layouts(fvk_context *c)
                                            .pBindings = b0};
     TND_VK_TRY(vkCreateDescriptorSetLayout(vk->device, &ci0, NULL, &c->set_layout[0]));
     TND_TRY(tnd_contract_set_layout(vk, rt, &c->set_layout[1]));
-    VkPushConstantRange pcr = {VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT, 0, 4};
+    /* (8 bytes: the reference's sample and its batch's first; the passes read the first 4) */
+    VkPushConstantRange pcr = {VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT, 0, 8};
     VkPipelineLayoutCreateInfo pci = {.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
                                       .setLayoutCount = 2,
                                       .pSetLayouts = c->set_layout,
@@ -515,68 +516,76 @@ void fvk_set_reference_bounces(fvk_context *c, uint32_t bounces)
     c->ref_bounces = bounces;
 }
 
-/* The statistics of the accumulation image (RGB sums, luminance^2 sum) after `spp` samples,
- * through core's tnd_ref_finish (the same formulas as Embree's reference). */
-static double reference_stats(const float *a, size_t n, uint32_t spp, double *sums, float *rgb,
-                              float *lum_se)
+tnd_result fvk_reference_add(fvk_context *c, uint32_t first, uint32_t count, double *sum_rgb,
+                             double *sum_lum2, tnd_ref_stats *stats,
+                             void (*progress)(uint32_t, uint32_t, void *), void *user)
 {
-    double *s2 = sums + 3 * n;
-    for (size_t q = 0; q < n; q++) {
-        for (int k = 0; k < 3; k++)
-            sums[3 * q + k] = a[4 * q + k];
-        s2[q] = a[4 * q + 3];
+    tnd_result res = TND_OK;
+    if (!c->have_frame || count == 0 || first > UINT32_MAX - count)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: reference needs a frame and "
+                        "samples [%u, +%u) below 2^32", first, count);
+    size_t n = (size_t)c->width * c->height;
+    float *acc = malloc(n * 16);
+    if (!acc)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+    ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.x = c->ref_bounces; /* (0: full paths) */
+    const uint32_t batch = TND_REF_CHECK_EVERY;
+    double until = stats ? stats->until_noise : 0.0;
+    uint32_t end = first + count, done = end;
+    for (uint32_t b0 = first; b0 < end;) {
+        /* a batch: samples up to the next multiple of `batch` (wherever a range starts, sample s
+         * falls in the same batch), summed in float on the GPU, then added to the sums */
+        uint32_t b1 = (b0 / batch + 1) * batch < end ? (b0 / batch + 1) * batch : end;
+        VkCommandBuffer cmd;
+        TND_TRY(tnd_cmd_begin(c->vk, &cmd));
+        bind_all(c, cmd, 0);
+        for (uint32_t s = b0; s < b1; s++) {
+            uint32_t pc[2] = {s, b0};
+            vkCmdPushConstants(cmd, c->layout,
+                               VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT, 0, 8, pc);
+            launch(c, cmd, 2, c->width, c->height, false);
+            tnd_cmd_barrier(cmd);
+        }
+        TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+        TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
+        for (size_t q = 0; q < n; q++) {
+            for (int k = 0; k < 3; k++)
+                sum_rgb[3 * q + k] += acc[4 * q + k];
+            sum_lum2[q] += acc[4 * q + 3];
+        }
+        if (progress)
+            progress(b1 - first, count, user);
+        b0 = b1;
+        if (until > 0 && b1 % batch == 0 && b1 < end &&
+            tnd_ref_finish(sum_rgb, sum_lum2, n, b1, NULL, NULL) < until) {
+            done = b1;
+            break;
+        }
     }
-    return tnd_ref_finish(sums, s2, n, spp, rgb, lum_se);
+    if (stats)
+        stats->spp = done;
+fail:
+    free(acc);
+    return res;
 }
 
 tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se,
                          tnd_ref_stats *stats, void (*progress)(uint32_t, uint32_t, void *),
                          void *user)
 {
-    tnd_result res = TND_OK;
-    float *acc = NULL;
-    if (!c->have_frame || spp == 0)
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: reference needs a frame and spp > 0");
     size_t n = (size_t)c->width * c->height;
-    acc = malloc(n * 16);
-    double *sums = malloc(n * 4 * sizeof *sums);
-    if (!acc || !sums) {
-        free(acc);
-        free(sums);
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+    double *sum = calloc(3 * n, sizeof(double)), *sum2 = calloc(n, sizeof(double));
+    tnd_ref_stats st = {.until_noise = stats ? stats->until_noise : 0.0};
+    tnd_result res = sum && sum2 ? TND_OK
+                                 : tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+    if (res == TND_OK)
+        res = fvk_reference_add(c, 0, spp, sum, sum2, &st, progress, user);
+    if (res == TND_OK) {
+        st.rel_error = tnd_ref_finish(sum, sum2, n, st.spp, rgb, lum_se);
+        if (stats)
+            *stats = st;
     }
-    ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.x = c->ref_bounces; /* (0: full paths) */
-    const uint32_t batch = TND_REF_CHECK_EVERY;
-    double until = stats ? stats->until_noise : 0.0;
-    uint32_t done = spp;
-    for (uint32_t s0 = 0; s0 < spp; s0 += batch) {
-        VkCommandBuffer cmd;
-        TND_TRY(tnd_cmd_begin(c->vk, &cmd));
-        bind_all(c, cmd, 0);
-        for (uint32_t s = s0; s < s0 + batch && s < spp; s++) {
-            vkCmdPushConstants(cmd, c->layout,
-                               VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &s);
-            launch(c, cmd, 2, c->width, c->height, false);
-            tnd_cmd_barrier(cmd);
-        }
-        TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
-        uint32_t taken = s0 + batch < spp ? s0 + batch : spp;
-        if (progress)
-            progress(taken, spp, user);
-        if (until > 0 && taken < spp) {
-            TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
-            if (reference_stats(acc, n, taken, sums, NULL, NULL) < until) {
-                done = taken;
-                break;
-            }
-        }
-    }
-    TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
-    double err = reference_stats(acc, n, done, sums, rgb, lum_se);
-    if (stats)
-        stats->spp = done, stats->rel_error = err;
-fail:
-    free(acc);
-    free(sums);
+    free(sum);
+    free(sum2);
     return res;
 }

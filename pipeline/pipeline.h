@@ -106,7 +106,17 @@ tnd_result pl_frontend_benchmark(pl_frontend *fe, const pl_params *p, uint32_t r
                                  pl_bench *out);
 /* A CPU front-end's threads and instruction set (0 and NULL for a GPU one). */
 void pl_frontend_cpu(const pl_frontend *fe, uint32_t *threads, const char **simd);
-/* An unbiased reference of the current frame (max_bounces 0: full paths). */
+/* Samples [first, first + count) of an unbiased reference of the current frame (max_bounces 0:
+ * full paths) added to per-pixel double sums of RGB (3 per pixel) and luminance^2 (1 per pixel)
+ * (femb_reference_add: a range split at multiples of TND_REF_CHECK_EVERY adds up as the whole
+ * range); stats->until_noise stops early, stats->spp: the samples the sums hold after. */
+tnd_result pl_frontend_reference_add(pl_frontend *fe, uint32_t max_bounces, uint32_t first,
+                                     uint32_t count, double *sum_rgb, double *sum_lum2,
+                                     tnd_ref_stats *stats,
+                                     void (*progress)(uint32_t done, uint32_t total, void *user),
+                                     void *user);
+/* An unbiased reference of the current frame (max_bounces 0: full paths), finished: the mean in
+ * rgb, each pixel's standard error in lum_se (optional), stats (optional) as tnd_ref_finish. */
 tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t spp, float *rgb,
                                  float *lum_se, tnd_ref_stats *stats,
                                  void (*progress)(uint32_t done, uint32_t total, void *user),

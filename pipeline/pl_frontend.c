@@ -17,6 +17,7 @@ struct pl_frontend {
     void *ctx;
     pl_camera cam;
     bool have_cam;
+    uint32_t width, height; /* the frame's, as set */
 };
 
 void pl_camera_from_states(const tnd_scene_state *cur, const tnd_scene_state *prev,
@@ -154,13 +155,13 @@ static tnd_result vk_reshade_slots(void *ctx, const pl_params *p, VkBuffer slots
     return res;
 }
 
-static tnd_result vk_reference(void *ctx, uint32_t max_bounces, uint32_t spp, float *rgb,
-                               float *lum_se, tnd_ref_stats *stats,
+static tnd_result vk_reference(void *ctx, uint32_t max_bounces, uint32_t first, uint32_t count,
+                               double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
                                void (*progress)(uint32_t, uint32_t, void *), void *user)
 {
     vk_fe *v = ctx;
     fvk_set_reference_bounces(v->gv, max_bounces);
-    return fvk_reference(v->gv, spp, rgb, lum_se, stats, progress, user);
+    return fvk_reference_add(v->gv, first, count, sum_rgb, sum_lum2, stats, progress, user);
 }
 
 static const pl_frontend_ops vk_ops = {
@@ -276,13 +277,13 @@ static tnd_result emb_reshade(void *ctx, const pl_params *p, const uint32_t *wor
     return res;
 }
 
-static tnd_result emb_reference(void *ctx, uint32_t max_bounces, uint32_t spp, float *rgb,
-                                float *lum_se, tnd_ref_stats *stats,
-                                void (*progress)(uint32_t, uint32_t, void *), void *user)
+static tnd_result emb_reference(void *ctx, uint32_t max_bounces, uint32_t first, uint32_t count,
+                               double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
+                               void (*progress)(uint32_t, uint32_t, void *), void *user)
 {
     emb_fe *e = ctx;
     femb_set_reference_bounces(e->fe, max_bounces);
-    return femb_reference(e->fe, spp, rgb, lum_se, stats, progress, user);
+    return femb_reference_add(e->fe, first, count, sum_rgb, sum_lum2, stats, progress, user);
 }
 
 static tnd_result emb_benchmark(void *ctx, const pl_params *p, uint32_t repeats, pl_bench *out)
@@ -419,6 +420,8 @@ tnd_result pl_frontend_set_frame(pl_frontend *fe, const tnd_scene_state *cur,
                                  uint32_t height)
 {
     fe->have_cam = cur != NULL; /* (a recorded front-end's frames carry their cameras) */
+    fe->width = width;
+    fe->height = height;
     if (cur)
         pl_camera_from_states(cur, prev, frame, &fe->cam);
     return fe->ops->set_frame(fe->ctx, cur, prev, frame, width, height);
@@ -457,14 +460,36 @@ tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuff
     return fe->ops->reshade_slots(fe->ctx, p, slots, count, t);
 }
 
-tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t spp, float *rgb,
-                                 float *lum_se, tnd_ref_stats *stats,
-                                 void (*progress)(uint32_t, uint32_t, void *), void *user)
+tnd_result pl_frontend_reference_add(pl_frontend *fe, uint32_t max_bounces, uint32_t first,
+                                     uint32_t count, double *sum_rgb, double *sum_lum2,
+                                     tnd_ref_stats *stats,
+                                     void (*progress)(uint32_t, uint32_t, void *), void *user)
 {
     if (!(fe->ops->caps & PL_CAP_REFERENCE))
         return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' renders no reference",
                         fe->ops->name);
-    return fe->ops->reference(fe->ctx, max_bounces, spp, rgb, lum_se, stats, progress, user);
+    return fe->ops->reference(fe->ctx, max_bounces, first, count, sum_rgb, sum_lum2, stats,
+                              progress, user);
+}
+
+tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t spp, float *rgb,
+                                 float *lum_se, tnd_ref_stats *stats,
+                                 void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    size_t n = (size_t)fe->width * fe->height;
+    double *sum = calloc(3 * n, sizeof(double)), *sum2 = calloc(n, sizeof(double));
+    tnd_ref_stats st = {.until_noise = stats ? stats->until_noise : 0.0};
+    tnd_result res = sum && sum2 ? TND_OK : tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+    if (res == TND_OK)
+        res = pl_frontend_reference_add(fe, max_bounces, 0, spp, sum, sum2, &st, progress, user);
+    if (res == TND_OK) {
+        st.rel_error = tnd_ref_finish(sum, sum2, n, st.spp, rgb, lum_se);
+        if (stats)
+            *stats = st;
+    }
+    free(sum);
+    free(sum2);
+    return res;
 }
 
 tnd_result pl_frontend_benchmark(pl_frontend *fe, const pl_params *p, uint32_t repeats,

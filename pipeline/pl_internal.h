@@ -23,8 +23,8 @@ typedef struct pl_frontend_ops {
                           tnd_frame *host, pl_timings *t);
     tnd_result (*reshade_slots)(void *ctx, const pl_params *p, VkBuffer slots, uint32_t n,
                                 pl_timings *t);
-    tnd_result (*reference)(void *ctx, uint32_t max_bounces, uint32_t spp, float *rgb,
-                            float *lum_se, tnd_ref_stats *stats,
+    tnd_result (*reference)(void *ctx, uint32_t max_bounces, uint32_t first, uint32_t count,
+                            double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
                             void (*progress)(uint32_t, uint32_t, void *), void *user);
     tnd_result (*benchmark)(void *ctx, const pl_params *p, uint32_t repeats, pl_bench *out);
     void (*cpu)(const void *ctx, uint32_t *threads, const char **simd);
