@@ -127,6 +127,7 @@ typedef struct app_render_opts {
     bool capture, video;
     app_env env;
     const app_view_state *view; /* --view FILE: its settings and camera path */
+    const char *shard;          /* reference --shard I/N */
 } app_render_opts;
 struct pl_frontend;
 struct pl_chain;
@@ -232,6 +233,38 @@ void app_eval_free(app_eval *e);
 char *app_eval_regions_json(const app_eval *e, uint32_t i);
 void app_eval_regions_html(const app_eval *e, ev_text *t);
 
+/* ---- references, their shards and merging them (app/reference.c) ------------------------- */
+/* What a reference's own noise adds to a relMSE measured against it: the mean over pixels of
+ * se^2 / (mean^2 + eps), from the luminance's standard error (eval's relMSE denominator). */
+double app_ref_noise_relmse(const float *rgb, const float *lum_se, size_t n);
+/* DIR/reference.json: the estimator and, per frame, the samples taken and the remaining noise. */
+tnd_result app_ref_json_write(const app_render_opts *o, const char *device,
+                              const tnd_ref_stats *rs, const double *noise);
+/* Frame i of the path from its sums over rs->spp samples: the mean and standard errors (into
+ * rgb, lum_se), rs->rel_error, *noise, and DIR/frame_NNNN.exr and .png. */
+tnd_result app_ref_frame_finish(const app_render_opts *o, unsigned i, const double *sum_rgb,
+                                const double *sum_lum2, float *rgb, float *lum_se,
+                                tnd_ref_stats *rs, double *noise);
+/* Part of a reference's work: samples [first, first + count) of frame `index` of the path. */
+typedef struct app_shard_part {
+    uint32_t index, first, count;
+} app_shard_part;
+/* --shard I/N */
+tnd_result app_shard_parse(const char *text, uint32_t *shard, uint32_t *shards);
+/* Shard `shard` of `shards` over frames x spp samples (parts: room for `frames`): whole frames
+ * while there are at least as many frames as shards, otherwise even runs of batches of
+ * TND_REF_CHECK_EVERY samples (frame by frame), so that shards add up as one run does. */
+tnd_result app_shard_plan(uint32_t frames, uint32_t spp, uint32_t shard, uint32_t shards,
+                          app_shard_part *parts, uint32_t *count);
+/* DIR/frame_NNNN.sums: one part's per-pixel sums (written whole or not at all). */
+tnd_result app_shard_sums_write(const char *dir, uint32_t w, uint32_t h, uint32_t frame,
+                                uint32_t first, uint32_t samples, const double *sum_rgb,
+                                const double *sum_lum2);
+/* DIR/shard.json: the settings the shard belongs to and its parts (samples taken: taken[k]). */
+tnd_result app_shard_json_write(const app_render_opts *o, const char *device, uint64_t digest,
+                                uint32_t shard, uint32_t shards, const app_shard_part *parts,
+                                const uint32_t *taken, uint32_t count);
+
 /* ---- commands ------------------------------------------------------------------------------- */
 int cmd_info(int argc, char **argv);
 int cmd_contract(int argc, char **argv);
@@ -243,6 +276,7 @@ int cmd_compare(int argc, char **argv);
 int cmd_denoise(int argc, char **argv);
 int cmd_convert(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
+int cmd_merge(int argc, char **argv);
 /* `tandem bench --sweep` (app/cmd_sweep.c) */
 int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
               unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup);

@@ -34,7 +34,8 @@ static const app_cmd reference_cmd = {
     "unbiased path tracer (default), or with --estimator realtime the converged expectation of\n"
     "the real-time estimator `render` runs with the same --bounces and --reflect-depth (a\n"
     "matched reference: what a denoiser of that estimator can reach at best).",
-    "--out DIR [--scene PATH] [--frontend embree] [--frames N] [--size WxH] [--spp K]", NULL};
+    "--out DIR [--scene PATH] [--frontend embree] [--frames N] [--size WxH] [--spp K] "
+    "[--shard I/N]", NULL};
 
 /* render --view FILE: the viewer's settings and camera path (lives for the run) */
 static app_view_state view_state;
@@ -158,6 +159,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"until-noise", APP_OPT_FLOAT, &o->until_noise, "P",
          "stop each frame once its mean relative standard error is below P (checked every 16 "
          "samples; --spp stays the most)"},
+        {"shard", APP_OPT_STRING, &o->shard, "I/N",
+         "render part I of N of the work (whole frames, or sample ranges when there are fewer "
+         "frames than shards) as per-pixel sums and shard.json in DIR; tandem merge adds the "
+         "shards up to the frames one run writes (docs/cluster.md)"},
         APP_ENV_OPTS(&o->env),
         {0},
     };
@@ -228,35 +233,34 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
 
 typedef struct ref_progress {
     app_progress *bar;
-    uint32_t frame, frames;
+    uint64_t base; /* samples taken before this part */
 } ref_progress;
 
 static void on_ref_progress(uint32_t done, uint32_t total, void *user)
 {
     ref_progress *p = user;
-    app_progress_step(p->bar, p->frame * total + done);
-    (void)p->frames;
+    app_progress_step(p->bar, (unsigned)(p->base + done));
+    (void)total;
 }
 
-/* A matched reference of the current frame: spp samples of the real-time estimator, sample s
- * drawing the sample word tnd_reference_sample(s) and one pixel offset for the whole image
- * (uniform in the pixel, so that over the samples each pixel's area is integrated as the
- * unbiased reference does), composited as `render --denoiser off` does (composite and
- * interleave) and averaged; stops early as stats->until_noise says. */
-static tnd_result matched_reference(pl_frontend *fr, const render_opts *o, unsigned f,
-                                    tnd_frame *frame, float *rgb, float *lum_se,
-                                    tnd_ref_stats *stats, ref_progress *rp)
+/* Samples [first, first + count) of a matched reference of the current frame, added to the
+ * per-pixel sums (RGB, luminance^2): sample s draws the sample word tnd_reference_sample(s) and
+ * one pixel offset for the whole image (uniform in the pixel, so that over the samples each
+ * pixel's area is integrated as the unbiased reference does), composited as `render --denoiser
+ * off` does (composite and interleave); stops early as stats->until_noise says (stats->spp: the
+ * samples the sums hold after). */
+static tnd_result matched_reference_add(pl_frontend *fr, const render_opts *o, unsigned f,
+                                        tnd_frame *frame, uint32_t first, uint32_t count,
+                                        double *sum, double *sum2, tnd_ref_stats *stats,
+                                        ref_progress *rp)
 {
     tnd_result res = TND_OK;
     size_t n = (size_t)o->size[0] * o->size[1];
-    double *sum = calloc(3 * n, sizeof *sum), *sum2 = calloc(n, sizeof *sum2);
     float *one = malloc(3 * n * sizeof *one);
-    uint32_t done = o->spp;
-    if (!sum || !sum2 || !one) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "reference: out of memory");
-        goto fail;
-    }
-    for (uint32_t s = 0; s < o->spp; s++) {
+    uint32_t end = first + count, done = end;
+    if (!one)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "reference: out of memory");
+    for (uint32_t s = first; s < end; s++) {
         uint32_t key = tnd_reference_sample(s);
         float jit[2] = {tnd_rand(0, f, key, TND_DIM_JITTER_X) - 0.5f,
                         tnd_rand(0, f, key, TND_DIM_JITTER_Y) - 0.5f};
@@ -271,18 +275,15 @@ static tnd_result matched_reference(pl_frontend *fr, const render_opts *o, unsig
             double l = tnd_luminance(one[3 * q], one[3 * q + 1], one[3 * q + 2]);
             sum2[q] += l * l;
         }
-        on_ref_progress(s + 1, o->spp, rp);
-        if (stats->until_noise > 0 && (s + 1) % TND_REF_CHECK_EVERY == 0 && s + 1 < o->spp &&
+        on_ref_progress(s + 1 - first, count, rp);
+        if (stats->until_noise > 0 && (s + 1) % TND_REF_CHECK_EVERY == 0 && s + 1 < end &&
             tnd_ref_finish(sum, sum2, n, s + 1, NULL, NULL) < stats->until_noise) {
             done = s + 1;
             break;
         }
     }
-    stats->rel_error = tnd_ref_finish(sum, sum2, n, done, rgb, lum_se);
     stats->spp = done;
 fail:
-    free(sum);
-    free(sum2);
     free(one);
     return res;
 }
@@ -304,48 +305,6 @@ static tnd_result write_reference_motion(pl_frontend *fr, const render_opts *o, 
     TND_TRY(tnd_exr_write(path, o->size[0], o->size[1], ch, 4, NULL, 0, TND_EXR_ZIP));
 fail:
     return res;
-}
-
-/* What a reference's own noise adds to a relMSE measured against it: the mean over pixels of
- * se^2 / (mean^2 + eps), from the luminance's standard error (eval's relMSE denominator). */
-static double noise_relmse(const float *rgb, const float *lum_se, size_t n)
-{
-    double s = 0;
-    for (size_t q = 0; q < n; q++) {
-        double l = tnd_luminance(rgb[3 * q], rgb[3 * q + 1], rgb[3 * q + 2]);
-        s += (double)lum_se[q] * lum_se[q] / (l * l + EV_RELMSE_EPS);
-    }
-    return n ? s / (double)n : 0.0;
-}
-
-/* DIR/reference.json: the estimator and, per frame, the samples taken and the remaining noise. */
-static tnd_result write_reference_json(const render_opts *o, const char *device,
-                                       const tnd_ref_stats *rs, const double *noise)
-{
-    char path[1600];
-    snprintf(path, sizeof path, "%s/reference.json", o->out);
-    FILE *fp = fopen(path, "w");
-    if (!fp)
-        return tnd_fail(TND_ERR_IO, "reference: %s: cannot create", path);
-    bool rt = strcmp(o->estimator, "realtime") == 0;
-    fprintf(fp, "{\n  \"estimator\": \"%s\",\n  \"frontend\": \"%s\",\n  \"device\": \"%s\",\n",
-            o->estimator, o->frontend, device);
-    if (rt)
-        fprintf(fp, "  \"bounces\": %u,\n  \"reflect_depth\": %u,\n", o->bounces,
-                o->reflect_depth ? o->reflect_depth : 4);
-    else
-        fprintf(fp, "  \"max_bounces\": %u,\n", o->ref_bounces);
-    fprintf(fp, "  \"spp_max\": %u,\n  \"until_noise\": %g,\n  \"frames\": [", o->spp,
-            o->until_noise);
-    for (unsigned i = 0; i < o->frames; i++)
-        fprintf(fp,
-                "%s\n    {\"frame\": %u, \"spp\": %u, \"rel_error\": %.6g, "
-                "\"noise_relmse\": %.6g}",
-                i ? "," : "", o->start + i, rs[i].spp, rs[i].rel_error, noise[i]);
-    fprintf(fp, "\n  ]\n}\n");
-    if (fclose(fp) != 0)
-        return tnd_fail(TND_ERR_IO, "reference: %s: write failed", path);
-    return TND_OK;
 }
 
 /* the post chain's settings from the options */
@@ -543,9 +502,10 @@ static void remove_partial(const render_opts *o, bool out_existed, bool dumps_ma
         return;
     }
     static const char *const names[] = {"%s/frame_%04u.exr", "%s/frame_%04u.png",
-                                        "%s/frame_%04u.motion.exr", "%s/capture/frame_%04u.exr"};
+                                        "%s/frame_%04u.motion.exr", "%s/capture/frame_%04u.exr",
+                                        "%s/frame_%04u.sums"};
     for (unsigned i = 0; i < begun; i++) {
-        for (int k = 0; k < 4; k++) {
+        for (int k = 0; k < 5; k++) {
             snprintf(path, sizeof path, names[k], o->out, o->start + i);
             remove(path);
         }
@@ -599,12 +559,38 @@ static int run(bool reference, int argc, char **argv)
     float *rgb = NULL;
     bool matched = reference && strcmp(o.estimator, "realtime") == 0;
     tnd_ref_stats *ref_stats = NULL; /* reference: per frame */
-    double *ref_noise = NULL;
+    double *ref_noise = NULL, *ref_sum = NULL; /* (sums: RGB, then luminance^2) */
     float *lum_se = NULL;
+    app_shard_part *parts = NULL; /* reference: the work, all of it or this shard's */
+    uint32_t *part_taken = NULL, nparts = 0, shard = 0, shards = 0;
     char path[2048], dir[1600];
     if (strlen(o.out) > 1500)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
     int status = APP_EXIT_FAIL;
+    if (reference) {
+        parts = calloc(o.frames, sizeof *parts);
+        part_taken = calloc(o.frames, sizeof *part_taken);
+        if (!parts || !part_taken) {
+            free(parts);
+            free(part_taken);
+            return app_report(what, tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory"));
+        }
+        if (o.shard && (res = app_shard_parse(o.shard, &shard, &shards)) == TND_OK)
+            res = app_shard_plan(o.frames, o.spp, shard, shards, parts, &nparts);
+        for (uint32_t i = 0; !o.shard && i < o.frames; i++)
+            parts[nparts++] = (app_shard_part){i, 0, o.spp};
+        for (uint32_t k = 0; res == TND_OK && k < nparts; k++)
+            if (o.until_noise > 0 && parts[k].count != o.spp)
+                res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                               "--until-noise stops a frame by its own noise: with --shard %s a "
+                               "frame's samples are split (fewer frames than shards)", o.shard);
+        if (res != TND_OK) {
+            free(parts);
+            free(part_taken);
+            app_report(what, res);
+            return APP_EXIT_USAGE;
+        }
+    }
     bool out_existed = false, dumps_made = false, begun_output = false;
     unsigned frames_begun = 0;
     TND_TRY(app_scene_load(o.scene, &o.env, &scene));
@@ -656,21 +642,29 @@ static int run(bool reference, int argc, char **argv)
         ref_stats = calloc(o.frames, sizeof *ref_stats);
         ref_noise = calloc(o.frames, sizeof *ref_noise);
         lum_se = malloc((size_t)o.size[0] * o.size[1] * sizeof *lum_se);
+        ref_sum = malloc((size_t)o.size[0] * o.size[1] * 4 * sizeof *ref_sum);
     }
-    if (!rgb || !display || (reference && (!ref_stats || !ref_noise || !lum_se))) {
+    if (!rgb || !display || (reference && (!ref_stats || !ref_noise || !lum_se || !ref_sum))) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
         goto fail;
     }
     float aspect = (float)o.size[0] / (float)o.size[1];
     app_progress bar;
-    app_progress_begin(&bar, what, reference ? o.frames * o.spp : o.frames);
+    uint64_t ref_total = 0, ref_done = 0; /* samples of the work, taken */
+    for (uint32_t k = 0; k < nparts; k++)
+        ref_total += parts[k].count;
+    app_progress_begin(&bar, what, reference ? (unsigned)ref_total : o.frames);
     double t0 = tnd_now();
+    uint32_t part = 0; /* reference: the next part of the work */
     for (unsigned i = 0; i < o.frames; i++) {
         unsigned f = o.start + i;
+        if (reference && (part == nparts || parts[part].index != i))
+            continue; /* (another shard's frame) */
+        bool first_frame = reference ? part == 0 : i == 0; /* (its previous state evaluated) */
         frames_begun = i + 1;
         tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
         TND_TRY(tnd_scene_evaluate(scene, f / o.fps, o.camera, aspect, cur));
-        if (i == 0)
+        if (first_frame)
             TND_TRY(tnd_scene_evaluate(scene, f > 0 ? (f - 1) / o.fps : 0.0, o.camera, aspect,
                                        prev));
         if (o.view) { /* the viewer's camera (its first frame: no camera motion before it) */
@@ -680,27 +674,40 @@ static int run(bool reference, int argc, char **argv)
         }
         TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o.size[0], o.size[1]));
         if (reference) {
+            const app_shard_part *pp = &parts[part];
+            size_t n = (size_t)o.size[0] * o.size[1];
             tnd_ref_stats *rs = &ref_stats[i];
             rs->until_noise = o.until_noise;
-            ref_progress rp = {&bar, i, o.frames};
+            ref_progress rp = {&bar, ref_done};
+            memset(ref_sum, 0, 4 * n * sizeof *ref_sum);
             TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
-            TND_TRY(write_reference_motion(fr, &o, f, &frame));
+            if (pp->first == 0) /* (the shard that has the frame's first sample) */
+                TND_TRY(write_reference_motion(fr, &o, f, &frame));
             if (matched)
-                TND_TRY(matched_reference(fr, &o, f, &frame, rgb, lum_se, rs, &rp));
+                TND_TRY(matched_reference_add(fr, &o, f, &frame, pp->first, pp->count, ref_sum,
+                                              ref_sum + 3 * n, rs, &rp));
             tnd_frame_destroy(&frame);
             if (!matched)
-                TND_TRY(pl_frontend_reference(fr, o.ref_bounces, o.spp, rgb, lum_se, rs,
-                                              on_ref_progress, &rp));
-            ref_noise[i] = noise_relmse(rgb, lum_se, (size_t)o.size[0] * o.size[1]);
-            double err = rs->rel_error;
-            snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
-            TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
-            snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
-            TND_TRY(app_write_preview(path, rgb, o.size[0], o.size[1]));
+                TND_TRY(pl_frontend_reference_add(fr, o.ref_bounces, pp->first, pp->count,
+                                                  ref_sum, ref_sum + 3 * n, rs, on_ref_progress,
+                                                  &rp));
+            ref_done += pp->count;
+            part_taken[part] = rs->spp - pp->first;
+            part++;
+            if (o.shard) {
+                TND_TRY(app_shard_sums_write(o.out, o.size[0], o.size[1], f, pp->first,
+                                             rs->spp - pp->first, ref_sum, ref_sum + 3 * n));
+                if (!app_quiet())
+                    fprintf(stderr, "%sreference: frame %u: samples [%u, %u) of %u, shard %u/%u\n",
+                            bar.enabled ? "\n" : "", f, pp->first, rs->spp, o.spp, shard, shards);
+                continue;
+            }
+            TND_TRY(app_ref_frame_finish(&o, i, ref_sum, ref_sum + 3 * n, rgb, lum_se, rs,
+                                         &ref_noise[i]));
             if (!app_quiet())
                 fprintf(stderr, "%sreference: frame %u: %u spp, remaining noise %.2f%% (mean "
                                 "relative standard error)\n",
-                        bar.enabled ? "\n" : "", f, rs->spp, 100.0 * err);
+                        bar.enabled ? "\n" : "", f, rs->spp, 100.0 * rs->rel_error);
             continue;
         }
         pl_step_result pr = {0};
@@ -753,9 +760,13 @@ static int run(bool reference, int argc, char **argv)
         }
         timings = NULL;
     }
-    if (reference)
-        TND_TRY(write_reference_json(&o, use_vk ? vk.info.name : "CPU (Embree)", ref_stats,
-                                     ref_noise));
+    if (reference && o.shard)
+        TND_TRY(app_shard_json_write(&o, use_vk ? vk.info.name : "CPU (Embree)",
+                                     tnd_scene_digest(scene), shard, shards, parts, part_taken,
+                                     nparts));
+    else if (reference)
+        TND_TRY(app_ref_json_write(&o, use_vk ? vk.info.name : "CPU (Embree)", ref_stats,
+                                   ref_noise));
     if (!reference)
         TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
                                dn_name,
@@ -787,6 +798,9 @@ fail:
     tnd_frame_destroy(&frame);
     free(ref_stats);
     free(ref_noise);
+    free(ref_sum);
+    free(parts);
+    free(part_taken);
     free(lum_se);
     free(rgb);
     tnd_scene_state_free(&st[0]);

@@ -12,6 +12,8 @@ static const app_cmd commands[] = {
      "[--scene PATH] [--script FILE] [options]", cmd_view},
     {"reference", "Render converged reference frames (unbiased path tracing).",
      "--out DIR [options]", cmd_reference},
+    {"merge", "Merge the shards of a reference (reference --shard I/N) into its frames.",
+     "SHARD_DIR... --out DIR", cmd_merge},
     {"denoise", "Run the denoising back-end on a captured EXR sequence (Tandem's or another's).",
      "--captures DIR --out DIR [--map JSON]", cmd_denoise},
     {"bench", "Measure a front-end: ms per pass, Mrays/s, and the raw ray-casting rate.",

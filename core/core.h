@@ -950,6 +950,10 @@ typedef struct tnd_scene_options {
 } tnd_scene_options;
 tnd_result tnd_scene_load_with(const char *path, const tnd_scene_options *o, tnd_scene **scene);
 void tnd_scene_destroy(tnd_scene *scene);
+/* A 64-bit digest (FNV-1a) of everything a scene renders from once loaded: geometry, materials,
+ * textures, nodes, lights, cameras, animation, sky and environment (not names or paths): two
+ * loads of the same files on two machines agree; a changed buffer, texture or --env does not. */
+uint64_t tnd_scene_digest(const tnd_scene *s);
 /* Triangles over all instances (what the tracer sees). */
 uint64_t tnd_scene_triangles(const tnd_scene *s);
 /* Whether a ray meets material m's surface at (u, v), the coordinates of the set its base

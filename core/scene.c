@@ -710,3 +710,95 @@ tnd_result tnd_scene_load_with(const char *path, const tnd_scene_options *o, tnd
     }
     return scene_load_gltf(path, o, scene);
 }
+
+/* ---- digest ------------------------------------------------------------------------------ */
+static void fnv(uint64_t *h, const void *p, size_t n)
+{
+    const uint8_t *b = p;
+    for (size_t i = 0; i < n; i++)
+        *h = (*h ^ b[i]) * 0x100000001b3ull;
+}
+#define FNV_ARR(h, p, n) ((p) ? fnv(h, p, (size_t)(n) * sizeof *(p)) : (void)0)
+
+uint64_t tnd_scene_digest(const tnd_scene *s)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    fnv(&h, &s->vertex_count, sizeof s->vertex_count);
+    fnv(&h, &s->index_count, sizeof s->index_count);
+    FNV_ARR(&h, s->positions, 3ull * s->vertex_count);
+    FNV_ARR(&h, s->normals, 3ull * s->vertex_count);
+    FNV_ARR(&h, s->uvs, 2ull * s->vertex_count);
+    FNV_ARR(&h, s->uvs1, 2ull * s->vertex_count);
+    FNV_ARR(&h, s->tangents, 4ull * s->vertex_count);
+    FNV_ARR(&h, s->indices, s->index_count);
+    for (uint32_t i = 0; i < s->mesh_count; i++) { /* (field by field: no padding bytes) */
+        const tnd_mesh *m = &s->meshes[i];
+        uint32_t v[5] = {m->first_vertex, m->vertex_count, m->first_index, m->triangle_count,
+                         m->material};
+        fnv(&h, v, sizeof v);
+    }
+    for (uint32_t i = 0; i < s->material_count; i++) {
+        const tnd_material *m = &s->materials[i];
+        float f[] = {m->base_color[0], m->base_color[1], m->base_color[2], m->base_color[3],
+                     m->metallic, m->roughness, m->emission[0], m->emission[1], m->emission[2],
+                     m->transmission, m->ior, m->specular, m->attenuation_color[0],
+                     m->attenuation_color[1], m->attenuation_color[2], m->attenuation_distance,
+                     m->thickness, m->normal_scale, m->alpha_cutoff};
+        int32_t k[] = {(int32_t)m->kind, m->tex_base_color, m->tex_metal_rough, m->tex_normal,
+                       m->tex_emission, m->double_sided, m->alpha_test};
+        fnv(&h, f, sizeof f);
+        fnv(&h, k, sizeof k);
+        for (int t = 0; t < TND_TEX_SLOTS; t++) {
+            fnv(&h, m->uvx[t].m, sizeof m->uvx[t].m);
+            fnv(&h, &m->uvx[t].set, sizeof m->uvx[t].set);
+        }
+    }
+    for (uint32_t i = 0; i < s->texture_count; i++) {
+        const tnd_texture *t = &s->textures[i];
+        uint32_t v[3] = {t->width, t->height, t->srgb};
+        fnv(&h, v, sizeof v);
+        FNV_ARR(&h, t->rgba8, 4ull * t->width * t->height);
+    }
+    for (uint32_t i = 0; i < s->node_count; i++) {
+        const tnd_node *n = &s->nodes[i];
+        fnv(&h, &n->parent, sizeof n->parent);
+        fnv(&h, n->t, sizeof n->t);
+        fnv(&h, n->r, sizeof n->r);
+        fnv(&h, n->s, sizeof n->s);
+    }
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        uint32_t v[2] = {s->instances[i].mesh, s->instances[i].node};
+        fnv(&h, v, sizeof v);
+    }
+    for (uint32_t i = 0; i < s->light_count; i++) {
+        const tnd_light *l = &s->lights[i];
+        uint32_t v[3] = {l->type, l->node, l->schedule_count};
+        float f[] = {l->color[0], l->color[1], l->color[2], l->inner_cone, l->outer_cone,
+                     l->schedule_fps};
+        fnv(&h, v, sizeof v);
+        fnv(&h, f, sizeof f);
+        fnv(&h, l->schedule_frame, l->schedule_count * sizeof(float));
+        fnv(&h, l->schedule_scale, l->schedule_count * sizeof(float));
+    }
+    for (uint32_t i = 0; i < s->camera_count; i++) {
+        const tnd_camera_def *c = &s->cameras[i];
+        float f[4] = {c->yfov, c->aspect, c->znear, c->zfar};
+        fnv(&h, &c->node, sizeof c->node);
+        fnv(&h, f, sizeof f);
+    }
+    for (uint32_t i = 0; i < s->channel_count; i++) {
+        const tnd_anim_channel *c = &s->channels[i];
+        uint32_t v[4] = {c->node, c->path, c->key_count, c->step};
+        fnv(&h, v, sizeof v);
+        FNV_ARR(&h, c->times, c->key_count);
+        FNV_ARR(&h, c->values, (size_t)c->key_count * (c->path == TND_ANIM_R ? 4 : 3));
+    }
+    fnv(&h, s->sky, sizeof s->sky);
+    uint32_t ev[2] = {s->env.width, s->env.height};
+    float ef[2] = {s->env.intensity, s->env.rotation};
+    fnv(&h, ev, sizeof ev);
+    fnv(&h, ef, sizeof ef);
+    if (s->env.width)
+        FNV_ARR(&h, s->env.data, TND_ENV_FLOATS(s->env.width, s->env.height));
+    return h;
+}
