@@ -10,7 +10,7 @@ static const app_cmd info_cmd = {
     "info",
     "Show the Vulkan devices, the one Tandem picks, and its ray-tracing support; with --scene,\n"
     "what a scene contains and which pipeline features it requires.",
-    "[--json] [--device NAME] [--scene PATH]", NULL};
+    "[--json] [--device INDEX|NAME] [--scene PATH]", NULL};
 
 /* Materials used by at least one instance, by kind. */
 static void material_kinds(const tnd_scene *s, uint32_t counts[TND_MAT_KIND_COUNT])
@@ -196,13 +196,10 @@ static void device_text(const tnd_vk_device_info *d, bool chosen)
 int cmd_info(int argc, char **argv)
 {
     bool json = false;
-    const char *device = NULL, *scene = NULL, *capture = NULL, *map = NULL;
+    const char *scene = NULL, *capture = NULL, *map = NULL;
     app_env env = APP_ENV_INIT;
     const app_opt opts[] = {
         {"json", APP_OPT_FLAG, &json, NULL, "print the same information as JSON on stdout"},
-        {"device", APP_OPT_STRING, &device, "NAME",
-         "pick the device whose name contains NAME (default: $TANDEM_DEVICE, then a GPU, "
-         "then lavapipe)"},
         {"scene", APP_OPT_STRING, &scene, "PATH",
          "describe a scene (.gltf/.glb, or stress:N) instead of the devices"},
         APP_ENV_OPTS(&env),
@@ -228,7 +225,7 @@ int cmd_info(int argc, char **argv)
         return app_report("info", r);
     if (n > 16)
         n = 16;
-    const char *want = device ? device : getenv("TANDEM_DEVICE");
+    const char *want = getenv("TANDEM_DEVICE"); /* (--device sets it) */
     uint32_t chosen = 0;
     tnd_result cr = tnd_vk_choose_device(devs, n, want, true, &chosen);
     if (cr != TND_OK)

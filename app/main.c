@@ -5,7 +5,7 @@
 
 static const app_cmd commands[] = {
     {"info", "Show the Vulkan devices and their ray-tracing support, or a scene's contents.",
-     "[--json] [--device NAME] [--scene PATH]", cmd_info},
+     "[--json] [--device INDEX|NAME] [--scene PATH]", cmd_info},
     {"render", "Render a scene's camera path through a front-end (contract, composite, preview).",
      "--out DIR [options]", cmd_render},
     {"view", "The pipeline live in a window: fly the camera, turn the knobs, see every buffer.",
@@ -38,7 +38,7 @@ static void usage(FILE *f)
     for (int i = 0; i < command_count; i++)
         fprintf(f, "  %-10s %s\n", commands[i].name, commands[i].summary);
     fprintf(f, "\n'tandem COMMAND --help' describes a command's options.\n"
-               "Environment: TANDEM_DEVICE=<substring> picks a device by name; "
+               "Environment: TANDEM_DEVICE=<index or name> picks a device (as --device); "
                "TANDEM_VALIDATION=1 enables the Vulkan validation layer.\n");
 }
 

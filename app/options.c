@@ -23,6 +23,9 @@ static void print_help(const app_cmd *cmd, const app_opt *opts)
         snprintf(left, sizeof left, "--%s%s%s", o->name, o->arg ? " " : "", o->arg ? o->arg : "");
         printf("  %-26s %s\n", left, o->help);
     }
+    printf("  %-26s %s\n", "--device INDEX|NAME",
+           "the Vulkan device: its index as tandem info lists them, or part of its name "
+           "(also $TANDEM_DEVICE)");
     printf("  %-26s %s\n", "--quiet", "no progress or information messages on stderr");
     printf("  %-26s %s\n", "--help", "show this help");
 }
@@ -102,6 +105,16 @@ int app_parse(const app_cmd *cmd, const app_opt *opts, int argc, char **argv, co
         if (strcmp(a, "--quiet") == 0 || strcmp(a, "-q") == 0) {
             quiet_flag = true;
             tnd_log_set_level(TND_LOG_WARN);
+            continue;
+        }
+        if (strcmp(a, "--device") == 0 || strncmp(a, "--device=", 9) == 0) {
+            /* every command's: the Vulkan device, as $TANDEM_DEVICE picks it */
+            const char *v = a[8] == '=' ? a + 9 : i + 1 < argc ? argv[++i] : NULL;
+            if (!v || !*v) {
+                fprintf(stderr, "tandem %s: --device needs an index or a name\n", cmd->name);
+                return APP_EXIT_USAGE;
+            }
+            setenv("TANDEM_DEVICE", v, 1);
             continue;
         }
         if (strncmp(a, "--", 2) != 0 || a[2] == '\0') {

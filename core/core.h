@@ -196,7 +196,8 @@ typedef struct tnd_vk_fns {
 } tnd_vk_fns;
 
 typedef struct tnd_vk_desc {
-    const char *device;  /* substring of the device name; NULL: $TANDEM_DEVICE, then default */
+    const char *device;  /* an index (as tnd_vk_list_devices orders them) or a substring of the
+                            device's name; NULL: $TANDEM_DEVICE, then the default */
     bool validation;     /* enable VK_LAYER_KHRONOS_validation (also $TANDEM_VALIDATION=1) */
     bool no_ray_tracing; /* accept devices without ray tracing (compute-only back-end) */
     /* a window: the instance extensions its surfaces need, and VK_KHR_swapchain on the device */

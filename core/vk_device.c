@@ -321,8 +321,15 @@ tnd_result tnd_vk_choose_device(const tnd_vk_device_info *devs, uint32_t count, 
                         "vulkan: no Vulkan device found (Debian: install mesa-vulkan-drivers "
                         "for lavapipe)");
     if (want && *want) {
+        /* digits: an index in the order `tandem info` lists the devices; else part of a name */
+        bool digits = strspn(want, "0123456789") == strlen(want);
+        unsigned long index = strlen(want) < 6 ? strtoul(want, NULL, 10) : ~0ul;
+        if (digits && index >= count)
+            return tnd_fail(TND_ERR_NO_DEVICE,
+                            "vulkan: no device %s (TANDEM_DEVICE or --device: an index from 0 to "
+                            "%u, or part of a name; devices: %s)", want, count - 1, names);
         for (uint32_t i = 0; i < count; i++) {
-            if (!contains_nocase(devs[i].name, want))
+            if (digits ? i != index : !contains_nocase(devs[i].name, want))
                 continue;
             bool ok = need_rt ? devs[i].suitable : devs[i].compute_ok;
             if (!ok)
@@ -332,7 +339,8 @@ tnd_result tnd_vk_choose_device(const tnd_vk_device_info *devs, uint32_t count, 
             return TND_OK;
         }
         return tnd_fail(TND_ERR_NO_DEVICE,
-                        "vulkan: no device matches TANDEM_DEVICE='%s' (devices: %s)", want, names);
+                        "vulkan: no device matches TANDEM_DEVICE='%s' (devices by index from 0: "
+                        "%s)", want, names);
     }
     int best = -1;
     for (uint32_t i = 0; i < count; i++) {

@@ -21,7 +21,8 @@ export DEBIAN_FRONTEND=noninteractive
 # assimp-testmodels: real glTF and OBJ models nobody here wrote; blender-data: real HDRIs from
 # HDRI Haven, CC0, in /usr/share/blender/datafiles/studiolights/world); GLFW for `tandem view`'s
 # window, Xvfb for its tests on a machine without a display; clang and its runtime for
-# libFuzzer, make fuzz).
+# libFuzzer, make fuzz; slurm-wlm and munge: a one-node Slurm cluster on localhost for
+# tests/test_slurm.sh).
 PKGS=(
     build-essential cmake pkg-config git
     libvulkan-dev glslang-tools vulkan-validationlayers vulkan-tools
@@ -30,6 +31,7 @@ PKGS=(
     openexr openimageio-tools python3 ffmpeg
     python3-numpy python3-openimageio chromium
     blender blender-data assimp-testmodels
+    slurm-wlm munge
 )
 
 missing=()

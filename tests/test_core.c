@@ -72,6 +72,19 @@ static void test_choose_device(void)
           tnd_error_detail());
     r = tnd_vk_choose_device(devs, 0, NULL, true, &c);
     CHECK(r == TND_ERR_NO_DEVICE, "no devices at all");
+    /* by index (an array task's GPU): digits are an index, never part of a name */
+    CHECK_OK(tnd_vk_choose_device(devs, 3, "0", true, &c));
+    CHECK(c == 0, "index 0 picks the first device even where a GPU would win, got %u", c);
+    CHECK_OK(tnd_vk_choose_device(devs, 3, "2", true, &c));
+    CHECK(c == 2, "index 2, got %u", c);
+    r = tnd_vk_choose_device(devs, 3, "1", true, &c);
+    CHECK(r == TND_ERR_NO_DEVICE && strstr(tnd_error_detail(), "ray_tracing_pipeline"),
+          "an unsuitable index fails and says why: '%s'", tnd_error_detail());
+    r = tnd_vk_choose_device(devs, 3, "80", true, &c); /* ("80GB" in the H100's name) */
+    CHECK(r == TND_ERR_NO_DEVICE && strstr(tnd_error_detail(), "from 0 to 2"),
+          "an index past the devices fails with their range: '%s'", tnd_error_detail());
+    CHECK_OK(tnd_vk_choose_device(devs, 3, "H100 80", true, &c));
+    CHECK(c == 2, "a name with digits still matches, got %u", c);
 }
 
 /* The SBT rules of VK_KHR_ray_tracing_pipeline, checked on the numbers of both machines we run
