@@ -277,9 +277,13 @@ int cmd_denoise(int argc, char **argv);
 int cmd_convert(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_merge(int argc, char **argv);
-/* `tandem bench --sweep` (app/cmd_sweep.c) */
+/* `tandem bench --sweep` and `tandem sweep collect` (app/cmd_sweep.c) */
+/* emit: NULL (run here) or "slurm" (write DIR/slurm/ with the unbiased reference in `shards`
+ * shards); DIR/sweep-plan.json either way. */
 int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
-              unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup);
+              unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup,
+              const char *emit, unsigned shards);
+int cmd_sweep(int argc, char **argv);
 /* `tandem bench --extremes` (app/cmd_extremes.c) */
 int app_extremes(const char *scene, const char *out, const unsigned size[2], unsigned frames);
 

@@ -378,7 +378,8 @@ int cmd_bench(int argc, char **argv)
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
     const char *out = NULL, *reference = NULL;
     app_list sweeps = {0};
-    unsigned frames = 12, warmup = 4, spp = 64;
+    unsigned frames = 12, warmup = 4, spp = 64, ref_shards = 0;
+    const char *emit = NULL;
     const app_opt opts[] = {
         {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
          "with --frontend vk: time the whole frame with this back-end (asvgf, svgf or off)"},
@@ -410,13 +411,26 @@ int cmd_bench(int argc, char **argv)
         {"extremes", APP_OPT_FLAG, &extremes, NULL,
          "numerical stability report: the extremes scene (or --scene) through every mode; needs --out"},
         {"warmup", APP_OPT_UINT, &warmup, "W", "--sweep: frames left out of times and metrics (default 4)"},
+        {"emit", APP_OPT_STRING, &emit, "slurm",
+         "--sweep: write the sweep as Slurm jobs (DIR/slurm/submit.sh: reference shards, their "
+         "merge, matched references, one array task per cell, collect) instead of running it; "
+         "DIR: --out, or given after --emit slurm"},
+        {"ref-shards", APP_OPT_UINT, &ref_shards, "N",
+         "--emit slurm: the unbiased reference in N shards (default: one per frame, at most 64)"},
         {0},
     };
     const char *pos[1];
     int npos;
-    int rc = app_parse(&bench_cmd, opts, argc, argv, pos, 0, &npos);
+    int rc = app_parse(&bench_cmd, opts, argc, argv, pos, 1, &npos);
     if (rc >= 0)
         return rc;
+    if (npos && (!emit || out)) { /* (--emit slurm DIR) */
+        fprintf(stderr, "tandem bench: unexpected argument '%s' (see tandem bench --help)\n",
+                pos[0]);
+        return APP_EXIT_USAGE;
+    }
+    if (npos)
+        out = pos[0];
     bool use_vk = strcmp(frontend, "vk") == 0;
     if (strcmp(frontend, "embree") != 0 && !use_vk) {
         fprintf(stderr, "tandem bench: --frontend '%s': expected embree or vk\n", frontend);
@@ -433,7 +447,8 @@ int cmd_bench(int argc, char **argv)
         return app_extremes(scene_given ? scene_path : TND_DATA_DIR "/scenes/extremes.gltf", out,
                             size, frames);
     if (sweeps.n)
-        return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup);
+        return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup, emit,
+                         ref_shards ? ref_shards : frames < 64 ? frames : 64);
     if (overlap) {
         dn_mode mode;
         tnd_precision prec;

@@ -4,13 +4,16 @@
  * its denoiser's error against the matched reference of its estimator (bounces, resolution;
  * made once per estimator under DIR/matched) and its error against the unbiased reference; then
  * DIR/sweep.json, DIR/sweep.csv and DIR/report (the Pareto fronts of time against the denoiser's
- * relMSE and FLIP, and the table). */
+ * relMSE and FLIP, and the table). The plan (DIR/sweep-plan.json) runs here, or with --emit
+ * slurm becomes Slurm jobs (DIR/slurm/submit.sh); `tandem sweep collect DIR` gathers either. */
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 enum { MAX_KEYS = 6, MAX_VALUES = 8, MAX_RUNS = 256 };
 
@@ -111,20 +114,35 @@ static const knob *find_knob(const char *key)
     return NULL;
 }
 
-int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
-              unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup)
-{
+/* ---- the plan: cells and estimators, DIR/sweep-plan.json ----------------------------------- */
+/* A sweep's plan. Local and Slurm sweeps write it; `tandem sweep collect` reads it back, so a
+ * sweep run anywhere is gathered by the same code. */
+typedef struct sweep_plan {
+    char scene[1100], out[1000], refdir[1000];
+    unsigned size[2], frames, warmup, spp;
+    bool own_reference; /* the unbiased reference is rendered into DIR/reference */
+    int nkeys, total, nests;
     const knob *keys[MAX_KEYS];
-    char *values_buf[MAX_KEYS] = {0};
+    char value[MAX_RUNS][MAX_KEYS][48];
+    char cell_size[MAX_RUNS][32], cell_bounces[MAX_RUNS][16];
+    int cell_est[MAX_RUNS];
+    sweep_estimator ests[MAX_RUNS];
+} sweep_plan;
+
+static void cell_dir(const sweep_plan *P, int i, char *buf, size_t cap)
+{
+    snprintf(buf, cap, "%s/runs/%03d", P->out, i);
+}
+
+/* The knobs' values into cells (the first key varies fastest), their sizes, estimators and
+ * matched reference directories. Prints usage errors; returns -1 or an exit status. */
+static int plan_make(const app_list *sweeps, const char *scene, const char *out,
+                     const char *reference, unsigned spp, const unsigned size[2], unsigned frames,
+                     unsigned warmup, sweep_plan *P)
+{
     const char *values[MAX_KEYS][MAX_VALUES];
-    int nvalues[MAX_KEYS], nkeys = sweeps->n;
-    sweep_run *runs = NULL;
-    sweep_estimator *ests = NULL;
-    int nests = 0;
-    tnd_result res = TND_OK;
-    int status = APP_EXIT_USAGE;
-    ev_text html = {0};
-    cJSON *root = NULL;
+    int nvalues[MAX_KEYS], nkeys = sweeps->n, status = APP_EXIT_USAGE;
+    char *values_buf[MAX_KEYS] = {0};
     if (nkeys > MAX_KEYS) {
         fprintf(stderr, "tandem bench: at most %d --sweep keys\n", MAX_KEYS);
         return APP_EXIT_USAGE;
@@ -133,7 +151,7 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
         fprintf(stderr, "tandem bench: --sweep needs --out DIR\n");
         return APP_EXIT_USAGE;
     }
-    if (strlen(out) > 900 || (reference && strlen(reference) > 900)) {
+    if (strlen(out) > 900 || (reference && strlen(reference) > 900) || strlen(scene) > 1000) {
         fprintf(stderr, "tandem bench: path too long\n");
         return APP_EXIT_USAGE;
     }
@@ -150,29 +168,34 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
             fprintf(stderr, "tandem bench: --sweep spp: the real-time front-ends trace one sample per "
                             "pixel (the A-SVGF gradient samples re-shade that one sample); samples per "
                             "pixel are the references' knob (tandem reference --spp)\n");
-            goto fail;
+            goto done;
         }
-        if (!eq || !(keys[k] = find_knob(key))) {
+        if (!eq || !(P->keys[k] = find_knob(key))) {
             fprintf(stderr, "tandem bench: --sweep %s: expected KEY=V1,V2,... with KEY one of:",
                     sweeps->v[k]);
             for (int i = 0; i < KNOBS; i++)
                 fprintf(stderr, " %s", knobs[i].key);
             fprintf(stderr, "\n");
-            goto fail;
+            goto done;
         }
         for (int j = 0; j < k; j++)
-            if (keys[j] == keys[k]) {
+            if (P->keys[j] == P->keys[k]) {
                 fprintf(stderr, "tandem bench: --sweep %s given twice\n", key);
-                goto fail;
+                goto done;
             }
         values_buf[k] = strdup(eq + 1);
         nvalues[k] = 0;
         for (char *save = NULL, *t = strtok_r(values_buf[k], ",", &save); t && nvalues[k] < MAX_VALUES;
-             t = strtok_r(NULL, ",", &save))
+             t = strtok_r(NULL, ",", &save)) {
+            if (strlen(t) >= sizeof P->value[0][0]) {
+                fprintf(stderr, "tandem bench: --sweep %s: value too long\n", key);
+                goto done;
+            }
             values[k][nvalues[k]++] = t;
+        }
         if (nvalues[k] == 0) {
             fprintf(stderr, "tandem bench: --sweep %s: no values\n", sweeps->v[k]);
-            goto fail;
+            goto done;
         }
         if (strcmp(key, "scale") == 0)
             for (int i = 0; i < nvalues[k]; i++) {
@@ -180,112 +203,628 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
                 double s = strtod(values[k][i], &end);
                 if (*end || !(s >= 0.1 && s <= 1.0)) {
                     fprintf(stderr, "tandem bench: --sweep scale=%s: a scale in [0.1, 1]\n", values[k][i]);
-                    goto fail;
+                    goto done;
                 }
             }
         if (strcmp(key, "gradient") == 0)
             for (int i = 0; i < nvalues[k]; i++)
                 if (strcmp(values[k][i], "on") != 0 && strcmp(values[k][i], "off") != 0) {
                     fprintf(stderr, "tandem bench: --sweep gradient=%s: on or off\n", values[k][i]);
-                    goto fail;
+                    goto done;
                 }
         total *= nvalues[k];
+        if (total > MAX_RUNS)
+            break;
     }
     if (total > MAX_RUNS) {
-        fprintf(stderr, "tandem bench: %d combinations (at most %d)\n", total, MAX_RUNS);
-        goto fail;
+        fprintf(stderr, "tandem bench: more than %d combinations\n", MAX_RUNS);
+        goto done;
     }
-    status = APP_EXIT_FAIL;
-    runs = calloc((size_t)total, sizeof *runs);
-    if (!runs) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
-        goto fail;
-    }
-    TND_TRY(tnd_mkdirs(out));
-    char refdir[1000], fr[16], sz[32], sp[16];
-    snprintf(fr, sizeof fr, "%u", frames);
-    snprintf(sz, sizeof sz, "%ux%u", size[0], size[1]);
-    snprintf(sp, sizeof sp, "%u", spp);
-    if (reference) {
-        snprintf(refdir, sizeof refdir, "%s", reference);
-    } else {
-        snprintf(refdir, sizeof refdir, "%s/reference", out);
-        char *args[] = {"reference", "--frontend", "vk", "--scene", (char *)scene, "--frames", fr,
-                        "--size", sz, "--spp", sp, "--out", refdir, "--quiet"};
-        if (cmd_reference((int)(sizeof args / sizeof args[0]), args) != APP_EXIT_OK) {
-            res = tnd_fail(TND_ERR_IO, "bench: the reference (%s) failed", refdir);
-            goto fail;
-        }
-    }
-    ests = calloc((size_t)total, sizeof *ests);
-    if (!ests) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
-        goto fail;
-    }
-    app_progress bar;
-    app_progress_begin(&bar, "sweep", (unsigned)total);
+    snprintf(P->scene, sizeof P->scene, "%s", scene);
+    snprintf(P->out, sizeof P->out, "%s", out);
+    P->own_reference = !reference;
+    if (reference)
+        snprintf(P->refdir, sizeof P->refdir, "%s", reference);
+    else
+        snprintf(P->refdir, sizeof P->refdir, "%s/reference", out);
+    P->size[0] = size[0];
+    P->size[1] = size[1];
+    P->frames = frames;
+    P->warmup = warmup;
+    P->spp = spp;
+    P->nkeys = nkeys;
+    P->total = total;
+    P->nests = 0;
     for (int i = 0; i < total; i++) {
-        sweep_run *r = &runs[i];
-        char dir[1300], run_size[32];
-        const char *bounces = "1";
-        snprintf(dir, sizeof dir, "%s/runs/%03d", out, i);
-        snprintf(run_size, sizeof run_size, "%s", sz);
-        char *args[64] = {"render", "--scene", (char *)scene, "--frames", fr, "--out", dir,
-                          "--quiet", "--frontend", "vk"};
-        int na = 10;
+        snprintf(P->cell_size[i], sizeof P->cell_size[i], "%ux%u", size[0], size[1]);
+        snprintf(P->cell_bounces[i], sizeof P->cell_bounces[i], "1");
         for (int k = 0, rest = i; k < nkeys; k++) {
             const char *v = values[k][rest % nvalues[k]];
             rest /= nvalues[k];
-            r->value[k] = v;
-            const char *key = keys[k]->key;
-            if (strcmp(key, "scale") == 0) {
+            snprintf(P->value[i][k], sizeof P->value[i][k], "%s", v);
+            if (strcmp(P->keys[k]->key, "scale") == 0) {
                 double s = strtod(v, NULL);
-                snprintf(run_size, sizeof run_size, "%ux%u", (unsigned)fmax(1, lround(size[0] * s)),
+                snprintf(P->cell_size[i], sizeof P->cell_size[i], "%ux%u",
+                         (unsigned)fmax(1, lround(size[0] * s)),
                          (unsigned)fmax(1, lround(size[1] * s)));
-                continue;
             }
-            if (strcmp(key, "bounces") == 0)
-                bounces = v;
-            args[na++] = (char *)keys[k]->option;
-            args[na++] = strcmp(key, "gradient") == 0 ? (strcmp(v, "on") == 0 ? "asvgf" : "svgf")
-                                                       : (char *)v;
+            if (strcmp(P->keys[k]->key, "bounces") == 0)
+                snprintf(P->cell_bounces[i], sizeof P->cell_bounces[i], "%s", v);
         }
-        args[na++] = "--size";
-        args[na++] = run_size;
-        /* the cell's estimator and its matched reference (made once per estimator) */
-        r->estimator = -1;
-        for (int k = 0; k < nests; k++)
-            if (!strcmp(ests[k].bounces, bounces) && !strcmp(ests[k].size, run_size))
-                r->estimator = k;
-        if (r->estimator < 0) {
-            sweep_estimator *es = &ests[nests];
-            snprintf(es->bounces, sizeof es->bounces, "%s", bounces);
-            snprintf(es->size, sizeof es->size, "%s", run_size);
-            snprintf(es->dir, sizeof es->dir, "%s/matched/bounces%s_%s", out, bounces, run_size);
-            /* (Embree: the same samples as Vulkan's, without a contract read back per sample) */
-            char *margs[] = {"reference", "--estimator", "realtime", "--frontend", "embree",
-                             "--scene", (char *)scene, "--frames", fr, "--size", run_size,
-                             "--bounces", (char *)bounces, "--spp", sp, "--out", es->dir,
-                             "--quiet"};
-            if (cmd_reference((int)(sizeof margs / sizeof margs[0]), margs) != APP_EXIT_OK) {
-                app_progress_end(&bar);
-                res = tnd_fail(TND_ERR_IO, "bench: the matched reference %s failed", es->dir);
-                goto fail;
+        /* the cell's estimator (its bounces and resolution) and its matched reference */
+        P->cell_est[i] = -1;
+        for (int e = 0; e < P->nests; e++)
+            if (!strcmp(P->ests[e].bounces, P->cell_bounces[i]) &&
+                !strcmp(P->ests[e].size, P->cell_size[i]))
+                P->cell_est[i] = e;
+        if (P->cell_est[i] < 0) {
+            sweep_estimator *es = &P->ests[P->nests];
+            snprintf(es->bounces, sizeof es->bounces, "%s", P->cell_bounces[i]);
+            snprintf(es->size, sizeof es->size, "%s", P->cell_size[i]);
+            char b[16], sz[32]; /* (copies: es->dir is in *P as well) */
+            memcpy(b, es->bounces, sizeof b);
+            memcpy(sz, es->size, sizeof sz);
+            snprintf(es->dir, sizeof es->dir, "%s/matched/bounces%s_%s", out, b, sz);
+            P->cell_est[i] = P->nests++;
+        }
+    }
+    status = -1;
+done:
+    for (int k = 0; k < MAX_KEYS; k++)
+        free(values_buf[k]);
+    return status;
+}
+
+/* The command lines of a sweep's work (argv[0] is the subcommand; strings live in buf). */
+typedef struct sweep_argv {
+    char *v[64];
+    int n;
+    char buf[8][1300];
+} sweep_argv;
+
+static void argv_reference(const sweep_plan *P, sweep_argv *a)
+{
+    snprintf(a->buf[0], sizeof a->buf[0], "%u", P->frames);
+    snprintf(a->buf[1], sizeof a->buf[1], "%ux%u", P->size[0], P->size[1]);
+    snprintf(a->buf[2], sizeof a->buf[2], "%u", P->spp);
+    char *v[] = {"reference", "--frontend", "vk", "--scene", (char *)P->scene, "--frames",
+                 a->buf[0], "--size", a->buf[1], "--spp", a->buf[2], "--out",
+                 (char *)P->refdir, "--quiet"};
+    a->n = (int)(sizeof v / sizeof *v);
+    memcpy(a->v, v, sizeof v);
+}
+
+/* (Embree: the same samples as Vulkan's, without a contract read back per sample) */
+static void argv_matched(const sweep_plan *P, int e, sweep_argv *a)
+{
+    const sweep_estimator *es = &P->ests[e];
+    snprintf(a->buf[0], sizeof a->buf[0], "%u", P->frames);
+    snprintf(a->buf[1], sizeof a->buf[1], "%u", P->spp);
+    char *v[] = {"reference", "--estimator", "realtime", "--frontend", "embree", "--scene",
+                 (char *)P->scene, "--frames", a->buf[0], "--size", (char *)es->size,
+                 "--bounces", (char *)es->bounces, "--spp", a->buf[1], "--out", (char *)es->dir,
+                 "--quiet"};
+    a->n = (int)(sizeof v / sizeof *v);
+    memcpy(a->v, v, sizeof v);
+}
+
+static void argv_cell(const sweep_plan *P, int i, sweep_argv *a)
+{
+    snprintf(a->buf[0], sizeof a->buf[0], "%u", P->frames);
+    cell_dir(P, i, a->buf[1], sizeof a->buf[1]);
+    char *v[] = {"render", "--scene", (char *)P->scene, "--frames", a->buf[0], "--out", a->buf[1],
+                 "--quiet", "--frontend", "vk"};
+    a->n = (int)(sizeof v / sizeof *v);
+    memcpy(a->v, v, sizeof v);
+    for (int k = 0; k < P->nkeys; k++) {
+        const char *key = P->keys[k]->key, *val = P->value[i][k];
+        if (strcmp(key, "scale") == 0)
+            continue;
+        a->v[a->n++] = (char *)P->keys[k]->option;
+        a->v[a->n++] = strcmp(key, "gradient") == 0 ? (strcmp(val, "on") == 0 ? "asvgf" : "svgf")
+                                                     : (char *)val;
+    }
+    a->v[a->n++] = "--size";
+    a->v[a->n++] = (char *)P->cell_size[i];
+}
+
+static tnd_result plan_write(const sweep_plan *P)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddNumberToObject(j, "tandem_sweep_plan", 1);
+    cJSON_AddStringToObject(j, "scene", P->scene);
+    cJSON_AddStringToObject(j, "reference", P->refdir);
+    cJSON_AddBoolToObject(j, "own_reference", P->own_reference);
+    cJSON_AddNumberToObject(j, "width", P->size[0]);
+    cJSON_AddNumberToObject(j, "height", P->size[1]);
+    cJSON_AddNumberToObject(j, "frames", P->frames);
+    cJSON_AddNumberToObject(j, "warmup", P->warmup);
+    cJSON_AddNumberToObject(j, "spp", P->spp);
+    cJSON *ka = cJSON_AddArrayToObject(j, "knobs");
+    for (int k = 0; k < P->nkeys; k++)
+        cJSON_AddItemToArray(ka, cJSON_CreateString(P->keys[k]->key));
+    cJSON *ea = cJSON_AddArrayToObject(j, "estimators");
+    for (int e = 0; e < P->nests; e++) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "bounces", P->ests[e].bounces);
+        cJSON_AddStringToObject(o, "size", P->ests[e].size);
+        cJSON_AddStringToObject(o, "dir", P->ests[e].dir);
+        cJSON_AddItemToArray(ea, o);
+    }
+    cJSON *ca = cJSON_AddArrayToObject(j, "cells");
+    for (int i = 0; i < P->total; i++) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON *v = cJSON_AddArrayToObject(o, "values");
+        for (int k = 0; k < P->nkeys; k++)
+            cJSON_AddItemToArray(v, cJSON_CreateString(P->value[i][k]));
+        cJSON_AddStringToObject(o, "size", P->cell_size[i]);
+        cJSON_AddNumberToObject(o, "estimator", P->cell_est[i]);
+        char dir[1300];
+        cell_dir(P, i, dir, sizeof dir);
+        cJSON_AddStringToObject(o, "dir", dir);
+        cJSON_AddItemToArray(ca, o);
+    }
+    char *text = cJSON_Print(j);
+    cJSON_Delete(j);
+    char path[1100];
+    snprintf(path, sizeof path, "%s/sweep-plan.json", P->out);
+    tnd_result res = text ? tnd_file_write_atomic(path, text, strlen(text))
+                          : tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+    free(text);
+    return res;
+}
+
+static const char *jstr(const cJSON *j, const char *key, size_t max, bool *ok)
+{
+    const cJSON *v = cJSON_GetObjectItem(j, key);
+    if (!cJSON_IsString(v) || strlen(v->valuestring) >= max) {
+        *ok = false;
+        return "";
+    }
+    return v->valuestring;
+}
+
+static unsigned jnum(const cJSON *j, const char *key, unsigned max, bool *ok)
+{
+    const cJSON *v = cJSON_GetObjectItem(j, key);
+    if (!cJSON_IsNumber(v) || !(v->valuedouble >= 0 && v->valuedouble <= max)) {
+        *ok = false;
+        return 0;
+    }
+    return (unsigned)v->valuedouble;
+}
+
+/* DIR/sweep-plan.json back into a plan; every field checked. */
+static tnd_result plan_read(const char *dir, sweep_plan *P)
+{
+    char path[1100];
+    if (strlen(dir) > 900)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "sweep: %s: path too long", dir);
+    snprintf(path, sizeof path, "%s/sweep-plan.json", dir);
+    void *txt = NULL;
+    size_t len = 0;
+    tnd_result res = tnd_file_read(path, &txt, &len);
+    if (res != TND_OK)
+        return tnd_fail(TND_ERR_IO, "sweep: %s: no sweep plan (tandem bench --sweep ... writes "
+                        "one)", path);
+    cJSON *j = cJSON_ParseWithLength(txt, len);
+    free(txt);
+    bool ok = j && cJSON_IsNumber(cJSON_GetObjectItem(j, "tandem_sweep_plan"));
+    const cJSON *ka = cJSON_GetObjectItem(j, "knobs"), *ea = cJSON_GetObjectItem(j, "estimators"),
+                *ca = cJSON_GetObjectItem(j, "cells");
+    ok = ok && cJSON_IsArray(ka) && cJSON_IsArray(ea) && cJSON_IsArray(ca);
+    if (ok) {
+        snprintf(P->out, sizeof P->out, "%s", dir);
+        snprintf(P->scene, sizeof P->scene, "%s", jstr(j, "scene", sizeof P->scene, &ok));
+        snprintf(P->refdir, sizeof P->refdir, "%s", jstr(j, "reference", sizeof P->refdir, &ok));
+        P->own_reference = cJSON_IsTrue(cJSON_GetObjectItem(j, "own_reference"));
+        P->size[0] = jnum(j, "width", 1u << 16, &ok);
+        P->size[1] = jnum(j, "height", 1u << 16, &ok);
+        P->frames = jnum(j, "frames", 1u << 20, &ok);
+        P->warmup = jnum(j, "warmup", 1u << 20, &ok);
+        P->spp = jnum(j, "spp", ~0u, &ok);
+        P->nkeys = cJSON_GetArraySize(ka);
+        P->nests = cJSON_GetArraySize(ea);
+        P->total = cJSON_GetArraySize(ca);
+        ok = ok && P->nkeys <= MAX_KEYS && P->nests <= MAX_RUNS && P->total <= MAX_RUNS &&
+             P->total > 0 && P->warmup < P->frames;
+    }
+    for (int k = 0; ok && k < P->nkeys; k++) {
+        const cJSON *v = cJSON_GetArrayItem(ka, k);
+        ok = cJSON_IsString(v) && (P->keys[k] = find_knob(v->valuestring)) != NULL;
+    }
+    for (int e = 0; ok && e < P->nests; e++) {
+        const cJSON *o = cJSON_GetArrayItem(ea, e);
+        sweep_estimator *es = &P->ests[e];
+        snprintf(es->bounces, sizeof es->bounces, "%s", jstr(o, "bounces", sizeof es->bounces, &ok));
+        snprintf(es->size, sizeof es->size, "%s", jstr(o, "size", sizeof es->size, &ok));
+        snprintf(es->dir, sizeof es->dir, "%s", jstr(o, "dir", sizeof es->dir, &ok));
+    }
+    for (int i = 0; ok && i < P->total; i++) {
+        const cJSON *o = cJSON_GetArrayItem(ca, i), *v = cJSON_GetObjectItem(o, "values");
+        ok = cJSON_IsArray(v) && cJSON_GetArraySize(v) == P->nkeys;
+        for (int k = 0; ok && k < P->nkeys; k++) {
+            const cJSON *s = cJSON_GetArrayItem(v, k);
+            ok = cJSON_IsString(s) && strlen(s->valuestring) < sizeof P->value[i][k];
+            if (ok)
+                snprintf(P->value[i][k], sizeof P->value[i][k], "%s", s->valuestring);
+        }
+        snprintf(P->cell_size[i], sizeof P->cell_size[i], "%s",
+                 jstr(o, "size", sizeof P->cell_size[i], &ok));
+        P->cell_est[i] = (int)jnum(o, "estimator", MAX_RUNS, &ok);
+        ok = ok && P->cell_est[i] < P->nests;
+    }
+    cJSON_Delete(j);
+    return ok ? TND_OK : tnd_fail(TND_ERR_BAD_INPUT, "sweep: %s: not a valid sweep plan", path);
+}
+
+/* ---- running a sweep here, or writing it out for Slurm -------------------------------------- */
+static tnd_result sweep_collect(const char *dir, bool *complete);
+
+static tnd_result run_local(const sweep_plan *P)
+{
+    tnd_result res = TND_OK;
+    sweep_argv a;
+    if (P->own_reference) {
+        argv_reference(P, &a);
+        if (cmd_reference(a.n, a.v) != APP_EXIT_OK)
+            return tnd_fail(TND_ERR_IO, "bench: the reference (%s) failed", P->refdir);
+    }
+    app_progress bar;
+    app_progress_begin(&bar, "sweep", (unsigned)(P->nests + P->total));
+    for (int e = 0; e < P->nests; e++) {
+        argv_matched(P, e, &a);
+        if (cmd_reference(a.n, a.v) != APP_EXIT_OK) {
+            res = tnd_fail(TND_ERR_IO, "bench: the matched reference %s failed", P->ests[e].dir);
+            break;
+        }
+        app_progress_step(&bar, (unsigned)e + 1);
+    }
+    for (int i = 0; res == TND_OK && i < P->total; i++) {
+        argv_cell(P, i, &a);
+        if (cmd_render(a.n, a.v) != APP_EXIT_OK)
+            res = tnd_fail(TND_ERR_IO, "bench: sweep run %d (%s) failed", i, a.v[6]);
+        app_progress_step(&bar, (unsigned)(P->nests + i + 1));
+    }
+    app_progress_end(&bar);
+    return res;
+}
+
+/* One shell word: 'text' with each ' written as '\'' */
+static void sh_word(FILE *f, const char *s)
+{
+    fputc('\'', f);
+    for (; *s; s++)
+        if (*s == '\'')
+            fputs("'\\''", f);
+        else
+            fputc(*s, f);
+    fputc('\'', f);
+}
+
+static void sh_command(FILE *f, const char *tandem, const sweep_argv *a, const char *extra)
+{
+    sh_word(f, tandem);
+    for (int k = 0; k < a->n; k++) {
+        fputc(' ', f);
+        sh_word(f, a->v[k]);
+    }
+    if (extra)
+        fprintf(f, " %s", extra);
+}
+
+/* The environment every task starts with: its GPU (the first Slurm gave it, by index: Vulkan
+ * does not read CUDA_VISIBLE_DEVICES; docs/cluster.md) and its CPUs. */
+static void sh_preamble(FILE *f, const char *what, const char *name, int array)
+{
+    fprintf(f, "#!/bin/bash\n# %s (written by tandem bench --emit slurm; submit.sh submits it)\n",
+            what);
+    fprintf(f, "#SBATCH --job-name=tandem-%s\n", name);
+    if (array > 0)
+        fprintf(f, "#SBATCH --array=0-%d\n", array - 1);
+    fprintf(f, "set -u\n"
+               "gpu=${CUDA_VISIBLE_DEVICES:-}\n"
+               "[ -n \"${TANDEM_DEVICE:-}\" ] || [ -z \"$gpu\" ] || export TANDEM_DEVICE=${gpu%%%%,*}\n"
+               "threads=${SLURM_CPUS_PER_TASK:-0}\n");
+}
+
+static tnd_result emit_slurm(const sweep_plan *P, unsigned shards)
+{
+    char tandem[4096], sdir[1100], logs[1200], path[1300];
+    ssize_t l = readlink("/proc/self/exe", tandem, sizeof tandem - 1);
+    if (l <= 0)
+        return tnd_fail(TND_ERR_IO, "bench: cannot find the tandem binary (/proc/self/exe)");
+    tandem[l] = 0;
+    snprintf(sdir, sizeof sdir, "%s/slurm", P->out);
+    snprintf(logs, sizeof logs, "%s/logs", sdir);
+    TND_TRY_RETURN(tnd_mkdirs(logs));
+    sweep_argv a;
+    FILE *f;
+    /* the unbiased reference: one task per shard, then their merge */
+    if (P->own_reference) {
+        snprintf(path, sizeof path, "%s/reference.sbatch", sdir);
+        if (!(f = fopen(path, "w")))
+            return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
+        sh_preamble(f, "the unbiased reference, one shard per task", "reference", (int)shards);
+        argv_reference(P, &a);
+        a.n -= 3; /* (its --out and --quiet are the shard's) */
+        sh_command(f, tandem, &a, "--threads \"$threads\" --quiet \\\n    --shard "
+                                  "\"$SLURM_ARRAY_TASK_ID/");
+        fprintf(f, "%u\" --out ", shards);
+        sh_word(f, sdir);
+        fprintf(f, "/shards/reference_$SLURM_ARRAY_TASK_ID\n");
+        if (fclose(f) != 0)
+            return tnd_fail(TND_ERR_IO, "bench: %s: write failed", path);
+        snprintf(path, sizeof path, "%s/merge.sbatch", sdir);
+        if (!(f = fopen(path, "w")))
+            return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
+        sh_preamble(f, "the reference's shards merged", "merge", 0);
+        sh_word(f, tandem);
+        fprintf(f, " merge --quiet");
+        for (unsigned s = 0; s < shards; s++) {
+            fprintf(f, " \\\n    ");
+            sh_word(f, sdir);
+            fprintf(f, "/shards/reference_%u", s);
+        }
+        fprintf(f, " \\\n    --out ");
+        sh_word(f, P->refdir);
+        fprintf(f, "\n");
+        if (fclose(f) != 0)
+            return tnd_fail(TND_ERR_IO, "bench: %s: write failed", path);
+    }
+    /* the matched references, one task per estimator; the cells, one task per cell (a failed
+     * cell leaves DIR/runs/NNN.failed with its exit status for collect) */
+    for (int w = 0; w < 2; w++) {
+        snprintf(path, sizeof path, "%s/%s.sbatch", sdir, w ? "cells" : "matched");
+        if (!(f = fopen(path, "w")))
+            return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
+        sh_preamble(f, w ? "the sweep's cells, one per task"
+                         : "the matched references, one estimator per task",
+                    w ? "cells" : "matched", w ? P->total : P->nests);
+        fprintf(f, "case $SLURM_ARRAY_TASK_ID in\n");
+        for (int i = 0; i < (w ? P->total : P->nests); i++) {
+            fprintf(f, "%d)\n    ", i);
+            if (w) {
+                argv_cell(P, i, &a);
+                fprintf(f, "rm -f ");
+                sh_word(f, a.v[6]);
+                fprintf(f, ".failed\n    ");
+                sh_command(f, tandem, &a, "--threads \"$threads\"");
+                fprintf(f, "\n    rc=$?\n    [ $rc -eq 0 ] || echo \"exit $rc\" > ");
+                sh_word(f, a.v[6]);
+                fprintf(f, ".failed\n    exit $rc ;;\n");
+            } else {
+                argv_matched(P, i, &a);
+                sh_command(f, tandem, &a, "--threads \"$threads\"");
+                fprintf(f, " ;;\n");
             }
-            TND_TRY(eval_against(es->dir, refdir, warmup, &es->bias));
-            r->estimator = nests++;
         }
-        if (cmd_render(na, args) != APP_EXIT_OK) {
-            app_progress_end(&bar);
-            res = tnd_fail(TND_ERR_IO, "bench: sweep run %d (%s) failed", i, dir);
-            goto fail;
+        fprintf(f, "*) echo \"no task $SLURM_ARRAY_TASK_ID\" >&2; exit 2 ;;\nesac\n");
+        if (fclose(f) != 0)
+            return tnd_fail(TND_ERR_IO, "bench: %s: write failed", path);
+    }
+    snprintf(path, sizeof path, "%s/collect.sbatch", sdir);
+    if (!(f = fopen(path, "w")))
+        return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
+    sh_preamble(f, "the finished cells gathered into sweep.json, sweep.csv and the report",
+                "collect", 0);
+    sh_word(f, tandem);
+    fprintf(f, " sweep collect --quiet ");
+    sh_word(f, P->out);
+    fprintf(f, "\n");
+    if (fclose(f) != 0)
+        return tnd_fail(TND_ERR_IO, "bench: %s: write failed", path);
+    /* submit.sh: every job with its dependencies; its arguments go to every sbatch (partition,
+     * account, CPUs per task), $TANDEM_SBATCH_GPU to those of Vulkan work (--gres=gpu:1) */
+    snprintf(path, sizeof path, "%s/submit.sh", sdir);
+    if (!(f = fopen(path, "w")))
+        return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
+    fprintf(f, "#!/bin/bash\n"
+               "# Submits the sweep to Slurm: submit.sh [SBATCH_OPTION...] (given to every job, e.g.\n"
+               "# --partition=P --cpus-per-task=N); TANDEM_SBATCH_GPU adds options to the jobs on\n"
+               "# Vulkan (the reference shards and the cells), e.g. TANDEM_SBATCH_GPU=--gres=gpu:1.\n"
+               "# Prints the job ids; the last one gathers the results (tandem sweep collect).\n"
+               "set -euo pipefail\n"
+               "cd \"$(dirname \"$0\")\"\n"
+               "gpu=(${TANDEM_SBATCH_GPU:-})\n"
+               "after=\"\"\n");
+    if (P->own_reference)
+        fprintf(f, "ref=$(sbatch --parsable \"$@\" \"${gpu[@]}\" --output=logs/reference_%%a.out "
+                   "reference.sbatch)\n"
+                   "merge=$(sbatch --parsable \"$@\" --output=logs/merge_%%j.out "
+                   "--dependency=afterok:$ref --kill-on-invalid-dep=yes merge.sbatch)\n"
+                   "echo \"reference shards: $ref, merge: $merge\"\n"
+                   "after=\":$merge\"\n");
+    fprintf(f, "matched=$(sbatch --parsable \"$@\" --output=logs/matched_%%a.out matched.sbatch)\n"
+               "cells=$(sbatch --parsable \"$@\" \"${gpu[@]}\" --output=logs/cells_%%a.out "
+               "--dependency=afterok:$matched$after --kill-on-invalid-dep=yes cells.sbatch)\n"
+               "collect=$(sbatch --parsable \"$@\" --output=logs/collect_%%j.out "
+               "--dependency=afterany:$cells collect.sbatch)\n"
+               "echo \"matched references: $matched, cells: $cells, collect: $collect\"\n");
+    if (fclose(f) != 0 || chmod(path, 0755) != 0)
+        return tnd_fail(TND_ERR_IO, "bench: %s: write failed", path);
+    if (!app_quiet())
+        fprintf(stderr, "tandem: bench: %d cells, %d matched references%s -> %s/submit.sh\n",
+                P->total, P->nests, P->own_reference ? ", the reference in shards" : "", sdir);
+    printf("%s/submit.sh\n", sdir);
+    return TND_OK;
+}
+
+/* A path made absolute (the cluster's nodes start elsewhere); `p` need not exist. False when
+ * it does not fit. */
+static bool absolute(const char *p, char *out, size_t cap)
+{
+    char cwd[900];
+    size_t lp = strlen(p), lc;
+    if (p[0] == '/' || strncmp(p, "stress:", 7) == 0) {
+        if (lp >= cap)
+            return false;
+        memcpy(out, p, lp + 1);
+        return true;
+    }
+    if (!getcwd(cwd, sizeof cwd) || (lc = strlen(cwd)) + 1 + lp >= cap)
+        return false;
+    memcpy(out, cwd, lc);
+    out[lc] = '/';
+    memcpy(out + lc + 1, p, lp + 1);
+    return true;
+}
+
+int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
+              unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup,
+              const char *emit, unsigned shards)
+{
+    char scene_abs[1100], out_abs[1000], ref_abs[1000];
+    if (emit && strcmp(emit, "slurm") != 0) {
+        fprintf(stderr, "tandem bench: --emit %s: slurm is the one scheduler written for\n", emit);
+        return APP_EXIT_USAGE;
+    }
+    if (emit && out) {
+        if (!absolute(scene, scene_abs, sizeof scene_abs) ||
+            !absolute(out, out_abs, sizeof out_abs) ||
+            (reference && !absolute(reference, ref_abs, sizeof ref_abs))) {
+            fprintf(stderr, "tandem bench: path too long\n");
+            return APP_EXIT_USAGE;
         }
-        TND_TRY(read_timings(dir, warmup, r));
-        TND_TRY(eval_against(dir, ests[r->estimator].dir, warmup, &r->metrics));
-        TND_TRY(eval_against(dir, refdir, warmup, &r->whole));
+        scene = scene_abs;
+        out = out_abs;
+        reference = reference ? ref_abs : NULL;
+    }
+    sweep_plan *P = calloc(1, sizeof *P);
+    if (!P)
+        return app_report("bench", tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory"));
+    int status = plan_make(sweeps, scene, out, reference, spp, size, frames, warmup, P);
+    if (status >= 0) {
+        free(P);
+        return status;
+    }
+    if (emit && (shards == 0 || shards > frames * ((spp + TND_REF_CHECK_EVERY - 1) /
+                                                   TND_REF_CHECK_EVERY))) {
+        free(P);
+        fprintf(stderr, "tandem bench: --ref-shards %u: 1 to the reference's batches of %u "
+                        "samples (%u frames x %u samples)\n", shards, TND_REF_CHECK_EVERY, frames,
+                spp);
+        return APP_EXIT_USAGE;
+    }
+    tnd_result res = tnd_mkdirs(out);
+    if (res == TND_OK)
+        res = plan_write(P);
+    if (res == TND_OK && emit)
+        res = emit_slurm(P, shards);
+    else if (res == TND_OK)
+        res = run_local(P);
+    bool complete = false;
+    if (res == TND_OK && !emit)
+        res = sweep_collect(out, &complete);
+    free(P);
+    return res == TND_OK ? APP_EXIT_OK : app_report("bench", res);
+}
+
+/* ---- gathering: evaluate what finished, write sweep.json, sweep.csv and the report ---------- */
+static bool exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+/* Read the plan, evaluate each finished cell (timings, against its matched reference and the
+ * unbiased one), name the failed and missing ones, and write the outputs over the finished. */
+static tnd_result sweep_collect(const char *dir, bool *complete)
+{
+    sweep_plan *P = calloc(1, sizeof *P);
+    sweep_run *runs = NULL;
+    int *cell_of = NULL;
+    tnd_result res = TND_OK;
+    int status = APP_EXIT_FAIL;
+    ev_text html = {0}, problems = {0};
+    cJSON *root = NULL, *failed = NULL, *missing = NULL;
+    *complete = false;
+    if (!P)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "sweep: out of memory");
+    TND_TRY(plan_read(dir, P));
+    runs = calloc((size_t)P->total, sizeof *runs);
+    cell_of = calloc((size_t)P->total, sizeof *cell_of);
+    if (!runs || !cell_of) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "sweep: out of memory");
+        goto fail;
+    }
+    char path[1400];
+    snprintf(path, sizeof path, "%s/reference.json", P->refdir);
+    if (!exists(path)) {
+        res = tnd_fail(TND_ERR_IO, "sweep: %s: the unbiased reference is not there (its job "
+                       "failed or has not run)", P->refdir);
+        goto fail;
+    }
+    bool est_ok[MAX_RUNS];
+    for (int e = 0; e < P->nests; e++) {
+        snprintf(path, sizeof path, "%s/reference.json", P->ests[e].dir);
+        est_ok[e] = exists(path);
+        if (est_ok[e])
+            TND_TRY(eval_against(P->ests[e].dir, P->refdir, P->warmup, &P->ests[e].bias));
+    }
+    failed = cJSON_CreateArray();
+    missing = cJSON_CreateArray();
+    int total = 0;
+    app_progress bar;
+    app_progress_begin(&bar, "collect", (unsigned)P->total);
+    for (int i = 0; i < P->total; i++) {
+        char cdir[1300], why[200] = "";
+        cell_dir(P, i, cdir, sizeof cdir);
+        snprintf(path, sizeof path, "%s.failed", cdir);
+        void *txt = NULL;
+        size_t len = 0;
+        bool is_failed = tnd_file_read(path, &txt, &len) == TND_OK;
+        if (is_failed) {
+            snprintf(why, sizeof why, "%.*s", (int)strcspn(txt, "\n"), (char *)txt);
+            free(txt);
+        }
+        snprintf(path, sizeof path, "%s/run.json", cdir);
+        bool done = !is_failed && exists(path);
+        if (done && !est_ok[P->cell_est[i]])
+            snprintf(why, sizeof why, "its matched reference %s is not there",
+                     P->ests[P->cell_est[i]].dir);
+        if (!done || !est_ok[P->cell_est[i]]) {
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddNumberToObject(o, "cell", i);
+            cJSON *kv = cJSON_AddObjectToObject(o, "knobs");
+            ev_text_add(&problems, "  cell %d (", i);
+            for (int k = 0; k < P->nkeys; k++) {
+                cJSON_AddStringToObject(kv, P->keys[k]->key, P->value[i][k]);
+                ev_text_add(&problems, "%s%s=%s", k ? " " : "", P->keys[k]->key, P->value[i][k]);
+            }
+            ev_text_add(&problems, "): %s%s\n", is_failed ? "failed, " : "missing",
+                        is_failed ? why : why[0] ? ": " : "");
+            if (!is_failed && why[0])
+                ev_text_add(&problems, "%s\n", why);
+            cJSON_AddStringToObject(o, "dir", cdir);
+            if (why[0])
+                cJSON_AddStringToObject(o, "why", why);
+            cJSON_AddItemToArray(is_failed ? failed : missing, o);
+            app_progress_step(&bar, (unsigned)i + 1);
+            continue;
+        }
+        sweep_run *r = &runs[total];
+        for (int k = 0; k < P->nkeys; k++)
+            r->value[k] = P->value[i][k];
+        r->estimator = P->cell_est[i];
+        TND_TRY(read_timings(cdir, P->warmup, r));
+        TND_TRY(eval_against(cdir, P->ests[r->estimator].dir, P->warmup, &r->metrics));
+        TND_TRY(eval_against(cdir, P->refdir, P->warmup, &r->whole));
+        cell_of[total++] = i;
         app_progress_step(&bar, (unsigned)i + 1);
     }
     app_progress_end(&bar);
+    if (total == 0) {
+        res = tnd_fail(TND_ERR_IO, "sweep: %s: no cell has finished:\n%s", dir,
+                       problems.s ? problems.s : "");
+        goto fail;
+    }
+    const char *scene = P->scene, *refdir = P->refdir, *out = P->out;
+    const unsigned *size = P->size;
+    unsigned frames = P->frames, warmup = P->warmup;
+    int nkeys = P->nkeys, nests = P->nests;
+    const knob *const *keys = P->keys;
+    const sweep_estimator *ests = P->ests;
     /* Pareto fronts and the outputs */
     double *tx = malloc((size_t)total * sizeof *tx), *ya = malloc((size_t)total * sizeof *ya),
            *yb = malloc((size_t)total * sizeof *yb);
@@ -310,7 +849,7 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
     }
     ev_pareto(tx, ya, (uint32_t)total, pa);
     ev_pareto(tx, yb, (uint32_t)total, pb);
-    char rdir[1300], path[1400];
+    char rdir[1300];
     snprintf(rdir, sizeof rdir, "%s/report", out);
     res = tnd_mkdirs(rdir);
     const char *xlabel = "GPU ms per frame (median after warm-up)";
@@ -332,6 +871,10 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
     cJSON_AddNumberToObject(root, "height", size[1]);
     cJSON_AddNumberToObject(root, "frames", frames);
     cJSON_AddNumberToObject(root, "warmup", warmup);
+    cJSON_AddNumberToObject(root, "cells", P->total);
+    cJSON_AddItemToObject(root, "failed", failed);
+    cJSON_AddItemToObject(root, "missing", missing);
+    failed = missing = NULL; /* (root holds them) */
     cJSON *ka = cJSON_AddArrayToObject(root, "knobs");
     for (int k = 0; k < nkeys; k++)
         cJSON_AddItemToArray(ka, cJSON_CreateString(keys[k]->key));
@@ -368,6 +911,7 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
         r->pareto_flip = pb[i];
         cJSON *o = cJSON_CreateObject();
         cJSON_AddItemToArray(ra, o);
+        cJSON_AddNumberToObject(o, "cell", cell_of[i]);
         cJSON *kv = cJSON_AddObjectToObject(o, "knobs");
         for (int k = 0; k < nkeys; k++) {
             cJSON_AddStringToObject(kv, keys[k]->key, r->value[k]);
@@ -418,6 +962,11 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
                     r->whole.relmse, es->bias.relmse);
     }
     ev_text_add(&html, "</table>\n");
+    if (problems.s) { /* (a sweep gathered before every cell finished) */
+        ev_text_add(&html, "<h2>Cells not in the table</h2>\n<pre>");
+        ev_text_escaped(&html, problems.s);
+        ev_text_add(&html, "</pre>\n");
+    }
     free(tx), free(ya), free(yb), free(pa), free(pb), free(label), free(labels);
     char *json = cJSON_Print(root);
     ev_text jt = {0};
@@ -442,7 +991,11 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
     free(json);
     ev_text_free(&jt);
     ev_text_free(&csv);
-    if (res == TND_OK) {
+    if (res == TND_OK && problems.s) {
+        res = tnd_fail(TND_ERR_IO, "sweep: %d of %d cells gathered into %s/sweep.json; the "
+                       "others:\n%s", total, P->total, out, problems.s);
+    } else if (res == TND_OK) {
+        *complete = true;
         status = APP_EXIT_OK;
         if (!app_quiet())
             fprintf(stderr, "tandem: bench: %d runs -> %s/sweep.json, %s/sweep.csv, %s/index.html\n",
@@ -460,13 +1013,39 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
         }
     }
 fail:
-    if (res != TND_OK)
-        status = app_report("bench", res);
+    (void)status;
     cJSON_Delete(root);
+    cJSON_Delete(failed);
+    cJSON_Delete(missing);
     ev_text_free(&html);
-    for (int k = 0; k < MAX_KEYS; k++)
-        free(values_buf[k]);
+    ev_text_free(&problems);
     free(runs);
-    free(ests);
-    return status;
+    free(cell_of);
+    free(P);
+    return res;
+}
+
+/* ---- tandem sweep collect DIR ----------------------------------------------------------- */
+static const app_cmd sweep_cmd = {
+    "sweep",
+    "collect DIR: gather a sweep's finished cells (tandem bench --sweep ... --emit slurm, run on\n"
+    "a cluster) into DIR/sweep.json, DIR/sweep.csv and DIR/report, as a local sweep writes them;\n"
+    "cells that failed or have not run are named, in the outputs and on stderr (exit 1).",
+    "collect DIR", NULL};
+
+int cmd_sweep(int argc, char **argv)
+{
+    const app_opt opts[] = {{0}};
+    const char *pos[2];
+    int npos;
+    int rc = app_parse(&sweep_cmd, opts, argc, argv, pos, 2, &npos);
+    if (rc >= 0)
+        return rc;
+    if (npos != 2 || strcmp(pos[0], "collect") != 0) {
+        fprintf(stderr, "tandem sweep: expected 'collect DIR' (see tandem sweep --help)\n");
+        return APP_EXIT_USAGE;
+    }
+    bool complete = false;
+    tnd_result res = sweep_collect(pos[1], &complete);
+    return res == TND_OK ? APP_EXIT_OK : app_report("sweep", res);
 }

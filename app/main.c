@@ -12,6 +12,8 @@ static const app_cmd commands[] = {
      "[--scene PATH] [--script FILE] [options]", cmd_view},
     {"reference", "Render converged reference frames (unbiased path tracing).",
      "--out DIR [options]", cmd_reference},
+    {"sweep", "Gather a sweep run elsewhere (bench --sweep --emit slurm) into its report.",
+     "collect DIR", cmd_sweep},
     {"merge", "Merge the shards of a reference (reference --shard I/N) into its frames.",
      "SHARD_DIR... --out DIR", cmd_merge},
     {"denoise", "Run the denoising back-end on a captured EXR sequence (Tandem's or another's).",
