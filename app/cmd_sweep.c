@@ -399,13 +399,13 @@ static tnd_result plan_read(const char *dir, sweep_plan *P)
 {
     char path[1100];
     if (strlen(dir) > 900)
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "sweep: %s: path too long", dir);
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: path too long", dir);
     snprintf(path, sizeof path, "%s/sweep-plan.json", dir);
     void *txt = NULL;
     size_t len = 0;
     tnd_result res = tnd_file_read(path, &txt, &len);
     if (res != TND_OK)
-        return tnd_fail(TND_ERR_IO, "sweep: %s: no sweep plan (tandem bench --sweep ... writes "
+        return tnd_fail(TND_ERR_IO, "%s: no sweep plan (tandem bench --sweep ... writes "
                         "one)", path);
     cJSON *j = cJSON_ParseWithLength(txt, len);
     free(txt);
@@ -455,7 +455,7 @@ static tnd_result plan_read(const char *dir, sweep_plan *P)
         ok = ok && P->cell_est[i] < P->nests;
     }
     cJSON_Delete(j);
-    return ok ? TND_OK : tnd_fail(TND_ERR_BAD_INPUT, "sweep: %s: not a valid sweep plan", path);
+    return ok ? TND_OK : tnd_fail(TND_ERR_BAD_INPUT, "%s: not a valid sweep plan", path);
 }
 
 /* ---- running a sweep here, or writing it out for Slurm -------------------------------------- */
@@ -740,18 +740,18 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     cJSON *root = NULL, *failed = NULL, *missing = NULL;
     *complete = false;
     if (!P)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "sweep: out of memory");
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
     TND_TRY(plan_read(dir, P));
     runs = calloc((size_t)P->total, sizeof *runs);
     cell_of = calloc((size_t)P->total, sizeof *cell_of);
     if (!runs || !cell_of) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "sweep: out of memory");
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
         goto fail;
     }
     char path[1400];
     snprintf(path, sizeof path, "%s/reference.json", P->refdir);
     if (!exists(path)) {
-        res = tnd_fail(TND_ERR_IO, "sweep: %s: the unbiased reference is not there (its job "
+        res = tnd_fail(TND_ERR_IO, "%s: the unbiased reference is not there (its job "
                        "failed or has not run)", P->refdir);
         goto fail;
     }
@@ -815,7 +815,7 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     }
     app_progress_end(&bar);
     if (total == 0) {
-        res = tnd_fail(TND_ERR_IO, "sweep: %s: no cell has finished:\n%s", dir,
+        res = tnd_fail(TND_ERR_IO, "%s: no cell has finished:\n%s", dir,
                        problems.s ? problems.s : "");
         goto fail;
     }
@@ -992,7 +992,7 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     ev_text_free(&jt);
     ev_text_free(&csv);
     if (res == TND_OK && problems.s) {
-        res = tnd_fail(TND_ERR_IO, "sweep: %d of %d cells gathered into %s/sweep.json; the "
+        res = tnd_fail(TND_ERR_IO, "%d of %d cells gathered into %s/sweep.json; the "
                        "others:\n%s", total, P->total, out, problems.s);
     } else if (res == TND_OK) {
         *complete = true;
