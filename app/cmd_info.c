@@ -146,6 +146,7 @@ static cJSON *device_json(const tnd_vk_device_info *d, bool chosen)
     cJSON_AddNumberToObject(o, "index", d->index);
     cJSON_AddStringToObject(o, "name", d->name);
     cJSON_AddStringToObject(o, "type", type_name(d->type));
+    cJSON_AddStringToObject(o, "uuid", d->uuid);
     cJSON_AddStringToObject(o, "driver", d->driver_name);
     cJSON_AddStringToObject(o, "driver_info", d->driver_info);
     cJSON_AddStringToObject(o, "api_version", api);
@@ -177,6 +178,8 @@ static void device_text(const tnd_vk_device_info *d, bool chosen)
            type_name(d->type), d->driver_name, VK_API_VERSION_MAJOR(d->api_version),
            VK_API_VERSION_MINOR(d->api_version), VK_API_VERSION_PATCH(d->api_version),
            chosen ? "  <- chosen" : "");
+    if (d->uuid[0])
+        printf("    UUID %s (as nvidia-smi -L names NVIDIA GPUs)\n", d->uuid);
     printf("    ray tracing pipeline: %s   acceleration structure: %s   ray query: %s\n",
            d->rt_pipeline ? "yes" : "no", d->accel_struct ? "yes" : "no",
            d->ray_query ? "yes" : "no");

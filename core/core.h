@@ -133,6 +133,8 @@ typedef struct tnd_vk_device_info {
     VkPhysicalDeviceType type;
     uint32_t api_version;
     uint32_t vendor_id, device_id;
+    char uuid[48]; /* deviceUUID as "GPU-xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx" (nvidia-smi -L's
+                      form: on NVIDIA the same as CUDA's), "" before Vulkan 1.2 */
     bool rt_pipeline;    /* VK_KHR_ray_tracing_pipeline + its feature */
     bool accel_struct;   /* VK_KHR_acceleration_structure + its feature */
     bool ray_query;      /* VK_KHR_ray_query + its feature */

@@ -172,8 +172,10 @@ static tnd_result query_device(VkPhysicalDevice pd, uint32_t index, tnd_vk_devic
             .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_PROPERTIES_KHR};
         VkPhysicalDeviceDriverProperties drv = {
             .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+        VkPhysicalDeviceIDProperties idp = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES,
+                                            .pNext = &drv};
         VkPhysicalDeviceProperties2 p2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2,
-                                          .pNext = &drv};
+                                          .pNext = &idp};
         if (has_rt) {
             rtp.pNext = p2.pNext;
             p2.pNext = &rtp;
@@ -183,6 +185,11 @@ static tnd_result query_device(VkPhysicalDevice pd, uint32_t index, tnd_vk_devic
             p2.pNext = &asp;
         }
         vkGetPhysicalDeviceProperties2(pd, &p2);
+        const uint8_t *u = idp.deviceUUID;
+        snprintf(d->uuid, sizeof d->uuid,
+                 "GPU-%02x%02x%02x%02x-%02x%02x-%02x%02x-%02x%02x-%02x%02x%02x%02x%02x%02x", u[0],
+                 u[1], u[2], u[3], u[4], u[5], u[6], u[7], u[8], u[9], u[10], u[11], u[12], u[13],
+                 u[14], u[15]);
         snprintf(d->driver_name, sizeof d->driver_name, "%s", drv.driverName);
         snprintf(d->driver_info, sizeof d->driver_info, "%s", drv.driverInfo);
         d->shader_group_handle_size = rtp.shaderGroupHandleSize;
