@@ -516,6 +516,10 @@ static void remove_partial(const render_opts *o, bool out_existed, bool dumps_ma
     }
     snprintf(path, sizeof path, "%s/timings.json", o->out);
     remove(path);
+    if (o->shard) { /* (an earlier shard's list would name the sums just removed) */
+        snprintf(path, sizeof path, "%s/shard.json", o->out);
+        remove(path);
+    }
 }
 
 static int run(bool reference, int argc, char **argv)
