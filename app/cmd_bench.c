@@ -279,9 +279,35 @@ fail:
  * without waiting for the previous one. Blocks of frames take turns (noise on these machines
  * drifts in minutes); each way has its own front-end and chain, so histories do not mix. */
 enum { OV_HOST, OV_GPU, OV_NO_WAIT, OV_COUNT };
+/* The whole frame's passes and the four groups #29's table reports them in. */
+enum { WF_FRONTEND, WF_GRADIENTS, WF_BACKEND, WF_POST, WF_GROUPS };
+static const char *const wf_group[WF_GROUPS] = {"front-end", "gradients", "back-end", "post"};
+static const struct {
+    const char *name;
+    int group;
+} wf_pass[] = {{"primary", WF_FRONTEND},       {"shade", WF_FRONTEND},
+               {"tlas", WF_FRONTEND},          {"gradient_shade", WF_GRADIENTS},
+               {"select", WF_GRADIENTS},       {"gradient", WF_GRADIENTS},
+               {"temporal", WF_BACKEND},       {"lf", WF_BACKEND},
+               {"atrous", WF_BACKEND},         {"composite", WF_BACKEND},
+               {"interleave", WF_POST},        {"taa", WF_POST},
+               {"bloom", WF_POST},             {"exposure", WF_POST},
+               {"tonemap", WF_POST}};
+enum { WF_PASSES = sizeof wf_pass / sizeof wf_pass[0] };
+
+static void wf_record(const pl_step_result *r, double *pass[WF_PASSES], size_t at)
+{
+    const double v[WF_PASSES] = {r->fe.primary_ms, r->fe.shade_ms, r->fe.tlas_ms,
+                                 r->fe.gradient_ms, r->dn.select_ms, r->dn.gradient_ms,
+                                 r->dn.temporal_ms, r->dn.lf_ms, r->dn.atrous_ms,
+                                 r->dn.composite_ms, r->post.interleave_ms, r->post.taa_ms,
+                                 r->post.bloom_ms, r->post.exposure_ms, r->post.tonemap_ms};
+    for (int k = 0; k < WF_PASSES; k++)
+        pass[k][at] = v[k];
+}
 static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const unsigned size[2],
                                 unsigned bounces, unsigned blocks, dn_mode mode,
-                                tnd_precision prec, bool json)
+                                tnd_precision prec, bool json, bool with_host)
 {
     static const char *const ov_name[OV_COUNT] = {"host_contract_blocking", "gpu_contract_blocking",
                                                   "gpu_contract_no_wait"};
@@ -292,14 +318,23 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
     pl_chain *chain[OV_COUNT] = {0};
     tnd_scene_state st[2] = {{0}};
     double *ms[OV_COUNT] = {0};
+    const int m0 = with_host ? OV_HOST : OV_GPU; /* the ways run */
+    /* the GPU-contract way's passes, frame by frame (its frames are waited for: their
+     * timestamps are the frame's own) */
+    double *pass[WF_PASSES] = {0};
     for (int m = 0; m < OV_COUNT; m++)
         if (!(ms[m] = calloc(blocks, sizeof(double)))) {
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
             goto fail;
         }
+    for (int k = 0; k < WF_PASSES; k++)
+        if (!(pass[k] = calloc((size_t)blocks * BLOCK, sizeof(double)))) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+            goto fail;
+        }
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !pl_frontend_needs_gpu(fe_name)}, &vk));
     cmp_desc pd = {.taa = true, .interleave = (s->features & TND_FEATURE(SPLIT)) != 0};
-    for (int m = 0; m < OV_COUNT; m++) {
+    for (int m = m0; m < OV_COUNT; m++) {
         TND_TRY(pl_frontend_create(fe_name, s, &(pl_frontend_desc){.vk = &vk, .precision = prec},
                                    &fe[m]));
         TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = size[0], .height = size[1],
@@ -310,7 +345,7 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
     }
     float aspect = (float)size[0] / size[1];
     for (unsigned b = 0; b < WARM + blocks; b++)
-        for (int m = 0; m < OV_COUNT; m++) {
+        for (int m = m0; m < OV_COUNT; m++) {
             double t0 = tnd_now();
             for (unsigned i = 0; i < BLOCK; i++) {
                 unsigned f = b * BLOCK + i; /* the same frames for every way */
@@ -322,17 +357,25 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
                                 .frame = dn_frame_for_camera(cur->camera.proj, size[1], f, f == 0),
                                 .dt = 1.0f / 30.0f,
                                 .no_wait = m == OV_NO_WAIT};
-                TND_TRY(pl_chain_run(chain[m], fe[m], &step, NULL, NULL, NULL));
+                pl_step_result pr = {0};
+                TND_TRY(pl_chain_run(chain[m], fe[m], &step, NULL, NULL, &pr));
+                if (m == OV_GPU && b >= WARM)
+                    wf_record(&pr, pass, (size_t)(b - WARM) * BLOCK + i);
             }
             TND_TRY(pl_chain_finish(chain[m], NULL));
             if (b >= WARM)
                 ms[m][b - WARM] = 1e3 * (tnd_now() - t0) / BLOCK;
         }
-    double med[OV_COUNT];
-    for (int m = 0; m < OV_COUNT; m++)
+    double med[OV_COUNT], pmed[WF_PASSES], group[WF_GROUPS] = {0}, gpu = 0;
+    for (int m = m0; m < OV_COUNT; m++)
         med[m] = app_median(ms[m], blocks);
+    for (int k = 0; k < WF_PASSES; k++) {
+        pmed[k] = app_median(pass[k], blocks * BLOCK);
+        group[wf_pass[k].group] += pmed[k];
+        gpu += pmed[k];
+    }
     char who[300];
-    pl_frontend_describe(fe[0], who, sizeof who);
+    pl_frontend_describe(fe[m0], who, sizeof who);
     if (json) {
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "frontend", fe_name);
@@ -342,20 +385,38 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
         cJSON_AddNumberToObject(o, "height", size[1]);
         cJSON_AddNumberToObject(o, "frames_per_block", BLOCK);
         cJSON_AddNumberToObject(o, "blocks", blocks);
-        for (int m = 0; m < OV_COUNT; m++)
+        for (int m = m0; m < OV_COUNT; m++)
             cJSON_AddNumberToObject(o, ov_name[m], med[m]);
-        cJSON_AddNumberToObject(o, "gpu_over_host", med[OV_GPU] / med[OV_HOST]);
-        cJSON_AddNumberToObject(o, "no_wait_over_host", med[OV_NO_WAIT] / med[OV_HOST]);
+        if (with_host) {
+            cJSON_AddNumberToObject(o, "gpu_over_host", med[OV_GPU] / med[OV_HOST]);
+            cJSON_AddNumberToObject(o, "no_wait_over_host", med[OV_NO_WAIT] / med[OV_HOST]);
+        }
+        cJSON *g = cJSON_AddObjectToObject(o, "gpu_ms"); /* medians per pass, and their sums */
+        for (int k = 0; k < WF_PASSES; k++)
+            cJSON_AddNumberToObject(g, wf_pass[k].name, pmed[k]);
+        for (int k = 0; k < WF_GROUPS; k++)
+            cJSON_AddNumberToObject(g, wf_group[k], group[k]);
+        cJSON_AddNumberToObject(g, "frame", gpu);
         char *txt = cJSON_Print(o);
         printf("%s\n", txt);
         free(txt);
         cJSON_Delete(o);
     } else {
-        printf("bench --overlap: %s, %ux%u, %s, %s (wall ms per frame, medians of %u blocks of "
+        printf("bench %s: %s, %ux%u, %s, %s (wall ms per frame, medians of %u blocks of "
                "%d frames taking turns)\n",
-               who, size[0], size[1], dn_mode_name(mode), tnd_precision_name(prec), blocks, BLOCK);
-        for (int m = 0; m < OV_COUNT; m++)
-            printf("  %-24s %9.3f ms  %5.3fx\n", ov_name[m], med[m], med[m] / med[OV_HOST]);
+               with_host ? "--overlap" : "--whole-frame", who, size[0], size[1], dn_mode_name(mode), tnd_precision_name(prec), blocks, BLOCK);
+        for (int m = m0; m < OV_COUNT; m++)
+            printf("  %-24s %9.3f ms  %5.3fx\n", ov_name[m], med[m], med[m] / med[m0]);
+        printf("  GPU ms per pass (medians of %u frames, contract on the GPU, each frame waited "
+               "for; the front-end's are CPU wall clock with embree):\n", blocks * BLOCK);
+        for (int k = 0; k < WF_GROUPS; k++) {
+            printf("    %-10s %8.3f  (", wf_group[k], group[k]);
+            for (int j = 0, n = 0; j < WF_PASSES; j++)
+                if (wf_pass[j].group == k)
+                    printf("%s%s %.3f", n++ ? ", " : "", wf_pass[j].name, pmed[j]);
+            printf(")\n");
+        }
+        printf("    %-10s %8.3f\n", "frame", gpu);
     }
 fail:
     for (int m = 0; m < OV_COUNT; m++) {
@@ -363,6 +424,8 @@ fail:
         pl_frontend_destroy(fe[m]);
         free(ms[m]);
     }
+    for (int k = 0; k < WF_PASSES; k++)
+        free(pass[k]);
     tnd_scene_state_free(&st[0]);
     tnd_scene_state_free(&st[1]);
     tnd_vk_destroy(&vk);
@@ -374,12 +437,13 @@ int cmd_bench(int argc, char **argv)
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
     unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
     bool json = false, extremes = false, scene_given = false, per_dispatch = false;
-    bool overlap = false;
+    bool overlap = false, whole_frame = false;
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
     const char *out = NULL, *reference = NULL;
     app_list sweeps = {0};
     unsigned frames = 12, warmup = 4, spp = 64, ref_shards = 0;
     const char *emit = NULL;
+    app_env env = APP_ENV_INIT; /* (--overlap and --denoiser: the whole frame or the back-end) */
     const app_opt opts[] = {
         {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
          "with --frontend vk: time the whole frame with this back-end (asvgf, svgf or off)"},
@@ -387,6 +451,10 @@ int cmd_bench(int argc, char **argv)
         {"overlap", APP_OPT_FLAG, &overlap, NULL,
          "the whole frame (front-end, back-end, post) back to back with the contract brought to "
          "the host, kept on the GPU, and with frames not waited for: wall ms and ratios"},
+        {"whole-frame", APP_OPT_FLAG, &whole_frame, NULL,
+         "the whole frame back to back (front-end, gradients, back-end, post): GPU timestamps "
+         "per pass and wall clock, medians after warm-up; --overlap without its host-contract "
+         "way"},
         {"per-dispatch", APP_OPT_FLAG, &per_dispatch, NULL,
          "with --denoiser: also time every back-end dispatch (each a-trous iteration, ...)"},
         {"rt-api", APP_OPT_STRING, &rt_api, "API", "vk: pipeline, query or auto"},
@@ -411,6 +479,7 @@ int cmd_bench(int argc, char **argv)
         {"extremes", APP_OPT_FLAG, &extremes, NULL,
          "numerical stability report: the extremes scene (or --scene) through every mode; needs --out"},
         {"warmup", APP_OPT_UINT, &warmup, "W", "--sweep: frames left out of times and metrics (default 4)"},
+        APP_ENV_OPTS(&env),
         {"emit", APP_OPT_STRING, &emit, "slurm",
          "--sweep: write the sweep as Slurm jobs (DIR/slurm/submit.sh: reference shards, their "
          "merge, matched references, one array task per cell, collect) instead of running it; "
@@ -449,7 +518,7 @@ int cmd_bench(int argc, char **argv)
     if (sweeps.n)
         return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup, emit,
                          ref_shards ? ref_shards : frames < 64 ? frames : 64);
-    if (overlap) {
+    if (overlap || whole_frame) {
         dn_mode mode;
         tnd_precision prec;
         if ((res = dn_mode_parse(denoiser ? denoiser : "svgf", &mode)) != TND_OK ||
@@ -458,9 +527,9 @@ int cmd_bench(int argc, char **argv)
             return APP_EXIT_USAGE;
         }
         tnd_scene *sc = NULL;
-        res = tnd_scene_load(scene_path, &sc);
+        res = app_scene_load(scene_path, &env, &sc);
         if (res == TND_OK)
-            res = bench_overlap(sc, frontend, size, bounces, repeats, mode, prec, json);
+            res = bench_overlap(sc, frontend, size, bounces, repeats, mode, prec, json, overlap);
         tnd_scene_destroy(sc);
         if (res != TND_OK) {
             app_report("bench", res);
@@ -482,7 +551,7 @@ int cmd_bench(int argc, char **argv)
             return APP_EXIT_USAGE;
         }
         tnd_scene *sc = NULL;
-        res = tnd_scene_load(scene_path, &sc);
+        res = app_scene_load(scene_path, &env, &sc);
         if (res == TND_OK)
             res = bench_pipeline(sc, scene_path, frame, size, bounces, repeats, rt_api, full,
                                  mode, prec, json, per_dispatch);
