@@ -75,7 +75,9 @@ typedef struct fvk_params {
     float jitter[2];
 } fvk_params;
 
-/* GPU times of the last fvk_render / fvk_shade_gradients, per pass. */
+/* GPU times of the last fvk_render / fvk_shade_gradients, per pass; tlas_ms: the wall clock of
+ * this frame's TLAS build or refit (submitted and waited for in fvk_set_frame; 0 when nothing
+ * moved). */
 typedef struct fvk_timings {
     double primary_ms, shade_ms, gradient_ms, tlas_ms;
 } fvk_timings;

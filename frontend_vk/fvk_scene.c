@@ -280,6 +280,7 @@ tnd_result fvk_scene_frame(fvk_context *c, const tnd_scene_state *cur, const tnd
 {
     tnd_result res = TND_OK;
     const tnd_scene *s = c->scene;
+    c->tlas_ms = 0; /* (this frame's build or refit only: a still scene's frames have none) */
     TND_TRY(tnd_lights_build(s, cur, &c->light_list));
     if (c->light_list.count)
         memcpy(c->lights.mapped, c->light_list.lights,
