@@ -773,11 +773,10 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
         snprintf(path, sizeof path, "%s.failed", cdir);
         void *txt = NULL;
         size_t len = 0;
-        bool is_failed = tnd_file_read(path, &txt, &len) == TND_OK;
-        if (is_failed) {
+        bool is_failed = exists(path) && tnd_file_read(path, &txt, &len) == TND_OK;
+        if (is_failed) /* (its first line: "exit N") */
             snprintf(why, sizeof why, "%.*s", (int)strcspn(txt, "\n"), (char *)txt);
-            free(txt);
-        }
+        free(txt);
         snprintf(path, sizeof path, "%s/run.json", cdir);
         bool done = !is_failed && exists(path);
         if (done && !est_ok[P->cell_est[i]])
@@ -792,10 +791,8 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
                 cJSON_AddStringToObject(kv, P->keys[k]->key, P->value[i][k]);
                 ev_text_add(&problems, "%s%s=%s", k ? " " : "", P->keys[k]->key, P->value[i][k]);
             }
-            ev_text_add(&problems, "): %s%s\n", is_failed ? "failed, " : "missing",
-                        is_failed ? why : why[0] ? ": " : "");
-            if (!is_failed && why[0])
-                ev_text_add(&problems, "%s\n", why);
+            ev_text_add(&problems, "): %s%s%s\n", is_failed ? "failed" : "missing",
+                        why[0] ? ", " : "", why);
             cJSON_AddStringToObject(o, "dir", cdir);
             if (why[0])
                 cJSON_AddStringToObject(o, "why", why);

@@ -232,32 +232,17 @@ static tnd_result read_shard(const char *dir, merge_shard *s)
 {
     char path[1600];
     snprintf(path, sizeof path, "%s/shard.json", dir);
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
+    void *text = NULL;
+    size_t len = 0;
+    struct stat st;
+    if (stat(path, &st) != 0)
         return tnd_fail(TND_ERR_IO, "%s: no shard.json: not a reference shard (tandem reference "
                         "--shard I/N writes one)", dir);
-    char *text = NULL;
-    size_t len = 0, cap = 0;
-    for (;;) {
-        if (len + 4096 + 1 > cap) {
-            cap = cap ? 2 * cap : 65536;
-            char *t = cap <= (64u << 20) ? realloc(text, cap) : NULL;
-            if (!t) {
-                free(text);
-                fclose(fp);
-                return tnd_fail(TND_ERR_BAD_INPUT, "%s: too large", path);
-            }
-            text = t;
-        }
-        size_t got = fread(text + len, 1, 4096, fp);
-        len += got;
-        if (got < 4096)
-            break;
-    }
-    fclose(fp);
-    text[len] = 0;
+    if (st.st_size > (64 << 20))
+        return tnd_fail(TND_ERR_BAD_INPUT, "%s: too large for a shard.json", path);
+    TND_TRY_RETURN(tnd_file_read(path, &text, &len));
     s->dir = dir;
-    s->json = cJSON_Parse(text);
+    s->json = cJSON_ParseWithLength(text, len);
     free(text);
     if (!s->json || !cJSON_IsObject(s->json) ||
         !cJSON_IsNumber(cJSON_GetObjectItem(s->json, "tandem_reference_shard")))
