@@ -623,6 +623,16 @@ static inline double tnd_ref_pixel_se(double mean, double mean_sq, uint32_t spp)
  * luminance mean into lum_se (both optional); returns the mean relative standard error. */
 double tnd_ref_finish(const double *sum_rgb, const double *sum_lum2, size_t n, uint32_t spp,
                       float *rgb, float *lum_se);
+/* A reference's samples [first, first + count) added to per-pixel sums (the front-ends' *_add
+ * calls): stats->until_noise in, stats->spp (samples the sums hold) out. */
+typedef tnd_result (*tnd_ref_add_fn)(void *ctx, uint32_t first, uint32_t count, double *sum_rgb,
+                                     double *sum_lum2, tnd_ref_stats *stats,
+                                     void (*progress)(uint32_t, uint32_t, void *), void *user);
+/* A finished reference of n pixels from an accumulating one: zeroed sums, samples [0, spp)
+ * through `add`, then tnd_ref_finish into rgb and lum_se (optional) and stats (optional). */
+tnd_result tnd_ref_run(size_t n, uint32_t spp, tnd_ref_add_fn add, void *ctx, float *rgb,
+                       float *lum_se, tnd_ref_stats *stats,
+                       void (*progress)(uint32_t, uint32_t, void *), void *user);
 
 /* ---------------------------------------------------------------------------------------------
  * Captures: one EXR per frame holding the whole contract

@@ -1,9 +1,11 @@
 /* core/math.c: the little linear algebra Tandem needs on the CPU: 4x4 matrices (column-major,
- * as GLSL), glTF TRS composition, a Vulkan perspective, quaternion slerp, camera rays. */
+ * as GLSL), glTF TRS composition, a Vulkan perspective, quaternion slerp, camera rays; and a
+ * progressive reference's statistics (tnd_ref_finish, tnd_ref_run). */
 #include "core/core.h"
 #include "shaders/brdf.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 void tnd_mat4_identity(float m[16])
@@ -189,4 +191,25 @@ double tnd_ref_finish(const double *sum_rgb, const double *sum_lum2, size_t n, u
         }
     }
     return counted ? err / counted : 0;
+}
+
+tnd_result tnd_ref_run(size_t n, uint32_t spp, tnd_ref_add_fn add, void *ctx, float *rgb,
+                       float *lum_se, tnd_ref_stats *stats,
+                       void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    if (spp == 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "reference with 0 samples per pixel");
+    double *sum = calloc(3 * n, sizeof(double)), *sum2 = calloc(n, sizeof(double));
+    tnd_ref_stats st = {.until_noise = stats ? stats->until_noise : 0.0};
+    tnd_result res = sum && sum2 ? TND_OK : tnd_fail(TND_ERR_OUT_OF_MEMORY, "reference: out of memory");
+    if (res == TND_OK)
+        res = add(ctx, 0, spp, sum, sum2, &st, progress, user);
+    if (res == TND_OK) {
+        st.rel_error = tnd_ref_finish(sum, sum2, n, st.spp, rgb, lum_se);
+        if (stats)
+            *stats = st;
+    }
+    free(sum);
+    free(sum2);
+    return res;
 }

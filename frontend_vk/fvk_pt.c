@@ -569,23 +569,17 @@ fail:
     return res;
 }
 
+static tnd_result reference_add(void *c, uint32_t first, uint32_t count, double *sum_rgb,
+                                double *sum_lum2, tnd_ref_stats *stats,
+                                void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    return fvk_reference_add(c, first, count, sum_rgb, sum_lum2, stats, progress, user);
+}
+
 tnd_result fvk_reference(fvk_context *c, uint32_t spp, float *rgb, float *lum_se,
                          tnd_ref_stats *stats, void (*progress)(uint32_t, uint32_t, void *),
                          void *user)
 {
-    size_t n = (size_t)c->width * c->height;
-    double *sum = calloc(3 * n, sizeof(double)), *sum2 = calloc(n, sizeof(double));
-    tnd_ref_stats st = {.until_noise = stats ? stats->until_noise : 0.0};
-    tnd_result res = sum && sum2 ? TND_OK
-                                 : tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
-    if (res == TND_OK)
-        res = fvk_reference_add(c, 0, spp, sum, sum2, &st, progress, user);
-    if (res == TND_OK) {
-        st.rel_error = tnd_ref_finish(sum, sum2, n, st.spp, rgb, lum_se);
-        if (stats)
-            *stats = st;
-    }
-    free(sum);
-    free(sum2);
-    return res;
+    return tnd_ref_run((size_t)c->width * c->height, spp, reference_add, c, rgb, lum_se, stats,
+                       progress, user);
 }

@@ -472,24 +472,27 @@ tnd_result pl_frontend_reference_add(pl_frontend *fe, uint32_t max_bounces, uint
                               progress, user);
 }
 
+typedef struct ref_call {
+    pl_frontend *fe;
+    uint32_t max_bounces;
+} ref_call;
+
+static tnd_result reference_add(void *ctx, uint32_t first, uint32_t count, double *sum_rgb,
+                                double *sum_lum2, tnd_ref_stats *stats,
+                                void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    ref_call *r = ctx;
+    return pl_frontend_reference_add(r->fe, r->max_bounces, first, count, sum_rgb, sum_lum2, stats,
+                                     progress, user);
+}
+
 tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t spp, float *rgb,
                                  float *lum_se, tnd_ref_stats *stats,
                                  void (*progress)(uint32_t, uint32_t, void *), void *user)
 {
-    size_t n = (size_t)fe->width * fe->height;
-    double *sum = calloc(3 * n, sizeof(double)), *sum2 = calloc(n, sizeof(double));
-    tnd_ref_stats st = {.until_noise = stats ? stats->until_noise : 0.0};
-    tnd_result res = sum && sum2 ? TND_OK : tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
-    if (res == TND_OK)
-        res = pl_frontend_reference_add(fe, max_bounces, 0, spp, sum, sum2, &st, progress, user);
-    if (res == TND_OK) {
-        st.rel_error = tnd_ref_finish(sum, sum2, n, st.spp, rgb, lum_se);
-        if (stats)
-            *stats = st;
-    }
-    free(sum);
-    free(sum2);
-    return res;
+    ref_call r = {fe, max_bounces};
+    return tnd_ref_run((size_t)fe->width * fe->height, spp, reference_add, &r, rgb, lum_se, stats,
+                       progress, user);
 }
 
 tnd_result pl_frontend_benchmark(pl_frontend *fe, const pl_params *p, uint32_t repeats,
