@@ -1032,6 +1032,10 @@ typedef struct tnd_light_list {
     uint32_t *instance_first; /* per instance: index of its first emissive triangle, or ~0u */
     float total_power;
     float env_pick;           /* pick probability of the environment map (0: not in the list) */
+    /* the scene's bounding radius (directional lights' and the environment's notional power):
+     * kept from the first build while no instance moves, walked again each build otherwise */
+    double radius;
+    bool radius_known;
 } tnd_light_list;
 
 /* Build the list for a scene state (world-space emitters, schedule scales applied). Lights of

@@ -37,11 +37,19 @@ tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_l
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "lights: out of memory");
     for (uint32_t i = 0; i < s->instance_count; i++)
         l->instance_first[i] = ~0u;
-    /* scene bounding radius, for directional lights' notional power */
-    double lo[3], hi[3];
-    tnd_scene_bounds(s, st, lo, hi);
-    double radius = 0.5 * sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+    /* scene bounding radius, for directional lights' and the environment's notional power: a
+     * walk over every vertex (atrium: 13 ms a frame on lavapipe's host), so only where such a
+     * light is and again only when instances move */
+    if ((s->features & (TND_FEATURE(LIGHT_DIRECTIONAL) | TND_FEATURE(ENV_MAP))) &&
+        (!l->radius_known || (s->features & TND_FEATURE(ANIMATED_OBJECTS)))) {
+        double lo[3], hi[3];
+        tnd_scene_bounds(s, st, lo, hi);
+        l->radius = 0.5 * sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) +
+                               (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                                (hi[2] - lo[2]) * (hi[2] - lo[2]));
+        l->radius_known = true;
+    }
+    double radius = l->radius;
     uint32_t n = 0;
     double total = 0;
     double *power = malloc((cap ? cap : 1) * sizeof *power);
