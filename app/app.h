@@ -61,8 +61,9 @@ int app_report(const char *what, tnd_result r);
 typedef struct app_env {
     const char *path;
     double intensity, rotation;
+    bool opaque; /* (bench --opaque: cut-outs made opaque) */
 } app_env;
-#define APP_ENV_INIT {NULL, 1.0, 0.0}
+#define APP_ENV_INIT {NULL, 1.0, 0.0, false}
 #define APP_ENV_OPTS(e)                                                                            \
     {"env", APP_OPT_STRING, &(e)->path, "FILE",                                                    \
      "light the scene by a latitude-longitude EXR (replaces its sky; docs/scenes.md)"},            \

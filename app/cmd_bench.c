@@ -480,6 +480,9 @@ int cmd_bench(int argc, char **argv)
          "numerical stability report: the extremes scene (or --scene) through every mode; needs --out"},
         {"warmup", APP_OPT_UINT, &warmup, "W", "--sweep: frames left out of times and metrics (default 4)"},
         APP_ENV_OPTS(&env),
+        {"opaque", APP_OPT_FLAG, &env.opaque, NULL,
+         "alpha-tested (cut-out) materials made opaque: against a run without it, what the "
+         "any-hit tests cost (the image differs: leaves become solid)"},
         {"emit", APP_OPT_STRING, &emit, "slurm",
          "--sweep: write the sweep as Slurm jobs (DIR/slurm/submit.sh: reference shards, their "
          "merge, matched references, one array task per cell, collect) instead of running it; "

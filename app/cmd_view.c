@@ -934,7 +934,7 @@ int cmd_view(int argc, char **argv)
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
         goto fail;
     }
-    app_env scene_env = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation};
+    app_env scene_env = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation, false};
     TND_TRY(app_scene_load(s->scene, &scene_env, &v->scene));
     if (!from_state) { /* the scene's camera at the first frame */
         tnd_scene_state st0 = {0};
@@ -967,7 +967,7 @@ int cmd_view(int argc, char **argv)
             close_pipeline(v);
             tnd_scene_destroy(v->scene);
             v->scene = NULL;
-            app_env e = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation};
+            app_env e = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation, false};
             TND_TRY(app_scene_load(s->scene, &e, &v->scene));
             v->reload = false;
             v->rebuild = true;

@@ -205,7 +205,8 @@ tnd_result app_scene_load(const char *path, const app_env *env, tnd_scene **scen
 {
     tnd_scene_options o = {.env = env ? env->path : NULL,
                            .env_intensity = env ? (float)env->intensity : 1.0f,
-                           .env_rotation = env ? (float)env->rotation : 0.0f};
+                           .env_rotation = env ? (float)env->rotation : 0.0f,
+                           .opaque = env && env->opaque};
     return tnd_scene_load_with(path, &o, scene);
 }
 

@@ -960,6 +960,7 @@ typedef struct tnd_scene_options {
     const char *env;         /* an environment map (EXR) replacing the scene's sky or tandem_env */
     float env_intensity;     /* its factor */
     float env_rotation;      /* degrees about +Y */
+    bool opaque;             /* alpha-tested materials made opaque (what cut-outs cost: bench) */
 } tnd_scene_options;
 tnd_result tnd_scene_load_with(const char *path, const tnd_scene_options *o, tnd_scene **scene);
 void tnd_scene_destroy(tnd_scene *scene);

@@ -175,6 +175,9 @@ tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o)
         tnd_info("scene", "%s: lit by the environment %s (intensity %g, rotation %g degrees)",
                  path, o->env, (double)o->env_intensity, (double)o->env_rotation);
     }
+    if (o && o->opaque)
+        for (uint32_t m = 0; m < s->material_count; m++)
+            s->materials[m].alpha_test = false;
     if (s->env.width && (s->sky[0] > 0 || s->sky[1] > 0 || s->sky[2] > 0)) {
         tnd_info("scene", "%s: the environment map replaces the uniform sky", path);
         s->sky[0] = s->sky[1] = s->sky[2] = 0;
