@@ -321,7 +321,7 @@ tnd_result tnd_vk_choose_device(const tnd_vk_device_info *devs, uint32_t count, 
     char names[1024] = "";
     for (uint32_t i = 0; i < count; i++) {
         size_t l = strlen(names);
-        snprintf(names + l, sizeof names - l, "%s'%s'", i ? ", " : "", devs[i].name);
+        snprintf(names + l, sizeof names - l, "%s%u '%s'", i ? ", " : "", i, devs[i].name);
     }
     if (count == 0)
         return tnd_fail(TND_ERR_NO_DEVICE,
@@ -346,8 +346,8 @@ tnd_result tnd_vk_choose_device(const tnd_vk_device_info *devs, uint32_t count, 
             return TND_OK;
         }
         return tnd_fail(TND_ERR_NO_DEVICE,
-                        "vulkan: no device matches TANDEM_DEVICE='%s' (devices by index from 0: "
-                        "%s)", want, names);
+                        "vulkan: no device matches TANDEM_DEVICE='%s' (devices: %s)", want,
+                        names);
     }
     int best = -1;
     for (uint32_t i = 0; i < count; i++) {
