@@ -322,8 +322,17 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
     /* the GPU-contract way's passes, frame by frame (its frames are waited for: their
      * timestamps are the frame's own) */
     double *pass[WF_PASSES] = {0};
+    /* the frames not waited for: host ms in scene evaluation, the front-end's set_frame, and
+     * pl_chain_run (recording, submission, and any wait for the frame before) */
+    static const char *const host_name[3] = {"evaluate", "set_frame", "chain_run"};
+    double *host[3] = {0};
     for (int m = 0; m < OV_COUNT; m++)
         if (!(ms[m] = calloc(blocks, sizeof(double)))) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+            goto fail;
+        }
+    for (int k = 0; k < 3; k++)
+        if (!(host[k] = calloc((size_t)blocks * BLOCK, sizeof(double)))) {
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
             goto fail;
         }
@@ -350,9 +359,12 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
             for (unsigned i = 0; i < BLOCK; i++) {
                 unsigned f = b * BLOCK + i; /* the same frames for every way */
                 tnd_scene_state *cur = &st[f & 1], *prev = &st[(f + 1) & 1];
+                double h0 = tnd_now();
                 TND_TRY(tnd_scene_evaluate(s, f / 30.0, 0, aspect, cur));
                 TND_TRY(tnd_scene_evaluate(s, f ? (f - 1) / 30.0 : 0.0, 0, aspect, prev));
+                double h1 = tnd_now();
                 TND_TRY(pl_frontend_set_frame(fe[m], cur, prev, f, size[0], size[1]));
+                double h2 = tnd_now();
                 pl_step step = {.params = {.bounces = bounces},
                                 .frame = dn_frame_for_camera(cur->camera.proj, size[1], f, f == 0),
                                 .dt = 1.0f / 30.0f,
@@ -361,6 +373,12 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
                 TND_TRY(pl_chain_run(chain[m], fe[m], &step, NULL, NULL, &pr));
                 if (m == OV_GPU && b >= WARM)
                     wf_record(&pr, pass, (size_t)(b - WARM) * BLOCK + i);
+                if (m == OV_NO_WAIT && b >= WARM) { /* the host's share of a frame */
+                    size_t at = (size_t)(b - WARM) * BLOCK + i;
+                    host[0][at] = 1e3 * (h1 - h0);
+                    host[1][at] = 1e3 * (h2 - h1);
+                    host[2][at] = 1e3 * (tnd_now() - h2);
+                }
             }
             TND_TRY(pl_chain_finish(chain[m], NULL));
             if (b >= WARM)
@@ -397,6 +415,9 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
         for (int k = 0; k < WF_GROUPS; k++)
             cJSON_AddNumberToObject(g, wf_group[k], group[k]);
         cJSON_AddNumberToObject(g, "frame", gpu);
+        cJSON *h = cJSON_AddObjectToObject(o, "host_ms_not_waited");
+        for (int k = 0; k < 3; k++)
+            cJSON_AddNumberToObject(h, host_name[k], app_median(host[k], blocks * BLOCK));
         char *txt = cJSON_Print(o);
         printf("%s\n", txt);
         free(txt);
@@ -417,6 +438,10 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
             printf(")\n");
         }
         printf("    %-10s %8.3f\n", "frame", gpu);
+        printf("  host ms per frame not waited for (medians): ");
+        for (int k = 0; k < 3; k++)
+            printf("%s%s %.3f", k ? ", " : "", host_name[k], app_median(host[k], blocks * BLOCK));
+        printf(" (chain_run: recording, submission, any wait for the frame before)\n");
     }
 fail:
     for (int m = 0; m < OV_COUNT; m++) {
@@ -426,6 +451,8 @@ fail:
     }
     for (int k = 0; k < WF_PASSES; k++)
         free(pass[k]);
+    for (int k = 0; k < 3; k++)
+        free(host[k]);
     tnd_scene_state_free(&st[0]);
     tnd_scene_state_free(&st[1]);
     tnd_vk_destroy(&vk);
