@@ -469,7 +469,7 @@ int cmd_merge(int argc, char **argv)
     char device[1024] = "";
     for (int i = 0; i < npos; i++) {
         const char *d = str(sh[i].json, "device");
-        if (!strstr(device, d) || !d[0]) {
+        if (d[0] && !strstr(device, d)) {
             size_t l = strlen(device);
             snprintf(device + l, sizeof device - l, "%s%s", l ? " + " : "", d);
         }
