@@ -238,20 +238,26 @@ static tnd_result check_header_sizes(const char *path)
         return tnd_fail(TND_ERR_IO, "exr: %s: cannot open", path);
     tnd_result res = TND_OK;
     long file_size = fseek(fp, 0, SEEK_END) == 0 ? ftell(fp) : -1;
-    if (file_size < 8 || fseek(fp, 8, SEEK_SET) != 0) { /* magic and version */
+    uint8_t v[8];
+    if (file_size < 8 || fseek(fp, 0, SEEK_SET) != 0 || fread(v, 1, 8, fp) != 8) {
         res = tnd_fail(TND_ERR_BAD_INPUT, "exr: %s: shorter than a header", path);
         goto done;
     }
+    /* names and type names: at most 31 bytes unless the version sets the long-names flag (the
+     * C++ reader reads 32 bytes of a longer name and loses its place: a 3 KB file's text then
+     * declared a 1.9 GB string) */
+    int max_name = (v[5] & 0x04) ? 255 : 31; /* (flag 0x400 of the version word) */
     for (int attr = 0;; attr++) {
         char name[2][256];
         for (int part = 0; part < 2; part++) { /* the attribute's name, then its type */
             int len = 0, ch;
-            while ((ch = fgetc(fp)) > 0 && len < 255)
+            while ((ch = fgetc(fp)) > 0 && len < max_name)
                 name[part][len++] = (char)ch;
             name[part][len] = 0;
-            if (ch < 0 || (ch > 0 && len == 255)) {
+            if (ch < 0 || (ch > 0 && len == max_name)) {
                 res = tnd_fail(TND_ERR_BAD_INPUT, "exr: %s: header attribute %d: a name of "
-                               "more than 255 bytes or the file ends", path, attr);
+                               "more than %d bytes (the version's long-names flag is %s) or the "
+                               "file ends", path, attr, max_name, max_name == 255 ? "set" : "not set");
                 goto done;
             }
             if (part == 0 && len == 0) /* the header's end */
