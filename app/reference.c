@@ -4,6 +4,7 @@
  * the frames one run of all the samples writes (docs/cluster.md). */
 #include "app/app.h"
 #include "shaders/brdf.h"
+#include "shaders/specular.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -182,7 +183,8 @@ tnd_result app_shard_json_write(const app_render_opts *o, const char *device, ui
     cJSON_AddNumberToObject(j, "until_noise", o->until_noise);
     cJSON_AddNumberToObject(j, "bounces", o->bounces);
     cJSON_AddNumberToObject(j, "max_bounces", o->ref_bounces);
-    cJSON_AddNumberToObject(j, "reflect_depth", o->reflect_depth);
+    cJSON_AddNumberToObject(j, "reflect_depth",
+                            o->reflect_depth ? o->reflect_depth : TND_REFLECT_DEPTH);
     cJSON *arr = cJSON_AddArrayToObject(j, "parts");
     for (uint32_t k = 0; k < count; k++) {
         cJSON *p = cJSON_CreateObject();
