@@ -768,7 +768,7 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     app_progress bar;
     app_progress_begin(&bar, "collect", (unsigned)P->total);
     for (int i = 0; i < P->total; i++) {
-        char cdir[1300], why[200] = "";
+        char cdir[1300], why[1200] = "";
         cell_dir(P, i, cdir, sizeof cdir);
         snprintf(path, sizeof path, "%s.failed", cdir);
         void *txt = NULL;
