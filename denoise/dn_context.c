@@ -48,11 +48,13 @@ struct dn_context {
     VkPipeline temporal, atrous, composite, grad_select, gradients, lf, lf_down;
     tnd_timer timer, select_timer, fine; /* fine: per dispatch (desc.dispatch_timing) */
     double select_ms; /* GPU time of the last selection */
+    bool select_due;  /* a selection without a host copy is in flight in `pending` */
     double fine_ms[TND_TIMER_MAX_PASSES]; /* the last dn_run's, fine.count of them */
     bool batching; /* dispatches recorded now are independent: no barrier after each */
     bool fine_on;  /* recording dn_run with desc.dispatch_timing: time each dispatch */
     bool have_history;
-    /* the frame in flight (dn_submit) and its timestamp slots; `last` its timings once read */
+    /* the frame in flight (dn_submit), or the selection before it, and its timestamp slots;
+     * `last` its timings once read */
     tnd_pending pending;
     struct {
         int grad, temporal, lf, atrous, composite;
@@ -479,6 +481,10 @@ static tnd_result settle(dn_context *c)
 {
     tnd_result res = TND_OK;
     TND_TRY(tnd_pending_wait(c->vk, &c->pending));
+    if (c->select_due) {
+        c->select_due = false;
+        TND_TRY(tnd_timer_read(c->vk, &c->select_timer, &c->select_ms));
+    }
     if (!c->rec.due)
         return TND_OK;
     c->rec.due = false;
@@ -532,8 +538,13 @@ static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const d
         vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
                              &hb, 0, NULL, 0, NULL);
     }
-    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
-    TND_TRY(tnd_timer_read(c->vk, &c->select_timer, &c->select_ms));
+    if (host) { /* the list is read at once */
+        TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+        TND_TRY(tnd_timer_read(c->vk, &c->select_timer, &c->select_ms));
+    } else { /* the front-end's launches and the back-end's passes come after it in the queue */
+        TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->pending));
+        c->select_due = true;
+    }
     c->selected_frame = c->frame + 1;
 fail:
     return res;

@@ -75,7 +75,7 @@ typedef struct fvk_params {
     float jitter[2];
 } fvk_params;
 
-/* GPU times of the last fvk_render / fvk_shade_gradients, per pass; tlas_ms: the wall clock of
+/* GPU times of a fvk_render and the gradient launch after it, per pass; tlas_ms: the wall clock of
  * this frame's TLAS build or refit (submitted and waited for in fvk_set_frame; 0 when nothing
  * moved). */
 typedef struct fvk_timings {
@@ -99,8 +99,15 @@ const char *fvk_variant(const fvk_context *ctx);
  * the size changes. */
 tnd_result fvk_set_frame(fvk_context *ctx, const tnd_scene_state *cur, const tnd_scene_state *prev,
                          uint32_t frame_index, uint32_t width, uint32_t height);
-/* Primary pass then shading pass into the contract images; blocks; times each pass. */
+/* Primary pass then shading pass into the contract images, submitted to the queue; with `t`, waits
+ * for them and gives their times, else returns at once (whatever the queue runs next, downloads
+ * and the back-end's passes included, sees the contract written: the passes end with a full
+ * barrier). The gradient launches below do the same. */
 tnd_result fvk_render(fvk_context *ctx, const fvk_params *p, fvk_timings *t);
+/* The times of the last render and gradient launch read: with `wait`, of the last submitted
+ * (waits for them); without, of those that had finished when this frame's render was submitted
+ * (the frame before), without waiting. */
+tnd_result fvk_last_timings(fvk_context *ctx, bool wait, fvk_timings *t);
 /* Shade gradient samples (layout of femb_gradient_sample: pixel, rng frame, rng pixel,
  * instance, primitive, u, v) after fvk_render, patching the G-buffer at their pixels. */
 tnd_result fvk_shade_gradients(fvk_context *ctx, const fvk_params *p, const uint32_t *samples,

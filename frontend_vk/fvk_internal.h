@@ -41,7 +41,21 @@ struct fvk_context {
     tnd_sbt sbt;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
-    tnd_timer timer;
+    /* The scene set again, its gradient binding (11) at the back-end's per-stratum list
+     * (fvk_shade_gradient_slots), so that pointing it there never touches the set a submitted
+     * render uses. */
+    VkDescriptorSet slot_set;
+    VkBuffer slot_buffer; /* what slot_set's binding 11 points at (VK_NULL_HANDLE: ours) */
+    /* The passes' submissions: render (primary + shading) and the gradient launches, each with its
+     * own fence and timer. Neither is waited for when submitted; every entry point that writes
+     * what a submitted pass reads (the scene buffers, descriptor sets, the frame parameters'
+     * shadow is not among them: each command buffer carries its own copy) settles first. */
+    tnd_pending run[2];
+    tnd_timer timer[2];
+    bool due[2];            /* run[i]'s timestamps are still to be read */
+    double due_tlas_ms;     /* tlas_ms of the render in flight */
+    fvk_timings last;       /* the times read last (render, then its gradient launch) */
+    tnd_gpu_frame ubo;      /* the frame parameters, copied into frame_ubo by each submission */
     /* frame */
     tnd_contract_gpu contract;
     uint32_t width, height, frame;

@@ -44,13 +44,14 @@ static tnd_result create_layouts(fvk_context *c)
                                       .pushConstantRangeCount = 1,
                                       .pPushConstantRanges = &pcr};
     TND_VK_TRY(vkCreatePipelineLayout(vk->device, &pci, NULL, &c->layout));
-    VkDescriptorPoolSize ps[5] = {{VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1},
-                                  {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, SCENE_BINDINGS - 4},
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, c->texture_count},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, TND_CT_COUNT + 1}};
+    /* two scene sets (the second for slot launches) and the contract's */
+    VkDescriptorPoolSize ps[5] = {{VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 2},
+                                  {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * (SCENE_BINDINGS - 4)},
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2 * c->texture_count},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, TND_CT_COUNT + 2}};
     VkDescriptorPoolCreateInfo dpci = {.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
-                                       .maxSets = 2,
+                                       .maxSets = 3,
                                        .poolSizeCount = 5,
                                        .pPoolSizes = ps};
     TND_VK_TRY(vkCreateDescriptorPool(vk->device, &dpci, NULL, &c->pool));
@@ -59,6 +60,8 @@ static tnd_result create_layouts(fvk_context *c)
                                       .descriptorSetCount = 2,
                                       .pSetLayouts = c->set_layout};
     TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, c->sets));
+    ai.descriptorSetCount = 1;
+    TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, &c->slot_set));
 fail:
     return res;
 }
@@ -142,7 +145,8 @@ static tnd_result create_pipeline(fvk_context *c)
                                   &c->pipeline, &c->sbt);
 }
 
-static void write_scene_set(fvk_context *c)
+/* The scene set `set`; its gradient binding (11) at `gradients` (VK_NULL_HANDLE: ours). */
+static void write_scene_set_to(fvk_context *c, VkDescriptorSet set, VkBuffer gradients)
 {
     VkWriteDescriptorSetAccelerationStructureKHR as = {
         .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR,
@@ -163,7 +167,7 @@ static void write_scene_set(fvk_context *c)
                                         VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
     for (uint32_t i = 0; i < SCENE_BINDINGS; i++) {
         w[i] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                      .dstSet = c->sets[0],
+                                      .dstSet = set,
                                       .dstBinding = i,
                                       .descriptorCount = 1,
                                       .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER};
@@ -172,6 +176,8 @@ static void write_scene_set(fvk_context *c)
             w[i].pBufferInfo = &bi[i];
         }
     }
+    if (gradients)
+        bi[11].buffer = gradients;
     w[0].pNext = &as;
     w[0].descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
     w[1].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
@@ -186,6 +192,51 @@ static void write_scene_set(fvk_context *c)
     free(ii);
 }
 
+/* Both scene sets (nothing in flight may use them), the slot set's list back at ours: the
+ * back-end's list may be gone by the next slot launch, which points it there again. */
+static void write_scene_set(fvk_context *c)
+{
+    write_scene_set_to(c, c->sets[0], VK_NULL_HANDLE);
+    write_scene_set_to(c, c->slot_set, VK_NULL_HANDLE);
+    c->slot_buffer = VK_NULL_HANDLE;
+}
+
+enum { FVK_RENDER = 1u, FVK_GRADIENTS = 2u, FVK_ALL = 3u };
+
+/* Wait for the submissions in `mask` (FVK_*) and read their timestamps into c->last: a render's
+ * first, then its gradient launch's (a launch waited for waits for the render before it, which
+ * the queue runs first). */
+static tnd_result settle(fvk_context *c, unsigned mask)
+{
+    tnd_result res = TND_OK;
+    if ((mask & FVK_GRADIENTS) && c->due[1])
+        mask |= FVK_RENDER;
+    for (int i = 0; i < 2; i++) {
+        if (!(mask & (1u << i)))
+            continue;
+        TND_TRY(tnd_pending_wait(c->vk, &c->run[i]));
+        if (!c->due[i])
+            continue;
+        c->due[i] = false;
+        double ms[2] = {0, 0};
+        TND_TRY(tnd_timer_read(c->vk, &c->timer[i], ms));
+        if (i == 0)
+            c->last = (fvk_timings){.primary_ms = ms[0], .shade_ms = ms[1],
+                                    .tlas_ms = c->due_tlas_ms};
+        else
+            c->last.gradient_ms = ms[0];
+    }
+fail:
+    return res;
+}
+
+tnd_result fvk_last_timings(fvk_context *c, bool wait, fvk_timings *t)
+{
+    tnd_result res = wait ? settle(c, FVK_ALL) : TND_OK;
+    *t = c->last;
+    return res;
+}
+
 void fvk_destroy(fvk_context *c)
 {
     if (!c)
@@ -193,7 +244,10 @@ void fvk_destroy(fvk_context *c)
     tnd_vk *vk = c->vk;
     if (vk->device)
         vkDeviceWaitIdle(vk->device);
-    tnd_timer_destroy(vk, &c->timer);
+    for (int i = 0; i < 2; i++) {
+        tnd_pending_destroy(vk, &c->run[i]);
+        tnd_timer_destroy(vk, &c->timer[i]);
+    }
     tnd_contract_gpu_destroy(vk, &c->contract);
     tnd_sbt_destroy(vk, &c->sbt);
     if (c->pipeline)
@@ -289,7 +343,10 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
         TND_TRY(create_compute(c));
     else
         TND_TRY(create_pipeline(c));
-    TND_TRY(tnd_timer_create(vk, &c->timer));
+    for (int i = 0; i < 2; i++) {
+        TND_TRY(tnd_timer_create(vk, &c->timer[i]));
+        TND_TRY(tnd_pending_create(vk, &c->run[i]));
+    }
     *out = c;
     return TND_OK;
 fail:
@@ -309,6 +366,9 @@ tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_s
     if (!prev)
         prev = cur;
     bool first = !c->have_frame;
+    /* the buffers, sets and images below are what the frame before read: its passes first (the
+     * queue ran them before the back-end's passes of that frame, so this rarely waits) */
+    TND_TRY(settle(c, FVK_ALL));
     if (!c->contract.images[0].image || c->width != width || c->height != height) {
         vkDeviceWaitIdle(c->vk->device);
         tnd_contract_gpu_destroy(c->vk, &c->contract);
@@ -348,7 +408,7 @@ tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_s
                         c->light_list.env_pick};
     f.env = (tnd_gvec4){env->cos_rot, env->sin_rot, (float)env->width, (float)env->height};
     f.frame = (tnd_guvec4){frame, width, height, c->light_list.count};
-    memcpy(c->frame_ubo.mapped, &f, sizeof f);
+    c->ubo = f;
     write_scene_set(c); /* the TLAS handle may be new */
     c->frame = frame;
     c->have_frame = true;
@@ -358,7 +418,7 @@ fail:
 
 static void set_params(fvk_context *c, const fvk_params *p)
 {
-    tnd_gpu_frame *f = c->frame_ubo.mapped;
+    tnd_gpu_frame *f = &c->ubo;
     f->params.x = p ? p->bounces : 1;
     f->params.y = p ? p->sample : TND_SAMPLE_REALTIME;
     f->params.w = c->reflect_depth;
@@ -370,16 +430,34 @@ static void set_params(fvk_context *c, const fvk_params *p)
     f->jitter.x = jit[0], f->jitter.y = jit[1];
 }
 
-/* Bind the passes' pipeline(s) and sets, push the mode. */
-static void bind_all(fvk_context *c, VkCommandBuffer cmd, uint32_t mode)
+/* Bind the passes' pipeline(s) and sets (the scene set, or the slot set for slot launches), push
+ * the mode. */
+static void bind_all(fvk_context *c, VkCommandBuffer cmd, uint32_t mode, bool slots)
 {
     VkPipelineBindPoint bp = c->api == FVK_RT_QUERY ? VK_PIPELINE_BIND_POINT_COMPUTE
                                                     : VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR;
     if (c->api != FVK_RT_QUERY)
         vkCmdBindPipeline(cmd, bp, c->pipeline);
-    vkCmdBindDescriptorSets(cmd, bp, c->layout, 0, 2, c->sets, 0, NULL);
+    VkDescriptorSet sets[2] = {slots ? c->slot_set : c->sets[0], c->sets[1]};
+    vkCmdBindDescriptorSets(cmd, bp, c->layout, 0, 2, sets, 0, NULL);
     vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT,
                        0, 4, &mode);
+}
+
+/* A command buffer for passes: run `run`'s timer reset (run < 0: none), the frame parameters as
+ * they are now (the command buffer keeps its copy), the bindings, a barrier. */
+static tnd_result begin_passes(fvk_context *c, int run, uint32_t mode, bool slots,
+                               VkCommandBuffer *cmd)
+{
+    tnd_result res = TND_OK;
+    TND_TRY(tnd_cmd_begin(c->vk, cmd));
+    if (run >= 0)
+        tnd_timer_reset(*cmd, &c->timer[run]);
+    vkCmdUpdateBuffer(*cmd, c->frame_ubo.buffer, 0, sizeof c->ubo, &c->ubo);
+    bind_all(c, *cmd, mode, slots);
+    tnd_cmd_barrier(*cmd);
+fail:
+    return res;
 }
 
 /* Pass `which` (0 primary, 1 shade) over w x h launches (or `w` linear ones for gradients). */
@@ -403,64 +481,68 @@ tnd_result fvk_render(fvk_context *c, const fvk_params *p, fvk_timings *t)
     tnd_result res = TND_OK;
     if (!c->have_frame)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: render before set_frame");
+    TND_TRY(settle(c, FVK_ALL)); /* (the timers; the times of the frame before into c->last) */
     set_params(c, p);
     VkCommandBuffer cmd;
-    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
-    tnd_timer_reset(cmd, &c->timer);
-    bind_all(c, cmd, 0);
-    tnd_cmd_barrier(cmd);
-    int s0 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.primary");
+    TND_TRY(begin_passes(c, 0, 0, false, &cmd));
+    int s0 = tnd_timer_begin(cmd, &c->timer[0], "frontend_vk.primary");
     launch(c, cmd, 0, c->width, c->height, false);
-    tnd_timer_end(cmd, &c->timer, s0);
+    tnd_timer_end(cmd, &c->timer[0], s0);
     tnd_cmd_barrier(cmd);
-    int s1 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.shade");
+    int s1 = tnd_timer_begin(cmd, &c->timer[0], "frontend_vk.shade");
     launch(c, cmd, 1, c->width, c->height, false);
-    tnd_timer_end(cmd, &c->timer, s1);
-    tnd_cmd_barrier(cmd);
-    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    tnd_timer_end(cmd, &c->timer[0], s1);
+    tnd_cmd_barrier(cmd); /* (whatever the queue runs next reads the contract) */
+    TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->run[0]));
+    c->due[0] = true;
+    c->due_tlas_ms = c->tlas_ms;
     if (t) {
-        double ms[2] = {0, 0};
-        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
-        *t = (fvk_timings){.primary_ms = ms[0], .shade_ms = ms[1], .tlas_ms = c->tlas_ms};
+        TND_TRY(settle(c, FVK_RENDER));
+        *t = c->last;
     }
 fail:
     return res;
 }
 
-/* Point the scene set's gradient binding (11) at `buffer`. */
-static void bind_gradient_buffer(fvk_context *c, VkBuffer buffer)
+/* Point the slot set's gradient binding (11) at `buffer`: only a slot launch reads that set. */
+static tnd_result bind_slot_buffer(fvk_context *c, VkBuffer buffer)
 {
+    tnd_result res = TND_OK;
+    if (buffer == c->slot_buffer)
+        return TND_OK;
+    TND_TRY(settle(c, FVK_GRADIENTS));
     VkDescriptorBufferInfo bi = {buffer, 0, VK_WHOLE_SIZE};
     VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                              .dstSet = c->sets[0],
+                              .dstSet = c->slot_set,
                               .dstBinding = 11,
                               .descriptorCount = 1,
                               .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
                               .pBufferInfo = &bi};
     vkUpdateDescriptorSets(c->vk->device, 1, &w, 0, NULL);
+    c->slot_buffer = buffer;
+fail:
+    return res;
 }
 
-/* One launch per entry of the bound gradient list (`count` entries). */
-static tnd_result launch_gradients(fvk_context *c, const fvk_params *p, uint32_t count,
+/* One launch per entry of the gradient list (ours, or the slot set's: `count` entries). */
+static tnd_result launch_gradients(fvk_context *c, const fvk_params *p, uint32_t count, bool slots,
                                    fvk_timings *t)
 {
     tnd_result res = TND_OK;
+    TND_TRY(settle(c, FVK_GRADIENTS)); /* (the launch before: its timer) */
     set_params(c, p);
-    ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.z = count;
+    c->ubo.params.z = count;
     VkCommandBuffer cmd;
-    TND_TRY(tnd_cmd_begin(c->vk, &cmd));
-    tnd_timer_reset(cmd, &c->timer);
-    bind_all(c, cmd, 1);
-    tnd_cmd_barrier(cmd);
-    int s0 = tnd_timer_begin(cmd, &c->timer, "frontend_vk.gradients");
+    TND_TRY(begin_passes(c, 1, 1, slots, &cmd));
+    int s0 = tnd_timer_begin(cmd, &c->timer[1], "frontend_vk.gradients");
     launch(c, cmd, 1, count, 1, true);
-    tnd_timer_end(cmd, &c->timer, s0);
+    tnd_timer_end(cmd, &c->timer[1], s0);
     tnd_cmd_barrier(cmd);
-    TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
+    TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->run[1]));
+    c->due[1] = true;
     if (t) {
-        double ms[1] = {0};
-        TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
-        t->gradient_ms = ms[0];
+        TND_TRY(settle(c, FVK_GRADIENTS));
+        t->gradient_ms = c->last.gradient_ms;
     }
 fail:
     return res;
@@ -481,7 +563,9 @@ tnd_result fvk_shade_gradients(fvk_context *c, const fvk_params *p, const uint32
                             "out of range",
                             i, g[0], g[3], g[4]);
     }
+    TND_TRY(settle(c, FVK_GRADIENTS)); /* (the launch before read our list) */
     if (count > c->gradient_capacity) {
+        TND_TRY(settle(c, FVK_ALL));
         vkDeviceWaitIdle(c->vk->device);
         tnd_buffer_destroy(c->vk, &c->gradients);
         TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = count * sizeof(tnd_gpu_gradient),
@@ -496,8 +580,7 @@ tnd_result fvk_shade_gradients(fvk_context *c, const fvk_params *p, const uint32
         const uint32_t *s = samples + 7 * i;
         g[i] = (tnd_gpu_gradient){s[0], s[1], s[2], s[3], s[4], s[5], s[6], 0};
     }
-    bind_gradient_buffer(c, c->gradients.buffer);
-    return launch_gradients(c, p, count, t);
+    return launch_gradients(c, p, count, false, t);
 fail:
     return res;
 }
@@ -507,8 +590,8 @@ tnd_result fvk_shade_gradient_slots(fvk_context *c, const fvk_params *p, VkBuffe
 {
     if (slots == 0 || slots_buffer == VK_NULL_HANDLE)
         return TND_OK;
-    bind_gradient_buffer(c, slots_buffer); /* each launch binds its own list */
-    return launch_gradients(c, p, slots, t);
+    tnd_result res = bind_slot_buffer(c, slots_buffer);
+    return res == TND_OK ? launch_gradients(c, p, slots, true, t) : res;
 }
 
 void fvk_set_reference_bounces(fvk_context *c, uint32_t bounces)
@@ -528,7 +611,8 @@ tnd_result fvk_reference_add(fvk_context *c, uint32_t first, uint32_t count, dou
     float *acc = malloc(n * 16);
     if (!acc)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
-    ((tnd_gpu_frame *)c->frame_ubo.mapped)->params.x = c->ref_bounces; /* (0: full paths) */
+    TND_TRY(settle(c, FVK_ALL)); /* (the accumulation image) */
+    c->ubo.params.x = c->ref_bounces; /* (0: full paths) */
     const uint32_t batch = TND_REF_CHECK_EVERY;
     double until = stats ? stats->until_noise : 0.0;
     uint32_t end = first + count, done = end;
@@ -537,8 +621,7 @@ tnd_result fvk_reference_add(fvk_context *c, uint32_t first, uint32_t count, dou
          * falls in the same batch), summed in float on the GPU, then added to the sums */
         uint32_t b1 = (b0 / batch + 1) * batch < end ? (b0 / batch + 1) * batch : end;
         VkCommandBuffer cmd;
-        TND_TRY(tnd_cmd_begin(c->vk, &cmd));
-        bind_all(c, cmd, 0);
+        TND_TRY(begin_passes(c, -1, 0, false, &cmd));
         for (uint32_t s = b0; s < b1; s++) {
             uint32_t pc[2] = {s, b0};
             vkCmdPushConstants(cmd, c->layout,

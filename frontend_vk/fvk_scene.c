@@ -234,9 +234,11 @@ tnd_result fvk_scene_upload(fvk_context *c)
         memcpy(c->env.mapped, s->env.data, env_bytes);
     else
         memset(c->env.mapped, 0, env_bytes);
+    /* (filled by each submission from the host's copy: vkCmdUpdateBuffer) */
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(tnd_gpu_frame),
-                                                     .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
-                                                     .mem = TND_MEM_UPLOAD, .name = "frame"},
+                                                     .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT |
+                                                              VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                                     .mem = TND_MEM_DEVICE, .name = "frame"},
                               &c->frame_ubo));
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = 64 * sizeof(tnd_gpu_gradient),
                                                      .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,

@@ -32,6 +32,8 @@ enum {
     PL_CAP_REFERENCE = 4u,    /* renders unbiased references */
     PL_CAP_BENCHMARK = 8u,    /* measures its rays against the bare tracer (pl_frontend_benchmark) */
     PL_CAP_RECORDED = 16u,    /* a recorded sequence: pl_frontend_length frames, set by index */
+    PL_CAP_QUEUED = 32u,      /* render and re-shade without `t` only submit to the GPU's queue;
+                                 pl_frontend_timings gives their times later */
 };
 
 typedef struct pl_frontend_desc {
@@ -80,6 +82,9 @@ const pl_camera *pl_frontend_camera(const pl_frontend *fe);
  * it). */
 tnd_result pl_frontend_render(pl_frontend *fe, const pl_params *p, tnd_frame *host,
                               pl_timings *t);
+/* A PL_CAP_QUEUED front-end's GPU times of a render and its re-shading: with `wait`, of the last
+ * submitted (waits for them); without, of the frame before the one just rendered (no wait). */
+tnd_result pl_frontend_timings(pl_frontend *fe, bool wait, pl_timings *t);
 /* The GPU contract of the last render (NULL for host front-ends). */
 const tnd_contract_gpu *pl_frontend_contract(const pl_frontend *fe);
 /* Re-shade gradient samples (DN_GRADIENT_WORDS words each, the back-end's host list): on the GPU
@@ -159,8 +164,9 @@ typedef struct pl_step_result {
     pl_timings fe;
     dn_timings dn;
     cmp_timings post;
-    /* dn and post hold the previous frame's GPU times (that frame was not waited for; a frame
-     * not waited for leaves them 0 for the next call or pl_chain_finish) */
+    /* dn and post, and fe for a PL_CAP_QUEUED front-end, hold the previous frame's GPU times
+     * (that frame was not waited for; a frame not waited for leaves them 0 for the next call or
+     * pl_chain_finish) */
     bool lagged;
     double plugin_ms; /* a denoiser plugin's GPU time (lagged as dn) */
 } pl_step_result;

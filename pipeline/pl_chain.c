@@ -23,6 +23,7 @@ struct pl_chain {
     tnd_frame host, reshaded; /* (reshaded: a GPU contract after re-shading, for a capture) */
     float prev_jitter[2];
     bool in_flight; /* the last frame's back-end and post were not waited for */
+    pl_frontend *fe; /* the front-end of the last frame (its times at pl_chain_finish) */
     const tnd_contract_gpu *last_ct; /* the contract of the last frame */
     /* a denoiser plugin: its commands in flight, their timestamps */
     pl_dnp *plugin;
@@ -189,10 +190,16 @@ fail:
     return res;
 }
 
-/* The frame in flight: wait for it, its GPU times into r (lagged: not this call's frame). */
-static tnd_result collect(pl_chain *c, pl_step_result *r)
+/* The frame in flight: wait for it, its GPU times into r (lagged: not this call's frame). `fe`:
+ * the front-end whose next frame is in the queue behind it (its times without waiting), NULL
+ * when none is (pl_chain_finish). */
+static tnd_result collect(pl_chain *c, pl_frontend *fe, pl_step_result *r)
 {
     tnd_result res = TND_OK;
+    if (fe)
+        TND_TRY(pl_frontend_timings(fe, false, &r->fe));
+    else if (c->fe)
+        TND_TRY(pl_frontend_timings(c->fe, true, &r->fe));
     TND_TRY(dn_wait(c->dn, &r->dn));
     if (c->post)
         TND_TRY(cmp_wait(c->post, &r->post));
@@ -215,13 +222,17 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     memset(r, 0, sizeof *r);
     uint32_t caps = pl_frontend_caps(fe);
     bool gpu = (caps & PL_CAP_GPU_CONTRACT) != 0, recorded = (caps & PL_CAP_RECORDED) != 0;
+    /* a queued front-end's passes are not waited for here (the back-end's follow them in the
+     * queue): their times come once the frame is waited for, or lagged with the back-end's */
+    pl_timings *ft = (caps & PL_CAP_QUEUED) ? NULL : &r->fe;
+    c->fe = fe;
     bool asvgf = c->d.backend && c->d.denoise.mode == DN_MODE_ASVGF;
     bool need_host = !gpu || s->capture || !c->d.backend || c->d.host_contract;
     if (recorded)
         tnd_frame_destroy(&c->host); /* (a recorded front-end reads into a fresh frame) */
     else if (need_host && !c->host.block)
         TND_TRY(tnd_frame_create(c->d.width, c->d.height, &c->host));
-    TND_TRY(pl_frontend_render(fe, &s->params, need_host ? &c->host : NULL, &r->fe));
+    TND_TRY(pl_frontend_render(fe, &s->params, need_host ? &c->host : NULL, ft));
     dn_frame df = s->frame;
     if (s->frame_from_host) { /* a recorded frame: its own jitter and projection */
         const tnd_frame *f = &c->host;
@@ -238,6 +249,8 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
         TND_TRY(tnd_capture_write(s->capture, &c->host, TND_EXR_ZIP));
     }
     if (!c->d.backend) { /* the composite on the CPU */
+        if (!ft)
+            TND_TRY(pl_frontend_timings(fe, true, &r->fe));
         tnd_frame_composite(&c->host, hdr);
         tnd_frame_interleave(&c->host, hdr);
         return TND_OK;
@@ -256,7 +269,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
         uint32_t n = 0;
         if (gpu && s->capture) { /* the list comes to the host, for the capture */
             TND_TRY(dn_select_gradients(c->dn, ct, &df, c->grads, &n));
-            TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, NULL, &r->fe));
+            TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, NULL, ft));
             if (n) { /* the contract as re-shaded, at the samples */
                 if (!c->reshaded.block)
                     TND_TRY(tnd_frame_create(c->d.width, c->d.height, &c->reshaded));
@@ -266,12 +279,12 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
         } else if (gpu) { /* the sample list stays on the GPU */
             VkBuffer slots;
             TND_TRY(dn_select_gradients_gpu(c->dn, ct, &df, &slots, &n));
-            TND_TRY(pl_frontend_reshade_slots(fe, &s->params, slots, n, &r->fe));
+            TND_TRY(pl_frontend_reshade_slots(fe, &s->params, slots, n, ft));
         } else {
             TND_TRY(dn_select_gradients(c->dn, ct, &df, c->grads, &n));
             /* (a recorded front-end checks the selection even when it is empty) */
             if (n || recorded)
-                TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, &c->host, &r->fe));
+                TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, &c->host, ft));
             if (n) { /* re-shaded into the host frame, which goes up again */
                 TND_TRY(tnd_contract_upload(c->d.vk, &c->upload, &c->host));
                 if (s->capture)
@@ -282,7 +295,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     /* the times of the frame in flight before this one, when it was not waited for */
     bool wait = !s->no_wait || hdr || display || s->after_backend;
     if (c->in_flight && !wait)
-        TND_TRY(collect(c, r));
+        TND_TRY(collect(c, fe, r));
     c->in_flight = false;
     TND_TRY(dn_submit(c->dn, ct, &df));
     if (c->plugin)
@@ -307,6 +320,8 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
         if (display)
             TND_TRY(cmp_download_display(c->post, display));
     }
+    if (wait && !ft)
+        TND_TRY(pl_frontend_timings(fe, true, &r->fe));
     c->in_flight = !wait;
 fail:
     return res;
@@ -320,7 +335,7 @@ tnd_result pl_chain_finish(pl_chain *c, pl_step_result *r)
         r = &own;
     memset(r, 0, sizeof *r);
     if (c->in_flight)
-        TND_TRY(collect(c, r));
+        TND_TRY(collect(c, NULL, r));
     c->in_flight = false;
 fail:
     return res;

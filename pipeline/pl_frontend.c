@@ -137,7 +137,7 @@ static tnd_result vk_reshade(void *ctx, const pl_params *p, const uint32_t *word
     vk_fe *v = ctx;
     fvk_params fp = vk_params(p);
     fvk_timings tm = {0};
-    tnd_result res = fvk_shade_gradients(v->gv, &fp, words, n, &tm);
+    tnd_result res = fvk_shade_gradients(v->gv, &fp, words, n, t ? &tm : NULL);
     if (t)
         t->gradient_ms = tm.gradient_ms;
     return res;
@@ -149,7 +149,7 @@ static tnd_result vk_reshade_slots(void *ctx, const pl_params *p, VkBuffer slots
     vk_fe *v = ctx;
     fvk_params fp = vk_params(p);
     fvk_timings tm = {0};
-    tnd_result res = fvk_shade_gradient_slots(v->gv, &fp, slots, n, &tm);
+    tnd_result res = fvk_shade_gradient_slots(v->gv, &fp, slots, n, t ? &tm : NULL);
     if (t)
         t->gradient_ms = tm.gradient_ms;
     return res;
@@ -164,9 +164,17 @@ static tnd_result vk_reference(void *ctx, uint32_t max_bounces, uint32_t first, 
     return fvk_reference_add(v->gv, first, count, sum_rgb, sum_lum2, stats, progress, user);
 }
 
+static tnd_result vk_timings(void *ctx, bool wait, pl_timings *t)
+{
+    fvk_timings tm;
+    tnd_result res = fvk_last_timings(((vk_fe *)ctx)->gv, wait, &tm);
+    *t = (pl_timings){tm.primary_ms, tm.shade_ms, tm.tlas_ms, tm.gradient_ms};
+    return res;
+}
+
 static const pl_frontend_ops vk_ops = {
     .name = "vk",
-    .caps = PL_CAP_GPU_CONTRACT | PL_CAP_RESHADE | PL_CAP_REFERENCE,
+    .caps = PL_CAP_GPU_CONTRACT | PL_CAP_RESHADE | PL_CAP_REFERENCE | PL_CAP_QUEUED,
     .create = vk_create,
     .destroy = vk_destroy,
     .describe = vk_describe,
@@ -177,6 +185,7 @@ static const pl_frontend_ops vk_ops = {
     .reshade = vk_reshade,
     .reshade_slots = vk_reshade_slots,
     .reference = vk_reference,
+    .timings = vk_timings,
 };
 
 /* ---- Embree ------------------------------------------------------------------------------------ */
@@ -435,6 +444,14 @@ const pl_camera *pl_frontend_camera(const pl_frontend *fe)
 tnd_result pl_frontend_render(pl_frontend *fe, const pl_params *p, tnd_frame *host, pl_timings *t)
 {
     return fe->ops->render(fe->ctx, p, host, t);
+}
+
+tnd_result pl_frontend_timings(pl_frontend *fe, bool wait, pl_timings *t)
+{
+    *t = (pl_timings){0};
+    if (!(pl_frontend_caps(fe) & PL_CAP_QUEUED) || !fe->ops->timings)
+        return TND_OK;
+    return fe->ops->timings(fe->ctx, wait, t);
 }
 
 const tnd_contract_gpu *pl_frontend_contract(const pl_frontend *fe)

@@ -27,6 +27,7 @@ typedef struct pl_frontend_ops {
                             double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
                             void (*progress)(uint32_t, uint32_t, void *), void *user);
     tnd_result (*benchmark)(void *ctx, const pl_params *p, uint32_t repeats, pl_bench *out);
+    tnd_result (*timings)(void *ctx, bool wait, pl_timings *t); /* PL_CAP_QUEUED */
     void (*cpu)(const void *ctx, uint32_t *threads, const char **simd);
     /* recorded front-ends (PL_CAP_RECORDED) */
     uint32_t (*length)(const void *ctx);

@@ -2,13 +2,15 @@
  * equals the CPU composite; SVGF on a static cornell box reduces the error against a converged
  * reference at least tenfold over 32 frames; a NaN injected into the input neither reaches the
  * output nor the history; runs are deterministic; A-SVGF drops stale light after a switch with
- * either front-end re-shading its gradient samples. Label: gpu. */
+ * either front-end re-shading its gradient samples; the frame pipeline gives the same frames with
+ * its submissions queued as waited for. Label: gpu. */
 #include "denoise/denoise.h"
 #include "frontend_embree/frontend_embree.h"
 #include "frontend_vk/frontend_vk.h"
 #include "shaders/encoding.h"
 #include "shaders/sampling.h"
 #include "tests/embree_frame.h"
+#include "pipeline/pipeline.h"
 #include "tests/gpu_common.h"
 
 enum { W = 64, H = 36 };
@@ -1120,6 +1122,74 @@ cleanup:
     gpu_end();
 }
 
+/* The frame pipeline with nothing waited for between its submissions (the Vulkan front-end's
+ * render and re-shading, the back-end's selection, each queued behind the one before) gives the
+ * frames of the pipeline that waits for each: `dynamic` (a moving light and objects, A-SVGF with
+ * its gradients and TAA), six frames queued back to back, the last taken (which waits), bit for
+ * bit. The times of queued frames come lagged, one frame late, and are the GPU's own. */
+static void test_queued_frames_match_waited(void)
+{
+    enum { WQ = 48, HQ = 32, FRAMES = 6 };
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    tnd_scene *s = NULL;
+    pl_frontend *fe[2] = {0};
+    pl_chain *chain[2] = {0};
+    tnd_scene_state st[2] = {{0}};
+    static float out[2][WQ * HQ * 3];
+    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/dynamic.gltf", &s));
+    for (int m = 0; m < 2; m++) {
+        REQUIRE_OK(pl_frontend_create("vk", s, &(pl_frontend_desc){.vk = vk, .rt_api = "pipeline"},
+                                      &fe[m]));
+        CHECK(pl_frontend_caps(fe[m]) & PL_CAP_QUEUED, "the Vulkan front-end queues its passes");
+        REQUIRE_OK(pl_chain_create(&(pl_chain_desc){.vk = vk, .width = WQ, .height = HQ,
+                                                    .backend = true,
+                                                    .denoise = {.mode = DN_MODE_ASVGF},
+                                                    .post = {.taa = true}},
+                                   &chain[m]));
+    }
+    int lagged = 0, timed = 0;
+    for (uint32_t f = 0; f < FRAMES; f++) {
+        REQUIRE_OK(tnd_scene_evaluate(s, f / 30.0, 0, (float)WQ / HQ, &st[0]));
+        REQUIRE_OK(tnd_scene_evaluate(s, f ? (f - 1) / 30.0 : 0.0, 0, (float)WQ / HQ, &st[1]));
+        for (int m = 0; m < 2; m++) { /* m = 0 waits for every frame, m = 1 for the last */
+            bool take = m == 0 || f == FRAMES - 1;
+            REQUIRE_OK(pl_frontend_set_frame(fe[m], &st[0], &st[1], f, WQ, HQ));
+            pl_step step = {.params = {.bounces = 1},
+                            .frame = dn_frame_for_camera(st[0].camera.proj, HQ, f, f == 0),
+                            .dt = 1.0f / 30.0f,
+                            .no_wait = !take};
+            pl_step_result r;
+            REQUIRE_OK(pl_chain_run(chain[m], fe[m], &step, take ? out[m] : NULL, NULL, &r));
+            if (m == 0) /* this frame's own times */
+                CHECK(r.fe.primary_ms > 0 && r.fe.shade_ms > 0 && r.dn.temporal_ms > 0,
+                      "frame %u: primary %g, shading %g, temporal %g ms", f, r.fe.primary_ms,
+                      r.fe.shade_ms, r.dn.temporal_ms);
+            if (m == 1 && f > 0 && !take) { /* the frame before's */
+                lagged += r.lagged;
+                timed += r.fe.primary_ms > 0 && r.fe.shade_ms > 0 && r.fe.gradient_ms > 0 &&
+                         r.dn.temporal_ms > 0 && r.post.taa_ms > 0;
+            }
+        }
+    }
+    CHECK(lagged == FRAMES - 2 && timed == FRAMES - 2,
+          "queued frames 1..%d: %d lagged, %d with every pass timed", FRAMES - 2, lagged, timed);
+    size_t differ = 0;
+    for (size_t k = 0; k < sizeof out[0] / sizeof out[0][0]; k++)
+        differ += memcmp(&out[0][k], &out[1][k], sizeof(float)) != 0;
+    CHECK(differ == 0, "the queued pipeline's frame %d differs in %zu of %zu values", FRAMES - 1,
+          differ, sizeof out[0] / sizeof out[0][0]);
+cleanup:
+    for (int m = 0; m < 2; m++) {
+        pl_chain_destroy(chain[m]);
+        pl_frontend_destroy(fe[m]);
+    }
+    for (int k = 0; k < 2; k++)
+        tnd_scene_state_free(&st[k]);
+    tnd_scene_destroy(s);
+    gpu_end();
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
@@ -1130,4 +1200,4 @@ TND_TEST_MAIN(T(test_off_equals_cpu_composite), T(test_svgf_static_cornell),
               T(test_nan_does_not_spread), T(test_lf_firefly_is_deflickered),
               T(test_disocclusion_and_frontends), T(test_gradient_samples_reproduce_static),
               T(test_asvgf_follows_light_switch), T(test_gradient_blur_segments),
-              T(test_shutdown))
+              T(test_queued_frames_match_waited), T(test_shutdown))
