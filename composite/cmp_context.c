@@ -386,8 +386,9 @@ tnd_result cmp_submit(cmp_context *c, const tnd_image *hdr, const tnd_contract_g
         tnd_timer_end(cmd, &c->timer, s[1]);
     }
     s[2] = tnd_timer_begin(cmd, &c->timer, "composite.exposure");
-    if (!d->fixed_exposure)
-        dispatch(c, cmd, P_HIST, c->width, c->height, 0);
+    if (!d->fixed_exposure) /* (a group per CP_HIST_TILE^2 pixels: 8x8 of width / 4 x height / 4) */
+        dispatch(c, cmd, P_HIST, (c->width + CP_HIST_TILE / 8 - 1) / (CP_HIST_TILE / 8),
+                 (c->height + CP_HIST_TILE / 8 - 1) / (CP_HIST_TILE / 8), 0);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipes[P_EXPOSURE]);
     vkCmdDispatch(cmd, 1, 1, 1);
     tnd_cmd_barrier(cmd);

@@ -39,6 +39,7 @@ struct cp_params {
 #define CP_LOG_MIN (-16.0)
 #define CP_LOG_MAX 16.0
 #define CP_FRAC_SCALE 256.0 /* fixed point of the in-bin position sums */
+#define CP_HIST_TILE 32     /* the histogram pass: pixels per side of a group's tile (8 | it) */
 
 /* Storage buffer: counts and in-bin position sums per bin, then the exposure state. */
 struct cp_histogram {
