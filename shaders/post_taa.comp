@@ -7,9 +7,8 @@
  * objects keep their history), sampled with a 4x4 Catmull-Rom kernel, NaN-checked, and clipped
  * towards the mean onto the box mean +- k sigma; out = mix(history, centre, weight).
  * Without a valid history (first frame, off screen, non-finite) the centre is taken as is.
- * The group's 10x10 neighbourhood (colour and motion) and 12x12 history texels are loaded once
- * into shared memory: each pixel's 3x3 and (unless it moved far) 4x4 reads come from there, not
- * 34 image loads per pixel (H200, 3840x2160: 0.56 -> 0.33 ms for the neighbourhoods). */
+ * The group's 10x10 neighbourhood (colour and motion) is loaded once into shared memory: each
+ * pixel's 3x3 reads come from there, not 18 image loads per pixel (H200, 3840x2160: ...). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define CP_NEEDS_CONTRACT
@@ -37,14 +36,8 @@ vec4 catmull_rom(float t)
                 0.5 * t3 - 0.5 * t2);
 }
 
-/* the group's history tile: 12x12 texels from 2 before its 8x8 pixels (clamped to the image as
- * sample_history clamps), which holds the 4x4 footprint of every pixel whose history lies less
- * than a pixel or so away (still and slow content); others read the image */
-#define HT 12
-shared vec3 s_h[HT][HT];
-
-/* history at continuous pixel position x (pixel centres at +0.5); `corner`: the tile's origin */
-vec3 sample_history(vec2 x, ivec2 corner, out bool ok)
+/* history at continuous pixel position x (pixel centres at +0.5) */
+vec3 sample_history(vec2 x, out bool ok)
 {
     uint prev = 1u - pc.slot;
     vec2 c = x - 0.5;
@@ -52,18 +45,11 @@ vec3 sample_history(vec2 x, ivec2 corner, out bool ok)
     vec2 f = c - vec2(b);
     vec4 wx = catmull_rom(f.x), wy = catmull_rom(f.y);
     vec3 sum = vec3(0.0);
-    ivec2 o = b - 1 - corner;
-    if (all(greaterThanEqual(o, ivec2(0))) && all(lessThanEqual(o, ivec2(HT - 4)))) {
-        for (int j = 0; j < 4; j++)
-            for (int i = 0; i < 4; i++)
-                sum += wx[i] * wy[j] * s_h[o.y + j][o.x + i];
-    } else {
-        for (int j = 0; j < 4; j++)
-            for (int i = 0; i < 4; i++) {
-                ivec2 q = clamp(b + ivec2(i - 1, j - 1), ivec2(0), img_size() - 1);
-                sum += wx[i] * wy[j] * imageLoad(taa[prev], q).rgb;
-            }
-    }
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++) {
+            ivec2 q = clamp(b + ivec2(i - 1, j - 1), ivec2(0), img_size() - 1);
+            sum += wx[i] * wy[j] * imageLoad(taa[prev], q).rgb;
+        }
     ok = !(tnd_nonfinite(sum.x) || tnd_nonfinite(sum.y) || tnd_nonfinite(sum.z));
     return max(sum, vec3(0.0)); /* the kernel's negative lobes can undershoot */
 }
@@ -90,14 +76,6 @@ void main()
         s_c[t.y][t.x] = fetch_in(q);
         s_mv[t.y][t.x] = inside(q) ? imageLoad(img_motion, q).xy : vec2(uintBitsToFloat(0x7fc00000u));
     }
-    bool history = (P.size.w & CP_F_HISTORY) != 0u;
-    ivec2 hcorner = ivec2(gl_WorkGroupID.xy) * 8 - 2;
-    if (history)
-        for (uint k = gl_LocalInvocationIndex; k < uint(HT * HT); k += 64u) {
-            ivec2 t = ivec2(k % uint(HT), k / uint(HT));
-            s_h[t.y][t.x] = imageLoad(taa[1u - pc.slot],
-                                      clamp(hcorner + t, ivec2(0), img_size() - 1)).rgb;
-        }
     barrier();
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(p))
@@ -132,10 +110,10 @@ void main()
     if (lc > cap && lc > 0.0)
         centre *= cap / lc;
     vec3 result = centre;
-    if (history) {
+    if ((P.size.w & CP_F_HISTORY) != 0u) {
         vec2 x = vec2(p) + 0.5 + motion;
         bool ok = all(greaterThanEqual(x, vec2(0.0))) && all(lessThan(x, vec2(img_size())));
-        vec3 h = ok ? sample_history(x, hcorner, ok) : vec3(0.0);
+        vec3 h = ok ? sample_history(x, ok) : vec3(0.0);
         if (ok) {
             vec3 hy = clip_box(rgb_to_ycocg(h), m1, P.taa.y * sigma);
             result = mix(max(ycocg_to_rgb(hy), vec3(0.0)), centre, P.taa.x);
