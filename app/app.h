@@ -129,6 +129,7 @@ typedef struct app_render_opts {
     app_env env;
     const app_view_state *view; /* --view FILE: its settings and camera path */
     const char *shard;          /* reference --shard I/N */
+    unsigned timed_frames;      /* render: frames after the written ones, back to back, timed */
 } app_render_opts;
 struct pl_frontend;
 struct pl_chain;
@@ -283,7 +284,7 @@ int cmd_merge(int argc, char **argv);
  * shards); DIR/sweep-plan.json either way. */
 int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
               unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup,
-              const char *emit, unsigned shards);
+              unsigned timed, const char *emit, unsigned shards);
 int cmd_sweep(int argc, char **argv);
 /* `tandem bench --extremes` (app/cmd_extremes.c) */
 int app_extremes(const char *scene, const char *out, const unsigned size[2], unsigned frames);

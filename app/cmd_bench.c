@@ -468,7 +468,7 @@ int cmd_bench(int argc, char **argv)
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
     const char *out = NULL, *reference = NULL;
     app_list sweeps = {0};
-    unsigned frames = 12, warmup = 4, spp = 64, ref_shards = 0;
+    unsigned frames = 12, warmup = 4, spp = 64, ref_shards = 0, timed = 24;
     const char *emit = NULL;
     app_env env = APP_ENV_INIT; /* (--overlap and --denoiser: the whole frame or the back-end) */
     const app_opt opts[] = {
@@ -506,6 +506,9 @@ int cmd_bench(int argc, char **argv)
         {"extremes", APP_OPT_FLAG, &extremes, NULL,
          "numerical stability report: the extremes scene (or --scene) through every mode; needs --out"},
         {"warmup", APP_OPT_UINT, &warmup, "W", "--sweep: frames left out of times and metrics (default 4)"},
+        {"timed-frames", APP_OPT_UINT, &timed, "N",
+         "--sweep: each cell's times from N frames back to back after its frames (render "
+         "--timed-frames; default 24; 0: from its frames, each waited for)"},
         APP_ENV_OPTS(&env),
         {"opaque", APP_OPT_FLAG, &env.opaque, NULL,
          "alpha-tested (cut-out) materials made opaque: against a run without it, what the "
@@ -546,7 +549,7 @@ int cmd_bench(int argc, char **argv)
         return app_extremes(scene_given ? scene_path : TND_DATA_DIR "/scenes/extremes.gltf", out,
                             size, frames);
     if (sweeps.n)
-        return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup, emit,
+        return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup, timed, emit,
                          ref_shards ? ref_shards : frames < 64 ? frames : 64);
     if (overlap || whole_frame) {
         dn_mode mode;

@@ -129,6 +129,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
          "asvgf: the hf antilag gain (how fast history drops where the signal changed; "
          "default 1)"},
         {"video", APP_OPT_FLAG, &o->video, NULL, "also write DIR/video.mp4 from the PNGs (needs ffmpeg)"},
+        {"timed-frames", APP_OPT_UINT, &o->timed_frames, "N",
+         "after the frames written, N more of the path back to back (nothing waited for, nothing "
+         "written, after 4 of warm-up): their GPU times per pass and wall clock per frame into "
+         "timings.json's back_to_back (how bench --sweep times its cells)"},
         {"view", APP_OPT_STRING, &view_path, "FILE",
          "a repro state of tandem view: its scene, settings and camera path, frame for frame "
          "(over the options that set the same)"},
@@ -202,6 +206,11 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     }
     if (o->atrous > 5 || (o->min_alpha != 0 && !(o->min_alpha > 0 && o->min_alpha <= 1))) {
         fprintf(stderr, "tandem %s: --atrous is 1 to 5, --min-alpha in (0, 1]\n", cmd->name);
+        return APP_EXIT_USAGE;
+    }
+    if (o->timed_frames && o->view) { /* (its camera path ends with the frames written) */
+        fprintf(stderr, "tandem %s: --timed-frames runs the scene's path on after the frames; "
+                        "not with --view\n", cmd->name);
         return APP_EXIT_USAGE;
     }
     if (o->video && !app_have_program("ffmpeg")) {
@@ -350,6 +359,83 @@ static tnd_result post_desc(const render_opts *o, cmp_desc *d)
 
 /* DIR/run.json: what reproduces the run (scene, front-end, device, every parameter) and which
  * post passes ran, and why the others did not. */
+/* One frame's times in timings.json: front-end GPU timestamps (vk) or CPU wall clock (embree);
+ * back-end and post: GPU. */
+static void timings_entry(FILE *f, const char *sep, unsigned frame, const pl_step_result *pr,
+                          bool plugin)
+{
+    const pl_timings *tm = &pr->fe;
+    const dn_timings *dt = &pr->dn;
+    const cmp_timings *pt = &pr->post;
+    fprintf(f,
+            "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
+            "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_select_ms\": %.4f, "
+            "\"denoise_gradient_ms\": %.4f, \"denoise_temporal_ms\": %.4f, "
+            "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, "
+            "\"denoise_lf_beside_atrous\": %s, \"composite_ms\": %.4f, "
+            "\"interleave_ms\": %.4f, \"taa_ms\": %.4f, \"bloom_ms\": %.4f, "
+            "\"exposure_ms\": %.4f, \"tonemap_ms\": %.4f",
+            sep, frame, tm->primary_ms, tm->shade_ms, tm->tlas_ms, tm->gradient_ms,
+            dt->select_ms, dt->gradient_ms, dt->temporal_ms, dt->lf_ms, dt->atrous_ms,
+            dt->lf_beside_atrous ? "true" : "false", dt->composite_ms, pt->interleave_ms,
+            pt->taa_ms, pt->bloom_ms, pt->exposure_ms, pt->tonemap_ms);
+    if (plugin) /* (composite_ms: the noisy radiance it reads) */
+        fprintf(f, ", \"denoiser_plugin_ms\": %.4f", pr->plugin_ms);
+    fputc('}', f);
+}
+
+/* --timed-frames: the path's next frames after `done`, back to back as bench runs them (each
+ * frame submitted without waiting for the one before; the GPU's times come a frame late), into
+ * timings.json's back_to_back: per frame after the warm-up, and the wall clock per frame. */
+static tnd_result time_back_to_back(const app_render_opts *o, const tnd_scene *scene,
+                                    pl_frontend *fr, pl_chain *chain, tnd_scene_state st[2],
+                                    unsigned done, bool lags, bool plugin, float *rgb,
+                                    FILE *timings)
+{
+    enum { WARM = 4 };
+    tnd_result res = TND_OK;
+    unsigned total = WARM + o->timed_frames, recorded = 0;
+    float aspect = (float)o->size[0] / (float)o->size[1];
+    double t0 = tnd_now();
+    /* a front-end that is not queued gives its own frame's times at once: kept a frame, so that
+     * each entry is one frame's */
+    bool queued = (pl_frontend_caps(fr) & PL_CAP_QUEUED) != 0;
+    pl_timings own_before = {0};
+    fprintf(timings, "\n  ],\n  \"back_to_back\": {\"warmup\": %u, \"frames\": [", WARM);
+    for (unsigned k = 0; k <= total; k++) {
+        pl_step_result pr = {0};
+        unsigned i = done + k, f = o->start + i;
+        if (k == WARM)
+            t0 = tnd_now();
+        if (k < total) {
+            tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
+            TND_TRY(tnd_scene_evaluate(scene, f / o->fps, o->camera, aspect, cur));
+            TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o->size[0], o->size[1]));
+            pl_step step = {.params = {.bounces = o->bounces},
+                            .frame = dn_frame_for_camera(cur->camera.proj, o->size[1], f, false),
+                            .dt = (float)(1.0 / o->fps),
+                            .no_wait = true};
+            /* (without the GPU chain the CPU composite has to go somewhere) */
+            TND_TRY(pl_chain_run(chain, fr, &step, lags ? NULL : rgb, NULL, &pr));
+        } else {
+            TND_TRY(pl_chain_finish(chain, &pr));
+        }
+        pl_timings own = pr.fe;
+        if (lags && !queued)
+            pr.fe = own_before;
+        own_before = own;
+        /* the frame these times are of: the one before (lagged), or this one (no GPU chain) */
+        unsigned of = lags ? k - 1 : k;
+        if ((lags ? k > WARM : k >= WARM && k < total) && (pr.lagged || !lags)) {
+            timings_entry(timings, recorded ? "," : "", o->start + done + of, &pr, plugin);
+            recorded++;
+        }
+    }
+    fprintf(timings, "\n  ], \"wall_ms\": %.4f}", 1e3 * (tnd_now() - t0) / o->timed_frames);
+fail:
+    return res;
+}
+
 static tnd_result write_run_json(const render_opts *o, const char *device, const char *dn_mode_s,
                                  const cmp_desc *pd, const char *passes, const tnd_scene *scene,
                                  const pl_frontend *fr)
@@ -726,25 +812,7 @@ static int run(bool reference, int argc, char **argv)
                         .after_backend = dump_mask ? app_dump_after_backend : NULL,
                         .user = &dc};
         TND_TRY(pl_chain_run(chain, fr, &step, rgb, use_dn ? display : NULL, &pr));
-        const pl_timings tm = pr.fe;
-        const dn_timings dt = pr.dn;
-        const cmp_timings pt = pr.post;
-        /* front-end times: GPU timestamps (vk) or CPU wall clock (embree); back-end: GPU */
-        fprintf(timings,
-                "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
-                "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_select_ms\": %.4f, "
-                "\"denoise_gradient_ms\": %.4f, \"denoise_temporal_ms\": %.4f, "
-                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"denoise_lf_beside_atrous\": %s, "
-                "\"composite_ms\": %.4f, "
-                "\"interleave_ms\": %.4f, \"taa_ms\": %.4f, \"bloom_ms\": %.4f, "
-                "\"exposure_ms\": %.4f, \"tonemap_ms\": %.4f",
-                i ? "," : "", f, tm.primary_ms, tm.shade_ms, tm.tlas_ms, tm.gradient_ms, dt.select_ms,
-                dt.gradient_ms, dt.temporal_ms, dt.lf_ms, dt.atrous_ms,
-                dt.lf_beside_atrous ? "true" : "false", dt.composite_ms,
-                pt.interleave_ms, pt.taa_ms, pt.bloom_ms, pt.exposure_ms, pt.tonemap_ms);
-        if (dn_plugin) /* (composite_ms: the noisy radiance it reads) */
-            fprintf(timings, ", \"denoiser_plugin_ms\": %.4f", pr.plugin_ms);
-        fputc('}', timings);
+        timings_entry(timings, i ? "," : "", f, &pr, dn_plugin != NULL);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
@@ -755,8 +823,13 @@ static int run(bool reference, int argc, char **argv)
         app_progress_step(&bar, i + 1);
     }
     app_progress_end(&bar);
+    if (timings && o.timed_frames)
+        TND_TRY(time_back_to_back(&o, scene, fr, chain, st, o.frames, use_dn, dn_plugin != NULL,
+                                  rgb, timings));
+    else if (timings)
+        fprintf(timings, "\n  ]");
     if (timings) {
-        fprintf(timings, "\n  ]\n}\n");
+        fprintf(timings, "\n}\n");
         if (fclose(timings) != 0) {
             timings = NULL;
             res = tnd_fail(TND_ERR_IO, "render: %s/timings.json: write failed", o.out);

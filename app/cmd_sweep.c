@@ -1,6 +1,7 @@
 /* app/cmd_sweep.c: `tandem bench --scene S --sweep key=v1,v2,... [--sweep ...] --out DIR`: the
  * real-time pipeline over the cartesian product of knob values. Per combination: a `tandem
- * render` run (GPU ms per pass from its timestamps, medians over the frames after the warm-up),
+ * render` run (GPU ms per pass from its timestamps: medians over --timed-frames frames it runs
+ * back to back after those it writes, as bench does; wall clock per frame beside),
  * its denoiser's error against the matched reference of its estimator (bounces, resolution;
  * made once per estimator under DIR/matched) and its error against the unbiased reference; then
  * DIR/sweep.json, DIR/sweep.csv and DIR/report (the Pareto fronts of time against the denoiser's
@@ -44,7 +45,7 @@ enum { PASSES = sizeof passes / sizeof passes[0] };
 
 typedef struct sweep_run {
     const char *value[MAX_KEYS];
-    double pass_ms[PASSES], total_ms;
+    double pass_ms[PASSES], total_ms, wall_ms; /* wall_ms: per frame back to back (0: none) */
     ev_summary metrics;    /* the denoiser's error: against the cell's matched reference */
     ev_summary whole;      /* against the unbiased reference: denoiser error and estimator bias */
     int estimator;         /* index into the sweep's estimators (matched references) */
@@ -72,6 +73,9 @@ static tnd_result eval_against(const char *dir, const char *ref, unsigned warmup
     return res;
 }
 
+/* A cell's times: per pass, the median over its back-to-back frames (render --timed-frames), or
+ * over its written frames after the warm-up (each waited for: the GPU idles between them, and
+ * its clocks drop) where it ran none; and the wall clock per back-to-back frame (0 without). */
 static tnd_result read_timings(const char *dir, unsigned warmup, sweep_run *r)
 {
     char path[1400];
@@ -83,18 +87,21 @@ static tnd_result read_timings(const char *dir, unsigned warmup, sweep_run *r)
         return res;
     cJSON *j = cJSON_Parse(txt);
     free(txt);
-    const cJSON *frames = cJSON_GetObjectItem(j, "frames");
-    int n = cJSON_GetArraySize(frames);
-    if (!j || n <= (int)warmup) {
+    const cJSON *b2b = cJSON_GetObjectItem(j, "back_to_back");
+    const cJSON *frames = cJSON_GetObjectItem(b2b ? b2b : j, "frames");
+    const cJSON *wall = cJSON_GetObjectItem(b2b, "wall_ms");
+    int n = cJSON_GetArraySize(frames), first = b2b ? 0 : (int)warmup;
+    if (!j || n <= first || (b2b && !cJSON_IsNumber(wall))) {
         cJSON_Delete(j);
-        return tnd_fail(TND_ERR_BAD_INPUT, "bench: %s: %d frames, need more than the %u of warm-up",
-                        path, n, warmup);
+        return tnd_fail(TND_ERR_BAD_INPUT, "bench: %s: %d %sframes, need more than %d", path, n,
+                        b2b ? "back-to-back " : "", first);
     }
+    r->wall_ms = b2b ? wall->valuedouble : 0.0;
     double *v = malloc((size_t)n * sizeof *v);
     r->total_ms = 0;
     for (int p = 0; v && p < PASSES; p++) {
         unsigned m = 0;
-        for (int i = (int)warmup; i < n; i++) {
+        for (int i = first; i < n; i++) {
             const cJSON *x = cJSON_GetObjectItem(cJSON_GetArrayItem(frames, i), passes[p]);
             v[m++] = cJSON_IsNumber(x) ? x->valuedouble : 0.0;
         }
@@ -103,7 +110,7 @@ static tnd_result read_timings(const char *dir, unsigned warmup, sweep_run *r)
     }
     free(v);
     cJSON_Delete(j);
-    return TND_OK;
+    return v ? TND_OK : tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
 }
 
 static const knob *find_knob(const char *key)
@@ -120,6 +127,7 @@ static const knob *find_knob(const char *key)
 typedef struct sweep_plan {
     char scene[1100], out[1000], refdir[1000];
     unsigned size[2], frames, warmup, spp;
+    unsigned timed; /* frames each cell runs back to back for its times (0: its written frames) */
     bool own_reference; /* the unbiased reference is rendered into DIR/reference */
     int nkeys, total, nests;
     const knob *keys[MAX_KEYS];
@@ -138,7 +146,7 @@ static void cell_dir(const sweep_plan *P, int i, char *buf, size_t cap)
  * matched reference directories. Prints usage errors; returns -1 or an exit status. */
 static int plan_make(const app_list *sweeps, const char *scene, const char *out,
                      const char *reference, unsigned spp, const unsigned size[2], unsigned frames,
-                     unsigned warmup, sweep_plan *P)
+                     unsigned warmup, unsigned timed, sweep_plan *P)
 {
     const char *values[MAX_KEYS][MAX_VALUES];
     int nvalues[MAX_KEYS], nkeys = sweeps->n, status = APP_EXIT_USAGE;
@@ -231,6 +239,7 @@ static int plan_make(const app_list *sweeps, const char *scene, const char *out,
     P->size[1] = size[1];
     P->frames = frames;
     P->warmup = warmup;
+    P->timed = timed;
     P->spp = spp;
     P->nkeys = nkeys;
     P->total = total;
@@ -326,6 +335,11 @@ static void argv_cell(const sweep_plan *P, int i, sweep_argv *a)
     }
     a->v[a->n++] = "--size";
     a->v[a->n++] = (char *)P->cell_size[i];
+    if (P->timed) { /* its times: frames back to back after those written */
+        snprintf(a->buf[2], sizeof a->buf[2], "%u", P->timed);
+        a->v[a->n++] = "--timed-frames";
+        a->v[a->n++] = a->buf[2];
+    }
 }
 
 static tnd_result plan_write(const sweep_plan *P)
@@ -339,6 +353,7 @@ static tnd_result plan_write(const sweep_plan *P)
     cJSON_AddNumberToObject(j, "height", P->size[1]);
     cJSON_AddNumberToObject(j, "frames", P->frames);
     cJSON_AddNumberToObject(j, "warmup", P->warmup);
+    cJSON_AddNumberToObject(j, "timed_frames", P->timed);
     cJSON_AddNumberToObject(j, "spp", P->spp);
     cJSON *ka = cJSON_AddArrayToObject(j, "knobs");
     for (int k = 0; k < P->nkeys; k++)
@@ -422,6 +437,9 @@ static tnd_result plan_read(const char *dir, sweep_plan *P)
         P->size[1] = jnum(j, "height", 1u << 16, &ok);
         P->frames = jnum(j, "frames", 1u << 20, &ok);
         P->warmup = jnum(j, "warmup", 1u << 20, &ok);
+        P->timed = cJSON_GetObjectItem(j, "timed_frames") /* (a plan from before it: none) */
+                       ? jnum(j, "timed_frames", 1u << 20, &ok)
+                       : 0;
         P->spp = jnum(j, "spp", ~0u, &ok);
         P->nkeys = cJSON_GetArraySize(ka);
         P->nests = cJSON_GetArraySize(ea);
@@ -672,7 +690,7 @@ static bool absolute(const char *p, char *out, size_t cap)
 
 int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
               unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup,
-              const char *emit, unsigned shards)
+              unsigned timed, const char *emit, unsigned shards)
 {
     char scene_abs[1100], out_abs[1000], ref_abs[1000];
     if (emit && strcmp(emit, "slurm") != 0) {
@@ -693,7 +711,7 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
     sweep_plan *P = calloc(1, sizeof *P);
     if (!P)
         return app_report("bench", tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory"));
-    int status = plan_make(sweeps, scene, out, reference, spp, size, frames, warmup, P);
+    int status = plan_make(sweeps, scene, out, reference, spp, size, frames, warmup, timed, P);
     if (status >= 0) {
         free(P);
         return status;
@@ -849,7 +867,8 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     char rdir[1300];
     snprintf(rdir, sizeof rdir, "%s/report", out);
     res = tnd_mkdirs(rdir);
-    const char *xlabel = "GPU ms per frame (median after warm-up)";
+    const char *xlabel = P->timed ? "GPU ms per frame (medians, frames back to back)"
+                                  : "GPU ms per frame (median after warm-up)";
     if (res == TND_OK) {
         snprintf(path, sizeof path, "%s/pareto_relmse.svg", rdir);
         res = ev_plot_pareto(path, "time vs relMSE (Pareto front in red)", xlabel, "relMSE", tx,
@@ -868,6 +887,7 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     cJSON_AddNumberToObject(root, "height", size[1]);
     cJSON_AddNumberToObject(root, "frames", frames);
     cJSON_AddNumberToObject(root, "warmup", warmup);
+    cJSON_AddNumberToObject(root, "timed_frames", P->timed);
     cJSON_AddNumberToObject(root, "cells", P->total);
     cJSON_AddItemToObject(root, "failed", failed);
     cJSON_AddItemToObject(root, "missing", missing);
@@ -883,13 +903,18 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     for (int p = 0; p < PASSES; p++)
         ev_text_add(&csv, ",%s", passes[p]);
     ev_text_add(&csv, ",relmse,smape,psnr,ssim,flip,temporal,pareto_relmse,pareto_flip,"
-                      "relmse_unbiased,flip_unbiased,estimator_bias_relmse\n");
+                      "relmse_unbiased,flip_unbiased,estimator_bias_relmse,wall_ms\n");
     ev_text_add(&html, "<h2>Runs</h2>\n<p>%d combinations of %s at %ux%u, %u frames, medians after "
-                       "%u warm-up frames. relMSE, FLIP, SSIM, PSNR and temporal: the "
+                       "%u warm-up frames. ", total, scene, size[0], size[1], frames, warmup);
+    if (P->timed)
+        ev_text_add(&html, "Times: medians of %u frames each cell ran back to back after its "
+                           "frames (GPU timestamps per pass; wall: the clock per frame). ",
+                    P->timed);
+    ev_text_add(&html, "relMSE, FLIP, SSIM, PSNR and temporal: the "
                        "denoiser's error, against each cell's <b>matched reference</b> (the "
                        "converged expectation of its real-time estimator: its bounces and "
                        "resolution; %d of them); \"vs unbiased\": against <code>",
-                total, scene, size[0], size[1], frames, warmup, nests);
+                nests);
     ev_text_escaped(&html, refdir);
     ev_text_add(&html, "</code>, the denoiser's error and the estimator's bias together; "
                        "\"bias\": the matched reference against the unbiased one. Bold: on a "
@@ -899,8 +924,8 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
                        "<table><tr>");
     for (int k = 0; k < nkeys; k++)
         ev_text_add(&html, "<th>%s</th>", keys[k]->key);
-    ev_text_add(&html, "<th>GPU ms</th><th>front-end ms</th><th>denoise ms</th><th>post ms</th>"
-                       "<th>relMSE</th><th>FLIP</th><th>SSIM</th><th>PSNR</th><th>temporal</th>"
+    ev_text_add(&html, "<th>GPU ms</th><th>wall ms</th><th>front-end ms</th><th>denoise ms</th>"
+                       "<th>post ms</th><th>relMSE</th><th>FLIP</th><th>SSIM</th><th>PSNR</th><th>temporal</th>"
                        "<th>relMSE vs unbiased</th><th>bias relMSE</th></tr>\n");
     for (int i = 0; i < total; i++) {
         sweep_run *r = &runs[i];
@@ -915,6 +940,7 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
             ev_text_add(&csv, "%s,", r->value[k]);
         }
         cJSON_AddNumberToObject(o, "total_ms", r->total_ms);
+        cJSON_AddNumberToObject(o, "wall_ms", r->wall_ms);
         ev_text_add(&csv, "%.6g", r->total_ms);
         cJSON *pm = cJSON_AddObjectToObject(o, "pass_ms");
         double fe = 0, dn = 0, post = 0;
@@ -943,19 +969,19 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
         cJSON_AddNumberToObject(o, "flip_unbiased", r->whole.flip);
         cJSON_AddNumberToObject(o, "estimator_bias_relmse", es->bias.relmse);
         cJSON_AddNumberToObject(o, "estimator_bias_flip", es->bias.flip);
-        ev_text_add(&csv, ",%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%d,%.9g,%.9g,%.9g\n", m->relmse,
+        ev_text_add(&csv, ",%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%d,%.9g,%.9g,%.9g,%.6g\n", m->relmse,
                     m->smape, m->psnr, m->ssim, m->flip, m->temporal, pa[i], pb[i],
-                    r->whole.relmse, r->whole.flip, es->bias.relmse);
+                    r->whole.relmse, r->whole.flip, es->bias.relmse, r->wall_ms);
         ev_text_add(&html, "<tr%s>", pa[i] || pb[i] ? " style=\"font-weight:bold\"" : "");
         for (int k = 0; k < nkeys; k++) {
             ev_text_add(&html, "<td>");
             ev_text_escaped(&html, r->value[k]);
             ev_text_add(&html, "</td>");
         }
-        ev_text_add(&html, "<td>%.3f</td><td>%.3f</td><td>%.3f</td><td>%.3f</td><td>%.5g</td>"
-                           "<td>%.4f</td><td>%.4f</td><td>%.2f</td><td>%.4g</td><td>%.5g</td>"
-                           "<td>%.5g</td></tr>\n",
-                    r->total_ms, fe, dn, post, m->relmse, m->flip, m->ssim, m->psnr, m->temporal,
+        ev_text_add(&html, "<td>%.3f</td><td>%.3f</td><td>%.3f</td><td>%.3f</td><td>%.3f</td>"
+                           "<td>%.5g</td><td>%.4f</td><td>%.4f</td><td>%.2f</td><td>%.4g</td>"
+                           "<td>%.5g</td><td>%.5g</td></tr>\n",
+                    r->total_ms, r->wall_ms, fe, dn, post, m->relmse, m->flip, m->ssim, m->psnr, m->temporal,
                     r->whole.relmse, es->bias.relmse);
     }
     ev_text_add(&html, "</table>\n");

@@ -83,7 +83,8 @@ const pl_camera *pl_frontend_camera(const pl_frontend *fe);
 tnd_result pl_frontend_render(pl_frontend *fe, const pl_params *p, tnd_frame *host,
                               pl_timings *t);
 /* A PL_CAP_QUEUED front-end's GPU times of a render and its re-shading: with `wait`, of the last
- * submitted (waits for them); without, of the frame before the one just rendered (no wait). */
+ * submitted (waits for them); without, of the frame before the one just rendered (no wait). For
+ * other front-ends t is left as their render and re-shade calls filled it. */
 tnd_result pl_frontend_timings(pl_frontend *fe, bool wait, pl_timings *t);
 /* The GPU contract of the last render (NULL for host front-ends). */
 const tnd_contract_gpu *pl_frontend_contract(const pl_frontend *fe);

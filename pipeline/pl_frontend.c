@@ -448,9 +448,8 @@ tnd_result pl_frontend_render(pl_frontend *fe, const pl_params *p, tnd_frame *ho
 
 tnd_result pl_frontend_timings(pl_frontend *fe, bool wait, pl_timings *t)
 {
-    *t = (pl_timings){0};
     if (!(pl_frontend_caps(fe) & PL_CAP_QUEUED) || !fe->ops->timings)
-        return TND_OK;
+        return TND_OK; /* (t as render and re-shade gave it) */
     return fe->ops->timings(fe->ctx, wait, t);
 }
 

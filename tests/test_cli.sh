@@ -258,8 +258,14 @@ d = json.load(open(sys.argv[1]))
 runs = d["runs"]
 assert d["knobs"] == ["bounces", "atrous", "gradient"] and len(runs) == 8
 assert len({tuple(sorted(r["knobs"].items())) for r in runs}) == 8
+# each cell timed on 24 frames back to back after its 5 (render --timed-frames)
+assert d["timed_frames"] == 24, d["timed_frames"]
+t = json.load(open(sys.argv[1].replace("sweep.json", "runs/000/timings.json")))
+assert len(t["frames"]) == 5 and len(t["back_to_back"]["frames"]) == 24, t.keys()
+assert [f["frame"] for f in t["back_to_back"]["frames"]] == list(range(5 + 4, 5 + 4 + 24))
 for r in runs:
     assert r["total_ms"] > 0 and r["pass_ms"]["denoise_atrous_ms"] > 0, r
+    assert r["wall_ms"] > 0, r
     assert math.isfinite(r["relmse"]) and 0 < r["flip"] < 1, r
     assert math.isfinite(r["relmse_unbiased"]) and r["estimator_bias_relmse"] > 0, r
     assert (r["pass_ms"]["denoise_gradient_ms"] > 0) == (r["knobs"]["gradient"] == "on"), r

@@ -35,7 +35,10 @@ export PKG_CONFIG_PATH="$TMP/prefix/lib/pkgconfig"
 cc -std=c11 -Wall -Werror $SAN denoise_capture.c $(pkg-config --cflags --libs tandem) \
     -o denoise_pc
 LD_LIBRARY_PATH="$TMP/prefix/lib" ./denoise_pc "$TMP/run" "$TMP/out_pc"
-if LD_LIBRARY_PATH="$TMP/prefix/lib" ldd ./denoise_pc | grep -q "$TMP/prefix/lib/libtandem.so"
+# (ldd's list kept first: grep -q closing the pipe early fails ldd with SIGPIPE, and pipefail the
+# check, now and then)
+libs_pc=$(LD_LIBRARY_PATH="$TMP/prefix/lib" ldd ./denoise_pc)
+if grep -q "$TMP/prefix/lib/libtandem.so" <<<"$libs_pc"
 then ok "pkg-config: linked to the installed libtandem.so"
 else bad "pkg-config: not linked to the installed libtandem.so"; fi
 
@@ -44,7 +47,8 @@ cmake -S . -B build -DCMAKE_PREFIX_PATH="$TMP/prefix" -DCMAKE_BUILD_TYPE=Release
     -DCMAKE_C_FLAGS="$SAN" -DCMAKE_EXE_LINKER_FLAGS="$SAN" > cmake.log
 cmake --build build > build.log
 ./build/denoise_capture "$TMP/run" "$TMP/out_cmake"
-if ldd ./build/denoise_capture | grep -q libtandem; then bad "CMake: static (no libtandem.so)"
+libs_cmake=$(ldd ./build/denoise_capture)
+if grep -q libtandem <<<"$libs_cmake"; then bad "CMake: static (no libtandem.so)"
 else ok "CMake: Tandem::tandem_static linked in"; fi
 
 for i in 0 1 2 3; do
