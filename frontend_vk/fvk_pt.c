@@ -145,8 +145,8 @@ static tnd_result create_pipeline(fvk_context *c)
                                   &c->pipeline, &c->sbt);
 }
 
-/* The scene set `set`; its gradient binding (11) at `gradients` (VK_NULL_HANDLE: ours). */
-static void write_scene_set_to(fvk_context *c, VkDescriptorSet set, VkBuffer gradients)
+/* The scene set `set` (its gradient binding, 11, at our list). */
+static void write_scene_set_to(fvk_context *c, VkDescriptorSet set)
 {
     VkWriteDescriptorSetAccelerationStructureKHR as = {
         .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR,
@@ -176,8 +176,6 @@ static void write_scene_set_to(fvk_context *c, VkDescriptorSet set, VkBuffer gra
             w[i].pBufferInfo = &bi[i];
         }
     }
-    if (gradients)
-        bi[11].buffer = gradients;
     w[0].pNext = &as;
     w[0].descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
     w[1].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
@@ -196,8 +194,8 @@ static void write_scene_set_to(fvk_context *c, VkDescriptorSet set, VkBuffer gra
  * back-end's list may be gone by the next slot launch, which points it there again. */
 static void write_scene_set(fvk_context *c)
 {
-    write_scene_set_to(c, c->sets[0], VK_NULL_HANDLE);
-    write_scene_set_to(c, c->slot_set, VK_NULL_HANDLE);
+    write_scene_set_to(c, c->sets[0]);
+    write_scene_set_to(c, c->slot_set);
     c->slot_buffer = VK_NULL_HANDLE;
 }
 
