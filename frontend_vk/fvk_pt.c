@@ -563,8 +563,7 @@ tnd_result fvk_shade_gradients(fvk_context *c, const fvk_params *p, const uint32
     }
     TND_TRY(settle(c, FVK_GRADIENTS)); /* (the launch before read our list) */
     if (count > c->gradient_capacity) {
-        TND_TRY(settle(c, FVK_ALL));
-        vkDeviceWaitIdle(c->vk->device);
+        TND_TRY(settle(c, FVK_ALL)); /* (only our launches read the list and the sets) */
         tnd_buffer_destroy(c->vk, &c->gradients);
         TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = count * sizeof(tnd_gpu_gradient),
                                                             .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
