@@ -35,6 +35,9 @@ typedef struct dn_desc {
      * light-leak guard of the last iteration (on unless no_leak_guard) */
     float lf_deflicker;
     bool no_leak_guard;
+    /* lf filter: its luminance weight stops at this many standard deviations of the noise left
+     * in the temporal lf histories (0 means 2; docs/denoise.md) */
+    float lf_sigma;
     /* profiling: a timestamp around every dispatch as well (dn_dispatch_times) */
     bool dispatch_timing;
     /* the gradient blur's segment of a row or column per work group, in strata: 0 means (and

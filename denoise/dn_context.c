@@ -20,7 +20,7 @@
 
 /* histories: hf (+ moments), lf (SH, CoCg, length), spec (+ length); a-trous ping-pong; lf
  * ping-pong (1/3 res: tangent plane and CoCg, SH) */
-enum { N_PAIRED = 6, N_SINGLE = 9 };
+enum { N_PAIRED = 6, N_SINGLE = 8 };
 static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_LF, DN_B_HIST_SPEC,
                                                   DN_B_AT,      DN_B_AT_LF,   DN_B_AT_LF_SH};
 static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_lf", "hist_spec",
@@ -34,7 +34,6 @@ struct dn_context {
     uint32_t width, height, frame;
     tnd_image paired[N_PAIRED][2];
     tnd_image prev_geo, prev_surf, out, fgeo; /* fgeo: the a-trous filter geometry */
-    tnd_image moments; /* this frame's luminance moments, temporal -> a-trous 0 */
     tnd_image centre;  /* position (relative to the filter origin) and depth */
     tnd_image prev_lum, prev_key, grad[2]; /* A-SVGF */
     tnd_image lf_geo; /* 1/3-res lf anchors: position, depth */
@@ -80,8 +79,6 @@ static const struct {
      "denoise.prev_surf"},
     {offsetof(dn_context, out), DN_B_OUT, false, VK_FORMAT_R32G32B32A32_SFLOAT, "denoise.out"},
     {offsetof(dn_context, fgeo), DN_B_FGEO, false, VK_FORMAT_R32G32_UINT, "denoise.fgeo"},
-    {offsetof(dn_context, moments), DN_B_MOMENTS, false, VK_FORMAT_R32G32_SFLOAT,
-     "denoise.moments"},
     {offsetof(dn_context, centre), DN_B_CENTRE, false, VK_FORMAT_R32G32B32A32_SFLOAT,
      "denoise.centre"},
     {offsetof(dn_context, prev_lum), DN_B_PREV_LUM, false, VK_FORMAT_R32_UINT, "denoise.prev_lum"},
@@ -288,6 +285,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     d->antilag_spec = d->antilag_spec > 0 ? d->antilag_spec : 2.0f;
     d->antilag_motion = d->antilag_motion > 0 ? d->antilag_motion : 0.004f;
     d->antilag_lf = d->antilag_lf > 0 ? d->antilag_lf : 0.2f;
+    d->lf_sigma = d->lf_sigma > 0 ? d->lf_sigma : 2.0f;
     d->lf_deflicker = d->lf_deflicker == 0 ? 2.0f : d->lf_deflicker < 0 ? 0.0f : d->lf_deflicker;
     if (d->grad_segment == 0 || d->grad_segment > DN_GRAD_SEGMENT)
         d->grad_segment = DN_GRAD_SEGMENT;
@@ -421,7 +419,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
         .weights = {2.0f, 64.0f, 4.0f, 8.0f},
         .misc = {f->pixel_spread, 256.0f, 1024.0f, gradients ? 1.0f : 0.0f},
         .antilag = {d->antilag_hf, d->antilag_spec, d->antilag_motion, d->antilag_lf},
-        .lf = {d->lf_deflicker, d->no_leak_guard ? 0.0f : 1.0f, 0.0f, 0.0f},
+        .lf = {d->lf_deflicker, d->no_leak_guard ? 0.0f : 1.0f, d->lf_sigma, 0.0f},
         .frame = {c->frame, 0, 0, 0},
     };
 }
@@ -737,20 +735,18 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
                            CT(GEO_NORMAL) + CT(MOTION) + CT(NORMAL) + CT(ROUGHNESS) +
                            CT(PATH) + CT(POSITION) +
                            56 /* previous surface, hf, lf and spec histories (16 16 16 8) */
-                           + 8 + 16 + 8 /* written: moments, lf and spec histories (hf: by the
-                                           a-trous) */
+                           + 16 + 16 + 8 /* written: hf, lf and spec histories */
                            + 16 + 8 + 16 /* the a-trous input, filter geometry, centre */
                            + (asvgf ? CT(RNG) + 4 + 8 : 0) /* the next frame's sample data */) +
-                      (asvgf ? n3 * 16 : 0);
+                      (asvgf ? n3 * (16 + 32) : 0); /* the gradient and the sample per stratum */
         /* downsample (full-res reads: vis, geometric normal, centre, lf history; 1/3-res
          * writes: the anchor and the two lf texels), then deflicker and a-trous at 1/3 res
          * (per step the anchor (the a-trous's centre) and both texels read, both written) */
         t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + 16 + 16) +
                 n3 * (3 * 16 + (double)(d->iters_lf + 1) * (3 * 16 + 2 * 16));
         /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
-         * geometry (8) of each tap, the centre texel; the texel written; once the hf history
-         * written with the moments read */
-        t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + 16 + 16) + 16 + 8);
+         * geometry (8) of each tap, the centre texel; the texel written */
+        t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + 16 + 16));
     }
     t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(VIS_BARY) + CT(EMISSION) +
                         CT(ALBEDO) + CT(METALLIC) + CT(THROUGHPUT) +
@@ -777,7 +773,7 @@ static const struct {
     {"temporal.spec", {"R", "G", "B", "unused"}, DUMP_HIST, PAIRED_HIST_SPEC},
     {"atrous.hf", {"R", "G", "B", "variance"}, DUMP_ATROUS, 0}, /* index: hf 0, spec 1 */
     {"lf.sh", {"L1x", "L1y", "L1z", "L0"}, DUMP_LF, PAIRED_AT_LF_SH},
-    {"lf.cocg", {"Co", "Cg", "unused0", "unused1"}, DUMP_LF, PAIRED_AT_LF},
+    {"lf.cocg", {"Co", "Cg", "variance", "unused"}, DUMP_LF, PAIRED_AT_LF},
     {"atrous.spec", {"R", "G", "B", "unused"}, DUMP_ATROUS, 1},
     {"gradients", {"hf", "spec", "lf", "unused"}, DUMP_GRAD, 0},
     {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
@@ -897,11 +893,27 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
     }
     if (hist) /* the packed histories */
         return dump_history(c, dumps[i].kind, dumps[i].index, slot, (size_t)w * h, rgba);
-    if (dumps[i].kind == DUMP_LF && dumps[i].index == PAIRED_AT_LF) { /* CoCg: its zw */
-        res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
-        for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++)
-            rgba[4 * q] = rgba[4 * q + 2], rgba[4 * q + 1] = rgba[4 * q + 3],
-                     rgba[4 * q + 2] = rgba[4 * q + 3] = 0.0f;
+    if (dumps[i].kind == DUMP_LF && dumps[i].index == PAIRED_AT_LF) {
+        /* z: CoCg relative to the SH texel's L0 (two half floats), w: the L0 variance (float);
+         * dn_common.glsl's lf_pack */
+        size_t n = (size_t)w * h;
+        float *sh = malloc(n * 16);
+        if (!sh)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "denoise: out of memory");
+        res = tnd_image_download(c->vk, img, rgba, n * 16);
+        if (res == TND_OK)
+            res = tnd_image_download(
+                c->vk, &c->paired[PAIRED_AT_LF_SH][(c->desc.iters_lf + 1) & 1u], sh, n * 16);
+        for (size_t q = 0; res == TND_OK && q < n; q++) {
+            uint32_t t[4];
+            memcpy(t, rgba + 4 * q, 16);
+            float l0 = sh[4 * q + 3];
+            rgba[4 * q] = rel_half(t[2], l0);
+            rgba[4 * q + 1] = rel_half(t[2] >> 16, l0);
+            memcpy(&rgba[4 * q + 2], &t[3], 4);
+            rgba[4 * q + 3] = 0.0f;
+        }
+        free(sh);
         return res;
     }
     return tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);

@@ -21,7 +21,8 @@ struct dn_params {
     vec4 misc;     /* x: pixel spread angle (radians), y: history cap, z: spec normal exponent cap,
                       w: 1 when this frame has gradient samples */
     vec4 antilag;  /* x: hf gain, y: spec gain, z: spec motion gain (per pixel of motion), w: lf gain */
-    vec4 lf;       /* x: deflicker ratio (0: off), y: 1 when the light-leak guard is on */
+    vec4 lf;       /* x: deflicker ratio (0: off), y: 1 when the light-leak guard is on, z: the
+                      luminance weight's sigma (standard deviations of the anchor's noise) */
     /* The filter geometry's origin (fgeo_origin in dn_common.glsl): the contract's position and
      * visibility at the image's centre pixel, copied here on the GPU at the start of each
      * frame (the host fills the rest), so that a shader reads them from the uniform buffer
@@ -41,10 +42,8 @@ _Static_assert(sizeof(dn_params) == 176, "dn_params layout");
 /* Bindings of set 0 (the back-end's own images; set 1 is the contract). */
 #define DN_B_PARAMS 0
 #define DN_B_HIST_HF 1     /* [2] RGBA32UI: hf rgb (tnd_uf16), history length (half), moments
-                              E[l], E[l^2] (hist_hf_pack in dn_common.glsl); written by the
-                              a-trous's first iteration (SVGF's feedback of its output) */
-#define DN_B_MOMENTS 2     /* RG32F: this frame's moments E[l], E[l^2], from the temporal pass to
-                              the a-trous's first iteration, which stores them in the history */
+                              E[l], E[l^2] (hist_hf_pack in dn_common.glsl) */
+#define DN_B_PREV_KEY 2    /* RG32UI, previous frame: the rng key, read at the chosen samples */
 #define DN_B_HIST_LF 3     /* [2] RGBA32UI: the lf history's SH, CoCg and length (hist_lf_pack in
                               dn_common.glsl) */
 #define DN_B_HIST_SPEC 4   /* [2] RG32UI: spec rgb (tnd_uf16), spec history length (half) */
@@ -55,8 +54,7 @@ _Static_assert(sizeof(dn_params) == 176, "dn_params layout");
 #define DN_B_PREV_SURF 6   /* RGBA32UI, the rest of the previous surface, read at the chosen
                               gradient samples: x primitive, yz barycentrics (float bits) */
 #define DN_B_AT 7          /* [2] a-trous ping-pong, RGBA32UI: hf rgb, spec rgb, hf variance as
-                              16-bit tnd_uf16 (at_pack in dn_common.glsl); in the temporal
-                              pass's texel also the hf history length (at_len) */
+                              16-bit tnd_uf16 (at_pack in dn_common.glsl) */
 #define DN_B_AT_LF 8       /* [2] 1/3 res, the lf filter's ping-pong (dn_lf.comp), RGBA32UI: the
                               anchor's tangent plane and CoCg (lf_pack in dn_common.glsl) */
 #define DN_B_AT_LF_SH 9    /* [2] 1/3 res, the lf filter's ping-pong: the SH (RGBA32F) */
@@ -79,8 +77,7 @@ _Static_assert(sizeof(dn_params) == 176, "dn_params layout");
                               relative to fgeo_origin(), w its depth (what the a-trous's
                               centre, the lf downsample and the composite need of the geometry
                               in one texel, instead of two contract images each) */
-#define DN_B_PREV_KEY 17   /* RG32UI, previous frame: the rng key, read at the chosen samples */
-#define DN_BINDINGS 18
+#define DN_BINDINGS 17
 #define DN_STRATUM 3
 /* dn_gradients.comp filters rows and columns of strata in segments of at most this many per
  * work group (with its reach of 127 on either side, 16 352 bytes of shared memory) */

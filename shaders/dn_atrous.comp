@@ -3,15 +3,16 @@
  * - geometry: distance of the centre to the neighbour's tangent plane, relative to the pixel
  *   footprint (depth sigma), and normals (exponent);
  * - hf: luminance against the centre's standard deviation (variance-guided; the variance is
- *   filtered with squared weights for the next iteration);
+ *   that of the history's mean, so the filter narrows as the history grows, and it is filtered
+ *   with squared weights for the next iteration);
  * - spec: normals with a roughness-derived exponent, and similar roughness; none below roughness
  *   0.05 (mirror-like surfaces stay sharp).
  * lf is filtered at 1/3 resolution (dn_lf.comp).
- * Iteration 0's hf output is fed back as the hf history (SVGF), with the temporal pass's moments
- * (DN_B_MOMENTS). Reads ping-pong slot i & 1, writes the other. Each tap is two loads: the
- * ping-pong texel (DN_B_AT: hf, spec and the variance as 16-bit wide-range floats) and the filter
- * geometry (DN_B_FGEO: tangent-plane offset, packed normal, roughness and field); they are issued
- * before the tap's tests. */
+ * Nothing is fed back into the histories (SVGF fed iteration 0's hf output back: a blur that
+ * compounded every frame, docs/denoise.md). Reads ping-pong slot i & 1, writes the other. Each
+ * tap is two loads: the ping-pong texel (DN_B_AT: hf, spec and the variance as 16-bit
+ * wide-range floats) and the filter geometry (DN_B_FGEO: tangent-plane offset, packed normal,
+ * roughness and field); they are issued before the tap's tests. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
@@ -29,10 +30,6 @@ void main()
     uvec2 g = imageLoad(fgeo, p).xy;
     if (g.x == DN_FGEO_NONE) { /* no surface: carried through (for dumps) */
         imageStore(at[dst], p, c);
-        if (i == 0u) /* the hf history, unfiltered */
-            imageStore(hist_hf[pc.slot], p,
-                       hist_hf_pack_scaled(at_hf_scaled(c), at_len(c), imageLoad(moments, p).xy,
-                                           uvec3(0x1000u)));
         return;
     }
     vec3 c_hf = at_hf(c), c_spec = at_spec(c);
@@ -99,8 +96,4 @@ void main()
                                           filter_spec ? s_spec / w_spec : at_spec_scaled(c),
                                           do_hf ? var_acc / (w_hf * w_hf) : at_variance_scaled(c),
                                           uvec3(0x1000u)));
-    if (i == 0u && do_hf) /* SVGF's feedback: the first iteration becomes the hf history */
-        imageStore(hist_hf[pc.slot], p,
-                   hist_hf_pack_scaled(o_hf, at_len(c), imageLoad(moments, p).xy,
-                                       history_dither(p)));
 }

@@ -43,7 +43,6 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #endif
 layout(set = 0, binding = DN_B_PARAMS, std140) uniform Params { dn_params P; };
 layout(set = 0, binding = DN_B_HIST_HF, rgba32ui) uniform uimage2D hist_hf[2];
-layout(set = 0, binding = DN_B_MOMENTS, rg32f) uniform image2D moments;
 layout(set = 0, binding = DN_B_HIST_LF, rgba32ui) uniform uimage2D hist_lf[2];
 layout(set = 0, binding = DN_B_HIST_SPEC, rg32ui) uniform uimage2D hist_spec[2];
 layout(set = 0, binding = DN_B_PREV_GEO, rgba32ui) uniform uimage2D prev_geo;
@@ -147,6 +146,11 @@ uint rel_pack(vec2 v, float l0, uint r)
     return half_dither(q.x, r) | half_dither(q.y, r ^ 0x0aaau) << 16u;
 }
 vec2 rel_unpack(uint w, float l0) { return unpackHalf2x16(w) * l0; }
+/* the same rounded to nearest */
+uint rel_pack_nearest(vec2 v, float l0)
+{
+    return packHalf2x16(clamp(v * (l0 > 0.0 ? 1.0 / l0 : 0.0), -60000.0, 60000.0));
+}
 
 /* The lf history (DN_B_HIST_LF), one texel with all the lf reprojection and downsample need:
  * x L0 (float bits), y L1x, L1y and z L1z, the lf history length (half), w CoCg; L1 and CoCg
@@ -168,17 +172,19 @@ float hist_lf_len(uvec4 t) { return unpackHalf2x16(t.z).y; }
 /* The lf filter's ping-pong is two texels per anchor: the SH (DN_B_AT_LF_SH) and this one
  * (DN_B_AT_LF): x the offset of the anchor's tangent plane from fgeo_origin() (float bits), y
  * its geometric normal (octahedral 12 + 12 bits) | 1 << 24 (0 where the stratum sees only
- * sky), zw CoCg (float bits). A tap of the lf passes and of the upsample loads both and nothing
- * else (four texels before: these passes are bound by their load count); each pass carries the
- * geometry words through. */
+ * sky), z CoCg relative to L0 (rel_pack_nearest), w the variance of the anchor's
+ * L0 (float bits: the noise left in the stratum's temporal histories, which the lf a-trous
+ * stops its luminance weight at). A tap of the lf passes and of the upsample loads both and
+ * nothing else (these passes are bound by their load count); each pass carries the geometry
+ * words through. */
 /* pos: relative to fgeo_origin() */
-uvec4 lf_pack(bool valid, vec3 pos, vec3 n, vec2 cocg)
+uvec4 lf_pack(bool valid, vec3 pos, vec3 n, vec2 cocg, float l0, float variance)
 {
     if (!valid)
         return uvec4(0u);
     uint w = oct_pack12(n);
     return uvec4(floatBitsToUint(dot(oct_unpack12(w), pos)), w | 1u << 24u,
-                 floatBitsToUint(cocg));
+                 rel_pack_nearest(cocg, l0), floatBitsToUint(variance));
 }
 bool lf_valid_texel(uvec4 t) { return (t.y >> 24u) != 0u; }
 vec3 lf_normal(uvec4 t) { return oct_unpack12(t.y); }
@@ -187,8 +193,13 @@ float lf_plane_distance(uvec4 t, vec3 pos)
 {
     return abs(uintBitsToFloat(t.x) - dot(lf_normal(t), pos));
 }
-vec2 lf_cocg(uvec4 t) { return uintBitsToFloat(t.zw); }
-uvec4 lf_with_cocg(uvec4 t, vec2 cocg) { return uvec4(t.xy, floatBitsToUint(cocg)); }
+/* l0: the L0 of the same anchor's SH texel */
+vec2 lf_cocg(uvec4 t, float l0) { return rel_unpack(t.z, l0); }
+float lf_variance(uvec4 t) { return uintBitsToFloat(t.w); }
+uvec4 lf_with(uvec4 t, vec2 cocg, float l0, float variance)
+{
+    return uvec4(t.xy, rel_pack_nearest(cocg, l0), floatBitsToUint(variance));
+}
 
 /* The a-trous ping-pong texel (DN_B_AT): hf, spec and the hf variance as tnd_uf16. */
 /* tnd_uf16_decode of both halves of a word: the high half shifts right by 3 into place */
@@ -241,15 +252,6 @@ uvec4 hist_hf_pack_scaled(vec3 hf, float len, vec2 mom, uvec3 r)
 }
 /* a history texel's length (its rgb: hist_rgb) */
 float hist_len(uvec2 t) { return unpackHalf2x16(t.y >> 16u).x; }
-/* The hf history length, a half float in the spare high half of w: the temporal pass hands it
- * to the a-trous's first iteration, which writes the hf history (a store and a load fewer than
- * the temporal pass writing the history and the iteration rewriting its colour). */
-uvec4 at_with_len(uvec4 t, float len)
-{
-    return uvec4(t.xyz, t.w | packHalf2x16(vec2(len, 0.0)) << 16u);
-}
-float at_len(uvec4 t) { return unpackHalf2x16(t.w >> 16u).x; }
-
 float luma(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 /* The raw luminances kept for the next frame's gradients (DN_B_PREV_LUM), and their values as
  * the selection and the gradient read them: tnd_uf16, 2^-11 relative, both sides of a gradient

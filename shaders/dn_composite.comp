@@ -38,8 +38,9 @@ void upsample_lf(ivec2 p, vec3 pos, vec3 gn, float depth, out vec4 sh, out vec2 
             float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
             w *= exp(-lf_plane_distance(t, pos) / (P.weights.x * footprint)) *
                  pow(max(dot(gn, lf_normal(t)), 0.0), P.weights.w);
-            sh += w * imageLoad(at_lf_sh[slot], s);
-            cocg += w * lf_cocg(t);
+            vec4 sh_s = imageLoad(at_lf_sh[slot], s);
+            sh += w * sh_s;
+            cocg += w * lf_cocg(t, sh_s.w);
             wsum += w;
         }
     if (wsum > 1e-6) {

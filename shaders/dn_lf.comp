@@ -52,7 +52,7 @@ void main()
         if (cnt > 0.0 && c_sh.w > limit) {
             float f = limit / c_sh.w;
             c_sh *= f;
-            c = lf_with_cocg(c, lf_cocg(c) * f);
+            c = lf_with(c, lf_cocg(c, c_sh.w / f) * f, c_sh.w, lf_variance(c) * f * f);
         }
         imageStore(at_lf[dst], s, c);
         imageStore(at_lf_sh[dst], s, c_sh);
@@ -67,9 +67,14 @@ void main()
     float inv_sigma = 1.0 / (P.weights.x * footprint);
     vec3 n = lf_normal(c);
     float lp = max(c_sh.w, 1e-6);
+    /* the luminance weight: L0 against P.lf.z standard deviations of the noise left in the
+     * centre (SVGF's variance guide, on the temporal lf histories: it narrows as they
+     * converge, so that a still image ends at its accumulated mean, not at a blur of it) */
+    float c_var = lf_variance(c);
+    float inv_sigma_l = 1.0 / (P.lf.z * sqrt(max(c_var, 0.0)) + 1e-6 * lp);
     vec4 s_sh = vec4(0.0);
     vec2 s_cocg = vec2(0.0);
-    float wsum = 0.0;
+    float wsum = 0.0, var_acc = 0.0;
     const float kw[3] = float[3](0.25, 0.5, 1.0);
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
@@ -78,17 +83,20 @@ void main()
             if (!lf_valid_texel(t))
                 continue;
             float h = kw[abs(x) + abs(y) == 0 ? 2 : (abs(x) + abs(y) == 1 ? 1 : 0)];
-            /* the distance of this anchor to the tap's tangent plane */
-            float w = h * exp(-lf_plane_distance(t, pos) * inv_sigma) *
-                      pow(max(dot(n, lf_normal(t)), 0.0), P.weights.w);
             vec4 q_sh = imageLoad(at_lf_sh[src], q);
+            /* the distance of this anchor to the tap's tangent plane */
+            float w = h * exp(-lf_plane_distance(t, pos) * inv_sigma -
+                              abs(q_sh.w - c_sh.w) * inv_sigma_l) *
+                      pow(max(dot(n, lf_normal(t)), 0.0), P.weights.w);
             if (last)
                 w *= clamp(1.5 - 0.25 * max(q_sh.w, 0.0) / lp, 0.0, 1.0);
             s_sh += w * q_sh;
-            s_cocg += w * lf_cocg(t);
+            s_cocg += w * lf_cocg(t, q_sh.w);
+            var_acc += w * w * lf_variance(t);
             wsum += w;
         }
     bool ok = wsum > 1e-8;
-    imageStore(at_lf[dst], s, ok ? lf_with_cocg(c, s_cocg / wsum) : c);
-    imageStore(at_lf_sh[dst], s, ok ? s_sh / wsum : c_sh);
+    vec4 o_sh = ok ? s_sh / wsum : c_sh;
+    imageStore(at_lf[dst], s, ok ? lf_with(c, s_cocg / wsum, o_sh.w, var_acc / (wsum * wsum)) : c);
+    imageStore(at_lf_sh[dst], s, o_sh);
 }

@@ -14,6 +14,7 @@
 shared bool s_valid[DN_TILE_N];
 shared vec4 s_sh[DN_TILE_N]; /* w x lf SH of the pixel */
 shared vec3 s_cw[DN_TILE_N]; /* w x CoCg, w */
+shared vec3 s_mom[DN_TILE_N]; /* w x L0^2, w^2, w x history length */
 shared vec4 s_geo[DN_TILE_STRATA][2]; /* the anchor's lf_geo texels */
 
 /* tile-local index of stratum k's anchor, ~0u when the stratum sees only sky */
@@ -37,7 +38,7 @@ void main()
     barrier();
     uint anchor = find_anchor(k);
     vec4 sh = vec4(0.0);
-    vec3 cw = vec3(0.0);
+    vec3 cw = vec3(0.0), mom = vec3(0.0);
     if (valid) {
         ivec2 a = tile_pixel(anchor);
         vec4 ca = imageLoad(centre, a); /* position relative to fgeo_origin(), depth */
@@ -54,11 +55,14 @@ void main()
             s_geo[k][1] = vec4(n, depth);
         }
         uvec4 h = imageLoad(hist_lf[pc.slot], p);
-        sh = w * hist_lf_sh(h);
+        vec4 hs = hist_lf_sh(h);
+        sh = w * hs;
         cw = vec3(w * hist_lf_cocg(h), w);
+        mom = vec3(w * hs.w * hs.w, w * w, w * hist_lf_len(h));
     }
     s_sh[li] = sh;
     s_cw[li] = cw;
+    s_mom[li] = mom;
     barrier();
     if (li >= DN_TILE_STRATA)
         return;
@@ -66,17 +70,28 @@ void main()
     if (!in_grid(s))
         return;
     vec4 sum_sh = vec4(0.0);
-    vec3 sum_cw = vec3(0.0);
+    vec3 sum_cw = vec3(0.0), sum_mom = vec3(0.0);
     for (int j = 0; j < DN_STRATUM; j++)
         for (int i = 0; i < DN_STRATUM; i++) {
             sum_sh += s_sh[tile_pixel_index(li, i, j)];
             sum_cw += s_cw[tile_pixel_index(li, i, j)];
+            sum_mom += s_mom[tile_pixel_index(li, i, j)];
         }
     if (find_anchor(li) != ~0u) {
         vec3 pos = s_geo[li][0].xyz;
+        vec4 m_sh = sum_sh / sum_cw.z;
+        /* The noise left in the anchor's L0: the spread of the stratum's histories (each the
+         * mean of its pixel's frames, so the spread shrinks as the histories grow) over the
+         * effective count of pixels averaged, unbiased (n_eff - 1); with too few pixels to
+         * tell, L0^2 / history length (1 spp indirect light has a relative deviation near 1) */
+        float n_eff = sum_cw.z * sum_cw.z / max(sum_mom.y, 1e-30);
+        float spread = max(sum_mom.x / sum_cw.z - m_sh.w * m_sh.w, 0.0);
+        float var = n_eff > 1.5 ? spread / (n_eff - 1.0)
+                                : m_sh.w * m_sh.w / max(sum_mom.z / sum_cw.z, 1.0);
         imageStore(lf_geo, s, vec4(pos, s_geo[li][1].w));
-        imageStore(at_lf[0], s, lf_pack(true, pos, s_geo[li][1].xyz, sum_cw.xy / sum_cw.z));
-        imageStore(at_lf_sh[0], s, sum_sh / sum_cw.z);
+        imageStore(at_lf[0], s, lf_pack(true, pos, s_geo[li][1].xyz, sum_cw.xy / sum_cw.z,
+                                        m_sh.w, tnd_nonfinite(var) ? 0.0 : var));
+        imageStore(at_lf_sh[0], s, m_sh);
     } else { /* the whole stratum sees the sky */
         imageStore(lf_geo, s, vec4(0.0));
         imageStore(at_lf[0], s, uvec4(0u));

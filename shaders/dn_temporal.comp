@@ -1,21 +1,58 @@
 /* dn_temporal.comp: temporal accumulation (SVGF, Schied et al. 2017; constants as Q2RTX's
- * A-SVGF): each pixel's surface is found in the previous frame through its motion vector, the
- * history is resampled with a 2x2 bilinear footprint whose taps are tested one by one (same
- * instance in the visibility buffer, depth within 10% after the motion's depth delta, geometric
- * normals within 25 degrees), then blended with alpha = max(min alpha, 1 / history length).
- * Channels: hf (colour and luminance moments), lf (SH + CoCg), spec. Specular-aware weights: a
- * spec tap also weighs max(n . n_prev, 0)^s with the shading normals and s = clamp(2 / r^4 - 2,
- * 0, 32) (r the roughness; Q2RTX's lobe-width proxy), so that a glossy reflection does not take
- * history from a texel whose normal, hence whose reflected direction, differs; with no such tap
- * the spec history restarts. Writes this frame's history slot (the hf history through the
- * a-trous's first iteration, which filters it: SVGF's feedback; the moments for it in
- * DN_B_MOMENTS) and the first a-trous input
- * (colour + variance + the hf history length). Where the history is shorter than 4 frames, the
- * variance comes from a 3x3 spatial estimate. The a-trous input packs colours, variance and the
- * filter geometry (DN_B_AT, DN_B_FGEO, DN_B_CENTRE). */
+ * A-SVGF): each pixel's surface is found in the previous frame through its motion vector (the
+ * pixel's own footprint moved, no jitter: a history is its pixel's mean), the history is
+ * resampled with a 2x2 bilinear footprint whose taps are tested one by one (tap(): same instance
+ * in the visibility buffer, depth within 10% after the motion's depth delta, geometric normals
+ * within 25 degrees), the 3x3 around it where none passes, then blended with alpha = max(min
+ * alpha, 1 / history length). Channels: hf (colour and luminance moments), lf (SH + CoCg),
+ * spec. Specular-aware weights: a spec tap also weighs max(n . n_prev, 0)^s with the shading
+ * normals and s = clamp(2 / r^4 - 2, 0, 32) (r the roughness; Q2RTX's lobe-width proxy), so that
+ * a glossy reflection does not take history from a texel whose normal, hence whose reflected
+ * direction, differs; with no such tap the spec history restarts. A-SVGF: the filtered
+ * gradients shorten the histories (antilag), and the stratum's gradient sample counts as a tenth
+ * of a sample. Writes this frame's history slot (the temporal means themselves: nothing
+ * spatially filtered is fed back, unlike SVGF) and the first a-trous input: colours and the
+ * variance of the hf history's mean (from the moments, or from a 3x3 spatial estimate where the
+ * history is shorter than 4 frames), and the filter geometry (DN_B_AT, DN_B_FGEO, DN_B_CENTRE). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
+
+/* The history gathered from the previous frame's taps (tap()), and what the taps test: the
+ * pixel's surface. */
+vec4 h_hf = vec4(0.0), h_mom = vec4(0.0), h_sh = vec4(0.0), h_spec = vec4(0.0);
+vec2 h_cocg = vec2(0.0);
+float wsum = 0.0, wsum_spec = 0.0;
+uint t_inst, t_field;
+float t_depth, t_shininess;
+vec3 t_gn, t_n;
+
+/* Adds the previous frame's texel q with weight w where it saw this pixel's surface: the same
+ * instance and field, the depth within 10% after the motion's depth delta (t_depth), geometric
+ * normals within 25 degrees; spec weighs the shading normals' agreement too. */
+bool tap(ivec2 q, float w)
+{
+    if (!inside(q) || w <= 0.0)
+        return false;
+    uint prev = 1u - pc.slot;
+    uvec4 g = imageLoad(prev_geo, q); /* the previous surface in one texel */
+    if (g.x != t_inst || ((g.z >> 24u) & 3u) != t_field ||
+        abs(uintBitsToFloat(g.y) - t_depth) > 0.1 * t_depth || dot(oct_unpack12(g.z), t_gn) < 0.9)
+        return false;
+    uvec4 hf_q = imageLoad(hist_hf[prev], q); /* hf, its length, moments */
+    uvec4 lf_q = imageLoad(hist_lf[prev], q); /* SH, CoCg, length */
+    uvec2 sp_q = imageLoad(hist_spec[prev], q).xy; /* spec, its length */
+    h_hf += w * vec4(hist_rgb(hf_q.xy), hist_len(hf_q.xy));
+    h_mom += w * vec4(uintBitsToFloat(hf_q.zw), hist_lf_len(lf_q), hist_len(sp_q));
+    h_sh += w * hist_lf_sh(lf_q);
+    h_cocg += w * hist_lf_cocg(lf_q);
+    vec3 n_prev = oct_unpack12(g.w);
+    float ws = t_shininess > 0.0 ? w * pow(max(dot(t_n, n_prev), 0.0), t_shininess) : w;
+    h_spec += ws * vec4(hist_rgb(sp_q), 0.0);
+    wsum += w;
+    wsum_spec += ws;
+    return true;
+}
 
 void main()
 {
@@ -37,38 +74,32 @@ void main()
     if (tnd_nonfinite(motion.x) || tnd_nonfinite(motion.y) || tnd_nonfinite(motion.z))
         motion = vec3(0.0);
 
-    /* history */
-    vec4 h_hf = vec4(0.0), h_mom = vec4(0.0), h_sh = vec4(0.0), h_spec = vec4(0.0);
-    vec2 h_cocg = vec2(0.0);
-    float wsum = 0.0, wsum_spec = 0.0;
+    /* history: the pixel's own footprint moved by the motion (the motion has no jitter, and a
+     * history is the mean over its pixel's footprint, so a still camera reads each pixel's own
+     * history: reading it at this frame's jitter minus the last, as a point sample would be,
+     * resampled it bilinearly every frame, a blur that compounds over the history's length and
+     * brightened the closed box's ceiling band by 14% at frame 3, 34% at frame 47); bilinear
+     * taps tested one by one; where none passes (an edge, where the jitter moves the pixel's
+     * sample between surfaces, or a thin feature), the 3x3 around it with equal weights (SVGF's
+     * fallback) */
     if (P.size.z != 0u && vis.x != TND_VIS_NONE) {
-        vec2 pp = vec2(p) + P.jitter.xy + motion.xy - P.jitter.zw;
+        t_inst = vis.x, t_field = field, t_depth = depth + motion.z, t_gn = gn, t_n = n;
+        t_shininess = shininess;
+        vec2 pp = vec2(p) + motion.xy;
         ivec2 p0 = ivec2(floor(pp));
         vec2 f = pp - vec2(p0);
         for (int j = 0; j < 2; j++)
-            for (int i = 0; i < 2; i++) {
-                ivec2 q = p0 + ivec2(i, j);
-                if (!inside(q))
-                    continue;
-                uvec4 g = imageLoad(prev_geo, q); /* the previous surface in one texel */
-                if (g.x != vis.x || ((g.z >> 24u) & 3u) != field || /* the same field */
-                    abs(uintBitsToFloat(g.y) - (depth + motion.z)) > 0.1 * depth ||
-                    dot(oct_unpack12(g.z), gn) < 0.9)
-                    continue;
-                float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y);
-                uvec4 hf_q = imageLoad(hist_hf[prev], q); /* hf, its length, moments */
-                uvec4 lf_q = imageLoad(hist_lf[prev], q); /* SH, CoCg, length */
-                uvec2 sp_q = imageLoad(hist_spec[prev], q).xy; /* spec, its length */
-                h_hf += w * vec4(hist_rgb(hf_q.xy), hist_len(hf_q.xy));
-                h_mom += w * vec4(uintBitsToFloat(hf_q.zw), hist_lf_len(lf_q), hist_len(sp_q));
-                h_sh += w * hist_lf_sh(lf_q);
-                h_cocg += w * hist_lf_cocg(lf_q);
-                vec3 n_prev = oct_unpack12(g.w);
-                float ws = shininess > 0.0 ? w * pow(max(dot(n, n_prev), 0.0), shininess) : w;
-                h_spec += ws * vec4(hist_rgb(sp_q), 0.0);
-                wsum += w;
-                wsum_spec += ws;
-            }
+            for (int i = 0; i < 2; i++)
+                tap(p0 + ivec2(i, j), (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y));
+        if (wsum <= 1e-4) {
+            ivec2 pc0 = ivec2(round(pp));
+            wsum = 0.0, wsum_spec = 0.0;
+            h_hf = h_mom = h_sh = h_spec = vec4(0.0);
+            h_cocg = vec2(0.0);
+            for (int j = -1; j <= 1; j++)
+                for (int i = -1; i <= 1; i++)
+                    tap(pc0 + ivec2(i, j), 1.0);
+        }
     }
     float l = luma(hf);
     vec4 out_hf, out_mom, out_sh, out_spec;
@@ -82,18 +113,29 @@ void main()
         float len_hf = min(h_hf.a + 1.0, cap), len_lf = min(h_mom.z + 1.0, cap);
         float len_spec = min(h_mom.w + 1.0, cap);
         float anti_hf = 0.0, anti_lf = 0.0, anti_spec = 0.0;
+        /* A-SVGF's gradient sample of this stratum repeats a sample of the previous frame (its
+         * surface, its random numbers), chosen for being the brightest: blended in as a new
+         * sample it would count twice, and bias the history upwards wherever nothing changes
+         * (measured: 2.2% on `dynamic`'s lit frames). It counts as a tenth of a sample (its
+         * bias a tenth), which still makes it the whole of a history that the antilag emptied. */
+        float fresh = 1.0;
         if (P.size.w == 2u && P.misc.w != 0.0) {
             /* A-SVGF: the filtered gradients (slot 0 after the blur) shorten the history */
             vec3 g = clamp(imageLoad(grad[0], min(p / DN_STRATUM, grad_size() - 1)).xyz, 0.0, 1.0);
             anti_hf = clamp(P.antilag.x * g.x, 0.0, 1.0);
             anti_spec = clamp(P.antilag.y * g.y + P.antilag.z * length(motion.xy), 0.0, 1.0);
             anti_lf = clamp(P.antilag.w * g.z, 0.0, 1.0);
-            len_hf = min(h_hf.a * pow(1.0 - anti_hf, 10.0) + 1.0, cap);
-            len_lf = min(h_mom.z * pow(1.0 - anti_lf, 10.0) + 1.0, cap);
-            len_spec = min(h_mom.w * pow(1.0 - anti_spec, 10.0) + 1.0, cap);
+            ivec2 st = p / DN_STRATUM;
+            if (samples[uint(st.y * grad_size().x + st.x)].a.x == uint(p.y) * P.size.x + uint(p.x))
+                fresh = 0.1;
+            len_hf = min(h_hf.a * pow(1.0 - anti_hf, 10.0) + fresh, cap);
+            len_lf = min(h_mom.z * pow(1.0 - anti_lf, 10.0) + fresh, cap);
+            len_spec = min(h_mom.w * pow(1.0 - anti_spec, 10.0) + fresh, cap);
         }
-        float a_hf = max(P.alpha.x, 1.0 / len_hf), a_m = max(P.alpha.w, 1.0 / len_hf);
-        float a_lf = max(P.alpha.y, 1.0 / len_lf), a_spec = max(P.alpha.z, 1.0 / len_spec);
+        float a_hf = min(fresh * max(P.alpha.x, 1.0 / len_hf), 1.0);
+        float a_m = min(fresh * max(P.alpha.w, 1.0 / len_hf), 1.0);
+        float a_lf = min(fresh * max(P.alpha.y, 1.0 / len_lf), 1.0);
+        float a_spec = min(fresh * max(P.alpha.z, 1.0 / len_spec), 1.0);
         a_hf = mix(a_hf, 1.0, anti_hf);
         a_m = mix(a_m, 1.0, anti_hf);
         a_spec = mix(a_spec, 1.0, anti_spec);
@@ -124,9 +166,18 @@ void main()
             }
         m1 = s1 / max(n, 1.0), m2 = s2 / max(n, 1.0);
     }
-    float variance = max(m2 - m1 * m1, 0.0);
-    imageStore(moments, p, vec4(out_mom.xy, 0.0, 0.0)); /* for the hf history */
+    /* The a-trous's luminance weight stops at a few standard deviations of the noise left in
+     * the hf history, the variance of its mean: the moments' variance of one frame's sample
+     * times the variance factor of the weights (1 / n for the first n frames' mean; alpha /
+     * (2 - alpha) for the exponential mean at the minimum alpha). SVGF used the variance of
+     * one sample, which keeps the spatial filter as wide after a hundred frames as after one:
+     * a still image never converged to its mean, but to a blur of it. */
+    float a_eff = min(max(P.alpha.x, 1.0 / out_hf.a), 1.0);
+    float variance = max(m2 - m1 * m1, 0.0) *
+                     min(max(1.0 / out_hf.a, a_eff / (2.0 - a_eff)), 1.0);
     uvec3 dither = history_dither(p);
+    imageStore(hist_hf[cur], p,
+               hist_hf_pack_scaled(max(out_hf.rgb, 0.0) * UF16_SCALE, out_hf.a, out_mom.xy, dither));
     imageStore(hist_lf[cur], p, hist_lf_pack(out_sh, out_cocg, out_mom.z, dither));
     vec3 spec_s = max(out_spec.rgb, 0.0) * UF16_SCALE; /* finite: the inputs are sanitised */
     imageStore(hist_spec[cur], p, uvec4(hist_rgb_pack_scaled(spec_s, out_mom.w, dither), 0u, 0u));
@@ -138,12 +189,10 @@ void main()
     vec3 pos = imageLoad(img_position, p).xyz - fgeo_origin();
     uvec2 g = fgeo_pack(vis.x != TND_VIS_NONE, pos, n, rough, field);
     imageStore(centre, p, vec4(pos, depth));
-    /* the hf history (out_hf, with the moments) is written by the a-trous's first iteration,
-     * from this texel: rounded stochastically too, or its blend would round back */
-    imageStore(at[0], p, at_with_len(at_pack_scaled(max(out_hf.rgb, 0.0) * UF16_SCALE, spec_s,
-                                                    (tnd_nonfinite(variance) ? 0.0 : variance) *
-                                                        UF16_SCALE,
-                                                    dither),
-                                     out_hf.a));
+    /* the a-trous input (the histories are not fed back from the a-trous: they stay this
+     * frame's temporal means, so a still image converges to its own mean) */
+    imageStore(at[0], p, at_pack_scaled(max(out_hf.rgb, 0.0) * UF16_SCALE, spec_s,
+                                        (tnd_nonfinite(variance) ? 0.0 : variance) * UF16_SCALE,
+                                        uvec3(0x1000u)));
     imageStore(fgeo, p, uvec4(g, 0u, 0u));
 }
