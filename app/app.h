@@ -176,7 +176,7 @@ tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uin
 tnd_result app_write_preview(const char *path, const float *rgb, uint32_t w, uint32_t h);
 
 /* ---- evaluation (app/evaluate.c) ------------------------------------------------------------ */
-#define APP_EVAL_MAX_SERIES 4
+#define APP_EVAL_MAX_SERIES 5
 /* Error inside a region of the image (pixels the run's path flags mark: seen in a mirror, at
  * glass), over all frames: relMSE, mean FLIP, and sharpness = the sum of the tone-mapped image's
  * absolute forward differences inside the region over the reference's (below 1: blurrier than
@@ -195,13 +195,28 @@ typedef struct app_region_stats {
 app_region_stats app_region_summary(const app_region *r);
 const char *app_region_name(int region);
 
+/* What a series' frames are: a run's linear output, or its capture composited without
+ * denoising (the noisy input), or the running mean of those composites, restarted wherever
+ * anything moves on screen (a capture's motion not all zero) or a frame is missing: what
+ * accumulation alone gives, the curve a denoiser must end at or below on a still camera. */
+typedef enum app_series_kind {
+    APP_SERIES_OUTPUT = 0,
+    APP_SERIES_NOISY,
+    APP_SERIES_ACCUMULATED,
+} app_series_kind;
+
 typedef struct app_eval_series {
     char name[64];
     char dir[1100];      /* where its frame_NNNN.exr are */
-    bool noisy;          /* dir is a capture directory: composite without denoising */
+    app_series_kind kind; /* not OUTPUT: dir is a capture directory */
     ev_frame_metrics *m; /* per frame (app_eval_run) */
     ev_summary summary;
     app_region regions[APP_REGIONS];
+    /* APP_SERIES_ACCUMULATED: the running sum (rgb per pixel), its frame count, the last frame
+     * added (app_eval_run) */
+    double *acc;
+    uint32_t acc_n, acc_frame, acc_starts; /* acc_starts: how often it (re)started */
+    uint32_t restarts; /* APP_SERIES_ACCUMULATED: its restarts after the first frame in the run */
 } app_eval_series;
 
 typedef struct app_eval {
@@ -221,8 +236,8 @@ typedef struct app_eval {
 
 /* frame numbers of DIR/frame_NNNN.exr, sorted */
 tnd_result app_list_frames(const char *dir, uint32_t **frames, uint32_t *count);
-/* A series: DIR's frames (noisy: DIR/capture's, composited). */
-tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, bool noisy);
+/* A series: DIR's frames (the other kinds: DIR/capture's, composited). */
+tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, app_series_kind kind);
 /* Metrics of every series on the frames they all share with the reference. */
 tnd_result app_eval_run(app_eval *e);
 /* DIR/metrics.json, metrics.csv, plots, images of the first, worst and last frames with crops,
@@ -230,6 +245,22 @@ tnd_result app_eval_run(app_eval *e);
 tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, const char *settings,
                            const char *html);
 void app_eval_free(app_eval *e);
+/* Convergence on a still camera: the first output series against the accumulated one (the
+ * running mean of the noisy composites), by relMSE. `have`: both series exist; `still`: the
+ * accumulation never restarted after the first frame (nothing moved); the means over the last
+ * quarter of the frames (at least one); `converges`: the output's at or below accumulation
+ * alone's. */
+typedef struct app_convergence {
+    bool have, still, converges;
+    uint32_t output, accumulated; /* series indices */
+    uint32_t restarts;
+    double last_output, last_accumulated;
+} app_convergence;
+app_convergence app_eval_convergence(const app_eval *e);
+/* The convergence as text lines (per-frame relMSE at frames 0, 1, 3, 7, ... and the last, the
+ * verdict), each starting with `indent`; nothing without both series. */
+void app_eval_convergence_text(const app_eval *e, const char *indent, ev_text *t);
+
 /* The regions of series i as JSON object text (malloc'd; NULL when none was measured), and as
  * an HTML table for the report (appended to t). */
 char *app_eval_regions_json(const app_eval *e, uint32_t i);

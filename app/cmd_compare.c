@@ -275,9 +275,9 @@ int cmd_compare(int argc, char **argv)
     if (reference) {
         app_eval e = {0};
         snprintf(e.ref, sizeof e.ref, "%s", reference);
-        res = app_eval_add(&e, scene ? "embree" : run_a, run_a, false);
+        res = app_eval_add(&e, scene ? "embree" : run_a, run_a, APP_SERIES_OUTPUT);
         if (res == TND_OK)
-            res = app_eval_add(&e, scene ? "vk" : run_b, run_b, false);
+            res = app_eval_add(&e, scene ? "vk" : run_b, run_b, APP_SERIES_OUTPUT);
         if (res == TND_OK)
             res = app_eval_run(&e);
         cJSON *ev = cJSON_AddArrayToObject(root, "eval");

@@ -49,9 +49,23 @@ static char *settings_json(const app_eval *e, const char *out, const char *expos
         cJSON *s = cJSON_CreateObject();
         cJSON_AddStringToObject(s, "name", e->series[i].name);
         cJSON_AddStringToObject(s, "frames_from", e->series[i].dir);
-        cJSON_AddStringToObject(s, "kind", e->series[i].noisy ? "capture composited, no denoiser"
-                                                              : "linear output");
+        static const char *const kinds[] = {
+            [APP_SERIES_OUTPUT] = "linear output",
+            [APP_SERIES_NOISY] = "capture composited, no denoiser",
+            [APP_SERIES_ACCUMULATED] = "running mean of the capture composited, restarted "
+                                       "wherever anything moves"};
+        cJSON_AddStringToObject(s, "kind", kinds[e->series[i].kind]);
         cJSON_AddItemToArray(series, s);
+    }
+    app_convergence c = app_eval_convergence(e);
+    if (c.have) {
+        cJSON *cj = cJSON_AddObjectToObject(j, "convergence");
+        cJSON_AddStringToObject(cj, "series", e->series[c.output].name);
+        cJSON_AddBoolToObject(cj, "still", c.still);
+        cJSON_AddNumberToObject(cj, "accumulation_restarts", c.restarts);
+        cJSON_AddNumberToObject(cj, "last_quarter_relmse", c.last_output);
+        cJSON_AddNumberToObject(cj, "accumulation_last_quarter_relmse", c.last_accumulated);
+        cJSON_AddBoolToObject(cj, "at_or_below_accumulation", c.converges);
     }
     char path[1200];
     snprintf(path, sizeof path, "%s/run.json", out);
@@ -228,11 +242,13 @@ int cmd_eval(int argc, char **argv)
     }
     bool both = matched && unbiased;
     snprintf(e.ref, sizeof e.ref, "%s", primary);
-    tnd_result res = app_eval_add(&e, "denoised", out, false);
+    tnd_result res = app_eval_add(&e, "denoised", out, APP_SERIES_OUTPUT);
     char cap[1200];
     snprintf(cap, sizeof cap, "%s/capture", out);
     if (res == TND_OK && is_dir(cap)) {
-        res = app_eval_add(&e, "noisy (1 spp)", out, true);
+        res = app_eval_add(&e, "noisy (1 spp)", out, APP_SERIES_NOISY);
+        if (res == TND_OK)
+            res = app_eval_add(&e, "accumulation alone", out, APP_SERIES_ACCUMULATED);
         snprintf(e.regions_from, sizeof e.regions_from, "%.1000s/capture", out); /* the masks */
     }
     if (res == TND_OK)
@@ -240,8 +256,8 @@ int cmd_eval(int argc, char **argv)
     if (res == TND_OK && both) { /* the estimator's bias: its expectation against the truth */
         snprintf(b.ref, sizeof b.ref, "%s", unbiased);
         b.exposure = e.exposure; /* (one tone mapping for both comparisons) */
-        if ((res = app_eval_add(&b, "estimator bias (matched vs unbiased)", matched, false)) ==
-            TND_OK)
+        if ((res = app_eval_add(&b, "estimator bias (matched vs unbiased)", matched,
+                                APP_SERIES_OUTPUT)) == TND_OK)
             res = run_eval(&b, "eval: bias");
         if (res == TND_OK && (b.count != e.count ||
                               memcmp(b.frames, e.frames, e.count * sizeof *e.frames) != 0))
@@ -310,6 +326,21 @@ int cmd_eval(int argc, char **argv)
                            "SMAPE %.4f, FLIP %.4f over %u frames.</p>",
                            bs->relmse, bs->smape, bs->flip, b.count);
         }
+        app_convergence cv = app_eval_convergence(&e);
+        if (cv.have) {
+            ev_text conv = {0};
+            app_eval_convergence_text(&e, "", &conv);
+            ev_text_add(&html,
+                        "<h2>Convergence</h2><p>A denoiser owes its matched reference this: "
+                        "where nothing moves, its error falls frame by frame and ends at or "
+                        "below that of <b>accumulation alone</b> (the running mean of the noisy "
+                        "frames, restarted wherever anything moves), the curve beside it in the "
+                        "relMSE plot.</p><pre style=\"white-space: pre-wrap\">");
+            ev_text_escaped(&html, conv.s ? conv.s : "");
+            ev_text_add(&html, "</pre><p><img src=\"plot_relmse.svg\" alt=\"relMSE per "
+                               "frame\"></p>\n");
+            ev_text_free(&conv);
+        }
         app_eval_regions_html(&e, &html);
         res = app_eval_report(&e, report, title, settings, html.s);
         ev_text_free(&html);
@@ -346,6 +377,11 @@ int cmd_eval(int argc, char **argv)
                        matched, unbiased);
                 print_row(&b.series[0]);
             }
+            ev_text conv = {0};
+            app_eval_convergence_text(&e, "  ", &conv);
+            if (conv.s)
+                fputs(conv.s, stdout);
+            ev_text_free(&conv);
             for (uint32_t i = 0; i < e.nseries; i++)
                 for (int r = 0; r < APP_REGIONS; r++) {
                     const app_region *g = &e.series[i].regions[r];

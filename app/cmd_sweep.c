@@ -64,7 +64,7 @@ static tnd_result eval_against(const char *dir, const char *ref, unsigned warmup
 {
     app_eval e = {.min_frame = warmup, .resample = true};
     snprintf(e.ref, sizeof e.ref, "%s", ref);
-    tnd_result res = app_eval_add(&e, "run", dir, false);
+    tnd_result res = app_eval_add(&e, "run", dir, APP_SERIES_OUTPUT);
     if (res == TND_OK)
         res = app_eval_run(&e);
     if (res == TND_OK)

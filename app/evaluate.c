@@ -1,7 +1,8 @@
 /* app/evaluate.c: sequences of frames on disk against a reference directory, and the report
  * (shared by `tandem eval`, `tandem compare --reference` and `tandem bench --sweep`).
  * A series is a directory's frame_NNNN.exr (a run's linear output) or its capture/frame_NNNN.exr
- * composited without denoising (the noisy input). Entry points: app_eval_add, app_eval_run,
+ * composited without denoising (the noisy input), or those composites' running mean while
+ * nothing moves (accumulation alone). Entry points: app_eval_add, app_eval_run,
  * app_eval_report, app_eval_free, app_list_frames. */
 #include "app/app.h"
 
@@ -52,44 +53,108 @@ tnd_result app_list_frames(const char *dir, uint32_t **frames, uint32_t *count)
     return TND_OK;
 }
 
-tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, bool noisy)
+tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, app_series_kind kind)
 {
     if (e->nseries >= APP_EVAL_MAX_SERIES)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: at most %d series", APP_EVAL_MAX_SERIES);
     app_eval_series *s = &e->series[e->nseries++];
     memset(s, 0, sizeof *s);
     snprintf(s->name, sizeof s->name, "%s", name);
-    if (noisy)
+    if (kind != APP_SERIES_OUTPUT)
         snprintf(s->dir, sizeof s->dir, "%s/capture", dir);
     else
         snprintf(s->dir, sizeof s->dir, "%s", dir);
-    s->noisy = noisy;
+    s->kind = kind;
     return TND_OK;
 }
 
-/* One frame of a series (noisy: the capture composited) or of the reference (s NULL). A noisy
+/* Whether anything moves on screen in a capture (its motion, jitter-free, not all zero). */
+static bool capture_moves(const tnd_frame *f)
+{
+    if (!f->present[TND_CT_MOTION])
+        return true;
+    const float *m = tnd_frame_f(f, TND_CT_MOTION);
+    for (size_t q = 0; q < (size_t)f->width * f->height; q++)
+        if (m[3 * q] != 0.0f || m[3 * q + 1] != 0.0f)
+            return true;
+    return false;
+}
+
+/* The accumulated series: frame `frame`'s composite (img) added to the running mean, which
+ * restarts where the frames are not consecutive or the capture moves; img becomes the mean. */
+static tnd_result accumulate(app_eval_series *s, uint32_t frame, const tnd_frame *f, ev_image *img)
+{
+    size_t n = (size_t)img->width * img->height * 3;
+    if (!s->acc && !(s->acc = calloc(n, sizeof(double))))
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+    if (s->acc_n == 0 || frame != s->acc_frame + 1 || capture_moves(f)) {
+        memset(s->acc, 0, n * sizeof(double));
+        s->acc_n = 0;
+        s->acc_starts++;
+    }
+    s->acc_n++;
+    s->acc_frame = frame;
+    for (size_t i = 0; i < n; i++) {
+        s->acc[i] += img->rgb[i];
+        img->rgb[i] = (float)(s->acc[i] / s->acc_n);
+    }
+    return TND_OK;
+}
+
+/* Frame `frame` of a capture series: the capture composited (cap: that frame's capture, already
+ * read, or NULL), and for the accumulated series added to its running mean, which img becomes. */
+static tnd_result composite(app_eval_series *s, uint32_t frame, const char *path, ev_image *img,
+                            const tnd_frame *cap)
+{
+    tnd_frame own = {0};
+    const tnd_frame *f = cap ? cap : &own;
+    tnd_result res = f == &own ? tnd_capture_read(path, &own) : TND_OK;
+    if (res == TND_OK)
+        res = ev_image_alloc(f->width, f->height, img);
+    if (res == TND_OK) {
+        tnd_frame_composite(f, img->rgb);
+        tnd_frame_interleave(f, img->rgb);
+        if (s->kind == APP_SERIES_ACCUMULATED) {
+            ev_image_sanitize(img); /* (a NaN would stay in the sum) */
+            res = accumulate(s, frame, f, img);
+        }
+    }
+    tnd_frame_destroy(&own);
+    return res;
+}
+
+/* One frame of a series (a capture kind: composited) or of the reference (s NULL). A capture
  * series whose captures are e->regions_from composites `cap` (that frame's capture, already read
- * for the region masks; NULL: none) instead of reading it again. */
-static tnd_result load(const app_eval *e, const app_eval_series *s, uint32_t frame, ev_image *img,
+ * for the region masks; NULL: none) instead of reading it again. The accumulated series asked
+ * for a frame out of order (the report's images) replays its running mean up to it: from where
+ * it stands when the frame lies ahead, else from the first frame. */
+static tnd_result load(const app_eval *e, app_eval_series *s, uint32_t frame, ev_image *img,
                        uint64_t *nonfinite, const tnd_frame *cap)
 {
     char path[1300];
     snprintf(path, sizeof path, "%s/frame_%04u.exr", s ? s->dir : e->ref, frame);
-    tnd_result res;
-    if (s && s->noisy) {
-        tnd_frame own = {0};
-        const tnd_frame *f = cap && strcmp(s->dir, e->regions_from) == 0 ? cap : &own;
-        res = f == &own ? tnd_capture_read(path, &own) : TND_OK;
-        if (res == TND_OK)
-            res = ev_image_alloc(f->width, f->height, img);
-        if (res == TND_OK) {
-            tnd_frame_composite(f, img->rgb);
-            tnd_frame_interleave(f, img->rgb);
+    tnd_result res = TND_OK;
+    if (s && s->kind == APP_SERIES_ACCUMULATED && s->acc_n > 0 && frame != s->acc_frame + 1) {
+        bool ahead = frame > s->acc_frame;
+        if (!ahead)
+            s->acc_n = 0;
+        for (uint32_t k = 0; res == TND_OK && k < e->count && e->frames[k] < frame; k++) {
+            if (ahead && e->frames[k] <= s->acc_frame)
+                continue;
+            char p2[1300];
+            snprintf(p2, sizeof p2, "%s/frame_%04u.exr", s->dir, e->frames[k]);
+            ev_image tmp = {0};
+            res = composite(s, e->frames[k], p2, &tmp, NULL);
+            ev_image_free(&tmp);
         }
-        tnd_frame_destroy(&own);
-    } else {
-        res = ev_image_read_exr(path, img);
     }
+    if (res != TND_OK)
+        return res;
+    if (s && s->kind != APP_SERIES_OUTPUT)
+        res = composite(s, frame, path, img,
+                        cap && strcmp(s->dir, e->regions_from) == 0 ? cap : NULL);
+    else
+        res = ev_image_read_exr(path, img);
     if (res == TND_OK) {
         uint64_t bad = ev_image_sanitize(img);
         if (nonfinite)
@@ -107,8 +172,11 @@ static tnd_result load(const app_eval *e, const app_eval_series *s, uint32_t fra
 
 void app_eval_free(app_eval *e)
 {
-    for (uint32_t i = 0; i < e->nseries; i++)
+    for (uint32_t i = 0; i < e->nseries; i++) {
         free(e->series[i].m);
+        free(e->series[i].acc);
+        e->series[i].acc = NULL;
+    }
     free(e->frames);
     e->frames = NULL;
     e->nseries = 0;
@@ -270,6 +338,7 @@ tnd_result app_eval_run(app_eval *e)
         e->auto_exposure = true;
     }
     for (uint32_t i = 0; i < e->nseries; i++) {
+        e->series[i].acc_n = e->series[i].acc_starts = 0;
         e->series[i].m = calloc(e->count, sizeof(ev_frame_metrics));
         if (!e->series[i].m) {
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
@@ -333,6 +402,7 @@ tnd_result app_eval_run(app_eval *e)
         uint64_t bad = e->series[i].summary.nonfinite;
         ev_sequence_summary(seq[i], &e->series[i].summary);
         e->series[i].summary.nonfinite = bad;
+        e->series[i].restarts = e->series[i].acc_starts ? e->series[i].acc_starts - 1 : 0;
     }
 fail:
     for (uint32_t i = 0; i < e->nseries; i++)
@@ -345,6 +415,59 @@ fail:
     free(depth);
     tnd_frame_destroy(&cap);
     return res;
+}
+
+app_convergence app_eval_convergence(const app_eval *e)
+{
+    app_convergence c = {0};
+    bool out = false, acc = false;
+    for (uint32_t i = 0; i < e->nseries; i++) {
+        if (!out && e->series[i].kind == APP_SERIES_OUTPUT)
+            c.output = i, out = true;
+        if (!acc && e->series[i].kind == APP_SERIES_ACCUMULATED)
+            c.accumulated = i, acc = true;
+    }
+    c.have = out && acc && e->count > 0;
+    if (!c.have)
+        return c;
+    c.restarts = e->series[c.accumulated].restarts;
+    c.still = c.restarts == 0;
+    uint32_t n = e->count / 4 ? e->count / 4 : 1;
+    for (uint32_t k = e->count - n; k < e->count; k++) {
+        c.last_output += e->series[c.output].m[k].relmse / n;
+        c.last_accumulated += e->series[c.accumulated].m[k].relmse / n;
+    }
+    c.converges = c.last_output <= c.last_accumulated;
+    return c;
+}
+
+void app_eval_convergence_text(const app_eval *e, const char *indent, ev_text *t)
+{
+    app_convergence c = app_eval_convergence(e);
+    if (!c.have)
+        return;
+    const ev_frame_metrics *o = e->series[c.output].m, *a = e->series[c.accumulated].m;
+    ev_text_add(t, "%sconvergence (relMSE at frame N, the run / accumulation alone):", indent);
+    for (uint32_t k = 0; k < e->count; k = 2 * k + 1) {
+        ev_text_add(t, " %u: %.4g/%.4g", o[k].frame, o[k].relmse, a[k].relmse);
+        if (2 * k + 1 >= e->count && k + 1 < e->count) { /* and the last */
+            uint32_t l = e->count - 1;
+            ev_text_add(t, " %u: %.4g/%.4g", o[l].frame, o[l].relmse, a[l].relmse);
+        }
+    }
+    ev_text_add(t, "\n");
+    if (c.still)
+        ev_text_add(t,
+                    "%snothing moves: over the last quarter of the frames relMSE %.4g against "
+                    "accumulation alone's %.4g: %s\n",
+                    indent, c.last_output, c.last_accumulated,
+                    c.converges ? "converges (at or below accumulation alone)"
+                                : "ends above accumulation alone (it does not converge)");
+    else
+        ev_text_add(t,
+                    "%sthe image moves: accumulation alone restarts %u times (the running mean "
+                    "of the noisy frames since the last motion)\n",
+                    indent, c.restarts);
 }
 
 const char *app_region_name(int region)
