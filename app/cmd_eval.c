@@ -353,7 +353,10 @@ int cmd_eval(int argc, char **argv)
             for (uint32_t i = 0; i < e.nseries; i++)
                 cJSON_AddItemToArray(
                     j, summary_json(&e.series[i], e.count,
-                                    i ? "noisy input" : matched ? "denoiser error" : "error",
+                                    e.series[i].kind == APP_SERIES_NOISY         ? "noisy input"
+                                    : e.series[i].kind == APP_SERIES_ACCUMULATED ? "accumulation alone"
+                                    : matched                                    ? "denoiser error"
+                                                                                 : "error",
                                     primary, regions[i]));
             if (both)
                 cJSON_AddItemToArray(j, summary_json(&b.series[0], b.count, "estimator bias",

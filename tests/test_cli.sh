@@ -317,7 +317,7 @@ check "eval finds dynamic's light switch and measures the lag: A-SVGF <= 2 frame
 "$T" eval --out "$tmp/mat_run" --reference "$tmp/mat_ref" --json --quiet >"$tmp/mat.json"; rc=$?
 [ $rc -eq 0 ] && $PY - "$tmp/mat.json" "$tmp/mat_run/metrics.json" "$tmp/mat_run/run.json" <<'PY'
 import json, sys
-den, noisy = json.load(open(sys.argv[1]))
+den, noisy = json.load(open(sys.argv[1]))[:2]
 m = json.load(open(sys.argv[2]))
 run = json.load(open(sys.argv[3]))
 assert "interleave" in run["post"]["passes"], run["post"]["passes"]   # materials has split glass

@@ -95,16 +95,29 @@ try:
     p = run("eval", "--out", f"{tmp}/run", "--matched-reference", f"{tmp}/m16", "--reference",
             f"{tmp}/u16", "--json")
     s = {x["role"]: x for x in json.loads(p.stdout)}
-    ok = set(s) == {"denoiser error", "noisy input", "estimator bias"}
+    ok = set(s) == {"denoiser error", "noisy input", "accumulation alone", "estimator bias"}
     ok = ok and s["denoiser error"]["relmse"] < s["noisy input"]["relmse"] / 4
     ok = ok and s["estimator bias"]["relmse"] > 0.05 and s["estimator bias"]["against"].endswith("u16")
     check("eval: the denoiser's error (against matched) apart from the estimator's bias",
           ok, ", ".join(f"{k} relMSE {v['relmse']:.4g}" for k, v in s.items()))
     mj = json.load(open(f"{tmp}/run/metrics.json"))
     names = [x["name"] for x in mj["series"]]
-    check("metrics.json holds the three series and says which reference each is against",
-          len(names) == 3 and mj["settings"]["denoiser_error_against"].endswith("m16") and
+    check("metrics.json holds the four series and says which reference each is against",
+          len(names) == 4 and mj["settings"]["denoiser_error_against"].endswith("m16") and
           mj["settings"]["estimator_bias_against"].endswith("u16"), str(names))
+    # accumulation alone: the running mean of the noisy composites on this still camera. Its
+    # error falls as 1/n (frame n averages n + 1 independent frames), so frame 15's relMSE is
+    # 1/16 of frame 0's, within the frames' noise (a relMSE over 1024 pixels of 1 spp: +-30%
+    # seen between single frames; bounds 1/32 .. 1/8) and the 256-spp reference's own noise
+    # (1/256 of a noisy frame's, under 2% of frame 15's); the verdict in metrics.json.
+    acc = next(x for x in mj["series"] if x["name"] == "accumulation alone")["frames"]
+    r0, r15 = acc[0]["relmse"], acc[15]["relmse"]
+    conv = mj["settings"]["convergence"]
+    check("eval: accumulation alone falls as 1/n on a still camera; the convergence verdict",
+          1 / 32 < r15 / r0 < 1 / 8 and conv["still"] and conv["accumulation_restarts"] == 0 and
+          conv["at_or_below_accumulation"] and "nothing moves" in
+          run("eval", "--out", f"{tmp}/run", "--matched-reference", f"{tmp}/m16").stdout,
+          f"relMSE frame 0 {r0:.4g}, frame 15 {r15:.4g} (ratio 1/{r0 / r15:.1f}); {conv}")
     run("reference", "--estimator", "realtime", "--spp", "2", "--out", f"{tmp}/m2", *size16)
     p = run("eval", "--out", f"{tmp}/run", "--matched-reference", f"{tmp}/m2")
     check("eval warns when the reference's own noise is not well below the error (both figures)",
