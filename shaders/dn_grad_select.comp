@@ -33,10 +33,15 @@ void main()
         vec3 m = imageLoad(img_motion, p).xyz;
         if (tnd_nonfinite(m.x) || tnd_nonfinite(m.y))
             m = vec3(0.0);
+        /* the previous frame's sample nearest this frame's sample point (the jitters apart),
+         * whose surface and random numbers a gradient re-shades */
         pp = ivec2(floor(vec2(p) + P.jitter.xy + m.xy - P.jitter.zw + 0.5));
         if (vis.x != TND_VIS_NONE) {
+            /* a history is its pixel's mean: the pixel's own footprint moved (no jitter, as the
+             * temporal pass reads it), or a still image would compare with a neighbour's */
+            ivec2 pf = ivec2(floor(vec2(p) + m.xy + 0.5));
             lf.x = finite4(imageLoad(img_lf_sh, p)).w;
-            float l0 = inside(pp) ? hist_lf_l0(imageLoad(hist_lf[1u - pc.slot], pp)) : 0.0;
+            float l0 = inside(pf) ? hist_lf_l0(imageLoad(hist_lf[1u - pc.slot], pf)) : 0.0;
             lf.y = tnd_nonfinite(l0) ? 0.0 : l0;
         }
         uvec4 g = inside(pp) ? imageLoad(prev_geo, pp) : uvec4(TND_VIS_NONE, 0u, 0u, 0u);

@@ -777,7 +777,7 @@ static void test_gradient_samples_reproduce_static(void)
          * channel), so that the gradients are not all zero, and the gradient chain recomputed
          * on the CPU from the same inputs: hf and spec gradients at the samples (luminances
          * rounded as the back-end rounds them), the strata's lf L0 sums now and of the history
-         * at the reprojected pixels, then the blur */
+         * at the reprojected pixels (a still camera: the pixels themselves), then the blur */
         for (int k = 0; k < GW * GH * 4; k++)
             ref[k] = 0.0f;
         for (uint32_t k = 0; k < n; k++) {
@@ -795,11 +795,11 @@ static void test_gradient_samples_reproduce_static(void)
                 int q = y * W + x;
                 if (tnd_frame_u(&f1, TND_CT_VIS_ID)[2 * q] == TND_VIS_NONE)
                     continue;
-                int px = (int)floorf((float)x + df.jitter[0] - df.prev_jitter[0] + 0.5f);
-                int py = (int)floorf((float)y + df.jitter[1] - df.prev_jitter[1] + 0.5f);
+                /* the history of the pixel itself: a still camera's motion is zero, and a
+                 * history is its pixel's mean (no jitter, as the temporal pass reads it) */
                 float *o = ref + 4 * ((y / 3) * GW + x / 3);
                 o[2] += l0_now[q];
-                o[3] += px >= 0 && py >= 0 && px < W && py < H ? hist_l0[py * W + px] : 0.0f;
+                o[3] += hist_l0[q];
             }
         blur_gradients(ref, tmp, GW, GH);
         REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f1));
