@@ -1,16 +1,15 @@
-/* dn_temporal.comp: temporal accumulation (SVGF, Schied et al. 2017; constants as Q2RTX's
- * A-SVGF): each pixel's surface is found in the previous frame through its motion vector (the
- * pixel's own footprint moved, no jitter: a history is its pixel's mean), the history is
- * resampled with a 2x2 bilinear footprint whose taps are tested one by one (tap(): same instance
- * in the visibility buffer, depth within 10% after the motion's depth delta, geometric normals
- * within 25 degrees), the 3x3 around it where none passes, then blended with alpha = max(min
- * alpha, 1 / history length). Channels: hf (colour and luminance moments), lf (SH + CoCg),
- * spec. Specular-aware weights: a spec tap also weighs max(n . n_prev, 0)^s with the shading
- * normals and s = clamp(2 / r^4 - 2, 0, 32) (r the roughness; Q2RTX's lobe-width proxy), so that
- * a glossy reflection does not take history from a texel whose normal, hence whose reflected
- * direction, differs; with no such tap the spec history restarts. A-SVGF: the filtered
- * gradients shorten the histories (antilag), and the stratum's gradient sample counts as a tenth
- * of a sample. Writes this frame's history slot (the temporal means themselves: nothing
+/* dn_temporal.comp: temporal accumulation (SVGF, Schied et al. 2017; constants as Q2RTX's A-SVGF):
+ * each pixel's surface is found in the previous frame through its motion vector (the pixel's own
+ * footprint moved, no jitter: a history is its pixel's mean), the history is resampled with a 2x2
+ * bilinear footprint whose taps are tested one by one (tap(): same instance in the visibility
+ * buffer, depth within 10% after the motion's depth delta, geometric normals within 25 degrees),
+ * then blended with alpha = max(min alpha, 1 / history length). Channels: hf (colour and luminance
+ * moments), lf (SH + CoCg), spec. Specular-aware weights: a spec tap also weighs max(n . n_prev,
+ * 0)^s with the shading normals and s = clamp(2 / r^4 - 2, 0, 32) (r the roughness; Q2RTX's lobe-
+ * width proxy), so that a glossy reflection does not take history from a texel whose normal, hence
+ * whose reflected direction, differs; with no such tap the spec history restarts. A-SVGF: the
+ * filtered gradients shorten the histories (antilag), and the stratum's gradient sample counts as
+ * a tenth of a sample. Writes this frame's history slot (the temporal means themselves: nothing
  * spatially filtered is fed back, unlike SVGF) and the first a-trous input: colours and the
  * variance of the hf history's mean (from the moments, or from a 3x3 spatial estimate where the
  * history is shorter than 4 frames), and the filter geometry (DN_B_AT, DN_B_FGEO, DN_B_CENTRE). */
@@ -78,10 +77,10 @@ void main()
      * history is the mean over its pixel's footprint, so a still camera reads each pixel's own
      * history: reading it at this frame's jitter minus the last, as a point sample would be,
      * resampled it bilinearly every frame, a blur that compounds over the history's length and
-     * brightened the closed box's ceiling band by 14% at frame 3, 34% at frame 47); bilinear
-     * taps tested one by one; where none passes (an edge, where the jitter moves the pixel's
-     * sample between surfaces, or a thin feature), the 3x3 around it with equal weights (SVGF's
-     * fallback) */
+     * brightened the closed box's ceiling band); bilinear taps tested one by one. (SVGF's
+     * fallback to the 3x3 around it where none passes was tried: at a disocclusion it hands the
+     * pixel a neighbour's stale history, relMSE 0.12 -> 0.14 on the pixels `dynamic`'s cube
+     * uncovers, for no gain a still camera can measure.) */
     if (P.size.z != 0u && vis.x != TND_VIS_NONE) {
         t_inst = vis.x, t_field = field, t_depth = depth + motion.z, t_gn = gn, t_n = n;
         t_shininess = shininess;
@@ -91,15 +90,6 @@ void main()
         for (int j = 0; j < 2; j++)
             for (int i = 0; i < 2; i++)
                 tap(p0 + ivec2(i, j), (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y));
-        if (wsum <= 1e-4) {
-            ivec2 pc0 = ivec2(round(pp));
-            wsum = 0.0, wsum_spec = 0.0;
-            h_hf = h_mom = h_sh = h_spec = vec4(0.0);
-            h_cocg = vec2(0.0);
-            for (int j = -1; j <= 1; j++)
-                for (int i = -1; i <= 1; i++)
-                    tap(pc0 + ivec2(i, j), 1.0);
-        }
     }
     float l = luma(hf);
     vec4 out_hf, out_mom, out_sh, out_spec;
