@@ -11,8 +11,11 @@
  *   which then hide it (test_lf_firefly_is_deflickered: brightest pixel 6.7x -> 5.9x, energy
  *   added 3.7% -> 2.2%, against 13x and 8.5% without deflicker).
  * - k = 2 .. iters + 1: a-trous, step 2^(k-2) low-res pixels (3, 6, 12 full-res pixels), 3x3 taps
- *   1 / 0.5 / 0.25, geometry weights only (the centre's distance to the tap's tangent plane
- *   against the footprint, normals^8); the last iteration adds the light-leak guard
+ *   1 / 0.5 / 0.25, geometry weights (the centre's distance to the tap's tangent plane against
+ *   the footprint, normals^8) and a luminance weight exp(-|L0_q - L0_p| / (sigma sqrt(var_p +
+ *   var_q))), sigma = P.lf.z, the variances those of the anchors' noise (dn_lf_down.comp),
+ *   filtered with squared weights from one iteration to the next; the last iteration adds the
+ *   light-leak guard
  *   w *= clamp(1.5 - 0.25 l_q / l_p, 0, 1) (a neighbour more than 2x brighter than the centre
  *   is attenuated, more than 6x is dropped).
  * Pass k >= 1 reads slot (k - 1) & 1 and writes slot k & 1; the result lands in slot
@@ -67,11 +70,12 @@ void main()
     float inv_sigma = 1.0 / (P.weights.x * footprint);
     vec3 n = lf_normal(c);
     float lp = max(c_sh.w, 1e-6);
-    /* the luminance weight: L0 against P.lf.z standard deviations of the noise left in the
-     * centre (SVGF's variance guide, on the temporal lf histories: it narrows as they
-     * converge, so that a still image ends at its accumulated mean, not at a blur of it) */
+    /* the luminance weight: the L0 difference against P.lf.z standard deviations of the noise
+     * left in the two anchors (SVGF's variance guide, on the temporal lf histories: it narrows
+     * as they converge, so that a still image ends at its accumulated mean, not at a blur of
+     * it; both anchors' variances, as for the difference of two estimates: an anchor whose
+     * samples were all 0 so far has none of its own, and would refuse every neighbour) */
     float c_var = lf_variance(c);
-    float inv_sigma_l = 1.0 / (P.lf.z * sqrt(max(c_var, 0.0)) + 1e-6 * lp);
     vec4 s_sh = vec4(0.0);
     vec2 s_cocg = vec2(0.0);
     float wsum = 0.0, var_acc = 0.0;
@@ -85,8 +89,9 @@ void main()
             float h = kw[abs(x) + abs(y) == 0 ? 2 : (abs(x) + abs(y) == 1 ? 1 : 0)];
             vec4 q_sh = imageLoad(at_lf_sh[src], q);
             /* the distance of this anchor to the tap's tangent plane */
+            float sigma_l = P.lf.z * sqrt(max(c_var + lf_variance(t), 0.0)) + 1e-6 * lp;
             float w = h * exp(-lf_plane_distance(t, pos) * inv_sigma -
-                              abs(q_sh.w - c_sh.w) * inv_sigma_l) *
+                              abs(q_sh.w - c_sh.w) / sigma_l) *
                       pow(max(dot(n, lf_normal(t)), 0.0), P.weights.w);
             if (last)
                 w *= clamp(1.5 - 0.25 * max(q_sh.w, 0.0) / lp, 0.0, 1.0);

@@ -2,9 +2,10 @@
  * stratum anchors. The anchor is the stratum's centre pixel (the first surface pixel in row
  * order when the centre sees the sky); this frame's lf history of the 9 pixels is averaged with
  * weights max(n . n_anchor, 0)^8 (geometric normals) times the tangent-plane test of the a-trous
- * passes; the anchor's tangent plane goes with the CoCg into the lf texel (lf_pack), its
- * position and depth to lf_geo (read by the lf a-trous at its centre). Writes slot 0. One thread
- * per pixel (tiles of strata; the anchor is found and the weighted values summed in row order
+ * passes, and the variance of the average's L0 estimated from the stratum's samples (for the lf
+ * a-trous's luminance weight); the anchor's tangent plane goes with the CoCg into the lf texel
+ * (lf_pack), its position and depth to lf_geo (read by the lf a-trous at its centre). Writes
+ * slot 0. One thread per pixel (tiles of strata; the anchor is found and the weighted values summed in row order
  * through shared memory). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -14,7 +15,7 @@
 shared bool s_valid[DN_TILE_N];
 shared vec4 s_sh[DN_TILE_N]; /* w x lf SH of the pixel */
 shared vec3 s_cw[DN_TILE_N]; /* w x CoCg, w */
-shared vec3 s_mom[DN_TILE_N]; /* w x L0^2, w^2, w x history length */
+shared vec4 s_mom[DN_TILE_N]; /* w x raw L0^2, w x raw L0, w^2, w x history length */
 shared vec4 s_geo[DN_TILE_STRATA][2]; /* the anchor's lf_geo texels */
 
 /* tile-local index of stratum k's anchor, ~0u when the stratum sees only sky */
@@ -38,7 +39,8 @@ void main()
     barrier();
     uint anchor = find_anchor(k);
     vec4 sh = vec4(0.0);
-    vec3 cw = vec3(0.0), mom = vec3(0.0);
+    vec3 cw = vec3(0.0);
+    vec4 mom = vec4(0.0);
     if (valid) {
         ivec2 a = tile_pixel(anchor);
         vec4 ca = imageLoad(centre, a); /* position relative to fgeo_origin(), depth */
@@ -58,7 +60,8 @@ void main()
         vec4 hs = hist_lf_sh(h);
         sh = w * hs;
         cw = vec3(w * hist_lf_cocg(h), w);
-        mom = vec3(w * hs.w * hs.w, w * w, w * hist_lf_len(h));
+        float raw = finite4(imageLoad(img_lf_sh, p)).w; /* this frame's sample */
+        mom = vec4(w * raw * raw, w * raw, w * w, w * hist_lf_len(h));
     }
     s_sh[li] = sh;
     s_cw[li] = cw;
@@ -70,7 +73,8 @@ void main()
     if (!in_grid(s))
         return;
     vec4 sum_sh = vec4(0.0);
-    vec3 sum_cw = vec3(0.0), sum_mom = vec3(0.0);
+    vec3 sum_cw = vec3(0.0);
+    vec4 sum_mom = vec4(0.0);
     for (int j = 0; j < DN_STRATUM; j++)
         for (int i = 0; i < DN_STRATUM; i++) {
             sum_sh += s_sh[tile_pixel_index(li, i, j)];
@@ -80,14 +84,18 @@ void main()
     if (find_anchor(li) != ~0u) {
         vec3 pos = s_geo[li][0].xyz;
         vec4 m_sh = sum_sh / sum_cw.z;
-        /* The noise left in the anchor's L0: the spread of the stratum's histories (each the
-         * mean of its pixel's frames, so the spread shrinks as the histories grow) over the
-         * effective count of pixels averaged, unbiased (n_eff - 1); with too few pixels to
-         * tell, L0^2 / history length (1 spp indirect light has a relative deviation near 1) */
-        float n_eff = sum_cw.z * sum_cw.z / max(sum_mom.y, 1e-30);
-        float spread = max(sum_mom.x / sum_cw.z - m_sh.w * m_sh.w, 0.0);
-        float var = n_eff > 1.5 ? spread / (n_eff - 1.0)
-                                : m_sh.w * m_sh.w / max(sum_mom.z / sum_cw.z, 1.0);
+        /* The noise left in the anchor's L0: the variance of one frame's samples (their
+         * spread over the stratum, unbiased: n_eff - 1; at least the mean's square, since 1
+         * spp indirect light deviates by about its mean or more, and nine zeros tell nothing)
+         * over the samples behind the anchor: its pixels' mean history length times the
+         * effective count of pixels averaged. (The spread of the histories themselves shrinks
+         * as they grow too, but a moving camera's bilinear reprojection makes neighbours'
+         * histories alike, and that spread then hid the noise left: blotches on atrium.) */
+        float n_eff = sum_cw.z * sum_cw.z / max(sum_mom.z, 1e-30);
+        float len = max(sum_mom.w / sum_cw.z, 1.0), mr = sum_mom.y / sum_cw.z;
+        float spread = max(sum_mom.x / sum_cw.z - mr * mr, 0.0);
+        float var = max(n_eff > 1.5 ? spread * n_eff / (n_eff - 1.0) : 0.0, m_sh.w * m_sh.w) /
+                    (len * max(n_eff, 1.0));
         imageStore(lf_geo, s, vec4(pos, s_geo[li][1].w));
         imageStore(at_lf[0], s, lf_pack(true, pos, s_geo[li][1].xyz, sum_cw.xy / sum_cw.z,
                                         m_sh.w, tnd_nonfinite(var) ? 0.0 : var));
