@@ -106,9 +106,10 @@ void main()
         /* A-SVGF's gradient sample of this stratum repeats a sample of the previous frame (its
          * surface, its random numbers), chosen for being the brightest: blended in as a new
          * sample it would count twice, and bias the history upwards wherever nothing changes
-         * (measured: 2.2% on `dynamic`'s lit frames). It counts as a tenth of a sample (its
-         * bias a tenth), which still makes it the whole of a history that the antilag emptied. */
-        float fresh = 1.0;
+         * (measured: 2.2% on `dynamic`'s lit frames). Where nothing changed it counts as a
+         * tenth of a sample (its bias a tenth), as a whole one as far as the antilag says the
+         * light changed (it is a sample of the new light then, the best the pixel has). */
+        vec3 fresh = vec3(1.0); /* hf, lf, spec */
         if (P.size.w == 2u && P.misc.w != 0.0) {
             /* A-SVGF: the filtered gradients (slot 0 after the blur) shorten the history */
             vec3 g = clamp(imageLoad(grad[0], min(p / DN_STRATUM, grad_size() - 1)).xyz, 0.0, 1.0);
@@ -117,15 +118,15 @@ void main()
             anti_lf = clamp(P.antilag.w * g.z, 0.0, 1.0);
             ivec2 st = p / DN_STRATUM;
             if (samples[uint(st.y * grad_size().x + st.x)].a.x == uint(p.y) * P.size.x + uint(p.x))
-                fresh = 0.1;
-            len_hf = min(h_hf.a * pow(1.0 - anti_hf, 10.0) + fresh, cap);
-            len_lf = min(h_mom.z * pow(1.0 - anti_lf, 10.0) + fresh, cap);
-            len_spec = min(h_mom.w * pow(1.0 - anti_spec, 10.0) + fresh, cap);
+                fresh = mix(vec3(0.1), vec3(1.0), vec3(anti_hf, anti_lf, anti_spec));
+            len_hf = min(h_hf.a * pow(1.0 - anti_hf, 10.0) + fresh.x, cap);
+            len_lf = min(h_mom.z * pow(1.0 - anti_lf, 10.0) + fresh.y, cap);
+            len_spec = min(h_mom.w * pow(1.0 - anti_spec, 10.0) + fresh.z, cap);
         }
-        float a_hf = min(fresh * max(P.alpha.x, 1.0 / len_hf), 1.0);
-        float a_m = min(fresh * max(P.alpha.w, 1.0 / len_hf), 1.0);
-        float a_lf = min(fresh * max(P.alpha.y, 1.0 / len_lf), 1.0);
-        float a_spec = min(fresh * max(P.alpha.z, 1.0 / len_spec), 1.0);
+        float a_hf = min(fresh.x * max(P.alpha.x, 1.0 / len_hf), 1.0);
+        float a_m = min(fresh.x * max(P.alpha.w, 1.0 / len_hf), 1.0);
+        float a_lf = min(fresh.y * max(P.alpha.y, 1.0 / len_lf), 1.0);
+        float a_spec = min(fresh.z * max(P.alpha.z, 1.0 / len_spec), 1.0);
         a_hf = mix(a_hf, 1.0, anti_hf);
         a_m = mix(a_m, 1.0, anti_hf);
         a_spec = mix(a_spec, 1.0, anti_spec);
