@@ -739,10 +739,11 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
                            + 16 + 8 + 16 /* the a-trous input, filter geometry, centre */
                            + (asvgf ? CT(RNG) + 4 + 8 : 0) /* the next frame's sample data */) +
                       (asvgf ? n3 * (16 + 32) : 0); /* the gradient and the sample per stratum */
-        /* downsample (full-res reads: vis, geometric normal, centre, lf history; 1/3-res
-         * writes: the anchor and the two lf texels), then deflicker and a-trous at 1/3 res
-         * (per step the anchor (the a-trous's centre) and both texels read, both written) */
-        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + 16 + 16) +
+        /* downsample (full-res reads: vis, geometric normal, centre, lf history, this frame's
+         * lf sample; 1/3-res writes: the anchor and the two lf texels), then deflicker and
+         * a-trous at 1/3 res (per step the anchor (the a-trous's centre) and both texels read,
+         * both written) */
+        t->lf = n * (CT(VIS_ID) + CT(GEO_NORMAL) + 16 + 16 + CT(LF_SH)) +
                 n3 * (3 * 16 + (double)(d->iters_lf + 1) * (3 * 16 + 2 * 16));
         /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
          * geometry (8) of each tap, the centre texel; the texel written */
