@@ -83,7 +83,8 @@ void main()
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
             ivec2 q = s + ivec2(x, y) * step;
-            uvec4 t = lf_texel(q, src);
+            /* (symmetric at the grid's border, as the full-res a-trous) */
+            uvec4 t = in_grid(s - ivec2(x, y) * step) ? lf_texel(q, src) : uvec4(0u);
             if (!lf_valid_texel(t))
                 continue;
             float h = kw[abs(x) + abs(y) == 0 ? 2 : (abs(x) + abs(y) == 1 ? 1 : 0)];
