@@ -22,10 +22,11 @@ within 5% of SVGF's (relMSE and FLIP): the gradients are small there and must no
 test_asvgf_follows_light_switch).
 
 Matched references: the still camera's frames all have one expectation, so one frame of 4096
-spp stands for every frame (its noise, a relMSE near 0.13 / 4096 = 3e-5, is under 2% of the
-smallest error measured here); the moving camera's are rendered per frame at 512 spp (noise
-under 3e-4, some 2% of the errors compared; both denoisers are measured against the same
-frames, so it cancels in their ratio).
+spp stands for every frame (its noise, a relMSE near 0.13 / 4096 = 3e-5, is under 3% of the
+smallest error measured here; --quick: 1024 spp, 1.3e-4, under 10% of the errors of its 16
+frames); the moving camera's are rendered per frame at 512 spp (--quick: 256; noise under
+5e-4, some 2-3% of the errors compared; both denoisers are measured against the same frames,
+so it cancels in their ratio).
 
 usage: test_convergence.py TANDEM [--quick]   (--quick: fewer frames, for the sanitizer build)
 """
@@ -64,8 +65,8 @@ def curve(d, series=0):
 tmp = tempfile.mkdtemp(prefix="tandem_convergence_")
 try:
     box = ["--scene", BOX, "--size", "64x64", "--quiet"]
-    run("reference", "--estimator", "realtime", "--frames", "1", "--spp", "4096",
-        "--out", f"{tmp}/ref1", *box)
+    run("reference", "--estimator", "realtime", "--frames", "1", "--spp",
+        "1024" if QUICK else "4096", "--out", f"{tmp}/ref1", *box)
     os.makedirs(f"{tmp}/ref")
     for k in range(FRAMES):  # the still camera: one expectation for every frame
         shutil.copy(f"{tmp}/ref1/frame_0000.exr", f"{tmp}/ref/frame_{k:04d}.exr")
@@ -104,7 +105,8 @@ try:
 
     # the moving camera over static light: A-SVGF's gradients must not cost it against SVGF
     cam = ["--scene", CORNELL, "--size", "64x36", "--frames", "16", "--quiet"]
-    run("reference", "--estimator", "realtime", "--spp", "512", "--out", f"{tmp}/cref", *cam)
+    run("reference", "--estimator", "realtime", "--spp", "256" if QUICK else "512",
+        "--out", f"{tmp}/cref", *cam)
     got = {}
     for dn in ("asvgf", "svgf"):
         d = f"{tmp}/cornell_{dn}"
