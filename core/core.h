@@ -1,9 +1,14 @@
-/* core: what every part of Tandem shares.
+/* core: what every part of Tandem shares, in sections:
  *
- * - results and error messages (one catalogue of codes; a per-thread detail message),
- * - logging,
- * - the Vulkan context: headless instance, device choice, memory, buffers, images, pipelines from
- *   SPIR-V, shader binding tables, one-shot submission, timestamp queries, debug names.
+ * - results and error messages (one catalogue of codes; a per-thread detail message), logging,
+ *   files;
+ * - Vulkan: devices, the context (headless instance, device choice), memory, buffers and images,
+ *   commands and synchronisation, pipelines from SPIR-V and shader binding tables, timestamp
+ *   queries (per-pass GPU times), debug names;
+ * - the buffer contract on the C side and on the GPU (the table itself is shaders/contract.h),
+ *   OpenEXR files and captures (one EXR per frame holding the whole contract);
+ * - math (matrices, quaternions), scenes (glTF 2.0 and what assimp reads, flat and GPU-friendly;
+ *   building scenes in code), the light list for next-event estimation.
  *
  * Conventions: fallible functions return tnd_result (TND_OK is 0). Every *_destroy accepts a
  * zeroed or half-built object and may be called twice. Descriptor structs: zero means default. */

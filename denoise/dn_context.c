@@ -1,10 +1,11 @@
 /* denoise/dn_context.c: the back-end's images (histories in two slots, a-trous ping-pong, the
  * previous frame's geometry, luminances and barycentrics, the 1/3-res gradients and lf filter,
- * the output),
- * the gradient sample buffer, its pipelines and the per-frame recording with a timestamp around
- * each pass.
- * Entry points: dn_create, dn_destroy, dn_select_gradients, dn_gradient_capacity, dn_run,
- * dn_download, dn_dump_count, dn_dump_name, dn_dump_size, dn_dump, dn_mode_parse, dn_mode_name. */
+ * the output), the gradient sample buffer, its pipelines and the per-frame recording with a
+ * timestamp around each pass.
+ * Entry points: dn_create, dn_destroy, dn_frame_for_camera, dn_run, dn_submit, dn_wait,
+ * dn_select_gradients, dn_select_gradients_gpu, dn_gradient_capacity, dn_output, dn_download,
+ * dn_dump_count, dn_dump_name, dn_dump_size, dn_dump, dn_traffic_of, dn_dispatch_times,
+ * dn_mode_parse, dn_mode_name. */
 #include "denoise/denoise.h"
 #include "shaders/denoise_shared.h"
 #include "shaders/encoding.h"

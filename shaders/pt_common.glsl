@@ -1,5 +1,6 @@
-/* pt_common.glsl: the front-end's estimator in GLSL, the mirror of frontend_embree/femb_render.c
- * and femb_scene.c (same functions, same order of random numbers, same scalar code from brdf.h),
+/* pt_common.glsl: the front-end's estimator in GLSL, the mirror of frontend_embree/
+ * femb_estimator.c, femb_render.c and femb_scene.c (same functions, same order of random
+ * numbers, same scalar code from brdf.h),
  * so that the two front-ends agree sample for sample. Included by the pt_*.rgen passes (ray-
  * tracing pipeline) and, with TND_RAY_QUERY, by their compute twins (inline ray queries). */
 #extension GL_EXT_nonuniform_qualifier : require
