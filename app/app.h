@@ -215,6 +215,7 @@ typedef struct app_eval_series {
     /* APP_SERIES_ACCUMULATED: the running sum (rgb per pixel), its frame count, the last frame
      * added (app_eval_run) */
     double *acc;
+    size_t acc_len; /* doubles in acc */
     uint32_t acc_n, acc_frame, acc_starts; /* acc_starts: how often it (re)started */
     uint32_t restarts; /* APP_SERIES_ACCUMULATED: its restarts after the first frame in the run */
 } app_eval_series;

@@ -85,8 +85,15 @@ static bool capture_moves(const tnd_frame *f)
 static tnd_result accumulate(app_eval_series *s, uint32_t frame, const tnd_frame *f, ev_image *img)
 {
     size_t n = (size_t)img->width * img->height * 3;
-    if (!s->acc && !(s->acc = calloc(n, sizeof(double))))
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+    if (n != s->acc_len) { /* (a capture of another size: eval refuses it after the load) */
+        free(s->acc);
+        if (!(s->acc = calloc(n, sizeof(double)))) {
+            s->acc_len = 0;
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+        }
+        s->acc_len = n;
+        s->acc_n = 0;
+    }
     if (s->acc_n == 0 || frame != s->acc_frame + 1 || capture_moves(f)) {
         memset(s->acc, 0, n * sizeof(double));
         s->acc_n = 0;
@@ -176,6 +183,7 @@ void app_eval_free(app_eval *e)
         free(e->series[i].m);
         free(e->series[i].acc);
         e->series[i].acc = NULL;
+        e->series[i].acc_len = 0;
     }
     free(e->frames);
     e->frames = NULL;
