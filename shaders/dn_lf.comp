@@ -55,7 +55,8 @@ void main()
         if (cnt > 0.0 && c_sh.w > limit) {
             float f = limit / c_sh.w;
             c_sh *= f;
-            c = lf_with(c, lf_cocg(c, c_sh.w / f) * f, c_sh.w, lf_variance(c) * f * f);
+            /* (CoCg is stored relative to L0, which the scale keeps) */
+            c = uvec4(c.xyz, floatBitsToUint(lf_variance(c) * f * f));
         }
         imageStore(at_lf[dst], s, c);
         imageStore(at_lf_sh[dst], s, c_sh);
@@ -103,6 +104,7 @@ void main()
         }
     bool ok = wsum > 1e-8;
     vec4 o_sh = ok ? s_sh / wsum : c_sh;
-    imageStore(at_lf[dst], s, ok ? lf_with(c, s_cocg / wsum, o_sh.w, var_acc / (wsum * wsum)) : c);
+    imageStore(at_lf[dst], s,
+               ok ? lf_with(c, s_cocg / wsum, o_sh.w, var_acc / (wsum * wsum)) : c);
     imageStore(at_lf_sh[dst], s, o_sh);
 }

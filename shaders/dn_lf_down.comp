@@ -5,8 +5,8 @@
  * passes, and the variance of the average's L0 estimated from the stratum's samples (for the lf
  * a-trous's luminance weight); the anchor's tangent plane goes with the CoCg into the lf texel
  * (lf_pack), its position and depth to lf_geo (read by the lf a-trous at its centre). Writes
- * slot 0. One thread per pixel (tiles of strata; the anchor is found and the weighted values summed in row order
- * through shared memory). */
+ * slot 0. One thread per pixel (tiles of strata; the anchor is found and the weighted values
+ * summed in row order through shared memory). */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define DN_STRATUM_TILES 1

@@ -29,15 +29,15 @@ vec3 t_gn, t_n;
 /* Adds the previous frame's texel q with weight w where it saw this pixel's surface: the same
  * instance and field, the depth within 10% after the motion's depth delta (t_depth), geometric
  * normals within 25 degrees; spec weighs the shading normals' agreement too. */
-bool tap(ivec2 q, float w)
+void tap(ivec2 q, float w)
 {
     if (!inside(q) || w <= 0.0)
-        return false;
+        return;
     uint prev = 1u - pc.slot;
     uvec4 g = imageLoad(prev_geo, q); /* the previous surface in one texel */
     if (g.x != t_inst || ((g.z >> 24u) & 3u) != t_field ||
         abs(uintBitsToFloat(g.y) - t_depth) > 0.1 * t_depth || dot(oct_unpack12(g.z), t_gn) < 0.9)
-        return false;
+        return;
     uvec4 hf_q = imageLoad(hist_hf[prev], q); /* hf, its length, moments */
     uvec4 lf_q = imageLoad(hist_lf[prev], q); /* SH, CoCg, length */
     uvec2 sp_q = imageLoad(hist_spec[prev], q).xy; /* spec, its length */
@@ -50,7 +50,6 @@ bool tap(ivec2 q, float w)
     h_spec += ws * vec4(hist_rgb(sp_q), 0.0);
     wsum += w;
     wsum_spec += ws;
-    return true;
 }
 
 void main()
@@ -58,7 +57,7 @@ void main()
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(p))
         return;
-    uint cur = pc.slot, prev = 1u - pc.slot;
+    uint cur = pc.slot;
     uvec2 vis = imageLoad(img_vis_id, p).xy;
     vec3 hf = finite3(load_hf(p)), spec = finite3(load_spec(p));
     vec4 sh = finite4(imageLoad(img_lf_sh, p));
