@@ -9,6 +9,7 @@
 #include "core/core.h"
 #include "denoise/denoise.h"
 #include "eval/eval.h"
+#include "pipeline/pipeline.h"
 
 enum { APP_EXIT_OK = 0, APP_EXIT_FAIL = 1, APP_EXIT_USAGE = 2 };
 
@@ -50,6 +51,16 @@ typedef struct app_cmd {
 int app_parse(const app_cmd *cmd, const app_opt *opts, int argc, char **argv, const char **pos,
               int max_pos, int *npos);
 bool app_quiet(void);
+/* Quiet or not from now on (the previous setting returned): a command called as a function by
+ * another sets its own and puts the caller's back. */
+bool app_set_quiet(bool quiet);
+
+/* The registered denoisers' parameters as options (pl_param: --NAME VALUE), after `base` (its
+ * entries up to the terminator) into `out` (room for cap entries, terminated); their values land
+ * in vals (PL_PARAMS_MAX doubles, NaN until given). Returns false when out is too small. */
+bool app_opts_with_params(const app_opt *base, app_opt *out, size_t cap, double *vals);
+/* The values given into a parameter set (checked against each parameter's range). */
+tnd_result app_params_collect(const double *vals, pl_param_set *set);
 
 /* Report a failure of a library call: "tandem: <what>: <detail>" on stderr. Returns 1. */
 int app_report(const char *what, tnd_result r);
@@ -98,10 +109,11 @@ typedef struct app_view_cam {
 typedef struct app_view_state {
     char scene[1024], frontend[1100], denoiser[1100], precision[16], taa[16], tonemap[16];
     char exposure[32], env[1024], view[64];
-    double min_alpha, bloom, fps, env_intensity, env_rotation, antilag, exposure_bias;
+    double bloom, fps, env_intensity, env_rotation, exposure_bias;
+    pl_param_set params; /* the denoisers' parameters (pl_param) */
     char split_mode[16];                  /* off, noisy, denoiser, frontend */
     char split_denoiser[1100], split_frontend[1100]; /* the right half's, when split */
-    uint32_t bounces, atrous, camera, size[2];
+    uint32_t bounces, camera, size[2];
     app_view_cam *path;
     uint32_t path_len, path_cap;
 } app_view_state;
@@ -118,8 +130,9 @@ void app_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, app_v
 typedef struct app_render_opts {
     const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump, *pipeline;
     const char *taa, *tonemap, *exposure;
-    double bloom, min_alpha, antilag, exposure_bias;
-    unsigned frames, start, threads, bounces, spp, camera, atrous, reflect_depth;
+    double bloom, exposure_bias;
+    pl_param_set params; /* the denoiser's parameters given (pl_param) */
+    unsigned frames, start, threads, bounces, spp, camera, reflect_depth;
     unsigned ref_bounces; /* reference: bounces per path (0: full paths, unbiased; ~0: not given) */
     const char *estimator; /* reference: "unbiased" or "realtime" (a matched reference) */
     double until_noise;    /* reference: stop a frame once its mean relative error is below */
@@ -130,20 +143,28 @@ typedef struct app_render_opts {
     const app_view_state *view; /* --view FILE: its settings and camera path */
     const char *shard;          /* reference --shard I/N */
     unsigned timed_frames;      /* render: frames after the written ones, back to back, timed */
+    bool quiet;                 /* no progress or messages (as --quiet, for this call only) */
 } app_render_opts;
+/* `tandem render` (reference: `tandem reference`) with these options: what the commands run
+ * after parsing, and what the sweep and compare call. Options checked as the command line's;
+ * returns the exit status. */
+int app_render(const app_render_opts *o, bool reference);
 struct pl_frontend;
 struct pl_chain;
 struct cmp_desc;
 /* The front-end and the chain as render builds them from its options (the post chain's settings
- * into *pd); dmode may turn svgf where the front-end cannot re-shade (said on stderr). */
+ * into *pd); *dn (o->denoiser's registry entry) becomes what runs: its fallback where the
+ * front-end cannot re-shade (said on stderr). The parameters the denoiser has go to it. */
 tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, tnd_vk *vk,
-                             bool use_vk, bool use_dn, tnd_precision prec, dn_mode *dmode,
-                             const char *dn_plugin, bool reference, struct pl_frontend **fr,
+                             bool use_vk, bool use_dn, tnd_precision prec,
+                             const pl_denoiser_info **dn, bool reference, struct pl_frontend **fr,
                              struct pl_chain **chain, struct cmp_desc *pd);
-
-/* --denoiser: asvgf, svgf, off, or plugin:PATH (then *plugin is PATH and *mode off: the
- * back-end composites the noisy radiance the plugin may read). */
-tnd_result app_denoiser_parse(const char *s, dn_mode *mode, const char **plugin);
+/* "The other denoiser" of a comparison (the viewer's split): a denoiser's fallback, or the one
+ * whose fallback it is, or the first that filters without gradient samples. */
+const pl_denoiser_info *app_denoiser_other(const pl_denoiser_info *d);
+/* One frame's times as timings.json entry members (", \"KEY\": MS" for each of the chain's
+ * passes, and the `beside` flag after the pass that has it). */
+void app_timings_members(FILE *f, const struct pl_chain *chain, const pl_step_result *r);
 /* Remove a directory and the files in it (no subdirectories): an output left by a failed run. */
 bool app_remove_flat_dir(const char *dir);
 /* tandem info --capture DIR [--map M] [--json] (app/capture_info.c). */

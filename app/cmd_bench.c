@@ -22,11 +22,12 @@ static const app_cmd bench_cmd = {
     "With --frontend vk --denoiser MODE: the real-time frame back to back over the camera\n"
     "path (front-end, gradient samples, back-end), GPU ms per pass, the bytes each pass must\n"
     "move and the fraction of the device's measured copy bandwidth it reaches.",
-    "[--scene PATH] [--frontend embree|vk] [--denoiser asvgf|svgf|off] [--size WxH] "
+    "[--scene PATH] [--frontend NAME] [--denoiser NAME] [--size WxH] "
     "[--repeats N] [--json]",
     NULL};
 
-static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsigned frame,
+static tnd_result bench_vk(const tnd_scene *s, const char *fe_name, const tnd_scene_state *st,
+                           unsigned frame,
                            const unsigned size[2], unsigned bounces, unsigned repeats,
                            const char *rt_api, bool full, pl_bench *b, double *t_build)
 {
@@ -40,7 +41,7 @@ static tnd_result bench_vk(const tnd_scene *s, const tnd_scene_state *st, unsign
     }
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
     double t0 = tnd_now();
-    TND_TRY(pl_frontend_create("vk", s,
+    TND_TRY(pl_frontend_create(fe_name, s,
                                &(pl_frontend_desc){.vk = &vk, .rt_api = rt_api,
                                                    .full_pipeline = full},
                                &gv));
@@ -67,51 +68,53 @@ fail:
     return res;
 }
 
-enum { BP_PRIMARY, BP_SHADE, BP_GSHADE, BP_SELECT, BP_GRAD, BP_TEMPORAL, BP_LF, BP_ATROUS,
-       BP_COMPOSITE, BP_WALL, BP_COUNT };
-static const char *const bp_name[BP_COUNT] = {
-    "primary", "shade", "gradient_shade", "denoise_select", "denoise_gradient",
-    "denoise_temporal", "denoise_lf", "denoise_atrous", "composite", "frame_wall"};
-
 /* The real-time frame back to back: no file is written between frames, so the GPU stays busy
- * (and its clocks up) as in an application. */
-static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, unsigned frame,
+ * (and its clocks up) as in an application. Every pass of the chain (pl_chain_passes: the
+ * front-end's and the denoiser's) and the wall clock per frame; the denoiser's passes against
+ * their bandwidth floor. */
+static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, const char *fe_name,
+                                 unsigned frame,
                                  const unsigned size[2], unsigned bounces, unsigned repeats,
-                                 const char *rt_api, bool full, dn_mode mode, tnd_precision prec,
-                                 bool json, bool per_dispatch)
+                                 const char *rt_api, bool full, const char *denoiser,
+                                 tnd_precision prec, bool json, bool per_dispatch)
 {
     tnd_result res = TND_OK;
     tnd_vk vk = {0};
     pl_frontend *gv = NULL;
     pl_chain *chain = NULL;
-    dn_context *dn = NULL; /* (the chain's) */
+    dn_context *dn = NULL; /* (the chain's, for the built-in back-end's per-dispatch times) */
     tnd_scene_state st[2] = {{0}};
-    enum { WARM = 3 };
-    double *v[BP_COUNT] = {0}, *dv = NULL; /* dv: per dispatch (--per-dispatch) */
-    bool lf_beside = false; /* the back-end ran the lf filter beside the a-trous */
-    for (int k = 0; k < BP_COUNT; k++)
-        if (!(v[k] = calloc(repeats, sizeof(double)))) {
-            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
-            goto fail;
-        }
+    enum { WARM = 3, MAXP = 32 };
+    const pl_pass *pass[MAXP];
+    uint32_t np = 0, nfe = 0; /* passes; the front-end's come first */
+    double *v[MAXP + 1] = {0}, *dv = NULL; /* v[np]: the wall clock; dv: per dispatch */
+    bool beside = false; /* the denoiser ran a pass beside another (timed with it) */
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
-    TND_TRY(pl_frontend_create("vk", s,
+    TND_TRY(pl_frontend_create(fe_name, s,
                                &(pl_frontend_desc){.vk = &vk, .precision = prec, .rt_api = rt_api,
                                                    .full_pipeline = full},
                                &gv));
     TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = size[0], .height = size[1],
                                              .precision = prec, .backend = true,
-                                             .denoise = {.mode = mode,
-                                                         .dispatch_timing = per_dispatch},
+                                             .denoiser = denoiser,
+                                             .denoise = {.dispatch_timing = per_dispatch},
                                              .no_post = true},
                             &chain));
     dn = pl_chain_denoiser(chain);
+    np = pl_chain_passes(chain, pass, MAXP); /* (no post chain: the denoiser's come last) */
+    nfe = np - pl_chain_denoiser_info(chain)->npasses;
+    for (uint32_t k = 0; k <= np; k++)
+        if (!(v[k] = calloc(repeats, sizeof(double)))) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+            goto fail;
+        }
     /* per dispatch (--per-dispatch): times of each dispatch over the timed frames, when the
      * sequence of dispatches is the same every frame (it is after the first) */
     enum { MAXD = TND_TIMER_MAX_PASSES };
     const char *dnames[MAXD] = {0};
     uint32_t nd = 0;
     bool d_same = true;
+    per_dispatch = per_dispatch && dn;
     if (per_dispatch && !(dv = calloc((size_t)MAXD * repeats, sizeof(double)))) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
         goto fail;
@@ -130,59 +133,70 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
                         .frame = dn_frame_for_camera(cur->camera.proj, size[1], f, i == 0)};
         pl_step_result pr;
         TND_TRY(pl_chain_run(chain, gv, &step, NULL, NULL, &pr));
-        const pl_timings tm = pr.fe, tg = pr.fe;
-        const dn_timings dt = pr.dn;
-        double wall = 1e3 * (tnd_now() - t0);
-        lf_beside = dt.lf_beside_atrous;
+        double wall = 1e3 * (tnd_now() - t0), ms[MAXP];
+        beside = pr.beside;
         if (i < WARM)
             continue;
-        const double x[BP_COUNT] = {tm.primary_ms,   tm.shade_ms,    tg.gradient_ms, dt.select_ms,
-                                    dt.gradient_ms,  dt.temporal_ms, dt.lf_ms,       dt.atrous_ms,
-                                    dt.composite_ms, wall};
-        for (int k = 0; k < BP_COUNT; k++)
-            v[k][i - WARM] = x[k];
+        pl_step_times(chain, &pr, ms);
+        for (uint32_t k = 0; k < np; k++)
+            v[k][i - WARM] = ms[k];
+        v[np][i - WARM] = wall;
         if (per_dispatch) {
             const char *nm[MAXD];
-            double ms[MAXD];
-            uint32_t n_now = dn_dispatch_times(dn, nm, ms, MAXD);
+            double dms[MAXD];
+            uint32_t n_now = dn_dispatch_times(dn, nm, dms, MAXD);
             if (i == WARM) {
                 nd = n_now;
                 memcpy(dnames, nm, n_now * sizeof *nm);
             }
             d_same = d_same && n_now == nd && memcmp(nm, dnames, nd * sizeof *nm) == 0;
             for (uint32_t k = 0; k < nd && d_same; k++)
-                dv[(size_t)k * repeats + (i - WARM)] = ms[k];
+                dv[(size_t)k * repeats + (i - WARM)] = dms[k];
         }
     }
+    /* the bytes the denoiser's passes move at the least; a pass run beside another is timed
+     * with it, and its bytes go there */
+    double bytes[MAXP] = {0}, dbytes[PL_DN_MAX_PASSES];
+    pl_chain_traffic(chain, dbytes);
+    char name[MAXP][64], label[MAXP][96]; /* timings.json's key without _ms; the table's */
+    for (uint32_t k = 0; k < np; k++) {
+        snprintf(name[k], sizeof name[k], "%.*s", (int)strlen(pass[k]->key) - 3, pass[k]->key);
+        snprintf(label[k], sizeof label[k], "%s", name[k]);
+        if (k >= nfe)
+            bytes[k] = dbytes[k - nfe];
+    }
+    for (uint32_t k = nfe; beside && k < np; k++)
+        for (uint32_t j = nfe; pass[k]->beside && j < np; j++)
+            if (strcmp(pass[j]->name, pass[k]->beside) == 0) {
+                bytes[j] += bytes[k];
+                bytes[k] = 0;
+                snprintf(label[j] + strlen(label[j]), sizeof label[j] - strlen(label[j]), "+%s",
+                         pass[k]->name);
+            }
+    double traffic = 0;
+    for (uint32_t k = nfe; k < np; k++)
+        traffic += bytes[k];
     /* the copy bandwidth, measured now that the GPU is warm: 8x the back-end's traffic per
      * frame, between 64 MiB and 1 GiB (larger than any cache) */
-    dn_traffic tr;
-    dn_traffic_of(dn, &tr);
-    double traffic = tr.select + tr.gradient + tr.temporal + tr.lf + tr.atrous + tr.composite;
     double copy_mib = fmin(1024.0, fmax(64.0, 8.0 * traffic / (1 << 20)));
     double transfer_bw = 0, compute_bw = 0;
     TND_TRY(app_bandwidth(&vk, (VkDeviceSize)copy_mib << 20, 9, &transfer_bw, &compute_bw));
     double bandwidth = fmax(transfer_bw, compute_bw); /* the floor: the faster of the two */
-    double med[BP_COUNT];
-    for (int k = 0; k < BP_COUNT; k++)
+    double med[MAXP + 1];
+    for (uint32_t k = 0; k <= np; k++)
         med[k] = app_median(v[k], repeats);
-    /* with the lf filter beside the a-trous, one time covers both */
-    const double bytes[BP_COUNT] = {0, 0, 0, tr.select, tr.gradient, tr.temporal,
-                                    lf_beside ? 0 : tr.lf, tr.atrous + (lf_beside ? tr.lf : 0),
-                                    tr.composite, 0};
-    const char *name[BP_COUNT];
-    memcpy(name, bp_name, sizeof name);
-    if (lf_beside)
-        name[BP_LF] = "denoise_lf (beside)", name[BP_ATROUS] = "denoise_atrous+lf";
     double backend = 0, backend_bytes = 0;
-    for (int k = BP_SELECT; k <= BP_COMPOSITE; k++)
+    for (uint32_t k = nfe; k < np; k++)
         backend += med[k], backend_bytes += bytes[k];
+    /* beside: the pass ran beside another and is timed with it */
+#define IS_BESIDE(k) (beside && pass[k]->beside && (k) >= nfe)
     /* floor: bytes / bandwidth, in ms */
 #define FLOOR(b) (bandwidth > 0 ? (b) / (bandwidth * 1e9) * 1e3 : 0.0)
+    const char *dn_name = pl_chain_denoiser_info(chain)->name;
     if (json) {
         cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "frontend", "vk");
-        cJSON_AddStringToObject(o, "denoiser", dn_mode_name(mode));
+        cJSON_AddStringToObject(o, "frontend", fe_name);
+        cJSON_AddStringToObject(o, "denoiser", dn_name);
         cJSON_AddStringToObject(o, "precision", tnd_precision_name(prec));
         cJSON_AddStringToObject(o, "scene", scene_path);
         cJSON_AddStringToObject(o, "frontend_models", pl_frontend_models(gv));
@@ -195,14 +209,19 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         cJSON_AddNumberToObject(o, "transfer_copy_gb_per_s", transfer_bw);
         cJSON_AddNumberToObject(o, "compute_copy_gb_per_s", compute_bw);
         cJSON_AddNumberToObject(o, "copy_mib", copy_mib);
-        cJSON_AddBoolToObject(o, "lf_beside_atrous", lf_beside);
+        for (uint32_t k = nfe; k < np; k++)
+            if (pass[k]->beside) { /* e.g. "lf_beside_atrous" */
+                char key[128];
+                snprintf(key, sizeof key, "%s_beside_%s", pass[k]->name, pass[k]->beside);
+                cJSON_AddBoolToObject(o, key, beside);
+            }
         cJSON *passes = cJSON_AddObjectToObject(o, "passes");
-        for (int k = 0; k < BP_COUNT; k++) {
-            if (k == BP_LF && lf_beside)
-                continue; /* in denoise_atrous */
-            cJSON *q = cJSON_AddObjectToObject(passes, bp_name[k]);
+        for (uint32_t k = 0; k <= np; k++) {
+            if (k < np && IS_BESIDE(k))
+                continue; /* in the pass it ran beside */
+            cJSON *q = cJSON_AddObjectToObject(passes, k < np ? name[k] : "frame_wall");
             cJSON_AddNumberToObject(q, "median_ms", med[k]);
-            if (bytes[k] > 0) {
+            if (k < np && bytes[k] > 0) {
                 cJSON_AddNumberToObject(q, "bytes", bytes[k]);
                 cJSON_AddNumberToObject(q, "floor_ms", FLOOR(bytes[k]));
             }
@@ -224,8 +243,8 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         free(txt);
         cJSON_Delete(o);
     } else {
-        printf("bench vk + %s (%s contract): %s, %ux%u, 1 spp, %u bounce%s, %u frames back to "
-               "back\n", dn_mode_name(mode), tnd_precision_name(prec), scene_path, size[0],
+        printf("bench %s + %s (%s contract): %s, %ux%u, 1 spp, %u bounce%s, %u frames back to "
+               "back\n", fe_name, dn_name, tnd_precision_name(prec), scene_path, size[0],
                size[1], bounces, bounces == 1 ? "" : "s", repeats);
         printf("  device %s; copy bandwidth (%.0f MiB, bytes read + written): compute copy %.0f "
                "GB/s, vkCmdCopyBuffer %.0f GB/s\n",
@@ -233,14 +252,15 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         printf("  front-end shaders model: %s\n", pl_frontend_models(gv));
         printf("  %-18s %9s %10s %9s %8s\n", "pass", "GPU ms", "MB moved", "floor ms",
                "of floor");
-        for (int k = 0; k < BP_COUNT; k++) {
-            if (k == BP_LF && lf_beside)
-                printf("  %-18s %9s   (runs beside the a-trous, timed with it)\n", "denoise_lf", "-");
-            else if (k == BP_WALL)
+        for (uint32_t k = 0; k <= np; k++) {
+            if (k == np)
                 printf("  %-18s %9.3f   (wall clock per frame, host work and the gradient "
                        "round trip included)\n", "frame", med[k]);
+            else if (IS_BESIDE(k))
+                printf("  %-18s %9s   (runs beside the %s, timed with it)\n", name[k], "-",
+                       pass[k]->beside);
             else if (bytes[k] > 0)
-                printf("  %-18s %9.3f %10.1f %9.3f %7.0f%%\n", name[k], med[k],
+                printf("  %-18s %9.3f %10.1f %9.3f %7.0f%%\n", label[k], med[k],
                        bytes[k] / 1e6, FLOOR(bytes[k]),
                        med[k] > 0 ? 100.0 * FLOOR(bytes[k]) / med[k] : 0.0);
             else
@@ -261,9 +281,10 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, uns
         }
     }
 #undef FLOOR
+#undef IS_BESIDE
 fail:
     free(dv);
-    for (int k = 0; k < BP_COUNT; k++)
+    for (uint32_t k = 0; k <= MAXP; k++)
         free(v[k]);
     tnd_scene_state_free(&st[0]);
     tnd_scene_state_free(&st[1]);
@@ -279,34 +300,9 @@ fail:
  * without waiting for the previous one. Blocks of frames take turns (noise on these machines
  * drifts in minutes); each way has its own front-end and chain, so histories do not mix. */
 enum { OV_HOST, OV_GPU, OV_NO_WAIT, OV_COUNT };
-/* The whole frame's passes and the four groups #29's table reports them in. */
-enum { WF_FRONTEND, WF_GRADIENTS, WF_BACKEND, WF_POST, WF_GROUPS };
-static const char *const wf_group[WF_GROUPS] = {"front-end", "gradients", "back-end", "post"};
-static const struct {
-    const char *name;
-    int group;
-} wf_pass[] = {{"primary", WF_FRONTEND},       {"shade", WF_FRONTEND},
-               {"tlas", WF_FRONTEND},          {"gradient_shade", WF_GRADIENTS},
-               {"select", WF_GRADIENTS},       {"gradient", WF_GRADIENTS},
-               {"temporal", WF_BACKEND},       {"lf", WF_BACKEND},
-               {"atrous", WF_BACKEND},         {"composite", WF_BACKEND},
-               {"interleave", WF_POST},        {"taa", WF_POST},
-               {"bloom", WF_POST},             {"exposure", WF_POST},
-               {"tonemap", WF_POST}};
-enum { WF_PASSES = sizeof wf_pass / sizeof wf_pass[0] };
-
-static void wf_record(const pl_step_result *r, double *pass[WF_PASSES], size_t at)
-{
-    const double v[WF_PASSES] = {r->fe.primary_ms, r->fe.shade_ms, r->fe.tlas_ms,
-                                 r->fe.gradient_ms, r->dn.select_ms, r->dn.gradient_ms,
-                                 r->dn.temporal_ms, r->dn.lf_ms, r->dn.atrous_ms,
-                                 r->dn.composite_ms, r->post.interleave_ms, r->post.taa_ms,
-                                 r->post.bloom_ms, r->post.exposure_ms, r->post.tonemap_ms};
-    for (int k = 0; k < WF_PASSES; k++)
-        pass[k][at] = v[k];
-}
+enum { WF_MAX = 32 }; /* the whole frame's passes (pl_chain_passes), in their groups */
 static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const unsigned size[2],
-                                unsigned bounces, unsigned blocks, dn_mode mode,
+                                unsigned bounces, unsigned blocks, const char *denoiser,
                                 tnd_precision prec, bool json, bool with_host)
 {
     static const char *const ov_name[OV_COUNT] = {"host_contract_blocking", "gpu_contract_blocking",
@@ -321,7 +317,9 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
     const int m0 = with_host ? OV_HOST : OV_GPU; /* the ways run */
     /* the GPU-contract way's passes, frame by frame (its frames are waited for: their
      * timestamps are the frame's own) */
-    double *pass[WF_PASSES] = {0};
+    double *pass[WF_MAX] = {0};
+    const pl_pass *wf[WF_MAX];
+    uint32_t nwf = 0;
     /* the frames not waited for: host ms in scene evaluation, the front-end's set_frame, and
      * pl_chain_run (recording, submission, and any wait for the frame before) */
     static const char *const host_name[3] = {"evaluate", "set_frame", "chain_run"};
@@ -336,11 +334,6 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
             goto fail;
         }
-    for (int k = 0; k < WF_PASSES; k++)
-        if (!(pass[k] = calloc((size_t)blocks * BLOCK, sizeof(double)))) {
-            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
-            goto fail;
-        }
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !pl_frontend_needs_gpu(fe_name)}, &vk));
     cmp_desc pd = {.taa = true, .interleave = (s->features & TND_FEATURE(SPLIT)) != 0};
     for (int m = m0; m < OV_COUNT; m++) {
@@ -348,10 +341,16 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
                                    &fe[m]));
         TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = size[0], .height = size[1],
                                                  .precision = prec, .backend = true,
-                                                 .denoise = {.mode = mode}, .post = pd,
+                                                 .denoiser = denoiser, .post = pd,
                                                  .host_contract = m == OV_HOST},
                                 &chain[m]));
     }
+    nwf = pl_chain_passes(chain[OV_GPU], wf, WF_MAX);
+    for (uint32_t k = 0; k < nwf; k++)
+        if (!(pass[k] = calloc((size_t)blocks * BLOCK, sizeof(double)))) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+            goto fail;
+        }
     float aspect = (float)size[0] / size[1];
     for (unsigned b = 0; b < WARM + blocks; b++)
         for (int m = m0; m < OV_COUNT; m++) {
@@ -371,8 +370,12 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
                                 .no_wait = m == OV_NO_WAIT};
                 pl_step_result pr = {0};
                 TND_TRY(pl_chain_run(chain[m], fe[m], &step, NULL, NULL, &pr));
-                if (m == OV_GPU && b >= WARM)
-                    wf_record(&pr, pass, (size_t)(b - WARM) * BLOCK + i);
+                if (m == OV_GPU && b >= WARM) {
+                    double t[WF_MAX];
+                    pl_step_times(chain[m], &pr, t);
+                    for (uint32_t k = 0; k < nwf; k++)
+                        pass[k][(size_t)(b - WARM) * BLOCK + i] = t[k];
+                }
                 if (m == OV_NO_WAIT && b >= WARM) { /* the host's share of a frame */
                     size_t at = (size_t)(b - WARM) * BLOCK + i;
                     host[0][at] = 1e3 * (h1 - h0);
@@ -384,12 +387,12 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
             if (b >= WARM)
                 ms[m][b - WARM] = 1e3 * (tnd_now() - t0) / BLOCK;
         }
-    double med[OV_COUNT], pmed[WF_PASSES], group[WF_GROUPS] = {0}, gpu = 0;
+    double med[OV_COUNT], pmed[WF_MAX], group[PL_GROUPS] = {0}, gpu = 0;
     for (int m = m0; m < OV_COUNT; m++)
         med[m] = app_median(ms[m], blocks);
-    for (int k = 0; k < WF_PASSES; k++) {
+    for (uint32_t k = 0; k < nwf; k++) {
         pmed[k] = app_median(pass[k], blocks * BLOCK);
-        group[wf_pass[k].group] += pmed[k];
+        group[wf[k]->group] += pmed[k];
         gpu += pmed[k];
     }
     char who[300];
@@ -398,7 +401,7 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "frontend", fe_name);
         cJSON_AddStringToObject(o, "device", who);
-        cJSON_AddStringToObject(o, "denoiser", dn_mode_name(mode));
+        cJSON_AddStringToObject(o, "denoiser", pl_chain_denoiser_info(chain[OV_GPU])->name);
         cJSON_AddNumberToObject(o, "width", size[0]);
         cJSON_AddNumberToObject(o, "height", size[1]);
         cJSON_AddNumberToObject(o, "frames_per_block", BLOCK);
@@ -410,10 +413,10 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
             cJSON_AddNumberToObject(o, "no_wait_over_host", med[OV_NO_WAIT] / med[OV_HOST]);
         }
         cJSON *g = cJSON_AddObjectToObject(o, "gpu_ms"); /* medians per pass, and their sums */
-        for (int k = 0; k < WF_PASSES; k++)
-            cJSON_AddNumberToObject(g, wf_pass[k].name, pmed[k]);
-        for (int k = 0; k < WF_GROUPS; k++)
-            cJSON_AddNumberToObject(g, wf_group[k], group[k]);
+        for (uint32_t k = 0; k < nwf; k++)
+            cJSON_AddNumberToObject(g, wf[k]->name, pmed[k]);
+        for (int k = 0; k < PL_GROUPS; k++)
+            cJSON_AddNumberToObject(g, pl_pass_group_name(k), group[k]);
         cJSON_AddNumberToObject(g, "frame", gpu);
         cJSON *h = cJSON_AddObjectToObject(o, "host_ms_not_waited");
         for (int k = 0; k < 3; k++)
@@ -425,16 +428,17 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
     } else {
         printf("bench %s: %s, %ux%u, %s, %s (wall ms per frame, medians of %u blocks of "
                "%d frames taking turns)\n",
-               with_host ? "--overlap" : "--whole-frame", who, size[0], size[1], dn_mode_name(mode), tnd_precision_name(prec), blocks, BLOCK);
+               with_host ? "--overlap" : "--whole-frame", who, size[0], size[1], pl_chain_denoiser_info(chain[OV_GPU])->name,
+               tnd_precision_name(prec), blocks, BLOCK);
         for (int m = m0; m < OV_COUNT; m++)
             printf("  %-24s %9.3f ms  %5.3fx\n", ov_name[m], med[m], med[m] / med[m0]);
         printf("  GPU ms per pass (medians of %u frames, contract on the GPU, each frame waited "
                "for; the front-end's are CPU wall clock with embree):\n", blocks * BLOCK);
-        for (int k = 0; k < WF_GROUPS; k++) {
-            printf("    %-10s %8.3f  (", wf_group[k], group[k]);
-            for (int j = 0, n = 0; j < WF_PASSES; j++)
-                if (wf_pass[j].group == k)
-                    printf("%s%s %.3f", n++ ? ", " : "", wf_pass[j].name, pmed[j]);
+        for (int k = 0; k < PL_GROUPS; k++) {
+            printf("    %-10s %8.3f  (", pl_pass_group_name(k), group[k]);
+            for (uint32_t j = 0, n = 0; j < nwf; j++)
+                if (wf[j]->group == (pl_pass_group)k)
+                    printf("%s%s %.3f", n++ ? ", " : "", wf[j]->name, pmed[j]);
             printf(")\n");
         }
         printf("    %-10s %8.3f\n", "frame", gpu);
@@ -449,7 +453,7 @@ fail:
         pl_frontend_destroy(fe[m]);
         free(ms[m]);
     }
-    for (int k = 0; k < WF_PASSES; k++)
+    for (int k = 0; k < WF_MAX; k++)
         free(pass[k]);
     for (int k = 0; k < 3; k++)
         free(host[k]);
@@ -533,9 +537,13 @@ int cmd_bench(int argc, char **argv)
     }
     if (npos)
         out = pos[0];
-    bool use_vk = strcmp(frontend, "vk") == 0;
-    if (strcmp(frontend, "embree") != 0 && !use_vk) {
-        fprintf(stderr, "tandem bench: --frontend '%s': expected embree or vk\n", frontend);
+    /* a GPU front-end is timed on the rays the CPU one counts; a CPU one benchmarks itself */
+    uint32_t fe_caps = pl_frontend_caps_of(frontend);
+    bool use_vk = (fe_caps & PL_CAP_GPU_CONTRACT) != 0;
+    if (!use_vk && !(fe_caps & PL_CAP_BENCHMARK)) {
+        fprintf(stderr, "tandem bench: --frontend '%s': expected a registered front-end that "
+                        "fills the contract on the GPU or benchmarks its rays (%s)\n",
+                frontend, pl_frontend_live_names());
         return APP_EXIT_USAGE;
     }
     if (strcmp(pipeline, "scene") != 0 && strcmp(pipeline, "full") != 0) {
@@ -551,10 +559,10 @@ int cmd_bench(int argc, char **argv)
     if (sweeps.n)
         return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup, timed, emit,
                          ref_shards ? ref_shards : frames < 64 ? frames : 64);
+    const pl_denoiser_info *dn = NULL;
     if (overlap || whole_frame) {
-        dn_mode mode;
         tnd_precision prec;
-        if ((res = dn_mode_parse(denoiser ? denoiser : "svgf", &mode)) != TND_OK ||
+        if ((res = pl_denoiser_find(denoiser ? denoiser : "svgf", &dn)) != TND_OK ||
             (res = tnd_precision_parse(precision, &prec)) != TND_OK) {
             app_report("bench", res);
             return APP_EXIT_USAGE;
@@ -562,7 +570,8 @@ int cmd_bench(int argc, char **argv)
         tnd_scene *sc = NULL;
         res = app_scene_load(scene_path, &env, &sc);
         if (res == TND_OK)
-            res = bench_overlap(sc, frontend, size, bounces, repeats, mode, prec, json, overlap);
+            res = bench_overlap(sc, frontend, size, bounces, repeats, denoiser ? denoiser : "svgf",
+                                prec, json, overlap);
         tnd_scene_destroy(sc);
         if (res != TND_OK) {
             app_report("bench", res);
@@ -571,14 +580,13 @@ int cmd_bench(int argc, char **argv)
         return APP_EXIT_OK;
     }
     if (denoiser) {
-        dn_mode mode;
         tnd_precision prec;
         if (!use_vk) {
             fprintf(stderr, "tandem bench: --denoiser needs --frontend vk (the back-end runs on the "
                             "GPU; back-to-back timings of the CPU front-end are `tandem bench`'s)\n");
             return APP_EXIT_USAGE;
         }
-        if ((res = dn_mode_parse(denoiser, &mode)) != TND_OK ||
+        if ((res = pl_denoiser_find(denoiser, &dn)) != TND_OK ||
             (res = tnd_precision_parse(precision, &prec)) != TND_OK) {
             app_report("bench", res);
             return APP_EXIT_USAGE;
@@ -586,8 +594,8 @@ int cmd_bench(int argc, char **argv)
         tnd_scene *sc = NULL;
         res = app_scene_load(scene_path, &env, &sc);
         if (res == TND_OK)
-            res = bench_pipeline(sc, scene_path, frame, size, bounces, repeats, rt_api, full,
-                                 mode, prec, json, per_dispatch);
+            res = bench_pipeline(sc, scene_path, frontend, frame, size, bounces, repeats, rt_api,
+                                 full, denoiser, prec, json, per_dispatch);
         tnd_scene_destroy(sc);
         if (res != TND_OK) {
             app_report("bench", res);
@@ -617,7 +625,7 @@ int cmd_bench(int argc, char **argv)
     if (use_vk) {
         /* the GPU traces exactly the rays the Embree front-end counted (same random numbers,
          * same decisions): time its passes with timestamps, medians after a warm-up */
-        TND_TRY(bench_vk(s, &st, frame, size, bounces, repeats, rt_api, full, &b, &t_build));
+        TND_TRY(bench_vk(s, frontend, &st, frame, size, bounces, repeats, rt_api, full, &b, &t_build));
     }
     /* Embree: the frame as its render sweeps it (both passes batch by batch); the GPU: its two
      * passes' timestamps */

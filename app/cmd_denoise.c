@@ -16,13 +16,17 @@ static const app_cmd denoise_cmd = {
     "denoise",
     "Run the denoising back-end on a captured EXR sequence (Tandem's captures, or another\n"
     "renderer's through --map) and write the denoised frames.",
-    "--captures DIR --out DIR [--map MAPPING.json] [--denoiser asvgf|svgf|off] [--dump LIST]", NULL};
+    "--captures DIR --out DIR [--map MAPPING.json] [--denoiser NAME] [--dump LIST]", NULL};
 
 int cmd_denoise(int argc, char **argv)
 {
     const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf", *dump = NULL;
     const char *taa = "on";
     double yfov_deg = 40.0;
+    char dn_help[300];
+    snprintf(dn_help, sizeof dn_help,
+             "the denoiser: %s or plugin:PATH.so (default asvgf; one that needs gradient samples "
+             "runs as its fallback on captures without them)", pl_denoiser_names());
     const app_opt opts[] = {
         {"captures", APP_OPT_STRING, &captures, "DIR",
          "directory of frame_NNNN.exr (or DIR/capture; another renderer's with --map)"},
@@ -30,9 +34,7 @@ int cmd_denoise(int argc, char **argv)
         {"map", APP_OPT_STRING, &map_path, "JSON", "channel mapping for other renderers' EXRs"},
         {"dump", APP_OPT_STRING, &dump, "LIST",
          "also write back-end buffers to DIR/dump/NAME_NNNN.exr (names: see tandem render --help)"},
-        {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
-         "asvgf (default; as svgf on captures without gradient samples), svgf, off or "
-         "plugin:PATH.so"},
+        {"denoiser", APP_OPT_STRING, &denoiser, "NAME", dn_help},
         {"taa", APP_OPT_STRING, &taa, "on|off|W",
          "temporal anti-aliasing of the output (on: new-frame weight 0.1; off: the composite "
          "itself)"},
@@ -40,9 +42,13 @@ int cmd_denoise(int argc, char **argv)
          "vertical field of view for captures without camera matrices (default 40)"},
         {0},
     };
+    app_opt with_params[32]; /* and the denoisers' parameters (pl_param) */
+    double param_vals[PL_PARAMS_MAX];
+    if (!app_opts_with_params(opts, with_params, 32, param_vals))
+        return APP_EXIT_FAIL;
     const char *pos[1];
     int npos;
-    int rc = app_parse(&denoise_cmd, opts, argc, argv, pos, 0, &npos);
+    int rc = app_parse(&denoise_cmd, with_params, argc, argv, pos, 0, &npos);
     if (rc >= 0)
         return rc;
     if (!captures || !out) {
@@ -50,11 +56,12 @@ int cmd_denoise(int argc, char **argv)
         return APP_EXIT_USAGE;
     }
     tnd_result res = TND_OK;
-    dn_mode mode;
-    const char *dn_plugin = NULL; /* --denoiser plugin:PATH */
-    if ((res = app_denoiser_parse(denoiser, &mode, &dn_plugin)) != TND_OK)
+    const pl_denoiser_info *dn;
+    pl_param_set params = {0};
+    if ((res = pl_denoiser_find(denoiser, &dn)) != TND_OK ||
+        (res = app_params_collect(param_vals, &params)) != TND_OK)
         return app_report("denoise", res);
-    if (dn_plugin && dump)
+    if (dump && !(dn->caps & PL_DN_DUMPS))
         return app_report("denoise", tnd_fail(TND_ERR_INVALID_ARGUMENT,
                                               "--dump shows the back-end's buffers: with a "
                                               "denoiser plugin they are not the denoiser's"));
@@ -67,9 +74,6 @@ int cmd_denoise(int argc, char **argv)
     cmp_desc post_d = {0};
     if ((res = app_taa_parse(taa, &post_d)) != TND_OK)
         return app_report("denoise", res);
-    /* A-SVGF re-shades its gradient samples with a front-end: it runs on captures that keep
-     * them (tandem render --capture --denoiser asvgf), and as svgf on the others */
-    bool asked_asvgf = mode == DN_MODE_ASVGF;
     char path[2300];
     tnd_capture_map *map = NULL;
     pl_frontend *rp = NULL; /* the captures, replayed as a front-end */
@@ -100,23 +104,29 @@ int cmd_denoise(int argc, char **argv)
     app_progress bar;
     app_progress_begin(&bar, "denoise", (unsigned)n);
     pl_frontend_recorded(rp, &w, &h, &prec, &split);
-    if (asked_asvgf && !(pl_frontend_caps(rp) & PL_CAP_RESHADE)) {
-        mode = DN_MODE_SVGF;
-        if (!app_quiet())
-            fprintf(stderr,
-                    "tandem: denoise: %s: running as svgf: the capture carries no gradient "
-                    "samples (A-SVGF needs a front-end to re-shade them: tandem render --capture "
-                    "--denoiser asvgf keeps them)\n",
-                    pl_frontend_frame_name(rp, 0));
-    }
+    /* A denoiser that needs re-shaded gradient samples (A-SVGF) runs on captures that keep them
+     * (tandem render --capture --denoiser asvgf), and as its fallback on the others */
+    const pl_denoiser_info *asked = dn;
+    dn = pl_denoiser_for(asked, pl_frontend_caps(rp));
+    if (dn != asked && !app_quiet())
+        fprintf(stderr,
+                "tandem: denoise: %s: running as %s: the capture carries no gradient samples (%s "
+                "needs a front-end to re-shade them: tandem render --capture --denoiser %s keeps "
+                "them)\n",
+                pl_frontend_frame_name(rp, 0), dn->name, asked->name, asked->name);
+    const char *dn_name = dn->caps & PL_DN_PLUGIN ? denoiser : dn->name;
+    pl_param_set own = {0}; /* the parameters it has */
+    for (uint32_t i = 0; i < params.n; i++)
+        if (pl_denoiser_has_param(dn, params.param[i]->name))
+            TND_TRY(pl_param_set_put(&own, params.param[i]->name, params.value[i]));
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
     /* the post chain with render's defaults (auto exposure, ACES), TAA as asked, the interleave
      * when the captures carry split paths (the first frame says) */
     post_d.interleave = split;
     TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = w, .height = h,
                                              .precision = prec, .backend = true,
-                                             .denoise = {.mode = mode}, .post = post_d,
-                                             .denoiser_plugin = dn_plugin},
+                                             .denoiser = dn_name, .params = own,
+                                             .post = post_d},
                             &chain));
     rgb = malloc((size_t)w * h * 3 * sizeof *rgb);
     display = malloc((size_t)w * h * 3);
@@ -138,7 +148,7 @@ int cmd_denoise(int argc, char **argv)
         goto fail;
     }
     fprintf(timings, "{\n  \"denoiser\": \"%s\",\n  \"device\": \"%s\",\n  \"frames\": [",
-            dn_plugin ? denoiser : dn_mode_name(mode), vk.info.name);
+            dn_name, vk.info.name);
     for (size_t i = 0; i < n; i++) {
         const char *name = pl_frontend_frame_name(rp, (uint32_t)i);
         app_dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
@@ -152,16 +162,9 @@ int cmd_denoise(int argc, char **argv)
                         .user = &dc};
         pl_step_result pr;
         TND_TRY(pl_chain_run(chain, rp, &step, rgb, display, &pr));
-        const dn_timings tm = pr.dn;
-        const cmp_timings pt = pr.post;
-        fprintf(timings,
-                "%s\n    {\"file\": \"%s\", \"denoise_temporal_ms\": %.4f, "
-                "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, \"denoise_lf_beside_atrous\": %s, "
-                "\"composite_ms\": %.4f, "
-                "\"taa_ms\": %.4f, \"exposure_ms\": %.4f, \"tonemap_ms\": %.4f}",
-                i ? "," : "", name, tm.temporal_ms, tm.lf_ms, tm.atrous_ms,
-                tm.lf_beside_atrous ? "true" : "false", tm.composite_ms,
-                pt.taa_ms, pt.exposure_ms, pt.tonemap_ms);
+        fprintf(timings, "%s\n    {\"file\": \"%s\"", i ? "," : "", name);
+        app_timings_members(timings, chain, &pr); /* every pass of the chain */
+        fputc('}', timings);
         snprintf(path, sizeof path, "%s/%s", out, name);
         TND_TRY(app_write_rgb_exr(path, rgb, w, h));
         size_t l = strlen(path);
@@ -184,7 +187,7 @@ int cmd_denoise(int argc, char **argv)
     }
     if (!app_quiet())
         fprintf(stderr, "tandem: denoise: %zu frame%s (%s) -> %s/\n", n, n == 1 ? "" : "s",
-                dn_plugin ? denoiser : dn_mode_name(mode), out);
+                dn_name, out);
     status = APP_EXIT_OK;
 fail:
     if (status != APP_EXIT_OK)

@@ -53,13 +53,11 @@ static void apply_view_state(render_opts *o, const app_view_state *v)
     o->env.path = v->env[0] ? v->env : NULL;
     o->env.intensity = v->env_intensity;
     o->env.rotation = v->env_rotation;
-    o->min_alpha = v->min_alpha;
-    o->antilag = v->antilag;
+    o->params = v->params;
     o->exposure_bias = v->exposure_bias;
     o->bloom = v->bloom;
     o->fps = v->fps;
     o->bounces = v->bounces;
-    o->atrous = v->atrous;
     o->camera = v->camera;
     o->size[0] = v->size[0];
     o->size[1] = v->size[1];
@@ -88,10 +86,15 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                        .estimator = "unbiased",
                        .size = {320, 180},
                        .fps = 30.0};
+    char fe_help[200], dn_help[300];
+    snprintf(fe_help, sizeof fe_help, "the front-end: %s (default embree)",
+             pl_frontend_live_names());
+    snprintf(dn_help, sizeof dn_help, "the denoiser: %s, or plugin:PATH.so (default asvgf; "
+             "docs/denoise.md)", pl_denoiser_names());
     const app_opt render_opts_tbl[] = {
         {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},
         {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"},
-        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", "embree (CPU) or vk (Vulkan ray tracing)"},
+        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help},
         {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"},
         {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"},
         {"fps", APP_OPT_FLOAT, &o->fps, "R", "frames per second of the path (default 30)"},
@@ -107,12 +110,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
          "also write back-end buffers to DIR/dump/NAME_NNNN.exr: comma-separated names, or all "
          "(temporal.hf, temporal.moments, temporal.lf_sh, temporal.lf_cocg, temporal.spec, "
          "atrous.hf, atrous.spec, lf.sh, lf.cocg (1/3 res), gradients (1/3 res), output)"},
-        {"denoiser", APP_OPT_STRING, &o->denoiser, "MODE",
-         "asvgf (default: with temporal gradients), svgf or off (noisy composite)"},
-        {"atrous", APP_OPT_UINT, &o->atrous, "N",
-         "a-trous iterations of hf and spec (default 4 and 3; 1 to 5)"},
-        {"min-alpha", APP_OPT_FLOAT, &o->min_alpha, "A",
-         "temporal accumulation: the smallest weight of the new frame, hf/lf/spec (default .02/.01/.01)"},
+        {"denoiser", APP_OPT_STRING, &o->denoiser, "NAME", dn_help},
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API",
          "vk: pipeline, query, or auto (query where the device has it)"},
         {"pipeline", APP_OPT_STRING, &o->pipeline, "scene|full",
@@ -125,9 +123,6 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"bloom", APP_OPT_FLOAT, &o->bloom, "I", "bloom intensity (default 0: off)"},
         {"exposure-bias", APP_OPT_FLOAT, &o->exposure_bias, "STOPS",
          "added to the exposure, auto or fixed (default 0)"},
-        {"antilag", APP_OPT_FLOAT, &o->antilag, "G",
-         "asvgf: the hf antilag gain (how fast history drops where the signal changed; "
-         "default 1)"},
         {"video", APP_OPT_FLAG, &o->video, NULL, "also write DIR/video.mp4 from the PNGs (needs ffmpeg)"},
         {"timed-frames", APP_OPT_UINT, &o->timed_frames, "N",
          "after the frames written, N more of the path back to back (nothing waited for, nothing "
@@ -142,7 +137,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     const app_opt ref_opts_tbl[] = {
         {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},
         {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"},
-        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", "embree (CPU) or vk (Vulkan)"},
+        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help},
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API", "vk: pipeline, query or auto"},
         {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"},
         {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"},
@@ -170,11 +165,21 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         APP_ENV_OPTS(&o->env),
         {0},
     };
+    /* render's options and the denoisers' parameters (pl_param) */
+    app_opt with_params[64];
+    double param_vals[PL_PARAMS_MAX];
+    if (!app_opts_with_params(render_opts_tbl, with_params, 64, param_vals))
+        return APP_EXIT_FAIL;
     const char *pos[1];
     int npos;
-    int rc = app_parse(cmd, reference ? ref_opts_tbl : render_opts_tbl, argc, argv, pos, 0, &npos);
+    int rc = app_parse(cmd, reference ? ref_opts_tbl : with_params, argc, argv, pos, 0, &npos);
     if (rc >= 0)
         return rc;
+    tnd_result pr = reference ? TND_OK : app_params_collect(param_vals, &o->params);
+    if (pr != TND_OK) {
+        app_report(cmd->name, pr);
+        return APP_EXIT_USAGE;
+    }
     if (view_path) {
         tnd_result vr = app_view_state_read(view_path, &view_state);
         if (vr == TND_OK && view_state.path_len == 0)
@@ -185,6 +190,19 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         }
         apply_view_state(o, &view_state);
     }
+    if (reference) { /* --bounces: the estimator's (default 1) or the path length cap (none) */
+        bool rt = strcmp(o->estimator, "realtime") == 0;
+        if (rt)
+            o->bounces = o->ref_bounces == ~0u ? 1 : o->ref_bounces;
+        o->ref_bounces = rt || o->ref_bounces == ~0u ? 0 : o->ref_bounces;
+    }
+    return -1;
+}
+
+/* The options' values checked (render's and reference's, parsed or filled by a caller): -1, or
+ * the exit status after a message. */
+static int check_opts(const app_cmd *cmd, const render_opts *o, bool reference)
+{
     if (!o->out) {
         fprintf(stderr, "tandem %s: --out DIR is required (see tandem %s --help)\n", cmd->name,
                 cmd->name);
@@ -194,18 +212,13 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         fprintf(stderr, "tandem %s: --pipeline %s: expected scene or full\n", cmd->name, o->pipeline);
         return APP_EXIT_USAGE;
     }
-    if (strcmp(o->frontend, "embree") != 0 && strcmp(o->frontend, "vk") != 0 &&
-        (strncmp(o->frontend, "plugin:", 7) != 0 || !o->frontend[7])) {
-        fprintf(stderr, "tandem %s: --frontend '%s': expected embree, vk or plugin:PATH.so\n",
-                cmd->name, o->frontend);
+    if (!pl_frontend_live(o->frontend)) {
+        fprintf(stderr, "tandem %s: --frontend '%s': expected %s\n", cmd->name, o->frontend,
+                pl_frontend_live_names());
         return APP_EXIT_USAGE;
     }
     if (o->reflect_depth > 16) {
         fprintf(stderr, "tandem %s: --reflect-depth is 1 to 16\n", cmd->name);
-        return APP_EXIT_USAGE;
-    }
-    if (o->atrous > 5 || (o->min_alpha != 0 && !(o->min_alpha > 0 && o->min_alpha <= 1))) {
-        fprintf(stderr, "tandem %s: --atrous is 1 to 5, --min-alpha in (0, 1]\n", cmd->name);
         return APP_EXIT_USAGE;
     }
     if (o->timed_frames && o->view) { /* (its camera path ends with the frames written) */
@@ -226,12 +239,6 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     if (reference && (o->until_noise < 0 || o->until_noise >= 1)) {
         fprintf(stderr, "tandem %s: --until-noise is a fraction in (0, 1)\n", cmd->name);
         return APP_EXIT_USAGE;
-    }
-    if (reference) { /* --bounces: the estimator's (default 1) or the path length cap (none) */
-        bool rt = strcmp(o->estimator, "realtime") == 0;
-        if (rt)
-            o->bounces = o->ref_bounces == ~0u ? 1 : o->ref_bounces;
-        o->ref_bounces = rt || o->ref_bounces == ~0u ? 0 : o->ref_bounces;
     }
     if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0)) {
         fprintf(stderr, "tandem %s: --frames, --fps and --spp must be positive\n", cmd->name);
@@ -357,30 +364,13 @@ static tnd_result post_desc(const render_opts *o, cmp_desc *d)
     return TND_OK;
 }
 
-/* DIR/run.json: what reproduces the run (scene, front-end, device, every parameter) and which
- * post passes ran, and why the others did not. */
-/* One frame's times in timings.json: front-end GPU timestamps (vk) or CPU wall clock (embree);
- * back-end and post: GPU. */
-static void timings_entry(FILE *f, const char *sep, unsigned frame, const pl_step_result *pr,
-                          bool plugin)
+/* One frame's times in timings.json: every pass of the chain (pl_chain_passes): front-end GPU
+ * timestamps (vk) or CPU wall clock (embree); the denoiser's and the post chain's: GPU. */
+static void timings_entry(FILE *f, const char *sep, unsigned frame, const pl_chain *chain,
+                          const pl_step_result *pr)
 {
-    const pl_timings *tm = &pr->fe;
-    const dn_timings *dt = &pr->dn;
-    const cmp_timings *pt = &pr->post;
-    fprintf(f,
-            "%s\n    {\"frame\": %u, \"primary_ms\": %.4f, \"shade_ms\": %.4f, "
-            "\"tlas_ms\": %.4f, \"gradient_shade_ms\": %.4f, \"denoise_select_ms\": %.4f, "
-            "\"denoise_gradient_ms\": %.4f, \"denoise_temporal_ms\": %.4f, "
-            "\"denoise_lf_ms\": %.4f, \"denoise_atrous_ms\": %.4f, "
-            "\"denoise_lf_beside_atrous\": %s, \"composite_ms\": %.4f, "
-            "\"interleave_ms\": %.4f, \"taa_ms\": %.4f, \"bloom_ms\": %.4f, "
-            "\"exposure_ms\": %.4f, \"tonemap_ms\": %.4f",
-            sep, frame, tm->primary_ms, tm->shade_ms, tm->tlas_ms, tm->gradient_ms,
-            dt->select_ms, dt->gradient_ms, dt->temporal_ms, dt->lf_ms, dt->atrous_ms,
-            dt->lf_beside_atrous ? "true" : "false", dt->composite_ms, pt->interleave_ms,
-            pt->taa_ms, pt->bloom_ms, pt->exposure_ms, pt->tonemap_ms);
-    if (plugin) /* (composite_ms: the noisy radiance it reads) */
-        fprintf(f, ", \"denoiser_plugin_ms\": %.4f", pr->plugin_ms);
+    fprintf(f, "%s\n    {\"frame\": %u", sep, frame);
+    app_timings_members(f, chain, pr);
     fputc('}', f);
 }
 
@@ -389,8 +379,7 @@ static void timings_entry(FILE *f, const char *sep, unsigned frame, const pl_ste
  * timings.json's back_to_back: per frame after the warm-up, and the wall clock per frame. */
 static tnd_result time_back_to_back(const app_render_opts *o, const tnd_scene *scene,
                                     pl_frontend *fr, pl_chain *chain, tnd_scene_state st[2],
-                                    unsigned done, bool lags, bool plugin, float *rgb,
-                                    FILE *timings)
+                                    unsigned done, bool lags, float *rgb, FILE *timings)
 {
     enum { WARM = 4 };
     tnd_result res = TND_OK;
@@ -427,7 +416,7 @@ static tnd_result time_back_to_back(const app_render_opts *o, const tnd_scene *s
         /* the frame these times are of: the one before (lagged), or this one (no GPU chain) */
         unsigned of = lags ? k - 1 : k;
         if ((lags ? k > WARM : k >= WARM && k < total) && (pr.lagged || !lags)) {
-            timings_entry(timings, recorded ? "," : "", o->start + done + of, &pr, plugin);
+            timings_entry(timings, recorded ? "," : "", o->start + done + of, chain, &pr);
             recorded++;
         }
     }
@@ -436,8 +425,11 @@ fail:
     return res;
 }
 
-static tnd_result write_run_json(const render_opts *o, const char *device, const char *dn_mode_s,
-                                 const cmp_desc *pd, const char *passes, const tnd_scene *scene,
+/* DIR/run.json: what reproduces the run (scene, front-end, device, every parameter) and which
+ * post passes ran, and why the others did not. */
+static tnd_result write_run_json(const render_opts *o, const char *device, const char *dn_name,
+                                 const pl_denoiser_info *dn, const cmp_desc *pd,
+                                 const char *passes, const tnd_scene *scene,
                                  const pl_frontend *fr)
 {
     cJSON *j = cJSON_CreateObject();
@@ -475,11 +467,14 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     cJSON_AddNumberToObject(j, "bounces", o->bounces);
     cJSON_AddNumberToObject(j, "reflect_depth", o->reflect_depth ? o->reflect_depth : TND_REFLECT_DEPTH);
     cJSON_AddStringToObject(j, "precision", o->precision);
-    cJSON_AddStringToObject(j, "denoiser", dn_mode_s);
-    if (o->atrous)
-        cJSON_AddNumberToObject(j, "atrous", o->atrous);
-    if (o->min_alpha > 0)
-        cJSON_AddNumberToObject(j, "min_alpha", o->min_alpha);
+    cJSON_AddStringToObject(j, "denoiser", dn_name);
+    /* the parameters given that the denoiser has, in its table's order */
+    for (uint32_t i = 0; dn && i < dn->nparams; i++) {
+        double v = pl_param_set_get(&o->params, dn->params[i]->name);
+        char key[64];
+        if (v != 0)
+            cJSON_AddNumberToObject(j, pl_param_key(dn->params[i], key, sizeof key), v);
+    }
     cJSON *post = cJSON_AddObjectToObject(j, "post");
     if (passes) {
         cJSON_AddBoolToObject(post, "taa", pd->taa);
@@ -528,8 +523,8 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
 
 /* The front-end and the chain as render builds them (tandem view builds its own with it). */
 tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, tnd_vk *vk,
-                             bool use_vk, bool use_dn, tnd_precision prec, dn_mode *dmode,
-                             const char *dn_plugin, bool reference, pl_frontend **fr,
+                             bool use_vk, bool use_dn, tnd_precision prec,
+                             const pl_denoiser_info **dn, bool reference, pl_frontend **fr,
                              pl_chain **chain, cmp_desc *pd)
 {
     tnd_result res = TND_OK;
@@ -548,25 +543,23 @@ tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, t
                                                    .threads = o->threads,
                                                    .scene_path = o->scene},
                                fr));
-    /* A-SVGF needs a front-end that re-shades its gradient samples; others run svgf */
-    if (!reference && *dmode == DN_MODE_ASVGF && !(pl_frontend_caps(*fr) & PL_CAP_RESHADE)) {
-        *dmode = DN_MODE_SVGF;
-        if (!app_quiet())
-            fprintf(stderr, "tandem: render: --frontend %s cannot re-shade gradient samples: "
-                            "running svgf instead of asvgf\n", o->frontend);
-    }
-    if (!reference) {
-        float ma = (float)o->min_alpha;
-        TND_TRY(pl_chain_create(
-            &(pl_chain_desc){.vk = vk, .width = o->size[0], .height = o->size[1], .precision = prec,
-                             .backend = use_dn,
-                             .denoise = {.mode = *dmode, .iters_hf = o->atrous,
-                                         .antilag_hf = (float)o->antilag,
-                                         .iters_spec = o->atrous, .min_alpha_hf = ma,
-                                         .min_alpha_lf = ma, .min_alpha_spec = ma},
-                             .post = *pd, .denoiser_plugin = dn_plugin},
-            chain));
-    }
+    if (reference)
+        return TND_OK; /* (no chain) */
+    /* a denoiser that needs re-shaded gradient samples runs its fallback behind a front-end
+     * that cannot re-shade them */
+    const pl_denoiser_info *asked = *dn;
+    *dn = pl_denoiser_for(asked, pl_frontend_caps(*fr));
+    if (*dn != asked && !app_quiet())
+        fprintf(stderr, "tandem: render: --frontend %s cannot re-shade gradient samples: "
+                        "running %s instead of %s\n", o->frontend, (*dn)->name, asked->name);
+    pl_chain_desc cd = {.vk = vk, .width = o->size[0], .height = o->size[1], .precision = prec,
+                        .backend = use_dn,
+                        .denoiser = (*dn)->caps & PL_DN_PLUGIN ? o->denoiser : (*dn)->name,
+                        .post = *pd};
+    for (uint32_t i = 0; i < o->params.n; i++) /* (the others' are not its) */
+        if (pl_denoiser_has_param(*dn, o->params.param[i]->name))
+            TND_TRY(pl_param_set_put(&cd.params, o->params.param[i]->name, o->params.value[i]));
+    TND_TRY(pl_chain_create(&cd, chain));
 fail:
     return res;
 }
@@ -608,12 +601,10 @@ static void remove_partial(const render_opts *o, bool out_existed, bool dumps_ma
     }
 }
 
-static int run(bool reference, int argc, char **argv)
+/* render or reference with its options (parsed, or filled by a caller such as the sweep) */
+static int run_opts(const render_opts *opts, bool reference)
 {
-    render_opts o;
-    int rc = parse_common(reference ? &reference_cmd : &render_cmd, &o, reference, argc, argv);
-    if (rc >= 0)
-        return rc;
+    render_opts o = *opts;
     const char *what = reference ? "reference" : "render";
     tnd_precision prec = TND_PRECISION_F32;
     tnd_result res = tnd_precision_parse(o.precision, &prec);
@@ -625,14 +616,14 @@ static int run(bool reference, int argc, char **argv)
     pl_chain *chain = NULL; /* selection, re-shading, back-end, post */
     uint8_t *display = NULL;
     bool use_vk = pl_frontend_needs_gpu(o.frontend); /* (the contract on the GPU) */
-    dn_mode dmode = DN_MODE_SVGF;
-    const char *dn_plugin = NULL; /* --denoiser plugin:PATH */
-    if (!reference && (res = app_denoiser_parse(o.denoiser, &dmode, &dn_plugin)) != TND_OK)
+    const pl_denoiser_info *dn = NULL; /* (what runs, after app_pipeline_open) */
+    if (!reference && (res = pl_denoiser_find(o.denoiser, &dn)) != TND_OK)
         return app_report(what, res);
-    /* the back-end runs on Vulkan; only a host front-end with "off" stays on the CPU */
-    /* (a viewer's state: its back-end, always on the GPU) */
-    bool use_dn = !reference && (dn_plugin || o.view || !(dmode == DN_MODE_OFF && !use_vk));
-    if (dn_plugin && o.dump)
+    bool dn_plugin = dn && (dn->caps & PL_DN_PLUGIN);
+    /* the back-end runs on Vulkan; only a host front-end with a denoiser that does not filter
+     * ("off") stays on the CPU (a viewer's state: its back-end, always on the GPU) */
+    bool use_dn = !reference && ((dn->caps & PL_DN_FILTERS) || use_vk || o.view);
+    if (o.dump && dn && !(dn->caps & PL_DN_DUMPS))
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT,
                                          "--dump shows the back-end's buffers: with a denoiser "
                                          "plugin they are not the denoiser's"));
@@ -688,8 +679,8 @@ static int run(bool reference, int argc, char **argv)
         TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !use_vk}, &vk));
     }
     cmp_desc pd = {0};
-    TND_TRY(app_pipeline_open(&o, scene, &vk, use_vk, use_dn, prec, &dmode, dn_plugin, reference,
-                              &fr, &chain, &pd));
+    TND_TRY(app_pipeline_open(&o, scene, &vk, use_vk, use_dn, prec, &dn, reference, &fr, &chain,
+                              &pd));
     if (reference && !matched && !(pl_frontend_caps(fr) & PL_CAP_REFERENCE)) {
         res = tnd_fail(TND_ERR_UNSUPPORTED,
                        "--frontend %s renders no unbiased reference (--estimator realtime "
@@ -697,9 +688,10 @@ static int run(bool reference, int argc, char **argv)
         goto fail;
     }
     /* the denoiser as run.json and timings.json name it */
-    const char *dn_name = dn_plugin                                      ? o.denoiser
-                          : use_dn                                       ? dn_mode_name(dmode)
-                                                                         : "off (CPU composite)";
+    const char *dn_name = reference ? NULL
+                          : dn_plugin ? o.denoiser
+                          : use_dn    ? dn->name
+                                      : "off (CPU composite)";
     struct stat out_st, dump_st;
     out_existed = stat(o.out, &out_st) == 0;
     snprintf(path, sizeof path, "%s/dump", o.out);
@@ -812,7 +804,7 @@ static int run(bool reference, int argc, char **argv)
                         .after_backend = dump_mask ? app_dump_after_backend : NULL,
                         .user = &dc};
         TND_TRY(pl_chain_run(chain, fr, &step, rgb, use_dn ? display : NULL, &pr));
-        timings_entry(timings, i ? "," : "", f, &pr, dn_plugin != NULL);
+        timings_entry(timings, i ? "," : "", f, chain, &pr);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(app_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);
@@ -824,8 +816,7 @@ static int run(bool reference, int argc, char **argv)
     }
     app_progress_end(&bar);
     if (timings && o.timed_frames)
-        TND_TRY(time_back_to_back(&o, scene, fr, chain, st, o.frames, use_dn, dn_plugin != NULL,
-                                  rgb, timings));
+        TND_TRY(time_back_to_back(&o, scene, fr, chain, st, o.frames, use_dn, rgb, timings));
     else if (timings)
         fprintf(timings, "\n  ]");
     if (timings) {
@@ -846,7 +837,7 @@ static int run(bool reference, int argc, char **argv)
                                    ref_noise));
     if (!reference)
         TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
-                               dn_name,
+                               dn_name, dn,
                                pl_chain_post(chain) ? cmp_settings(pl_chain_post(chain)) : &pd,
                                pl_chain_post(chain) ? cmp_passes(pl_chain_post(chain)) : NULL,
                                scene, fr));
@@ -889,8 +880,27 @@ fail:
     pl_frontend_destroy(fr);
     tnd_vk_destroy(&vk);
     tnd_scene_destroy(scene);
-    app_view_state_free(&view_state);
     return status;
+}
+
+int app_render(const app_render_opts *o, bool reference)
+{
+    bool was = app_set_quiet(app_quiet() || o->quiet);
+    int rc = check_opts(reference ? &reference_cmd : &render_cmd, o, reference);
+    if (rc < 0)
+        rc = run_opts(o, reference);
+    app_set_quiet(was);
+    return rc;
+}
+
+static int run(bool reference, int argc, char **argv)
+{
+    render_opts o;
+    int rc = parse_common(reference ? &reference_cmd : &render_cmd, &o, reference, argc, argv);
+    if (rc < 0)
+        rc = app_render(&o, reference);
+    app_view_state_free(&view_state);
+    return rc;
 }
 
 int cmd_render(int argc, char **argv)

@@ -28,10 +28,11 @@
 static const app_cmd view_cmd = {
     "view",
     "The pipeline live in a window: fly the camera (WASD, Q/E down/up, drag to look; shift\n"
-    "faster, control slower), change the knobs (1/2/3/4 asvgf/svgf/off/the denoiser plugin,\n"
-    "F front-end (vk, embree, the front-end plugin), [ ] bounces,\n"
-    "P precision, T TAA, K tone curve, B bloom, , . a-trous iterations, M minimum alpha,\n"
-    "G antilag gain, - = exposure bias, 7 8 environment rotation, 9 0 its intensity), V cycles\n"
+    "faster, control slower), change the knobs (1/2/3/4 the registered denoisers in order\n"
+    "(asvgf/svgf/off), then the denoiser plugin, F front-end (the registered ones, then the\n"
+    "front-end plugin), [ ] bounces, P precision, T TAA, K tone curve, B bloom, the denoiser's\n"
+    "parameters on their keys (, . a-trous iterations, M minimum alpha, G antilag gain: the\n"
+    "overlay lists them), - = exposure bias, 7 8 environment rotation, 9 0 its intensity), V cycles\n"
     "the views (final, contract entries, back-end dumps), TAB the splits (noisy | denoised,\n"
     "denoiser A | B, front-end A | B), R a progressive reference of a still camera, O the\n"
     "overlay, F12 writes a screenshot (PNG, EXR and its repro state for `tandem render\n"
@@ -88,7 +89,7 @@ typedef struct viewer {
     tnd_scene *scene;
     pl_frontend *fe[2]; /* [1]: the noisy half of a split */
     pl_chain *chain[2];
-    dn_mode dmode;
+    const pl_denoiser_info *dn; /* what runs in the left half */
     tnd_image shown, debug, overlay;
     uint8_t *overlay_px;
     float *debug_px;
@@ -125,6 +126,26 @@ static void set_note(viewer *v, const char *fmt, const char *arg)
     snprintf(v->note, sizeof v->note, fmt, a);
 }
 
+/* The live front-end registered after `name` (NULL: the first; NULL after the last). */
+static const char *next_frontend(const char *name)
+{
+    bool after = name == NULL;
+    for (uint32_t i = 0; pl_frontend_name_at(i); i++) {
+        const char *n = pl_frontend_name_at(i);
+        if (after && pl_frontend_live(n))
+            return n;
+        after = after || strcmp(n, name) == 0;
+    }
+    return NULL;
+}
+
+/* The split's other front-end: the next live one, wrapping. */
+static const char *other_frontend(const char *name)
+{
+    const char *n = next_frontend(name);
+    return n ? n : next_frontend(NULL);
+}
+
 static void on_key(viewer *v, int key, bool down)
 {
     if (key >= 0 && key < 512)
@@ -133,31 +154,41 @@ static void on_key(viewer *v, int key, bool down)
         return;
     app_view_state *s = &v->st;
     const char *dn = NULL;
+    /* 1, 2, ...: the registered denoisers in order, then the plugin given at the start */
+    if (key >= '1' && key < '1' + (int)pl_denoiser_count())
+        dn = pl_denoiser_at((uint32_t)(key - '1'))->name;
+    else if (key == '1' + (int)pl_denoiser_count() && v->plugin_dn[0])
+        dn = v->plugin_dn;
+    /* the denoisers' parameters on their keys (pl_param: one key cycles, two step) */
+    for (uint32_t i = 0; i < pl_param_count(); i++) {
+        const pl_param *p = pl_param_at(i);
+        const char *k = p->keys && key > 0 && key < 128 ? strchr(p->keys, key) : NULL;
+        if (!k)
+            continue;
+        double x = pl_param_set_get(&s->params, p->name), next = 0;
+        if (strlen(p->keys) == 1) { /* the next step after the current value */
+            uint32_t j = 0;
+            while (j < p->nsteps && p->steps[j] != x)
+                j++;
+            next = p->nsteps ? p->steps[(j + 1) % p->nsteps] : 0;
+        } else if (k == p->keys) { /* down: from the default to the least */
+            next = x == 0 ? p->min : fmax(p->min, x - 1);
+        } else { /* up: from the default to the most */
+            next = x == 0 ? p->max : fmin(p->max, x + 1);
+        }
+        if (pl_param_set_put(&s->params, p->name, next) == TND_OK)
+            v->rebuild = true;
+    }
     switch (key) {
-    case '1': dn = "asvgf"; break;
-    case '2': dn = "svgf"; break;
-    case '3': dn = "off"; break;
-    case '4': /* the denoiser plugin given at the start */
-        if (v->plugin_dn[0])
-            dn = v->plugin_dn;
-        break;
-    case 'F': { /* vk -> embree (-> the plugin) -> vk */
-        const char *next = strcmp(s->frontend, "vk") == 0       ? "embree"
-                           : strcmp(s->frontend, "embree") == 0 && v->plugin_fe[0] ? v->plugin_fe
-                                                                                 : "vk";
-        snprintf(s->frontend, sizeof s->frontend, "%s", next);
+    case 'F': { /* the next live front-end of the registry (then the plugin given) */
+        const char *next = next_frontend(s->frontend);
+        if (!next && v->plugin_fe[0] && strcmp(s->frontend, v->plugin_fe) != 0)
+            next = v->plugin_fe;
+        snprintf(s->frontend, sizeof s->frontend, "%s", next ? next : next_frontend(NULL));
         v->rebuild = true;
         set_note(v, "front-end %s", s->frontend);
         break;
     }
-    case 'M': /* the minimum alpha: the default, .05, .1, .2 */
-        s->min_alpha = s->min_alpha == 0 ? 0.05 : s->min_alpha < 0.2 ? 2 * s->min_alpha : 0;
-        v->rebuild = true;
-        break;
-    case 'G': /* the antilag gain: the default (1), 2, 0.5 */
-        s->antilag = s->antilag == 0 ? 2.0 : s->antilag == 2.0 ? 0.5 : 0;
-        v->rebuild = true;
-        break;
     case '-': case '=':
         s->exposure_bias += key == '-' ? -0.5 : 0.5;
         v->rebuild = true;
@@ -179,11 +210,6 @@ static void on_key(viewer *v, int key, bool down)
             s->bounces--;
         else if (key == ']' && s->bounces < 16)
             s->bounces++;
-        v->rebuild = true;
-        break;
-    case ',': case '.':
-        s->atrous = key == ',' ? (s->atrous > 1 ? s->atrous - 1 : 1)
-                               : (s->atrous == 0 ? 5 : (s->atrous < 5 ? s->atrous + 1 : 5));
         v->rebuild = true;
         break;
     case 'P':
@@ -220,10 +246,12 @@ static void on_key(viewer *v, int key, bool down)
         while (k < 4 && strcmp(split_modes[k], s->split_mode) != 0)
             k++;
         snprintf(s->split_mode, sizeof s->split_mode, "%s", split_modes[(k + 1) % 4]);
-        snprintf(s->split_denoiser, sizeof s->split_denoiser, "%s",
-                 strcmp(s->denoiser, "svgf") == 0 ? "asvgf" : "svgf");
-        snprintf(s->split_frontend, sizeof s->split_frontend, "%s",
-                 strcmp(s->frontend, "vk") == 0 ? "embree" : "vk");
+        /* the other denoiser: its ablation (or what it ablates); the other front-end */
+        const pl_denoiser_info *d = NULL;
+        if (pl_denoiser_find(s->denoiser, &d) != TND_OK)
+            d = pl_denoiser_at(0);
+        snprintf(s->split_denoiser, sizeof s->split_denoiser, "%s", app_denoiser_other(d)->name);
+        snprintf(s->split_frontend, sizeof s->split_frontend, "%s", other_frontend(s->frontend));
         v->rebuild = true;
         set_note(v, "split %s", s->split_mode);
         break;
@@ -307,9 +335,8 @@ static void options_of(const app_view_state *s, const char *denoiser, app_render
     *o = (app_render_opts){.scene = s->scene, .frontend = s->frontend, .denoiser = denoiser,
                            .precision = s->precision, .rt_api = "auto", .pipeline = "scene",
                            .taa = s->taa, .tonemap = s->tonemap, .exposure = s->exposure,
-                           .bloom = s->bloom, .min_alpha = s->min_alpha, .bounces = s->bounces,
-                           .antilag = s->antilag, .exposure_bias = s->exposure_bias,
-                           .atrous = s->atrous, .camera = s->camera, .fps = s->fps,
+                           .bloom = s->bloom, .params = s->params, .bounces = s->bounces,
+                           .exposure_bias = s->exposure_bias, .camera = s->camera, .fps = s->fps,
                            .size = {s->size[0], s->size[1]},
                            .env = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation}};
 }
@@ -327,18 +354,17 @@ static tnd_result open_pipeline(viewer *v)
                          : strcmp(s->split_mode, "noisy") == 0    ? "off"
                          : strcmp(s->split_mode, "denoiser") == 0 ? s->split_denoiser
                                                                     : s->denoiser;
-        const char *plugin = NULL;
-        dn_mode mode;
-        TND_TRY(app_denoiser_parse(dn, &mode, &plugin));
+        const pl_denoiser_info *info;
+        TND_TRY(pl_denoiser_find(dn, &info));
         app_render_opts o;
         options_of(s, dn, &o);
         if (i == 1 && strcmp(s->split_mode, "frontend") == 0)
             o.frontend = s->split_frontend;
         cmp_desc pd;
         TND_TRY(app_pipeline_open(&o, v->scene, &v->vk, pl_frontend_needs_gpu(o.frontend), true,
-                                  prec, &mode, plugin, false, &v->fe[i], &v->chain[i], &pd));
+                                  prec, &info, false, &v->fe[i], &v->chain[i], &pd));
         if (i == 0)
-            v->dmode = mode;
+            v->dn = info;
     }
     uint32_t w = s->size[0], h = s->size[1];
     TND_TRY(tnd_image_create(&v->vk, &(tnd_image_desc){.width = w, .height = h,
@@ -550,9 +576,6 @@ static void draw_overlay(viewer *v, const char *device, double fps)
     fill(px, 0, 0, OVERLAY_W, OVERLAY_H, bg);
     const app_view_state *s = &v->st;
     char line[400], who[300], vn[64];
-    const pl_timings *f = &v->last.fe;
-    const dn_timings *d = &v->last.dn;
-    const cmp_timings *p = &v->last.post;
     view_name(v->view, vn, sizeof vn);
     int y = 4;
     snprintf(line, sizeof line, "tandem view   %.1f fps   %.1f ms   %s", fps,
@@ -563,10 +586,9 @@ static void draw_overlay(viewer *v, const char *device, double fps)
              pl_frontend_describe(v->fe[0], who, sizeof who), pl_frontend_models(v->fe[0]));
     text(px, 4, y, line, fg);
     y += 10;
-    snprintf(line, sizeof line, "denoiser %.60s  bounces %u  %s  a-trous %u  TAA %s  %s  bloom %.2f",
-             v->chain[0] && pl_chain_plugin_name(v->chain[0]) ? s->denoiser
-                                                              : dn_mode_name(v->dmode),
-             s->bounces, s->precision, s->atrous ? s->atrous : 4, s->taa, s->tonemap, s->bloom);
+    snprintf(line, sizeof line, "denoiser %.60s  bounces %u  %s  TAA %s  %s  bloom %.2f",
+             v->chain[0] && pl_chain_plugin_name(v->chain[0]) ? s->denoiser : v->dn->name,
+             s->bounces, s->precision, s->taa, s->tonemap, s->bloom);
     text(px, 4, y, line, fg);
     y += 10;
     char sp[200] = "";
@@ -582,15 +604,23 @@ static void draw_overlay(viewer *v, const char *device, double fps)
              s->path_len);
     text(px, 4, y, line, fg);
     y += 10;
-    snprintf(line, sizeof line,
-             "GPU ms: primary %.2f shade %.2f gradients %.2f | select %.2f gradient %.2f "
-             "temporal %.2f", f->primary_ms, f->shade_ms, f->gradient_ms, d->select_ms,
-             d->gradient_ms, d->temporal_ms);
-    text(px, 4, y, line, fg);
-    y += 10;
-    snprintf(line, sizeof line,
-             "        a-trous+lf %.2f composite %.2f | taa %.2f exposure %.2f tonemap %.2f",
-             d->atrous_ms + d->lf_ms, d->composite_ms, p->taa_ms, p->exposure_ms, p->tonemap_ms);
+    /* GPU ms of every pass of the frame (pl_chain_passes), groups apart, on two lines */
+    const pl_pass *pass[48];
+    double ms[48];
+    uint32_t np = v->chain[0] ? pl_chain_passes(v->chain[0], pass, 48) : 0;
+    if (np)
+        pl_step_times(v->chain[0], &v->last, ms);
+    size_t n = (size_t)snprintf(line, sizeof line, "GPU ms:");
+    for (uint32_t k = 0; k < np && n < sizeof line; k++) {
+        if (n > 84) { /* the second line */
+            text(px, 4, y, line, fg);
+            y += 10;
+            n = (size_t)snprintf(line, sizeof line, "       ");
+        }
+        n += (size_t)snprintf(line + n, sizeof line - n, "%s %s %.2f",
+                              k && pass[k]->group != pass[k - 1]->group ? " |" : "",
+                              pass[k]->name, ms[k]);
+    }
     text(px, 4, y, line, fg);
     y += 10;
     snprintf(line, sizeof line, "camera (%.2f, %.2f, %.2f) yaw %.1f pitch %.1f   %s",
@@ -599,13 +629,25 @@ static void draw_overlay(viewer *v, const char *device, double fps)
     text(px, 4, y, line, fg);
     y += 10;
     char feat[160] = "";
-    for (uint32_t b = 0, n = 0; b < TND_FEATURE_COUNT; b++)
+    for (uint32_t b = 0, fn = 0; b < TND_FEATURE_COUNT; b++)
         if (v->scene->features & (1u << b))
-            n += (uint32_t)snprintf(feat + n, n < sizeof feat ? sizeof feat - n : 0, "%s%s",
-                                    n ? " " : "", tnd_feature_name(b));
-    snprintf(line, sizeof line, "min alpha %.2f  antilag %.1f  exposure bias %+.1f  env x%.2f "
-             "%.0f deg  scene: %s", s->min_alpha, s->antilag ? s->antilag : 1.0,
-             s->exposure_bias, s->env_intensity, s->env_rotation, feat);
+            fn += (uint32_t)snprintf(feat + fn, fn < sizeof feat ? sizeof feat - fn : 0, "%s%s",
+                                     fn ? " " : "", tnd_feature_name(b));
+    /* the denoiser's parameters (pl_param) with their keys */
+    n = 0;
+    line[0] = 0;
+    for (uint32_t k = 0; v->dn && k < v->dn->nparams && n < sizeof line; k++) {
+        const pl_param *pp = v->dn->params[k];
+        double x = pl_param_set_get(&s->params, pp->name);
+        char val[32] = "default";
+        if (x != 0)
+            snprintf(val, sizeof val, "%g", x);
+        n += (size_t)snprintf(line + n, sizeof line - n, "%s (%s) %s  ", pp->name,
+                              pp->keys ? pp->keys : "-", val);
+    }
+    if (n < sizeof line)
+        snprintf(line + n, sizeof line - n, "exposure bias %+.1f  env x%.2f %.0f deg  scene: %s",
+                 s->exposure_bias, s->env_intensity, s->env_rotation, feat);
     text(px, 4, y, line, fg);
     y += 10;
     y += 10;
@@ -619,10 +661,10 @@ static void draw_overlay(viewer *v, const char *device, double fps)
     snprintf(line, sizeof line, "frame time, last %d frames: 0 - %.0f ms", GRAPH, top);
     text(px, OVERLAY_W - 8 - 3 * GRAPH, gy - gh - 12, line, fg);
     for (uint32_t i = 0; i < v->graph_n && i < GRAPH; i++) {
-        double ms = v->graph[(v->graph_n - 1 - i) % GRAPH];
-        int hgt = (int)fmin(gh, ms / top * gh);
+        double fms = v->graph[(v->graph_n - 1 - i) % GRAPH];
+        int hgt = (int)fmin(gh, fms / top * gh);
         int x = OVERLAY_W - 8 - 3 * (int)i;
-        fill(px, x, gy - hgt, x + 2, gy, ms > 33.4 ? hot : bar);
+        fill(px, x, gy - hgt, x + 2, gy, fms > 33.4 ? hot : bar);
     }
 }
 

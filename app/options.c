@@ -3,6 +3,7 @@
 #include "app/app.h"
 
 #include <dirent.h>
+#include <math.h>
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,6 +14,18 @@ static bool quiet_flag;
 bool app_quiet(void)
 {
     return quiet_flag;
+}
+
+static tnd_log_level loud_level = TND_LOG_INFO; /* the log level before --quiet */
+
+bool app_set_quiet(bool quiet)
+{
+    bool was = quiet_flag;
+    if (quiet && !was)
+        loud_level = tnd_log_get_level();
+    quiet_flag = quiet;
+    tnd_log_set_level(quiet ? TND_LOG_WARN : loud_level);
+    return was;
 }
 
 static void print_help(const app_cmd *cmd, const app_opt *opts)
@@ -103,8 +116,7 @@ int app_parse(const app_cmd *cmd, const app_opt *opts, int argc, char **argv, co
             return APP_EXIT_OK;
         }
         if (strcmp(a, "--quiet") == 0 || strcmp(a, "-q") == 0) {
-            quiet_flag = true;
-            tnd_log_set_level(TND_LOG_WARN);
+            app_set_quiet(true);
             continue;
         }
         if (strcmp(a, "--device") == 0 || strncmp(a, "--device=", 9) == 0) {
@@ -227,18 +239,62 @@ bool app_remove_flat_dir(const char *dir)
     return ok && rmdir(dir) == 0;
 }
 
-tnd_result app_denoiser_parse(const char *s, dn_mode *mode, const char **plugin)
+/* ---- the registries' tables as options and outputs --------------------------------------------- */
+bool app_opts_with_params(const app_opt *base, app_opt *out, size_t cap, double *vals)
 {
-    *plugin = NULL;
-    if (strncmp(s, "plugin:", 7) == 0) {
-        if (!s[7])
-            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoiser plugin: needs a path");
-        *plugin = s + 7;
-        *mode = DN_MODE_OFF;
-        return TND_OK;
+    size_t n = 0;
+    for (const app_opt *o = base; o && o->name; o++) {
+        if (n + 1 >= cap)
+            return false;
+        out[n++] = *o;
     }
-    if (dn_mode_parse(s, mode) != TND_OK)
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
-                        "denoiser '%s' (expected asvgf, svgf, off or plugin:PATH.so)", s);
+    for (uint32_t i = 0; i < pl_param_count(); i++) {
+        const pl_param *p = pl_param_at(i);
+        if (n + 1 >= cap)
+            return false;
+        vals[i] = NAN;
+        out[n++] = (app_opt){p->name, APP_OPT_FLOAT, &vals[i], p->arg, p->help};
+    }
+    out[n] = (app_opt){0};
+    return true;
+}
+
+tnd_result app_params_collect(const double *vals, pl_param_set *set)
+{
+    for (uint32_t i = 0; i < pl_param_count(); i++)
+        if (!isnan(vals[i]))
+            TND_TRY_RETURN(pl_param_set_put(set, pl_param_at(i)->name, vals[i]));
     return TND_OK;
+}
+
+const pl_denoiser_info *app_denoiser_other(const pl_denoiser_info *d)
+{
+    const pl_denoiser_info *fb = NULL;
+    if (d->fallback && pl_denoiser_find(d->fallback, &fb) == TND_OK)
+        return fb;
+    for (uint32_t i = 0; i < pl_denoiser_count(); i++) {
+        const pl_denoiser_info *e = pl_denoiser_at(i);
+        if (e->fallback && strcmp(e->fallback, d->name) == 0)
+            return e;
+    }
+    for (uint32_t i = 0; i < pl_denoiser_count(); i++) {
+        const pl_denoiser_info *e = pl_denoiser_at(i);
+        if ((e->caps & PL_DN_FILTERS) && !(e->caps & PL_DN_GRADIENTS) && e != d)
+            return e;
+    }
+    return d;
+}
+
+void app_timings_members(FILE *f, const pl_chain *chain, const pl_step_result *r)
+{
+    const pl_pass *p[64];
+    double ms[64];
+    uint32_t n = pl_chain_passes(chain, p, 64);
+    pl_step_times(chain, r, ms);
+    for (uint32_t i = 0; i < n; i++) {
+        fprintf(f, ", \"%s\": %.4f", p[i]->key, ms[i]);
+        if (p[i]->beside) /* e.g. "denoise_lf_beside_atrous" */
+            fprintf(f, ", \"%.*s_beside_%s\": %s", (int)(strlen(p[i]->key) - 3), p[i]->key,
+                    p[i]->beside, r->beside ? "true" : "false");
+    }
 }

@@ -85,9 +85,8 @@ static const struct {
     size_t offset;
 } number_fields[] = {
 #define F(k, field) {k, offsetof(app_view_state, field)}
-    F("min_alpha", min_alpha), F("bloom", bloom), F("fps", fps),
-    F("env_intensity", env_intensity), F("env_rotation", env_rotation), F("antilag", antilag),
-    F("exposure_bias", exposure_bias),
+    F("bloom", bloom), F("fps", fps), F("env_intensity", env_intensity),
+    F("env_rotation", env_rotation), F("exposure_bias", exposure_bias),
 #undef F
 };
 static const struct {
@@ -95,7 +94,7 @@ static const struct {
     size_t offset;
 } uint_fields[] = {
 #define F(k, field) {k, offsetof(app_view_state, field)}
-    F("bounces", bounces), F("atrous", atrous), F("camera", camera),
+    F("bounces", bounces), F("camera", camera),
 #undef F
 };
 
@@ -111,6 +110,13 @@ tnd_result app_view_state_write(const char *path, const app_view_state *s)
     for (size_t i = 0; i < sizeof uint_fields / sizeof uint_fields[0]; i++)
         cJSON_AddNumberToObject(j, uint_fields[i].key,
                                 *(const uint32_t *)((const char *)s + uint_fields[i].offset));
+    /* every denoiser parameter (pl_param; 0: the default) */
+    for (uint32_t i = 0; i < pl_param_count(); i++) {
+        char key[64];
+        const pl_param *pp = pl_param_at(i);
+        cJSON_AddNumberToObject(j, pl_param_key(pp, key, sizeof key),
+                                pl_param_set_get(&s->params, pp->name));
+    }
     cJSON *size = cJSON_AddArrayToObject(j, "size");
     cJSON_AddItemToArray(size, cJSON_CreateNumber(s->size[0]));
     cJSON_AddItemToArray(size, cJSON_CreateNumber(s->size[1]));
@@ -185,6 +191,21 @@ tnd_result app_view_state_read(const char *path, app_view_state *s)
         }
         if (v)
             *(uint32_t *)((char *)s + uint_fields[i].offset) = (uint32_t)v->valuedouble;
+    }
+    for (uint32_t i = 0; i < pl_param_count(); i++) {
+        char key[64];
+        const pl_param *pp = pl_param_at(i);
+        const cJSON *v = cJSON_GetObjectItem(j, pl_param_key(pp, key, sizeof key));
+        if (v && !cJSON_IsNumber(v)) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "view state %s: \"%s\": a number expected", path,
+                           key);
+            goto fail;
+        }
+        if (v && pl_param_set_put(&s->params, pp->name, v->valuedouble) != TND_OK) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "view state %s: \"%s\": %s", path, key,
+                           tnd_error_detail());
+            goto fail;
+        }
     }
     const cJSON *size = cJSON_GetObjectItem(j, "size");
     if (size) {

@@ -1,10 +1,14 @@
-/* pipeline: the frame, written once. A front-end is a table of operations (pl_frontend_ops)
- * that every front-end implements: the Vulkan ray tracer, the Embree tracer and capture replay
- * ("replay": a recorded sequence that re-shades only from stored gradient samples) are
- * registered here, and app/ reaches them only through pl_frontend_*: it names no fvk_/femb_
- * function.
- * Prefix pl_; depends on core/, frontend_vk/, frontend_embree/ (and denoise/ for the gradient
- * layout). */
+/* pipeline: the frame, written once, and what the pipeline is, as data. A front-end is a table
+ * of operations (pl_frontend_ops) that every front-end implements: the Vulkan ray tracer, the
+ * Embree tracer and capture replay ("replay": a recorded sequence that re-shades only from
+ * stored gradient samples) are registered here, and app/ reaches them only through
+ * pl_frontend_*: it names no fvk_/femb_ function. A denoiser is the same (pl_denoiser_ops in
+ * pl_denoiser.c): svgf, asvgf and off (the built-in back-end), plugins through an adapter; each
+ * declares its capabilities, its parameters (pl_param: the command line, run.json, the
+ * viewer's keys and states, the sweep's knobs are made from them) and the passes it times
+ * (pl_pass: every timings writer prints from pl_chain_passes). docs/extending.md says how to
+ * add one.
+ * Prefix pl_; depends on core/, frontend_vk/, frontend_embree/, denoise/, composite/. */
 #ifndef PL_PIPELINE_H
 #define PL_PIPELINE_H
 
@@ -128,19 +132,121 @@ tnd_result pl_frontend_reference(pl_frontend *fe, uint32_t max_bounces, uint32_t
                                  void (*progress)(uint32_t done, uint32_t total, void *user),
                                  void *user);
 
+/* The named front-end is registered, or "plugin:PATH" with a path; live: one that renders a
+ * scene (not a recorded sequence: what render's --frontend takes), and their names
+ * ("embree, vk, plugin:PATH"); a registered front-end's capabilities without creating it (0 for
+ * an unknown name and for plugins, whose adapter declares none). */
+bool pl_frontend_known(const char *name);
+bool pl_frontend_live(const char *name);
+const char *pl_frontend_live_names(void);
+uint32_t pl_frontend_caps_of(const char *name);
+/* The i-th registered front-end's name (NULL past the last). */
+const char *pl_frontend_name_at(uint32_t i);
+
+/* ---- denoisers (pl_denoiser.c): the registry beside the front-ends' -------------------------- */
+/* A denoiser's parameter. Its value 0 always means the denoiser's own default (said in help),
+ * as in the *_desc structs; other values must lie in [min, max] (min itself excluded when
+ * min_open) and be whole for PL_PARAM_UINT. */
+typedef enum pl_param_kind { PL_PARAM_FLOAT = 0, PL_PARAM_UINT } pl_param_kind;
+typedef struct pl_param {
+    const char *name; /* --NAME on the command line and the sweep's knob; run.json and the
+                         viewer's states: NAME with '_' for '-' */
+    pl_param_kind kind;
+    double min, max;
+    bool min_open;
+    const char *arg, *help; /* the help's placeholder and text (with the default) */
+    /* tandem view: one key cycles through steps[0..nsteps) (steps[0] is 0: the default); two
+     * keys step down and up */
+    const char *keys;
+    double steps[6];
+    uint32_t nsteps;
+} pl_param;
+
+/* Values given for parameters (by name; the others keep their defaults). */
+#define PL_PARAMS_MAX 16
+typedef struct pl_param_set {
+    uint32_t n;
+    const pl_param *param[PL_PARAMS_MAX];
+    double value[PL_PARAMS_MAX];
+} pl_param_set;
+/* Every parameter of every registered denoiser, each name once (the command line's options). */
+uint32_t pl_param_count(void);
+const pl_param *pl_param_at(uint32_t i);
+const pl_param *pl_param_find(const char *name);
+/* Set a value (0: back to the default), checked against the parameter's range: an error names
+ * the parameter and the range. */
+tnd_result pl_param_set_put(pl_param_set *s, const char *name, double v);
+/* The value given for `name`, or 0 (the default). */
+double pl_param_set_get(const pl_param_set *s, const char *name);
+/* The key of a parameter in run.json and view states ("min-alpha" -> "min_alpha"). */
+const char *pl_param_key(const pl_param *p, char *buf, size_t cap);
+
+enum {
+    PL_DN_GRADIENTS = 1u, /* needs re-shaded gradient samples (A-SVGF): the chain selects them,
+                             the front-end re-shades them */
+    PL_DN_FILTERS = 2u,   /* filters (not only composites): runs on the Vulkan back-end even
+                             behind a host front-end */
+    PL_DN_DUMPS = 4u,     /* the built-in back-end's buffers (--dump, the viewer's views) are its */
+    PL_DN_PLUGIN = 8u,    /* loaded from a shared object (include/tandem/tandem_plugin.h) */
+};
+
+/* A pass the frame times. Groups as bench --whole-frame reports them. */
+typedef enum pl_pass_group {
+    PL_GROUP_FRONTEND = 0,
+    PL_GROUP_GRADIENTS,
+    PL_GROUP_BACKEND,
+    PL_GROUP_POST,
+    PL_GROUPS
+} pl_pass_group;
+typedef struct pl_pass {
+    const char *name;    /* "temporal" */
+    const char *key;     /* timings.json's: "denoise_temporal_ms" */
+    pl_pass_group group;
+    const char *beside;  /* when the step says `beside`, this pass ran beside the named one, whose
+                            time covers both (its own reads 0) */
+} pl_pass;
+const char *pl_pass_group_name(pl_pass_group g); /* "front-end", "gradients", "back-end", "post" */
+
+#define PL_DN_MAX_PASSES 8
+typedef struct pl_denoiser_info {
+    const char *name;     /* --denoiser NAME ("plugin" for plugins) */
+    const char *summary;  /* one line for help texts */
+    uint32_t caps;        /* PL_DN_* */
+    const char *fallback; /* run instead behind a front-end that cannot re-shade (PL_DN_GRADIENTS) */
+    const pl_param *const *params;
+    uint32_t nparams;
+    const pl_pass *passes; /* its passes in order, each frame */
+    uint32_t npasses;
+} pl_denoiser_info;
+/* The registered denoisers' names, comma-separated ("asvgf, svgf, off"). */
+const char *pl_denoiser_names(void);
+uint32_t pl_denoiser_count(void);
+const pl_denoiser_info *pl_denoiser_at(uint32_t i);
+/* A denoiser by its name, or "plugin:PATH" (the plugin adapter's description); an error lists
+ * the names. */
+tnd_result pl_denoiser_find(const char *name, const pl_denoiser_info **info);
+bool pl_denoiser_has_param(const pl_denoiser_info *d, const char *name);
+/* What runs behind a front-end with capabilities fe_caps: d, or its fallback where d needs
+ * re-shaded gradient samples the front-end cannot give. */
+const pl_denoiser_info *pl_denoiser_for(const pl_denoiser_info *d, uint32_t fe_caps);
+/* Every pass any frame may time, each key once, in frame order: the front-end's, every
+ * registered denoiser's (and the plugin adapter's), the post chain's (readers of timings.json). */
+uint32_t pl_pass_all(const pl_pass **passes, uint32_t max);
+
 /* ---- the frame after the front-end (pl_chain.c) -------------------------------------------- */
 typedef struct pl_chain_desc {
     tnd_vk *vk;              /* the back-end's and post chain's context (backend) */
     uint32_t width, height;
     tnd_precision precision; /* of the contract */
     bool backend;            /* the Vulkan back-end (false: the CPU composite, no Vulkan) */
-    dn_desc denoise;         /* its mode and knobs (the precision is the chain's) */
+    /* the denoiser by its registered name or "plugin:PATH" (NULL: the built-in back-end's
+     * denoise.mode, for callers from before the registry), and the parameters given */
+    const char *denoiser;
+    pl_param_set params;
+    dn_desc denoise;         /* the built-in back-end's settings beyond the parameters (profiling,
+                                tests; the precision is the chain's) */
     cmp_desc post;
     bool no_post;            /* the back-end alone (bench) */
-    /* a denoiser plugin (include/tandem/tandem_plugin.h) in place of the back-end's filters:
-     * the back-end runs in mode off (the noisy radiance the plugin may read), the plugin's
-     * output goes to the post chain */
-    const char *denoiser_plugin;
     bool host_contract;      /* bring a GPU front-end's contract to the host every frame (what
                                 the chain did before it kept it on the GPU; for measurements) */
 } pl_chain_desc;
@@ -163,13 +269,13 @@ typedef struct pl_step {
 
 typedef struct pl_step_result {
     pl_timings fe;
-    dn_timings dn;
+    double dn[PL_DN_MAX_PASSES]; /* the denoiser's passes' GPU times (pl_denoiser_info.passes) */
+    bool beside;                 /* passes with `beside` ran beside another (pl_pass) */
     cmp_timings post;
     /* dn and post, and fe for a PL_CAP_QUEUED front-end, hold the previous frame's GPU times
      * (that frame was not waited for; a frame not waited for leaves them 0 for the next call or
      * pl_chain_finish) */
     bool lagged;
-    double plugin_ms; /* a denoiser plugin's GPU time (lagged as dn) */
 } pl_step_result;
 
 typedef struct pl_chain pl_chain;
@@ -182,11 +288,21 @@ tnd_result pl_chain_run(pl_chain *chain, pl_frontend *fe, const pl_step *step, f
                         uint8_t *display, pl_step_result *result);
 /* Wait for a frame run with no_wait; its back-end and post times (lagged; zero when none). */
 tnd_result pl_chain_finish(pl_chain *chain, pl_step_result *result);
+/* The denoiser that runs (after pl_denoiser_for) and the built-in back-end's context when it is
+ * the built-in's (PL_DN_DUMPS: dumps, traffic, per-dispatch times; NULL otherwise). */
+const pl_denoiser_info *pl_chain_denoiser_info(const pl_chain *chain);
 dn_context *pl_chain_denoiser(pl_chain *chain);
+/* The frame's passes in order (the front-end's, the denoiser's, the post chain's; the post
+ * chain's only with it) and a step's times in the same order: what every timings writer prints. */
+uint32_t pl_chain_passes(const pl_chain *chain, const pl_pass **passes, uint32_t max);
+void pl_step_times(const pl_chain *chain, const pl_step_result *r, double *ms);
+/* The bytes each of the denoiser's passes must move at the least (its bandwidth floor; 0 where
+ * it does not say), in the order of its passes. */
+void pl_chain_traffic(const pl_chain *chain, double *bytes);
 /* The contract the last frame ran on, on the GPU (the front-end's, or the chain's upload of a
  * host front-end's); NULL before the first frame or without the back-end. */
 const tnd_contract_gpu *pl_chain_contract(const pl_chain *chain);
-/* A denoiser plugin's name (NULL without one). */
+/* A denoiser plugin's own name (NULL without one). */
 const char *pl_chain_plugin_name(const pl_chain *chain);
 cmp_context *pl_chain_post(pl_chain *chain);
 

@@ -1,10 +1,13 @@
-/* pipeline/pl_chain.c: the frame after the front-end, written once: (A-SVGF) gradient selection,
- * re-shading by the front-end, the back-end, the post chain, and the outputs a caller asks for
+/* pipeline/pl_chain.c: the frame after the front-end, written once: gradient selection (for a
+ * denoiser that asks for re-shaded samples), re-shading by the front-end, the denoiser (through
+ * its registered operations, pl_denoiser.c), the post chain, and the outputs a caller asks for
  * (the host frame, a capture with its gradient samples, the HDR and display images). render,
  * denoise (capture replay) and bench run their frames through pl_chain_run. The contract stays on
- * the GPU unless a capture or the CPU composite needs it on the host.
- * Entry points: pl_chain_create, pl_chain_destroy, pl_chain_run, pl_chain_denoiser,
- * pl_chain_post. */
+ * the GPU unless a capture or the CPU composite needs it on the host. The frame's passes (the
+ * front-end's, the denoiser's, the post chain's) are listed here once for every timings writer.
+ * Entry points: pl_chain_create, pl_chain_destroy, pl_chain_run, pl_chain_finish,
+ * pl_chain_denoiser, pl_chain_denoiser_info, pl_chain_contract, pl_chain_plugin_name,
+ * pl_chain_post, pl_chain_passes, pl_step_times, pl_chain_traffic. */
 #include "pipeline/pl_internal.h"
 
 #include <math.h>
@@ -16,22 +19,36 @@ _Static_assert(PL_GRADIENT_WORDS == DN_GRADIENT_WORDS, "the back-end's gradient 
 
 struct pl_chain {
     pl_chain_desc d;
-    dn_context *dn;
+    const pl_denoiser_ops *ops; /* the denoiser */
+    void *dn;                   /* its context */
     cmp_context *post;
     tnd_contract_gpu upload;  /* host front-ends: their frame goes up here */
-    uint32_t *grads;          /* A-SVGF's host list, PL_GRADIENT_WORDS words per sample */
+    uint32_t *grads;          /* the host list of gradient samples, PL_GRADIENT_WORDS words each */
     tnd_frame host, reshaded; /* (reshaded: a GPU contract after re-shading, for a capture) */
     float prev_jitter[2];
     bool in_flight; /* the last frame's back-end and post were not waited for */
     pl_frontend *fe; /* the front-end of the last frame (its times at pl_chain_finish) */
     const tnd_contract_gpu *last_ct; /* the contract of the last frame */
-    /* a denoiser plugin: its commands in flight, their timestamps */
-    pl_dnp *plugin;
-    tnd_pending plugin_pending;
-    tnd_timer plugin_timer;
-    bool plugin_due;
-    double plugin_ms;
 };
+
+/* The front-end's and the post chain's passes (pl_timings', cmp_timings' fields in order). */
+const pl_pass pl_frontend_passes[] = {
+    {"primary", "primary_ms", PL_GROUP_FRONTEND, NULL},
+    {"shade", "shade_ms", PL_GROUP_FRONTEND, NULL},
+    {"tlas", "tlas_ms", PL_GROUP_FRONTEND, NULL},
+    {"gradient_shade", "gradient_shade_ms", PL_GROUP_GRADIENTS, NULL},
+};
+const uint32_t pl_frontend_pass_count = sizeof pl_frontend_passes / sizeof *pl_frontend_passes;
+const pl_pass pl_post_passes[] = {
+    {"interleave", "interleave_ms", PL_GROUP_POST, NULL},
+    {"taa", "taa_ms", PL_GROUP_POST, NULL},
+    {"bloom", "bloom_ms", PL_GROUP_POST, NULL},
+    {"exposure", "exposure_ms", PL_GROUP_POST, NULL},
+    {"tonemap", "tonemap_ms", PL_GROUP_POST, NULL},
+};
+const uint32_t pl_post_pass_count = sizeof pl_post_passes / sizeof *pl_post_passes;
+_Static_assert(sizeof(pl_timings) == 4 * sizeof(double), "pl_frontend_passes follow pl_timings");
+_Static_assert(sizeof(cmp_timings) == 5 * sizeof(double), "pl_post_passes follow cmp_timings");
 
 tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **out)
 {
@@ -41,26 +58,32 @@ tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **out)
     if (!c)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
     c->d = *d;
-    if (d->denoiser_plugin && !d->backend) {
+    /* (callers from before the registry name the built-in back-end's mode) */
+    const char *name = d->denoiser ? d->denoiser : dn_mode_name(d->denoise.mode);
+    const pl_denoiser_info *info;
+    TND_TRY(pl_denoiser_find(name, &info));
+    c->ops = pl_denoiser_ops_find(name);
+    if ((info->caps & PL_DN_PLUGIN) && !d->backend) {
         res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: a denoiser plugin needs the back-end");
         goto fail;
     }
-    if (d->backend) {
-        dn_desc dd = d->denoise;
-        dd.precision = d->precision;
-        if (d->denoiser_plugin) { /* the back-end composites the noisy radiance only */
-            dd.mode = DN_MODE_OFF;
-            c->d.denoise.mode = DN_MODE_OFF;
-            TND_TRY(pl_dnp_create(d->vk, d->denoiser_plugin, d->width, d->height, d->precision,
-                                  &c->plugin));
-            TND_TRY(tnd_pending_create(d->vk, &c->plugin_pending));
-            TND_TRY(tnd_timer_create(d->vk, &c->plugin_timer));
+    for (uint32_t i = 0; i < d->params.n; i++)
+        if (!pl_denoiser_has_param(info, d->params.param[i]->name)) {
+            res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "pipeline: denoiser %s has no parameter %s",
+                           info->name, d->params.param[i]->name);
+            goto fail;
         }
-        TND_TRY(dn_create(d->vk, d->width, d->height, &dd, &c->dn));
+    if (d->backend) {
+        TND_TRY(c->ops->create(&(pl_dn_desc){.vk = d->vk, .width = d->width, .height = d->height,
+                                             .precision = d->precision, .params = &c->d.params,
+                                             .backend = &d->denoise,
+                                             .path = name + (info->caps & PL_DN_PLUGIN ? 7 : 0),
+                                             .data = c->ops->data},
+                               &c->dn));
         if (!d->no_post)
             TND_TRY(cmp_create(d->vk, d->width, d->height, d->precision, &d->post, &c->post));
-        if (dd.mode == DN_MODE_ASVGF &&
-            !(c->grads = malloc((size_t)dn_gradient_capacity(c->dn) * PL_GRADIENT_WORDS *
+        if ((info->caps & PL_DN_GRADIENTS) &&
+            !(c->grads = malloc((size_t)c->ops->capacity(c->dn) * PL_GRADIENT_WORDS *
                                 sizeof *c->grads))) {
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
             goto fail;
@@ -78,23 +101,24 @@ void pl_chain_destroy(pl_chain *c)
     if (!c)
         return;
     free(c->grads);
-    if (c->plugin) {
-        tnd_pending_destroy(c->d.vk, &c->plugin_pending);
-        tnd_timer_destroy(c->d.vk, &c->plugin_timer);
-        pl_dnp_destroy(c->plugin);
-    }
     tnd_frame_destroy(&c->host);
     tnd_frame_destroy(&c->reshaded);
     if (c->upload.images[0].image)
         tnd_contract_gpu_destroy(c->d.vk, &c->upload);
     cmp_destroy(c->post);
-    dn_destroy(c->dn);
+    if (c->dn)
+        c->ops->destroy(c->dn);
     free(c);
+}
+
+const pl_denoiser_info *pl_chain_denoiser_info(const pl_chain *c)
+{
+    return &c->ops->info;
 }
 
 dn_context *pl_chain_denoiser(pl_chain *c)
 {
-    return c->dn;
+    return c->dn && c->ops->backend ? c->ops->backend(c->dn) : NULL;
 }
 
 const tnd_contract_gpu *pl_chain_contract(const pl_chain *c)
@@ -104,7 +128,40 @@ const tnd_contract_gpu *pl_chain_contract(const pl_chain *c)
 
 const char *pl_chain_plugin_name(const pl_chain *c)
 {
-    return c->plugin ? pl_dnp_name(c->plugin) : NULL;
+    return c->dn && c->ops->plugin_name ? c->ops->plugin_name(c->dn) : NULL;
+}
+
+uint32_t pl_chain_passes(const pl_chain *c, const pl_pass **p, uint32_t max)
+{
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < pl_frontend_pass_count && n < max; i++)
+        p[n++] = &pl_frontend_passes[i];
+    for (uint32_t i = 0; c->d.backend && i < c->ops->info.npasses && n < max; i++)
+        p[n++] = &c->ops->info.passes[i];
+    for (uint32_t i = 0; c->post && i < pl_post_pass_count && n < max; i++)
+        p[n++] = &pl_post_passes[i];
+    return n;
+}
+
+void pl_step_times(const pl_chain *c, const pl_step_result *r, double *ms)
+{
+    uint32_t n = 0;
+    const double fe[4] = {r->fe.primary_ms, r->fe.shade_ms, r->fe.tlas_ms, r->fe.gradient_ms};
+    for (uint32_t i = 0; i < pl_frontend_pass_count; i++)
+        ms[n++] = fe[i];
+    for (uint32_t i = 0; c->d.backend && i < c->ops->info.npasses; i++)
+        ms[n++] = r->dn[i];
+    const double post[5] = {r->post.interleave_ms, r->post.taa_ms, r->post.bloom_ms,
+                            r->post.exposure_ms, r->post.tonemap_ms};
+    for (uint32_t i = 0; c->post && i < pl_post_pass_count; i++)
+        ms[n++] = post[i];
+}
+
+void pl_chain_traffic(const pl_chain *c, double *bytes)
+{
+    memset(bytes, 0, PL_DN_MAX_PASSES * sizeof *bytes);
+    if (c->dn && c->ops->traffic)
+        c->ops->traffic(c->dn, bytes);
 }
 
 /* The camera's position from its world-to-camera matrix (column-major): -R^T t. */
@@ -113,54 +170,6 @@ static void camera_position(const float view[16], float pos[3])
     for (int i = 0; i < 3; i++)
         pos[i] = -(view[i * 4 + 0] * view[12] + view[i * 4 + 1] * view[13] +
                    view[i * 4 + 2] * view[14]);
-}
-
-/* Wait for the plugin's frame in flight and read its time. */
-static tnd_result plugin_settle(pl_chain *c)
-{
-    tnd_result res = TND_OK;
-    TND_TRY(tnd_pending_wait(c->d.vk, &c->plugin_pending));
-    if (c->plugin_due) {
-        c->plugin_due = false;
-        TND_TRY(tnd_timer_read(c->d.vk, &c->plugin_timer, &c->plugin_ms));
-    }
-fail:
-    return res;
-}
-
-/* The plugin's frame: its settings (the camera from the recorded frame or the front-end), its
- * commands between full barriers, submitted after the back-end's composite of the noisy
- * radiance. */
-static tnd_result plugin_submit(pl_chain *c, pl_frontend *fe, const pl_step *s,
-                                const dn_frame *df, const tnd_contract_gpu *ct, bool recorded)
-{
-    tnd_result res = TND_OK;
-    TND_TRY(plugin_settle(c));
-    pl_camera cam = {0};
-    if (recorded) {
-        cam.state = c->host.camera;
-        camera_position(c->host.camera.view, cam.position);
-    } else if (pl_frontend_camera(fe)) {
-        cam = *pl_frontend_camera(fe);
-    }
-    tandem_frame_settings fs;
-    pl_plugin_settings(&cam, c->d.width, c->d.height, s->params.bounces, s->params.sample, df,
-                       s->dt, c->d.precision, &fs);
-    VkCommandBuffer cmd;
-    TND_TRY(tnd_cmd_begin(c->d.vk, &cmd));
-    tnd_timer_reset(cmd, &c->plugin_timer);
-    int slot = tnd_timer_begin(cmd, &c->plugin_timer, "plugin");
-    res = pl_dnp_record(c->plugin, cmd, &fs, ct, dn_output(c->dn));
-    tnd_timer_end(cmd, &c->plugin_timer, slot);
-    if (res != TND_OK) {
-        vkEndCommandBuffer(cmd);
-        vkFreeCommandBuffers(c->d.vk->device, c->d.vk->cmd_pool, 1, &cmd);
-        return res;
-    }
-    TND_TRY(tnd_cmd_submit_pending(c->d.vk, cmd, &c->plugin_pending));
-    c->plugin_due = true;
-fail:
-    return res;
 }
 
 cmp_context *pl_chain_post(pl_chain *c)
@@ -200,13 +209,9 @@ static tnd_result collect(pl_chain *c, pl_frontend *fe, pl_step_result *r)
         TND_TRY(pl_frontend_timings(fe, false, &r->fe));
     else if (c->fe)
         TND_TRY(pl_frontend_timings(c->fe, true, &r->fe));
-    TND_TRY(dn_wait(c->dn, &r->dn));
+    TND_TRY(c->ops->wait(c->dn, r->dn, &r->beside));
     if (c->post)
         TND_TRY(cmp_wait(c->post, &r->post));
-    if (c->plugin) {
-        TND_TRY(plugin_settle(c));
-        r->plugin_ms = c->plugin_ms;
-    }
     r->lagged = true;
 fail:
     return res;
@@ -226,7 +231,8 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
      * queue): their times come once the frame is waited for, or lagged with the back-end's */
     pl_timings *ft = (caps & PL_CAP_QUEUED) ? NULL : &r->fe;
     c->fe = fe;
-    bool asvgf = c->d.backend && c->d.denoise.mode == DN_MODE_ASVGF;
+    /* a denoiser that asks for re-shaded gradient samples (A-SVGF) */
+    bool gradients = c->d.backend && (c->ops->info.caps & PL_DN_GRADIENTS);
     bool need_host = !gpu || s->capture || !c->d.backend || c->d.host_contract;
     if (recorded)
         tnd_frame_destroy(&c->host); /* (a recorded front-end reads into a fresh frame) */
@@ -245,7 +251,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
         memcpy(c->prev_jitter, f->camera.jitter, sizeof c->prev_jitter);
     }
     if (s->capture) {
-        c->host.gradients = asvgf; /* the samples come beside it */
+        c->host.gradients = gradients; /* the samples come beside it */
         TND_TRY(tnd_capture_write(s->capture, &c->host, TND_EXR_ZIP));
     }
     if (!c->d.backend) { /* the composite on the CPU */
@@ -263,12 +269,12 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
                                             &c->upload));
         TND_TRY(tnd_contract_upload(c->d.vk, &c->upload, &c->host));
     }
-    if (asvgf) {
-        /* A-SVGF: the back-end picks pixels, the front-end re-shades them with the previous
+    if (gradients) {
+        /* A-SVGF: the denoiser picks pixels, the front-end re-shades them with the previous
          * frame's random numbers on the surface seen there */
         uint32_t n = 0;
         if (gpu && s->capture) { /* the list comes to the host, for the capture */
-            TND_TRY(dn_select_gradients(c->dn, ct, &df, c->grads, &n));
+            TND_TRY(c->ops->select(c->dn, ct, &df, c->grads, NULL, &n));
             TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, NULL, ft));
             if (n) { /* the contract as re-shaded, at the samples */
                 if (!c->reshaded.block)
@@ -278,10 +284,10 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
             }
         } else if (gpu) { /* the sample list stays on the GPU */
             VkBuffer slots;
-            TND_TRY(dn_select_gradients_gpu(c->dn, ct, &df, &slots, &n));
+            TND_TRY(c->ops->select(c->dn, ct, &df, NULL, &slots, &n));
             TND_TRY(pl_frontend_reshade_slots(fe, &s->params, slots, n, ft));
         } else {
-            TND_TRY(dn_select_gradients(c->dn, ct, &df, c->grads, &n));
+            TND_TRY(c->ops->select(c->dn, ct, &df, c->grads, NULL, &n));
             /* (a recorded front-end checks the selection even when it is empty) */
             if (n || recorded)
                 TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, &c->host, ft));
@@ -297,20 +303,24 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     if (c->in_flight && !wait)
         TND_TRY(collect(c, fe, r));
     c->in_flight = false;
-    TND_TRY(dn_submit(c->dn, ct, &df));
-    if (c->plugin)
-        TND_TRY(plugin_submit(c, fe, s, &df, ct, recorded));
-    if (wait) {
-        TND_TRY(dn_wait(c->dn, &r->dn));
-        if (c->plugin) {
-            TND_TRY(plugin_settle(c));
-            r->plugin_ms = c->plugin_ms;
-        }
+    /* the plugin ABI's settings: the camera from the recorded frame or the front-end */
+    pl_camera cam = {0};
+    if (recorded) {
+        cam.state = c->host.camera;
+        camera_position(c->host.camera.view, cam.position);
+    } else if (pl_frontend_camera(fe)) {
+        cam = *pl_frontend_camera(fe);
     }
+    tandem_frame_settings fs;
+    pl_plugin_settings(&cam, c->d.width, c->d.height, s->params.bounces, s->params.sample, &df,
+                       s->dt, c->d.precision, &fs);
+    TND_TRY(c->ops->submit(c->dn, &(pl_dn_input){.contract = ct, .frame = &df, .settings = &fs}));
+    if (wait)
+        TND_TRY(c->ops->wait(c->dn, r->dn, &r->beside));
     if (s->after_backend)
-        TND_TRY(s->after_backend(c->dn, s->user));
+        TND_TRY(s->after_backend(pl_chain_denoiser(c), s->user));
     if (c->post) {
-        const tnd_image *out = c->plugin ? pl_dnp_output(c->plugin) : dn_output(c->dn);
+        const tnd_image *out = c->ops->output(c->dn);
         TND_TRY(cmp_submit(c->post, out, ct,
                            &(cmp_frame){.dt = s->dt, .reset = df.reset}));
         if (wait)

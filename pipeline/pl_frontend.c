@@ -1,7 +1,8 @@
 /* pipeline/pl_frontend.c: the front-end interface and its registry. Each front-end is one table
  * of operations (pl_frontend_ops); the Vulkan and Embree front-ends are adapted to it here, the
  * only place outside their folders that names their functions.
- * Entry points: pl_frontend_names, pl_frontend_needs_gpu, pl_frontend_create and the
+ * Entry points: pl_frontend_names, pl_frontend_live_names, pl_frontend_known, pl_frontend_live,
+ * pl_frontend_caps_of, pl_frontend_name_at, pl_frontend_needs_gpu, pl_frontend_create and the
  * pl_frontend_* operations. */
 #include "pipeline/pl_internal.h"
 #include "frontend_embree/frontend_embree.h"
@@ -340,9 +341,28 @@ static const pl_frontend_ops *find(const char *name)
     return NULL;
 }
 
+/* the registered names (live ones only: without PL_CAP_RECORDED), then "plugin:PATH" */
+static const char *names_of(bool live, char *buf, size_t cap)
+{
+    if (buf[0])
+        return buf;
+    for (int i = 0; i < REGISTERED; i++)
+        if (!live || !(registry[i]->caps & PL_CAP_RECORDED))
+            snprintf(buf + strlen(buf), cap - strlen(buf), "%s, ", registry[i]->name);
+    snprintf(buf + strlen(buf), cap - strlen(buf), "plugin:PATH");
+    return buf;
+}
+
 const char *pl_frontend_names(void)
 {
-    return "embree, vk, replay, plugin:PATH";
+    static char buf[256];
+    return names_of(false, buf, sizeof buf);
+}
+
+const char *pl_frontend_live_names(void)
+{
+    static char buf[256];
+    return names_of(true, buf, sizeof buf);
 }
 
 /* "plugin:PATH": the path, else NULL */
@@ -351,10 +371,32 @@ static const char *plugin_path(const char *name)
     return name && strncmp(name, "plugin:", 7) == 0 ? name + 7 : NULL;
 }
 
+uint32_t pl_frontend_caps_of(const char *name)
+{
+    const char *plugin = plugin_path(name);
+    const pl_frontend_ops *o = plugin ? (*plugin ? &pl_plugin_frontend_ops : NULL) : find(name);
+    return o ? o->caps : 0;
+}
+
+const char *pl_frontend_name_at(uint32_t i)
+{
+    return i < REGISTERED ? registry[i]->name : NULL;
+}
+
+bool pl_frontend_known(const char *name)
+{
+    const char *plugin = plugin_path(name);
+    return plugin ? *plugin != 0 : find(name) != NULL;
+}
+
+bool pl_frontend_live(const char *name)
+{
+    return pl_frontend_known(name) && !(pl_frontend_caps_of(name) & PL_CAP_RECORDED);
+}
+
 bool pl_frontend_needs_gpu(const char *name)
 {
-    const pl_frontend_ops *o = plugin_path(name) ? &pl_plugin_frontend_ops : find(name);
-    return o && (o->caps & PL_CAP_GPU_CONTRACT);
+    return (pl_frontend_caps_of(name) & PL_CAP_GPU_CONTRACT) != 0;
 }
 
 tnd_result pl_frontend_create(const char *name, const tnd_scene *scene, const pl_frontend_desc *d,

@@ -1,5 +1,7 @@
-/* pipeline/pl_internal.h: the table of operations a front-end implements (pl_frontend.c holds
- * the registry and the Vulkan and Embree adapters, pl_replay.c the capture replay). */
+/* pipeline/pl_internal.h: the tables of operations a front-end and a denoiser implement
+ * (pl_frontend.c holds the front-ends' registry and the Vulkan and Embree adapters, pl_replay.c
+ * the capture replay; pl_denoiser.c the denoisers' registry and the built-in back-end's
+ * adapter; pl_plugin.c the plugins' adapters). */
 #ifndef PL_INTERNAL_H
 #define PL_INTERNAL_H
 
@@ -62,5 +64,53 @@ const tnd_image *pl_dnp_output(const pl_dnp *d);
 /* Record the plugin's frame into cmd, between full barriers. */
 tnd_result pl_dnp_record(pl_dnp *d, VkCommandBuffer cmd, const tandem_frame_settings *s,
                          const tnd_contract_gpu *ct, const tnd_image *radiance);
+
+/* ---- denoisers ---------------------------------------------------------------------------- */
+typedef struct pl_dn_desc {
+    tnd_vk *vk;
+    uint32_t width, height;
+    tnd_precision precision;
+    const pl_param_set *params; /* values given for its parameters */
+    const dn_desc *backend;     /* the built-in back-end's other settings (may be NULL) */
+    const char *path;           /* plugins: the shared object */
+    const void *data;           /* the ops table's `data` */
+} pl_dn_desc;
+
+/* One frame's input: the contract, the frame's parameters and the plugin ABI's settings. */
+typedef struct pl_dn_input {
+    const tnd_contract_gpu *contract;
+    const dn_frame *frame;
+    const tandem_frame_settings *settings;
+} pl_dn_input;
+
+typedef struct pl_denoiser_ops {
+    pl_denoiser_info info;
+    const void *data; /* handed to create (pl_dn_desc.data) */
+    tnd_result (*create)(const pl_dn_desc *d, void **ctx);
+    void (*destroy)(void *ctx);
+    /* PL_DN_GRADIENTS: this frame's gradient samples, to the host (words, PL_GRADIENT_WORDS
+     * each, room for capacity()) or left on the GPU (slots: the buffer, *n its slots) */
+    uint32_t (*capacity)(const void *ctx);
+    tnd_result (*select)(void *ctx, const tnd_contract_gpu *ct, const dn_frame *f,
+                         uint32_t *words, VkBuffer *slots, uint32_t *n);
+    /* record and submit the frame (not waited for); wait for it: its passes' times */
+    tnd_result (*submit)(void *ctx, const pl_dn_input *in);
+    tnd_result (*wait)(void *ctx, double *ms, bool *beside);
+    const tnd_image *(*output)(const void *ctx);
+    /* optional: the built-in back-end's context (PL_DN_DUMPS), the bytes per pass, the plugin's
+     * own name */
+    dn_context *(*backend)(void *ctx);
+    void (*traffic)(const void *ctx, double *bytes);
+    const char *(*plugin_name)(const void *ctx);
+} pl_denoiser_ops;
+
+/* A registered denoiser's operations by name ("plugin:PATH": the plugin adapter's); NULL for
+ * an unknown name. */
+const pl_denoiser_ops *pl_denoiser_ops_find(const char *name);
+/* The plugin adapter (pl_plugin.c): "plugin:PATH". */
+extern const pl_denoiser_ops pl_plugin_denoiser_ops;
+/* The built-in back-end's context in mode off (what the plugin adapter composites the noisy
+ * radiance with) through the built-in adapter (pl_denoiser.c). */
+extern const pl_denoiser_ops pl_backend_off_ops;
 
 #endif

@@ -432,3 +432,130 @@ tnd_result pl_dnp_record(pl_dnp *d, VkCommandBuffer cmd, const tandem_frame_sett
     tnd_cmd_barrier(cmd);
     return TND_OK;
 }
+
+/* ---- the denoiser adapter: "plugin:PATH" as a registered denoiser ------------------------------ */
+/* The built-in back-end composites the noisy radiance (mode off) that the plugin may read; the
+ * plugin's commands follow in their own submission, between full barriers, timed. */
+typedef struct pdn {
+    void *off; /* the built-in adapter's context (pl_backend_off_ops) */
+    pl_dnp *dnp;
+    tnd_vk *vk;
+    tnd_pending pending;
+    tnd_timer timer;
+    bool due;
+    double ms;
+} pdn;
+
+static void pdn_destroy(void *ctx)
+{
+    pdn *p = ctx;
+    if (!p)
+        return;
+    if (p->dnp) {
+        tnd_pending_destroy(p->vk, &p->pending);
+        tnd_timer_destroy(p->vk, &p->timer);
+        pl_dnp_destroy(p->dnp);
+    }
+    pl_backend_off_ops.destroy(p->off);
+    free(p);
+}
+
+static tnd_result pdn_create(const pl_dn_desc *d, void **out)
+{
+    tnd_result res = TND_OK;
+    pdn *p = calloc(1, sizeof *p);
+    if (!p)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "plugin: out of memory");
+    p->vk = d->vk;
+    pl_dn_desc od = *d;
+    od.params = NULL;
+    od.data = pl_backend_off_ops.data;
+    TND_TRY(pl_dnp_create(d->vk, d->path, d->width, d->height, d->precision, &p->dnp));
+    TND_TRY(tnd_pending_create(d->vk, &p->pending));
+    TND_TRY(tnd_timer_create(d->vk, &p->timer));
+    TND_TRY(pl_backend_off_ops.create(&od, &p->off));
+    *out = p;
+    return TND_OK;
+fail:
+    pdn_destroy(p);
+    return res;
+}
+
+/* Wait for the plugin's frame in flight and read its time. */
+static tnd_result pdn_settle(pdn *p)
+{
+    tnd_result res = TND_OK;
+    TND_TRY(tnd_pending_wait(p->vk, &p->pending));
+    if (p->due) {
+        p->due = false;
+        TND_TRY(tnd_timer_read(p->vk, &p->timer, &p->ms));
+    }
+fail:
+    return res;
+}
+
+static tnd_result pdn_submit(void *ctx, const pl_dn_input *in)
+{
+    pdn *p = ctx;
+    tnd_result res = TND_OK;
+    TND_TRY(pl_backend_off_ops.submit(p->off, in));
+    TND_TRY(pdn_settle(p));
+    VkCommandBuffer cmd;
+    TND_TRY(tnd_cmd_begin(p->vk, &cmd));
+    tnd_timer_reset(cmd, &p->timer);
+    int slot = tnd_timer_begin(cmd, &p->timer, "plugin");
+    res = pl_dnp_record(p->dnp, cmd, in->settings, in->contract,
+                        pl_backend_off_ops.output(p->off));
+    tnd_timer_end(cmd, &p->timer, slot);
+    if (res != TND_OK) {
+        vkEndCommandBuffer(cmd);
+        vkFreeCommandBuffers(p->vk->device, p->vk->cmd_pool, 1, &cmd);
+        return res;
+    }
+    TND_TRY(tnd_cmd_submit_pending(p->vk, cmd, &p->pending));
+    p->due = true;
+fail:
+    return res;
+}
+
+static tnd_result pdn_wait(void *ctx, double *ms, bool *beside)
+{
+    pdn *p = ctx;
+    tnd_result res = TND_OK;
+    double off[PL_DN_MAX_PASSES] = {0};
+    TND_TRY(pl_backend_off_ops.wait(p->off, off, beside));
+    TND_TRY(pdn_settle(p));
+    ms[0] = off[pl_backend_off_ops.info.npasses - 1]; /* its composite */
+    ms[1] = p->ms;
+    *beside = false;
+fail:
+    return res;
+}
+
+static const tnd_image *pdn_output(const void *ctx)
+{
+    return pl_dnp_output(((const pdn *)ctx)->dnp);
+}
+
+static const char *pdn_name(const void *ctx)
+{
+    return pl_dnp_name(((const pdn *)ctx)->dnp);
+}
+
+/* its passes: the noisy radiance's composite, the plugin's frame */
+static const pl_pass pdn_passes[] = {
+    {"composite", "composite_ms", PL_GROUP_BACKEND, NULL},
+    {"plugin", "denoiser_plugin_ms", PL_GROUP_BACKEND, NULL},
+};
+
+const pl_denoiser_ops pl_plugin_denoiser_ops = {
+    .info = {"plugin", "a denoiser plugin (plugin:PATH.so; include/tandem/tandem_plugin.h)",
+             PL_DN_FILTERS | PL_DN_PLUGIN, NULL, NULL, 0, pdn_passes,
+             sizeof pdn_passes / sizeof *pdn_passes},
+    .create = pdn_create,
+    .destroy = pdn_destroy,
+    .submit = pdn_submit,
+    .wait = pdn_wait,
+    .output = pdn_output,
+    .plugin_name = pdn_name,
+};

@@ -37,7 +37,7 @@ int main(int argc, char **argv)
     bool split = false;
     pl_frontend_recorded(replay, &w, &h, &precision, &split);
     pl_chain_desc cd = {.vk = &vk, .width = w, .height = h, .precision = precision,
-                        .backend = true, .denoise = {.mode = DN_MODE_SVGF},
+                        .backend = true, .denoiser = "svgf",
                         .post = {.taa = true, .interleave = split}};
     if ((r = pl_chain_create(&cd, &chain)) != TND_OK || (r = tnd_mkdirs(argv[2])) != TND_OK) {
         status = fail(r);
