@@ -133,7 +133,9 @@ typedef struct app_render_opts {
     double bloom, exposure_bias;
     pl_param_set params; /* the denoiser's parameters given (pl_param) */
     unsigned frames, start, threads, bounces, spp, camera, reflect_depth;
-    unsigned ref_bounces; /* reference: bounces per path (0: full paths, unbiased; ~0: not given) */
+    unsigned ref_bounces; /* reference: --bounces as given (~0: not given): the realtime
+                             estimator's bounces (default 1), or the unbiased path's cap (default
+                             none) */
     const char *estimator; /* reference: "unbiased" or "realtime" (a matched reference) */
     double until_noise;    /* reference: stop a frame once its mean relative error is below */
     unsigned size[2];
@@ -149,6 +151,18 @@ typedef struct app_render_opts {
  * after parsing, and what the sweep and compare call. Options checked as the command line's;
  * returns the exit status. */
 int app_render(const app_render_opts *o, bool reference);
+/* render's defaults (what the command line starts from). */
+void app_render_defaults(app_render_opts *o);
+/* The command line of those options (after "tandem", from "render" or "reference"): every option
+ * that differs from the defaults, --out when set, --quiet when quiet; strings live in the struct
+ * (for scripts that run tandem elsewhere: the sweep's Slurm jobs). */
+typedef struct app_args {
+    const char *v[96];
+    int n;
+    char buf[4096];
+    size_t used;
+} app_args;
+tnd_result app_render_args(const app_render_opts *o, bool reference, app_args *a);
 struct pl_frontend;
 struct pl_chain;
 struct cmp_desc;

@@ -176,23 +176,12 @@ static void agreement_html(const cJSON *root, double min_gbuffer, double min_sig
     ev_text_add(t, "</table>\n");
 }
 
-/* `tandem render` in this process (argv as the command line after "tandem"). */
-static tnd_result run_render(const char *const *args, int n)
-{
-    char *argv[40];
-    for (int i = 0; i < n && i < 40; i++)
-        argv[i] = (char *)args[i];
-    int rc = strcmp(args[0], "reference") == 0 ? cmd_reference(n, argv) : cmd_render(n, argv);
-    return rc == APP_EXIT_OK ? TND_OK
-                             : tnd_fail(TND_ERR_IO, "compare: tandem %s --out %s failed", args[0],
-                                        args[n - 2]);
-}
-
 int cmd_compare(int argc, char **argv)
 {
     double min_gbuffer = 0.99, min_signal = 0.9;
     bool json = false;
     const char *reference = NULL, *report = NULL, *scene = NULL, *out = NULL, *denoiser = "asvgf";
+    const char *frontends = "embree,vk";
     unsigned frames = 8, spp = 64, size[2] = {160, 90};
     const app_opt opts[] = {
         {"min-gbuffer", APP_OPT_FLOAT, &min_gbuffer, "F",
@@ -209,7 +198,10 @@ int cmd_compare(int argc, char **argv)
          "with --scene: DIR/embree, DIR/vk, DIR/reference (unless --reference), DIR/report"},
         {"frames", APP_OPT_UINT, &frames, "N", "with --scene: frames (default 8)"},
         {"size", APP_OPT_SIZE, size, "WxH", "with --scene: image size (default 160x90)"},
-        {"denoiser", APP_OPT_STRING, &denoiser, "MODE", "with --scene: the back-end (default asvgf)"},
+        {"denoiser", APP_OPT_STRING, &denoiser, "NAME",
+         "with --scene: the denoiser both run through (default asvgf)"},
+        {"frontends", APP_OPT_STRING, &frontends, "A,B",
+         "with --scene: the two front-ends (default embree,vk: the cross-check)"},
         {"spp", APP_OPT_UINT, &spp, "K", "with --scene and no --reference: reference samples (default 64)"},
         {0},
     };
@@ -233,26 +225,53 @@ int cmd_compare(int argc, char **argv)
     }
     tnd_result res = TND_OK;
     char run_a[1000], run_b[1000], refdir[1000], report_dir[1000];
+    char fe[2][256] = {"", ""}; /* --scene: the two front-ends (registered names) */
     if (scene) {
-        char fr[16], sz[32], sp[16];
-        snprintf(fr, sizeof fr, "%u", frames);
-        snprintf(sz, sizeof sz, "%ux%u", size[0], size[1]);
-        snprintf(sp, sizeof sp, "%u", spp);
-        snprintf(run_a, sizeof run_a, "%s/embree", out);
-        snprintf(run_b, sizeof run_b, "%s/vk", out);
-        const char *fe[2] = {"embree", "vk"}, *dirs[2] = {run_a, run_b};
+        const char *comma = strchr(frontends, ',');
+        if (comma && comma - frontends < 256 && strlen(comma + 1) < 256) {
+            snprintf(fe[0], sizeof fe[0], "%.*s", (int)(comma - frontends), frontends);
+            snprintf(fe[1], sizeof fe[1], "%s", comma + 1);
+        }
+        for (int i = 0; i < 2; i++)
+            if (!pl_frontend_live(fe[i]) || strncmp(fe[i], "plugin:", 7) == 0 ||
+                strcmp(fe[0], fe[1]) == 0) {
+                fprintf(stderr, "tandem compare: --frontends %s: two different front-ends of %s "
+                                "expected\n", frontends, pl_frontend_live_names());
+                return APP_EXIT_USAGE;
+            }
+    }
+    if (scene) {
+        /* both front-ends through one denoiser, then the reference: render as functions */
+        snprintf(run_a, sizeof run_a, "%s/%s", out, fe[0]);
+        snprintf(run_b, sizeof run_b, "%s/%s", out, fe[1]);
+        const char *dirs[2] = {run_a, run_b};
+        app_render_opts o;
         for (int i = 0; i < 2 && res == TND_OK; i++) {
-            const char *args[] = {"render", "--frontend", fe[i], "--scene", scene, "--frames", fr,
-                                  "--size", sz, "--capture", "--denoiser", denoiser, "--out", dirs[i]};
-            res = run_render(args, (int)(sizeof args / sizeof args[0]));
+            app_render_defaults(&o);
+            o.frontend = fe[i];
+            o.scene = scene;
+            o.frames = frames;
+            o.size[0] = size[0];
+            o.size[1] = size[1];
+            o.capture = true;
+            o.denoiser = denoiser;
+            o.out = dirs[i];
+            if (app_render(&o, false) != APP_EXIT_OK)
+                res = tnd_fail(TND_ERR_IO, "compare: tandem render --out %s failed", dirs[i]);
         }
         if (reference) {
             snprintf(refdir, sizeof refdir, "%s", reference);
         } else if (res == TND_OK) {
             snprintf(refdir, sizeof refdir, "%s/reference", out);
-            const char *args[] = {"reference", "--scene", scene, "--frames", fr, "--size", sz,
-                                  "--spp", sp, "--out", refdir};
-            res = run_render(args, (int)(sizeof args / sizeof args[0]));
+            app_render_defaults(&o);
+            o.scene = scene;
+            o.frames = frames;
+            o.size[0] = size[0];
+            o.size[1] = size[1];
+            o.spp = spp;
+            o.out = refdir;
+            if (app_render(&o, true) != APP_EXIT_OK)
+                res = tnd_fail(TND_ERR_IO, "compare: tandem reference --out %s failed", refdir);
         }
         snprintf(report_dir, sizeof report_dir, "%s/report", out);
         reference = refdir;
@@ -275,9 +294,9 @@ int cmd_compare(int argc, char **argv)
     if (reference) {
         app_eval e = {0};
         snprintf(e.ref, sizeof e.ref, "%s", reference);
-        res = app_eval_add(&e, scene ? "embree" : run_a, run_a, APP_SERIES_OUTPUT);
+        res = app_eval_add(&e, scene ? fe[0] : run_a, run_a, APP_SERIES_OUTPUT);
         if (res == TND_OK)
-            res = app_eval_add(&e, scene ? "vk" : run_b, run_b, APP_SERIES_OUTPUT);
+            res = app_eval_add(&e, scene ? fe[1] : run_b, run_b, APP_SERIES_OUTPUT);
         if (res == TND_OK)
             res = app_eval_run(&e);
         cJSON *ev = cJSON_AddArrayToObject(root, "eval");

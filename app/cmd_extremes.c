@@ -1,6 +1,6 @@
 /* app/cmd_extremes.c: `tandem bench --extremes --out DIR`: the numerical stability report. The
- * `extremes` scene (or --scene) through every mode (front-end embree / vk, denoiser asvgf / svgf
- * / off, contract float32 / packed); per run and per buffer (the contract's entries from the
+ * `extremes` scene (or --scene) through every mode (every live front-end and every denoiser of
+ * the registries, contract float32 / packed); per run and per buffer (the contract's entries from the
  * captures, the back-end's buffers from --dump all, the output): NaN/Inf counts, values the
  * packed formats clamp (half above 65504, RGBE 9-9-9-5 above 130816) and flush (non-zero below
  * half's 2^-24 or RGBE's 2^-24 step), and the largest magnitude; then the error of the packed
@@ -200,18 +200,21 @@ fail:
 
 int app_extremes(const char *scene, const char *out, const unsigned size[2], unsigned frames)
 {
-    static const char *const fes[2] = {"embree", "vk"}, *const dns[3] = {"asvgf", "svgf", "off"},
-                             *const precs[2] = {"float32", "packed"};
-    enum { RUNS = 12 };
-    run_stats runs[RUNS];
+    /* every live front-end of the registry, every registered denoiser, both precisions */
+    static const char *const precs[2] = {"float32", "packed"};
+    enum { MAX_RUNS = 128 };
+    const char *fes[16];
+    uint32_t nfe = 0, ndn = pl_denoiser_count();
+    for (uint32_t i = 0; pl_frontend_name_at(i) && nfe < 16; i++)
+        if (pl_frontend_live(pl_frontend_name_at(i)))
+            fes[nfe++] = pl_frontend_name_at(i);
+    const int RUNS = (int)(nfe * ndn * 2 < MAX_RUNS ? nfe * ndn * 2 : MAX_RUNS);
+    run_stats runs[MAX_RUNS];
     memset(runs, 0, sizeof runs);
     tnd_result res = TND_OK;
     cJSON *root = cJSON_CreateObject();
     ev_text html = {0};
     uint64_t total_bad = 0;
-    char fr[16], sz[32];
-    snprintf(fr, sizeof fr, "%u", frames);
-    snprintf(sz, sizeof sz, "%ux%u", size[0], size[1]);
     if (!out || strlen(out) > 900) {
         fprintf(stderr, "tandem bench: --extremes needs --out DIR (a short path)\n");
         cJSON_Delete(root);
@@ -222,22 +225,30 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
     app_progress_begin(&bar, "extremes", RUNS);
     for (int i = 0; i < RUNS; i++) {
         run_stats *r = &runs[i];
-        r->frontend = fes[i / 6];
-        r->denoiser = dns[(i / 2) % 3];
+        const pl_denoiser_info *dn = pl_denoiser_at((uint32_t)(i / 2) % ndn);
+        r->frontend = fes[(uint32_t)i / (2 * ndn)];
+        r->denoiser = dn->name;
         r->precision = precs[i % 2];
         snprintf(r->dir, sizeof r->dir, "%s/runs/%s_%s_%s", out, r->frontend, r->denoiser,
                  r->precision);
-        bool gpu_backend = !(strcmp(r->frontend, "embree") == 0 && strcmp(r->denoiser, "off") == 0);
-        char *args[32] = {"render", "--scene", (char *)scene, "--frames", fr, "--size", sz,
-                          "--frontend", (char *)r->frontend, "--denoiser", (char *)r->denoiser,
-                          "--precision", (char *)r->precision, "--capture", "--quiet",
-                          "--out", r->dir};
-        int na = 17;
-        if (gpu_backend) {
-            args[na++] = "--dump";
-            args[na++] = "all";
-        }
-        if (cmd_render(na, args) != APP_EXIT_OK) {
+        /* the back-end's buffers where it runs on the GPU (a host front-end with a denoiser that
+         * does not filter composites on the CPU) */
+        bool gpu_backend = ((pl_frontend_caps_of(r->frontend) & PL_CAP_GPU_CONTRACT) ||
+                            (dn->caps & PL_DN_FILTERS)) && (dn->caps & PL_DN_DUMPS);
+        app_render_opts ro;
+        app_render_defaults(&ro);
+        ro.scene = scene;
+        ro.frames = frames;
+        ro.size[0] = size[0];
+        ro.size[1] = size[1];
+        ro.frontend = r->frontend;
+        ro.denoiser = r->denoiser;
+        ro.precision = r->precision;
+        ro.capture = true;
+        ro.quiet = true;
+        ro.out = r->dir;
+        ro.dump = gpu_backend ? "all" : NULL;
+        if (app_render(&ro, false) != APP_EXIT_OK) {
             res = tnd_fail(TND_ERR_IO, "bench: extremes run %s failed", r->dir);
             app_progress_end(&bar);
             goto fail;

@@ -11,6 +11,7 @@
 
 #include <cjson/cJSON.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -66,9 +67,8 @@ static void apply_view_state(render_opts *o, const app_view_state *v)
     o->view = v;
 }
 
-static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int argc, char **argv)
+void app_render_defaults(app_render_opts *o)
 {
-    const char *view_path = NULL;
     *o = (render_opts){.scene = TND_DATA_DIR "/scenes/cornell.gltf",
                        .env = APP_ENV_INIT,
                        .frontend = "embree",
@@ -86,6 +86,111 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                        .estimator = "unbiased",
                        .size = {320, 180},
                        .fps = 30.0};
+}
+
+/* ---- options back into a command line ------------------------------------------------------- */
+static bool arg(app_args *a, const char *v)
+{
+    if (!v || a->n >= (int)(sizeof a->v / sizeof a->v[0]))
+        return false;
+    a->v[a->n++] = v;
+    return true;
+}
+
+/* a formatted string kept in the struct (NULL when it is full) */
+static const char *keep(app_args *a, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static const char *keep(app_args *a, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int len = vsnprintf(a->buf + a->used, sizeof a->buf - a->used, fmt, ap);
+    va_end(ap);
+    if (len < 0 || (size_t)len >= sizeof a->buf - a->used)
+        return NULL;
+    const char *v = a->buf + a->used;
+    a->used += (size_t)len + 1;
+    return v;
+}
+
+#define argf(a, name, ...) (arg(a, name) && arg(a, keep(a, __VA_ARGS__)))
+
+/* a number as short as reads back the same */
+static const char *keep_num(app_args *a, double v)
+{
+    char t[40];
+    snprintf(t, sizeof t, "%.15g", v);
+    return keep(a, strtod(t, NULL) == v ? "%.15g" : "%.17g", v);
+}
+#define argn(a, name, v) (arg(a, name) && arg(a, keep_num(a, v)))
+
+static bool args_str(app_args *a, const char *name, const char *v, const char *def)
+{
+    return !v || (def && strcmp(v, def) == 0) || (arg(a, name) && arg(a, v));
+}
+
+tnd_result app_render_args(const app_render_opts *o, bool reference, app_args *a)
+{
+    render_opts d;
+    app_render_defaults(&d);
+    a->n = 0;
+    a->used = 0;
+    bool ok = arg(a, reference ? "reference" : "render");
+    ok = ok && args_str(a, "--scene", o->scene, d.scene) &&
+         args_str(a, "--frontend", o->frontend, d.frontend);
+    if (reference)
+        ok = ok && args_str(a, "--estimator", o->estimator, d.estimator);
+    ok = ok && (o->frames == d.frames || argf(a, "--frames", "%u", o->frames)) &&
+         (o->start == d.start || argf(a, "--start", "%u", o->start)) &&
+         (o->fps == d.fps || argn(a, "--fps", o->fps)) &&
+         ((o->size[0] == d.size[0] && o->size[1] == d.size[1]) ||
+          argf(a, "--size", "%ux%u", o->size[0], o->size[1])) &&
+         (o->camera == d.camera || argf(a, "--camera", "%u", o->camera)) &&
+         (o->threads == d.threads || argf(a, "--threads", "%u", o->threads)) &&
+         (o->reflect_depth == d.reflect_depth ||
+          argf(a, "--reflect-depth", "%u", o->reflect_depth));
+    if (reference)
+        ok = ok && (o->ref_bounces == d.ref_bounces || argf(a, "--bounces", "%u", o->ref_bounces)) &&
+             (o->spp == d.spp || argf(a, "--spp", "%u", o->spp)) &&
+             (o->until_noise == d.until_noise ||
+              argn(a, "--until-noise", o->until_noise)) &&
+             args_str(a, "--shard", o->shard, NULL) && args_str(a, "--rt-api", o->rt_api, d.rt_api);
+    else {
+        ok = ok && (o->bounces == d.bounces || argf(a, "--bounces", "%u", o->bounces)) &&
+             args_str(a, "--denoiser", o->denoiser, d.denoiser);
+        for (uint32_t i = 0; ok && i < o->params.n; i++) /* the denoiser's parameters */
+            ok = argn(a, keep(a, "--%s", o->params.param[i]->name), o->params.value[i]);
+        ok = ok && args_str(a, "--precision", o->precision, d.precision) &&
+             args_str(a, "--rt-api", o->rt_api, d.rt_api) &&
+             args_str(a, "--pipeline", o->pipeline, d.pipeline) &&
+             args_str(a, "--taa", o->taa, d.taa) &&
+             args_str(a, "--tonemap", o->tonemap, d.tonemap) &&
+             args_str(a, "--exposure", o->exposure, d.exposure) &&
+             (o->bloom == d.bloom || argn(a, "--bloom", o->bloom)) &&
+             (o->exposure_bias == d.exposure_bias ||
+              argn(a, "--exposure-bias", o->exposure_bias)) &&
+             args_str(a, "--dump", o->dump, NULL) && (!o->capture || arg(a, "--capture")) &&
+             (!o->video || arg(a, "--video")) &&
+             (o->timed_frames == d.timed_frames ||
+              argf(a, "--timed-frames", "%u", o->timed_frames));
+    }
+    ok = ok && args_str(a, "--env", o->env.path, NULL) &&
+         (!o->env.path || o->env.intensity == d.env.intensity ||
+          argn(a, "--env-intensity", o->env.intensity)) &&
+         (!o->env.path || o->env.rotation == d.env.rotation ||
+          argn(a, "--env-rotation", o->env.rotation)) &&
+         args_str(a, "--out", o->out, NULL) && (!o->quiet || arg(a, "--quiet"));
+    if (!ok)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: its command line is too long",
+                        reference ? "reference" : "render");
+    if (o->view)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "render: a view state has no command line here");
+    return TND_OK;
+}
+
+static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int argc, char **argv)
+{
+    const char *view_path = NULL;
+    app_render_defaults(o);
     char fe_help[200], dn_help[300];
     snprintf(fe_help, sizeof fe_help, "the front-end: %s (default embree)",
              pl_frontend_live_names());
@@ -189,12 +294,6 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
             return APP_EXIT_FAIL;
         }
         apply_view_state(o, &view_state);
-    }
-    if (reference) { /* --bounces: the estimator's (default 1) or the path length cap (none) */
-        bool rt = strcmp(o->estimator, "realtime") == 0;
-        if (rt)
-            o->bounces = o->ref_bounces == ~0u ? 1 : o->ref_bounces;
-        o->ref_bounces = rt || o->ref_bounces == ~0u ? 0 : o->ref_bounces;
     }
     return -1;
 }
@@ -606,6 +705,13 @@ static int run_opts(const render_opts *opts, bool reference)
 {
     render_opts o = *opts;
     const char *what = reference ? "reference" : "render";
+    if (reference) { /* --bounces: the estimator's (default 1) or the path length cap (none) */
+        bool rt = strcmp(o.estimator, "realtime") == 0;
+        if (rt)
+            o.bounces = o.ref_bounces == ~0u ? 1 : o.ref_bounces;
+        o.ref_bounces = rt || o.ref_bounces == ~0u ? 0 : o.ref_bounces;
+    }
+
     tnd_precision prec = TND_PRECISION_F32;
     tnd_result res = tnd_precision_parse(o.precision, &prec);
     if (res != TND_OK)

@@ -22,30 +22,51 @@ typedef struct knob {
     const char *key, *option, *help;
 } knob;
 
-static const knob knobs[] = {
+/* The knobs: render's settings, then every denoiser parameter of the registry (pl_param: a cell
+ * gives its value to the denoisers that have it). */
+static const knob fixed_knobs[] = {
     {"bounces", "--bounces", "indirect bounces"},
-    {"atrous", "--atrous", "a-trous iterations of hf and spec"},
-    {"alpha", "--min-alpha", "temporal minimum alpha (hf, lf, spec)"},
     {"gradient", "--denoiser", "A-SVGF temporal gradients: on (asvgf) or off (svgf)"},
-    {"denoiser", "--denoiser", "asvgf, svgf or off"},
+    {"denoiser", "--denoiser", "a registered denoiser (tandem render --help lists them)"},
     {"precision", "--precision", "contract precision: float32 or packed"},
     {"taa", "--taa", "on, off or the new-frame weight"},
     {"scale", "--size", "resolution scale (the output is resampled to the reference's size)"},
     {"frontend", "--frontend", "vk or embree (embree's front-end time is CPU wall clock)"},
 };
-enum { KNOBS = sizeof knobs / sizeof knobs[0] };
+enum { FIXED = sizeof fixed_knobs / sizeof fixed_knobs[0], MAX_KNOBS = FIXED + PL_PARAMS_MAX };
+static knob knobs[MAX_KNOBS];
+static char knob_option[PL_PARAMS_MAX][72];
+static int n_knobs;
 
-/* timings.json keys that are GPU passes of the frame (vk); primary/shade are the CPU's with embree */
-static const char *const passes[] = {"primary_ms", "shade_ms", "tlas_ms", "gradient_shade_ms",
-                                     "denoise_select_ms", "denoise_gradient_ms",
-                                     "denoise_temporal_ms", "denoise_lf_ms", "denoise_atrous_ms",
-                                     "composite_ms", "taa_ms", "bloom_ms", "exposure_ms",
-                                     "tonemap_ms"};
-enum { PASSES = sizeof passes / sizeof passes[0] };
+static void knobs_init(void)
+{
+    if (n_knobs)
+        return;
+    knobs[n_knobs++] = fixed_knobs[0];
+    for (uint32_t i = 0; i < pl_param_count() && i < PL_PARAMS_MAX; i++) {
+        const pl_param *p = pl_param_at(i);
+        snprintf(knob_option[i], sizeof knob_option[i], "--%s", p->name);
+        knobs[n_knobs++] = (knob){p->name, knob_option[i], p->help};
+    }
+    for (int i = 1; i < FIXED; i++)
+        knobs[n_knobs++] = fixed_knobs[i];
+}
+
+/* timings.json's keys of every pass a frame may time (pl_pass_all); the front-end's are the CPU's
+ * wall clock with embree */
+enum { PASSES_MAX = 48 };
+static const pl_pass *passes[PASSES_MAX];
+static int n_passes;
+
+static void passes_init(void)
+{
+    if (!n_passes)
+        n_passes = (int)pl_pass_all(passes, PASSES_MAX);
+}
 
 typedef struct sweep_run {
     const char *value[MAX_KEYS];
-    double pass_ms[PASSES], total_ms, wall_ms; /* wall_ms: per frame back to back (0: none) */
+    double pass_ms[PASSES_MAX], total_ms, wall_ms; /* wall_ms: per frame back to back (0: none) */
     ev_summary metrics;    /* the denoiser's error: against the cell's matched reference */
     ev_summary whole;      /* against the unbiased reference: denoiser error and estimator bias */
     int estimator;         /* index into the sweep's estimators (matched references) */
@@ -78,6 +99,7 @@ static tnd_result eval_against(const char *dir, const char *ref, unsigned warmup
  * its clocks drop) where it ran none; and the wall clock per back-to-back frame (0 without). */
 static tnd_result read_timings(const char *dir, unsigned warmup, sweep_run *r)
 {
+    passes_init();
     char path[1400];
     snprintf(path, sizeof path, "%s/timings.json", dir);
     void *txt = NULL;
@@ -99,10 +121,10 @@ static tnd_result read_timings(const char *dir, unsigned warmup, sweep_run *r)
     r->wall_ms = b2b ? wall->valuedouble : 0.0;
     double *v = malloc((size_t)n * sizeof *v);
     r->total_ms = 0;
-    for (int p = 0; v && p < PASSES; p++) {
+    for (int p = 0; v && p < n_passes; p++) {
         unsigned m = 0;
         for (int i = first; i < n; i++) {
-            const cJSON *x = cJSON_GetObjectItem(cJSON_GetArrayItem(frames, i), passes[p]);
+            const cJSON *x = cJSON_GetObjectItem(cJSON_GetArrayItem(frames, i), passes[p]->key);
             v[m++] = cJSON_IsNumber(x) ? x->valuedouble : 0.0;
         }
         r->pass_ms[p] = app_median(v, m);
@@ -115,7 +137,10 @@ static tnd_result read_timings(const char *dir, unsigned warmup, sweep_run *r)
 
 static const knob *find_knob(const char *key)
 {
-    for (int k = 0; k < KNOBS; k++)
+    knobs_init();
+    if (strcmp(key, "alpha") == 0) /* (its name before the parameter table) */
+        key = "min-alpha";
+    for (int k = 0; k < n_knobs; k++)
         if (strcmp(knobs[k].key, key) == 0)
             return &knobs[k];
     return NULL;
@@ -181,7 +206,7 @@ static int plan_make(const app_list *sweeps, const char *scene, const char *out,
         if (!eq || !(P->keys[k] = find_knob(key))) {
             fprintf(stderr, "tandem bench: --sweep %s: expected KEY=V1,V2,... with KEY one of:",
                     sweeps->v[k]);
-            for (int i = 0; i < KNOBS; i++)
+            for (int i = 0; i < n_knobs; i++)
                 fprintf(stderr, " %s", knobs[i].key);
             fprintf(stderr, "\n");
             goto done;
@@ -284,62 +309,95 @@ done:
     return status;
 }
 
-/* The command lines of a sweep's work (argv[0] is the subcommand; strings live in buf). */
-typedef struct sweep_argv {
-    char *v[64];
-    int n;
-    char buf[8][1300];
-} sweep_argv;
+/* The sweep's work as render's and reference's options (app_render runs them here; their
+ * command lines, app_render_args, go into the Slurm jobs). Strings live in the job. */
+typedef struct sweep_job {
+    app_render_opts o;
+    bool reference;
+    char dir[1300];
+} sweep_job;
 
-static void argv_reference(const sweep_plan *P, sweep_argv *a)
+/* the unbiased reference (on the GPU) */
+static void job_reference(const sweep_plan *P, sweep_job *j)
 {
-    snprintf(a->buf[0], sizeof a->buf[0], "%u", P->frames);
-    snprintf(a->buf[1], sizeof a->buf[1], "%ux%u", P->size[0], P->size[1]);
-    snprintf(a->buf[2], sizeof a->buf[2], "%u", P->spp);
-    char *v[] = {"reference", "--frontend", "vk", "--scene", (char *)P->scene, "--frames",
-                 a->buf[0], "--size", a->buf[1], "--spp", a->buf[2], "--out",
-                 (char *)P->refdir, "--quiet"};
-    a->n = (int)(sizeof v / sizeof *v);
-    memcpy(a->v, v, sizeof v);
+    app_render_defaults(&j->o);
+    j->reference = true;
+    j->o.frontend = "vk";
+    j->o.scene = P->scene;
+    j->o.frames = P->frames;
+    j->o.size[0] = P->size[0];
+    j->o.size[1] = P->size[1];
+    j->o.spp = P->spp;
+    j->o.out = P->refdir;
+    j->o.quiet = true;
 }
 
-/* (Embree: the same samples as Vulkan's, without a contract read back per sample) */
-static void argv_matched(const sweep_plan *P, int e, sweep_argv *a)
+/* an estimator's matched reference (Embree: the same samples as Vulkan's, without a contract
+ * read back per sample) */
+static tnd_result job_matched(const sweep_plan *P, int e, sweep_job *j)
 {
     const sweep_estimator *es = &P->ests[e];
-    snprintf(a->buf[0], sizeof a->buf[0], "%u", P->frames);
-    snprintf(a->buf[1], sizeof a->buf[1], "%u", P->spp);
-    char *v[] = {"reference", "--estimator", "realtime", "--frontend", "embree", "--scene",
-                 (char *)P->scene, "--frames", a->buf[0], "--size", (char *)es->size,
-                 "--bounces", (char *)es->bounces, "--spp", a->buf[1], "--out", (char *)es->dir,
-                 "--quiet"};
-    a->n = (int)(sizeof v / sizeof *v);
-    memcpy(a->v, v, sizeof v);
+    app_render_defaults(&j->o);
+    j->reference = true;
+    j->o.estimator = "realtime";
+    j->o.frontend = "embree";
+    j->o.scene = P->scene;
+    j->o.frames = P->frames;
+    j->o.spp = P->spp;
+    j->o.out = es->dir;
+    j->o.quiet = true;
+    char *end;
+    unsigned long b = strtoul(es->bounces, &end, 10);
+    if (*end || end == es->bounces || b > 64 ||
+        sscanf(es->size, "%ux%u", &j->o.size[0], &j->o.size[1]) != 2)
+        return tnd_fail(TND_ERR_BAD_INPUT, "bench: estimator %d: bounces '%s', size '%s'", e,
+                        es->bounces, es->size);
+    j->o.ref_bounces = (unsigned)b;
+    return TND_OK;
 }
 
-static void argv_cell(const sweep_plan *P, int i, sweep_argv *a)
+/* cell i: render on the GPU with the cell's knob values */
+static tnd_result job_cell(const sweep_plan *P, int i, sweep_job *j)
 {
-    snprintf(a->buf[0], sizeof a->buf[0], "%u", P->frames);
-    cell_dir(P, i, a->buf[1], sizeof a->buf[1]);
-    char *v[] = {"render", "--scene", (char *)P->scene, "--frames", a->buf[0], "--out", a->buf[1],
-                 "--quiet", "--frontend", "vk"};
-    a->n = (int)(sizeof v / sizeof *v);
-    memcpy(a->v, v, sizeof v);
+    app_render_defaults(&j->o);
+    cell_dir(P, i, j->dir, sizeof j->dir);
+    j->reference = false;
+    j->o.scene = P->scene;
+    j->o.frames = P->frames;
+    j->o.out = j->dir;
+    j->o.quiet = true;
+    j->o.frontend = "vk";
+    j->o.timed_frames = P->timed; /* its times: frames back to back after those written */
+    if (sscanf(P->cell_size[i], "%ux%u", &j->o.size[0], &j->o.size[1]) != 2)
+        return tnd_fail(TND_ERR_BAD_INPUT, "bench: cell %d: size '%s'", i, P->cell_size[i]);
     for (int k = 0; k < P->nkeys; k++) {
         const char *key = P->keys[k]->key, *val = P->value[i][k];
-        if (strcmp(key, "scale") == 0)
-            continue;
-        a->v[a->n++] = (char *)P->keys[k]->option;
-        a->v[a->n++] = strcmp(key, "gradient") == 0 ? (strcmp(val, "on") == 0 ? "asvgf" : "svgf")
-                                                     : (char *)val;
+        char *end;
+        if (strcmp(key, "scale") == 0) {
+            continue; /* (in the cell's size) */
+        } else if (strcmp(key, "bounces") == 0) {
+            unsigned long b = strtoul(val, &end, 10);
+            if (*end || end == val || *val == '-' || b > 64)
+                return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep bounces=%s: a count", val);
+            j->o.bounces = (unsigned)b;
+        } else if (strcmp(key, "gradient") == 0) {
+            j->o.denoiser = strcmp(val, "on") == 0 ? "asvgf" : "svgf";
+        } else if (strcmp(key, "denoiser") == 0) {
+            j->o.denoiser = val;
+        } else if (strcmp(key, "precision") == 0) {
+            j->o.precision = val;
+        } else if (strcmp(key, "taa") == 0) {
+            j->o.taa = val;
+        } else if (strcmp(key, "frontend") == 0) {
+            j->o.frontend = val;
+        } else { /* a denoiser parameter (pl_param) */
+            double x = strtod(val, &end);
+            if (*end || end == val)
+                return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep %s=%s: a number", key, val);
+            TND_TRY_RETURN(pl_param_set_put(&j->o.params, key, x));
+        }
     }
-    a->v[a->n++] = "--size";
-    a->v[a->n++] = (char *)P->cell_size[i];
-    if (P->timed) { /* its times: frames back to back after those written */
-        snprintf(a->buf[2], sizeof a->buf[2], "%u", P->timed);
-        a->v[a->n++] = "--timed-frames";
-        a->v[a->n++] = a->buf[2];
-    }
+    return TND_OK;
 }
 
 static tnd_result plan_write(const sweep_plan *P)
@@ -482,26 +540,22 @@ static tnd_result sweep_collect(const char *dir, bool *complete);
 static tnd_result run_local(const sweep_plan *P)
 {
     tnd_result res = TND_OK;
-    sweep_argv a;
+    sweep_job j;
     if (P->own_reference) {
-        argv_reference(P, &a);
-        if (cmd_reference(a.n, a.v) != APP_EXIT_OK)
+        job_reference(P, &j);
+        if (app_render(&j.o, true) != APP_EXIT_OK)
             return tnd_fail(TND_ERR_IO, "bench: the reference (%s) failed", P->refdir);
     }
     app_progress bar;
     app_progress_begin(&bar, "sweep", (unsigned)(P->nests + P->total));
-    for (int e = 0; e < P->nests; e++) {
-        argv_matched(P, e, &a);
-        if (cmd_reference(a.n, a.v) != APP_EXIT_OK) {
+    for (int e = 0; e < P->nests && res == TND_OK; e++) {
+        if ((res = job_matched(P, e, &j)) == TND_OK && app_render(&j.o, true) != APP_EXIT_OK)
             res = tnd_fail(TND_ERR_IO, "bench: the matched reference %s failed", P->ests[e].dir);
-            break;
-        }
         app_progress_step(&bar, (unsigned)e + 1);
     }
     for (int i = 0; res == TND_OK && i < P->total; i++) {
-        argv_cell(P, i, &a);
-        if (cmd_render(a.n, a.v) != APP_EXIT_OK)
-            res = tnd_fail(TND_ERR_IO, "bench: sweep run %d (%s) failed", i, a.v[6]);
+        if ((res = job_cell(P, i, &j)) == TND_OK && app_render(&j.o, false) != APP_EXIT_OK)
+            res = tnd_fail(TND_ERR_IO, "bench: sweep run %d (%s) failed", i, j.dir);
         app_progress_step(&bar, (unsigned)(P->nests + i + 1));
     }
     app_progress_end(&bar);
@@ -520,7 +574,7 @@ static void sh_word(FILE *f, const char *s)
     fputc('\'', f);
 }
 
-static void sh_command(FILE *f, const char *tandem, const sweep_argv *a, const char *extra)
+static void sh_command(FILE *f, const char *tandem, const app_args *a, const char *extra)
 {
     sh_word(f, tandem);
     for (int k = 0; k < a->n; k++) {
@@ -556,7 +610,8 @@ static tnd_result emit_slurm(const sweep_plan *P, unsigned shards)
     snprintf(sdir, sizeof sdir, "%s/slurm", P->out);
     snprintf(logs, sizeof logs, "%s/logs", sdir);
     TND_TRY_RETURN(tnd_mkdirs(logs));
-    sweep_argv a;
+    sweep_job j;
+    app_args a;
     FILE *f;
     /* the unbiased reference: one task per shard, then their merge */
     if (P->own_reference) {
@@ -564,8 +619,10 @@ static tnd_result emit_slurm(const sweep_plan *P, unsigned shards)
         if (!(f = fopen(path, "w")))
             return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
         sh_preamble(f, "the unbiased reference, one shard per task", "reference", (int)shards);
-        argv_reference(P, &a);
-        a.n -= 3; /* (its --out and --quiet are the shard's) */
+        job_reference(P, &j);
+        j.o.out = NULL; /* (its --out and --quiet are the shard's) */
+        j.o.quiet = false;
+        TND_TRY_RETURN(app_render_args(&j.o, true, &a));
         sh_command(f, tandem, &a, "--threads \"$threads\" --quiet \\\n    --shard "
                                   "\"$SLURM_ARRAY_TASK_ID/");
         fprintf(f, "%u\" --out ", shards);
@@ -603,16 +660,18 @@ static tnd_result emit_slurm(const sweep_plan *P, unsigned shards)
         for (int i = 0; i < (w ? P->total : P->nests); i++) {
             fprintf(f, "%d)\n    ", i);
             if (w) {
-                argv_cell(P, i, &a);
+                TND_TRY_RETURN(job_cell(P, i, &j));
+                TND_TRY_RETURN(app_render_args(&j.o, false, &a));
                 fprintf(f, "rm -f ");
-                sh_word(f, a.v[6]);
+                sh_word(f, j.dir);
                 fprintf(f, ".failed\n    ");
                 sh_command(f, tandem, &a, "--threads \"$threads\"");
                 fprintf(f, "\n    rc=$?\n    [ $rc -eq 0 ] || echo \"exit $rc\" > ");
-                sh_word(f, a.v[6]);
+                sh_word(f, j.dir);
                 fprintf(f, ".failed\n    exit $rc ;;\n");
             } else {
-                argv_matched(P, i, &a);
+                TND_TRY_RETURN(job_matched(P, i, &j));
+                TND_TRY_RETURN(app_render_args(&j.o, true, &a));
                 sh_command(f, tandem, &a, "--threads \"$threads\"");
                 fprintf(f, " ;;\n");
             }
@@ -716,6 +775,19 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
         free(P);
         return status;
     }
+    /* every job's options made once before any work: a bad knob value is said now */
+    sweep_job *j = malloc(sizeof *j);
+    tnd_result jr = j ? TND_OK : tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+    for (int e = 0; jr == TND_OK && e < P->nests; e++)
+        jr = job_matched(P, e, j);
+    for (int i = 0; jr == TND_OK && i < P->total; i++)
+        jr = job_cell(P, i, j);
+    free(j);
+    if (jr != TND_OK) {
+        free(P);
+        app_report("bench", jr);
+        return APP_EXIT_USAGE;
+    }
     if (emit && (shards == 0 || shards > frames * ((spp + TND_REF_CHECK_EVERY - 1) /
                                                    TND_REF_CHECK_EVERY))) {
         free(P);
@@ -760,6 +832,7 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     if (!P)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
     TND_TRY(plan_read(dir, P));
+    passes_init();
     runs = calloc((size_t)P->total, sizeof *runs);
     cell_of = calloc((size_t)P->total, sizeof *cell_of);
     if (!runs || !cell_of) {
@@ -900,8 +973,8 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     for (int k = 0; k < nkeys; k++)
         ev_text_add(&csv, "%s,", keys[k]->key);
     ev_text_add(&csv, "total_ms");
-    for (int p = 0; p < PASSES; p++)
-        ev_text_add(&csv, ",%s", passes[p]);
+    for (int p = 0; p < n_passes; p++)
+        ev_text_add(&csv, ",%s", passes[p]->key);
     ev_text_add(&csv, ",relmse,smape,psnr,ssim,flip,temporal,pareto_relmse,pareto_flip,"
                       "relmse_unbiased,flip_unbiased,estimator_bias_relmse,wall_ms\n");
     ev_text_add(&html, "<h2>Runs</h2>\n<p>%d combinations of %s at %ux%u, %u frames, medians after "
@@ -944,12 +1017,13 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
         ev_text_add(&csv, "%.6g", r->total_ms);
         cJSON *pm = cJSON_AddObjectToObject(o, "pass_ms");
         double fe = 0, dn = 0, post = 0;
-        for (int p = 0; p < PASSES; p++) {
-            cJSON_AddNumberToObject(pm, passes[p], r->pass_ms[p]);
+        for (int p = 0; p < n_passes; p++) {
+            cJSON_AddNumberToObject(pm, passes[p]->key, r->pass_ms[p]);
             ev_text_add(&csv, ",%.6g", r->pass_ms[p]);
-            if (p < 4)
+            pl_pass_owner ow = pl_pass_owner_of(passes[p]);
+            if (ow == PL_OWNER_FRONTEND)
                 fe += r->pass_ms[p];
-            else if (p < 10)
+            else if (ow == PL_OWNER_DENOISER)
                 dn += r->pass_ms[p];
             else
                 post += r->pass_ms[p];

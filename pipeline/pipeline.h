@@ -232,6 +232,9 @@ const pl_denoiser_info *pl_denoiser_for(const pl_denoiser_info *d, uint32_t fe_c
 /* Every pass any frame may time, each key once, in frame order: the front-end's, every
  * registered denoiser's (and the plugin adapter's), the post chain's (readers of timings.json). */
 uint32_t pl_pass_all(const pl_pass **passes, uint32_t max);
+/* Whose pass it is: the front-end's, the denoiser's or the post chain's. */
+typedef enum pl_pass_owner { PL_OWNER_FRONTEND = 0, PL_OWNER_DENOISER, PL_OWNER_POST } pl_pass_owner;
+pl_pass_owner pl_pass_owner_of(const pl_pass *p);
 
 /* ---- the frame after the front-end (pl_chain.c) -------------------------------------------- */
 typedef struct pl_chain_desc {

@@ -4,7 +4,7 @@
  * line, run.json, the viewer's keys and states and the sweep's knobs are made from it) and the
  * passes it times. A new built-in denoiser is one more line in `registry[]` (docs/extending.md).
  * Entry points: pl_denoiser_names, pl_denoiser_count, pl_denoiser_at, pl_denoiser_find,
- * pl_denoiser_has_param, pl_denoiser_for, pl_pass_all, pl_pass_group_name, pl_param_count,
+ * pl_denoiser_has_param, pl_denoiser_for, pl_pass_all, pl_pass_owner_of, pl_pass_group_name, pl_param_count,
  * pl_param_at, pl_param_find, pl_param_set_put, pl_param_set_get, pl_param_key,
  * pl_denoiser_ops_find, pl_backend_off_ops. */
 #include "pipeline/pl_internal.h"
@@ -250,6 +250,15 @@ uint32_t pl_pass_all(const pl_pass **out, uint32_t max)
                &n);
     add_passes(pl_post_passes, pl_post_pass_count, out, max, &n);
     return n;
+}
+
+pl_pass_owner pl_pass_owner_of(const pl_pass *p)
+{
+    if (p >= pl_frontend_passes && p < pl_frontend_passes + pl_frontend_pass_count)
+        return PL_OWNER_FRONTEND;
+    if (p >= pl_post_passes && p < pl_post_passes + pl_post_pass_count)
+        return PL_OWNER_POST;
+    return PL_OWNER_DENOISER;
 }
 
 /* ---- parameters -------------------------------------------------------------------------------- */
