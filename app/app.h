@@ -297,6 +297,13 @@ app_convergence app_eval_convergence(const app_eval *e);
  * verdict), each starting with `indent`; nothing without both series. */
 void app_eval_convergence_text(const app_eval *e, const char *indent, ev_text *t);
 
+/* A summary's metrics (the table's summarised ones, eval/table.c) as members of a JSON object,
+ * as a text table's cells (" VALUE" each, in the table's formats) and their headers. */
+struct cJSON;
+void app_metrics_json(struct cJSON *o, const ev_summary *s);
+void app_metrics_text(FILE *f, const ev_summary *s);
+void app_metrics_header(FILE *f);
+
 /* The regions of series i as JSON object text (malloc'd; NULL when none was measured), and as
  * an HTML table for the report (appended to t). */
 char *app_eval_regions_json(const app_eval *e, uint32_t i);

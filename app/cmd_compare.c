@@ -304,18 +304,17 @@ int cmd_compare(int argc, char **argv)
             const ev_summary *s = &e.series[i].summary;
             cJSON *o = cJSON_CreateObject();
             cJSON_AddStringToObject(o, "name", e.series[i].name);
-            cJSON_AddNumberToObject(o, "relmse", s->relmse);
-            cJSON_AddNumberToObject(o, "smape", s->smape);
-            cJSON_AddNumberToObject(o, "psnr", s->psnr);
-            cJSON_AddNumberToObject(o, "ssim", s->ssim);
-            cJSON_AddNumberToObject(o, "flip", s->flip);
-            cJSON_AddNumberToObject(o, "temporal", s->temporal);
+            app_metrics_json(o, s);
             cJSON_AddItemToArray(ev, o);
-            if (!json)
-                printf("  %s against %s: relMSE %.4g, SMAPE %.4f, PSNR %.2f dB, SSIM %.4f, FLIP %.4f, "
-                       "temporal %.4g\n",
-                       e.series[i].name, reference, s->relmse, s->smape, s->psnr, s->ssim, s->flip,
-                       s->temporal);
+            if (!json) {
+                printf("  %s against %s:", e.series[i].name, reference);
+                for (uint32_t k = 0; k < ev_metric_count(); k++) {
+                    const ev_metric *em = ev_metric_at(k);
+                    if (em->summarised)
+                        printf("%s %s %.4g", k ? "," : "", em->head, ev_metric_summary(em, s));
+                }
+                printf("\n");
+            }
         }
         if (res == TND_OK && report) {
             ev_text html = {0};

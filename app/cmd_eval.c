@@ -135,13 +135,7 @@ static cJSON *summary_json(const app_eval_series *se, uint32_t count, const char
     cJSON_AddStringToObject(o, "role", role);
     cJSON_AddStringToObject(o, "against", against);
     cJSON_AddNumberToObject(o, "frames", count);
-    cJSON_AddNumberToObject(o, "relmse", s->relmse);
-    cJSON_AddNumberToObject(o, "smape", s->smape);
-    cJSON_AddNumberToObject(o, "rmse", s->rmse);
-    cJSON_AddNumberToObject(o, "psnr", s->psnr);
-    cJSON_AddNumberToObject(o, "ssim", s->ssim);
-    cJSON_AddNumberToObject(o, "flip", s->flip);
-    cJSON_AddNumberToObject(o, "temporal", s->temporal);
+    app_metrics_json(o, s);
     cJSON_AddNumberToObject(o, "lag", s->lag);
     cJSON *reg = regions ? cJSON_Parse(regions) : NULL;
     if (reg)
@@ -155,8 +149,9 @@ static void print_row(const app_eval_series *se)
     char lag[32] = "-";
     if (s->lag >= 0)
         snprintf(lag, sizeof lag, "%.1f", s->lag);
-    printf("  %-40s %10.4g %8.4f %8.4g %8.2f %7.4f %7.4f %9.4g %6s\n", se->name, s->relmse,
-           s->smape, s->rmse, s->psnr, s->ssim, s->flip, s->temporal, lag);
+    printf("  %-40s", se->name);
+    app_metrics_text(stdout, s);
+    printf(" %6s\n", lag);
 }
 
 /* Run one evaluation with a progress bar over the reference's frames. */
@@ -370,8 +365,9 @@ int cmd_eval(int argc, char **argv)
                    e.count, e.frames[0], e.frames[e.count - 1], e.width, e.height, primary,
                    matched ? "matched: the same estimator's expectation" : "unbiased",
                    e.exposure, e.auto_exposure ? "auto" : "EV100");
-            printf("  %-40s %10s %8s %8s %8s %7s %7s %9s %6s\n", "series", "relMSE", "SMAPE",
-                   "RMSE", "PSNR", "SSIM", "FLIP", "temporal", "lag");
+            printf("  %-40s", "series");
+            app_metrics_header(stdout);
+            printf(" %6s\n", "lag");
             for (uint32_t i = 0; i < e.nseries; i++)
                 print_row(&e.series[i]);
             if (both) {

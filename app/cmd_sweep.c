@@ -975,7 +975,10 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
     ev_text_add(&csv, "total_ms");
     for (int p = 0; p < n_passes; p++)
         ev_text_add(&csv, ",%s", passes[p]->key);
-    ev_text_add(&csv, ",relmse,smape,psnr,ssim,flip,temporal,pareto_relmse,pareto_flip,"
+    for (uint32_t k = 0; k < ev_metric_count(); k++) /* the metrics of the table (eval/table.c) */
+        if (ev_metric_at(k)->summarised)
+            ev_text_add(&csv, ",%s", ev_metric_at(k)->name);
+    ev_text_add(&csv, ",pareto_relmse,pareto_flip,"
                       "relmse_unbiased,flip_unbiased,estimator_bias_relmse,wall_ms\n");
     ev_text_add(&html, "<h2>Runs</h2>\n<p>%d combinations of %s at %ux%u, %u frames, medians after "
                        "%u warm-up frames. ", total, scene, size[0], size[1], frames, warmup);
@@ -1029,12 +1032,7 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
                 post += r->pass_ms[p];
         }
         const ev_summary *m = &r->metrics;
-        cJSON_AddNumberToObject(o, "relmse", m->relmse);
-        cJSON_AddNumberToObject(o, "smape", m->smape);
-        cJSON_AddNumberToObject(o, "psnr", m->psnr);
-        cJSON_AddNumberToObject(o, "ssim", m->ssim);
-        cJSON_AddNumberToObject(o, "flip", m->flip);
-        cJSON_AddNumberToObject(o, "temporal", m->temporal);
+        app_metrics_json(o, m);
         cJSON_AddBoolToObject(o, "pareto_relmse", pa[i]);
         cJSON_AddBoolToObject(o, "pareto_flip", pb[i]);
         const sweep_estimator *es = &ests[r->estimator];
@@ -1043,9 +1041,11 @@ static tnd_result sweep_collect(const char *dir, bool *complete)
         cJSON_AddNumberToObject(o, "flip_unbiased", r->whole.flip);
         cJSON_AddNumberToObject(o, "estimator_bias_relmse", es->bias.relmse);
         cJSON_AddNumberToObject(o, "estimator_bias_flip", es->bias.flip);
-        ev_text_add(&csv, ",%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%d,%.9g,%.9g,%.9g,%.6g\n", m->relmse,
-                    m->smape, m->psnr, m->ssim, m->flip, m->temporal, pa[i], pb[i],
-                    r->whole.relmse, r->whole.flip, es->bias.relmse, r->wall_ms);
+        for (uint32_t k = 0; k < ev_metric_count(); k++)
+            if (ev_metric_at(k)->summarised)
+                ev_text_add(&csv, ",%.9g", ev_metric_summary(ev_metric_at(k), m));
+        ev_text_add(&csv, ",%d,%d,%.9g,%.9g,%.9g,%.6g\n", pa[i], pb[i], r->whole.relmse,
+                    r->whole.flip, es->bias.relmse, r->wall_ms);
         ev_text_add(&html, "<tr%s>", pa[i] || pb[i] ? " style=\"font-weight:bold\"" : "");
         for (int k = 0; k < nkeys; k++) {
             ev_text_add(&html, "<td>");

@@ -640,23 +640,23 @@ static tnd_result write_viewer(app_eval *e, const char *dir, const char *title,
         cJSON_AddItemToArray(series, cJSON_CreateString(e->series[i].name));
     }
     cJSON *metrics = cJSON_AddObjectToObject(root, "metrics");
-    const char *names[4] = {"relmse", "flip", "temporal", "mc_temporal"};
-    for (int m = 0; m < 4; m++) {
-        cJSON *rows = cJSON_AddArrayToObject(metrics, names[m]);
+    for (uint32_t m = 0; m < ev_metric_count(); m++) { /* the watched metrics' curves */
+        const ev_metric *em = ev_metric_at(m);
+        if (!em->watched)
+            continue;
+        cJSON *rows = cJSON_AddArrayToObject(metrics, em->name);
         bool any = false;
         for (uint32_t i = 0; i < ns; i++) {
             cJSON *row = cJSON_CreateArray();
             for (uint32_t k = 0; k < e->count; k++) {
-                const ev_frame_metrics *fm = &e->series[i].m[k];
-                double v = m == 0 ? fm->relmse : m == 1 ? fm->flip : m == 2 ? fm->temporal
-                                                                            : fm->mc_temporal;
-                any |= v >= 0 && m >= 2;
+                double v = ev_metric_frame(em, &e->series[i].m[k]);
+                any |= v >= 0 && em->optional;
                 cJSON_AddItemToArray(row, v < 0 ? cJSON_CreateNull() : cJSON_CreateNumber(v));
             }
             cJSON_AddItemToArray(rows, row);
         }
-        if (m >= 2 && !any) /* (no motion: no plot of it) */
-            cJSON_DeleteItemFromObject(metrics, names[m]);
+        if (em->optional && !any) /* (no motion: no plot of it) */
+            cJSON_DeleteItemFromObject(metrics, em->name);
     }
     cJSON_AddItemToObject(root, "settings", set ? set : cJSON_CreateObject());
     txt = cJSON_PrintUnformatted(root);
@@ -680,6 +680,29 @@ fail:
     return res;
 }
 
+void app_metrics_json(cJSON *o, const ev_summary *s)
+{
+    for (uint32_t k = 0; k < ev_metric_count(); k++)
+        if (ev_metric_at(k)->summarised)
+            cJSON_AddNumberToObject(o, ev_metric_at(k)->name, ev_metric_summary(ev_metric_at(k), s));
+}
+
+void app_metrics_text(FILE *f, const ev_summary *s)
+{
+    for (uint32_t k = 0; k < ev_metric_count(); k++)
+        if (ev_metric_at(k)->summarised) {
+            fputc(' ', f);
+            fprintf(f, ev_metric_at(k)->fmt, ev_metric_summary(ev_metric_at(k), s));
+        }
+}
+
+void app_metrics_header(FILE *f)
+{
+    for (uint32_t k = 0; k < ev_metric_count(); k++)
+        if (ev_metric_at(k)->summarised) /* (as wide as its values) */
+            fprintf(f, " %*s", atoi(ev_metric_at(k)->fmt + 1), ev_metric_at(k)->head);
+}
+
 tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, const char *settings,
                            const char *html)
 {
@@ -697,16 +720,20 @@ tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, cons
     ev_row *rows = NULL;
     TND_TRY(tnd_mkdirs(dir));
     TND_TRY(ev_write_metrics(dir, series, ns, e->count, settings));
-    static const char *const metrics[7] = {"relmse", "smape", "rmse", "psnr", "ssim", "flip",
-                                           "temporal"};
-    char plot_names[7][32];
-    const char *plots[7];
-    for (int k = 0; k < 7; k++) {
-        snprintf(plot_names[k], sizeof plot_names[k], "plot_%s.svg", metrics[k]);
-        plots[k] = plot_names[k];
+    enum { MAX_PLOTS = 16 };
+    char plot_names[MAX_PLOTS][40];
+    const char *plots[MAX_PLOTS];
+    uint32_t nplots = 0;
+    for (uint32_t k = 0; k < ev_metric_count() && nplots < MAX_PLOTS; k++) {
+        const ev_metric *em = ev_metric_at(k);
+        if (!em->plotted)
+            continue;
+        snprintf(plot_names[nplots], sizeof plot_names[nplots], "plot_%s.svg", em->name);
+        plots[nplots] = plot_names[nplots];
         char path[1400];
-        snprintf(path, sizeof path, "%s/%s", dir, plot_names[k]);
-        TND_TRY(ev_plot_metric(path, metrics[k], series, ns, e->count));
+        snprintf(path, sizeof path, "%s/%s", dir, plot_names[nplots]);
+        TND_TRY(ev_plot_metric(path, em->name, series, ns, e->count));
+        nplots++;
     }
     /* frames shown: the first, the one with the worst FLIP of the first series, the last */
     uint32_t pick[3], npick = 0, worst = 0;
@@ -810,7 +837,7 @@ tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, cons
     res = page.failed ? tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory")
                       : ev_report_write(&(ev_report){.dir = dir, .title = title,
                                                      .settings = settings, .series = series,
-                                                     .nseries = ns, .plots = plots, .nplots = 7,
+                                                     .nseries = ns, .plots = plots, .nplots = nplots,
                                                      .rows = rows, .nrows = nrows,
                                                      .html = page.s});
     ev_text_free(&page);

@@ -106,6 +106,31 @@ void ev_sequence_summary(const ev_sequence *seq, ev_summary *s);
  * change (docs/metrics.md). */
 uint32_t ev_lag(const ev_image *out, const ev_image *ref, uint32_t count, double *mean_lag);
 
+/* ---- the metrics, one table (eval/table.c) --------------------------------------------------
+ * metrics.json and metrics.csv, the report's table and plots, the viewer's curves, and the
+ * summaries of tandem eval, compare and the sweep are all made from it; a new metric is a row
+ * there and its field in ev_frame_metrics / ev_summary. */
+typedef struct ev_metric {
+    const char *name;  /* the key in metrics.json, metrics.csv, sweep.json; plot_NAME.svg */
+    const char *head;  /* the report's table header and text tables: "relMSE" */
+    const char *title; /* its plot's title (with which way is better) */
+    const char *fmt;   /* the text tables' printf format, with its width */
+    size_t frame;      /* the offset of its double in ev_frame_metrics */
+    long summary;      /* in ev_summary; -1: per frame only */
+    bool optional;     /* a value < 0 means none (the first frame's temporal; no motion): null */
+    bool plotted;      /* a plot per frame in the report */
+    bool summarised;   /* in the commands' summaries (eval, compare, the sweep) */
+    bool watched;      /* a curve in the report you can watch (viewer.html) */
+} ev_metric;
+uint32_t ev_metric_count(void);
+const ev_metric *ev_metric_at(uint32_t i);
+const ev_metric *ev_metric_find(const char *name);
+/* A metric's value in a frame's metrics, or in a summary (-1 where it has no mean). */
+double ev_metric_frame(const ev_metric *m, const ev_frame_metrics *f);
+double ev_metric_summary(const ev_metric *m, const ev_summary *s);
+/* none for this value: an optional metric's negative */
+bool ev_metric_none(const ev_metric *m, double v);
+
 /* ---- outputs ---------------------------------------------------------------------------- */
 typedef struct ev_series {
     const char *name;          /* "denoised", "noisy", "embree", ... */

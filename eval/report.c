@@ -76,37 +76,24 @@ static tnd_result write_file(const char *dir, const char *name, const ev_text *t
 }
 
 /* ---- metrics.json / metrics.csv ------------------------------------------------------------- */
-static const char *const metric_names[] = {"relmse", "smape",    "rmse",        "psnr",
-                                           "ssim",   "flip",     "temporal",    "mc_temporal",
-                                           "disoccluded"};
-enum { METRICS = 9 };
+/* the metric table's rows (eval/table.c) by index */
+#define METRICS ((int)ev_metric_count())
+#define metric_name(k) (ev_metric_at((uint32_t)(k))->name)
 
 static double frame_metric(const ev_frame_metrics *f, int k)
 {
-    const double v[METRICS] = {f->relmse, f->smape,    f->rmse,        f->psnr,       f->ssim,
-                               f->flip,   f->temporal, f->mc_temporal, f->disoccluded};
-    return v[k];
+    return ev_metric_frame(ev_metric_at((uint32_t)k), f);
 }
 
 static double summary_metric(const ev_summary *s, int k)
 {
-    const double v[METRICS] = {s->relmse, s->smape,    s->rmse,        s->psnr, s->ssim,
-                               s->flip,   s->temporal, s->mc_temporal, -1.0};
-    return v[k];
+    return ev_metric_summary(ev_metric_at((uint32_t)k), s);
 }
 
 /* temporal, mc_temporal: none for the first frame (or without motion); null in JSON */
 static bool metric_missing(int k, double v)
 {
-    return (k == 6 || k == 7 || k == 8) && v < 0;
-}
-
-static int metric_index(const char *name)
-{
-    for (int k = 0; k < METRICS; k++)
-        if (strcmp(name, metric_names[k]) == 0)
-            return k;
-    return -1;
+    return ev_metric_none(ev_metric_at((uint32_t)k), v);
 }
 
 tnd_result ev_write_metrics(const char *dir, const ev_series *s, uint32_t nseries, uint32_t count,
@@ -119,7 +106,7 @@ tnd_result ev_write_metrics(const char *dir, const ev_series *s, uint32_t nserie
     ev_text csv = {0};
     ev_text_add(&csv, "series,frame");
     for (int k = 0; k < METRICS; k++)
-        ev_text_add(&csv, ",%s", metric_names[k]);
+        ev_text_add(&csv, ",%s", metric_name(k));
     ev_text_add(&csv, ",nonfinite\n");
     for (uint32_t i = 0; i < nseries; i++) {
         cJSON *o = cJSON_CreateObject();
@@ -129,9 +116,9 @@ tnd_result ev_write_metrics(const char *dir, const ev_series *s, uint32_t nserie
         for (int k = 0; k < METRICS; k++) {
             double v = summary_metric(&s[i].summary, k);
             if (metric_missing(k, v))
-                cJSON_AddNullToObject(sum, metric_names[k]);
+                cJSON_AddNullToObject(sum, metric_name(k));
             else
-                cJSON_AddNumberToObject(sum, metric_names[k], v);
+                cJSON_AddNumberToObject(sum, metric_name(k), v);
         }
         const ev_summary *sm = &s[i].summary;
         cJSON_AddNumberToObject(sum, "flicker", sm->flicker);
@@ -155,10 +142,10 @@ tnd_result ev_write_metrics(const char *dir, const ev_series *s, uint32_t nserie
             for (int k = 0; k < METRICS; k++) {
                 double v = frame_metric(m, k);
                 if (metric_missing(k, v)) { /* no temporal error for the first frame */
-                    cJSON_AddNullToObject(x, metric_names[k]);
+                    cJSON_AddNullToObject(x, metric_name(k));
                     ev_text_add(&csv, ",");
                 } else {
-                    cJSON_AddNumberToObject(x, metric_names[k], v);
+                    cJSON_AddNumberToObject(x, metric_name(k), v);
                     ev_text_add(&csv, ",%.9g", v);
                 }
             }
@@ -343,16 +330,10 @@ static tnd_result write_svg(const char *path, ev_text *t)
 tnd_result ev_plot_metric(const char *path, const char *metric, const ev_series *s,
                           uint32_t nseries, uint32_t count)
 {
-    int k = metric_index(metric);
-    if (k < 0)
+    const ev_metric *em = ev_metric_find(metric);
+    if (!em)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: no metric '%s'", metric);
-    static const char *const titles[METRICS] = {
-        "relMSE (linear, eps 0.01), lower is better", "SMAPE (linear), lower is better",
-        "RMSE (linear), lower is better", "PSNR (tone-mapped sRGB, dB), higher is better",
-        "SSIM (tone-mapped sRGB), higher is better", "LDR-FLIP (67 ppd), lower is better",
-        "temporal error (tone-mapped), lower is better",
-        "motion-compensated temporal error (tone-mapped), lower is better",
-        "disoccluded fraction of the pixels (the reference's motion)"};
+    int k = (int)(em - ev_metric_at(0));
     double *v = calloc((size_t)nseries * count + 2, sizeof(double));
     double *fr = calloc((size_t)count + 2, sizeof(double));
     if (!v || !fr) {
@@ -372,7 +353,7 @@ tnd_result ev_plot_metric(const char *path, const char *metric, const ev_series 
     axis_fit(&ax, fr, count, false);
     axis_fit(&ay, v, (size_t)nseries * count, log_y);
     ev_text t = {0};
-    svg_frame(&t, titles[k], "frame", metric, &ax, &ay);
+    svg_frame(&t, em->title, "frame", metric, &ax, &ay);
     int x0 = ML, x1 = PW - MR, y0 = PH - MB, y1 = MT;
     for (uint32_t i = 0; i < nseries; i++) {
         const char *col = palette[i % 8];
@@ -488,18 +469,18 @@ tnd_result ev_report_write(const ev_report *r)
     ev_text_add(&t, "</h1>\n");
     if (r->series && r->nseries) {
         ev_text_add(&t, "<h2>Summary (means over frames)</h2>\n<table><tr><th>series</th>");
-        static const char *const head[METRICS] = {"relMSE", "SMAPE",    "RMSE",
-                                                  "PSNR dB", "SSIM",    "FLIP",
-                                                  "temporal", "temporal (motion-comp.)", ""};
-        for (int k = 0; k < METRICS - 1; k++)
-            ev_text_add(&t, "<th>%s</th>", head[k]);
+        for (int k = 0; k < METRICS; k++) /* (the metrics with a mean) */
+            if (ev_metric_at((uint32_t)k)->summary >= 0)
+                ev_text_add(&t, "<th>%s</th>", ev_metric_at((uint32_t)k)->head);
         ev_text_add(&t, "<th>flicker (static pixels; reference)</th><th>lag after a "
                         "disocclusion</th><th>lag (frames)</th><th>non-finite</th></tr>\n");
         for (uint32_t i = 0; i < r->nseries; i++) {
             ev_text_add(&t, "<tr><td>");
             ev_text_escaped(&t, r->series[i].name);
             ev_text_add(&t, "</td>");
-            for (int k = 0; k < METRICS - 1; k++) {
+            for (int k = 0; k < METRICS; k++) {
+                if (ev_metric_at((uint32_t)k)->summary < 0)
+                    continue;
                 double v = summary_metric(&r->series[i].summary, k);
                 if (metric_missing(k, v))
                     ev_text_add(&t, "<td>-</td>");
