@@ -94,6 +94,31 @@ static tnd_image *single_image(dn_context *c, int i)
     return (tnd_image *)((char *)c + single_images[i].offset);
 }
 
+/* The compute pipelines: where each lives in the context, its shader (float32 and packed
+ * contract) and its debug name; created and destroyed from this table. */
+#define DN_PIPE(member, stem, name)                                                                \
+    {offsetof(dn_context, member), TND_SHADER_##stem##_f32, TND_SHADER_##stem##_packed, name}
+static const struct {
+    size_t offset;
+    tnd_shader f32, packed;
+    const char *name;
+} pipelines[] = {
+    DN_PIPE(temporal, dn_temporal, "denoise.temporal"),
+    DN_PIPE(atrous, dn_atrous, "denoise.atrous"),
+    DN_PIPE(composite, dn_composite, "denoise.composite"),
+    DN_PIPE(grad_select, dn_grad_select, "denoise.grad_select"),
+    DN_PIPE(gradients, dn_gradients, "denoise.gradients"),
+    DN_PIPE(lf, dn_lf, "denoise.lf"),
+    DN_PIPE(lf_down, dn_lf_down, "denoise.lf_down"),
+};
+#undef DN_PIPE
+enum { N_PIPELINES = sizeof pipelines / sizeof pipelines[0] };
+
+static VkPipeline *pipeline_of(dn_context *c, int i)
+{
+    return (VkPipeline *)((char *)c + pipelines[i].offset);
+}
+
 tnd_result dn_mode_parse(const char *s, dn_mode *mode)
 {
     if (strcmp(s, "svgf") == 0)
@@ -124,11 +149,9 @@ void dn_destroy(dn_context *c)
     tnd_timer_destroy(vk, &c->timer);
     tnd_timer_destroy(vk, &c->select_timer);
     tnd_timer_destroy(vk, &c->fine);
-    VkPipeline pipes[7] = {c->temporal,  c->atrous, c->composite, c->grad_select,
-                           c->gradients, c->lf,     c->lf_down};
-    for (int i = 0; i < 7; i++)
-        if (pipes[i])
-            vkDestroyPipeline(vk->device, pipes[i], NULL);
+    for (int i = 0; i < N_PIPELINES; i++)
+        if (*pipeline_of(c, i))
+            vkDestroyPipeline(vk->device, *pipeline_of(c, i), NULL);
     if (c->pool)
         vkDestroyDescriptorPool(vk->device, c->pool, NULL);
     if (c->layout)
@@ -189,25 +212,15 @@ static tnd_result create_pipelines(dn_context *c)
                                       .pSetLayouts = c->layouts};
     TND_VK_TRY(vkAllocateDescriptorSets(vk->device, &ai, c->sets));
     bool packed = c->desc.precision == TND_PRECISION_PACKED;
-#define DN_PICK(name) (packed ? TND_SHADER_##name##_packed : TND_SHADER_##name##_f32)
-    const tnd_shader ids[7] = {DN_PICK(dn_temporal),    DN_PICK(dn_atrous),
-                               DN_PICK(dn_composite),   DN_PICK(dn_grad_select),
-                               DN_PICK(dn_gradients),   DN_PICK(dn_lf),
-                               DN_PICK(dn_lf_down)};
-#undef DN_PICK
-    VkPipeline *out[7] = {&c->temporal,  &c->atrous, &c->composite, &c->grad_select,
-                          &c->gradients, &c->lf,     &c->lf_down};
-    const char *names[7] = {"denoise.temporal",    "denoise.atrous",    "denoise.composite",
-                            "denoise.grad_select", "denoise.gradients", "denoise.lf",
-                            "denoise.lf_down"};
-    for (int i = 0; i < 7; i++) {
+    for (int i = 0; i < N_PIPELINES; i++) {
         size_t bytes;
-        const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
+        const uint32_t *code = tnd_spirv_code(packed ? pipelines[i].packed : pipelines[i].f32,
+                                              &bytes, NULL);
         TND_TRY(tnd_compute_pipeline_create(vk,
                                             &(tnd_compute_desc){.code = code, .bytes = bytes,
                                                                 .layout = c->layout,
-                                                                .name = names[i]},
-                                            out[i]));
+                                                                .name = pipelines[i].name},
+                                            pipeline_of(c, i)));
     }
 fail:
     return res;
@@ -411,7 +424,9 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
 {
     bool history = c->have_history && !f->reset;
     const dn_desc *d = &c->desc;
-    uint32_t mode = d->mode == DN_MODE_OFF ? 1u : d->mode == DN_MODE_ASVGF ? 2u : 0u;
+    uint32_t mode = d->mode == DN_MODE_OFF     ? DN_RUN_OFF
+                    : d->mode == DN_MODE_ASVGF ? DN_RUN_ASVGF
+                                               : DN_RUN_SVGF;
     *(dn_params *)c->params.mapped = (dn_params){
         .size = {c->width, c->height, history ? 1u : 0u, mode},
         .iters = {d->iters_hf, d->iters_lf, d->iters_spec, d->grad_segment},

@@ -10,9 +10,14 @@ typedef struct { uint32_t x, y, z, w; } dn_uvec4;
 #define uvec4 dn_uvec4
 #endif
 
+/* what the back-end runs (dn_params.size.w) */
+#define DN_RUN_SVGF 0u
+#define DN_RUN_OFF 1u
+#define DN_RUN_ASVGF 2u
+
 struct dn_params {
-    uvec4 size;    /* x: width, y: height, z: history valid (0 after a reset), w: mode (0 svgf, 1 off,
-                      2 asvgf) */
+    uvec4 size;    /* x: width, y: height, z: history valid (0 after a reset), w: what runs
+                      (DN_RUN_*) */
     uvec4 iters;   /* a-trous iterations: x hf, y lf (at 1/3 resolution), z spec; w the gradient
                       blur's segment (dn_gradients.comp) */
     vec4 alpha;    /* minimum temporal alpha: x hf colour, y lf, z spec, w hf moments */

@@ -61,10 +61,10 @@ void main()
     uvec2 vis = imageLoad(img_vis_id, p).xy;
     vec3 gn = imageLoad(img_geo_normal, p).xyz;
     /* the temporal pass's copy of position (relative) and depth where it ran */
-    vec4 ce = P.size.w == 1u ? vec4(vec3(0.0), imageLoad(img_depth, p).x) : imageLoad(centre, p);
+    vec4 ce = P.size.w == DN_RUN_OFF ? vec4(vec3(0.0), imageLoad(img_depth, p).x) : imageLoad(centre, p);
     float depth = ce.w;
     bool was_sample = false;
-    if (P.size.w == 2u && P.misc.w != 0.0) { /* this stratum's sample (one buffer read per
+    if (P.size.w == DN_RUN_ASVGF && P.misc.w != 0.0) { /* this stratum's sample (one buffer read per
                                                    stratum, cached: no per-pixel mask) */
         ivec2 s = p / DN_STRATUM;
         uint pixel = uint(p.y) * P.size.x + uint(p.x);
@@ -74,7 +74,7 @@ void main()
      * octahedral 11 + 11 bits) where the temporal pass ran, else from the contract */
     vec3 n;
     uint field;
-    if (P.size.w == 1u) {
+    if (P.size.w == DN_RUN_OFF) {
         n = imageLoad(img_normal, p).xyz;
         field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
     } else {
@@ -98,7 +98,7 @@ void main()
     vec3 hf, spec;
     vec4 sh;
     vec2 cocg;
-    if (P.size.w == 1u) {
+    if (P.size.w == DN_RUN_OFF) {
         hf = load_hf(p);
         spec = load_spec(p);
         sh = imageLoad(img_lf_sh, p);

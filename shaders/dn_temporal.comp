@@ -109,7 +109,7 @@ void main()
          * tenth of a sample (its bias a tenth), as a whole one as far as the antilag says the
          * light changed (it is a sample of the new light then, the best the pixel has). */
         vec3 fresh = vec3(1.0); /* hf, lf, spec */
-        if (P.size.w == 2u && P.misc.w != 0.0) {
+        if (P.size.w == DN_RUN_ASVGF && P.misc.w != 0.0) {
             /* A-SVGF: the filtered gradients (slot 0 after the blur) shorten the history */
             vec3 g = clamp(imageLoad(grad[0], min(p / DN_STRATUM, grad_size() - 1)).xyz, 0.0, 1.0);
             anti_hf = clamp(P.antilag.x * g.x, 0.0, 1.0);
@@ -171,7 +171,7 @@ void main()
     imageStore(hist_lf[cur], p, hist_lf_pack(out_sh, out_cocg, out_mom.z, dither));
     vec3 spec_s = max(out_spec.rgb, 0.0) * UF16_SCALE; /* finite: the inputs are sanitised */
     imageStore(hist_spec[cur], p, uvec4(hist_rgb_pack_scaled(spec_s, out_mom.w, dither), 0u, 0u));
-    if (P.size.w == 2u) { /* A-SVGF: the next frame's gradient samples need the raw luminances
+    if (P.size.w == DN_RUN_ASVGF) { /* A-SVGF: the next frame's gradient samples need the raw luminances
                              and the rng key (the selection, which reads them, runs earlier) */
         imageStore(prev_lum, p, uvec4(prev_lum_pack(luma(hf), luma(spec))));
         imageStore(prev_key, p, imageLoad(img_rng, p));
