@@ -180,7 +180,7 @@ int cmd_compare(int argc, char **argv)
 {
     double min_gbuffer = 0.99, min_signal = 0.9;
     bool json = false;
-    const char *reference = NULL, *report = NULL, *scene = NULL, *out = NULL, *denoiser = "asvgf";
+    const char *reference = NULL, *report = NULL, *scene = NULL, *out = NULL, *denoiser = pl_denoiser_default();
     const char *frontends = "embree,vk";
     unsigned frames = 8, spp = 64, size[2] = {160, 90};
     const app_opt opts[] = {

@@ -20,7 +20,7 @@ static const app_cmd denoise_cmd = {
 
 int cmd_denoise(int argc, char **argv)
 {
-    const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = "asvgf", *dump = NULL;
+    const char *captures = NULL, *out = NULL, *map_path = NULL, *denoiser = pl_denoiser_default(), *dump = NULL;
     const char *taa = "on";
     double yfov_deg = 40.0;
     char dn_help[300];

@@ -75,7 +75,7 @@ void app_render_defaults(app_render_opts *o)
                        .precision = "float32",
                        .rt_api = "auto",
                        .pipeline = "scene",
-                       .denoiser = "asvgf",
+                       .denoiser = pl_denoiser_default(),
                        .taa = "on",
                        .tonemap = "aces",
                        .exposure = "auto",

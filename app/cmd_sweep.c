@@ -381,7 +381,12 @@ static tnd_result job_cell(const sweep_plan *P, int i, sweep_job *j)
                 return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep bounces=%s: a count", val);
             j->o.bounces = (unsigned)b;
         } else if (strcmp(key, "gradient") == 0) {
-            j->o.denoiser = strcmp(val, "on") == 0 ? "asvgf" : "svgf";
+            /* on: the denoiser of re-shaded gradient samples; off: its fallback */
+            const pl_denoiser_info *g = pl_denoiser_with(PL_DN_GRADIENTS);
+            if (!g)
+                return tnd_fail(TND_ERR_UNSUPPORTED, "bench: --sweep gradient: no denoiser "
+                                                     "takes gradient samples");
+            j->o.denoiser = strcmp(val, "on") == 0 || !g->fallback ? g->name : g->fallback;
         } else if (strcmp(key, "denoiser") == 0) {
             j->o.denoiser = val;
         } else if (strcmp(key, "precision") == 0) {

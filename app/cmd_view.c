@@ -900,7 +900,7 @@ int cmd_view(int argc, char **argv)
     if (!v)
         return app_report("view", tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory"));
     const char *scene = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "vk",
-               *denoiser = "asvgf", *state = NULL, *script = NULL, *out = ".";
+               *denoiser = pl_denoiser_default(), *state = NULL, *script = NULL, *out = ".";
     unsigned size[2] = {640, 360}, frames = 0;
     app_env env = APP_ENV_INIT;
     const app_opt opts[] = {

@@ -220,6 +220,9 @@ typedef struct pl_denoiser_info {
 } pl_denoiser_info;
 /* The registered denoisers' names, comma-separated ("asvgf, svgf, off"). */
 const char *pl_denoiser_names(void);
+/* The default denoiser (the first registered: "asvgf"), and the first with all of `caps`. */
+const char *pl_denoiser_default(void);
+const pl_denoiser_info *pl_denoiser_with(uint32_t caps);
 uint32_t pl_denoiser_count(void);
 const pl_denoiser_info *pl_denoiser_at(uint32_t i);
 /* A denoiser by its name, or "plugin:PATH" (the plugin adapter's description); an error lists

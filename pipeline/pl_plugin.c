@@ -437,7 +437,7 @@ tnd_result pl_dnp_record(pl_dnp *d, VkCommandBuffer cmd, const tandem_frame_sett
 /* The built-in back-end composites the noisy radiance (mode off) that the plugin may read; the
  * plugin's commands follow in their own submission, between full barriers, timed. */
 typedef struct pdn {
-    void *off; /* the built-in adapter's context (pl_backend_off_ops) */
+    void *off; /* the built-in adapter's context (pl_off_ops) */
     pl_dnp *dnp;
     tnd_vk *vk;
     tnd_pending pending;
@@ -456,7 +456,7 @@ static void pdn_destroy(void *ctx)
         tnd_timer_destroy(p->vk, &p->timer);
         pl_dnp_destroy(p->dnp);
     }
-    pl_backend_off_ops.destroy(p->off);
+    pl_off_ops.destroy(p->off);
     free(p);
 }
 
@@ -469,11 +469,11 @@ static tnd_result pdn_create(const pl_dn_desc *d, void **out)
     p->vk = d->vk;
     pl_dn_desc od = *d;
     od.params = NULL;
-    od.data = pl_backend_off_ops.data;
+    od.data = pl_off_ops.data;
     TND_TRY(pl_dnp_create(d->vk, d->path, d->width, d->height, d->precision, &p->dnp));
     TND_TRY(tnd_pending_create(d->vk, &p->pending));
     TND_TRY(tnd_timer_create(d->vk, &p->timer));
-    TND_TRY(pl_backend_off_ops.create(&od, &p->off));
+    TND_TRY(pl_off_ops.create(&od, &p->off));
     *out = p;
     return TND_OK;
 fail:
@@ -498,14 +498,14 @@ static tnd_result pdn_submit(void *ctx, const pl_dn_input *in)
 {
     pdn *p = ctx;
     tnd_result res = TND_OK;
-    TND_TRY(pl_backend_off_ops.submit(p->off, in));
+    TND_TRY(pl_off_ops.submit(p->off, in));
     TND_TRY(pdn_settle(p));
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(p->vk, &cmd));
     tnd_timer_reset(cmd, &p->timer);
     int slot = tnd_timer_begin(cmd, &p->timer, "plugin");
     res = pl_dnp_record(p->dnp, cmd, in->settings, in->contract,
-                        pl_backend_off_ops.output(p->off));
+                        pl_off_ops.output(p->off));
     tnd_timer_end(cmd, &p->timer, slot);
     if (res != TND_OK) {
         vkEndCommandBuffer(cmd);
@@ -523,9 +523,9 @@ static tnd_result pdn_wait(void *ctx, double *ms, bool *beside)
     pdn *p = ctx;
     tnd_result res = TND_OK;
     double off[PL_DN_MAX_PASSES] = {0};
-    TND_TRY(pl_backend_off_ops.wait(p->off, off, beside));
+    TND_TRY(pl_off_ops.wait(p->off, off, beside));
     TND_TRY(pdn_settle(p));
-    ms[0] = off[pl_backend_off_ops.info.npasses - 1]; /* its composite */
+    ms[0] = off[pl_off_ops.info.npasses - 1]; /* its composite */
     ms[1] = p->ms;
     *beside = false;
 fail:

@@ -503,5 +503,67 @@ if command -v glslangValidator >/dev/null; then
     check "TANDEM_SHADER_DIR: a changed shader changes the frame" $?
 fi
 
+# ---- the pipeline describes itself (the registries' tables) ----------------------------------
+# every denoiser parameter of the registry is an option of render and denoise, with its help
+"$T" render --help >"$tmp/rh" 2>&1; "$T" denoise --help >"$tmp/dh" 2>&1
+for o in atrous min-alpha antilag lf-sigma; do
+    grep -q -- "--$o " "$tmp/rh" && grep -q -- "--$o " "$tmp/dh" || echo "missing --$o" >>"$tmp/params_missing"
+done
+[ ! -s "$tmp/params_missing" ] && grep -q "asvgf, svgf, off" "$tmp/rh"
+check "render and denoise take every denoiser parameter of the table, help names the registry" $?
+"$T" render --atrous 9 --out "$tmp/bad_param" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q -- "--atrous 9" "$tmp/err" && grep -q "1, 5" "$tmp/err" && [ ! -e "$tmp/bad_param" ]
+check "a parameter out of its range: exit 2, the range said, nothing written (got $rc)" $?
+"$T" render --atrous 2.5 --out "$tmp/bad_param" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "whole number" "$tmp/err"
+check "a count parameter takes whole numbers (got $rc)" $?
+"$T" render --frontend replay --out "$tmp/bad_fe" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "embree, vk, plugin:PATH" "$tmp/err"
+check "render's front-ends are the registry's live ones (replay is not) (got $rc)" $?
+# run.json holds the parameters given that the denoiser has; the parameter reaches it
+"$T" render --frames 2 --size 32x20 --antilag 2 --lf-sigma 0.5 --out "$tmp/p_a" --quiet &&
+    "$T" render --frames 2 --size 32x20 --antilag 2 --out "$tmp/p_b" --quiet &&
+    "$T" render --frames 2 --size 32x20 --denoiser svgf --antilag 2 --atrous 3 --out "$tmp/p_c" --quiet
+rc=$?
+[ $rc -eq 0 ] && python3 - "$tmp" <<'PY'
+import json, sys
+t = sys.argv[1]
+a = json.load(open(t + "/p_a/run.json"))
+b = json.load(open(t + "/p_b/run.json"))
+c = json.load(open(t + "/p_c/run.json"))
+assert a["antilag"] == 2 and a["lf_sigma"] == 0.5 and "atrous" not in a, a
+assert "lf_sigma" not in b, b
+assert c["denoiser"] == "svgf" and c["atrous"] == 3 and "antilag" not in c, c  # svgf has none
+PY
+[ $? -eq 0 ] && ! cmp -s "$tmp/p_a/frame_0001.exr" "$tmp/p_b/frame_0001.exr"
+check "run.json: the denoiser's parameters given; --lf-sigma reaches the filter" $?
+# tandem denoise's timings.json carries every pass of the chain (the denoiser's, gradient
+# selection included, and the post chain's), as render's does
+"$T" render --frames 3 --size 32x20 --capture --out "$tmp/tp" --quiet &&
+    "$T" denoise --captures "$tmp/tp/capture" --out "$tmp/tp_dn" --quiet
+rc=$?
+[ $rc -eq 0 ] && python3 - "$tmp/tp/timings.json" "$tmp/tp_dn/timings.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))["frames"]
+d = json.load(open(sys.argv[2]))["frames"]
+keys = ["denoise_select_ms", "denoise_gradient_ms", "denoise_temporal_ms", "denoise_lf_ms",
+        "denoise_atrous_ms", "composite_ms", "interleave_ms", "taa_ms", "bloom_ms", "exposure_ms",
+        "tonemap_ms"]
+for f in r + d:
+    assert all(k in f for k in keys), (sorted(set(keys) - set(f)), f)
+assert "denoise_lf_beside_atrous" in d[0]
+assert all(f["denoise_select_ms"] > 0 and f["denoise_gradient_ms"] > 0 for f in d[1:]), d
+PY
+check "denoise's timings.json carries every pass (selection and gradients too)" $?
+# a sweep run here says its summary: the cells it runs quietly leave it loud
+"$T" bench --scene "$SRC/data/scenes/cornell.gltf" --size 24x16 --frames 2 --warmup 1 --spp 8 \
+    --sweep antilag=2 --out "$tmp/loud" >"$tmp/loud_out" 2>"$tmp/loud_err"; rc=$?
+[ $rc -eq 0 ] && grep -q "tandem: bench: 1 runs ->" "$tmp/loud_err" &&
+    grep -q "antilag=2" "$tmp/loud_out" && python3 - "$tmp/loud/runs/000/run.json" <<'PY'
+import json, sys
+assert json.load(open(sys.argv[1]))["antilag"] == 2
+PY
+check "a local sweep keeps its own messages (no --quiet left behind); a parameter is a knob" $?
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]
