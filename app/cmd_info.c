@@ -196,9 +196,123 @@ static void device_text(const tnd_vk_device_info *d, bool chosen)
            (unsigned long long)(d->device_local_bytes >> 20));
 }
 
+/* tandem info --pipeline: the registries (front-ends, denoisers with their capabilities,
+ * parameters and passes, metrics), as text or JSON: what the pipeline is, as data. */
+static const char *const fe_caps[] = {"gpu_contract", "reshade", "reference", "benchmark",
+                                      "recorded", "queued"};
+static const char *const dn_caps[] = {"gradients", "filters", "dumps", "plugin"};
+
+static cJSON *caps_json(uint32_t caps, const char *const *names, int n)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (int b = 0; b < n; b++)
+        if (caps & (1u << b))
+            cJSON_AddItemToArray(a, cJSON_CreateString(names[b]));
+    return a;
+}
+
+static void caps_text(uint32_t caps, const char *const *names, int n)
+{
+    for (int b = 0, k = 0; b < n; b++)
+        if (caps & (1u << b))
+            printf("%s%s", k++ ? ", " : "", names[b]);
+}
+
+static int pipeline_info(bool json)
+{
+    cJSON *root = cJSON_CreateObject(), *fa = cJSON_AddArrayToObject(root, "frontends"),
+          *da = cJSON_AddArrayToObject(root, "denoisers"),
+          *ma = cJSON_AddArrayToObject(root, "metrics");
+    if (!json)
+        printf("front-ends (--frontend; plugin:PATH.so loads one):\n");
+    for (uint32_t i = 0; pl_frontend_name_at(i); i++) {
+        const char *n = pl_frontend_name_at(i);
+        uint32_t caps = pl_frontend_caps_of(n);
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "name", n);
+        cJSON_AddBoolToObject(o, "live", pl_frontend_live(n));
+        cJSON_AddItemToObject(o, "capabilities", caps_json(caps, fe_caps, 6));
+        cJSON_AddItemToArray(fa, o);
+        if (!json) {
+            printf("  %-8s ", n);
+            caps_text(caps, fe_caps, 6);
+            printf("\n");
+        }
+    }
+    if (!json)
+        printf("denoisers (--denoiser; the first is the default; plugin:PATH.so loads one):\n");
+    for (uint32_t i = 0; i < pl_denoiser_count(); i++) {
+        const pl_denoiser_info *d = pl_denoiser_at(i);
+        cJSON *o = cJSON_CreateObject(), *pa, *sa;
+        cJSON_AddStringToObject(o, "name", d->name);
+        cJSON_AddStringToObject(o, "summary", d->summary);
+        cJSON_AddItemToObject(o, "capabilities", caps_json(d->caps, dn_caps, 4));
+        if (d->fallback)
+            cJSON_AddStringToObject(o, "fallback", d->fallback);
+        pa = cJSON_AddArrayToObject(o, "parameters");
+        sa = cJSON_AddArrayToObject(o, "passes");
+        if (!json) {
+            printf("  %-8s %s\n           capabilities: ", d->name, d->summary);
+            caps_text(d->caps, dn_caps, 4);
+            printf("%s%s\n", d->fallback ? "; without gradient samples: " : "",
+                   d->fallback ? d->fallback : "");
+        }
+        for (uint32_t k = 0; k < d->nparams; k++) {
+            const pl_param *p = d->params[k];
+            cJSON *q = cJSON_CreateObject();
+            cJSON_AddStringToObject(q, "name", p->name);
+            cJSON_AddStringToObject(q, "kind", p->kind == PL_PARAM_UINT ? "count" : "number");
+            cJSON_AddNumberToObject(q, "min", p->min);
+            cJSON_AddNumberToObject(q, "max", p->max);
+            cJSON_AddBoolToObject(q, "min_excluded", p->min_open);
+            cJSON_AddStringToObject(q, "help", p->help);
+            if (p->keys)
+                cJSON_AddStringToObject(q, "view_keys", p->keys);
+            cJSON_AddItemToArray(pa, q);
+            if (!json)
+                printf("           --%s %s: %c%g, %g]: %s\n", p->name, p->arg,
+                       p->min_open ? '(' : '[', p->min, p->max, p->help);
+        }
+        if (!json)
+            printf("           passes:");
+        for (uint32_t k = 0; k < d->npasses; k++) {
+            cJSON *q = cJSON_CreateObject();
+            cJSON_AddStringToObject(q, "name", d->passes[k].name);
+            cJSON_AddStringToObject(q, "key", d->passes[k].key);
+            cJSON_AddStringToObject(q, "group", pl_pass_group_name(d->passes[k].group));
+            cJSON_AddItemToArray(sa, q);
+            if (!json)
+                printf(" %s", d->passes[k].name);
+        }
+        if (!json)
+            printf("\n");
+        cJSON_AddItemToArray(da, o);
+    }
+    if (!json)
+        printf("metrics (tandem eval; docs/metrics.md):");
+    for (uint32_t k = 0; k < ev_metric_count(); k++) {
+        const ev_metric *m = ev_metric_at(k);
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "name", m->name);
+        cJSON_AddStringToObject(o, "title", m->title);
+        cJSON_AddItemToArray(ma, o);
+        if (!json)
+            printf(" %s", m->name);
+    }
+    if (json) {
+        char *t = cJSON_Print(root);
+        printf("%s\n", t);
+        free(t);
+    } else {
+        printf("\n");
+    }
+    cJSON_Delete(root);
+    return APP_EXIT_OK;
+}
+
 int cmd_info(int argc, char **argv)
 {
-    bool json = false;
+    bool json = false, pipeline = false;
     const char *scene = NULL, *capture = NULL, *map = NULL;
     app_env env = APP_ENV_INIT;
     const app_opt opts[] = {
@@ -209,6 +323,9 @@ int cmd_info(int argc, char **argv)
         {"capture", APP_OPT_STRING, &capture, "DIR",
          "describe a capture (frame_NNNN.exr) instead: entries, ranges, a motion check"},
         {"map", APP_OPT_STRING, &map, "JSON", "--capture: read it through this mapping"},
+        {"pipeline", APP_OPT_FLAG, &pipeline, NULL,
+         "what the pipeline is: the registered front-ends, denoisers (capabilities, parameters, "
+         "passes) and metrics"},
         {0},
     };
     const char *pos[1];
@@ -220,6 +337,8 @@ int cmd_info(int argc, char **argv)
         return scene_info(scene, &env, json);
     if (capture)
         return app_capture_info(capture, map, json);
+    if (pipeline)
+        return pipeline_info(json);
 
     tnd_vk_device_info devs[16];
     uint32_t n = 0;

@@ -78,7 +78,8 @@ tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **out)
                                              .precision = d->precision, .params = &c->d.params,
                                              .backend = &d->denoise,
                                              .path = name + (info->caps & PL_DN_PLUGIN ? 7 : 0),
-                                             .data = c->ops->data},
+                                             .data = c->ops->data,
+                                             .npasses = info->npasses},
                                &c->dn));
         if (!d->no_post)
             TND_TRY(cmp_create(d->vk, d->width, d->height, d->precision, &d->post, &c->post));

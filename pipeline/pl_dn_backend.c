@@ -5,6 +5,7 @@
  * the noisy radiance). */
 #include "pipeline/pl_internal.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 /* ---- the built-in back-end (denoise/): SVGF, A-SVGF, the plain composite ------------------- */
@@ -29,16 +30,33 @@ static const pl_param p_lf_sigma = {
 static const pl_param *const svgf_params[] = {&p_atrous, &p_min_alpha, &p_lf_sigma};
 static const pl_param *const asvgf_params[] = {&p_atrous, &p_min_alpha, &p_antilag, &p_lf_sigma};
 
-/* The back-end's passes, in dn_timings' order (timings.json's keys as they always were). */
-static const pl_pass backend_passes[] = {
-    {"select", "denoise_select_ms", PL_GROUP_GRADIENTS, NULL},
-    {"gradient", "denoise_gradient_ms", PL_GROUP_GRADIENTS, NULL},
-    {"temporal", "denoise_temporal_ms", PL_GROUP_BACKEND, NULL},
-    {"lf", "denoise_lf_ms", PL_GROUP_BACKEND, "atrous"},
-    {"atrous", "denoise_atrous_ms", PL_GROUP_BACKEND, NULL},
-    {"composite", "composite_ms", PL_GROUP_BACKEND, NULL},
-};
-enum { BACKEND_PASSES = sizeof backend_passes / sizeof backend_passes[0] };
+/* The back-end's passes (timings.json's keys as they always were) and, for each, its field of
+ * dn_timings / dn_traffic (0 select, 1 gradient, 2 temporal, 3 lf, 4 atrous, 5 composite): A-SVGF
+ * runs all of them, SVGF no gradient work, "off" the composite alone. */
+#define PASS_SELECT {"select", "denoise_select_ms", PL_GROUP_GRADIENTS, NULL}
+#define PASS_GRADIENT {"gradient", "denoise_gradient_ms", PL_GROUP_GRADIENTS, NULL}
+#define PASS_TEMPORAL {"temporal", "denoise_temporal_ms", PL_GROUP_BACKEND, NULL}
+#define PASS_LF {"lf", "denoise_lf_ms", PL_GROUP_BACKEND, "atrous"}
+#define PASS_ATROUS {"atrous", "denoise_atrous_ms", PL_GROUP_BACKEND, NULL}
+#define PASS_COMPOSITE {"composite", "composite_ms", PL_GROUP_BACKEND, NULL}
+static const pl_pass asvgf_passes[] = {PASS_SELECT, PASS_GRADIENT, PASS_TEMPORAL,
+                                       PASS_LF,     PASS_ATROUS,   PASS_COMPOSITE};
+static const pl_pass svgf_passes[] = {PASS_TEMPORAL, PASS_LF, PASS_ATROUS, PASS_COMPOSITE};
+static const pl_pass off_passes[] = {PASS_COMPOSITE};
+
+typedef struct variant {
+    dn_mode mode;
+    uint8_t field[6]; /* each pass's field of dn_timings / dn_traffic */
+} variant;
+static const variant v_asvgf = {DN_MODE_ASVGF, {0, 1, 2, 3, 4, 5}},
+                     v_svgf = {DN_MODE_SVGF, {2, 3, 4, 5}}, v_off = {DN_MODE_OFF, {5}};
+
+/* the context: the back-end's, and which variant runs (its passes) */
+typedef struct backend {
+    dn_context *dn;
+    const variant *v;
+    uint32_t npasses;
+} backend;
 
 static void backend_param(dn_desc *d, const char *name, double v)
 {
@@ -52,75 +70,87 @@ static void backend_param(dn_desc *d, const char *name, double v)
         d->lf_sigma = (float)v;
 }
 
+static void backend_destroy(void *ctx)
+{
+    backend *b = ctx;
+    if (b)
+        dn_destroy(b->dn);
+    free(b);
+}
+
 static tnd_result backend_create(const pl_dn_desc *d, void **out)
 {
+    backend *b = calloc(1, sizeof *b);
+    if (!b)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+    b->v = d->data;
+    b->npasses = d->npasses;
     dn_desc dd = d->backend ? *d->backend : (dn_desc){0};
-    dd.mode = *(const dn_mode *)d->data;
+    dd.mode = b->v->mode;
     dd.precision = d->precision;
     for (uint32_t i = 0; d->params && i < d->params->n; i++)
         backend_param(&dd, d->params->param[i]->name, d->params->value[i]);
-    return dn_create(d->vk, d->width, d->height, &dd, (dn_context **)out);
-}
-
-static void backend_destroy(void *ctx)
-{
-    dn_destroy(ctx);
+    tnd_result res = dn_create(d->vk, d->width, d->height, &dd, &b->dn);
+    if (res != TND_OK) {
+        backend_destroy(b);
+        return res;
+    }
+    *out = b;
+    return TND_OK;
 }
 
 static uint32_t backend_capacity(const void *ctx)
 {
-    return dn_gradient_capacity(ctx);
+    return dn_gradient_capacity(((const backend *)ctx)->dn);
 }
 
 static tnd_result backend_select(void *ctx, const tnd_contract_gpu *ct, const dn_frame *f,
                                  uint32_t *words, VkBuffer *slots, uint32_t *n)
 {
-    return words ? dn_select_gradients(ctx, ct, f, words, n)
-                 : dn_select_gradients_gpu(ctx, ct, f, slots, n);
+    dn_context *dn = ((backend *)ctx)->dn;
+    return words ? dn_select_gradients(dn, ct, f, words, n)
+                 : dn_select_gradients_gpu(dn, ct, f, slots, n);
 }
 
 static tnd_result backend_submit(void *ctx, const pl_dn_input *in)
 {
-    return dn_submit(ctx, in->contract, in->frame);
-}
-
-static void backend_times(const dn_timings *t, double *ms, bool *beside)
-{
-    const double v[BACKEND_PASSES] = {t->select_ms, t->gradient_ms, t->temporal_ms,
-                                      t->lf_ms,     t->atrous_ms,   t->composite_ms};
-    memcpy(ms, v, sizeof v);
-    *beside = t->lf_beside_atrous;
+    return dn_submit(((backend *)ctx)->dn, in->contract, in->frame);
 }
 
 static tnd_result backend_wait(void *ctx, double *ms, bool *beside)
 {
+    backend *b = ctx;
     dn_timings t;
-    tnd_result res = dn_wait(ctx, &t);
-    if (res == TND_OK)
-        backend_times(&t, ms, beside);
-    return res;
+    tnd_result res = dn_wait(b->dn, &t);
+    if (res != TND_OK)
+        return res;
+    const double v[6] = {t.select_ms, t.gradient_ms, t.temporal_ms,
+                         t.lf_ms,     t.atrous_ms,   t.composite_ms};
+    for (uint32_t k = 0; k < b->npasses; k++)
+        ms[k] = v[b->v->field[k]];
+    *beside = t.lf_beside_atrous;
+    return TND_OK;
 }
 
 static const tnd_image *backend_output(const void *ctx)
 {
-    return dn_output(ctx);
+    return dn_output(((const backend *)ctx)->dn);
 }
 
 static dn_context *backend_context(void *ctx)
 {
-    return ctx;
+    return ((backend *)ctx)->dn;
 }
 
 static void backend_traffic(const void *ctx, double *bytes)
 {
+    const backend *b = ctx;
     dn_traffic t;
-    dn_traffic_of(ctx, &t);
-    const double v[BACKEND_PASSES] = {t.select, t.gradient, t.temporal, t.lf, t.atrous,
-                                      t.composite};
-    memcpy(bytes, v, sizeof v);
+    dn_traffic_of(b->dn, &t);
+    const double v[6] = {t.select, t.gradient, t.temporal, t.lf, t.atrous, t.composite};
+    for (uint32_t k = 0; k < b->npasses; k++)
+        bytes[k] = v[b->v->field[k]];
 }
-
-static const dn_mode mode_svgf = DN_MODE_SVGF, mode_asvgf = DN_MODE_ASVGF, mode_off = DN_MODE_OFF;
 
 #define BACKEND_OPS(mode_var)                                                                      \
     .data = &mode_var, .create = backend_create, .destroy = backend_destroy,                       \
@@ -133,15 +163,17 @@ const pl_denoiser_ops pl_asvgf_ops = {
              "A-SVGF (Schied et al. 2018): SVGF whose history length follows temporal gradients "
              "of re-shaded samples",
              PL_DN_GRADIENTS | PL_DN_FILTERS | PL_DN_DUMPS, "svgf", asvgf_params,
-             sizeof asvgf_params / sizeof *asvgf_params, backend_passes, BACKEND_PASSES},
-    BACKEND_OPS(mode_asvgf)};
+             sizeof asvgf_params / sizeof *asvgf_params, asvgf_passes,
+             sizeof asvgf_passes / sizeof *asvgf_passes},
+    BACKEND_OPS(v_asvgf)};
 const pl_denoiser_ops pl_svgf_ops = {
     .info = {"svgf",
              "SVGF (Schied et al. 2017): temporal accumulation and variance-guided a-trous",
              PL_DN_FILTERS | PL_DN_DUMPS, NULL, svgf_params,
-             sizeof svgf_params / sizeof *svgf_params, backend_passes, BACKEND_PASSES},
-    BACKEND_OPS(mode_svgf)};
+             sizeof svgf_params / sizeof *svgf_params, svgf_passes,
+             sizeof svgf_passes / sizeof *svgf_passes},
+    BACKEND_OPS(v_svgf)};
 const pl_denoiser_ops pl_off_ops = {
     .info = {"off", "the noisy signals composited (no denoising)", PL_DN_DUMPS, NULL, NULL, 0,
-             backend_passes, BACKEND_PASSES},
-    BACKEND_OPS(mode_off)};
+             off_passes, sizeof off_passes / sizeof *off_passes},
+    BACKEND_OPS(v_off)};

@@ -74,6 +74,7 @@ typedef struct pl_dn_desc {
     const dn_desc *backend;     /* the built-in back-end's other settings (may be NULL) */
     const char *path;           /* plugins: the shared object */
     const void *data;           /* the ops table's `data` */
+    uint32_t npasses;           /* its info.npasses */
 } pl_dn_desc;
 
 /* One frame's input: the contract, the frame's parameters and the plugin ABI's settings. */

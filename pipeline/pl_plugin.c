@@ -470,6 +470,7 @@ static tnd_result pdn_create(const pl_dn_desc *d, void **out)
     pl_dn_desc od = *d;
     od.params = NULL;
     od.data = pl_off_ops.data;
+    od.npasses = pl_off_ops.info.npasses;
     TND_TRY(pl_dnp_create(d->vk, d->path, d->width, d->height, d->precision, &p->dnp));
     TND_TRY(tnd_pending_create(d->vk, &p->pending));
     TND_TRY(tnd_timer_create(d->vk, &p->timer));
@@ -525,7 +526,7 @@ static tnd_result pdn_wait(void *ctx, double *ms, bool *beside)
     double off[PL_DN_MAX_PASSES] = {0};
     TND_TRY(pl_off_ops.wait(p->off, off, beside));
     TND_TRY(pdn_settle(p));
-    ms[0] = off[pl_off_ops.info.npasses - 1]; /* its composite */
+    ms[0] = off[0]; /* its composite */
     ms[1] = p->ms;
     *beside = false;
 fail:
