@@ -501,7 +501,8 @@ int cmd_bench(int argc, char **argv)
         {"json", APP_OPT_FLAG, &json, NULL, "print the results as JSON"},
         {"sweep", APP_OPT_LIST, &sweeps, "KEY=V1,V2,...",
          "run the pipeline over every combination of knob values (repeatable; keys: bounces, "
-         "atrous, alpha, gradient, denoiser, precision, taa, scale, frontend); needs --out"},
+         "every denoiser parameter (atrous, min-alpha or alpha, antilag, lf-sigma: tandem info "
+         "--pipeline), gradient, denoiser, precision, taa, scale, frontend); needs --out"},
         {"out", APP_OPT_STRING, &out, "DIR", "--sweep, --extremes: where runs, tables and the report go"},
         {"reference", APP_OPT_STRING, &reference, "REFDIR",
          "--sweep: references (default: rendered into DIR/reference with --spp)"},

@@ -72,17 +72,23 @@ try:
         shutil.copy(f"{tmp}/ref1/frame_0000.exr", f"{tmp}/ref/frame_{k:04d}.exr")
     ref_band = lum(f"{tmp}/ref/frame_0000.exr")[:8].mean()
 
+    # every registered denoiser that filters (tandem info --pipeline), the one that does not
+    # (TAA alone: "off"), and the one with gradient samples on the Embree front-end as well
+    reg = json.loads(run("info", "--pipeline", "--json").stdout)["denoisers"]
+    filtering = [d["name"] for d in reg if "filters" in d["capabilities"]]
+    plain = next(d["name"] for d in reg if "filters" not in d["capabilities"])
+    grad = next(d["name"] for d in reg if "gradients" in d["capabilities"])
     runs = {}
-    for fe, dn in (("vk", "asvgf"), ("vk", "svgf"), ("vk", "off"), ("embree", "asvgf")):
+    for fe, dn in [("vk", d) for d in filtering] + [("vk", plain), ("embree", grad)]:
         d = f"{tmp}/{fe}_{dn}"
         run("render", "--frontend", fe, "--denoiser", dn, "--frames", str(FRAMES), "--capture",
             "--out", d, *box)
         run("eval", "--out", d, "--matched-reference", f"{tmp}/ref", "--quiet")
         runs[(fe, dn)] = curve(d)
     last = max(FRAMES // 4, 1)  # the last quarter of the frames
-    taa_only = runs[("vk", "off")][0][-last:].mean()
+    taa_only = runs[("vk", plain)][0][-last:].mean()
     for (fe, dn), (r, m) in runs.items():
-        if dn == "off":
+        if dn == plain:
             continue
         early = r[2:6].mean()
         worst_late = r[6:].max()
