@@ -475,9 +475,12 @@ int cmd_bench(int argc, char **argv)
     unsigned frames = 12, warmup = 4, spp = 64, ref_shards = 0, timed = 24;
     const char *emit = NULL;
     app_env env = APP_ENV_INIT; /* (--overlap and --denoiser: the whole frame or the back-end) */
+    char dn_help[300];
+    snprintf(dn_help, sizeof dn_help,
+             "with --frontend vk: time the whole frame with this denoiser (%s, or plugin:PATH.so)",
+             pl_denoiser_names());
     const app_opt opts[] = {
-        {"denoiser", APP_OPT_STRING, &denoiser, "MODE",
-         "with --frontend vk: time the whole frame with this back-end (asvgf, svgf or off)"},
+        {"denoiser", APP_OPT_STRING, &denoiser, "NAME", dn_help},
         {"precision", APP_OPT_STRING, &precision, "P", "contract precision: float32 or packed"},
         {"overlap", APP_OPT_FLAG, &overlap, NULL,
          "the whole frame (front-end, back-end, post) back to back with the contract brought to "
@@ -492,7 +495,9 @@ int cmd_bench(int argc, char **argv)
         {"pipeline", APP_OPT_STRING, &pipeline, "scene|full",
          "vk: shaders model only what the scene requires (default) or everything"},
         {"scene", APP_OPT_STRING, &scene_path, "PATH", "glTF scene or stress:N (default: cornell)"},
-        {"frontend", APP_OPT_STRING, &frontend, "NAME", "embree or vk (rays counted with Embree)"},
+        {"frontend", APP_OPT_STRING, &frontend, "NAME",
+         "a registered front-end that benchmarks its rays or fills the contract on the GPU "
+         "(embree, vk; the rays are counted with Embree)"},
         {"size", APP_OPT_SIZE, size, "WxH", "image size (default 256x256)"},
         {"repeats", APP_OPT_UINT, &repeats, "N", "timed repetitions (default 10)"},
         {"threads", APP_OPT_UINT, &threads, "N", "CPU threads (default: all cores)"},
