@@ -151,6 +151,9 @@ typedef struct app_render_opts {
  * after parsing, and what the sweep and compare call. Options checked as the command line's;
  * returns the exit status. */
 int app_render(const app_render_opts *o, bool reference);
+/* A viewer state's settings over render's options (scene, front-end, denoiser and its
+ * parameters, post chain, size, camera): the one converter from the viewer's settings. */
+void app_view_state_options(const app_view_state *v, app_render_opts *o);
 /* render's defaults (what the command line starts from). */
 void app_render_defaults(app_render_opts *o);
 /* The command line of those options (after "tandem", from "render" or "reference"): every option

@@ -41,31 +41,6 @@ static const app_cmd reference_cmd = {
 /* render --view FILE: the viewer's settings and camera path (lives for the run) */
 static app_view_state view_state;
 
-/* The view state's settings over the options: what the viewer ran with. */
-static void apply_view_state(render_opts *o, const app_view_state *v)
-{
-    o->scene = v->scene;
-    o->frontend = v->frontend;
-    o->denoiser = v->denoiser;
-    o->precision = v->precision;
-    o->taa = v->taa;
-    o->tonemap = v->tonemap;
-    o->exposure = v->exposure;
-    o->env.path = v->env[0] ? v->env : NULL;
-    o->env.intensity = v->env_intensity;
-    o->env.rotation = v->env_rotation;
-    o->params = v->params;
-    o->exposure_bias = v->exposure_bias;
-    o->bloom = v->bloom;
-    o->fps = v->fps;
-    o->bounces = v->bounces;
-    o->camera = v->camera;
-    o->size[0] = v->size[0];
-    o->size[1] = v->size[1];
-    o->start = v->path[0].frame;
-    o->frames = v->path_len;
-    o->view = v;
-}
 
 void app_render_defaults(app_render_opts *o)
 {
@@ -196,16 +171,21 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
              pl_frontend_live_names());
     snprintf(dn_help, sizeof dn_help, "the denoiser: %s, or plugin:PATH.so (default asvgf; "
              "docs/denoise.md)", pl_denoiser_names());
+    /* what render and reference share: where, what, the path (one entry each) */
+#define COMMON_OPTS \
+    {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"}, \
+    {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"}, \
+    {"frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help}
+#define PATH_OPTS \
+    {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"}, \
+    {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"}, \
+    {"fps", APP_OPT_FLOAT, &o->fps, "R", "frames per second of the path (default 30)"}, \
+    {"size", APP_OPT_SIZE, o->size, "WxH", "image size (default 320x180)"}, \
+    {"camera", APP_OPT_UINT, &o->camera, "I", "scene camera (default 0)"}, \
+    {"threads", APP_OPT_UINT, &o->threads, "N", "CPU threads (default: all cores)"}
     const app_opt render_opts_tbl[] = {
-        {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},
-        {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"},
-        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help},
-        {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"},
-        {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"},
-        {"fps", APP_OPT_FLOAT, &o->fps, "R", "frames per second of the path (default 30)"},
-        {"size", APP_OPT_SIZE, o->size, "WxH", "image size (default 320x180)"},
-        {"camera", APP_OPT_UINT, &o->camera, "I", "scene camera (default 0)"},
-        {"threads", APP_OPT_UINT, &o->threads, "N", "CPU threads (default: all cores)"},
+        COMMON_OPTS,
+        PATH_OPTS,
         {"bounces", APP_OPT_UINT, &o->bounces, "N", "indirect bounces (default 1)"},
         {"reflect-depth", APP_OPT_UINT, &o->reflect_depth, "N",
          "mirrors and glass the primary pass looks through (default 4, 1 to 16)"},
@@ -240,16 +220,9 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {0},
     };
     const app_opt ref_opts_tbl[] = {
-        {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},
-        {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"},
-        {"frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help},
+        COMMON_OPTS,
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API", "vk: pipeline, query or auto"},
-        {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"},
-        {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"},
-        {"fps", APP_OPT_FLOAT, &o->fps, "R", "frames per second of the path (default 30)"},
-        {"size", APP_OPT_SIZE, o->size, "WxH", "image size (default 320x180)"},
-        {"camera", APP_OPT_UINT, &o->camera, "I", "scene camera (default 0)"},
-        {"threads", APP_OPT_UINT, &o->threads, "N", "CPU threads (default: all cores)"},
+        PATH_OPTS,
         {"spp", APP_OPT_UINT, &o->spp, "K", "samples per pixel (default 256)"},
         {"estimator", APP_OPT_STRING, &o->estimator, "E",
          "unbiased (full paths, Russian roulette; the default) or realtime (the expectation of "
@@ -275,6 +248,8 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     double param_vals[PL_PARAMS_MAX];
     if (!app_opts_with_params(render_opts_tbl, with_params, 64, param_vals))
         return APP_EXIT_FAIL;
+#undef COMMON_OPTS
+#undef PATH_OPTS
     const char *pos[1];
     int npos;
     int rc = app_parse(cmd, reference ? ref_opts_tbl : with_params, argc, argv, pos, 0, &npos);
@@ -293,7 +268,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
             app_report(cmd->name, vr);
             return APP_EXIT_FAIL;
         }
-        apply_view_state(o, &view_state);
+        app_view_state_options(&view_state, o); /* what the viewer ran with, frame for frame */
+        o->start = view_state.path[0].frame;
+        o->frames = view_state.path_len;
+        o->view = &view_state;
     }
     return -1;
 }

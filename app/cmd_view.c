@@ -329,17 +329,6 @@ static void close_pipeline(viewer *v)
     v->ref_rgb = NULL;
 }
 
-/* render's options from the view state (one place: the viewer's frame is render's) */
-static void options_of(const app_view_state *s, const char *denoiser, app_render_opts *o)
-{
-    *o = (app_render_opts){.scene = s->scene, .frontend = s->frontend, .denoiser = denoiser,
-                           .precision = s->precision, .rt_api = "auto", .pipeline = "scene",
-                           .taa = s->taa, .tonemap = s->tonemap, .exposure = s->exposure,
-                           .bloom = s->bloom, .params = s->params, .bounces = s->bounces,
-                           .exposure_bias = s->exposure_bias, .camera = s->camera, .fps = s->fps,
-                           .size = {s->size[0], s->size[1]},
-                           .env = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation}};
-}
 
 static tnd_result open_pipeline(viewer *v)
 {
@@ -357,7 +346,9 @@ static tnd_result open_pipeline(viewer *v)
         const pl_denoiser_info *info;
         TND_TRY(pl_denoiser_find(dn, &info));
         app_render_opts o;
-        options_of(s, dn, &o);
+        app_render_defaults(&o); /* (the viewer's frame is render's) */
+        app_view_state_options(s, &o);
+        o.denoiser = dn;
         if (i == 1 && strcmp(s->split_mode, "frontend") == 0)
             o.frontend = s->split_frontend;
         cmp_desc pd;

@@ -3,7 +3,8 @@
  * `tandem render --view FILE` reproduces frame for frame. The camera of a frame is a position,
  * a yaw about +Y and a pitch (no roll), turned into the view matrix the same way by both.
  * Entry points: app_view_state_read, app_view_state_write, app_view_state_free,
- * app_view_state_push, app_view_camera_apply, app_view_camera_from_state. */
+ * app_view_state_push, app_view_camera_apply, app_view_camera_from_state, app_view_state_options
+ * (its settings as render's options). */
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
@@ -97,6 +98,26 @@ static const struct {
     F("bounces", bounces), F("camera", camera),
 #undef F
 };
+
+void app_view_state_options(const app_view_state *v, app_render_opts *o)
+{
+    o->scene = v->scene;
+    o->frontend = v->frontend;
+    o->denoiser = v->denoiser;
+    o->precision = v->precision;
+    o->taa = v->taa;
+    o->tonemap = v->tonemap;
+    o->exposure = v->exposure;
+    o->env = (app_env){v->env[0] ? v->env : NULL, v->env_intensity, v->env_rotation, false};
+    o->params = v->params;
+    o->exposure_bias = v->exposure_bias;
+    o->bloom = v->bloom;
+    o->fps = v->fps;
+    o->bounces = v->bounces;
+    o->camera = v->camera;
+    o->size[0] = v->size[0];
+    o->size[1] = v->size[1];
+}
 
 tnd_result app_view_state_write(const char *path, const app_view_state *s)
 {
