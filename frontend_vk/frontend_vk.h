@@ -78,8 +78,8 @@ typedef struct fvk_params {
 /* GPU times of a fvk_render and the gradient launch after it, per pass; tlas_ms: the wall clock of
  * this frame's TLAS build or refit (submitted and waited for in fvk_set_frame; 0 when nothing
  * moved). */
-typedef struct fvk_timings {
-    double primary_ms, shade_ms, gradient_ms, tlas_ms;
+typedef struct fvk_timings { /* (in pl_timings' order) */
+    double primary_ms, shade_ms, tlas_ms, gradient_ms;
 } fvk_timings;
 
 typedef struct fvk_context fvk_context;

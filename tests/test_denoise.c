@@ -1204,6 +1204,52 @@ cleanup:
     gpu_end();
 }
 
+/* The denoisers' registry (pipeline/pl_denoiser.c): names, fallbacks, the parameter table's
+ * ranges, the passes every frame may time listed once. No GPU needed. */
+static void test_registry(void)
+{
+    const pl_denoiser_info *a = NULL, *s = NULL, *o = NULL, *p = NULL;
+    REQUIRE_OK(pl_denoiser_find("asvgf", &a));
+    REQUIRE_OK(pl_denoiser_find("svgf", &s));
+    REQUIRE_OK(pl_denoiser_find("off", &o));
+    REQUIRE_OK(pl_denoiser_find("plugin:x.so", &p));
+    CHECK(pl_denoiser_find("nope", &p) != TND_OK && strstr(tnd_error_detail(), "asvgf, svgf, off"),
+          "an unknown denoiser is refused, the message lists the registry: %s",
+          tnd_error_detail());
+    CHECK(strcmp(pl_denoiser_default(), "asvgf") == 0, "the first registered is the default");
+    CHECK(pl_denoiser_for(a, 0) == s && pl_denoiser_for(a, PL_CAP_RESHADE) == a &&
+              pl_denoiser_for(s, 0) == s,
+          "asvgf runs svgf behind a front-end that cannot re-shade, itself behind one that can");
+    CHECK((a->caps & PL_DN_GRADIENTS) && !(s->caps & PL_DN_GRADIENTS) &&
+              (s->caps & PL_DN_FILTERS) && !(o->caps & PL_DN_FILTERS),
+          "capabilities: gradients (asvgf), filters (asvgf, svgf, not off)");
+    CHECK(pl_denoiser_has_param(a, "antilag") && !pl_denoiser_has_param(s, "antilag") &&
+              pl_denoiser_has_param(s, "atrous") && o->nparams == 0,
+          "parameters: antilag is asvgf's, atrous both filters', off has none");
+    pl_param_set ps = {0};
+    CHECK(pl_param_set_put(&ps, "atrous", 6) != TND_OK && pl_param_set_put(&ps, "atrous", 2.5) != TND_OK &&
+              pl_param_set_put(&ps, "min-alpha", -0.1) != TND_OK &&
+              pl_param_set_put(&ps, "nope", 1) != TND_OK && ps.n == 0,
+          "out of range, not whole, unknown: refused, nothing set");
+    REQUIRE_OK(pl_param_set_put(&ps, "atrous", 2));
+    REQUIRE_OK(pl_param_set_put(&ps, "min-alpha", 1));
+    REQUIRE_OK(pl_param_set_put(&ps, "atrous", 3));
+    CHECK(ps.n == 2 && pl_param_set_get(&ps, "atrous") == 3 && pl_param_set_get(&ps, "antilag") == 0,
+          "set, replaced, the others 0 (their default)");
+    REQUIRE_OK(pl_param_set_put(&ps, "atrous", 0));
+    CHECK(ps.n == 1 && pl_param_set_get(&ps, "atrous") == 0, "0 puts the default back");
+    const pl_pass *all[64];
+    uint32_t n = pl_pass_all(all, 64), plugin = 0, temporal = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        plugin += strcmp(all[i]->key, "denoiser_plugin_ms") == 0;
+        temporal += strcmp(all[i]->key, "denoise_temporal_ms") == 0;
+    }
+    CHECK(plugin == 1 && temporal == 1 && pl_pass_owner_of(all[0]) == PL_OWNER_FRONTEND &&
+              pl_pass_owner_of(all[n - 1]) == PL_OWNER_POST,
+          "every pass once (%u), front-end's first, post's last", n);
+cleanup:;
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
@@ -1214,4 +1260,4 @@ TND_TEST_MAIN(T(test_off_equals_cpu_composite), T(test_svgf_static_cornell),
               T(test_nan_does_not_spread), T(test_lf_firefly_is_deflickered),
               T(test_disocclusion_and_frontends), T(test_gradient_samples_reproduce_static),
               T(test_asvgf_follows_light_switch), T(test_gradient_blur_segments),
-              T(test_queued_frames_match_waited), T(test_shutdown))
+              T(test_queued_frames_match_waited), T(test_registry), T(test_shutdown))
