@@ -1,7 +1,8 @@
 /* app/cmd_bench.c: `tandem bench`: front-end throughput on one scene (Mrays/s, ms per frame)
- * beside a raw ray-casting loop over the same rays; with --denoiser, the whole real-time frame
- * (Vulkan front-end, gradient round trip, back-end) back to back, each pass against the
- * memory-bandwidth floor. Later it grows into the speed/accuracy sweeps of the eval issue. */
+ * beside a raw ray-casting loop over the same rays; with --denoiser, the real-time frame (GPU
+ * front-end, gradient round trip, the denoiser) back to back, each of the chain's passes
+ * (pl_chain_passes) against the memory-bandwidth floor; --overlap / --whole-frame, the whole
+ * frame three ways; --sweep (cmd_sweep.c) and --extremes (cmd_extremes.c). */
 #include "app/app.h"
 #include "denoise/denoise.h"
 #include "pipeline/pipeline.h"

@@ -2,7 +2,8 @@
  * two front-ends, or any two Tandem capture directories), per contract entry. G-buffer entries
  * must agree to float precision on --min-gbuffer of the pixels (the rest lie on triangle edges);
  * the noisy signals on --min-signal of the pixels that see the same surface (same path traced).
- * Exit 1 past those floors. */
+ * Exit 1 past those floors. With --scene: renders both front-ends (--frontends, registered names)
+ * and the reference first, calling render as a function (app_render), then evaluates both. */
 #include "app/app.h"
 
 #include <cjson/cJSON.h>

@@ -1,4 +1,6 @@
-/* app/cmd_info.c: `tandem info`: devices, the chosen one, ray-tracing support and limits. */
+/* app/cmd_info.c: `tandem info`: devices, the chosen one, ray-tracing support and limits; with
+ * --scene a scene, --capture a capture (capture_info.c), --pipeline the registries (front-ends,
+ * denoisers with their capabilities, parameters and passes, metrics). */
 #include "app/app.h"
 
 #include <cjson/cJSON.h>

@@ -1,10 +1,11 @@
 /* pipeline/pl_plugin.c: plugins from shared objects (include/tandem/tandem_plugin.h): the
  * loader and its checks, the front-end adapter (a plugin that fills host buffers becomes a
- * pl_frontend_ops) and the denoiser plugin that the chain runs in place of the back-end's
- * filters. A plugin's description is checked once when it is loaded: ABI version, kind, the
- * operations it must have, the entries it declares.
- * Entry points: pl_plugin_frontend_ops, pl_dnp_create, pl_dnp_destroy, pl_dnp_record,
- * pl_dnp_reads, pl_dnp_name, pl_plugin_settings. */
+ * pl_frontend_ops) and the denoiser adapter (a denoiser plugin becomes a pl_denoiser_ops: the
+ * built-in back-end's composite of the noisy radiance, then the plugin's commands, timed). A
+ * plugin's description is checked once when it is loaded: ABI version, kind, the operations it
+ * must have, the entries it declares.
+ * Entry points: pl_plugin_frontend_ops, pl_plugin_denoiser_ops, pl_dnp_create, pl_dnp_destroy,
+ * pl_dnp_record, pl_dnp_reads, pl_dnp_name, pl_plugin_settings. */
 #include "pipeline/pl_internal.h"
 #include "shaders/sampling.h"
 
