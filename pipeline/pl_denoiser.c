@@ -5,10 +5,10 @@
  * line, run.json, the viewer's keys and states and the sweep's knobs are made from it) and the
  * passes it times. A new built-in denoiser is its adapter pipeline/pl_dn_NAME.c and one more line
  * in pl_denoisers.h (docs/extending.md).
- * Entry points: pl_denoiser_names, pl_denoiser_default, pl_denoiser_with, pl_denoiser_count, pl_denoiser_at, pl_denoiser_find,
- * pl_denoiser_has_param, pl_denoiser_for, pl_pass_all, pl_pass_owner_of, pl_pass_group_name, pl_param_count,
- * pl_param_at, pl_param_find, pl_param_set_put, pl_param_set_get, pl_param_key,
- * pl_denoiser_ops_find. */
+ * Entry points: pl_denoiser_names, pl_denoiser_default, pl_denoiser_with, pl_denoiser_count,
+ * pl_denoiser_at, pl_denoiser_find, pl_denoiser_has_param, pl_denoiser_for, pl_pass_all,
+ * pl_pass_owner_of, pl_pass_group_name, pl_param_count, pl_param_at, pl_param_find,
+ * pl_param_set_put, pl_param_set_get, pl_param_key, pl_denoiser_ops_find. */
 #include "pipeline/pl_internal.h"
 
 #include <math.h>
@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* ---- the registry ----------------------------------------------------------------------------- */
+/* ---- the registry ------------------------------------------------------------------------- */
 /* pl_denoisers.h lists them, one line each; the first is the commands' default */
 #define PL_DENOISER(ops) extern const pl_denoiser_ops ops;
 #include "pipeline/pl_denoisers.h"
@@ -98,7 +98,7 @@ const pl_denoiser_info *pl_denoiser_for(const pl_denoiser_info *d, uint32_t fe_c
     return d;
 }
 
-/* ---- passes ------------------------------------------------------------------------------------ */
+/* ---- passes ------------------------------------------------------------------------------ */
 const char *pl_pass_group_name(pl_pass_group g)
 {
     static const char *const names[PL_GROUPS] = {"front-end", "gradients", "back-end", "post"};
@@ -142,7 +142,7 @@ pl_pass_owner pl_pass_owner_of(const pl_pass *p)
     return PL_OWNER_DENOISER;
 }
 
-/* ---- parameters -------------------------------------------------------------------------------- */
+/* ---- parameters -------------------------------------------------------------------------- */
 static uint32_t params_all(const pl_param **out)
 {
     uint32_t n = 0;

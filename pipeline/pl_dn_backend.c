@@ -9,23 +9,29 @@
 #include <string.h>
 
 /* ---- the built-in back-end (denoise/): SVGF, A-SVGF, the plain composite ------------------- */
+/* clang-format off */
 static const pl_param p_atrous = {
-    "atrous", PL_PARAM_UINT, 1, 5, false, "N",
-    "a-trous iterations of hf and spec (default 4 and 3; 1 to 5)", ",.", {0}, 0};
+    .name = "atrous", .kind = PL_PARAM_UINT, .min = 1, .max = 5, .arg = "N",
+    .help = "a-trous iterations of hf and spec (default 4 and 3; 1 to 5)",
+    .keys = ",."};
 static const pl_param p_min_alpha = {
-    "min-alpha", PL_PARAM_FLOAT, 0, 1, true, "A",
-    "temporal accumulation: the smallest weight of the new frame, hf/lf/spec (default "
-    ".02/.01/.01)",
-    "M", {0, 0.05, 0.1, 0.2}, 4};
+    .name = "min-alpha", .kind = PL_PARAM_FLOAT, .min = 0, .max = 1, .min_open = true,
+    .arg = "A",
+    .help = "temporal accumulation: the smallest weight of the new frame, hf/lf/spec (default "
+            ".02/.01/.01)",
+    .keys = "M", .steps = {0, 0.05, 0.1, 0.2}, .nsteps = 4};
 static const pl_param p_antilag = {
-    "antilag", PL_PARAM_FLOAT, 0, 100, true, "G",
-    "asvgf: the hf antilag gain (how fast history drops where the signal changed; default 1)",
-    "G", {0, 2.0, 0.5}, 3};
+    .name = "antilag", .kind = PL_PARAM_FLOAT, .min = 0, .max = 100, .min_open = true,
+    .arg = "G",
+    .help = "asvgf: the hf antilag gain (how fast history drops where the signal changed; "
+            "default 1)",
+    .keys = "G", .steps = {0, 2.0, 0.5}, .nsteps = 3};
 static const pl_param p_lf_sigma = {
-    "lf-sigma", PL_PARAM_FLOAT, 0, 100, true, "S",
-    "the lf filter's luminance weight: standard deviations of the noise left in its histories "
-    "(default 2; docs/denoise.md)",
-    NULL, {0}, 0};
+    .name = "lf-sigma", .kind = PL_PARAM_FLOAT, .min = 0, .max = 100, .min_open = true,
+    .arg = "S",
+    .help = "the lf filter's luminance weight: standard deviations of the noise left in its "
+            "histories (default 2; docs/denoise.md)"};
+/* clang-format on */
 
 static const pl_param *const svgf_params[] = {&p_atrous, &p_min_alpha, &p_lf_sigma};
 static const pl_param *const asvgf_params[] = {&p_atrous, &p_min_alpha, &p_antilag, &p_lf_sigma};
@@ -33,12 +39,14 @@ static const pl_param *const asvgf_params[] = {&p_atrous, &p_min_alpha, &p_antil
 /* The back-end's passes (timings.json's keys as they always were) and, for each, its field of
  * dn_timings / dn_traffic (0 select, 1 gradient, 2 temporal, 3 lf, 4 atrous, 5 composite): A-SVGF
  * runs all of them, SVGF no gradient work, "off" the composite alone. */
+/* clang-format off */
 #define PASS_SELECT {"select", "denoise_select_ms", PL_GROUP_GRADIENTS, NULL}
 #define PASS_GRADIENT {"gradient", "denoise_gradient_ms", PL_GROUP_GRADIENTS, NULL}
 #define PASS_TEMPORAL {"temporal", "denoise_temporal_ms", PL_GROUP_BACKEND, NULL}
 #define PASS_LF {"lf", "denoise_lf_ms", PL_GROUP_BACKEND, "atrous"}
 #define PASS_ATROUS {"atrous", "denoise_atrous_ms", PL_GROUP_BACKEND, NULL}
 #define PASS_COMPOSITE {"composite", "composite_ms", PL_GROUP_BACKEND, NULL}
+/* clang-format on */
 static const pl_pass asvgf_passes[] = {PASS_SELECT, PASS_GRADIENT, PASS_TEMPORAL,
                                        PASS_LF,     PASS_ATROUS,   PASS_COMPOSITE};
 static const pl_pass svgf_passes[] = {PASS_TEMPORAL, PASS_LF, PASS_ATROUS, PASS_COMPOSITE};
@@ -167,13 +175,12 @@ const pl_denoiser_ops pl_asvgf_ops = {
              sizeof asvgf_passes / sizeof *asvgf_passes},
     BACKEND_OPS(v_asvgf)};
 const pl_denoiser_ops pl_svgf_ops = {
-    .info = {"svgf",
-             "SVGF (Schied et al. 2017): temporal accumulation and variance-guided a-trous",
+    .info = {"svgf", "SVGF (Schied et al. 2017): temporal accumulation and variance-guided a-trous",
              PL_DN_FILTERS | PL_DN_DUMPS, NULL, svgf_params,
              sizeof svgf_params / sizeof *svgf_params, svgf_passes,
              sizeof svgf_passes / sizeof *svgf_passes},
     BACKEND_OPS(v_svgf)};
-const pl_denoiser_ops pl_off_ops = {
-    .info = {"off", "the noisy signals composited (no denoising)", PL_DN_DUMPS, NULL, NULL, 0,
-             off_passes, sizeof off_passes / sizeof *off_passes},
-    BACKEND_OPS(v_off)};
+const pl_denoiser_ops pl_off_ops = {.info = {"off", "the noisy signals composited (no denoising)",
+                                             PL_DN_DUMPS, NULL, NULL, 0, off_passes,
+                                             sizeof off_passes / sizeof *off_passes},
+                                    BACKEND_OPS(v_off)};
