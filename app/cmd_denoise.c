@@ -116,9 +116,13 @@ int cmd_denoise(int argc, char **argv)
                 pl_frontend_frame_name(rp, 0), dn->name, asked->name, asked->name);
     const char *dn_name = dn->caps & PL_DN_PLUGIN ? denoiser : dn->name;
     pl_param_set own = {0}; /* the parameters it has */
-    for (uint32_t i = 0; i < params.n; i++)
+    for (uint32_t i = 0; i < params.n; i++) {
         if (pl_denoiser_has_param(dn, params.param[i]->name))
             TND_TRY(pl_param_set_put(&own, params.param[i]->name, params.value[i]));
+        else if (!app_quiet())
+            fprintf(stderr, "tandem: denoise: --%s: %s has no such parameter (left out)\n",
+                    params.param[i]->name, dn->name);
+    }
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk));
     /* the post chain with render's defaults (auto exposure, ACES), TAA as asked, the interleave
      * when the captures carry split paths (the first frame says) */

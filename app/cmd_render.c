@@ -633,9 +633,15 @@ tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, t
                         .backend = use_dn,
                         .denoiser = (*dn)->caps & PL_DN_PLUGIN ? o->denoiser : (*dn)->name,
                         .post = *pd};
-    for (uint32_t i = 0; i < o->params.n; i++) /* (the others' are not its) */
-        if (pl_denoiser_has_param(*dn, o->params.param[i]->name))
-            TND_TRY(pl_param_set_put(&cd.params, o->params.param[i]->name, o->params.value[i]));
+    for (uint32_t i = 0; i < o->params.n; i++) { /* (the others' are not its) */
+        const char *pn = o->params.param[i]->name;
+        if (pl_denoiser_has_param(*dn, pn))
+            TND_TRY(pl_param_set_put(&cd.params, pn, o->params.value[i]));
+        else if (!o->view && !o->quiet && !app_quiet()) /* (a viewer state keeps them all) */
+            fprintf(stderr, "tandem: %s: --%s: %s has no such parameter (left out; tandem info "
+                            "--pipeline lists each denoiser's)\n",
+                    reference ? "reference" : "render", pn, (*dn)->name);
+    }
     TND_TRY(pl_chain_create(&cd, chain));
 fail:
     return res;

@@ -38,7 +38,7 @@ static const app_cmd view_cmd = {
     "overlay, F12 writes a screenshot (PNG, EXR and its repro state for `tandem render\n"
     "--view`), F11 the next frame's capture, F5 reloads the shaders from $TANDEM_SHADER_DIR\n"
     "(scripts/compile-shaders.sh), ESC quits.",
-    "[--scene PATH] [--frontend NAME] [--denoiser MODE] [--size WxH] [--state FILE] "
+    "[--scene PATH] [--frontend NAME] [--denoiser NAME] [--size WxH] [--state FILE] "
     "[--script FILE] [--out DIR]",
     NULL};
 
@@ -349,6 +349,7 @@ static tnd_result open_pipeline(viewer *v)
         app_render_defaults(&o); /* (the viewer's frame is render's) */
         app_view_state_options(s, &o);
         o.denoiser = dn;
+        o.quiet = true; /* (its state keeps every parameter; a denoiser takes its own) */
         if (i == 1 && strcmp(s->split_mode, "frontend") == 0)
             o.frontend = s->split_frontend;
         cmp_desc pd;

@@ -537,6 +537,9 @@ assert c["denoiser"] == "svgf" and c["atrous"] == 3 and "antilag" not in c, c  #
 PY
 [ $? -eq 0 ] && ! cmp -s "$tmp/p_a/frame_0001.exr" "$tmp/p_b/frame_0001.exr"
 check "run.json: the denoiser's parameters given; --lf-sigma reaches the filter" $?
+"$T" render --frames 1 --size 16x12 --denoiser svgf --antilag 2 --out "$tmp/p_d" 2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && grep -q -- "--antilag: svgf has no such parameter" "$tmp/err"
+check "a parameter the denoiser lacks is left out, and said (got $rc)" $?
 # tandem denoise's timings.json carries every pass of the chain (the denoiser's, gradient
 # selection included, and the post chain's), as render's does
 "$T" render --frames 3 --size 32x20 --capture --out "$tmp/tp" --quiet &&
