@@ -81,7 +81,7 @@ static int parse_value(const app_cmd *cmd, const app_opt *o, const char *v)
     }
     case APP_OPT_FLOAT: {
         double x = strtod(v, &end);
-        if (errno || !*v || *end)
+        if (errno || !*v || *end || !isfinite(x)) /* (no option takes nan or inf) */
             break;
         *(double *)o->dest = x;
         return 0;

@@ -514,6 +514,9 @@ check "render and denoise take every denoiser parameter of the table, help names
 "$T" render --atrous 9 --out "$tmp/bad_param" 2>"$tmp/err"; rc=$?
 [ $rc -eq 2 ] && grep -q -- "--atrous 9" "$tmp/err" && grep -q "1, 5" "$tmp/err" && [ ! -e "$tmp/bad_param" ]
 check "a parameter out of its range: exit 2, the range said, nothing written (got $rc)" $?
+"$T" render --atrous nan --out "$tmp/bad_param" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "bad value 'nan'" "$tmp/err" && [ ! -e "$tmp/bad_param" ]
+check "no option takes nan (a parameter would have read it as not given) (got $rc)" $?
 "$T" render --atrous 2.5 --out "$tmp/bad_param" 2>"$tmp/err"; rc=$?
 [ $rc -eq 2 ] && grep -q "whole number" "$tmp/err"
 check "a count parameter takes whole numbers (got $rc)" $?
