@@ -105,10 +105,6 @@ const char *pl_pass_group_name(pl_pass_group g)
     return g < PL_GROUPS ? names[g] : "?";
 }
 
-/* (pl_chain.c's tables of the front-end's and the post chain's passes) */
-extern const pl_pass pl_frontend_passes[], pl_post_passes[];
-extern const uint32_t pl_frontend_pass_count, pl_post_pass_count;
-
 static void add_passes(const pl_pass *p, uint32_t n, const pl_pass **out, uint32_t max,
                        uint32_t *count)
 {
@@ -135,10 +131,12 @@ uint32_t pl_pass_all(const pl_pass **out, uint32_t max)
 
 pl_pass_owner pl_pass_owner_of(const pl_pass *p)
 {
-    if (p >= pl_frontend_passes && p < pl_frontend_passes + pl_frontend_pass_count)
-        return PL_OWNER_FRONTEND;
-    if (p >= pl_post_passes && p < pl_post_passes + pl_post_pass_count)
-        return PL_OWNER_POST;
+    for (uint32_t i = 0; i < pl_frontend_pass_count; i++)
+        if (p == &pl_frontend_passes[i])
+            return PL_OWNER_FRONTEND;
+    for (uint32_t i = 0; i < pl_post_pass_count; i++)
+        if (p == &pl_post_passes[i])
+            return PL_OWNER_POST;
     return PL_OWNER_DENOISER;
 }
 

@@ -65,6 +65,10 @@ const tnd_image *pl_dnp_output(const pl_dnp *d);
 tnd_result pl_dnp_record(pl_dnp *d, VkCommandBuffer cmd, const tandem_frame_settings *s,
                          const tnd_contract_gpu *ct, const tnd_image *radiance);
 
+/* ---- the frame's passes (pl_chain.c): the front-end's and the post chain's ------------------ */
+extern const pl_pass pl_frontend_passes[], pl_post_passes[];
+extern const uint32_t pl_frontend_pass_count, pl_post_pass_count;
+
 /* ---- denoisers ---------------------------------------------------------------------------- */
 typedef struct pl_dn_desc {
     tnd_vk *vk;
