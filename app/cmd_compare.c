@@ -246,14 +246,15 @@ int cmd_compare(int argc, char **argv)
         snprintf(run_a, sizeof run_a, "%s/%s", out, fe[0]);
         snprintf(run_b, sizeof run_b, "%s/%s", out, fe[1]);
         const char *dirs[2] = {run_a, run_b};
-        app_render_opts o;
+        app_render_opts base, o; /* the scene and path all three runs share */
+        app_render_defaults(&base);
+        base.scene = scene;
+        base.frames = frames;
+        base.size[0] = size[0];
+        base.size[1] = size[1];
         for (int i = 0; i < 2 && res == TND_OK; i++) {
-            app_render_defaults(&o);
+            o = base;
             o.frontend = fe[i];
-            o.scene = scene;
-            o.frames = frames;
-            o.size[0] = size[0];
-            o.size[1] = size[1];
             o.capture = true;
             o.denoiser = denoiser;
             o.out = dirs[i];
@@ -264,11 +265,7 @@ int cmd_compare(int argc, char **argv)
             snprintf(refdir, sizeof refdir, "%s", reference);
         } else if (res == TND_OK) {
             snprintf(refdir, sizeof refdir, "%s/reference", out);
-            app_render_defaults(&o);
-            o.scene = scene;
-            o.frames = frames;
-            o.size[0] = size[0];
-            o.size[1] = size[1];
+            o = base;
             o.spp = spp;
             o.out = refdir;
             if (app_render(&o, true) != APP_EXIT_OK)

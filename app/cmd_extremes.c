@@ -208,7 +208,7 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
     for (uint32_t i = 0; pl_frontend_name_at(i) && nfe < 16; i++)
         if (pl_frontend_live(pl_frontend_name_at(i)))
             fes[nfe++] = pl_frontend_name_at(i);
-    const int RUNS = (int)(nfe * ndn * 2 < MAX_RUNS ? nfe * ndn * 2 : MAX_RUNS);
+    const int nruns = (int)(nfe * ndn * 2 < MAX_RUNS ? nfe * ndn * 2 : MAX_RUNS);
     run_stats runs[MAX_RUNS];
     memset(runs, 0, sizeof runs);
     tnd_result res = TND_OK;
@@ -222,8 +222,8 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
     }
     TND_TRY(tnd_mkdirs(out));
     app_progress bar;
-    app_progress_begin(&bar, "extremes", RUNS);
-    for (int i = 0; i < RUNS; i++) {
+    app_progress_begin(&bar, "extremes", nruns);
+    for (int i = 0; i < nruns; i++) {
         run_stats *r = &runs[i];
         const pl_denoiser_info *dn = pl_denoiser_at((uint32_t)(i / 2) % ndn);
         r->frontend = fes[(uint32_t)i / (2 * ndn)];
@@ -286,7 +286,7 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
                        "buffers and the output both are shown, as what storing them packed would do. <code>contract.*</code>: the captures; "
                        "<code>denoise.*</code>: the back-end's buffers (<code>--dump all</code>); "
                        "<code>output</code>: the frames after TAA.</p>\n");
-    for (int i = 0; i < RUNS; i++) {
+    for (int i = 0; i < nruns; i++) {
         run_stats *r = &runs[i];
         total_bad += r->nonfinite;
         cJSON *o = cJSON_CreateObject();
@@ -319,7 +319,7 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
     }
     cJSON *pe = cJSON_AddArrayToObject(root, "packed_vs_float32");
     ev_text_add(&html, "<h2>Packed against float32 contracts</h2>\n");
-    for (int i = 0; i < RUNS && res == TND_OK; i += 2) {
+    for (int i = 0; i < nruns && res == TND_OK; i += 2) {
         cJSON *o = cJSON_CreateObject();
         cJSON_AddItemToArray(pe, o);
         cJSON_AddStringToObject(o, "frontend", runs[i].frontend);
@@ -349,7 +349,7 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
         printf("extremes: %s at %ux%u, %u frames, 12 modes: %llu NaN/Inf%s\n", scene, size[0],
                size[1], frames, (unsigned long long)total_bad,
                total_bad ? " (see the report)" : "");
-        for (int i = 0; i < RUNS; i++) {
+        for (int i = 0; i < nruns; i++) {
             uint64_t oh = 0, orgbe = 0;
             for (uint32_t b = 0; b < runs[i].nbufs; b++) {
                 oh += runs[i].bufs[b].over_half;
@@ -363,7 +363,7 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
         printf("  -> %s, %s/index.html\n", path, rdir);
     }
 fail:
-    for (int i = 0; i < RUNS; i++)
+    for (int i = 0; i < nruns; i++)
         free(runs[i].bufs);
     cJSON_Delete(root);
     ev_text_free(&html);

@@ -200,24 +200,21 @@ static void device_text(const tnd_vk_device_info *d, bool chosen)
 
 /* tandem info --pipeline: the registries (front-ends, denoisers with their capabilities,
  * parameters and passes, metrics), as text or JSON: what the pipeline is, as data. */
-static const char *const fe_caps[] = {"gpu_contract", "reshade", "reference", "benchmark",
-                                      "recorded", "queued"};
-static const char *const dn_caps[] = {"gradients", "filters", "dumps", "plugin"};
-
-static cJSON *caps_json(uint32_t caps, const char *const *names, int n)
+/* the capability bits set, by name (names: the registry's) */
+static cJSON *caps_json(uint32_t caps, const char *(*name)(uint32_t))
 {
     cJSON *a = cJSON_CreateArray();
-    for (int b = 0; b < n; b++)
+    for (uint32_t b = 0; name(b); b++)
         if (caps & (1u << b))
-            cJSON_AddItemToArray(a, cJSON_CreateString(names[b]));
+            cJSON_AddItemToArray(a, cJSON_CreateString(name(b)));
     return a;
 }
 
-static void caps_text(uint32_t caps, const char *const *names, int n)
+static void caps_text(uint32_t caps, const char *(*name)(uint32_t))
 {
-    for (int b = 0, k = 0; b < n; b++)
+    for (uint32_t b = 0, k = 0; name(b); b++)
         if (caps & (1u << b))
-            printf("%s%s", k++ ? ", " : "", names[b]);
+            printf("%s%s", k++ ? ", " : "", name(b));
 }
 
 static int pipeline_info(bool json)
@@ -233,11 +230,11 @@ static int pipeline_info(bool json)
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "name", n);
         cJSON_AddBoolToObject(o, "live", pl_frontend_live(n));
-        cJSON_AddItemToObject(o, "capabilities", caps_json(caps, fe_caps, 6));
+        cJSON_AddItemToObject(o, "capabilities", caps_json(caps, pl_frontend_cap_name));
         cJSON_AddItemToArray(fa, o);
         if (!json) {
             printf("  %-8s ", n);
-            caps_text(caps, fe_caps, 6);
+            caps_text(caps, pl_frontend_cap_name);
             printf("\n");
         }
     }
@@ -248,14 +245,14 @@ static int pipeline_info(bool json)
         cJSON *o = cJSON_CreateObject(), *pa, *sa;
         cJSON_AddStringToObject(o, "name", d->name);
         cJSON_AddStringToObject(o, "summary", d->summary);
-        cJSON_AddItemToObject(o, "capabilities", caps_json(d->caps, dn_caps, 4));
+        cJSON_AddItemToObject(o, "capabilities", caps_json(d->caps, pl_denoiser_cap_name));
         if (d->fallback)
             cJSON_AddStringToObject(o, "fallback", d->fallback);
         pa = cJSON_AddArrayToObject(o, "parameters");
         sa = cJSON_AddArrayToObject(o, "passes");
         if (!json) {
             printf("  %-8s %s\n           capabilities: ", d->name, d->summary);
-            caps_text(d->caps, dn_caps, 4);
+            caps_text(d->caps, pl_denoiser_cap_name);
             printf("%s%s\n", d->fallback ? "; without gradient samples: " : "",
                    d->fallback ? d->fallback : "");
         }

@@ -40,6 +40,9 @@ enum {
                                  pl_frontend_timings gives their times later */
 };
 
+/* A capability bit's name ("gpu_contract", "reshade", ...; NULL past the last), for listings. */
+const char *pl_frontend_cap_name(uint32_t bit);
+
 typedef struct pl_frontend_desc {
     tnd_vk *vk;              /* GPU front-ends: the caller's context (ray tracing on) */
     tnd_precision precision; /* of the contract */
@@ -189,6 +192,9 @@ enum {
     PL_DN_DUMPS = 4u,     /* the built-in back-end's buffers (--dump, the viewer's views) are its */
     PL_DN_PLUGIN = 8u,    /* loaded from a shared object (include/tandem/tandem_plugin.h) */
 };
+
+/* A capability bit's name ("gradients", "filters", ...; NULL past the last). */
+const char *pl_denoiser_cap_name(uint32_t bit);
 
 /* A pass the frame times. Groups as bench --whole-frame reports them. */
 typedef enum pl_pass_group {

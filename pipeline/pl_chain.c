@@ -304,7 +304,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     if (c->in_flight && !wait)
         TND_TRY(collect(c, fe, r));
     c->in_flight = false;
-    /* the plugin ABI's settings: the camera from the recorded frame or the front-end */
+    /* the frame's camera: the recorded frame's, or the front-end's */
     pl_camera cam = {0};
     if (recorded) {
         cam.state = c->host.camera;
@@ -312,10 +312,8 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     } else if (pl_frontend_camera(fe)) {
         cam = *pl_frontend_camera(fe);
     }
-    tandem_frame_settings fs;
-    pl_plugin_settings(&cam, c->d.width, c->d.height, s->params.bounces, s->params.sample, &df,
-                       s->dt, c->d.precision, &fs);
-    TND_TRY(c->ops->submit(c->dn, &(pl_dn_input){.contract = ct, .frame = &df, .settings = &fs}));
+    TND_TRY(c->ops->submit(c->dn, &(pl_dn_input){.contract = ct, .frame = &df, .camera = &cam,
+                                                 .params = &s->params, .dt = s->dt}));
     if (wait)
         TND_TRY(c->ops->wait(c->dn, r->dn, &r->beside));
     if (s->after_backend)

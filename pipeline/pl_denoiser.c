@@ -6,7 +6,7 @@
  * passes it times. A new built-in denoiser is its adapter pipeline/pl_dn_NAME.c and one more line
  * in pl_denoisers.h (docs/extending.md).
  * Entry points: pl_denoiser_names, pl_denoiser_default, pl_denoiser_with, pl_denoiser_count,
- * pl_denoiser_at, pl_denoiser_find, pl_denoiser_has_param, pl_denoiser_for, pl_pass_all,
+ * pl_denoiser_at, pl_denoiser_cap_name, pl_denoiser_find, pl_denoiser_has_param, pl_denoiser_for, pl_pass_all,
  * pl_pass_owner_of, pl_pass_group_name, pl_param_count, pl_param_at, pl_param_find,
  * pl_param_set_put, pl_param_set_get, pl_param_key, pl_denoiser_ops_find. */
 #include "pipeline/pl_internal.h"
@@ -81,6 +81,14 @@ tnd_result pl_denoiser_find(const char *name, const pl_denoiser_info **info)
     return TND_OK;
 }
 
+const char *pl_denoiser_cap_name(uint32_t bit)
+{
+    /* in PL_DN_* order */
+    static const char *const names[] = {"gradients", "filters", "dumps", "plugin"};
+    _Static_assert(1u << (sizeof names / sizeof *names - 1) == PL_DN_PLUGIN, "one name a bit");
+    return bit < sizeof names / sizeof *names ? names[bit] : NULL;
+}
+
 bool pl_denoiser_has_param(const pl_denoiser_info *d, const char *name)
 {
     for (uint32_t i = 0; i < d->nparams; i++)
@@ -141,9 +149,17 @@ pl_pass_owner pl_pass_owner_of(const pl_pass *p)
 }
 
 /* ---- parameters -------------------------------------------------------------------------- */
-static uint32_t params_all(const pl_param **out)
+/* every registered denoiser's parameters, each name once (made once: the registry is const) */
+static uint32_t params_all(const pl_param ***list)
 {
-    uint32_t n = 0;
+    static const pl_param *all[PL_PARAMS_MAX];
+    static uint32_t n;
+    static bool made;
+    *list = all;
+    if (made)
+        return n;
+    made = true;
+    const pl_param **out = all;
     for (int i = 0; i < REGISTERED; i++)
         for (uint32_t k = 0; k < registry[i]->info.nparams; k++) {
             const pl_param *p = registry[i]->info.params[k];
@@ -158,20 +174,20 @@ static uint32_t params_all(const pl_param **out)
 
 uint32_t pl_param_count(void)
 {
-    const pl_param *all[PL_PARAMS_MAX];
-    return params_all(all);
+    const pl_param **all;
+    return params_all(&all);
 }
 
 const pl_param *pl_param_at(uint32_t i)
 {
-    const pl_param *all[PL_PARAMS_MAX];
-    return i < params_all(all) ? all[i] : NULL;
+    const pl_param **all;
+    return i < params_all(&all) ? all[i] : NULL;
 }
 
 const pl_param *pl_param_find(const char *name)
 {
-    const pl_param *all[PL_PARAMS_MAX];
-    uint32_t n = params_all(all);
+    const pl_param **all;
+    uint32_t n = params_all(&all);
     for (uint32_t i = 0; i < n; i++)
         if (strcmp(all[i]->name, name) == 0)
             return all[i];

@@ -2,7 +2,7 @@
  * of operations (pl_frontend_ops); the Vulkan and Embree front-ends are adapted to it here, the
  * only place outside their folders that names their functions.
  * Entry points: pl_frontend_names, pl_frontend_live_names, pl_frontend_known, pl_frontend_live,
- * pl_frontend_caps_of, pl_frontend_name_at, pl_frontend_needs_gpu, pl_frontend_create and the
+ * pl_frontend_caps_of, pl_frontend_cap_name, pl_frontend_name_at, pl_frontend_needs_gpu, pl_frontend_create and the
  * pl_frontend_* operations. */
 #include "pipeline/pl_internal.h"
 #include "frontend_embree/frontend_embree.h"
@@ -376,6 +376,15 @@ uint32_t pl_frontend_caps_of(const char *name)
     const char *plugin = plugin_path(name);
     const pl_frontend_ops *o = plugin ? (*plugin ? &pl_plugin_frontend_ops : NULL) : find(name);
     return o ? o->caps : 0;
+}
+
+const char *pl_frontend_cap_name(uint32_t bit)
+{
+    /* in PL_CAP_* order */
+    static const char *const names[] = {"gpu_contract", "reshade",  "reference",
+                                        "benchmark",    "recorded", "queued"};
+    _Static_assert(1u << (sizeof names / sizeof *names - 1) == PL_CAP_QUEUED, "one name a bit");
+    return bit < sizeof names / sizeof *names ? names[bit] : NULL;
 }
 
 const char *pl_frontend_name_at(uint32_t i)

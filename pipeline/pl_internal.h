@@ -81,11 +81,14 @@ typedef struct pl_dn_desc {
     uint32_t npasses;           /* its info.npasses */
 } pl_dn_desc;
 
-/* One frame's input: the contract, the frame's parameters and the plugin ABI's settings. */
+/* One frame's input: the contract, the frame's parameters, and what a plugin's settings are made
+ * of (the camera, the front-end's parameters, seconds since the last frame). */
 typedef struct pl_dn_input {
     const tnd_contract_gpu *contract;
     const dn_frame *frame;
-    const tandem_frame_settings *settings;
+    const pl_camera *camera;
+    const pl_params *params;
+    float dt;
 } pl_dn_input;
 
 typedef struct pl_denoiser_ops {

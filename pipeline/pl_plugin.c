@@ -445,6 +445,8 @@ typedef struct pdn {
     tnd_timer timer;
     bool due;
     double ms;
+    uint32_t width, height;
+    tnd_precision precision;
 } pdn;
 
 static void pdn_destroy(void *ctx)
@@ -468,6 +470,7 @@ static tnd_result pdn_create(const pl_dn_desc *d, void **out)
     if (!p)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "plugin: out of memory");
     p->vk = d->vk;
+    p->width = d->width, p->height = d->height, p->precision = d->precision;
     pl_dn_desc od = *d;
     od.params = NULL;
     od.data = pl_off_ops.data;
@@ -502,12 +505,14 @@ static tnd_result pdn_submit(void *ctx, const pl_dn_input *in)
     tnd_result res = TND_OK;
     TND_TRY(pl_off_ops.submit(p->off, in));
     TND_TRY(pdn_settle(p));
+    tandem_frame_settings fs; /* the ABI's settings of the frame */
+    pl_plugin_settings(in->camera, p->width, p->height, in->params->bounces, in->params->sample,
+                       in->frame, in->dt, p->precision, &fs);
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(p->vk, &cmd));
     tnd_timer_reset(cmd, &p->timer);
     int slot = tnd_timer_begin(cmd, &p->timer, "plugin");
-    res = pl_dnp_record(p->dnp, cmd, in->settings, in->contract,
-                        pl_off_ops.output(p->off));
+    res = pl_dnp_record(p->dnp, cmd, &fs, in->contract, pl_off_ops.output(p->off));
     tnd_timer_end(cmd, &p->timer, slot);
     if (res != TND_OK) {
         vkEndCommandBuffer(cmd);
