@@ -17,6 +17,8 @@ typedef enum dn_mode {
     DN_MODE_SVGF = 0, /* temporal + a-trous, fixed minimum alpha */
     DN_MODE_OFF,      /* composite of the noisy signals */
     DN_MODE_ASVGF,    /* SVGF whose history length follows the temporal gradients */
+    DN_MODE_RECURRENT, /* fast and slow histories, the slow clamped to the fast; history fix;
+                          the gradients (where there are samples) as the history's confidence */
 } dn_mode;
 tnd_result dn_mode_parse(const char *s, dn_mode *mode);
 const char *dn_mode_name(dn_mode mode);
@@ -38,6 +40,11 @@ typedef struct dn_desc {
     /* lf filter: its luminance weight stops at this many standard deviations of the noise left
      * in the temporal lf histories (0 means 2; docs/denoise.md) */
     float lf_sigma;
+    /* recurrent: the fast history's length in frames (0 means 6), the clamp's width in standard
+     * deviations of the fast histories' 5x5 neighbourhood (0 means 2), histories of at most
+     * this many frames rebuilt by the history fix (0 means 3; negative: none) and its base
+     * stride in pixels (0 means 14: 7, 5, 4 pixels at 1, 2, 3 frames) */
+    float fast_frames, clamp_sigma, history_fix, fix_stride;
     /* profiling: a timestamp around every dispatch as well (dn_dispatch_times) */
     bool dispatch_timing;
     /* the gradient blur's segment of a row or column per work group, in strata: 0 means (and
@@ -59,6 +66,7 @@ typedef struct dn_timings {
     double select_ms;   /* the gradient selection of this frame (dn_select_gradients) */
     double gradient_ms; /* gradient image and its blur */
     double temporal_ms, lf_ms, atrous_ms, composite_ms; /* lf: the 1/3-res lf filter */
+    double history_ms; /* recurrent: the history pass (clamp, history fix) */
     /* the lf filter ran beside the a-trous (the default; dn_desc.dispatch_timing runs them in
      * turn): atrous_ms covers both, lf_ms is 0 */
     bool lf_beside_atrous;
@@ -69,7 +77,7 @@ typedef struct dn_context dn_context;
 /* The bytes each pass must move at the least (every texel it reads or writes, once), for the
  * bandwidth floor of `tandem bench`: time >= bytes / copy bandwidth. Fields as dn_timings. */
 typedef struct dn_traffic {
-    double select, gradient, temporal, lf, atrous, composite;
+    double select, gradient, temporal, lf, atrous, composite, history;
 } dn_traffic;
 void dn_traffic_of(const dn_context *ctx, dn_traffic *t);
 /* With dn_desc.dispatch_timing: the last dn_run's GPU time of each dispatch, in order (names
@@ -91,7 +99,7 @@ tnd_result dn_run(dn_context *ctx, const tnd_contract_gpu *contract, const dn_fr
 tnd_result dn_submit(dn_context *ctx, const tnd_contract_gpu *contract, const dn_frame *frame);
 /* Wait for the frame submitted last; its GPU times (t may be NULL). */
 tnd_result dn_wait(dn_context *ctx, dn_timings *t);
-/* A-SVGF (mode asvgf; count 0 otherwise): pick this frame's gradient samples, at most one per
+/* A-SVGF and recurrent (count 0 in other modes): pick this frame's gradient samples, at most one per
  * 3x3 stratum (dn_gradient_capacity), as DN_GRADIENT_WORDS words each: pixel, previous rng frame,
  * previous rng pixel, previous instance, previous primitive, u and v bits (the layout of
  * femb_gradient_sample and fvk_shade_gradients). Call after the front-end rendered the frame

@@ -21,13 +21,15 @@
 
 /* histories: hf (+ moments), lf (SH, CoCg, length), spec (+ length); a-trous ping-pong; lf
  * ping-pong (1/3 res: tangent plane and CoCg, SH) */
-enum { N_PAIRED = 6, N_SINGLE = 8 };
-static const uint32_t paired_binding[N_PAIRED] = {DN_B_HIST_HF, DN_B_HIST_LF, DN_B_HIST_SPEC,
-                                                  DN_B_AT,      DN_B_AT_LF,   DN_B_AT_LF_SH};
-static const char *const paired_name[N_PAIRED] = {"hist_hf", "hist_lf", "hist_spec",
-                                                  "atrous",  "at_lf",   "at_lf_sh"};
+enum { N_PAIRED = 8, N_SINGLE = 8 };
+static const uint32_t paired_binding[N_PAIRED] = {
+    DN_B_HIST_HF, DN_B_HIST_LF,  DN_B_HIST_SPEC, DN_B_AT,
+    DN_B_AT_LF,   DN_B_AT_LF_SH, DN_B_HIST_FAST, DN_B_HIST_RC};
+static const char *const paired_name[N_PAIRED] = {"hist_hf",  "hist_lf",   "hist_spec",
+                                                  "atrous",   "at_lf",     "at_lf_sh",
+                                                  "hist_fast", "hist_rc"};
 enum { PAIRED_HIST_HF, PAIRED_HIST_LF, PAIRED_HIST_SPEC, PAIRED_AT, PAIRED_AT_LF,
-       PAIRED_AT_LF_SH }; /* indices into paired_binding */
+       PAIRED_AT_LF_SH, PAIRED_HIST_FAST, PAIRED_HIST_RC }; /* indices into paired_binding */
 
 struct dn_context {
     tnd_vk *vk;
@@ -45,7 +47,7 @@ struct dn_context {
     VkPipelineLayout layout;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
-    VkPipeline temporal, atrous, composite, grad_select, gradients, lf, lf_down;
+    VkPipeline temporal, history, atrous, composite, grad_select, gradients, lf, lf_down;
     tnd_timer timer, select_timer, fine; /* fine: per dispatch (desc.dispatch_timing) */
     double select_ms; /* GPU time of the last selection */
     bool select_due;  /* a selection without a host copy is in flight in `pending` */
@@ -57,7 +59,7 @@ struct dn_context {
      * `last` its timings once read */
     tnd_pending pending;
     struct {
-        int grad, temporal, lf, atrous, composite;
+        int grad, temporal, history, lf, atrous, composite;
         double select_ms;
         bool due; /* timestamps not read yet */
     } rec;
@@ -104,6 +106,7 @@ static const struct {
     const char *name;
 } pipelines[] = {
     DN_PIPE(temporal, dn_temporal, "denoise.temporal"),
+    DN_PIPE(history, dn_history, "denoise.history"),
     DN_PIPE(atrous, dn_atrous, "denoise.atrous"),
     DN_PIPE(composite, dn_composite, "denoise.composite"),
     DN_PIPE(grad_select, dn_grad_select, "denoise.grad_select"),
@@ -127,15 +130,20 @@ tnd_result dn_mode_parse(const char *s, dn_mode *mode)
         *mode = DN_MODE_OFF;
     else if (strcmp(s, "asvgf") == 0)
         *mode = DN_MODE_ASVGF;
+    else if (strcmp(s, "recurrent") == 0)
+        *mode = DN_MODE_RECURRENT;
     else
         return tnd_fail(TND_ERR_INVALID_ARGUMENT,
-                        "denoise: mode '%s' (expected svgf, asvgf or off)", s);
+                        "denoise: mode '%s' (expected svgf, asvgf, recurrent or off)", s);
     return TND_OK;
 }
 
 const char *dn_mode_name(dn_mode mode)
 {
-    return mode == DN_MODE_OFF ? "off" : mode == DN_MODE_ASVGF ? "asvgf" : "svgf";
+    return mode == DN_MODE_OFF         ? "off"
+           : mode == DN_MODE_ASVGF     ? "asvgf"
+           : mode == DN_MODE_RECURRENT ? "recurrent"
+                                       : "svgf";
 }
 
 void dn_destroy(dn_context *c)
@@ -301,6 +309,10 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     d->antilag_lf = d->antilag_lf > 0 ? d->antilag_lf : 0.2f;
     d->lf_sigma = d->lf_sigma > 0 ? d->lf_sigma : 2.0f;
     d->lf_deflicker = d->lf_deflicker == 0 ? 2.0f : d->lf_deflicker < 0 ? 0.0f : d->lf_deflicker;
+    d->fast_frames = d->fast_frames > 0 ? d->fast_frames : 6.0f;
+    d->clamp_sigma = d->clamp_sigma > 0 ? d->clamp_sigma : 2.0f;
+    d->history_fix = d->history_fix == 0 ? 3.0f : d->history_fix < 0 ? 0.0f : d->history_fix;
+    d->fix_stride = d->fix_stride > 0 ? d->fix_stride : 14.0f;
     if (d->grad_segment == 0 || d->grad_segment > DN_GRAD_SEGMENT)
         d->grad_segment = DN_GRAD_SEGMENT;
     c->grad_w = (width + DN_STRATUM - 1) / DN_STRATUM;
@@ -310,11 +322,16 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
             char name[64];
             snprintf(name, sizeof name, "denoise.%s[%d]", paired_name[k], s);
             bool third = k == PAIRED_AT_LF || k == PAIRED_AT_LF_SH;
+            /* the recurrent denoiser's own histories: a texel elsewhere (bound, never read) */
+            bool none = (k == PAIRED_HIST_FAST || k == PAIRED_HIST_RC) &&
+                        d->mode != DN_MODE_RECURRENT;
             VkFormat f = k == PAIRED_AT_LF_SH     ? VK_FORMAT_R32G32B32A32_SFLOAT
                          : k == PAIRED_HIST_SPEC ? VK_FORMAT_R32G32_UINT
                                                  : VK_FORMAT_R32G32B32A32_UINT;
-            TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = third ? c->grad_w : width,
-                                                           .height = third ? c->grad_h : height,
+            uint32_t iw = none ? 1 : third ? c->grad_w : width;
+            uint32_t ih = none ? 1 : third ? c->grad_h : height;
+            TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = iw,
+                                                           .height = ih,
                                                            .format = f,
                                                            .name = name},
                                      &c->paired[k][s]));
@@ -396,6 +413,12 @@ static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const 
                   (c->height + 7) / 8);
 }
 
+/* the modes that select gradient samples (A-SVGF; recurrent, as its confidence) */
+static bool uses_gradients(const dn_desc *d)
+{
+    return d->mode == DN_MODE_ASVGF || d->mode == DN_MODE_RECURRENT;
+}
+
 /* full-res a-trous passes run: the most hf or spec asks for (the other is carried through) */
 static uint32_t atrous_iters(const dn_desc *d)
 {
@@ -424,9 +447,10 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
 {
     bool history = c->have_history && !f->reset;
     const dn_desc *d = &c->desc;
-    uint32_t mode = d->mode == DN_MODE_OFF     ? DN_RUN_OFF
-                    : d->mode == DN_MODE_ASVGF ? DN_RUN_ASVGF
-                                               : DN_RUN_SVGF;
+    uint32_t mode = d->mode == DN_MODE_OFF         ? DN_RUN_OFF
+                    : d->mode == DN_MODE_ASVGF     ? DN_RUN_ASVGF
+                    : d->mode == DN_MODE_RECURRENT ? DN_RUN_RECURRENT
+                                                   : DN_RUN_SVGF;
     *(dn_params *)c->params.mapped = (dn_params){
         .size = {c->width, c->height, history ? 1u : 0u, mode},
         .iters = {d->iters_hf, d->iters_lf, d->iters_spec, d->grad_segment},
@@ -437,6 +461,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
         .antilag = {d->antilag_hf, d->antilag_spec, d->antilag_motion, d->antilag_lf},
         .lf = {d->lf_deflicker, d->no_leak_guard ? 0.0f : 1.0f, d->lf_sigma, 0.0f},
         .frame = {c->frame, 0, 0, 0},
+        .rc = {d->fast_frames, d->clamp_sigma, d->history_fix, d->fix_stride},
     };
 }
 
@@ -502,7 +527,7 @@ static tnd_result settle(dn_context *c)
     if (!c->rec.due)
         return TND_OK;
     c->rec.due = false;
-    double ms[5] = {0, 0, 0, 0, 0};
+    double ms[6] = {0, 0, 0, 0, 0, 0};
     TND_TRY(tnd_timer_read(c->vk, &c->timer, ms));
     dn_timings *t = &c->last;
     *t = (dn_timings){0};
@@ -513,6 +538,8 @@ static tnd_result settle(dn_context *c)
     }
     if (c->rec.temporal >= 0)
         t->temporal_ms = ms[k++];
+    if (c->rec.history >= 0)
+        t->history_ms = ms[k++];
     if (c->rec.lf >= 0)
         t->lf_ms = ms[k++];
     if (c->rec.atrous >= 0)
@@ -569,7 +596,7 @@ tnd_result dn_select_gradients_gpu(dn_context *c, const tnd_contract_gpu *ct, co
 {
     *buffer = VK_NULL_HANDLE;
     *slots = 0;
-    if (c->desc.mode != DN_MODE_ASVGF)
+    if (!uses_gradients(&c->desc))
         return TND_OK;
     tnd_result res = select_pass(c, ct, f, false);
     if (res == TND_OK) {
@@ -584,7 +611,7 @@ tnd_result dn_select_gradients(dn_context *c, const tnd_contract_gpu *ct, const 
 {
     tnd_result res = TND_OK;
     *count = 0;
-    if (c->desc.mode != DN_MODE_ASVGF)
+    if (!uses_gradients(&c->desc))
         return TND_OK;
     TND_TRY(select_pass(c, ct, f, true));
     const tnd_gpu_gradient *g = c->samples_host.mapped;
@@ -629,7 +656,7 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
     TND_TRY(settle(c));
     tnd_contract_write_set(c->vk, c->sets[1], ct);
     const dn_desc *d = &c->desc;
-    bool gradients = d->mode == DN_MODE_ASVGF && c->selected_frame == c->frame + 1 &&
+    bool gradients = uses_gradients(d) && c->selected_frame == c->frame + 1 &&
                      c->have_history && !f->reset;
     fill_params(c, f, gradients);
     uint32_t slot = c->frame & 1u;
@@ -643,7 +670,7 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
     copy_origin(c, cmd, ct);
-    int s_g = -1, s_t = -1, s_l = -1, s_a = -1;
+    int s_g = -1, s_t = -1, s_h = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
         /* the gradients and their blur along rows (grad[0] and the samples -> grad[1]), then
@@ -659,6 +686,11 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
         s_t = tnd_timer_begin(cmd, &c->timer, "denoise.temporal");
         dispatch(c, cmd, c->temporal, "temporal", slot, 0);
         tnd_timer_end(cmd, &c->timer, s_t);
+        if (d->mode == DN_MODE_RECURRENT) {
+            s_h = tnd_timer_begin(cmd, &c->timer, "denoise.history");
+            dispatch(c, cmd, c->history, "history", slot, 0);
+            tnd_timer_end(cmd, &c->timer, s_h);
+        }
         /* the lf filter (1/3 res, latency-bound, few threads) and the a-trous (full res) do not
          * depend on each other: their dispatches are paired without a barrier between them, so
          * the lf passes run beside the a-trous ones. Per-dispatch timing runs them in turn. */
@@ -701,6 +733,7 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
     c->fine_on = false;
     c->rec.grad = s_g;
     c->rec.temporal = s_t;
+    c->rec.history = s_h;
     c->rec.lf = s_l;
     c->rec.atrous = s_a;
     c->rec.composite = s_c;
@@ -731,7 +764,8 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
 #define CT(id) ((double)tnd_ct_texel_bytes(TND_CT_##id, p))
     const dn_desc *d = &c->desc;
     double n = (double)c->width * c->height, n3 = (double)c->grad_w * c->grad_h;
-    bool asvgf = d->mode == DN_MODE_ASVGF, filter = d->mode != DN_MODE_OFF;
+    bool asvgf = uses_gradients(d), filter = d->mode != DN_MODE_OFF;
+    bool recurrent = d->mode == DN_MODE_RECURRENT;
     *t = (dn_traffic){0};
     if (asvgf) {
         /* the stratum's 9 pixels: vis, motion, depth, geometric normal, path now; the previous
@@ -753,7 +787,9 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
                            56 /* previous surface, hf, lf and spec histories (16 16 16 8) */
                            + 16 + 16 + 8 /* written: hf, lf and spec histories */
                            + 16 + 8 + 16 /* the a-trous input, filter geometry, centre */
-                           + (asvgf ? CT(RNG) + 4 + 8 : 0) /* the next frame's sample data */) +
+                           + (asvgf ? CT(RNG) + 4 + 8 : 0) /* the next frame's sample data */
+                           + (recurrent ? 16 + 16 + 16 : 0) /* clamped and fast histories read,
+                                                               the fast one written */) +
                       (asvgf ? n3 * (16 + 32) : 0); /* the gradient and the sample per stratum */
         /* downsample (full-res reads: vis, geometric normal, centre, lf history, this frame's
          * lf sample; 1/3-res writes: the anchor and the two lf texels), then deflicker and
@@ -764,6 +800,11 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
         /* per iteration: the ping-pong texel (16 bytes: both colours, variance) and the filter
          * geometry (8) of each tap, the centre texel; the texel written */
         t->atrous = n * ((double)atrous_iters(d) * (16 + 8 + 16 + 16));
+        /* the history pass: filter geometry, the three histories, centre and a-trous input
+         * read (the neighbours' are the same texels); the clamped history and the a-trous
+         * input written */
+        if (recurrent)
+            t->history = n * (8 + 16 + 8 + 16 + 16 + 16 + 16 + 16);
     }
     t->composite = n * (CT(VIS_ID) + CT(GEO_NORMAL) + CT(VIS_BARY) + CT(EMISSION) +
                         CT(ALBEDO) + CT(METALLIC) + CT(THROUGHPUT) +
@@ -777,7 +818,8 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
 }
 
 /* Dumps: name, channel names, the image (slot: 0 this frame's history, 1 the final a-trous). */
-enum { DUMP_HIST, DUMP_HIST_COCG, DUMP_HIST_MOM, DUMP_ATROUS, DUMP_LF, DUMP_GRAD, DUMP_OUT };
+enum { DUMP_HIST, DUMP_HIST_COCG, DUMP_HIST_MOM, DUMP_ATROUS, DUMP_LF, DUMP_GRAD, DUMP_OUT,
+       DUMP_RC };
 static const struct {
     const char *name;
     const char *channels[4];
@@ -793,6 +835,12 @@ static const struct {
     {"lf.cocg", {"Co", "Cg", "variance", "unused"}, DUMP_LF, PAIRED_AT_LF},
     {"atrous.spec", {"R", "G", "B", "unused"}, DUMP_ATROUS, 1},
     {"gradients", {"hf", "spec", "lf", "unused"}, DUMP_GRAD, 0},
+    /* recurrent (zeros in other modes): the fast histories (and the fast lf L0); the slow
+     * histories after the clamp (and the hf history's confidence from the gradients) */
+    {"recurrent.fast", {"R", "G", "B", "lf_L0"}, DUMP_RC, PAIRED_HIST_FAST},
+    {"recurrent.fast_spec", {"R", "G", "B", "unused"}, DUMP_RC, PAIRED_HIST_FAST + 16},
+    {"recurrent.clamped", {"R", "G", "B", "confidence"}, DUMP_RC, PAIRED_HIST_RC},
+    {"recurrent.clamped_spec", {"R", "G", "B", "unused"}, DUMP_RC, PAIRED_HIST_RC + 16},
     {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
 };
 
@@ -850,6 +898,25 @@ fail:
     return res;
 }
 
+/* An image in at_pack's layout (dn_common.glsl: hf rgb, spec rgb, a 16-bit w, all tnd_uf16)
+ * decoded: spec's rgb or hf's, and w (or 0). */
+static tnd_result dump_at(dn_context *c, const tnd_image *img, int spec, bool with_w, size_t n,
+                          float *rgba)
+{
+    tnd_result res = tnd_image_download(c->vk, img, rgba, n * 16);
+    for (size_t q = 0; res == TND_OK && q < n; q++) {
+        uint32_t t[4];
+        memcpy(t, rgba + 4 * q, 16);
+        uint16_t v[8];
+        for (int k = 0; k < 8; k++)
+            v[k] = (uint16_t)(t[k / 2] >> (16 * (k & 1)));
+        for (int k = 0; k < 3; k++)
+            rgba[4 * q + k] = tnd_uf16_decode(v[3 * spec + k]);
+        rgba[4 * q + 3] = with_w ? tnd_uf16_decode(v[6]) : 0.0f;
+    }
+    return res;
+}
+
 uint32_t dn_dump_count(void)
 {
     return (uint32_t)(sizeof dumps / sizeof dumps[0]);
@@ -894,20 +961,16 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
                                ? &c->paired[dumps[i].index][(c->desc.iters_lf + 1) & 1u]
                            : dumps[i].kind == DUMP_GRAD   ? &c->grad[0]
                                                           : &c->out;
-    if (dumps[i].kind == DUMP_ATROUS) { /* decode the packed texel: index 0 hf, 1 spec */
-        res = tnd_image_download(c->vk, img, rgba, (size_t)w * h * 16);
-        for (size_t q = 0; res == TND_OK && q < (size_t)w * h; q++) {
-            uint32_t t[4];
-            memcpy(t, rgba + 4 * q, 16);
-            uint16_t v[8]; /* hf rgb, spec rgb, variance (dn_common.glsl's at_pack) */
-            for (int k = 0; k < 8; k++)
-                v[k] = (uint16_t)(t[k / 2] >> (16 * (k & 1)));
-            for (int k = 0; k < 3; k++)
-                rgba[4 * q + k] = tnd_uf16_decode(v[3 * dumps[i].index + k]);
-            rgba[4 * q + 3] = dumps[i].index == 0 ? tnd_uf16_decode(v[6]) : 0.0f;
+    if (dumps[i].kind == DUMP_RC) { /* at_pack's layout: index + 16 for spec */
+        int k = dumps[i].index & 15, spec = dumps[i].index >> 4;
+        if (c->desc.mode != DN_MODE_RECURRENT) {
+            memset(rgba, 0, (size_t)w * h * 16);
+            return TND_OK;
         }
-        return res;
+        return dump_at(c, &c->paired[k][slot], spec, !spec, (size_t)w * h, rgba);
     }
+    if (dumps[i].kind == DUMP_ATROUS) /* decode the packed texel: index 0 hf, 1 spec */
+        return dump_at(c, img, dumps[i].index, dumps[i].index == 0, (size_t)w * h, rgba);
     if (hist) /* the packed histories */
         return dump_history(c, dumps[i].kind, dumps[i].index, slot, (size_t)w * h, rgba);
     if (dumps[i].kind == DUMP_LF && dumps[i].index == PAIRED_AT_LF) {

@@ -191,6 +191,8 @@ enum {
                              behind a host front-end */
     PL_DN_DUMPS = 4u,     /* the built-in back-end's buffers (--dump, the viewer's views) are its */
     PL_DN_PLUGIN = 8u,    /* loaded from a shared object (include/tandem/tandem_plugin.h) */
+    PL_DN_CONFIDENCE = 16u, /* uses re-shaded gradient samples where the front-end gives them
+                               (as a confidence in its history) and runs without them elsewhere */
 };
 
 /* A capability bit's name ("gradients", "filters", ...; NULL past the last). */

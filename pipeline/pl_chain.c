@@ -83,7 +83,7 @@ tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **out)
                                &c->dn));
         if (!d->no_post)
             TND_TRY(cmp_create(d->vk, d->width, d->height, d->precision, &d->post, &c->post));
-        if ((info->caps & PL_DN_GRADIENTS) &&
+        if ((info->caps & (PL_DN_GRADIENTS | PL_DN_CONFIDENCE)) &&
             !(c->grads = malloc((size_t)c->ops->capacity(c->dn) * PL_GRADIENT_WORDS *
                                 sizeof *c->grads))) {
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
@@ -232,8 +232,11 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
      * queue): their times come once the frame is waited for, or lagged with the back-end's */
     pl_timings *ft = (caps & PL_CAP_QUEUED) ? NULL : &r->fe;
     c->fe = fe;
-    /* a denoiser that asks for re-shaded gradient samples (A-SVGF) */
-    bool gradients = c->d.backend && (c->ops->info.caps & PL_DN_GRADIENTS);
+    /* a denoiser that asks for re-shaded gradient samples (A-SVGF), or takes them where the
+     * front-end can give them (recurrent) */
+    bool gradients = c->d.backend && ((c->ops->info.caps & PL_DN_GRADIENTS) ||
+                                      ((c->ops->info.caps & PL_DN_CONFIDENCE) &&
+                                       (caps & PL_CAP_RESHADE)));
     bool need_host = !gpu || s->capture || !c->d.backend || c->d.host_contract;
     if (recorded)
         tnd_frame_destroy(&c->host); /* (a recorded front-end reads into a fresh frame) */

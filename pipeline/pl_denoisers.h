@@ -5,3 +5,4 @@
 PL_DENOISER(pl_asvgf_ops)
 PL_DENOISER(pl_svgf_ops)
 PL_DENOISER(pl_off_ops)
+PL_DENOISER(pl_recurrent_ops)

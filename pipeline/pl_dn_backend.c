@@ -1,7 +1,7 @@
-/* pipeline/pl_dn_backend.c: the built-in back-end (denoise/: SVGF, A-SVGF, the plain composite)
- * as three registered denoisers: their parameters (one pl_param table; dn_desc fields they set),
+/* pipeline/pl_dn_backend.c: the built-in back-end (denoise/: SVGF, A-SVGF, the recurrent
+ * denoiser, the plain composite) as four registered denoisers: their parameters (one pl_param table; dn_desc fields they set),
  * their passes (dn_timings' fields), and the operations over dn_context.
- * Entry points: pl_asvgf_ops, pl_svgf_ops, pl_off_ops (also the plugin adapter's composite of
+ * Entry points: pl_asvgf_ops, pl_recurrent_ops, pl_svgf_ops, pl_off_ops (also the plugin adapter's composite of
  * the noisy radiance). */
 #include "pipeline/pl_internal.h"
 
@@ -31,14 +31,33 @@ static const pl_param p_lf_sigma = {
     .arg = "S",
     .help = "the lf filter's luminance weight: standard deviations of the noise left in its "
             "histories (default 2; docs/denoise.md)"};
+static const pl_param p_fast = {
+    .name = "fast", .kind = PL_PARAM_UINT, .min = 1, .max = 30, .arg = "N",
+    .help = "recurrent: the fast history's length in frames, whose statistics clamp the slow "
+            "history (default 6)",
+    .keys = "H", .steps = {0, 3, 12}, .nsteps = 3};
+static const pl_param p_clamp_sigma = {
+    .name = "clamp-sigma", .kind = PL_PARAM_FLOAT, .min = 0, .max = 10, .min_open = true,
+    .arg = "S",
+    .help = "recurrent: the clamp's half-width in standard deviations of the fast histories' "
+            "5x5 neighbourhood (default 2)",
+    .keys = "C", .steps = {0, 1, 4}, .nsteps = 3};
+static const pl_param p_history_fix = {
+    .name = "history-fix", .kind = PL_PARAM_UINT, .min = 1, .max = 8, .arg = "N",
+    .help = "recurrent: histories of at most N frames are rebuilt from their neighbours' "
+            "(default 3)"};
 /* clang-format on */
 
 static const pl_param *const svgf_params[] = {&p_atrous, &p_min_alpha, &p_lf_sigma};
+static const pl_param *const recurrent_params[] = {&p_atrous,      &p_min_alpha, &p_antilag,
+                                                   &p_fast,        &p_clamp_sigma,
+                                                   &p_history_fix, &p_lf_sigma};
 static const pl_param *const asvgf_params[] = {&p_atrous, &p_min_alpha, &p_antilag, &p_lf_sigma};
 
 /* The back-end's passes (timings.json's keys as they always were) and, for each, its field of
  * dn_timings / dn_traffic (0 select, 1 gradient, 2 temporal, 3 lf, 4 atrous, 5 composite): A-SVGF
- * runs all of them, SVGF no gradient work, "off" the composite alone. */
+ * runs all of them, SVGF no gradient work, "off" the composite alone; recurrent adds its history
+ * pass (6). */
 /* clang-format off */
 #define PASS_SELECT {"select", "denoise_select_ms", PL_GROUP_GRADIENTS, NULL}
 #define PASS_GRADIENT {"gradient", "denoise_gradient_ms", PL_GROUP_GRADIENTS, NULL}
@@ -46,17 +65,22 @@ static const pl_param *const asvgf_params[] = {&p_atrous, &p_min_alpha, &p_antil
 #define PASS_LF {"lf", "denoise_lf_ms", PL_GROUP_BACKEND, "atrous"}
 #define PASS_ATROUS {"atrous", "denoise_atrous_ms", PL_GROUP_BACKEND, NULL}
 #define PASS_COMPOSITE {"composite", "composite_ms", PL_GROUP_BACKEND, NULL}
+#define PASS_HISTORY {"history", "denoise_history_ms", PL_GROUP_BACKEND, NULL}
 /* clang-format on */
 static const pl_pass asvgf_passes[] = {PASS_SELECT, PASS_GRADIENT, PASS_TEMPORAL,
                                        PASS_LF,     PASS_ATROUS,   PASS_COMPOSITE};
+static const pl_pass recurrent_passes[] = {PASS_SELECT, PASS_GRADIENT, PASS_TEMPORAL,
+                                           PASS_HISTORY, PASS_LF,       PASS_ATROUS,
+                                           PASS_COMPOSITE};
 static const pl_pass svgf_passes[] = {PASS_TEMPORAL, PASS_LF, PASS_ATROUS, PASS_COMPOSITE};
 static const pl_pass off_passes[] = {PASS_COMPOSITE};
 
 typedef struct variant {
     dn_mode mode;
-    uint8_t field[6]; /* each pass's field of dn_timings / dn_traffic */
+    uint8_t field[7]; /* each pass's field of dn_timings / dn_traffic */
 } variant;
-static const variant v_asvgf = {DN_MODE_ASVGF, {0, 1, 2, 3, 4, 5}},
+static const variant v_recurrent = {DN_MODE_RECURRENT, {0, 1, 2, 6, 3, 4, 5}},
+                     v_asvgf = {DN_MODE_ASVGF, {0, 1, 2, 3, 4, 5}},
                      v_svgf = {DN_MODE_SVGF, {2, 3, 4, 5}}, v_off = {DN_MODE_OFF, {5}};
 
 /* the context: the back-end's, and which variant runs (its passes) */
@@ -76,6 +100,12 @@ static void backend_param(dn_desc *d, const char *name, double v)
         d->antilag_hf = (float)v;
     else if (strcmp(name, "lf-sigma") == 0)
         d->lf_sigma = (float)v;
+    else if (strcmp(name, "fast") == 0)
+        d->fast_frames = (float)v;
+    else if (strcmp(name, "clamp-sigma") == 0)
+        d->clamp_sigma = (float)v;
+    else if (strcmp(name, "history-fix") == 0)
+        d->history_fix = (float)v;
 }
 
 static void backend_destroy(void *ctx)
@@ -132,8 +162,8 @@ static tnd_result backend_wait(void *ctx, double *ms, bool *beside)
     tnd_result res = dn_wait(b->dn, &t);
     if (res != TND_OK)
         return res;
-    const double v[6] = {t.select_ms, t.gradient_ms, t.temporal_ms,
-                         t.lf_ms,     t.atrous_ms,   t.composite_ms};
+    const double v[7] = {t.select_ms, t.gradient_ms,  t.temporal_ms, t.lf_ms,
+                         t.atrous_ms, t.composite_ms, t.history_ms};
     for (uint32_t k = 0; k < b->npasses; k++)
         ms[k] = v[b->v->field[k]];
     *beside = t.lf_beside_atrous;
@@ -155,7 +185,8 @@ static void backend_traffic(const void *ctx, double *bytes)
     const backend *b = ctx;
     dn_traffic t;
     dn_traffic_of(b->dn, &t);
-    const double v[6] = {t.select, t.gradient, t.temporal, t.lf, t.atrous, t.composite};
+    const double v[7] = {t.select, t.gradient,  t.temporal, t.lf,
+                         t.atrous, t.composite, t.history};
     for (uint32_t k = 0; k < b->npasses; k++)
         bytes[k] = v[b->v->field[k]];
 }
@@ -174,6 +205,14 @@ const pl_denoiser_ops pl_asvgf_ops = {
              sizeof asvgf_params / sizeof *asvgf_params, asvgf_passes,
              sizeof asvgf_passes / sizeof *asvgf_passes},
     BACKEND_OPS(v_asvgf)};
+const pl_denoiser_ops pl_recurrent_ops = {
+    .info = {"recurrent",
+             "recurrent (after NVIDIA's ReLAX): slow histories clamped to fast ones, history fix, "
+             "gradients as the history's confidence where samples are re-shaded",
+             PL_DN_CONFIDENCE | PL_DN_FILTERS | PL_DN_DUMPS, NULL, recurrent_params,
+             sizeof recurrent_params / sizeof *recurrent_params, recurrent_passes,
+             sizeof recurrent_passes / sizeof *recurrent_passes},
+    BACKEND_OPS(v_recurrent)};
 const pl_denoiser_ops pl_svgf_ops = {
     .info = {"svgf", "SVGF (Schied et al. 2017): temporal accumulation and variance-guided a-trous",
              PL_DN_FILTERS | PL_DN_DUMPS, NULL, svgf_params,

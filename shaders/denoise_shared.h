@@ -14,6 +14,7 @@ typedef struct { uint32_t x, y, z, w; } dn_uvec4;
 #define DN_RUN_SVGF 0u
 #define DN_RUN_OFF 1u
 #define DN_RUN_ASVGF 2u
+#define DN_RUN_RECURRENT 3u /* the recurrent denoiser (fast history, clamp, history fix) */
 
 struct dn_params {
     uvec4 size;    /* x: width, y: height, z: history valid (0 after a reset), w: what runs
@@ -35,13 +36,16 @@ struct dn_params {
     vec4 origin_position;
     uvec4 origin_vis;
     uvec4 frame; /* x: frames run so far (seeds the histories' stochastic rounding) */
+    vec4 rc;     /* recurrent: x the fast history's length in frames, y the clamp's width in
+                    standard deviations, z the history fix's reach (histories of at most this
+                    many frames are rebuilt from neighbours; 0: none), w its base stride (px) */
 };
 
 #ifndef TND_GLSL
 #undef vec4
 #undef uvec4
 typedef struct dn_params dn_params;
-_Static_assert(sizeof(dn_params) == 176, "dn_params layout");
+_Static_assert(sizeof(dn_params) == 192, "dn_params layout");
 #endif
 
 /* Bindings of set 0 (the back-end's own images; set 1 is the contract). */
@@ -82,7 +86,13 @@ _Static_assert(sizeof(dn_params) == 176, "dn_params layout");
                               relative to fgeo_origin(), w its depth (what the a-trous's
                               centre, the lf downsample and the composite need of the geometry
                               in one texel, instead of two contract images each) */
-#define DN_BINDINGS 17
+#define DN_B_HIST_FAST 17  /* [2] recurrent: the fast histories, RGBA32UI: hf rgb, spec rgb as
+                              tnd_uf16 (at_pack's layout), w the fast lf history's L0 */
+#define DN_B_HIST_RC 18    /* [2] recurrent: the slow histories after the clamp (what the next
+                              frame reprojects), RGBA32UI: hf rgb, spec rgb (at_pack's layout),
+                              w the hf history's confidence this frame (1 without gradients;
+                              for the views) */
+#define DN_BINDINGS 19
 #define DN_STRATUM 3
 /* dn_gradients.comp filters rows and columns of strata in segments of at most this many per
  * work group (with its reach of 127 on either side, 16 352 bytes of shared memory) */

@@ -57,6 +57,8 @@ layout(set = 0, binding = DN_B_GRAD, rgba32f) uniform image2D grad[2];
 layout(set = 0, binding = DN_B_LF_GEO, rgba32f) uniform image2D lf_geo;
 layout(set = 0, binding = DN_B_FGEO, rg32ui) uniform uimage2D fgeo;
 layout(set = 0, binding = DN_B_CENTRE, rgba32f) uniform image2D centre;
+layout(set = 0, binding = DN_B_HIST_FAST, rgba32ui) uniform uimage2D hist_fast[2];
+layout(set = 0, binding = DN_B_HIST_RC, rgba32ui) uniform uimage2D hist_rc[2];
 layout(set = 0, binding = DN_B_SAMPLES, std430) buffer Samples { tnd_gpu_gradient samples[]; };
 ivec2 grad_size() { return (ivec2(P.size.xy) + DN_STRATUM - 1) / DN_STRATUM; }
 /* whether stratum s lies in the 1/3-resolution grid */

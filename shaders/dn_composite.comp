@@ -64,7 +64,7 @@ void main()
     vec4 ce = P.size.w == DN_RUN_OFF ? vec4(vec3(0.0), imageLoad(img_depth, p).x) : imageLoad(centre, p);
     float depth = ce.w;
     bool was_sample = false;
-    if (P.size.w == DN_RUN_ASVGF && P.misc.w != 0.0) { /* this stratum's sample (one buffer read per
+    if ((P.size.w == DN_RUN_ASVGF || P.size.w == DN_RUN_RECURRENT) && P.misc.w != 0.0) { /* this stratum's sample (one buffer read per
                                                    stratum, cached: no per-pixel mask) */
         ivec2 s = p / DN_STRATUM;
         uint pixel = uint(p.y) * P.size.x + uint(p.x);

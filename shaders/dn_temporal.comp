@@ -21,6 +21,8 @@
  * pixel's surface. */
 vec4 h_hf = vec4(0.0), h_mom = vec4(0.0), h_sh = vec4(0.0), h_spec = vec4(0.0);
 vec2 h_cocg = vec2(0.0);
+vec3 h_fast_hf = vec3(0.0), h_fast_spec = vec3(0.0); /* recurrent */
+float h_fast_l0 = 0.0;
 float wsum = 0.0, wsum_spec = 0.0;
 uint t_inst, t_field;
 float t_depth, t_shininess;
@@ -41,13 +43,22 @@ void tap(ivec2 q, float w)
     uvec4 hf_q = imageLoad(hist_hf[prev], q); /* hf, its length, moments */
     uvec4 lf_q = imageLoad(hist_lf[prev], q); /* SH, CoCg, length */
     uvec2 sp_q = imageLoad(hist_spec[prev], q).xy; /* spec, its length */
-    h_hf += w * vec4(hist_rgb(hf_q.xy), hist_len(hf_q.xy));
+    vec3 hf_rgb = hist_rgb(hf_q.xy), spec_rgb = hist_rgb(sp_q);
+    vec3 n_prev = oct_unpack12(g.w);
+    float ws = t_shininess > 0.0 ? w * pow(max(dot(t_n, n_prev), 0.0), t_shininess) : w;
+    if (P.size.w == DN_RUN_RECURRENT) { /* the slow histories as the clamp left them, and the
+                                           fast ones */
+        uvec4 rc_q = imageLoad(hist_rc[prev], q), fast_q = imageLoad(hist_fast[prev], q);
+        hf_rgb = at_hf(rc_q), spec_rgb = at_spec(rc_q);
+        h_fast_hf += w * at_hf(fast_q);
+        h_fast_l0 += w * at_variance(fast_q); /* (w: the fast lf L0) */
+        h_fast_spec += ws * at_spec(fast_q);
+    }
+    h_hf += w * vec4(hf_rgb, hist_len(hf_q.xy));
     h_mom += w * vec4(uintBitsToFloat(hf_q.zw), hist_lf_len(lf_q), hist_len(sp_q));
     h_sh += w * hist_lf_sh(lf_q);
     h_cocg += w * hist_lf_cocg(lf_q);
-    vec3 n_prev = oct_unpack12(g.w);
-    float ws = t_shininess > 0.0 ? w * pow(max(dot(t_n, n_prev), 0.0), t_shininess) : w;
-    h_spec += ws * vec4(hist_rgb(sp_q), 0.0);
+    h_spec += ws * vec4(spec_rgb, 0.0);
     wsum += w;
     wsum_spec += ws;
 }
@@ -92,6 +103,8 @@ void main()
     }
     float l = luma(hf);
     vec4 out_hf, out_mom, out_sh, out_spec;
+    vec3 fast_hf = hf, fast_spec = spec; /* recurrent: the fast histories */
+    float fast_l0 = sh.w;
     vec2 out_cocg;
     if (wsum > 1e-4) {
         h_hf /= wsum, h_mom /= wsum, h_sh /= wsum, h_cocg /= wsum;
@@ -109,7 +122,8 @@ void main()
          * tenth of a sample (its bias a tenth), as a whole one as far as the antilag says the
          * light changed (it is a sample of the new light then, the best the pixel has). */
         vec3 fresh = vec3(1.0); /* hf, lf, spec */
-        if (P.size.w == DN_RUN_ASVGF && P.misc.w != 0.0) {
+        bool recurrent = P.size.w == DN_RUN_RECURRENT;
+        if ((P.size.w == DN_RUN_ASVGF || recurrent) && P.misc.w != 0.0) {
             /* A-SVGF: the filtered gradients (slot 0 after the blur) shorten the history */
             vec3 g = clamp(imageLoad(grad[0], min(p / DN_STRATUM, grad_size() - 1)).xyz, 0.0, 1.0);
             anti_hf = clamp(P.antilag.x * g.x, 0.0, 1.0);
@@ -118,9 +132,24 @@ void main()
             ivec2 st = p / DN_STRATUM;
             if (samples[uint(st.y * grad_size().x + st.x)].a.x == uint(p.y) * P.size.x + uint(p.x))
                 fresh = mix(vec3(0.1), vec3(1.0), vec3(anti_hf, anti_lf, anti_spec));
+            /* (recurrent: the gradients are its confidence input, used as A-SVGF uses them) */
             len_hf = min(h_hf.a * pow(1.0 - anti_hf, 10.0) + fresh.x, cap);
             len_lf = min(h_mom.z * pow(1.0 - anti_lf, 10.0) + fresh.y, cap);
             len_spec = min(h_mom.w * pow(1.0 - anti_spec, 10.0) + fresh.z, cap);
+        }
+        if (recurrent) {
+            /* The gradients are its history's confidence input (NRD's recipe computes that
+             * input from A-SVGF-style gradients), applied as A-SVGF applies them above and
+             * below: they shorten the slow and the fast histories alike. The fast histories:
+             * the same samples, at most P.rc.x frames long. */
+            float af_hf = mix(min(fresh.x / min(len_hf, P.rc.x), 1.0), 1.0, anti_hf);
+            float af_spec = mix(min(fresh.z / min(len_spec, P.rc.x), 1.0), 1.0, anti_spec);
+            float af_lf = mix(min(fresh.y / min(len_lf, P.rc.x), 1.0), 1.0, anti_lf);
+            h_fast_hf /= wsum;
+            fast_l0 = mix(h_fast_l0 / wsum, sh.w, af_lf);
+            h_fast_spec = spec_ok ? h_fast_spec / wsum_spec : spec;
+            fast_hf = mix(h_fast_hf, hf, af_hf);
+            fast_spec = mix(h_fast_spec, spec, af_spec);
         }
         float a_hf = min(fresh.x * max(P.alpha.x, 1.0 / len_hf), 1.0);
         float a_m = min(fresh.x * max(P.alpha.w, 1.0 / len_hf), 1.0);
@@ -171,8 +200,13 @@ void main()
     imageStore(hist_lf[cur], p, hist_lf_pack(out_sh, out_cocg, out_mom.z, dither));
     vec3 spec_s = max(out_spec.rgb, 0.0) * UF16_SCALE; /* finite: the inputs are sanitised */
     imageStore(hist_spec[cur], p, uvec4(hist_rgb_pack_scaled(spec_s, out_mom.w, dither), 0u, 0u));
-    if (P.size.w == DN_RUN_ASVGF) { /* A-SVGF: the next frame's gradient samples need the raw luminances
-                             and the rng key (the selection, which reads them, runs earlier) */
+    if (P.size.w == DN_RUN_RECURRENT)
+        imageStore(hist_fast[cur], p,
+                   at_pack_scaled(max(fast_hf, 0.0) * UF16_SCALE, max(fast_spec, 0.0) * UF16_SCALE,
+                                  max(fast_l0, 0.0) * UF16_SCALE, dither));
+    if (P.size.w == DN_RUN_ASVGF || P.size.w == DN_RUN_RECURRENT) {
+        /* the next frame's gradient samples need the raw luminances and the rng key (the
+           selection, which reads them, runs earlier) */
         imageStore(prev_lum, p, uvec4(prev_lum_pack(luma(hf), luma(spec))));
         imageStore(prev_key, p, imageLoad(img_rng, p));
     }

@@ -30,6 +30,8 @@
     X(pt_reference_rq,     "pt_reference_rq.comp", "TND_PACKED=0") \
     X(dn_temporal_f32,     "dn_temporal.comp",    "TND_PACKED=0") \
     X(dn_temporal_packed,  "dn_temporal.comp",    "TND_PACKED=1") \
+    X(dn_history_f32,      "dn_history.comp",     "TND_PACKED=0") \
+    X(dn_history_packed,   "dn_history.comp",     "TND_PACKED=1") \
     X(dn_atrous_f32,       "dn_atrous.comp",      "TND_PACKED=0") \
     X(dn_atrous_packed,    "dn_atrous.comp",      "TND_PACKED=1") \
     X(dn_composite_f32,    "dn_composite.comp",   "TND_PACKED=0") \
