@@ -455,12 +455,16 @@ static inline bool closest_hits(const femb_context *c, uint32_t n, const uint8_t
  * a BRDF), and specular vertices followed at once. shade[i] is set for the lanes that stand on
  * an opaque surface (in S) and need shading. */
 static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, uint32_t n,
-                        fb_state *st, fb_surf *S, uint8_t shade[NL], float L_out[3][NL])
+                        fb_state *st, fb_surf *S, uint8_t shade[NL], float L_out[3][NL],
+                        float *t_out)
 {
     uint32_t inst[NL] = {0}, prim[NL] = {0}; /* (initialised: gcc cannot see that lanes < n are) */
     float hu[NL] = {0}, hv[NL] = {0}, t[NL];
     uint8_t hit[NL] = {0};
     closest_hits(c, n, st->alive, st->org, st->dir, inst, prim, hu, hv, t, hit);
+    for (uint32_t i = 0; t_out && i < n; i++) /* the segment's length (femb_trace_paths) */
+        if (st->alive[i])
+            t_out[i] = hit[i] ? t[i] : (float)TND_DEPTH_MISS;
     for (uint32_t i = 0; i < n; i++) {
         if (!hit[i]) {
             if (st->alive[i]) {
@@ -523,7 +527,8 @@ static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, 
 }
 
 LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32_t bounce,
-                              uint32_t max_bounce, uint32_t rr_start, float L_out[3][FEMB_LANES])
+                              uint32_t max_bounce, uint32_t rr_start, float L_out[3][FEMB_LANES],
+                              float *first_t)
 {
     uint32_t n = P->n;
     fb_state st;
@@ -552,7 +557,7 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
             return;
         uint8_t shade[NL];
         bool any = false, more = false; /* any lane to shade; any to continue after it */
-        path_vertex(c, P, b, n, &st, &S, shade, L_out);
+        path_vertex(c, P, b, n, &st, &S, shade, L_out, b == bounce ? first_t : NULL);
         for (uint32_t i = 0; i < n; i++) {
             any |= shade[i];
             more |= shade[i] && b - st.specular[i] < max_bounce;
@@ -614,7 +619,8 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
  * gcc cannot see it through the lane loops.) */
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float L_out[3][NL])
+LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float L_out[3][NL],
+                               float first_t[NL])
 {
     uint32_t n = P->n;
     uint32_t inst[NL], prim[NL];
@@ -626,6 +632,7 @@ LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float
     const float *sky = c->scene->sky;
     LANES (i, n) { /* a miss sees the sky */
         bool miss = P->active[i] & !hit[i];
+        first_t[i] = hit[i] ? t[i] : (float)TND_DEPTH_MISS;
         for (int k = 0; k < 3; k++)
             L_out[k][i] = miss ? sky[k] : 0.0f;
         cone[i] = P->cone[i] + t[i] * c->pixel_spread;
@@ -786,6 +793,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         gbuffer_surfaces(c, g, pixels, run, staged, live, n, S, depth);
     lobes(S, n, &L);
     float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
+    float hit_t[NL]; /* spec_hit: the specular-lobe sample's first segment, else 0 */
     LANES (i, n) { /* the origin of the next rays */
         ST3(P.from, i, LD3(S->p, i));
         ST3(P.org, i, femb_offset_ray(LD3(S->p, i), LD3(S->ng, i)));
@@ -800,9 +808,10 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
             rad[k][i] = em[k][i] + thr[k][i] * (d[k][i] * S->base[k][i] * (1.0f - m) + sp[k][i]);
         }
         sh[0][i] = sh[1][i] = sh[2][i] = sh[3][i] = cocg[0][i] = cocg[1][i] = 0.0f;
+        hit_t[i] = 0.0f;
     }
     if (p->bounces > 0) {
-        float wi[3][NL], w[3][NL], pdf[NL], Li[3][NL];
+        float wi[3][NL], w[3][NL], pdf[NL], Li[3][NL], first_t[NL] = {0};
         uint8_t is_spec[NL], ok[NL];
         sample_brdf(S, &L, &P, 0, n, wi, w, pdf, is_spec, ok);
         for (uint32_t i = 0; i < n; i++) {
@@ -813,9 +822,9 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
             P.cone[i] = depth[i] * c->pixel_spread;
         }
         if (p->bounces == 1 && !c->specular)
-            one_bounce(c, &P, Li);
+            one_bounce(c, &P, Li, first_t);
         else
-            femb_trace_paths(c, &P, 1, p->bounces, 2, Li);
+            femb_trace_paths(c, &P, 1, p->bounces, 2, Li, first_t);
         LANES (i, n) {
             float ct[3];
             for (int k = 0; k < 3; k++) {
@@ -824,6 +833,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
                 ct[k] = (ct[k] >= 0.0f) & (ct[k] <= FLT_MAX) ? ct[k] : 0.0f;
             }
             bool s_lobe = P.active[i] & is_spec[i], d_lobe = P.active[i] & !is_spec[i];
+            hit_t[i] = s_lobe ? first_t[i] : 0.0f;
             float m = S->metallic[i];
             for (int k = 0; k < 3; k++) { /* (no conditional stores: they do not vectorise) */
                 spec[k][i] += s_lobe ? ct[k] / demod[k][i] : 0.0f;
@@ -845,8 +855,9 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         }
     }
     /* a run is staged in the order of the contract's planes and streamed to them */
-    FEMB_ALIGN float stage[12 * NL];
+    FEMB_ALIGN float stage[13 * NL];
     float *s_hf = stage, *s_sp = stage + 3 * n, *s_sh = stage + 6 * n, *s_cc = stage + 10 * n;
+    float *s_ht = stage + 12 * n;
     LANES (i, n) {
         size_t q = lane_entry(pixels, run, i);
         size_t e = run ? i : q; /* the entry written: in the stage or in the frame */
@@ -865,6 +876,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
             o_sh[4 * e + k] = l ? sh[k][i] : 0.0f;
         o_cc[2 * e] = l ? cocg[0][i] : 0.0f;
         o_cc[2 * e + 1] = l ? cocg[1][i] : 0.0f;
+        (run ? s_ht : tnd_frame_f(f, TND_CT_SPEC_HIT))[e] = l ? hit_t[i] : 0.0f;
     }
     if (run) {
         size_t q0 = pixels[0];
@@ -872,6 +884,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         femb_stream_words(tnd_frame_f(f, TND_CT_SPEC) + 3 * q0, s_sp, 3 * (size_t)n);
         femb_stream_words(tnd_frame_f(f, TND_CT_LF_SH) + 4 * q0, s_sh, 4 * (size_t)n);
         femb_stream_words(tnd_frame_f(f, TND_CT_LF_COCG) + 2 * q0, s_cc, 2 * (size_t)n);
+        femb_stream_words(tnd_frame_f(f, TND_CT_SPEC_HIT) + q0, s_ht, (size_t)n);
     }
 }
 

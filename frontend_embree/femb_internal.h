@@ -280,9 +280,12 @@ typedef struct femb_paths {
 
 /* Radiance arriving along each path from path vertex `bounce` on: emission (MIS-weighted against
  * the light list where pdf_prev > 0), NEE at each hit, more vertices up to max_bounce with
- * Russian roulette from rr_start; specular vertices do not count as bounces. */
+ * Russian roulette from rr_start; specular vertices do not count as bounces. first_t (NULL: not
+ * wanted): each active lane's first segment length, TND_DEPTH_MISS where it escaped (the
+ * contract's spec_hit; the GPU's trace_path keeps it in g_first_t). */
 void femb_trace_paths(const femb_context *c, const femb_paths *paths, uint32_t bounce,
-                      uint32_t max_bounce, uint32_t rr_start, float radiance[3][FEMB_LANES]);
+                      uint32_t max_bounce, uint32_t rr_start, float radiance[3][FEMB_LANES],
+                      float *first_t);
 
 /* The shading pass on n <= FEMB_LANES pixels of the frame's G-buffer (their rng keys too):
  * writes hf, lf_sh, lf_cocg and spec, and the undemodulated estimate to `radiance` when given. */

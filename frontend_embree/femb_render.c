@@ -526,6 +526,7 @@ static void shade_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1, u
             memset(tnd_frame_f(f, TND_CT_LF_SH) + 4 * (size_t)q, 0, 4 * sizeof(float));
             memset(tnd_frame_f(f, TND_CT_LF_COCG) + 2 * (size_t)q, 0, 2 * sizeof(float));
             memset(tnd_frame_f(f, TND_CT_SPEC) + 3 * (size_t)q, 0, 3 * sizeof(float));
+            tnd_frame_f(f, TND_CT_SPEC_HIT)[q] = 0.0f;
             if (j->radiance)
                 memcpy(j->radiance + 3 * (size_t)q, tnd_frame_f(f, TND_CT_EMISSION) + 3 * (size_t)q,
                        3 * sizeof(float));
@@ -538,6 +539,7 @@ static void mark_shading(tnd_frame *f)
 {
     f->present[TND_CT_HF] = f->present[TND_CT_LF_SH] = true;
     f->present[TND_CT_LF_COCG] = f->present[TND_CT_SPEC] = true;
+    f->present[TND_CT_SPEC_HIT] = true;
 }
 
 static const femb_params default_params = {.bounces = 1};
@@ -639,7 +641,8 @@ typedef struct ref_job {
 static void reference_batch(femb_context *c, ref_job *j, femb_paths *P, const uint32_t *pixels)
 {
     float L[3][FEMB_LANES];
-    femb_trace_paths(c, P, 0, c->ref_bounces ? c->ref_bounces : TND_REFERENCE_MAX_BOUNCES, 3, L);
+    femb_trace_paths(c, P, 0, c->ref_bounces ? c->ref_bounces : TND_REFERENCE_MAX_BOUNCES, 3, L,
+                     NULL);
     for (uint32_t i = 0; i < P->n; i++) {
         size_t q = pixels[i];
         for (int k = 0; k < 3; k++)

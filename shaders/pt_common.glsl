@@ -586,6 +586,10 @@ vec3 specular_vertex(surface s, vec3 dir, float u, out vec3 f, out uint event, o
     return wi;
 }
 
+/* The length of trace_path's first segment (TND_DEPTH_MISS where it escaped): the contract's
+ * spec_hit for the specular-lobe sample (femb_trace_paths' first_t). */
+float g_first_t = TND_DEPTH_MISS;
+
 /* Radiance along the ray from org (the offset origin of surface point `from`, whence an emitter's
  * MIS distance is measured: femb's femb_paths) in direction dir. */
 vec3 trace_path(uvec3 key, vec3 from, vec3 org, vec3 dir, uint bounce, uint max_bounce,
@@ -594,10 +598,13 @@ vec3 trace_path(uvec3 key, vec3 from, vec3 org, vec3 dir, uint bounce, uint max_
     vec3 beta = vec3(1.0), L_out = vec3(0.0), sigma = vec3(0.0);
     bool inside = false;
     uint specular = 0u; /* specular vertices so far: they do not count as bounces */
+    g_first_t = TND_DEPTH_MISS;
     for (uint b = bounce;; b++) {
         hit_info h;
         if (!trace_closest(org, dir, 1e30, h))
             return L_out + beta * miss_radiance(dir, pdf_prev);
+        if (b == bounce)
+            g_first_t = h.t;
         if (inside) /* Beer-Lambert over the segment inside the glass */
             beta *= vec3(exp(-sigma.x * h.t), exp(-sigma.y * h.t), exp(-sigma.z * h.t));
         cone += h.t * fr.jitter.z;

@@ -48,6 +48,7 @@ void pt_shade_main(uvec2 launch)
         key = uvec3(r.y, r.x, fr.params.y); /* (TND_SAMPLE_REALTIME but in a matched reference) */
     }
     vec3 hf = vec3(0.0), spec = vec3(0.0);
+    float spec_hit = 0.0; /* (no specular-lobe sample) */
     vec4 sh = vec4(0.0);
     vec2 cocg = vec2(0.0);
     uint inst = imageLoad(img_vis_id, ip).x;
@@ -96,6 +97,7 @@ void pt_shade_main(uvec2 launch)
                     contrib[k] = 0.0;
             if (is_spec) {
                 spec += contrib / demod;
+                spec_hit = g_first_t;
             } else {
                 float co = contrib.r - contrib.b, t = contrib.b + 0.5 * co, cg = contrib.g - t;
                 float Y = t + 0.5 * cg;
@@ -107,6 +109,7 @@ void pt_shade_main(uvec2 launch)
     }
     STORE_RGBE(img_hf, ip, hf);
     STORE_RGBE(img_spec, ip, spec);
+    imageStore(img_spec_hit, ip, vec4(spec_hit));
     imageStore(img_lf_sh, ip, sh);
     imageStore(img_lf_cocg, ip, vec4(cocg, 0.0, 0.0));
 }
