@@ -56,7 +56,14 @@ typedef struct dn_frame {
     float jitter[2], prev_jitter[2]; /* pixels */
     float pixel_spread;              /* radians per pixel (2 tan(yfov / 2) / height) */
     bool reset;                      /* drop the history (first frame, cut) */
+    /* The camera of this frame and the last (dn_frame_set_camera), for what the motion vectors
+     * do not say: where a reflection was (the recurrent denoiser's virtual motion). Without
+     * it (has_camera false) reflections move with their surfaces. */
+    bool has_camera;
+    float view[16], proj[16], prev_view[16], prev_proj[16]; /* as tnd_camera_state's */
 } dn_frame;
+/* Fill f's camera from a camera state (unset when its projection is not a perspective one). */
+void dn_frame_set_camera(dn_frame *f, const tnd_camera_state *c);
 
 /* The frame parameters of frame `frame` rendered by a Tandem front-end (Halton jitter of this and
  * the previous frame, pixel spread from the projection's vertical scale proj[5]). */

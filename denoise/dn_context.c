@@ -55,6 +55,7 @@ struct dn_context {
     bool batching; /* dispatches recorded now are independent: no barrier after each */
     bool fine_on;  /* recording dn_run with desc.dispatch_timing: time each dispatch */
     bool have_history;
+    bool last_gradients; /* the last frame ran with gradient samples */
     /* the frame in flight (dn_submit), or the selection before it, and its timestamp slots;
      * `last` its timings once read */
     tnd_pending pending;
@@ -433,6 +434,36 @@ dn_frame dn_frame_for_camera(const float proj[16], uint32_t height, uint32_t fra
     return f;
 }
 
+/* the camera's position from a rigid view matrix (world to view): -R^T t */
+static void view_position(const float v[16], float pos[3])
+{
+    for (int k = 0; k < 3; k++)
+        pos[k] = -(v[4 * k] * v[12] + v[4 * k + 1] * v[13] + v[4 * k + 2] * v[14]);
+}
+
+void dn_frame_set_camera(dn_frame *f, const tnd_camera_state *c)
+{
+    /* a perspective projection: clip w = -z (m[2][3] = -1) */
+    f->has_camera = c && c->proj[11] != 0.0f && c->prev_proj[11] != 0.0f;
+    if (!f->has_camera)
+        return;
+    memcpy(f->view, c->view, sizeof f->view);
+    memcpy(f->proj, c->proj, sizeof f->proj);
+    memcpy(f->prev_view, c->prev_view, sizeof f->prev_view);
+    memcpy(f->prev_proj, c->prev_proj, sizeof f->prev_proj);
+}
+
+/* proj * the view's rotation (camera-relative points in, clip out), as 4 columns */
+static void rotation_clip(const float view[16], const float proj[16], dn_vec4 out[4])
+{
+    float r[16], m[16];
+    memcpy(r, view, sizeof r);
+    r[12] = r[13] = r[14] = 0.0f;
+    tnd_mat4_mul(proj, r, m);
+    for (int c = 0; c < 4; c++)
+        out[c] = (dn_vec4){m[4 * c], m[4 * c + 1], m[4 * c + 2], m[4 * c + 3]};
+}
+
 static tnd_result check_contract(const dn_context *c, const tnd_contract_gpu *ct)
 {
     if (ct->width != c->width || ct->height != c->height || ct->precision != c->desc.precision)
@@ -463,6 +494,16 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
         .frame = {c->frame, 0, 0, 0},
         .rc = {d->fast_frames, d->clamp_sigma, d->history_fix, d->fix_stride},
     };
+    dn_params *P = c->params.mapped;
+    if (f->has_camera) {
+        float cam[3], prev[3];
+        view_position(f->view, cam);
+        view_position(f->prev_view, prev);
+        rotation_clip(f->view, f->proj, P->cur_vp);
+        rotation_clip(f->prev_view, f->prev_proj, P->prev_vp);
+        P->cam_pos = (dn_vec4){cam[0], cam[1], cam[2], 0.0f};
+        P->cam_delta = (dn_vec4){cam[0] - prev[0], cam[1] - prev[1], cam[2] - prev[2], 1.0f};
+    }
 }
 
 /* The filter geometry's origin (dn_params.origin_*): the contract's position and visibility at
@@ -659,6 +700,7 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
     bool gradients = uses_gradients(d) && c->selected_frame == c->frame + 1 &&
                      c->have_history && !f->reset;
     fill_params(c, f, gradients);
+    c->last_gradients = gradients;
     uint32_t slot = c->frame & 1u;
     uint32_t iters = atrous_iters(d);
     VkCommandBuffer cmd;
@@ -819,7 +861,7 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
 
 /* Dumps: name, channel names, the image (slot: 0 this frame's history, 1 the final a-trous). */
 enum { DUMP_HIST, DUMP_HIST_COCG, DUMP_HIST_MOM, DUMP_ATROUS, DUMP_LF, DUMP_GRAD, DUMP_OUT,
-       DUMP_RC };
+       DUMP_RC, DUMP_CONF };
 static const struct {
     const char *name;
     const char *channels[4];
@@ -836,11 +878,14 @@ static const struct {
     {"atrous.spec", {"R", "G", "B", "unused"}, DUMP_ATROUS, 1},
     {"gradients", {"hf", "spec", "lf", "unused"}, DUMP_GRAD, 0},
     /* recurrent (zeros in other modes): the fast histories (and the fast lf L0); the slow
-     * histories after the clamp (and the hf history's confidence from the gradients) */
+     * histories after the clamp (and the reflection's distance) */
     {"recurrent.fast", {"R", "G", "B", "lf_L0"}, DUMP_RC, PAIRED_HIST_FAST},
     {"recurrent.fast_spec", {"R", "G", "B", "unused"}, DUMP_RC, PAIRED_HIST_FAST + 16},
-    {"recurrent.clamped", {"R", "G", "B", "confidence"}, DUMP_RC, PAIRED_HIST_RC},
+    {"recurrent.clamped", {"R", "G", "B", "hit_distance"}, DUMP_RC, PAIRED_HIST_RC},
     {"recurrent.clamped_spec", {"R", "G", "B", "unused"}, DUMP_RC, PAIRED_HIST_RC + 16},
+    /* the confidence the gradients give the histories, (1 - antilag)^10 (1/3 res; asvgf and
+     * recurrent frames with gradient samples, 1 elsewhere) */
+    {"confidence", {"hf", "spec", "lf", "unused"}, DUMP_CONF, 0},
     {"output", {"R", "G", "B", "A"}, DUMP_OUT, 0},
 };
 
@@ -936,7 +981,8 @@ tnd_result dn_dump_size(const dn_context *c, uint32_t i, uint32_t *w, uint32_t *
 {
     if (i >= dn_dump_count())
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: dump %u does not exist", i);
-    bool third = dumps[i].kind == DUMP_GRAD || dumps[i].kind == DUMP_LF;
+    bool third = dumps[i].kind == DUMP_GRAD || dumps[i].kind == DUMP_LF ||
+                 dumps[i].kind == DUMP_CONF;
     *w = third ? c->grad_w : c->width;
     *h = third ? c->grad_h : c->height;
     return TND_OK;
@@ -968,6 +1014,19 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
             return TND_OK;
         }
         return dump_at(c, &c->paired[k][slot], spec, !spec, (size_t)w * h, rgba);
+    }
+    if (dumps[i].kind == DUMP_CONF) { /* dn_temporal.comp's antilag from the filtered gradients */
+        size_t n = (size_t)w * h;
+        bool with = c->last_gradients;
+        res = with ? tnd_image_download(c->vk, &c->grad[0], rgba, n * 16) : TND_OK;
+        const float gain[3] = {c->desc.antilag_hf, c->desc.antilag_spec, c->desc.antilag_lf};
+        for (size_t q = 0; res == TND_OK && q < n; q++)
+            for (int k = 0; k < 4; k++) {
+                float g = with && k < 3 ? gain[k] * rgba[4 * q + k] : 0.0f;
+                g = g < 0.0f ? 0.0f : g > 1.0f ? 1.0f : g;
+                rgba[4 * q + k] = k < 3 ? powf(1.0f - g, 10.0f) : 0.0f;
+            }
+        return res;
     }
     if (dumps[i].kind == DUMP_ATROUS) /* decode the packed texel: index 0 hf, 1 spec */
         return dump_at(c, img, dumps[i].index, dumps[i].index == 0, (size_t)w * h, rgba);

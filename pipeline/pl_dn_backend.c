@@ -152,7 +152,9 @@ static tnd_result backend_select(void *ctx, const tnd_contract_gpu *ct, const dn
 
 static tnd_result backend_submit(void *ctx, const pl_dn_input *in)
 {
-    return dn_submit(((backend *)ctx)->dn, in->contract, in->frame);
+    dn_frame f = *in->frame;
+    dn_frame_set_camera(&f, in->camera ? &in->camera->state : NULL);
+    return dn_submit(((backend *)ctx)->dn, in->contract, &f);
 }
 
 static tnd_result backend_wait(void *ctx, double *ms, bool *beside)

@@ -39,13 +39,18 @@ struct dn_params {
     vec4 rc;     /* recurrent: x the fast history's length in frames, y the clamp's width in
                     standard deviations, z the history fix's reach (histories of at most this
                     many frames are rebuilt from neighbours; 0: none), w its base stride (px) */
+    /* The camera for the recurrent denoiser's virtual motion: clip = cur_vp * (x - cam) for a
+     * world point x (the projection times the view's rotation), prev_vp likewise with the
+     * previous camera at cam - cam_delta.xyz; cam_delta.w: 1 when they are set */
+    vec4 cur_vp[4], prev_vp[4];
+    vec4 cam_pos, cam_delta;
 };
 
 #ifndef TND_GLSL
 #undef vec4
 #undef uvec4
 typedef struct dn_params dn_params;
-_Static_assert(sizeof(dn_params) == 192, "dn_params layout");
+_Static_assert(sizeof(dn_params) == 352, "dn_params layout");
 #endif
 
 /* Bindings of set 0 (the back-end's own images; set 1 is the contract). */
@@ -90,8 +95,8 @@ _Static_assert(sizeof(dn_params) == 192, "dn_params layout");
                               tnd_uf16 (at_pack's layout), w the fast lf history's L0 */
 #define DN_B_HIST_RC 18    /* [2] recurrent: the slow histories after the clamp (what the next
                               frame reprojects), RGBA32UI: hf rgb, spec rgb (at_pack's layout),
-                              w the hf history's confidence this frame (1 without gradients;
-                              for the views) */
+                              w the reflection's distance (tnd_uf16; 0: unknown), from the
+                              contract's spec_hit (dn_temporal.comp's virtual motion) */
 #define DN_BINDINGS 19
 #define DN_STRATUM 3
 /* dn_gradients.comp filters rows and columns of strata in segments of at most this many per

@@ -51,10 +51,12 @@ void main()
     uvec4 hf_t = imageLoad(hist_hf[cur], p);
     uvec2 sp_t = imageLoad(hist_spec[cur], p).xy;
     uvec4 fast_t = imageLoad(hist_fast[cur], p);
+    uint hit = imageLoad(hist_rc[cur], p).w; /* the reflection's distance (dn_temporal.comp) */
     vec3 slow_hf = hist_rgb(hf_t.xy), slow_spec = hist_rgb(sp_t);
     if (g.x == DN_FGEO_NONE) { /* no surface: nothing to clamp (the a-trous carries it) */
-        imageStore(hist_rc[cur], p, at_pack_scaled(slow_hf * UF16_SCALE, slow_spec * UF16_SCALE,
-                                                   0.0, uvec3(0x1000u)));
+        imageStore(hist_rc[cur], p, uvec4(at_pack_scaled(slow_hf * UF16_SCALE,
+                                                         slow_spec * UF16_SCALE, 0.0,
+                                                         uvec3(0x1000u)).xyz, hit));
         return;
     }
     float len_hf = hist_len(hf_t.xy), len_spec = hist_len(sp_t);
@@ -91,17 +93,9 @@ void main()
         if (c != l0 && l0 > 0.0)
             imageStore(hist_lf[cur], p, uvec4(floatBitsToUint(c), lf_t.yzw));
     }
-    /* the confidence the gradients gave the hf history (A-SVGF's antilag, dn_temporal.comp),
-     * for the views */
-    float confidence = 1.0;
-    if (P.misc.w != 0.0)
-        confidence = pow(1.0 - clamp(P.antilag.x * imageLoad(grad[0], min(p / DN_STRATUM,
-                                                                          grad_size() - 1)).x,
-                                     0.0, 1.0),
-                         10.0);
     uvec3 dither = history_dither(p);
-    imageStore(hist_rc[cur], p, at_pack_scaled(out_hf * UF16_SCALE, out_spec * UF16_SCALE,
-                                               confidence * UF16_SCALE, dither));
+    imageStore(hist_rc[cur], p, uvec4(at_pack_scaled(out_hf * UF16_SCALE, out_spec * UF16_SCALE,
+                                                     0.0, dither).xyz, hit));
 
     /* history fix: young histories rebuilt from their neighbours' */
     vec3 fix_hf = out_hf, fix_spec = out_spec;

@@ -22,7 +22,7 @@
 vec4 h_hf = vec4(0.0), h_mom = vec4(0.0), h_sh = vec4(0.0), h_spec = vec4(0.0);
 vec2 h_cocg = vec2(0.0);
 vec3 h_fast_hf = vec3(0.0), h_fast_spec = vec3(0.0); /* recurrent */
-float h_fast_l0 = 0.0;
+float h_fast_l0 = 0.0, h_hit = 0.0;
 float wsum = 0.0, wsum_spec = 0.0;
 uint t_inst, t_field;
 float t_depth, t_shininess;
@@ -52,6 +52,7 @@ void tap(ivec2 q, float w)
         hf_rgb = at_hf(rc_q), spec_rgb = at_spec(rc_q);
         h_fast_hf += w * at_hf(fast_q);
         h_fast_l0 += w * at_variance(fast_q); /* (w: the fast lf L0) */
+        h_hit += w * at_variance(rc_q);       /* (w: the reflection's distance) */
         h_fast_spec += ws * at_spec(fast_q);
     }
     h_hf += w * vec4(hf_rgb, hist_len(hf_q.xy));
@@ -62,6 +63,31 @@ void tap(ivec2 q, float w)
     wsum += w;
     wsum_spec += ws;
 }
+
+/* Recurrent, virtual motion: the spec history gathered again where the reflection was. Taps
+ * are tested as tap() tests them but for the depth (the reflection's history lies on the same
+ * surface, not at this pixel's depth). */
+vec3 v_spec = vec3(0.0), v_fast = vec3(0.0);
+float v_len = 0.0, v_wsum = 0.0;
+void tap_spec(ivec2 q, float w)
+{
+    if (!inside(q) || w <= 0.0)
+        return;
+    uint prev = 1u - pc.slot;
+    uvec4 g = imageLoad(prev_geo, q);
+    if (g.x != t_inst || ((g.z >> 24u) & 3u) != t_field || dot(oct_unpack12(g.z), t_gn) < 0.9)
+        return;
+    vec3 n_prev = oct_unpack12(g.w);
+    float ws = t_shininess > 0.0 ? w * pow(max(dot(t_n, n_prev), 0.0), t_shininess) : w;
+    uvec4 rc_q = imageLoad(hist_rc[prev], q), fast_q = imageLoad(hist_fast[prev], q);
+    v_spec += ws * at_spec(rc_q);
+    v_fast += ws * at_spec(fast_q);
+    v_len += ws * hist_len(imageLoad(hist_spec[prev], q).xy);
+    v_wsum += ws;
+}
+
+/* The largest reflection distance kept (farther: the sky, seen at infinity) */
+const float HIT_FAR = 1.0e6;
 
 void main()
 {
@@ -101,6 +127,45 @@ void main()
             for (int i = 0; i < 2; i++)
                 tap(p0 + ivec2(i, j), (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y));
     }
+    /* Recurrent: the reflection's distance (this frame's specular sample's, blended into the
+     * history's; 0 where none is known) and, from it, where the reflection was in the previous
+     * frame (virtual motion, after NRD: the reflected point seen through a flat reflector lies
+     * hit distance x f_D behind the surface along the view ray, f_D the GGX dominant-direction
+     * factor, 1 for a mirror and 0 for a rough lobe, whose reflection moves with its surface).
+     * The spec history is gathered there instead when any tap holds it. */
+    float hit = 0.0;
+    if (P.size.w == DN_RUN_RECURRENT && vis.x != TND_VIS_NONE) {
+        float hit_prev = wsum > 1e-4 ? h_hit / wsum : 0.0;
+        float hit_now = min(imageLoad(img_spec_hit, p).x, HIT_FAR);
+        hit = hit_now > 0.0 ? (hit_prev > 0.0 ? mix(hit_prev, hit_now, 0.25) : hit_now) : hit_prev;
+        if (P.cam_delta.w != 0.0 && hit > 0.0 && wsum > 1e-4) {
+            vec3 dc = imageLoad(img_position, p).xyz - P.cam_pos.xyz;
+            vec3 v = normalize(dc);
+            float nv = clamp(-dot(n, v), 0.0, 1.0);
+            float a = 0.298475 * log(39.4115 - 39.0029 * clamp(rough, 0.0, 1.0));
+            float f_d = clamp(a + (1.0 - a) * pow(1.0 - nv, 10.8649), 0.0, 1.0);
+            vec3 dv = dc + v * hit * f_d;
+            mat4 cur_vp = mat4(P.cur_vp[0], P.cur_vp[1], P.cur_vp[2], P.cur_vp[3]);
+            mat4 prev_vp = mat4(P.prev_vp[0], P.prev_vp[1], P.prev_vp[2], P.prev_vp[3]);
+            vec4 c0 = cur_vp * vec4(dv, 1.0), c1 = prev_vp * vec4(P.cam_delta.xyz + dv, 1.0);
+            if (f_d > 0.01 && c0.w > 1e-6 && c1.w > 1e-6) {
+                vec2 size = vec2(P.size.xy);
+                vec2 vm = (c1.xy / c1.w - c0.xy / c0.w) * 0.5 * size; /* virtual motion, px */
+                vec2 pv = vec2(p) + mix(motion.xy, vm, f_d);
+                ivec2 v0 = ivec2(floor(pv));
+                vec2 fv = pv - vec2(v0);
+                for (int j = 0; j < 2; j++)
+                    for (int i = 0; i < 2; i++)
+                        tap_spec(v0 + ivec2(i, j),
+                                 (i == 1 ? fv.x : 1.0 - fv.x) * (j == 1 ? fv.y : 1.0 - fv.y));
+                if (v_wsum > 1e-4) { /* the reflection's history replaces the surface's */
+                    h_spec = vec4(v_spec, 0.0);
+                    h_fast_spec = v_fast;
+                    wsum_spec = v_wsum;
+                }
+            }
+        }
+    }
     float l = luma(hf);
     vec4 out_hf, out_mom, out_sh, out_spec;
     vec3 fast_hf = hf, fast_spec = spec; /* recurrent: the fast histories */
@@ -111,6 +176,8 @@ void main()
         bool spec_ok = wsum_spec > 1e-4;
         h_spec = spec_ok ? h_spec / wsum_spec : vec4(0.0);
         h_mom.w = spec_ok ? h_mom.w : 0.0; /* no spec history: alpha 1 below */
+        if (v_wsum > 1e-4) /* (gathered at the reflection's previous position) */
+            h_mom.w = v_len / v_wsum;
         float cap = P.misc.y;
         float len_hf = min(h_hf.a + 1.0, cap), len_lf = min(h_mom.z + 1.0, cap);
         float len_spec = min(h_mom.w + 1.0, cap);
@@ -204,6 +271,10 @@ void main()
         imageStore(hist_fast[cur], p,
                    at_pack_scaled(max(fast_hf, 0.0) * UF16_SCALE, max(fast_spec, 0.0) * UF16_SCALE,
                                   max(fast_l0, 0.0) * UF16_SCALE, dither));
+    if (P.size.w == DN_RUN_RECURRENT) /* the reflection's distance (the history pass clamps the
+                                         colours of this texel) */
+        imageStore(hist_rc[cur], p, uvec4(0u, 0u, 0u, tnd_uf16_encode_offset(hit * UF16_SCALE,
+                                                                              dither.x)));
     if (P.size.w == DN_RUN_ASVGF || P.size.w == DN_RUN_RECURRENT) {
         /* the next frame's gradient samples need the raw luminances and the rng key (the
            selection, which reads them, runs earlier) */
