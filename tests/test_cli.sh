@@ -561,6 +561,33 @@ assert "denoise_lf_beside_atrous" in d[0]
 assert all(f["denoise_select_ms"] > 0 and f["denoise_gradient_ms"] > 0 for f in d[1:]), d
 PY
 check "denoise's timings.json carries every pass (selection and gradients too)" $?
+# the recurrent denoiser: its own parameters and pass; a capture rendered with it keeps its
+# gradient samples (its confidence input) and replays with them; on a capture without them it
+# runs itself, without them (no fallback), and says nothing of the kind
+"$T" render --frames 3 --size 32x20 --denoiser recurrent --fast 3 --capture --out "$tmp/rc" --quiet &&
+    "$T" denoise --captures "$tmp/rc/capture" --denoiser recurrent --out "$tmp/rc_dn" --quiet &&
+    "$T" render --frames 3 --size 32x20 --denoiser svgf --capture --out "$tmp/rc_sv" --quiet &&
+    "$T" denoise --captures "$tmp/rc_sv/capture" --denoiser recurrent --out "$tmp/rc_sv_dn" 2>"$tmp/rc_err"
+rc=$?
+[ $rc -eq 0 ] && ! grep -q "instead" "$tmp/rc_err" && ls "$tmp/rc/capture" | grep -q gradients &&
+    python3 - "$tmp" <<'PY'
+import json, sys
+t = sys.argv[1]
+r = json.load(open(t + "/rc/run.json"))
+assert r["denoiser"] == "recurrent" and r["fast"] == 3, r
+for d in ("rc", "rc_dn", "rc_sv_dn"):
+    f = json.load(open(t + "/" + d + "/timings.json"))["frames"]
+    assert all(x["denoise_history_ms"] > 0 for x in f), (d, f)
+    g = [x["denoise_gradient_ms"] for x in f]
+    assert (max(g) > 0) == (d != "rc_sv_dn"), (d, g)  # the confidence input where there is one
+PY
+check "recurrent: its parameters and history pass; gradients as its confidence where kept (got $rc)" $?
+"$T" render --denoiser recurrent --fast 0.5 --out "$tmp/bad_param" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q -- "--fast" "$tmp/err" && [ ! -e "$tmp/bad_param" ]
+check "recurrent: --fast out of its range refused (got $rc)" $?
+# the contract's spec_hit: a capture carries it (0 off the specular lobe)
+exrheader "$tmp/rc/capture/frame_0001.exr" 2>/dev/null | grep -q "spec.hitT"
+check "a capture carries spec.hitT" $?
 # a sweep run here says its summary: the cells it runs quietly leave it loud
 "$T" bench --scene "$SRC/data/scenes/cornell.gltf" --size 24x16 --frames 2 --warmup 1 --spp 8 \
     --sweep antilag=2 --out "$tmp/loud" >"$tmp/loud_out" 2>"$tmp/loud_err"; rc=$?

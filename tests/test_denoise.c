@@ -376,6 +376,91 @@ cleanup:
     gpu_end();
 }
 
+/* The recurrent denoiser without gradient samples (a capture's case): a noiseless constant
+ * signal that drops to a quarter at frame 40. Its slow histories hold up to 50 frames (min
+ * alpha .02) but are clamped to the fast ones' (6 frames) 5x5 box, so they follow within the
+ * fast history's time: 3 (5/6)^30 = 1.3% off 30 frames after the drop; SVGF's, whose only bound
+ * is the 50 frames, stay 3 x 0.98^30 = 164% off. A noiseless history under the clamp still
+ * converges (the box of a constant is the constant): 40 frames in, within 0.1%. Checked on hf,
+ * spec and the lf's L0 (the clamp scales the lf history by its L0). */
+static void recurrent_step_case(tnd_vk *vk, rig *r, tnd_frame *f, dn_mode mode, double err[2][3])
+{
+    dn_context *dn = NULL;
+    static float dump[W * H * 4];
+    REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = mode}, &dn));
+    const float hf[3] = {0.9f, 0.7f, 0.5f}, spec[3] = {0.3f, 0.25f, 0.2f};
+    const float sh[4] = {0.12f, 0.08f, -0.05f, 0.4f}, cocg[2] = {0.05f, -0.02f};
+    for (uint32_t fr = 0; fr < 70; fr++) {
+        float k = fr < 40 ? 1.0f : 0.25f;
+        for (int q = 0; q < W * H; q++) {
+            for (int c = 0; c < 3; c++) {
+                tnd_frame_f(f, TND_CT_HF)[3 * q + c] = k * hf[c];
+                tnd_frame_f(f, TND_CT_SPEC)[3 * q + c] = k * spec[c];
+            }
+            for (int c = 0; c < 4; c++)
+                tnd_frame_f(f, TND_CT_LF_SH)[4 * q + c] = k * sh[c];
+            for (int c = 0; c < 2; c++)
+                tnd_frame_f(f, TND_CT_LF_COCG)[2 * q + c] = k * cocg[c];
+        }
+        REQUIRE_OK(tnd_contract_upload(vk, &r->ct, f));
+        dn_frame df = dn_frame_for_camera(r->st.camera.proj, H, 0, fr == 0); /* no jitter */
+        REQUIRE_OK(dn_run(dn, &r->ct, &df, NULL));
+        if (fr != 39 && fr != 69)
+            continue;
+        /* the histories fed back: hf and spec after the clamp (SVGF: its only ones), lf's L0 */
+        bool rc = mode == DN_MODE_RECURRENT;
+        const char *names[3] = {rc ? "recurrent.clamped" : "temporal.hf",
+                                rc ? "recurrent.clamped_spec" : "temporal.spec", "temporal.lf_sh"};
+        const float want[3] = {k * hf[0], k * spec[0], k * sh[3]};
+        const int ch[3] = {0, 0, 3};
+        for (int e = 0; e < 3; e++) {
+            uint32_t di = UINT32_MAX;
+            for (uint32_t j = 0; j < dn_dump_count(); j++)
+                di = strcmp(dn_dump_name(j, NULL), names[e]) == 0 ? j : di;
+            REQUIRE(di != UINT32_MAX, "dump %s exists", names[e]);
+            REQUIRE_OK(dn_dump(dn, di, dump));
+            double sum = 0;
+            int n = 0;
+            for (int q = 0; q < W * H; q++)
+                if (tnd_frame_u(f, TND_CT_VIS_ID)[2 * q] != TND_VIS_NONE) {
+                    sum += fabs(dump[4 * q + ch[e]] - want[e]) / want[e];
+                    n++;
+                }
+            err[fr == 69][e] = n ? sum / n : 1e9;
+        }
+    }
+cleanup:
+    dn_destroy(dn);
+}
+
+static void test_recurrent_clamp_follows(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    rig r;
+    tnd_frame f = {0};
+    double rc[2][3], sv[2][3];
+    REQUIRE_OK(rig_open(vk, &r, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
+    REQUIRE_OK(test_embree_frame(r.fe, &r.st, &r.st, 0, W, H, &(femb_params){.bounces = 1}, &f));
+    recurrent_step_case(vk, &r, &f, DN_MODE_RECURRENT, rc);
+    recurrent_step_case(vk, &r, &f, DN_MODE_SVGF, sv);
+    printf("     mean relative error (hf, spec, lf L0): before the drop recurrent %.1e %.1e "
+           "%.1e; 30 frames after it recurrent %.3f %.3f %.3f, svgf %.3f %.3f %.3f\n",
+           rc[0][0], rc[0][1], rc[0][2], rc[1][0], rc[1][1], rc[1][2], sv[1][0], sv[1][1],
+           sv[1][2]);
+    for (int e = 0; e < 3; e++) {
+        CHECK(rc[0][e] <= 1e-3, "recurrent converges on a constant (%d): %.2e", e, rc[0][e]);
+        CHECK(rc[1][e] <= 0.03, "recurrent follows the drop within 30 frames (%d): %.3f", e,
+              rc[1][e]);
+        CHECK(sv[1][e] >= 0.5, "svgf does not (the clamp is what follows) (%d): %.3f", e,
+              sv[1][e]);
+    }
+cleanup:
+    tnd_frame_destroy(&f);
+    rig_close(vk, &r);
+    gpu_end();
+}
+
 static void test_nan_does_not_spread(void)
 {
     tnd_vk *vk = gpu_begin();
@@ -1223,6 +1308,13 @@ static void test_registry(void)
     CHECK((a->caps & PL_DN_GRADIENTS) && !(s->caps & PL_DN_GRADIENTS) &&
               (s->caps & PL_DN_FILTERS) && !(o->caps & PL_DN_FILTERS),
           "capabilities: gradients (asvgf), filters (asvgf, svgf, not off)");
+    const pl_denoiser_info *rc = NULL;
+    REQUIRE_OK(pl_denoiser_find("recurrent", &rc));
+    CHECK((rc->caps & PL_DN_CONFIDENCE) && !(rc->caps & PL_DN_GRADIENTS) &&
+              pl_denoiser_for(rc, 0) == rc && pl_denoiser_has_param(rc, "fast") &&
+              pl_denoiser_has_param(rc, "antilag") && !pl_denoiser_has_param(a, "fast"),
+          "recurrent: gradients as a confidence where there are some, itself without; its own "
+          "parameters and asvgf's antilag");
     CHECK(pl_denoiser_has_param(a, "antilag") && !pl_denoiser_has_param(s, "antilag") &&
               pl_denoiser_has_param(s, "atrous") && o->nparams == 0,
           "parameters: antilag is asvgf's, atrous both filters', off has none");
@@ -1257,6 +1349,7 @@ static void test_shutdown(void)
 
 TND_TEST_MAIN(T(test_off_equals_cpu_composite), T(test_svgf_static_cornell),
               T(test_history_storage), T(test_noiseless_history_converges),
+              T(test_recurrent_clamp_follows),
               T(test_nan_does_not_spread), T(test_lf_firefly_is_deflickered),
               T(test_disocclusion_and_frontends), T(test_gradient_samples_reproduce_static),
               T(test_asvgf_follows_light_switch), T(test_gradient_blur_segments),
