@@ -222,6 +222,9 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     const app_opt ref_opts_tbl[] = {
         COMMON_OPTS,
         {"rt-api", APP_OPT_STRING, &o->rt_api, "API", "vk: pipeline, query or auto"},
+        {"view", APP_OPT_STRING, &view_path, "FILE",
+         "the camera path of a repro state of tandem view (render --view FILE renders the same "
+         "frames): its scene, size, bounces and path, frame for frame"},
         PATH_OPTS,
         {"spp", APP_OPT_UINT, &o->spp, "K", "samples per pixel (default 256)"},
         {"estimator", APP_OPT_STRING, &o->estimator, "E",
@@ -268,7 +271,13 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
             app_report(cmd->name, vr);
             return APP_EXIT_FAIL;
         }
+        const char *fe = o->frontend;
         app_view_state_options(&view_state, o); /* what the viewer ran with, frame for frame */
+        if (reference) { /* the reference's own front-end; a matched one the state's bounces */
+            o->frontend = fe;
+            if (o->ref_bounces == ~0u && o->estimator && strcmp(o->estimator, "realtime") == 0)
+                o->ref_bounces = o->bounces;
+        }
         o->start = view_state.path[0].frame;
         o->frames = view_state.path_len;
         o->view = &view_state;
@@ -841,8 +850,8 @@ static int run_opts(const render_opts *opts, bool reference)
                                        prev));
         if (o.view) { /* the viewer's camera (its first frame: no camera motion before it) */
             app_view_camera_apply(&o.view->path[i], cur);
-            if (i == 0)
-                app_view_camera_apply(&o.view->path[0], prev);
+            if (first_frame)
+                app_view_camera_apply(&o.view->path[i > 0 ? i - 1 : 0], prev);
         }
         TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o.size[0], o.size[1]));
         if (reference) {

@@ -89,6 +89,27 @@ void tap_spec(ivec2 q, float w)
 /* The largest reflection distance kept (farther: the sky, seen at infinity) */
 const float HIT_FAR = 1.0e6;
 
+/* The surface's convex curvature at p (1 / radius; 0 for a plane or a concave surface): the
+ * normals' change against the positions' to the neighbours on the same instance, n' - n =
+ * (x' - x) / R on a sphere. */
+float convex_curvature(ivec2 p, vec3 n, vec3 x, uint inst)
+{
+    float c = 0.0, k = 0.0;
+    const ivec2 d[4] = ivec2[4](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1));
+    for (int i = 0; i < 4; i++) {
+        ivec2 q = p + d[i];
+        if (!inside(q) || imageLoad(img_vis_id, q).x != inst)
+            continue;
+        vec3 dx = imageLoad(img_position, q).xyz - x;
+        float l2 = dot(dx, dx);
+        if (l2 > 0.0) {
+            c += dot(imageLoad(img_normal, q).xyz - n, dx) / l2;
+            k += 1.0;
+        }
+    }
+    return k > 0.0 ? max(c / k, 0.0) : 0.0;
+}
+
 void main()
 {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -137,21 +158,32 @@ void main()
     if (P.size.w == DN_RUN_RECURRENT && vis.x != TND_VIS_NONE) {
         float hit_prev = wsum > 1e-4 ? h_hit / wsum : 0.0;
         float hit_now = min(imageLoad(img_spec_hit, p).x, HIT_FAR);
-        hit = hit_now > 0.0 ? (hit_prev > 0.0 ? mix(hit_prev, hit_now, 0.25) : hit_now) : hit_prev;
+        /* (a hit and the sky are not averaged: the newer one is kept) */
+        bool mixable = hit_prev > 0.0 && (hit_prev < HIT_FAR) == (hit_now < HIT_FAR);
+        hit = hit_now > 0.0 ? (mixable ? mix(hit_prev, hit_now, 0.25) : hit_now) : hit_prev;
         if (P.cam_delta.w != 0.0 && hit > 0.0 && wsum > 1e-4) {
-            vec3 dc = imageLoad(img_position, p).xyz - P.cam_pos.xyz;
+            vec3 x = imageLoad(img_position, p).xyz, dc = x - P.cam_pos.xyz;
             vec3 v = normalize(dc);
             float nv = clamp(-dot(n, v), 0.0, 1.0);
             float a = 0.298475 * log(39.4115 - 39.0029 * clamp(rough, 0.0, 1.0));
             float f_d = clamp(a + (1.0 - a) * pow(1.0 - nv, 10.8649), 0.0, 1.0);
-            vec3 dv = dc + v * hit * f_d;
+            /* the image behind a convex reflector of curvature C lies hit / (1 + 2 C hit)
+             * behind it (the mirror equation; a flat one: hit); concave ones are taken as
+             * flat (their image can come in front, or at infinity) */
+            float image = hit / (1.0 + 2.0 * convex_curvature(p, n, x, vis.x) * hit);
+            vec3 dv = dc + v * image * f_d;
             mat4 cur_vp = mat4(P.cur_vp[0], P.cur_vp[1], P.cur_vp[2], P.cur_vp[3]);
             mat4 prev_vp = mat4(P.prev_vp[0], P.prev_vp[1], P.prev_vp[2], P.prev_vp[3]);
             vec4 c0 = cur_vp * vec4(dv, 1.0), c1 = prev_vp * vec4(P.cam_delta.xyz + dv, 1.0);
-            if (f_d > 0.01 && c0.w > 1e-6 && c1.w > 1e-6) {
+            vec4 s0 = cur_vp * vec4(dc, 1.0), s1 = prev_vp * vec4(P.cam_delta.xyz + dc, 1.0);
+            if (f_d > 0.01 && c0.w > 1e-6 && c1.w > 1e-6 && s0.w > 1e-6 && s1.w > 1e-6) {
                 vec2 size = vec2(P.size.xy);
-                vec2 vm = (c1.xy / c1.w - c0.xy / c0.w) * 0.5 * size; /* virtual motion, px */
-                vec2 pv = vec2(p) + mix(motion.xy, vm, f_d);
+                /* virtual motion, px: the surface's own (moving objects too) plus what the
+                 * camera's motion moves the image point more than the surface point (the
+                 * reflected scene taken as still) */
+                vec2 vm = motion.xy + (c1.xy / c1.w - c0.xy / c0.w - s1.xy / s1.w + s0.xy / s0.w) *
+                                          0.5 * size;
+                vec2 pv = vec2(p) + mix(motion.xy, vm, f_d * (1.0 - smoothstep(0.05, 0.2, rough)));
                 ivec2 v0 = ivec2(floor(pv));
                 vec2 fv = pv - vec2(v0);
                 for (int j = 0; j < 2; j++)
