@@ -64,6 +64,56 @@ void tap(ivec2 q, float w)
     wsum_spec += ws;
 }
 
+/* Whether the previous frame's texel q saw this pixel's surface (tap()'s tests). */
+bool same_surface(ivec2 q)
+{
+    if (!inside(q))
+        return false;
+    uvec4 g = imageLoad(prev_geo, q);
+    return g.x == t_inst && ((g.z >> 24u) & 3u) == t_field &&
+           abs(uintBitsToFloat(g.y) - t_depth) <= 0.1 * t_depth && dot(oct_unpack12(g.z), t_gn) >= 0.9;
+}
+
+/* Catmull-Rom weights (sharpness 0.5) of the taps at -1, 0, 1, 2 for a position t in [0, 1) */
+vec4 catmull_rom(float t)
+{
+    float t2 = t * t, t3 = t2 * t;
+    return vec4(-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0, -1.5 * t3 + 2.0 * t2 + 0.5 * t,
+                0.5 * t3 - 0.5 * t2);
+}
+
+/* Recurrent: the colour histories (slow as clamped, fast) resampled by a 4x4 Catmull-Rom filter
+ * where all 16 taps saw this surface (NRD's reprojection: a bilinear resampling every frame blurs
+ * a history a little more each time the camera moves; the cubic keeps it sharp). False where a
+ * tap failed (the bilinear taps stay). */
+bool resample_cubic(vec2 pp, bool with_spec, out vec3 hf, out vec3 spec, out vec3 f_hf, out vec3 f_spec)
+{
+    ivec2 b = ivec2(floor(pp)) - 1;
+    vec2 f = pp - floor(pp);
+    vec4 wx = catmull_rom(f.x), wy = catmull_rom(f.y);
+    hf = spec = f_hf = f_spec = vec3(0.0);
+    uint prev = 1u - pc.slot;
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++)
+            if (!same_surface(b + ivec2(i, j)))
+                return false;
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++) {
+            ivec2 q = b + ivec2(i, j);
+            float w = wx[i] * wy[j];
+            uvec4 rc_q = imageLoad(hist_rc[prev], q), fast_q = imageLoad(hist_fast[prev], q);
+            hf += w * at_hf(rc_q);
+            f_hf += w * at_hf(fast_q);
+            if (with_spec) {
+                spec += w * at_spec(rc_q);
+                f_spec += w * at_spec(fast_q);
+            }
+        }
+    hf = max(hf, vec3(0.0)), spec = max(spec, vec3(0.0));
+    f_hf = max(f_hf, vec3(0.0)), f_spec = max(f_spec, vec3(0.0));
+    return true;
+}
+
 /* Recurrent, virtual motion: the spec history gathered again where the reflection was. Taps
  * are tested as tap() tests them but for the depth (the reflection's history lies on the same
  * surface, not at this pixel's depth). */
@@ -198,6 +248,13 @@ void main()
             }
         }
     }
+    /* recurrent: the cubic resampling where the whole footprint is this surface (spec too where
+     * its taps all count fully and it was not gathered at the reflection) */
+    bool cubic = false;
+    vec3 cr_hf, cr_spec, cr_fhf, cr_fspec;
+    bool cr_with_spec = v_wsum <= 1e-4 && wsum_spec > 0.999;
+    if (P.size.w == DN_RUN_RECURRENT && wsum > 0.999 && vis.x != TND_VIS_NONE)
+        cubic = resample_cubic(vec2(p) + motion.xy, cr_with_spec, cr_hf, cr_spec, cr_fhf, cr_fspec);
     float l = luma(hf);
     vec4 out_hf, out_mom, out_sh, out_spec;
     vec3 fast_hf = hf, fast_spec = spec; /* recurrent: the fast histories */
@@ -210,6 +267,14 @@ void main()
         h_mom.w = spec_ok ? h_mom.w : 0.0; /* no spec history: alpha 1 below */
         if (v_wsum > 1e-4) /* (gathered at the reflection's previous position) */
             h_mom.w = v_len / v_wsum;
+        if (cubic) {
+            h_hf.rgb = cr_hf;
+            h_fast_hf = cr_fhf * wsum; /* (divided by wsum below) */
+            if (cr_with_spec) {
+                h_spec.rgb = cr_spec;
+                h_fast_spec = cr_fspec * wsum_spec;
+            }
+        }
         float cap = P.misc.y;
         float len_hf = min(h_hf.a + 1.0, cap), len_lf = min(h_mom.z + 1.0, cap);
         float len_spec = min(h_mom.w + 1.0, cap);
