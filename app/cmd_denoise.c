@@ -114,6 +114,14 @@ int cmd_denoise(int argc, char **argv)
                 "needs a front-end to re-shade them: tandem render --capture --denoiser %s keeps "
                 "them)\n",
                 pl_frontend_frame_name(rp, 0), dn->name, asked->name, asked->name);
+    /* the recurrent denoiser follows reflections by the contract's spec_hit (captures from
+     * before contract version 3, and other renderers' through a mapping, lack it) */
+    if ((dn->caps & PL_DN_SPEC_HIT) && !pl_frontend_recorded_has(rp, TND_CT_SPEC_HIT) &&
+        !app_quiet())
+        fprintf(stderr,
+                "tandem: denoise: %s: the captures carry no spec.hitT: %s moves reflections "
+                "with their surfaces (no virtual motion)\n",
+                pl_frontend_frame_name(rp, 0), dn->name);
     const char *dn_name = dn->caps & PL_DN_PLUGIN ? denoiser : dn->name;
     pl_param_set own = {0}; /* the parameters it has */
     for (uint32_t i = 0; i < params.n; i++) {

@@ -28,11 +28,11 @@
 static const app_cmd view_cmd = {
     "view",
     "The pipeline live in a window: fly the camera (WASD, Q/E down/up, drag to look; shift\n"
-    "faster, control slower), change the knobs (1/2/3/4 the registered denoisers in order\n"
-    "(asvgf/svgf/off), then the denoiser plugin, F front-end (the registered ones, then the\n"
-    "front-end plugin), [ ] bounces, P precision, T TAA, K tone curve, B bloom, the denoiser's\n"
-    "parameters on their keys (, . a-trous iterations, M minimum alpha, G antilag gain: the\n"
-    "overlay lists them), - = exposure bias, 7 8 environment rotation, 9 0 its intensity), V cycles\n"
+    "faster, control slower), change the knobs (1/2/3/4/5 the registered denoisers in order\n"
+    "(asvgf/svgf/off/recurrent), then the denoiser plugin, F front-end (the registered ones,\n"
+    "then the front-end plugin), [ ] bounces, P precision, T TAA, K tone curve, B bloom, the\n"
+    "denoiser's parameters on their keys (, . a-trous iterations, M minimum alpha, G antilag\n"
+    "gain, H recurrent's fast history, C its clamp: the overlay lists them), - = exposure bias, 7 8 environment rotation, 9 0 its intensity), V cycles\n"
     "the views (final, contract entries, back-end dumps), TAB the splits (noisy | denoised,\n"
     "denoiser A | B, front-end A | B), R a progressive reference of a still camera, O the\n"
     "overlay, F12 writes a screenshot (PNG, EXR and its repro state for `tandem render\n"

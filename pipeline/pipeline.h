@@ -109,6 +109,9 @@ const char *pl_frontend_frame_name(const pl_frontend *fe, uint32_t i);
  * checkerboard fields (the post chain's interleave); false for a live one. */
 bool pl_frontend_recorded(const pl_frontend *fe, uint32_t *width, uint32_t *height,
                           tnd_precision *precision, bool *split);
+/* Whether a recorded front-end's frames carry contract entry e (absent: its default); true for
+ * a live one. */
+bool pl_frontend_recorded_has(const pl_frontend *fe, tnd_ct e);
 /* A CPU front-end's benchmark of the current frame (PL_CAP_BENCHMARK): the frame, each pass
  * alone, and the same rays replayed through the bare tracer (femb_benchmark's figures). */
 typedef struct pl_bench {
@@ -193,6 +196,7 @@ enum {
     PL_DN_PLUGIN = 8u,    /* loaded from a shared object (include/tandem/tandem_plugin.h) */
     PL_DN_CONFIDENCE = 16u, /* uses re-shaded gradient samples where the front-end gives them
                                (as a confidence in its history) and runs without them elsewhere */
+    PL_DN_SPEC_HIT = 32u, /* follows reflections by the contract's spec_hit where it is given */
 };
 
 /* A capability bit's name ("gradients", "filters", ...; NULL past the last). */

@@ -84,8 +84,9 @@ tnd_result pl_denoiser_find(const char *name, const pl_denoiser_info **info)
 const char *pl_denoiser_cap_name(uint32_t bit)
 {
     /* in PL_DN_* order */
-    static const char *const names[] = {"gradients", "filters", "dumps", "plugin", "confidence"};
-    _Static_assert(1u << (sizeof names / sizeof *names - 1) == PL_DN_CONFIDENCE, "one name a bit");
+    static const char *const names[] = {"gradients", "filters",    "dumps",
+                                        "plugin",    "confidence", "spec_hit"};
+    _Static_assert(1u << (sizeof names / sizeof *names - 1) == PL_DN_SPEC_HIT, "one name a bit");
     return bit < sizeof names / sizeof *names ? names[bit] : NULL;
 }
 

@@ -211,7 +211,8 @@ const pl_denoiser_ops pl_recurrent_ops = {
     .info = {"recurrent",
              "recurrent (after NVIDIA's ReLAX): slow histories clamped to fast ones, history fix, "
              "gradients as the history's confidence where samples are re-shaded",
-             PL_DN_CONFIDENCE | PL_DN_FILTERS | PL_DN_DUMPS, NULL, recurrent_params,
+             PL_DN_CONFIDENCE | PL_DN_SPEC_HIT | PL_DN_FILTERS | PL_DN_DUMPS, NULL,
+             recurrent_params,
              sizeof recurrent_params / sizeof *recurrent_params, recurrent_passes,
              sizeof recurrent_passes / sizeof *recurrent_passes},
     BACKEND_OPS(v_recurrent)};

@@ -584,3 +584,8 @@ bool pl_frontend_recorded(const pl_frontend *fe, uint32_t *width, uint32_t *heig
 {
     return fe->ops->recorded && fe->ops->recorded(fe->ctx, width, height, precision, split);
 }
+
+bool pl_frontend_recorded_has(const pl_frontend *fe, tnd_ct e)
+{
+    return !fe->ops->has_entry || fe->ops->has_entry(fe->ctx, e);
+}

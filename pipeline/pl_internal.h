@@ -36,6 +36,7 @@ typedef struct pl_frontend_ops {
     const char *(*frame_name)(const void *ctx, uint32_t i);
     bool (*can_reshade)(const void *ctx); /* NULL: as caps says */
     bool (*recorded)(const void *ctx, uint32_t *w, uint32_t *h, tnd_precision *p, bool *split);
+    bool (*has_entry)(const void *ctx, tnd_ct e); /* its frames carry entry e */
 } pl_frontend_ops;
 
 

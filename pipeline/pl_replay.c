@@ -197,6 +197,11 @@ static bool rp_recorded(const void *ctx, uint32_t *w, uint32_t *h, tnd_precision
     return true;
 }
 
+static bool rp_has_entry(const void *ctx, tnd_ct e)
+{
+    return ((const replay *)ctx)->present[e];
+}
+
 static bool rp_can_reshade(const void *ctx)
 {
     return ((const replay *)ctx)->gradients;
@@ -213,6 +218,7 @@ const pl_frontend_ops pl_replay_ops = {
     .render = rp_render,
     .contract = rp_contract,
     .reshade = rp_reshade,
+    .has_entry = rp_has_entry,
     .length = rp_length,
     .frame_name = rp_frame_name,
     .can_reshade = rp_can_reshade,
