@@ -217,6 +217,10 @@ void main()
             float nv = clamp(-dot(n, v), 0.0, 1.0);
             float a = 0.298475 * log(39.4115 - 39.0029 * clamp(rough, 0.0, 1.0));
             float f_d = clamp(a + (1.0 - a) * pow(1.0 - nv, 10.8649), 0.0, 1.0);
+            /* only near-mirror lobes follow the virtual point: on glossier ones the flat /
+             * thin-lens image without NRD's confidence tests measured worse than the surface's
+             * motion (materials: FLIP 0.1036-0.1047 against 0.1025) */
+            float amount = f_d * (1.0 - smoothstep(0.05, 0.2, rough));
             /* the image behind a convex reflector of curvature C lies hit / (1 + 2 C hit)
              * behind it (the mirror equation; a flat one: hit); concave ones are taken as
              * flat (their image can come in front, or at infinity) */
@@ -226,14 +230,14 @@ void main()
             mat4 prev_vp = mat4(P.prev_vp[0], P.prev_vp[1], P.prev_vp[2], P.prev_vp[3]);
             vec4 c0 = cur_vp * vec4(dv, 1.0), c1 = prev_vp * vec4(P.cam_delta.xyz + dv, 1.0);
             vec4 s0 = cur_vp * vec4(dc, 1.0), s1 = prev_vp * vec4(P.cam_delta.xyz + dc, 1.0);
-            if (f_d > 0.01 && c0.w > 1e-6 && c1.w > 1e-6 && s0.w > 1e-6 && s1.w > 1e-6) {
+            if (amount > 0.01 && c0.w > 1e-6 && c1.w > 1e-6 && s0.w > 1e-6 && s1.w > 1e-6) {
                 vec2 size = vec2(P.size.xy);
                 /* virtual motion, px: the surface's own (moving objects too) plus what the
                  * camera's motion moves the image point more than the surface point (the
                  * reflected scene taken as still) */
                 vec2 vm = motion.xy + (c1.xy / c1.w - c0.xy / c0.w - s1.xy / s1.w + s0.xy / s0.w) *
                                           0.5 * size;
-                vec2 pv = vec2(p) + mix(motion.xy, vm, f_d * (1.0 - smoothstep(0.05, 0.2, rough)));
+                vec2 pv = vec2(p) + mix(motion.xy, vm, amount);
                 ivec2 v0 = ivec2(floor(pv));
                 vec2 fv = pv - vec2(v0);
                 for (int j = 0; j < 2; j++)
@@ -291,7 +295,10 @@ void main()
             /* A-SVGF: the filtered gradients (slot 0 after the blur) shorten the history */
             vec3 g = clamp(imageLoad(grad[0], min(p / DN_STRATUM, grad_size() - 1)).xyz, 0.0, 1.0);
             anti_hf = clamp(P.antilag.x * g.x, 0.0, 1.0);
-            anti_spec = clamp(P.antilag.y * g.y + P.antilag.z * length(motion.xy), 0.0, 1.0);
+            /* (A-SVGF shortens glossy histories with the motion, a stand-in for following
+             * reflections; the recurrent denoiser follows them by virtual motion and the clamp) */
+            anti_spec = clamp(P.antilag.y * g.y + (recurrent ? 0.0 : P.antilag.z * length(motion.xy)),
+                              0.0, 1.0);
             anti_lf = clamp(P.antilag.w * g.z, 0.0, 1.0);
             ivec2 st = p / DN_STRATUM;
             if (samples[uint(st.y * grad_size().x + st.x)].a.x == uint(p.y) * P.size.x + uint(p.x))
