@@ -334,12 +334,18 @@ check "eval on materials: mirror and glass regions, denoised better than noisy a
 
 # numerical stability report: extremes through every mode
 "$T" bench --extremes --size 64x36 --frames 4 --out "$tmp/ext" --quiet >"$tmp/ext_out" 2>"$tmp/err"; rc=$?
-$PY - "$tmp/ext/extremes.json" $rc <<'PY'
+"$T" info --pipeline --json >"$tmp/ext_info.json"
+$PY - "$tmp/ext/extremes.json" $rc "$tmp/ext_info.json" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1]))
 rc = int(sys.argv[2])
+info = json.load(open(sys.argv[3]))
 runs = d["runs"]
-assert len(runs) == 12 and len({(r["frontend"], r["denoiser"], r["precision"]) for r in runs}) == 12
+# every live front-end (those render takes) x every registered denoiser x both precisions
+live = [f for f in info["frontends"] if "recorded" not in f["capabilities"]]
+want = len(live) * len(info["denoisers"]) * 2
+assert want == 16, want  # embree, vk x asvgf, svgf, off, recurrent x float32, packed
+assert len(runs) == want and len({(r["frontend"], r["denoiser"], r["precision"]) for r in runs}) == want
 assert rc == (1 if d["nonfinite"] else 0), (rc, d["nonfinite"])   # exit status says it
 for r in runs:
     b = r["buffers"]
@@ -357,7 +363,7 @@ for p in d["packed_vs_float32"]:
     assert e["emission"]["max_relative"] > 0.3, p   # 1e5 clamped to 65504: the cost, measured
 print("     extremes: %d NaN/Inf inside the back-end's buffers" % d["nonfinite"])
 PY
-check "bench --extremes: 12 modes, finite frames and contracts, packed clamps found and measured" $?
+check "bench --extremes: every mode (16), finite frames and contracts, packed clamps found and measured" $?
 chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom \
     "file://$tmp/ext/report/index.html" >"$tmp/dom" 2>/dev/null
 grep -q 'data-status="ok"' "$tmp/dom" && grep -q "Packed against float32" "$tmp/ext/report/index.html"
