@@ -41,12 +41,36 @@ vec3 clamp_to_box(vec3 slow, vec3 m1, vec3 m2, float n, vec3 own)
     return max(from_ycocg(clamp(to_ycocg(slow), lo, hi)), vec3(0.0));
 }
 
+/* The work group's fast histories with a 2-texel apron, loaded once (each 5x5 window reads 25
+ * of them): hf and spec in YCoCg, the lf L0, and the texel's field (NO_SURFACE where none). */
+const uint NO_SURFACE = 0xffu;
+shared vec3 s_hf[12][12], s_sp[12][12];
+shared float s_l0[12][12];
+shared uint s_field[12][12];
+
+void load_tile(uint cur)
+{
+    ivec2 origin = ivec2(gl_WorkGroupID.xy) * 8 - 2, last = ivec2(P.size.xy) - 1;
+    for (uint k = gl_LocalInvocationIndex; k < 144u; k += 64u) {
+        ivec2 t = ivec2(k % 12u, k / 12u);
+        ivec2 q = clamp(origin + t, ivec2(0), last); /* (the image's edge texels repeat) */
+        uvec2 gq = imageLoad(fgeo, q).xy;
+        uvec4 f = imageLoad(hist_fast[cur], q);
+        s_hf[t.y][t.x] = to_ycocg(at_hf(f));
+        s_sp[t.y][t.x] = to_ycocg(at_spec(f));
+        s_l0[t.y][t.x] = at_variance(f); /* (w: the fast lf L0) */
+        s_field[t.y][t.x] = gq.x == DN_FGEO_NONE ? NO_SURFACE : fgeo_field(gq.y);
+    }
+}
+
 void main()
 {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    uint cur = pc.slot;
+    load_tile(cur);
+    barrier();
     if (!inside(p))
         return;
-    uint cur = pc.slot;
     uvec2 g = imageLoad(fgeo, p).xy;
     uvec4 hf_t = imageLoad(hist_hf[cur], p);
     uvec2 sp_t = imageLoad(hist_spec[cur], p).xy;
@@ -66,15 +90,14 @@ void main()
     /* history clamping: the fast histories' 5x5 moments (same field, surfaces only) */
     vec3 m1_hf = vec3(0.0), m2_hf = vec3(0.0), m1_sp = vec3(0.0), m2_sp = vec3(0.0);
     float n = 0.0, m1_l0 = 0.0, m2_l0 = 0.0;
+    ivec2 lp = ivec2(gl_LocalInvocationID.xy) + 2; /* the pixel in the tile */
     for (int j = -2; j <= 2; j++)
         for (int i = -2; i <= 2; i++) {
-            ivec2 q = clamp(p + ivec2(i, j), ivec2(0), last);
-            uvec2 gq = imageLoad(fgeo, q).xy;
-            if (gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field)
+            ivec2 t = lp + ivec2(i, j);
+            if (s_field[t.y][t.x] != field)
                 continue;
-            uvec4 f = imageLoad(hist_fast[cur], q);
-            vec3 a = to_ycocg(at_hf(f)), b = to_ycocg(at_spec(f));
-            float c = at_variance(f); /* the fast lf L0 */
+            vec3 a = s_hf[t.y][t.x], b = s_sp[t.y][t.x];
+            float c = s_l0[t.y][t.x];
             m1_hf += a, m2_hf += a * a, m1_sp += b, m2_sp += b * b, m1_l0 += c, m2_l0 += c * c;
             n += 1.0;
         }

@@ -82,35 +82,34 @@ vec4 catmull_rom(float t)
                 0.5 * t3 - 0.5 * t2);
 }
 
-/* Recurrent: the colour histories (slow as clamped, fast) resampled by a 4x4 Catmull-Rom filter
- * where all 16 taps saw this surface (NRD's reprojection: a bilinear resampling every frame blurs
- * a history a little more each time the camera moves; the cubic keeps it sharp). False where a
- * tap failed (the bilinear taps stay). */
-bool resample_cubic(vec2 pp, bool with_spec, out vec3 hf, out vec3 spec, out vec3 f_hf, out vec3 f_spec)
+/* Recurrent: the slow colour histories (as clamped) resampled by a Catmull-Rom filter on the
+ * 4x4 footprint without its corners (12 taps, renormalised: NRD's reprojection) where every tap
+ * saw this surface: a bilinear resampling every frame blurs a history a little more each time
+ * the camera moves; the cubic keeps it sharp. False where a tap failed (the bilinear taps
+ * stay). The fast histories keep the bilinear taps (they only bound the slow ones). */
+bool resample_cubic(vec2 pp, bool with_spec, out vec3 hf, out vec3 spec)
 {
     ivec2 b = ivec2(floor(pp)) - 1;
     vec2 f = pp - floor(pp);
     vec4 wx = catmull_rom(f.x), wy = catmull_rom(f.y);
-    hf = spec = f_hf = f_spec = vec3(0.0);
+    hf = spec = vec3(0.0);
+    float wsum = 0.0;
     uint prev = 1u - pc.slot;
     for (int j = 0; j < 4; j++)
-        for (int i = 0; i < 4; i++)
-            if (!same_surface(b + ivec2(i, j)))
-                return false;
-    for (int j = 0; j < 4; j++)
         for (int i = 0; i < 4; i++) {
+            if ((i == 0 || i == 3) && (j == 0 || j == 3))
+                continue; /* (the corners) */
             ivec2 q = b + ivec2(i, j);
+            if (!same_surface(q))
+                return false;
             float w = wx[i] * wy[j];
-            uvec4 rc_q = imageLoad(hist_rc[prev], q), fast_q = imageLoad(hist_fast[prev], q);
+            uvec4 rc_q = imageLoad(hist_rc[prev], q);
             hf += w * at_hf(rc_q);
-            f_hf += w * at_hf(fast_q);
-            if (with_spec) {
+            if (with_spec)
                 spec += w * at_spec(rc_q);
-                f_spec += w * at_spec(fast_q);
-            }
+            wsum += w;
         }
-    hf = max(hf, vec3(0.0)), spec = max(spec, vec3(0.0));
-    f_hf = max(f_hf, vec3(0.0)), f_spec = max(f_spec, vec3(0.0));
+    hf = max(hf / wsum, vec3(0.0)), spec = max(spec / wsum, vec3(0.0));
     return true;
 }
 
@@ -211,16 +210,17 @@ void main()
         /* (a hit and the sky are not averaged: the newer one is kept) */
         bool mixable = hit_prev > 0.0 && (hit_prev < HIT_FAR) == (hit_now < HIT_FAR);
         hit = hit_now > 0.0 ? (mixable ? mix(hit_prev, hit_now, 0.25) : hit_now) : hit_prev;
-        if (P.cam_delta.w != 0.0 && hit > 0.0 && wsum > 1e-4) {
+        /* only near-mirror lobes follow the virtual point: on glossier ones the flat /
+         * thin-lens image without NRD's confidence tests measured worse than the surface's
+         * motion (materials: FLIP 0.1036-0.1047 against 0.1025) */
+        float near_mirror = 1.0 - smoothstep(0.05, 0.2, rough);
+        if (P.cam_delta.w != 0.0 && hit > 0.0 && wsum > 1e-4 && near_mirror > 0.01) {
             vec3 x = imageLoad(img_position, p).xyz, dc = x - P.cam_pos.xyz;
             vec3 v = normalize(dc);
             float nv = clamp(-dot(n, v), 0.0, 1.0);
             float a = 0.298475 * log(39.4115 - 39.0029 * clamp(rough, 0.0, 1.0));
             float f_d = clamp(a + (1.0 - a) * pow(1.0 - nv, 10.8649), 0.0, 1.0);
-            /* only near-mirror lobes follow the virtual point: on glossier ones the flat /
-             * thin-lens image without NRD's confidence tests measured worse than the surface's
-             * motion (materials: FLIP 0.1036-0.1047 against 0.1025) */
-            float amount = f_d * (1.0 - smoothstep(0.05, 0.2, rough));
+            float amount = f_d * near_mirror;
             /* the image behind a convex reflector of curvature C lies hit / (1 + 2 C hit)
              * behind it (the mirror equation; a flat one: hit); concave ones are taken as
              * flat (their image can come in front, or at infinity) */
@@ -255,10 +255,10 @@ void main()
     /* recurrent: the cubic resampling where the whole footprint is this surface (spec too where
      * its taps all count fully and it was not gathered at the reflection) */
     bool cubic = false;
-    vec3 cr_hf, cr_spec, cr_fhf, cr_fspec;
+    vec3 cr_hf, cr_spec;
     bool cr_with_spec = v_wsum <= 1e-4 && wsum_spec > 0.999;
     if (P.size.w == DN_RUN_RECURRENT && wsum > 0.999 && vis.x != TND_VIS_NONE)
-        cubic = resample_cubic(vec2(p) + motion.xy, cr_with_spec, cr_hf, cr_spec, cr_fhf, cr_fspec);
+        cubic = resample_cubic(vec2(p) + motion.xy, cr_with_spec, cr_hf, cr_spec);
     float l = luma(hf);
     vec4 out_hf, out_mom, out_sh, out_spec;
     vec3 fast_hf = hf, fast_spec = spec; /* recurrent: the fast histories */
@@ -273,11 +273,8 @@ void main()
             h_mom.w = v_len / v_wsum;
         if (cubic) {
             h_hf.rgb = cr_hf;
-            h_fast_hf = cr_fhf * wsum; /* (divided by wsum below) */
-            if (cr_with_spec) {
+            if (cr_with_spec)
                 h_spec.rgb = cr_spec;
-                h_fast_spec = cr_fspec * wsum_spec;
-            }
         }
         float cap = P.misc.y;
         float len_hf = min(h_hf.a + 1.0, cap), len_lf = min(h_mom.z + 1.0, cap);
