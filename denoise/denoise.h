@@ -7,7 +7,12 @@
  * composite. Mode "off" is the plain composite of the noisy signals. Mode "asvgf" adds A-SVGF
  * (Schied et al. 2018): sparse gradient samples re-shaded with the previous frame's random
  * numbers, a 1/3-resolution gradient image blurred by a-trous, and an antilag factor that
- * shortens the history where the signal changed. Prefix dn_; depends on core/ and shaders/. */
+ * shortens the history where the signal changed. Mode "recurrent" (after NVIDIA's ReLAX and
+ * ReBLUR, docs/denoise.md): fast histories beside the slow ones, the slow clamped to the fast
+ * ones' neighbourhood (dn_history.comp), history fix for young histories, cubic reprojection,
+ * virtual motion for near-mirror reflections (the contract's spec_hit), the A-SVGF gradients as
+ * its history's confidence where there are samples. Prefix dn_; depends on core/ and
+ * shaders/. */
 #ifndef DN_DENOISE_H
 #define DN_DENOISE_H
 

@@ -1,4 +1,5 @@
-/* denoise/dn_context.c: the back-end's images (histories in two slots, a-trous ping-pong, the
+/* denoise/dn_context.c: the back-end's images (histories in two slots, the recurrent mode's fast
+ * and clamped histories, a-trous ping-pong, the
  * previous frame's geometry, luminances and barycentrics, the 1/3-res gradients and lf filter,
  * the output), the gradient sample buffer, its pipelines and the per-frame recording with a
  * timestamp around each pass.
