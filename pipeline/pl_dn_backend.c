@@ -1,6 +1,7 @@
 /* pipeline/pl_dn_backend.c: the built-in back-end (denoise/: SVGF, A-SVGF, the recurrent
- * denoiser, the plain composite) as four registered denoisers: their parameters (one pl_param table; dn_desc fields they set),
- * their passes (dn_timings' fields), and the operations over dn_context.
+ * denoiser, the plain composite) as four registered denoisers: their parameters (one pl_param
+ * table; dn_desc fields they set), their passes (dn_timings' fields), and the operations over
+ * dn_context.
  * Entry points: pl_asvgf_ops, pl_recurrent_ops, pl_svgf_ops, pl_off_ops (also the plugin adapter's composite of
  * the noisy radiance). */
 #include "pipeline/pl_internal.h"
@@ -23,8 +24,8 @@ static const pl_param p_min_alpha = {
 static const pl_param p_antilag = {
     .name = "antilag", .kind = PL_PARAM_FLOAT, .min = 0, .max = 100, .min_open = true,
     .arg = "G",
-    .help = "asvgf: the hf antilag gain (how fast history drops where the signal changed; "
-            "default 1)",
+    .help = "asvgf, recurrent: the hf antilag gain (how fast history drops where the "
+            "gradients say the signal changed; default 1)",
     .keys = "G", .steps = {0, 2.0, 0.5}, .nsteps = 3};
 static const pl_param p_lf_sigma = {
     .name = "lf-sigma", .kind = PL_PARAM_FLOAT, .min = 0, .max = 100, .min_open = true,
