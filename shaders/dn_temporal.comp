@@ -28,6 +28,22 @@ uint t_inst, t_field;
 float t_depth, t_shininess;
 vec3 t_gn, t_n;
 
+/* Whether g, the previous frame's surface at a texel, is this pixel's: the same instance and
+ * field, geometric normals within 25 degrees and (with_depth) the depth within 10% after the
+ * motion's depth delta. */
+bool saw_surface(uvec4 g, bool with_depth)
+{
+    return g.x == t_inst && ((g.z >> 24u) & 3u) == t_field &&
+           (!with_depth || abs(uintBitsToFloat(g.y) - t_depth) <= 0.1 * t_depth) &&
+           dot(oct_unpack12(g.z), t_gn) >= 0.9;
+}
+
+/* a spec tap's weight: w times the shading normals' agreement (tap()) */
+float spec_weight(uvec4 g, float w)
+{
+    return t_shininess > 0.0 ? w * pow(max(dot(t_n, oct_unpack12(g.w)), 0.0), t_shininess) : w;
+}
+
 /* Adds the previous frame's texel q with weight w where it saw this pixel's surface: the same
  * instance and field, the depth within 10% after the motion's depth delta (t_depth), geometric
  * normals within 25 degrees; spec weighs the shading normals' agreement too. */
@@ -37,15 +53,13 @@ void tap(ivec2 q, float w)
         return;
     uint prev = 1u - pc.slot;
     uvec4 g = imageLoad(prev_geo, q); /* the previous surface in one texel */
-    if (g.x != t_inst || ((g.z >> 24u) & 3u) != t_field ||
-        abs(uintBitsToFloat(g.y) - t_depth) > 0.1 * t_depth || dot(oct_unpack12(g.z), t_gn) < 0.9)
+    if (!saw_surface(g, true))
         return;
     uvec4 hf_q = imageLoad(hist_hf[prev], q); /* hf, its length, moments */
     uvec4 lf_q = imageLoad(hist_lf[prev], q); /* SH, CoCg, length */
     uvec2 sp_q = imageLoad(hist_spec[prev], q).xy; /* spec, its length */
     vec3 hf_rgb = hist_rgb(hf_q.xy), spec_rgb = hist_rgb(sp_q);
-    vec3 n_prev = oct_unpack12(g.w);
-    float ws = t_shininess > 0.0 ? w * pow(max(dot(t_n, n_prev), 0.0), t_shininess) : w;
+    float ws = spec_weight(g, w);
     if (P.size.w == DN_RUN_RECURRENT) { /* the slow histories as the clamp left them, and the
                                            fast ones */
         uvec4 rc_q = imageLoad(hist_rc[prev], q), fast_q = imageLoad(hist_fast[prev], q);
@@ -69,9 +83,7 @@ bool same_surface(ivec2 q)
 {
     if (!inside(q))
         return false;
-    uvec4 g = imageLoad(prev_geo, q);
-    return g.x == t_inst && ((g.z >> 24u) & 3u) == t_field &&
-           abs(uintBitsToFloat(g.y) - t_depth) <= 0.1 * t_depth && dot(oct_unpack12(g.z), t_gn) >= 0.9;
+    return saw_surface(imageLoad(prev_geo, q), true);
 }
 
 /* Catmull-Rom weights (sharpness 0.5) of the taps at -1, 0, 1, 2 for a position t in [0, 1) */
@@ -124,10 +136,9 @@ void tap_spec(ivec2 q, float w)
         return;
     uint prev = 1u - pc.slot;
     uvec4 g = imageLoad(prev_geo, q);
-    if (g.x != t_inst || ((g.z >> 24u) & 3u) != t_field || dot(oct_unpack12(g.z), t_gn) < 0.9)
+    if (!saw_surface(g, false))
         return;
-    vec3 n_prev = oct_unpack12(g.w);
-    float ws = t_shininess > 0.0 ? w * pow(max(dot(t_n, n_prev), 0.0), t_shininess) : w;
+    float ws = spec_weight(g, w);
     uvec4 rc_q = imageLoad(hist_rc[prev], q), fast_q = imageLoad(hist_fast[prev], q);
     v_spec += ws * at_spec(rc_q);
     v_fast += ws * at_spec(fast_q);

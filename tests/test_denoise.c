@@ -308,6 +308,15 @@ cleanup:
  * float history does: 0.1% or less after 400 frames, where a float32 history leaves 2e-5 (hf)
  * and 5e-4 (spec, lf) and the stochastic rounding adds about a third of a step (1e-4 to 3e-4);
  * rounding to nearest leaves about 2% (hf and spec). */
+/* the index of the back-end dump `name` (UINT32_MAX: none) */
+static uint32_t dump_index(const char *name)
+{
+    for (uint32_t j = 0; j < dn_dump_count(); j++)
+        if (strcmp(dn_dump_name(j, NULL), name) == 0)
+            return j;
+    return UINT32_MAX;
+}
+
 static void test_noiseless_history_converges(void)
 {
     tnd_vk *vk = gpu_begin();
@@ -349,9 +358,7 @@ static void test_noiseless_history_converges(void)
     double err[4] = {0, 0, 0, 0};
     int n = 0;
     for (int k = 0; k < 4; k++) {
-        uint32_t di = UINT32_MAX;
-        for (uint32_t j = 0; j < dn_dump_count(); j++)
-            di = strcmp(dn_dump_name(j, NULL), names[k]) == 0 ? j : di;
+        uint32_t di = dump_index(names[k]);
         REQUIRE(di != UINT32_MAX, "dump %s exists", names[k]);
         REQUIRE_OK(dn_dump(dn, di, dump));
         n = 0;
@@ -414,9 +421,7 @@ static void recurrent_step_case(tnd_vk *vk, rig *r, tnd_frame *f, dn_mode mode, 
         const float want[3] = {k * hf[0], k * spec[0], k * sh[3]};
         const int ch[3] = {0, 0, 3};
         for (int e = 0; e < 3; e++) {
-            uint32_t di = UINT32_MAX;
-            for (uint32_t j = 0; j < dn_dump_count(); j++)
-                di = strcmp(dn_dump_name(j, NULL), names[e]) == 0 ? j : di;
+            uint32_t di = dump_index(names[e]);
             REQUIRE(di != UINT32_MAX, "dump %s exists", names[e]);
             REQUIRE_OK(dn_dump(dn, di, dump));
             double sum = 0;
