@@ -277,6 +277,8 @@ typedef struct app_eval {
 tnd_result app_list_frames(const char *dir, uint32_t **frames, uint32_t *count);
 /* A series: DIR's frames (the other kinds: DIR/capture's, composited). */
 tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, app_series_kind kind);
+/* the frames of a sequence whose worth N by FLIP eval finds (evenly spread) */
+#define APP_WORTH_FLIP_FRAMES 8
 /* Metrics of every series on the frames they all share with the reference. */
 tnd_result app_eval_run(app_eval *e);
 /* DIR/metrics.json, metrics.csv, plots, images of the first, worst and last frames with crops,
@@ -317,10 +319,13 @@ void app_eval_regions_html(const app_eval *e, ev_text *t);
  * se^2 / (mean^2 + eps), from the luminance's standard error (eval's relMSE denominator). */
 double app_ref_noise_relmse(const float *rgb, const float *lum_se, size_t n);
 /* DIR/reference.json: the estimator and, per frame, the samples taken and the remaining noise. */
+/* a reference frame's paths (pixels x samples) per second of sampling; 0 where not measured */
+double app_ref_paths_per_s(const app_render_opts *o, const tnd_ref_stats *rs);
 tnd_result app_ref_json_write(const app_render_opts *o, const char *device,
                               const tnd_ref_stats *rs, const double *noise);
-/* Frame i of the path from its sums over rs->spp samples: the mean and standard errors (into
- * rgb, lum_se), rs->rel_error, *noise, and DIR/frame_NNNN.exr and .png. */
+/* Frame i of the path from its sums over rs->spp samples: the mean into rgb, rs->rel_error,
+ * *noise, and DIR/frame_NNNN.exr (R, G, B and variance.Y, the variance of one sample's
+ * luminance, which lum_se holds after) and .png. */
 tnd_result app_ref_frame_finish(const app_render_opts *o, unsigned i, const double *sum_rgb,
                                 const double *sum_lum2, float *rgb, float *lum_se,
                                 tnd_ref_stats *rs, double *noise);

@@ -864,6 +864,7 @@ static int run_opts(const render_opts *opts, bool reference)
             TND_TRY(tnd_frame_create(o.size[0], o.size[1], &frame));
             if (pp->first == 0) /* (the shard that has the frame's first sample) */
                 TND_TRY(write_reference_motion(fr, &o, f, &frame));
+            double t_sample = tnd_now();
             if (matched)
                 TND_TRY(matched_reference_add(fr, &o, f, &frame, pp->first, pp->count, ref_sum,
                                               ref_sum + 3 * n, rs, &rp));
@@ -872,6 +873,7 @@ static int run_opts(const render_opts *opts, bool reference)
                 TND_TRY(pl_frontend_reference_add(fr, o.ref_bounces, pp->first, pp->count,
                                                   ref_sum, ref_sum + 3 * n, rs, on_ref_progress,
                                                   &rp));
+            rs->seconds = tnd_now() - t_sample;
             ref_done += pp->count;
             part_taken[part] = rs->spp - pp->first;
             part++;
@@ -887,8 +889,9 @@ static int run_opts(const render_opts *opts, bool reference)
                                          &ref_noise[i]));
             if (!app_quiet())
                 fprintf(stderr, "%sreference: frame %u: %u spp, remaining noise %.2f%% (mean "
-                                "relative standard error)\n",
-                        bar.enabled ? "\n" : "", f, rs->spp, 100.0 * rs->rel_error);
+                                "relative standard error), %.3g Mpaths/s\n",
+                        bar.enabled ? "\n" : "", f, rs->spp, 100.0 * rs->rel_error,
+                        app_ref_paths_per_s(&o, rs) * 1e-6);
             continue;
         }
         pl_step_result pr = {0};

@@ -392,6 +392,10 @@ tnd_result app_eval_run(app_eval *e)
                                ref.height);
                 goto fail;
             }
+            /* worth N by FLIP (a search of FLIP evaluations) on the last frame of each eighth
+             * of the sequence; by relMSE on every frame */
+            uint32_t eighth = (e->count + APP_WORTH_FLIP_FRAMES - 1) / APP_WORTH_FLIP_FRAMES;
+            ev_sequence_worth_flip(seq[i], (k + 1) % eighth == 0 || k + 1 == e->count);
             TND_TRY(ev_sequence_add(seq[i], e->frames[k], &img, &ref, &e->series[i].m[k],
                                     regions ? flip : NULL));
             const float *to, *tr;

@@ -24,6 +24,11 @@ double app_ref_noise_relmse(const float *rgb, const float *lum_se, size_t n)
     return n ? s / (double)n : 0.0;
 }
 
+double app_ref_paths_per_s(const app_render_opts *o, const tnd_ref_stats *rs)
+{
+    return rs->seconds > 0 ? (double)o->size[0] * o->size[1] * rs->spp / rs->seconds : 0.0;
+}
+
 tnd_result app_ref_json_write(const app_render_opts *o, const char *device,
                               const tnd_ref_stats *rs, const double *noise)
 {
@@ -40,13 +45,20 @@ tnd_result app_ref_json_write(const app_render_opts *o, const char *device,
                 o->reflect_depth ? o->reflect_depth : 4);
     else
         fprintf(fp, "  \"max_bounces\": %u,\n", o->ref_bounces);
-    fprintf(fp, "  \"spp_max\": %u,\n  \"until_noise\": %g,\n  \"frames\": [", o->spp,
-            o->until_noise);
+    /* (sampling time and paths per second: 0 where not measured, as in a merge) */
+    double secs = 0, paths = 0;
+    for (unsigned i = 0; i < o->frames; i++)
+        secs += rs[i].seconds, paths += (double)o->size[0] * o->size[1] * rs[i].spp;
+    fprintf(fp, "  \"sampler\": \"owen-scrambled sobol\",\n");
+    fprintf(fp, "  \"spp_max\": %u,\n  \"until_noise\": %g,\n  \"seconds\": %.6g,\n"
+                "  \"paths_per_s\": %.6g,\n  \"frames\": [", o->spp, o->until_noise, secs,
+            secs > 0 ? paths / secs : 0.0);
     for (unsigned i = 0; i < o->frames; i++)
         fprintf(fp,
                 "%s\n    {\"frame\": %u, \"spp\": %u, \"rel_error\": %.6g, "
-                "\"noise_relmse\": %.6g}",
-                i ? "," : "", o->start + i, rs[i].spp, rs[i].rel_error, noise[i]);
+                "\"noise_relmse\": %.6g, \"seconds\": %.6g, \"paths_per_s\": %.6g}",
+                i ? "," : "", o->start + i, rs[i].spp, rs[i].rel_error, noise[i], rs[i].seconds,
+                app_ref_paths_per_s(o, &rs[i]));
     fprintf(fp, "\n  ]\n}\n");
     if (fclose(fp) != 0)
         return tnd_fail(TND_ERR_IO, "reference: %s: write failed", path);
@@ -61,8 +73,16 @@ tnd_result app_ref_frame_finish(const app_render_opts *o, unsigned i, const doub
     char path[1700];
     rs->rel_error = tnd_ref_finish(sum_rgb, sum_lum2, n, rs->spp, rgb, lum_se);
     *noise = app_ref_noise_relmse(rgb, lum_se, n);
+    /* beside the mean, the variance of one sample's luminance (eval's "worth N samples"): the
+     * standard error squared times the samples, written over lum_se (it is not used after) */
+    for (size_t q = 0; q < n; q++)
+        lum_se[q] = lum_se[q] * lum_se[q] * (float)rs->spp;
     snprintf(path, sizeof path, "%s/frame_%04u.exr", o->out, o->start + i);
-    tnd_result res = app_write_rgb_exr(path, rgb, o->size[0], o->size[1]);
+    const tnd_exr_channel_desc ch[4] = {{"R", TND_EXR_FLOAT, rgb, 3},
+                                        {"G", TND_EXR_FLOAT, rgb + 1, 3},
+                                        {"B", TND_EXR_FLOAT, rgb + 2, 3},
+                                        {"variance.Y", TND_EXR_FLOAT, lum_se, 1}};
+    tnd_result res = tnd_exr_write(path, o->size[0], o->size[1], ch, 4, NULL, 0, TND_EXR_ZIP);
     snprintf(path, sizeof path, "%s/frame_%04u.png", o->out, o->start + i);
     return res == TND_OK ? app_write_preview(path, rgb, o->size[0], o->size[1]) : res;
 }

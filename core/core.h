@@ -611,6 +611,8 @@ typedef struct tnd_ref_stats {
     uint32_t spp;       /* out: samples taken */
     double rel_error;   /* out: mean relative standard error of the pixels' luminance means (over
                            pixels whose mean is above 1e-6) */
+    double seconds;     /* out (the caller's): time spent sampling the frame, for paths per
+                           second (0: not measured, as in a merge) */
 } tnd_ref_stats;
 #define TND_REF_CHECK_EVERY 16u
 /* The standard error of a pixel's luminance mean after spp samples, from the means of its

@@ -15,12 +15,14 @@
 typedef struct ev_image {
     uint32_t width, height;
     float *rgb; /* 3 floats per pixel, row-major, top row first */
+    float *var; /* a reference's: the variance of one sample's luminance per pixel (its EXR's
+                   `variance.Y`, written by tandem reference); NULL when the file has none */
 } ev_image;
 
 tnd_result ev_image_alloc(uint32_t width, uint32_t height, ev_image *img);
 void ev_image_free(ev_image *img);
-/* Linear RGB EXR (channels R, G, B; A and others ignored). Missing channels: an error naming
- * the file and the channel. */
+/* Linear RGB EXR (channels R, G, B, and `variance.Y` into var where present; A and others
+ * ignored). Missing channels: an error naming the file and the channel. */
 tnd_result ev_image_read_exr(const char *path, ev_image *img);
 /* Bilinear resampling to w x h (pixel centres aligned): a run at a reduced resolution scale
  * compared with a full-size reference. */
@@ -58,6 +60,10 @@ typedef struct ev_frame_metrics {
      * reference's (< 0: no motion or the first frame); the fraction of pixels disoccluded */
     double mc_temporal, disoccluded;
     uint64_t nonfinite; /* NaN/Inf values in the output (counted as 0 in the metrics) */
+    /* "worth N samples" (a reference with its per-pixel variance; < 0: none): the samples per
+     * pixel whose plain average would have the output's error, by luminance relMSE and by FLIP
+     * (ev_worth_flip; only on the frames asked for, ev_sequence_worth_flip) */
+    double worth_relmse, worth_flip;
 } ev_frame_metrics;
 
 typedef struct ev_summary {
@@ -73,6 +79,10 @@ typedef struct ev_summary {
     uint32_t disocclusions;
     uint64_t static_pixels;
     uint64_t nonfinite;
+    /* worth N samples over the sequence (< 0: none): by relMSE, the N whose mean luminance
+     * relMSE over the frames equals the output's (sum of the variance terms over the sum of the
+     * errors); by FLIP, the geometric mean of the frames' */
+    double worth_relmse, worth_flip;
 } ev_summary;
 
 /* A sequence evaluated frame by frame (no frame kept but the previous one): `exposure` is the
@@ -85,6 +95,23 @@ void ev_sequence_destroy(ev_sequence *seq);
  * when flip_map is not NULL. */
 tnd_result ev_sequence_add(ev_sequence *seq, uint32_t frame, const ev_image *out,
                            const ev_image *ref, ev_frame_metrics *m, float *flip_map);
+/* Whether the next ev_sequence_add also finds the frame's worth by FLIP (a search of about ten
+ * FLIP evaluations; the relMSE worth is always found where the reference has its variance). */
+void ev_sequence_worth_flip(ev_sequence *seq, bool on);
+/* The model of a plain average of n samples of the reference's estimator behind worth N by
+ * FLIP: one sample is Y_r / p with probability p = Y_r^2 / (Y_r^2 + var), else 0 (mean Y_r,
+ * variance var: the spikiest distribution of them, as a path tracer's rare bright paths are),
+ * so n of them average to Y_r K / (n p), K binomial (n, p), drawn by its inverse CDF at one
+ * uniform per pixel and frame (the same for every n, so the error falls with n); the pixel's
+ * colour is the reference's. Into rgb (3 floats per pixel). */
+void ev_worth_model(const ev_image *ref, double n, uint32_t frame, float *rgb);
+/* Worth N samples by FLIP: the N for which ev_worth_model's average of N samples has `flip`
+ * against the reference (tr: the reference tone-mapped by `exposure`; scratch: 6 floats per
+ * pixel). Searched over N in [1/16, 2^24] (log scale, 10 halvings); returns the bound where it
+ * lies beyond. A model: a real 1-spp frame of `cornell` measures 2 samples by it (its samples
+ * are less spiky), a 16-sample plain average 23 where relMSE says 29 (docs/metrics.md). */
+tnd_result ev_worth_flip(const ev_image *ref, const float *tr, double exposure, double ppd,
+                         double flip, uint32_t frame, float *scratch, double *n);
 /* The reference's motion (3 floats per pixel: previous minus current position in pixels, depth
  * change) and depth (1 float per pixel, TND_DEPTH_MISS on a miss) of the frame ev_sequence_add
  * takes next: the motion-compensated metrics (docs/metrics.md). Copied. */

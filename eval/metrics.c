@@ -3,6 +3,7 @@
  * Entry points: ev_image_*, ev_auto_exposure, ev_tonemap, ev_mse, ev_relmse, ev_smape, ev_psnr,
  * ev_ssim, ev_flip, ev_sequence, ev_lag. */
 #include "eval/eval.h"
+#include "shaders/sampling.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -18,13 +19,15 @@ tnd_result ev_image_alloc(uint32_t w, uint32_t h, ev_image *img)
     img->width = w;
     img->height = h;
     img->rgb = calloc((size_t)w * h * 3, sizeof(float));
+    img->var = NULL;
     return img->rgb ? TND_OK : tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
 }
 
 void ev_image_free(ev_image *img)
 {
     free(img->rgb);
-    img->rgb = NULL;
+    free(img->var);
+    img->rgb = img->var = NULL;
 }
 
 tnd_result ev_image_read_exr(const char *path, ev_image *img)
@@ -48,8 +51,18 @@ tnd_result ev_image_read_exr(const char *path, ev_image *img)
         for (size_t q = 0; q < n; q++)
             for (int k = 0; k < 3; k++)
                 img->rgb[3 * q + k] = ((const float *)ch[k]->data)[q];
+        const tnd_exr_channel *v = tnd_exr_find(&f, "variance.Y");
+        if (v && v->type != TND_EXR_UINT && (img->var = malloc(n * sizeof(float))) != NULL)
+            for (size_t q = 0; q < n; q++) { /* (a variance is finite and not negative) */
+                float x = ((const float *)v->data)[q];
+                img->var[q] = x >= 0 && x < INFINITY ? x : 0.0f;
+            }
+        else if (v)
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
     }
     tnd_exr_close(&f);
+    if (res != TND_OK)
+        ev_image_free(img);
     return res;
 }
 
@@ -551,6 +564,11 @@ struct ev_sequence {
     disocc_event ev[EV_DISOCC_FRAMES];
     double lag_sum;
     uint32_t lag_events;
+    /* worth N samples: the relMSE's sums of variance terms and errors; FLIP's log sum */
+    double worth_v, worth_e, worth_log;
+    uint32_t worth_flips;
+    bool worth_flip_next;
+    float *worth_scratch;
 };
 
 void ev_sequence_destroy(ev_sequence *s)
@@ -570,6 +588,7 @@ void ev_sequence_destroy(ev_sequence *s)
     free(s->still);
     free(s->ysum);
     free(s->yerr);
+    free(s->worth_scratch);
     for (int k = 0; k < EV_DISOCC_FRAMES; k++)
         free(s->ev[k].mask);
     free(s);
@@ -628,11 +647,6 @@ static void bilinear3(const float *img, uint32_t w, uint32_t h, double x, double
     }
 }
 
-static double luma3(const float *p)
-{
-    return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-}
-
 /* The motion-compensated metrics of the frame just tone-mapped into s->to / s->tr (the last
  * frame's in s->po / s->pr). */
 static void motion_metrics(ev_sequence *s, ev_frame_metrics *f)
@@ -671,7 +685,7 @@ static void motion_metrics(ev_sequence *s, ev_frame_metrics *f)
             if (prev)
                 s->still[p] &= valid && fabsf(m[0]) < 0.01f && fabsf(m[1]) < 0.01f &&
                                (!hit || fabs(m[2]) <= 1e-3 * d);
-            double yo = luma3(s->to + 3 * p), yr = luma3(s->tr + 3 * p);
+            double yo = luma(s->to + 3 * p), yr = luma(s->tr + 3 * p);
             double *ys = s->ysum + 4 * p;
             ys[0] += yo, ys[1] += yo * yo, ys[2] += yr, ys[3] += yr * yr;
             s->yerr[p] = (float)fabs(yo - yr);
@@ -750,6 +764,105 @@ tnd_result ev_sequence_create(uint32_t w, uint32_t h, double exposure, double pp
     return TND_OK;
 }
 
+void ev_sequence_worth_flip(ev_sequence *s, bool on)
+{
+    s->worth_flip_next = on;
+}
+
+/* The luminance relMSE terms of worth N: the variance of one sample and the output's squared
+ * error, each over Y_r^2 + eps, summed over the pixels. */
+static void worth_relmse_terms(const ev_image *out, const ev_image *ref, double *v, double *e)
+{
+    size_t n = (size_t)ref->width * ref->height;
+    double sv = 0, se = 0;
+    for (size_t q = 0; q < n; q++) {
+        const float *o = out->rgb + 3 * q, *r = ref->rgb + 3 * q;
+        double yr = luma(r), d = luma(o) - yr;
+        double w = 1.0 / (yr * yr + EV_RELMSE_EPS);
+        sv += ref->var[q] * w;
+        se += d * d * w;
+    }
+    *v = sv, *e = se;
+}
+
+/* a uniform draw in (0, 1) per pixel and frame, on the shared hash */
+static double uniform_draw(uint32_t q, uint32_t frame)
+{
+    uint32_t h[4] = {q, frame, 0x3017u, 0x9e3779b9u};
+    tnd_pcg4d(h);
+    return ((h[0] >> 8) + 0.5) / 16777216.0;
+}
+
+/* The inverse CDF at u of the number of hits in n trials of probability p (exact by summation
+ * where the mean is small, else the normal approximation with continuity correction). */
+static double binomial_icdf(double n, double p, double u)
+{
+    double mean = n * p, var = mean * (1.0 - p);
+    if (var > 25.0) {
+        /* Acklam-free: the normal quantile by bisection on erfc (monotone, 40 steps) */
+        double lo = -9, hi = 9;
+        for (int i = 0; i < 40; i++) {
+            double m = 0.5 * (lo + hi);
+            *(0.5 * erfc(-m / sqrt(2.0)) < u ? &lo : &hi) = m;
+        }
+        double k = floor(mean + sqrt(var) * 0.5 * (lo + hi) + 0.5);
+        return k < 0 ? 0 : k > n ? n : k;
+    }
+    double pk = pow(1.0 - p, n), cdf = pk; /* P(0) */
+    double k = 0;
+    while (cdf < u && k < n) {
+        pk *= (n - k) / (k + 1) * p / (1.0 - p);
+        k += 1;
+        cdf += pk;
+    }
+    return k;
+}
+
+void ev_worth_model(const ev_image *ref, double n, uint32_t frame, float *rgb)
+{
+    size_t px = (size_t)ref->width * ref->height;
+    for (size_t q = 0; q < px; q++) {
+        const float *r = ref->rgb + 3 * q;
+        double y = luma(r), v = ref->var[q];
+        /* one sample: y / p with probability p, else 0 (mean y, variance v) */
+        double p = y > 0 ? y * y / (y * y + v) : 1.0;
+        double f = p < 1.0 ? binomial_icdf(n, p, uniform_draw((uint32_t)q, frame)) / (n * p) : 1.0;
+        for (int k = 0; k < 3; k++)
+            rgb[3 * q + k] = (float)(r[k] * f);
+    }
+}
+
+tnd_result ev_worth_flip(const ev_image *ref, const float *tr, double exposure, double ppd,
+                         double flip, uint32_t frame, float *scratch, double *n_out)
+{
+    tnd_result res = TND_OK;
+    uint32_t w = ref->width, h = ref->height;
+    size_t n = (size_t)w * h;
+    ev_image avg = {w, h, scratch, NULL};
+    float *ta = scratch + 3 * n;
+    double lo = -4.0, hi = 24.0; /* log2 N */
+    for (int it = 0; it < 12; it++) { /* (the bounds first, then 10 halvings) */
+        double l2 = it == 0 ? lo : it == 1 ? hi : 0.5 * (lo + hi), nn = exp2(l2);
+        ev_worth_model(ref, nn, frame, avg.rgb);
+        ev_tonemap(&avg, exposure, ta);
+        double m;
+        TND_TRY(ev_flip(tr, ta, w, h, ppd, NULL, &m));
+        if (it == 0 && m <= flip) { /* worse than a sixteenth of a sample */
+            *n_out = exp2(lo);
+            return TND_OK;
+        }
+        if (it == 1 && m >= flip) { /* better than 2^24 samples */
+            *n_out = exp2(hi);
+            return TND_OK;
+        }
+        if (it >= 2)
+            *(m > flip ? &lo : &hi) = l2;
+    }
+    *n_out = exp2(0.5 * (lo + hi));
+fail:
+    return res;
+}
+
 tnd_result ev_sequence_add(ev_sequence *s, uint32_t frame, const ev_image *out, const ev_image *ref,
                            ev_frame_metrics *f, float *flip_map)
 {
@@ -779,6 +892,21 @@ tnd_result ev_sequence_add(ev_sequence *s, uint32_t frame, const ev_image *out, 
     TND_TRY(ev_flip(s->tr, s->to, s->w, s->h, s->ppd, flip_map, &f->flip));
     f->temporal = -1.0;
     f->mc_temporal = -1.0;
+    f->worth_relmse = f->worth_flip = -1.0;
+    if (ref->var) {
+        double v, e;
+        worth_relmse_terms(out, ref, &v, &e);
+        f->worth_relmse = e > 0 ? v / e : -1.0;
+        s->worth_v += v, s->worth_e += e;
+        if (s->worth_flip_next) {
+            if (!s->worth_scratch && !(s->worth_scratch = malloc(6 * n * sizeof(float))))
+                return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+            TND_TRY(ev_worth_flip(ref, s->tr, s->exposure, s->ppd, f->flip, frame,
+                                  s->worth_scratch, &f->worth_flip));
+            s->worth_log += log(f->worth_flip);
+            s->worth_flips++;
+        }
+    }
     if (s->have_motion)
         motion_metrics(s, f);
     else
@@ -831,6 +959,8 @@ void ev_sequence_summary(const ev_sequence *s, ev_summary *out)
     out->temporal = s->temporal_count ? s->sum.temporal / s->temporal_count : -1.0;
     out->changes = lag_of(s->lag, s->count, &out->lag);
     out->mc_temporal = s->mc_count ? s->mc_sum / s->mc_count : -1.0;
+    out->worth_relmse = s->worth_e > 0 ? s->worth_v / s->worth_e : -1.0;
+    out->worth_flip = s->worth_flips ? exp(s->worth_log / s->worth_flips) : -1.0;
     out->disocclusions = s->lag_events;
     out->disocclusion_lag = s->lag_events ? s->lag_sum / s->lag_events : -1.0;
     out->flicker = out->flicker_ref = -1.0;

@@ -32,6 +32,12 @@ static const ev_metric table[] = {
     {"mc_temporal", "temporal (motion-comp.)",
      "motion-compensated temporal error (tone-mapped), lower is better", "%9.4g",
      FRAME(mc_temporal), SUMMARY(mc_temporal), true, false, false, true},
+    {"worth_relmse", "worth relMSE",
+     "worth N samples by relMSE (luminance; the plain average's spp), higher is better", "%12.4g",
+     FRAME(worth_relmse), SUMMARY(worth_relmse), true, true, true, false},
+    {"worth_flip", "worth FLIP",
+     "worth N samples by FLIP (the plain average's spp, modelled), higher is better", "%10.4g",
+     FRAME(worth_flip), SUMMARY(worth_flip), true, true, true, false},
     {"disoccluded", "disoccluded", "disoccluded fraction of the pixels (the reference's motion)",
      "%8.4f", FRAME(disoccluded), -1, true, false, false, false},
 };

@@ -41,7 +41,7 @@ enum { NL = FEMB_LANES };
 #define SH_C0 0.282094791773878f /* Y00 */
 #define SH_C1 0.488602511902920f /* Y1m / direction component */
 
-static inline float rnd(const femb_paths *P, uint32_t i, uint32_t bounce, uint32_t which)
+static inline __attribute__((always_inline)) float rnd(const femb_paths *P, uint32_t i, uint32_t bounce, uint32_t which)
 {
     return tnd_rand(P->key_pixel[i], P->key_frame[i], P->key_sample, tnd_dim(bounce, which));
 }

@@ -15,6 +15,17 @@
  * of the real-time frame it is compared with. (Before, the reference keyed sample s of frame f
  * as frame f x 4096 + s, and with more than 4096 samples consecutive frames shared samples.)
  *
+ * Reference samples (sample word s + 1) draw from a low-discrepancy sequence instead: shuffled,
+ * Owen-scrambled Sobol' points, padded in pairs of dimensions (Burley, "Practical Hash-based Owen
+ * Scrambling", JCGT 2020). Each pair of dimensions that belong together (the pixel jitter, the
+ * point on the light, the BRDF sample, the lobe and light choices, Russian roulette and the
+ * dielectric split) takes the first two Sobol' dimensions of the sample index, the index shuffled
+ * and each coordinate scrambled by seeds hashed from (pixel, frame, pair): the first 2^m samples
+ * of a pair stratify the unit square into 2^m cells of every shape (a (0, m, 2)-net), while
+ * pixels, frames and pairs stay independent. Still a pure function of the four words: shards,
+ * `merge`, any frame and the whole 2^32-sample range work as before; the real-time estimator's
+ * one sample (word 0) keeps the hash (the A-SVGF gradients re-draw it).
+ *
  * Dimensions: TND_DIM_JITTER_* for the reference mode's per-sample pixel jitter (the real-time
  * jitter is one Halton offset per frame, in the frame parameters), then TND_DIMS_PER_BOUNCE per
  * path vertex b (b = 0 is the primary surface). */
@@ -37,6 +48,14 @@
 #define TND_DIMS_BASE 2u
 #define TND_DIMS_PER_BOUNCE 8u
 #define TND_SAMPLE_REALTIME 0u
+/* The reference's pairs of a path vertex's dimensions, 3 bits per dimension of TND_DIM_LIST
+ * (pair in bits 0-1, coordinate in bit 2): the point on the light (LIGHT_U, LIGHT_V) is pair 0,
+ * the BRDF sample (BRDF_U, BRDF_V) pair 1, the light and lobe choices (LIGHT_PICK, LOBE) pair 2,
+ * Russian roulette and the dielectric split (RR, SPLIT) pair 3. */
+#define TND_DIM_PAIRS                                                                              \
+    ((2u << 0) | (0u << 3) | (4u << 6) | (6u << 9) | (1u << 12) | (5u << 15) | (3u << 18) |       \
+     (7u << 21))
+#define TND_QMC_SALT 0x5eed50b1u
 
 /* A full path of the reference mode: at most this many bounces (Russian roulette, from the third,
  * ends them long before); a matched reference traces the real-time estimator's count instead. */
@@ -83,18 +102,64 @@ uint tnd_reference_sample(uint s)
 {
     return s + 1u;
 }
+/* which pair of dimensions `dim` belongs to (0: the jitter; 1 + 4 b + k for pair k of path
+ * vertex b), and its coordinate in the pair, as (pair << 1) | coordinate */
+uint tnd_dim_pair(uint dim)
+{
+    if (dim < TND_DIMS_BASE)
+        return dim;
+    uint d = dim - TND_DIMS_BASE, w = d % TND_DIMS_PER_BOUNCE;
+    return ((1u + 4u * (d / TND_DIMS_PER_BOUNCE) + ((TND_DIM_PAIRS >> (3u * w)) & 3u)) << 1) |
+           ((TND_DIM_PAIRS >> (3u * w + 2u)) & 1u);
+}
+/* Owen scrambling (each bit flipped by a hash of the bits above it: the Laine-Karras
+ * permutation with Burley's constants) of the number whose bits reversed are y; returns the
+ * scrambled number. (Sobol' points are computed here bit-reversed, which saves two reversals.) */
+uint tnd_owen_rev(uint y, uint seed)
+{
+    y += seed;
+    y ^= y * 0x6c50b47cu;
+    y ^= y * 0xb82f1e52u;
+    y ^= y * 0xc7afe638u;
+    y ^= y * 0x8d22f6e6u;
+    return bitfieldReverse(y);
+}
+/* The first two Sobol' dimensions of index i, bit-reversed: the first is i itself (van der
+ * Corput); the second's generator is Pascal's triangle mod 2 (direction numbers v_k = v_(k-1) ^
+ * v_(k-1) >> 1), so by Lucas' theorem its bit j is the XOR of the index bits k whose set bits
+ * hold j's: a superset transform in five shifts. */
+uint tnd_sobol1_rev(uint i)
+{
+    i ^= (i >> 1) & 0x55555555u;
+    i ^= (i >> 2) & 0x33333333u;
+    i ^= (i >> 4) & 0x0f0f0f0fu;
+    i ^= (i >> 8) & 0x00ff00ffu;
+    return i ^ (i >> 16);
+}
 float tnd_rand(uint pixel, uint frame, uint smp, uint dim)
 {
-    return float(tnd_pcg4d(uvec4(pixel, frame, smp, dim)).x >> 8) * (1.0 / 16777216.0);
+    if (smp == TND_SAMPLE_REALTIME)
+        return float(tnd_pcg4d(uvec4(pixel, frame, smp, dim)).x >> 8) * (1.0 / 16777216.0);
+    uint pc = tnd_dim_pair(dim);
+    uvec4 seed = tnd_pcg4d(uvec4(pixel, frame, pc >> 1, TND_QMC_SALT));
+    uint i = tnd_owen_rev(bitfieldReverse(smp - 1u), seed.x); /* the shuffled index */
+    uint x = (pc & 1u) == 0u ? tnd_owen_rev(i, seed.y) : tnd_owen_rev(tnd_sobol1_rev(i), seed.z);
+    return float(x >> 8) * (1.0 / 16777216.0);
 }
 #else
 #include <stdint.h>
+/* (always inlined: the Embree front-end's lane loops vectorise the draws only then) */
+#if defined(__GNUC__)
+#define TND_RAND_INLINE static inline __attribute__((always_inline))
+#else
+#define TND_RAND_INLINE static inline
+#endif
 enum {
 #define TND_DIM_ENUM(name, off, text) TND_DIM_##name = off,
     TND_DIM_LIST(TND_DIM_ENUM)
 #undef TND_DIM_ENUM
 };
-static inline void tnd_pcg4d(uint32_t v[4])
+TND_RAND_INLINE void tnd_pcg4d(uint32_t v[4])
 {
     for (int i = 0; i < 4; i++)
         v[i] = v[i] * 1664525u + 1013904223u;
@@ -109,19 +174,61 @@ static inline void tnd_pcg4d(uint32_t v[4])
     v[2] += v[0] * v[1];
     v[3] += v[1] * v[2];
 }
-static inline uint32_t tnd_dim(uint32_t bounce, uint32_t which)
+TND_RAND_INLINE uint32_t tnd_dim(uint32_t bounce, uint32_t which)
 {
     return TND_DIMS_BASE + TND_DIMS_PER_BOUNCE * bounce + which;
 }
-static inline uint32_t tnd_reference_sample(uint32_t s)
+TND_RAND_INLINE uint32_t tnd_reference_sample(uint32_t s)
 {
     return s + 1u;
 }
-static inline float tnd_rand(uint32_t pixel, uint32_t frame, uint32_t sample, uint32_t dim)
+TND_RAND_INLINE uint32_t tnd_dim_pair(uint32_t dim)
+{
+    if (dim < TND_DIMS_BASE)
+        return dim;
+    uint32_t d = dim - TND_DIMS_BASE, w = d % TND_DIMS_PER_BOUNCE;
+    return ((1u + 4u * (d / TND_DIMS_PER_BOUNCE) + ((TND_DIM_PAIRS >> (3u * w)) & 3u)) << 1) |
+           ((TND_DIM_PAIRS >> (3u * w + 2u)) & 1u);
+}
+TND_RAND_INLINE uint32_t tnd_reverse_bits(uint32_t x)
+{
+    x = (x >> 16) | (x << 16);
+    x = ((x & 0xff00ff00u) >> 8) | ((x & 0x00ff00ffu) << 8);
+    x = ((x & 0xf0f0f0f0u) >> 4) | ((x & 0x0f0f0f0fu) << 4);
+    x = ((x & 0xccccccccu) >> 2) | ((x & 0x33333333u) << 2);
+    return ((x & 0xaaaaaaaau) >> 1) | ((x & 0x55555555u) << 1);
+}
+TND_RAND_INLINE uint32_t tnd_owen_rev(uint32_t y, uint32_t seed)
+{
+    y += seed;
+    y ^= y * 0x6c50b47cu;
+    y ^= y * 0xb82f1e52u;
+    y ^= y * 0xc7afe638u;
+    y ^= y * 0x8d22f6e6u;
+    return tnd_reverse_bits(y);
+}
+TND_RAND_INLINE uint32_t tnd_sobol1_rev(uint32_t i)
+{
+    i ^= (i >> 1) & 0x55555555u;
+    i ^= (i >> 2) & 0x33333333u;
+    i ^= (i >> 4) & 0x0f0f0f0fu;
+    i ^= (i >> 8) & 0x00ff00ffu;
+    return i ^ (i >> 16);
+}
+TND_RAND_INLINE float tnd_rand(uint32_t pixel, uint32_t frame, uint32_t sample, uint32_t dim)
 {
     uint32_t v[4] = {pixel, frame, sample, dim};
+    if (sample == TND_SAMPLE_REALTIME) {
+        tnd_pcg4d(v);
+        return (float)(int32_t)(v[0] >> 8) * (1.0f / 16777216.0f); /* (signed: converts in SIMD) */
+    }
+    uint32_t pc = tnd_dim_pair(dim);
+    v[2] = pc >> 1;
+    v[3] = TND_QMC_SALT;
     tnd_pcg4d(v);
-    return (float)(int32_t)(v[0] >> 8) * (1.0f / 16777216.0f); /* (signed: converts in SIMD) */
+    uint32_t i = tnd_owen_rev(tnd_reverse_bits(sample - 1u), v[0]); /* the shuffled index */
+    uint32_t x = (pc & 1u) == 0u ? tnd_owen_rev(i, v[1]) : tnd_owen_rev(tnd_sobol1_rev(i), v[2]);
+    return (float)(int32_t)(x >> 8) * (1.0f / 16777216.0f);
 }
 #endif
 
@@ -139,7 +246,7 @@ float tnd_halton(uint i, uint base)
     return r;
 }
 #else
-static inline float tnd_halton(uint32_t i, uint32_t base)
+TND_RAND_INLINE float tnd_halton(uint32_t i, uint32_t base)
 {
     float f = 1.0f, r = 0.0f;
     while (i > 0u) {
@@ -149,7 +256,7 @@ static inline float tnd_halton(uint32_t i, uint32_t base)
     }
     return r;
 }
-static inline void tnd_jitter(uint32_t frame, float out[2])
+TND_RAND_INLINE void tnd_jitter(uint32_t frame, float out[2])
 {
     uint32_t i = frame % 16u + 1u;
     out[0] = tnd_halton(i, 2) - 0.5f;

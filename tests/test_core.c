@@ -1,6 +1,7 @@
 /* tests/test_core.c: unit tests of core/ that need no GPU: results and messages, device choice,
  * SBT layout arithmetic, files. */
 #include "core/core.h"
+#include "shaders/sampling.h"
 #include "tests/tnd_test.h"
 
 #include <unistd.h>
@@ -196,5 +197,63 @@ static void test_exr_zip_equal_size(void)
     rmdir(dir);
 }
 
-TND_TEST_MAIN(T(test_exr_zip_equal_size), T(test_result_catalogue), T(test_vk_error_format), T(test_choose_device),
+/* The reference's sample sequence (shaders/sampling.h): the Sobol' second dimension's five-shift
+ * form equals its direction numbers; every pair of dimensions of a pixel's first 2^m samples is a
+ * (0, m, 2)-net (each of the 2^m cells of every shape 2^-a x 2^-(m-a) holds exactly one point),
+ * the two coordinates are each a stratified 1D sequence, different pixels, frames and pairs draw
+ * different points, and the real-time word keeps the hash. */
+static void test_reference_samples_stratify(void)
+{
+    uint32_t state = 7u, bad_sobol = 0;
+    for (int t = 0; t < 4096; t++) {
+        state = state * 1664525u + 1013904223u;
+        uint32_t x = 0u, v = 0x80000000u;
+        for (uint32_t k = 0; k < 32; k++, v ^= v >> 1)
+            if (state >> k & 1u)
+                x ^= v;
+        bad_sobol += tnd_reverse_bits(tnd_sobol1_rev(state)) != x;
+    }
+    CHECK(bad_sobol == 0, "%u of 4096 Sobol' points differ from the direction numbers", bad_sobol);
+    enum { M = 8, N = 1 << M };
+    static const uint32_t dims[][2] = {
+        {TND_DIM_JITTER_X, TND_DIM_JITTER_Y}, {2 + TND_DIM_LIGHT_U, 2 + TND_DIM_LIGHT_V},
+        {2 + 8 * 3 + TND_DIM_BRDF_U, 2 + 8 * 3 + TND_DIM_BRDF_V},
+        {2 + 8 * 9 + TND_DIM_LIGHT_PICK, 2 + 8 * 9 + TND_DIM_LOBE},
+        {2 + TND_DIM_RR, 2 + TND_DIM_SPLIT}};
+    uint32_t bad_net = 0, nets = 0, same = 0;
+    for (uint32_t px = 0; px < 3; px++)
+        for (uint32_t d = 0; d < sizeof dims / sizeof dims[0]; d++) {
+            float u[N], w[N];
+            for (uint32_t s = 0; s < N; s++) {
+                u[s] = tnd_rand(px * 7919u, 5u + px, tnd_reference_sample(s), dims[d][0]);
+                w[s] = tnd_rand(px * 7919u, 5u + px, tnd_reference_sample(s), dims[d][1]);
+                same += u[s] == w[s];
+            }
+            for (uint32_t m = 1; m <= M; m++)
+                for (uint32_t a = 0; a <= m; a++) { /* cells 2^-a wide, 2^-(m-a) high */
+                    uint8_t seen[N] = {0};
+                    for (uint32_t s = 0; s < (1u << m); s++) {
+                        uint32_t cx = (uint32_t)(u[s] * (float)(1u << a));
+                        uint32_t cy = (uint32_t)(w[s] * (float)(1u << (m - a)));
+                        seen[cx * (1u << (m - a)) + cy]++;
+                    }
+                    for (uint32_t c = 0; c < (1u << m); c++)
+                        bad_net += seen[c] != 1;
+                    nets++;
+                }
+        }
+    CHECK(bad_net == 0, "%u cells of %u nets hold other than one point", bad_net, nets);
+    CHECK(same < 4, "the two coordinates of a pair agree %u times", same);
+    /* independence between pixels, frames and vertices: the first sample differs */
+    float a = tnd_rand(1, 2, tnd_reference_sample(0), 2 + TND_DIM_BRDF_U);
+    CHECK(a != tnd_rand(2, 2, tnd_reference_sample(0), 2 + TND_DIM_BRDF_U), "pixels share a point");
+    CHECK(a != tnd_rand(1, 3, tnd_reference_sample(0), 2 + TND_DIM_BRDF_U), "frames share a point");
+    CHECK(a != tnd_rand(1, 2, tnd_reference_sample(0), 10 + TND_DIM_BRDF_U), "vertices share");
+    uint32_t h[4] = {1, 2, TND_SAMPLE_REALTIME, 2 + TND_DIM_BRDF_U};
+    tnd_pcg4d(h);
+    float rt = tnd_rand(1, 2, TND_SAMPLE_REALTIME, 2 + TND_DIM_BRDF_U);
+    CHECK(rt == (float)(h[0] >> 8) / 16777216.0f, "the real-time word no longer draws the hash");
+}
+
+TND_TEST_MAIN(T(test_reference_samples_stratify), T(test_exr_zip_equal_size), T(test_result_catalogue), T(test_vk_error_format), T(test_choose_device),
               T(test_sbt_layout), T(test_files))

@@ -179,7 +179,8 @@ static void test_sequence_and_lag(void)
     REQUIRE_OK(run_sequence(out, ref, T, m, &s));
     CHECK(s.changes == 1 && s.lag == 15, "a static output never catches up: lag %g (to the end, 15)", s.lag);
     float a[3], b[3];
-    ev_image pa = {1, 1, (float[3]){0.1f, 0.1f, 0.1f}}, pb = {1, 1, (float[3]){0.5f, 0.5f, 0.5f}};
+    ev_image pa = {1, 1, (float[3]){0.1f, 0.1f, 0.1f}, NULL},
+             pb = {1, 1, (float[3]){0.5f, 0.5f, 0.5f}, NULL};
     ev_tonemap(&pa, 1.0, a);
     ev_tonemap(&pb, 1.0, b);
     CHECK_NEAR(m[5].temporal, fabs(b[0] - a[0]), 1e-6, "temporal error at the step");
@@ -193,11 +194,11 @@ cleanup:
 
 static void test_tonemap_and_exposure(void)
 {
-    ev_image img = {2, 1, (float[6]){0.18f, 0.18f, 0.18f, 0.72f, 0.72f, 0.72f}};
+    ev_image img = {2, 1, (float[6]){0.18f, 0.18f, 0.18f, 0.72f, 0.72f, 0.72f}, NULL};
     /* geometric mean of 0.18 and 0.72 is 0.36: exposure 0.5 */
     CHECK_NEAR(ev_auto_exposure(&img, 1), 0.5, 1e-6, "auto exposure");
     float out[6];
-    ev_image in = {2, 1, (float[6]){0, 0, 0, 1e30f, NAN, -1}};
+    ev_image in = {2, 1, (float[6]){0, 0, 0, 1e30f, NAN, -1}, NULL};
     ev_tonemap(&in, 1.0, out);
     CHECK(out[0] == 0 && out[3] == 1.0f && out[4] == 0 && out[5] == 0, "black 0, huge 1, NaN 0, negative 0");
 }
@@ -210,5 +211,100 @@ static void test_pareto(void)
     CHECK(p[0] && p[1] && p[2] && !p[3] && !p[4], "front %d%d%d%d%d", p[0], p[1], p[2], p[3], p[4]);
 }
 
-TND_TEST_MAIN(T(test_pointwise), T(test_ssim), T(test_flip), T(test_sequence_and_lag),
+/* Worth N samples. By relMSE: a reference with a known per-pixel variance and an output off by a
+ * known error is worth exactly sum var w / sum err^2 w. By FLIP: the model of an N-sample
+ * average (ev_worth_model) has the mean and the variance of one (checked over 9216 pixels at
+ * N = 1, 4 and 1000, the last through the normal approximation), and an output that is that
+ * model at N = 8 is found worth 8 (within the search's 10 halvings of [2^-4, 2^24]: +- 1%, and
+ * the mean FLIP's wiggle between neighbouring N: 15%). */
+static void test_worth_samples(void)
+{
+    enum { W = 96, H = 96, N = W * H };
+    ev_image ref = {0}, out = {0};
+    float *scratch = malloc(6 * N * sizeof(float)), *tr = malloc(3 * N * sizeof(float));
+    REQUIRE(scratch && tr, "out of memory");
+    REQUIRE_OK(ev_image_alloc(W, H, &ref));
+    REQUIRE_OK(ev_image_alloc(W, H, &out));
+    ref.var = malloc(N * sizeof(float));
+    REQUIRE(ref.var, "out of memory");
+    for (int q = 0; q < N; q++) {
+        float y = 0.2f + 0.6f * (float)((q / 7) % 5) / 4.0f; /* (grey: luminance y) */
+        for (int k = 0; k < 3; k++)
+            ref.rgb[3 * q + k] = y;
+        ref.var[q] = 0.5f * y * y;
+    }
+    /* the model's moments: one grey level (y 0.2, relative variance 0.5: p = 2/3) */
+    for (int i = 0; i < N; i++)
+        out.rgb[3 * i] = out.rgb[3 * i + 1] = out.rgb[3 * i + 2] = 0.2f;
+    float *v = out.var = malloc(N * sizeof(float));
+    REQUIRE(v, "out of memory");
+    for (int i = 0; i < N; i++)
+        v[i] = 0.5f * 0.04f;
+    const double ns[3] = {1, 4, 1000};
+    for (int t = 0; t < 3; t++) {
+        ev_worth_model(&out, ns[t], 3, scratch);
+        double m = 0, m2 = 0;
+        for (int q = 0; q < N; q++)
+            m += scratch[3 * q], m2 += (double)scratch[3 * q] * scratch[3 * q];
+        m /= N;
+        double var = m2 / N - m * m, want = 0.02 / ns[t];
+        /* standard errors: of the mean sqrt(want / N), of the variance about want sqrt(2 / N)
+         * (the binomial's excess kurtosis is small here): 5 of each */
+        printf("     model at N = %g: mean %.5f (0.2), variance %.4g (%.4g)\n", ns[t], m, var, want);
+        CHECK(fabs(m - 0.2) < 5 * sqrt(want / N), "model mean at N = %g: %g", ns[t], m);
+        CHECK(fabs(var - want) < 5 * want * sqrt(2.0 / N) + 1e-12, "model variance at N = %g: %g",
+              ns[t], var);
+    }
+    free(out.var);
+    out.var = NULL;
+    /* relMSE: the output 10% off everywhere */
+    double sv = 0, se = 0;
+    for (int q = 0; q < N; q++) {
+        double y = ref.rgb[3 * q], w = 1.0 / (y * y + EV_RELMSE_EPS);
+        for (int k = 0; k < 3; k++)
+            out.rgb[3 * q + k] = (float)(y * 1.1);
+        double d = (double)(float)(y * 1.1) - y;
+        sv += ref.var[q] * w, se += d * d * w;
+    }
+    ev_sequence *seq = NULL;
+    ev_frame_metrics m;
+    ev_summary sum;
+    REQUIRE_OK(ev_sequence_create(W, H, 1.0, EV_FLIP_PPD, &seq));
+    REQUIRE_OK(ev_sequence_add(seq, 0, &out, &ref, &m, NULL));
+    ev_sequence_summary(seq, &sum);
+    CHECK_NEAR(m.worth_relmse, sv / se, 1e-6 * sv / se, "worth by relMSE");
+    CHECK_NEAR(sum.worth_relmse, sv / se, 1e-6 * sv / se, "its mean over the sequence");
+    CHECK(m.worth_flip < 0, "worth by FLIP found without being asked: %g", m.worth_flip);
+    /* FLIP: an output that is the model's 8-sample average */
+    ev_worth_model(&ref, 8, 5, out.rgb);
+    ev_tonemap(&ref, 1.0, tr);
+    double flip, n8;
+    {
+        float *to = malloc(3 * N * sizeof(float));
+        REQUIRE(to, "out of memory");
+        ev_tonemap(&out, 1.0, to);
+        tnd_result r = ev_flip(tr, to, W, H, EV_FLIP_PPD, NULL, &flip);
+        free(to);
+        REQUIRE_OK(r);
+    }
+    REQUIRE_OK(ev_worth_flip(&ref, tr, 1.0, EV_FLIP_PPD, flip, 5, scratch, &n8));
+    printf("     the model's 8-sample average: FLIP %.4f, worth %.3f samples by FLIP\n", flip, n8);
+    CHECK(fabs(n8 / 8 - 1) < 0.15, "worth by FLIP %g, expected 8", n8);
+    double lo, hi;
+    REQUIRE_OK(ev_worth_flip(&ref, tr, 1.0, EV_FLIP_PPD, 0.9, 5, scratch, &lo));
+    REQUIRE_OK(ev_worth_flip(&ref, tr, 1.0, EV_FLIP_PPD, 0.0, 5, scratch, &hi));
+    CHECK(lo == 1.0 / 16 && hi == 16777216.0, "the bounds: %g and %g", lo, hi);
+    /* through the sequence, asked for */
+    ev_sequence_worth_flip(seq, true);
+    REQUIRE_OK(ev_sequence_add(seq, 5, &out, &ref, &m, NULL));
+    CHECK_NEAR(m.worth_flip, n8, 1e-9, "the sequence's worth by FLIP");
+cleanup:
+    ev_sequence_destroy(seq);
+    ev_image_free(&ref);
+    ev_image_free(&out);
+    free(scratch);
+    free(tr);
+}
+
+TND_TEST_MAIN(T(test_worth_samples), T(test_pointwise), T(test_ssim), T(test_flip), T(test_sequence_and_lag),
               T(test_tonemap_and_exposure), T(test_pareto))
