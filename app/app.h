@@ -277,6 +277,8 @@ typedef struct app_eval {
 tnd_result app_list_frames(const char *dir, uint32_t **frames, uint32_t *count);
 /* A series: DIR's frames (the other kinds: DIR/capture's, composited). */
 tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, app_series_kind kind);
+/* tandem bench --metrics (app/bench_metrics.c) */
+tnd_result app_bench_metrics(const unsigned size[2], unsigned repeats, unsigned threads, bool json);
 /* the frames of a sequence whose worth N by FLIP eval finds (evenly spread) */
 #define APP_WORTH_FLIP_FRAMES 8
 /* Metrics of every series on the frames they all share with the reference. */

@@ -469,7 +469,7 @@ int cmd_bench(int argc, char **argv)
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
     unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
     bool json = false, extremes = false, scene_given = false, per_dispatch = false;
-    bool overlap = false, whole_frame = false;
+    bool overlap = false, whole_frame = false, metrics = false;
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
     const char *out = NULL, *reference = NULL;
     app_list sweeps = {0};
@@ -490,6 +490,9 @@ int cmd_bench(int argc, char **argv)
          "the whole frame back to back (front-end, gradients, back-end, post): GPU timestamps "
          "per pass and wall clock, medians after warm-up; --overlap without its host-contract "
          "way"},
+        {"metrics", APP_OPT_FLAG, &metrics, NULL,
+         "what eval's metrics of one frame of --size cost (wall and CPU ms per metric, medians "
+         "of --repeats; --threads)"},
         {"per-dispatch", APP_OPT_FLAG, &per_dispatch, NULL,
          "with --denoiser: also time every back-end dispatch (each a-trous iteration, ...)"},
         {"rt-api", APP_OPT_STRING, &rt_api, "API", "vk: pipeline, query or auto"},
@@ -560,6 +563,13 @@ int cmd_bench(int argc, char **argv)
     bool full = strcmp(pipeline, "full") == 0;
     tnd_result res = TND_OK;
     scene_given = strcmp(scene_path, TND_DATA_DIR "/scenes/cornell.gltf") != 0;
+    if (metrics) {
+        if ((res = app_bench_metrics(size, repeats ? repeats : 1, threads, json)) != TND_OK) {
+            app_report("bench", res);
+            return APP_EXIT_FAIL;
+        }
+        return APP_EXIT_OK;
+    }
     if (extremes)
         return app_extremes(scene_given ? scene_path : TND_DATA_DIR "/scenes/extremes.gltf", out,
                             size, frames);

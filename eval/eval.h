@@ -45,6 +45,12 @@ double ev_psnr(double mse); /* peak 1; 100 dB at most (MSE floored at 1e-10) */
 /* Mean SSIM over the three channels of two [0,1] images (11x11 Gaussian window, sigma 1.5, C1 =
  * 0.01^2, C2 = 0.03^2, windows that fit inside the image). Needs width, height >= 11. */
 tnd_result ev_ssim(const float *o, const float *r, uint32_t w, uint32_t h, double *ssim);
+/* (SSIM by the scalar double-precision code that the vectorised one is checked against) */
+tnd_result ev_ssim_reference(const float *o, const float *r, uint32_t w, uint32_t h, double *ssim);
+/* The metrics' scalar code (the separable filters summed in double per output, one pixel at a
+ * time), kept as the reference the vectorised code is checked against (tests/test_eval.c): on
+ * for every metric until turned off. Not thread-safe; a test's switch. */
+void ev_metrics_reference(bool on);
 /* LDR-FLIP (Andersson et al. 2020) of two sRGB [0,1] images at `ppd` pixels per degree: the
  * per-pixel error map in `map` (w x h floats, may be NULL) and its mean. */
 tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, double ppd,
