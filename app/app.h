@@ -137,6 +137,7 @@ typedef struct app_render_opts {
                              estimator's bounces (default 1), or the unbiased path's cap (default
                              none) */
     const char *estimator; /* reference: "unbiased" or "realtime" (a matched reference) */
+    const char *composite_on; /* realtime: "device" (where the front-end can) or "host" */
     double until_noise;    /* reference: stop a frame once its mean relative error is below */
     unsigned size[2];
     double fps;

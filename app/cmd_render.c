@@ -59,6 +59,7 @@ void app_render_defaults(app_render_opts *o)
                        .spp = 256,
                        .ref_bounces = ~0u,
                        .estimator = "unbiased",
+                       .composite_on = "device",
                        .size = {320, 180},
                        .fps = 30.0};
 }
@@ -236,6 +237,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
          "unbiased: a cap on the path length (default none)"},
         {"reflect-depth", APP_OPT_UINT, &o->reflect_depth, "N",
          "realtime: mirrors and glass the primary pass looks through (as render; default 4)"},
+        {"composite-on", APP_OPT_STRING, &o->composite_on, "WHERE",
+         "realtime: where each sample is composited and summed: device (the default where the "
+         "front-end keeps its contract on the GPU: nothing of a sample leaves it) or host (each "
+         "sample brought to the host and composited there, as every front-end can)"},
         {"until-noise", APP_OPT_FLOAT, &o->until_noise, "P",
          "stop each frame once its mean relative standard error is below P (checked every 16 "
          "samples; --spp stays the most)"},
@@ -320,6 +325,11 @@ static int check_opts(const app_cmd *cmd, const render_opts *o, bool reference)
     if (reference && strcmp(o->estimator, "unbiased") != 0 && strcmp(o->estimator, "realtime")) {
         fprintf(stderr, "tandem %s: --estimator %s: expected unbiased or realtime\n", cmd->name,
                 o->estimator);
+        return APP_EXIT_USAGE;
+    }
+    if (reference && strcmp(o->composite_on, "device") != 0 && strcmp(o->composite_on, "host")) {
+        fprintf(stderr, "tandem %s: --composite-on %s: expected device or host\n", cmd->name,
+                o->composite_on);
         return APP_EXIT_USAGE;
     }
     if (reference && (o->until_noise < 0 || o->until_noise >= 1)) {
@@ -865,7 +875,10 @@ static int run_opts(const render_opts *opts, bool reference)
             if (pp->first == 0) /* (the shard that has the frame's first sample) */
                 TND_TRY(write_reference_motion(fr, &o, f, &frame));
             double t_sample = tnd_now();
-            if (matched)
+            if (matched && strcmp(o.composite_on, "device") == 0 && pl_frontend_has_matched(fr))
+                TND_TRY(pl_frontend_matched_add(fr, o.bounces, pp->first, pp->count, ref_sum,
+                                                ref_sum + 3 * n, rs, on_ref_progress, &rp));
+            else if (matched)
                 TND_TRY(matched_reference_add(fr, &o, f, &frame, pp->first, pp->count, ref_sum,
                                               ref_sum + 3 * n, rs, &rp));
             tnd_frame_destroy(&frame);

@@ -136,6 +136,17 @@ tnd_result fvk_reference_add(fvk_context *ctx, uint32_t first, uint32_t count, d
                              double *sum_lum2, tnd_ref_stats *stats,
                              void (*progress)(uint32_t done, uint32_t total, void *user),
                              void *user);
+/* A matched reference's samples [first, first + count) on the device: sample s runs the
+ * real-time estimator (primary and shading passes, `bounces` indirect bounces) with the sample
+ * word tnd_reference_sample(s) and the whole image's pixel offset tnd_rand(0, frame, word,
+ * TND_DIM_JITTER_*) - 1/2, then pt_matched.comp composites and interleaves it as the host's
+ * tnd_frame_composite and tnd_frame_interleave do and adds it to the batch's float sums; the
+ * host adds each batch (as fvk_reference_add) into sum_rgb and sum_lum2 in double. Nothing of a
+ * sample leaves the device. */
+tnd_result fvk_matched_add(fvk_context *ctx, uint32_t bounces, uint32_t first, uint32_t count,
+                           double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
+                           void (*progress)(uint32_t done, uint32_t total, void *user),
+                           void *user);
 /* The API the passes use (after AUTO was resolved). */
 fvk_rt_api fvk_api(const fvk_context *ctx);
 /* The contract images of the last render. */

@@ -32,6 +32,7 @@ struct fvk_context {
     VkPipelineLayout layout;
     VkPipeline pipeline;      /* ray-tracing pipeline (FVK_RT_PIPELINE) */
     VkPipeline compute[3];    /* primary, shade, reference (FVK_RT_QUERY) */
+    VkPipeline matched;       /* pt_matched.comp: a matched reference's sample summed */
     tnd_image accum;          /* reference accumulation (rgb sum, luminance^2 sum) */
     fvk_rt_api api;
     uint32_t uses;            /* TND_USES_*: the specialization of every pass */

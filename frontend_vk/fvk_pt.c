@@ -253,6 +253,8 @@ void fvk_destroy(fvk_context *c)
     for (int i = 0; i < 3; i++)
         if (c->compute[i])
             vkDestroyPipeline(vk->device, c->compute[i], NULL);
+    if (c->matched)
+        vkDestroyPipeline(vk->device, c->matched, NULL);
     tnd_image_destroy(vk, &c->accum);
     if (c->pool)
         vkDestroyDescriptorPool(vk->device, c->pool, NULL);
@@ -341,6 +343,17 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
         TND_TRY(create_compute(c));
     else
         TND_TRY(create_pipeline(c));
+    {
+        size_t bytes;
+        tnd_shader id = c->precision == TND_PRECISION_PACKED ? TND_SHADER_pt_matched_packed
+                                                             : TND_SHADER_pt_matched_f32;
+        const uint32_t *code = tnd_spirv_code(id, &bytes, NULL);
+        TND_TRY(tnd_compute_pipeline_create(vk,
+                                            &(tnd_compute_desc){.code = code, .bytes = bytes,
+                                                                .layout = c->layout,
+                                                                .name = "frontend_vk.matched"},
+                                            &c->matched));
+    }
     for (int i = 0; i < 2; i++) {
         TND_TRY(tnd_timer_create(vk, &c->timer[i]));
         TND_TRY(tnd_pending_create(vk, &c->run[i]));
@@ -596,9 +609,54 @@ void fvk_set_reference_bounces(fvk_context *c, uint32_t bounces)
     c->ref_bounces = bounces;
 }
 
-tnd_result fvk_reference_add(fvk_context *c, uint32_t first, uint32_t count, double *sum_rgb,
-                             double *sum_lum2, tnd_ref_stats *stats,
-                             void (*progress)(uint32_t, uint32_t, void *), void *user)
+/* Record the samples [b0, b1) of a batch: the unbiased reference's (one pt_reference launch
+ * each), or a matched reference's (the real-time passes, then pt_matched.comp). */
+static void record_unbiased(fvk_context *c, VkCommandBuffer cmd, uint32_t b0, uint32_t b1)
+{
+    bind_all(c, cmd, 0, false);
+    for (uint32_t s = b0; s < b1; s++) {
+        uint32_t pc[2] = {s, b0};
+        vkCmdPushConstants(cmd, c->layout,
+                           VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT, 0, 8, pc);
+        launch(c, cmd, 2, c->width, c->height, false);
+        tnd_cmd_barrier(cmd);
+    }
+}
+
+static void record_matched(fvk_context *c, VkCommandBuffer cmd, uint32_t b0, uint32_t b1)
+{
+    for (uint32_t s = b0; s < b1; s++) {
+        uint32_t key = tnd_reference_sample(s);
+        fvk_params p = {.bounces = c->ref_bounces, .sample = key, .set_jitter = true,
+                        .jitter = {tnd_rand(0, c->frame, key, TND_DIM_JITTER_X) - 0.5f,
+                                   tnd_rand(0, c->frame, key, TND_DIM_JITTER_Y) - 0.5f}};
+        set_params(c, &p);
+        /* (each sample's parameters: the command buffer keeps its copy; the barrier orders
+         * the update after the last sample's reads and before this one's) */
+        vkCmdUpdateBuffer(cmd, c->frame_ubo.buffer, 0, sizeof c->ubo, &c->ubo);
+        tnd_cmd_barrier(cmd);
+        bind_all(c, cmd, 0, false);
+        launch(c, cmd, 0, c->width, c->height, false);
+        tnd_cmd_barrier(cmd);
+        launch(c, cmd, 1, c->width, c->height, false);
+        tnd_cmd_barrier(cmd);
+        uint32_t pc[2] = {s, b0};
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->matched);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0,
+                                NULL);
+        vkCmdPushConstants(cmd, c->layout,
+                           VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT, 0, 8, pc);
+        vkCmdDispatch(cmd, (c->width + 7) / 8, (c->height + 7) / 8, 1);
+        tnd_cmd_barrier(cmd);
+    }
+}
+
+/* Samples [first, first + count) in batches: each batch (up to the next multiple of
+ * TND_REF_CHECK_EVERY, wherever a range starts, so that sample s falls in the same batch) summed
+ * in float on the GPU, then added to the double sums. */
+static tnd_result add_batches(fvk_context *c, bool matched, uint32_t first, uint32_t count,
+                              double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
+                              void (*progress)(uint32_t, uint32_t, void *), void *user)
 {
     tnd_result res = TND_OK;
     if (!c->have_frame || count == 0 || first > UINT32_MAX - count)
@@ -608,24 +666,20 @@ tnd_result fvk_reference_add(fvk_context *c, uint32_t first, uint32_t count, dou
     float *acc = malloc(n * 16);
     if (!acc)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
-    TND_TRY(settle(c, FVK_ALL)); /* (the accumulation image) */
-    c->ubo.params.x = c->ref_bounces; /* (0: full paths) */
+    TND_TRY(settle(c, FVK_ALL)); /* (the accumulation image, the frame parameters) */
+    tnd_gpu_frame saved = c->ubo;
     const uint32_t batch = TND_REF_CHECK_EVERY;
     double until = stats ? stats->until_noise : 0.0;
     uint32_t end = first + count, done = end;
     for (uint32_t b0 = first; b0 < end;) {
-        /* a batch: samples up to the next multiple of `batch` (wherever a range starts, sample s
-         * falls in the same batch), summed in float on the GPU, then added to the sums */
         uint32_t b1 = (b0 / batch + 1) * batch < end ? (b0 / batch + 1) * batch : end;
         VkCommandBuffer cmd;
+        c->ubo.params.x = c->ref_bounces; /* (the unbiased passes: 0, full paths) */
         TND_TRY(begin_passes(c, -1, 0, false, &cmd));
-        for (uint32_t s = b0; s < b1; s++) {
-            uint32_t pc[2] = {s, b0};
-            vkCmdPushConstants(cmd, c->layout,
-                               VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT, 0, 8, pc);
-            launch(c, cmd, 2, c->width, c->height, false);
-            tnd_cmd_barrier(cmd);
-        }
+        if (matched)
+            record_matched(c, cmd, b0, b1);
+        else
+            record_unbiased(c, cmd, b0, b1);
         TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
         TND_TRY(tnd_image_download(c->vk, &c->accum, acc, n * 16));
         for (size_t q = 0; q < n; q++) {
@@ -645,7 +699,26 @@ tnd_result fvk_reference_add(fvk_context *c, uint32_t first, uint32_t count, dou
     if (stats)
         stats->spp = done;
 fail:
+    c->ubo = saved;
     free(acc);
+    return res;
+}
+
+tnd_result fvk_reference_add(fvk_context *c, uint32_t first, uint32_t count, double *sum_rgb,
+                             double *sum_lum2, tnd_ref_stats *stats,
+                             void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    return add_batches(c, false, first, count, sum_rgb, sum_lum2, stats, progress, user);
+}
+
+tnd_result fvk_matched_add(fvk_context *c, uint32_t bounces, uint32_t first, uint32_t count,
+                           double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
+                           void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    uint32_t saved = c->ref_bounces;
+    c->ref_bounces = bounces;
+    tnd_result res = add_batches(c, true, first, count, sum_rgb, sum_lum2, stats, progress, user);
+    c->ref_bounces = saved;
     return res;
 }
 

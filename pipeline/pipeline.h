@@ -126,6 +126,18 @@ void pl_frontend_cpu(const pl_frontend *fe, uint32_t *threads, const char **simd
  * full paths) added to per-pixel double sums of RGB (3 per pixel) and luminance^2 (1 per pixel)
  * (femb_reference_add: a range split at multiples of TND_REF_CHECK_EVERY adds up as the whole
  * range); stats->until_noise stops early, stats->spp: the samples the sums hold after. */
+/* A matched reference's samples [first, first + count) of the current frame, composited,
+ * interleaved and summed where the front-end keeps its contract (the Vulkan one: on the device,
+ * float per batch of TND_REF_CHECK_EVERY, double across), the same sums as rendering each
+ * sample (pl_params: bounces, sample word tnd_reference_sample(s), the image's offset
+ * tnd_rand(0, frame, word, TND_DIM_JITTER_*) - 1/2) and tnd_frame_composite + interleave on the
+ * host; pl_frontend_has_matched says whether it can. */
+bool pl_frontend_has_matched(const pl_frontend *fe);
+tnd_result pl_frontend_matched_add(pl_frontend *fe, uint32_t bounces, uint32_t first,
+                                   uint32_t count, double *sum_rgb, double *sum_lum2,
+                                   tnd_ref_stats *stats,
+                                   void (*progress)(uint32_t done, uint32_t total, void *user),
+                                   void *user);
 tnd_result pl_frontend_reference_add(pl_frontend *fe, uint32_t max_bounces, uint32_t first,
                                      uint32_t count, double *sum_rgb, double *sum_lum2,
                                      tnd_ref_stats *stats,

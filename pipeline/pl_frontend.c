@@ -165,6 +165,14 @@ static tnd_result vk_reference(void *ctx, uint32_t max_bounces, uint32_t first, 
     return fvk_reference_add(v->gv, first, count, sum_rgb, sum_lum2, stats, progress, user);
 }
 
+static tnd_result vk_matched(void *ctx, uint32_t bounces, uint32_t first, uint32_t count,
+                             double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
+                             void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    return fvk_matched_add(((vk_fe *)ctx)->gv, bounces, first, count, sum_rgb, sum_lum2, stats,
+                           progress, user);
+}
+
 static tnd_result vk_timings(void *ctx, bool wait, pl_timings *t)
 {
     fvk_timings tm;
@@ -186,6 +194,7 @@ static const pl_frontend_ops vk_ops = {
     .reshade = vk_reshade,
     .reshade_slots = vk_reshade_slots,
     .reference = vk_reference,
+    .matched = vk_matched,
     .timings = vk_timings,
 };
 
@@ -537,6 +546,24 @@ tnd_result pl_frontend_reference_add(pl_frontend *fe, uint32_t max_bounces, uint
                         fe->ops->name);
     return fe->ops->reference(fe->ctx, max_bounces, first, count, sum_rgb, sum_lum2, stats,
                               progress, user);
+}
+
+bool pl_frontend_has_matched(const pl_frontend *fe)
+{
+    return fe->ops->matched != NULL;
+}
+
+tnd_result pl_frontend_matched_add(pl_frontend *fe, uint32_t bounces, uint32_t first,
+                                   uint32_t count, double *sum_rgb, double *sum_lum2,
+                                   tnd_ref_stats *stats,
+                                   void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    if (!fe->ops->matched)
+        return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' sums no matched "
+                        "reference where its contract is (the host composites its samples)",
+                        fe->ops->name);
+    return fe->ops->matched(fe->ctx, bounces, first, count, sum_rgb, sum_lum2, stats, progress,
+                            user);
 }
 
 typedef struct ref_call {

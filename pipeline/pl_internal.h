@@ -28,6 +28,11 @@ typedef struct pl_frontend_ops {
     tnd_result (*reference)(void *ctx, uint32_t max_bounces, uint32_t first, uint32_t count,
                             double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
                             void (*progress)(uint32_t, uint32_t, void *), void *user);
+    /* a matched reference's samples composited and summed where the contract is (NULL: the
+     * caller renders each sample and composites it on the host) */
+    tnd_result (*matched)(void *ctx, uint32_t bounces, uint32_t first, uint32_t count,
+                          double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
+                          void (*progress)(uint32_t, uint32_t, void *), void *user);
     tnd_result (*benchmark)(void *ctx, const pl_params *p, uint32_t repeats, pl_bench *out);
     tnd_result (*timings)(void *ctx, bool wait, pl_timings *t); /* PL_CAP_QUEUED */
     void (*cpu)(const void *ctx, uint32_t *threads, const char **simd);

@@ -54,6 +54,38 @@ try:
     check("matched reference: Embree and Vulkan draw the same samples (float rounding apart)",
           d < 1e-5, f"largest relative difference {d:.2g}")
 
+    # where the samples are composited: on the device (the Vulkan default: nothing of a sample
+    # leaves the GPU; float sums per batch of 16) or on the host (every sample brought back and
+    # composited by core/contract.c), on a scene with glass (its split fields interleaved) and
+    # one whose cube moves, 2 frames each: the same sums within float rounding (the variance
+    # E[Y^2] - E[Y]^2 relative to E[Y^2]: it cancels where the variance is small)
+    worst = worst_var = 0.0
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    for sc in ("materials", "dynamic"):
+        for on in ("device", "host"):
+            run("reference", "--estimator", "realtime", "--frontend", "vk", "--frames", "2",
+                "--spp", "24", "--size", "40x24", "--composite-on", on, "--quiet", "--scene",
+                os.path.join(ROOT, "data", "scenes", sc + ".gltf"), "--out", f"{tmp}/{sc}_{on}")
+        for f in range(2):
+            a, b = (oiio.ImageBuf(f"{tmp}/{sc}_{on}/frame_{f:04d}.exr").get_pixels(oiio.FLOAT)
+                    .astype(np.float64) for on in ("device", "host"))
+            worst = max(worst, np.max(np.abs(a - b)[..., :3] / np.maximum(np.abs(b[..., :3]), 1e-3)))
+            m2 = b[..., 3] + (b[..., :3] @ lum) ** 2
+            worst_var = max(worst_var, np.max(np.abs(a - b)[..., 3] / np.maximum(m2, 1e-6)))
+    check("matched reference: composited on the device = on the host (RGB and variance, float "
+          "rounding apart)", worst < 1e-5 and worst_var < 1e-5,
+          f"largest relative difference {worst:.2g}, of the variance {worst_var:.2g} of E[Y^2]")
+
+    # worth N samples: a plain average of one sample (a 1-spp matched reference: its first sample
+    # is uniformly random) is worth 1 by relMSE, within the spread of a mean over 1024 pixels
+    run("reference", "--estimator", "realtime", "--frames", "1", "--spp", "1",
+        "--out", f"{tmp}/m1", *size)
+    p = run("eval", "--out", f"{tmp}/m1", "--matched-reference", f"{tmp}/m", "--json")
+    w = json.loads(p.stdout)[0]
+    check("eval: a 1-sample average is worth 1 sample by relMSE (0.75 .. 1.33)",
+          0.75 < w["worth_relmse"] < 1.33, f"worth {w['worth_relmse']:.3f} by relMSE, "
+          f"{w['worth_flip']:.3f} by FLIP (modelled)")
+
     # the estimator's own frames, averaged: frames differ in random numbers and Halton jitter
     run("render", "--denoiser", "off", "--frames", "64", "--out", f"{tmp}/rt", *size)
     frames = np.stack([img(f"{tmp}/rt/frame_{k:04d}.exr") for k in range(64)])
