@@ -267,6 +267,8 @@ typedef struct app_eval {
     uint32_t min_frame;      /* frames before it are left out (a warm-up) */
     char regions_from[1100]; /* captures whose path flags define the regions ("" : none) */
     bool resample;           /* series of another size are resampled to the reference's */
+    const char *metrics_on;  /* "cpu", "device" (a Vulkan device), or NULL / "auto": the device
+                                where one that is not a CPU implementation is present */
     /* filled by app_eval_run */
     bool auto_exposure;
     uint32_t *frames, count, width, height;

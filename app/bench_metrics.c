@@ -143,7 +143,53 @@ tnd_result app_bench_metrics(const unsigned size[2], unsigned repeats, unsigned 
                    mc[1], mc[1] > 0 ? mc[0] / mc[1] : 0.0);
     }
     if (json)
-        printf("]}\n");
+        printf("]");
+    else
+        printf("\n");
+    /* on the device (eval/metrics_gpu.c), where there is one: the passes' GPU time, and the
+     * wall time of a frame with its upload and read-back */
+    tnd_vk vk = {0};
+    ev_gpu *g = NULL;
+    tnd_result vr = tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, &vk);
+    if (vr == TND_OK)
+        vr = ev_gpu_create(&vk, w, h, EV_FLIP_PPD, &g);
+    if (vr == TND_OK) {
+        double *gw = wall, *gg = cpu, pass[4][64] = {{0}};
+        ev_gpu_metrics gm;
+        for (unsigned it = 0; it <= repeats && vr == TND_OK; it++) {
+            double t0 = tnd_now();
+            vr = ev_gpu_frame(g, &out, &ref, exposure, &gm, NULL);
+            if (it > 0) {
+                gw[it - 1] = tnd_now() - t0, gg[it - 1] = 1e-3 * gm.gpu_ms;
+                for (int k = 0; k < 4 && it - 1 < 64; k++)
+                    pass[k][it - 1] = gm.pass_ms[k];
+            }
+        }
+        if (vr == TND_OK) {
+            unsigned np = repeats < 64 ? repeats : 64;
+            qsort(gw, repeats, sizeof(double), cmp_double);
+            qsort(gg, repeats, sizeof(double), cmp_double);
+            for (int k = 0; k < 4; k++)
+                qsort(pass[k], np, sizeof(double), cmp_double);
+            if (json)
+                printf(", \"device\": \"%s\", \"device_ms\": %.4g, \"device_wall_ms\": %.4g",
+                       vk.info.name, 1e3 * gg[repeats / 2], 1e3 * gw[repeats / 2]);
+            else
+                printf("on the device (%s): the metrics but the temporal ones and worth N, "
+                       "%.3f ms of GPU (prep %.3f, rows %.3f, columns %.3f, reduce %.3f), "
+                       "%.2f ms a frame with its upload and read-back\n",
+                       vk.info.name, 1e3 * gg[repeats / 2], pass[0][np / 2], pass[1][np / 2],
+                       pass[2][np / 2], pass[3][np / 2], 1e3 * gw[repeats / 2]);
+        }
+    }
+    if (vr != TND_OK && !json)
+        printf("on the device: not measured (%s)\n", tnd_error_detail());
+    tnd_error_clear();
+    ev_gpu_destroy(g);
+    if (vk.device)
+        tnd_vk_destroy(&vk);
+    if (json)
+        printf("}\n");
 fail:
     ev_sequence_destroy(seq);
     ev_image_free(&ref);

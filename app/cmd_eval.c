@@ -176,6 +176,7 @@ int cmd_eval(int argc, char **argv)
     const char *out = NULL, *unbiased = NULL, *matched = NULL, *report = NULL;
     const char *exposure = "auto";
     double ppd = EV_FLIP_PPD;
+    const char *metrics_on = "auto";
     bool json = false;
     const app_opt opts[] = {
         {"out", APP_OPT_STRING, &out, "DIR", "the run to evaluate (its frame_NNNN.exr)"},
@@ -190,6 +191,9 @@ int cmd_eval(int argc, char **argv)
          "tone mapping of the LDR metrics: auto (the references' geometric-mean luminance to "
          "0.18, one exposure for the whole sequence) or a fixed EV100"},
         {"ppd", APP_OPT_FLOAT, &ppd, "P", "FLIP pixels per degree (default 67: 0.7 m wide 4K at 0.7 m)"},
+        {"metrics-on", APP_OPT_STRING, &metrics_on, "WHERE",
+         "where relMSE, SMAPE, RMSE, PSNR, SSIM and FLIP are computed: auto (a GPU where one is "
+         "present, else the CPU; the default), cpu, or device (any Vulkan device, lavapipe too)"},
         {"json", APP_OPT_FLAG, &json, NULL, "print the summary as JSON"},
         {0},
     };
@@ -205,7 +209,12 @@ int cmd_eval(int argc, char **argv)
     }
     /* the run against `primary`; with both references the matched one against the unbiased */
     const char *primary = matched ? matched : unbiased;
-    app_eval e = {.ppd = ppd}, b = {.ppd = ppd};
+    if (strcmp(metrics_on, "auto") != 0 && strcmp(metrics_on, "cpu") != 0 &&
+        strcmp(metrics_on, "device") != 0) {
+        fprintf(stderr, "tandem eval: --metrics-on %s: expected auto, cpu or device\n", metrics_on);
+        return APP_EXIT_USAGE;
+    }
+    app_eval e = {.ppd = ppd, .metrics_on = metrics_on}, b = {.ppd = ppd, .metrics_on = metrics_on};
     if (strcmp(exposure, "auto") != 0) {
         char *end;
         double ev = strtod(exposure, &end);

@@ -318,11 +318,33 @@ static bool load_motion(const app_eval *e, uint32_t frame, float *motion, float 
     return ok;
 }
 
+/* The per-image metrics' device (app_eval.metrics_on): NULL for the CPU. */
+static tnd_result open_metrics_device(const app_eval *e, tnd_vk *vk, ev_gpu **g)
+{
+    *g = NULL;
+    const char *on = e->metrics_on ? e->metrics_on : "auto";
+    if (strcmp(on, "cpu") == 0)
+        return TND_OK;
+    bool must = strcmp(on, "device") == 0;
+    tnd_result res = tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = true}, vk);
+    if (res == TND_OK && (must || vk->info.type != VK_PHYSICAL_DEVICE_TYPE_CPU))
+        res = ev_gpu_create(vk, e->width, e->height, e->ppd, g);
+    if (res != TND_OK && !must) { /* (auto: the CPU, without a word) */
+        tnd_error_clear();
+        res = TND_OK;
+    }
+    if (!*g && vk->device)
+        tnd_vk_destroy(vk), memset(vk, 0, sizeof *vk);
+    return res;
+}
+
 tnd_result app_eval_run(app_eval *e)
 {
     tnd_result res = common_frames(e);
     ev_image img = {0}, ref = {0};
     ev_sequence *seq[APP_EVAL_MAX_SERIES] = {0};
+    tnd_vk vk = {0};
+    ev_gpu *gpu = NULL;
     uint8_t *mask = NULL;
     float *flip = NULL, *motion = NULL, *depth = NULL;
     tnd_frame cap = {0};
@@ -367,8 +389,11 @@ tnd_result app_eval_run(app_eval *e)
                 res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
                 goto fail;
             }
-            for (uint32_t i = 0; i < e->nseries; i++)
+            TND_TRY(open_metrics_device(e, &vk, &gpu));
+            for (uint32_t i = 0; i < e->nseries; i++) {
                 TND_TRY(ev_sequence_create(ref.width, ref.height, e->exposure, e->ppd, &seq[i]));
+                ev_sequence_gpu(seq[i], gpu);
+            }
         } else if (ref.width != e->width || ref.height != e->height) {
             res = tnd_fail(TND_ERR_BAD_INPUT, "eval: %s/frame_%04u.exr is %ux%u, frame %u was %ux%u",
                            e->ref, e->frames[k], ref.width, ref.height, e->frames[0], e->width,
@@ -419,6 +444,9 @@ tnd_result app_eval_run(app_eval *e)
 fail:
     for (uint32_t i = 0; i < e->nseries; i++)
         ev_sequence_destroy(seq[i]);
+    ev_gpu_destroy(gpu);
+    if (vk.device)
+        tnd_vk_destroy(&vk);
     ev_image_free(&img);
     ev_image_free(&ref);
     free(mask);

@@ -56,6 +56,28 @@ void ev_metrics_reference(bool on);
 tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, double ppd,
                    float *map, double *mean);
 
+/* FLIP's and SSIM's kernels for the device metrics (shaders/ev_metrics.comp's table: the 4
+ * contrast-sensitivity Gaussians, their 4 weights, the edge, point and smoothing kernels, SSIM's
+ * 11 taps), their radii and FLIP's c_max, into `table` (at most `cap` floats). */
+tnd_result ev_flip_kernels(double ppd, float *table, size_t cap, int *rc, int *rf, double *cmax);
+
+/* ---- the metrics on the device (eval/metrics_gpu.c) --------------------------------------
+ * relMSE, SMAPE, RMSE, PSNR, SSIM and FLIP of one frame, as ev_sequence_add computes them on
+ * the CPU (the same definitions, in float on the GPU: within 1e-4 of the CPU's,
+ * tests/test_eval_gpu.c), for frames of a fixed size. */
+typedef struct ev_gpu ev_gpu;
+typedef struct ev_gpu_metrics {
+    double relmse, smape, rmse, psnr, ssim, flip;
+    double gpu_ms;     /* the four passes' GPU time */
+    double pass_ms[4]; /* each pass's: prep, rows, columns, reduce */
+} ev_gpu_metrics;
+tnd_result ev_gpu_create(tnd_vk *vk, uint32_t width, uint32_t height, double ppd, ev_gpu **out);
+void ev_gpu_destroy(ev_gpu *g);
+/* The metrics of `out` against `ref` (linear RGB, sanitised, the size given), tone mapped by
+ * `exposure`; flip_map (optional): the per-pixel FLIP. */
+tnd_result ev_gpu_frame(ev_gpu *g, const ev_image *out, const ev_image *ref, double exposure,
+                        ev_gpu_metrics *m, float *flip_map);
+
 /* ---- sequences -------------------------------------------------------------------------- */
 typedef struct ev_frame_metrics {
     uint32_t frame;
@@ -101,6 +123,9 @@ void ev_sequence_destroy(ev_sequence *seq);
  * when flip_map is not NULL. */
 tnd_result ev_sequence_add(ev_sequence *seq, uint32_t frame, const ev_image *out,
                            const ev_image *ref, ev_frame_metrics *m, float *flip_map);
+/* Per-image metrics (relMSE, SMAPE, RMSE, PSNR, SSIM, FLIP and its map) from the device from
+ * the next frame on (NULL: the CPU's); `g` of the sequence's size, outliving the use. */
+void ev_sequence_gpu(ev_sequence *seq, ev_gpu *g);
 /* Whether the next ev_sequence_add also finds the frame's worth by FLIP (a search of about ten
  * FLIP evaluations; the relMSE worth is always found where the reference has its variance). */
 void ev_sequence_worth_flip(ev_sequence *seq, bool on);

@@ -683,6 +683,57 @@ EV_VEC_FN static void flip_error_fast(const float *restrict e0, const float *res
     }
 }
 
+tnd_result ev_flip_kernels(double ppd, float *table, size_t cap, int *rc, int *rf, double *cmax)
+{
+    tnd_result res = TND_OK;
+    csf c[3] = {{0}};
+    double *ke = NULL, *kp = NULL, *ks = NULL;
+    TND_TRY(csf_make(ppd, 1, 0.0047, 0, 1e-5, &c[0]));
+    TND_TRY(csf_make(ppd, 1, 0.0053, 0, 1e-5, &c[1]));
+    TND_TRY(csf_make(ppd, 34.1, 0.04, 13.5, 0.025, &c[2]));
+    int r;
+    feature_kernels(ppd, &r, &ke, &kp, &ks);
+    if (!ke || !kp || !ks) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+        goto fail;
+    }
+    size_t tc = (size_t)(2 * c[0].r + 1), tf = (size_t)(2 * r + 1);
+    if (4 * tc + 4 + 3 * tf + 11 > cap) {
+        res = tnd_fail(TND_ERR_LIMIT, "eval: FLIP's kernels at %g pixels per degree are too wide "
+                       "for the device metrics", ppd);
+        goto fail;
+    }
+    const double *g[4] = {c[0].g[0], c[1].g[0], c[2].g[0], c[2].g[1]};
+    const double wt[4] = {c[0].weight[0], c[1].weight[0], c[2].weight[0], c[2].weight[1]};
+    for (int t = 0; t < 4; t++) {
+        for (size_t i = 0; i < tc; i++)
+            table[(size_t)t * tc + i] = (float)g[t][i];
+        table[4 * tc + (size_t)t] = (float)wt[t];
+    }
+    const double *f[3] = {ke, kp, ks};
+    for (int t = 0; t < 3; t++)
+        for (size_t i = 0; i < tf; i++)
+            table[4 * tc + 4 + (size_t)t * tf + i] = (float)f[t][i];
+    double gs = 0, gg[11];
+    for (int i = -5; i <= 5; i++)
+        gs += gg[i + 5] = exp(-(double)(i * i) / (2.0 * 1.5 * 1.5));
+    for (int i = 0; i < 11; i++)
+        table[4 * tc + 4 + 3 * tf + (size_t)i] = (float)(gg[i] / gs);
+    double lab_g[3], lab_b[3];
+    linrgb_to_hunt_lab((const double[3]){0, 1, 0}, lab_g);
+    linrgb_to_hunt_lab((const double[3]){0, 0, 1}, lab_b);
+    *cmax = pow(hyab(lab_g, lab_b), 0.7);
+    *rc = c[0].r;
+    *rf = r;
+fail:
+    for (int k = 0; k < 3; k++)
+        csf_free(&c[k]);
+    free(ke);
+    free(kp);
+    free(ks);
+    return res;
+}
+
 tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, double ppd,
                    float *map, double *mean)
 {
@@ -894,6 +945,7 @@ struct ev_sequence {
     uint32_t worth_flips;
     bool worth_flip_next;
     float *worth_scratch;
+    ev_gpu *gpu; /* ev_sequence_gpu: the per-image metrics on the device */
 };
 
 void ev_sequence_destroy(ev_sequence *s)
@@ -1089,6 +1141,11 @@ tnd_result ev_sequence_create(uint32_t w, uint32_t h, double exposure, double pp
     return TND_OK;
 }
 
+void ev_sequence_gpu(ev_sequence *s, ev_gpu *g)
+{
+    s->gpu = g;
+}
+
 void ev_sequence_worth_flip(ev_sequence *s, bool on)
 {
     s->worth_flip_next = on;
@@ -1233,14 +1290,21 @@ tnd_result ev_sequence_add(ev_sequence *s, uint32_t frame, const ev_image *out, 
     memset(f, 0, sizeof *f);
     f->frame = frame;
     const float *o = out->rgb, *r = ref->rgb;
-    f->relmse = ev_relmse(o, r, n * 3);
-    f->smape = ev_smape(o, r, n * 3);
-    f->rmse = sqrt(ev_mse(o, r, n * 3));
     ev_tonemap(out, s->exposure, s->to);
     ev_tonemap(ref, s->exposure, s->tr);
-    f->psnr = ev_psnr(ev_mse(s->to, s->tr, n * 3));
-    TND_TRY(ev_ssim(s->to, s->tr, s->w, s->h, &f->ssim));
-    TND_TRY(ev_flip(s->tr, s->to, s->w, s->h, s->ppd, flip_map, &f->flip));
+    if (s->gpu) { /* (the tone-mapped images on the CPU too: the temporal metrics read them) */
+        ev_gpu_metrics gm;
+        TND_TRY(ev_gpu_frame(s->gpu, out, ref, s->exposure, &gm, flip_map));
+        f->relmse = gm.relmse, f->smape = gm.smape, f->rmse = gm.rmse, f->psnr = gm.psnr;
+        f->ssim = gm.ssim, f->flip = gm.flip;
+    } else {
+        f->relmse = ev_relmse(o, r, n * 3);
+        f->smape = ev_smape(o, r, n * 3);
+        f->rmse = sqrt(ev_mse(o, r, n * 3));
+        f->psnr = ev_psnr(ev_mse(s->to, s->tr, n * 3));
+        TND_TRY(ev_ssim(s->to, s->tr, s->w, s->h, &f->ssim));
+        TND_TRY(ev_flip(s->tr, s->to, s->w, s->h, s->ppd, flip_map, &f->flip));
+    }
     f->temporal = -1.0;
     f->mc_temporal = -1.0;
     f->worth_relmse = f->worth_flip = -1.0;

@@ -28,6 +28,7 @@
     X(pt_shade_rq_packed,  "pt_shade_rq.comp",    "TND_PACKED=1") \
     X(pt_reference,        "pt_reference.rgen",   "TND_PACKED=0") \
     X(pt_reference_rq,     "pt_reference_rq.comp", "TND_PACKED=0") \
+    X(ev_metrics,          "ev_metrics.comp",     "") \
     X(pt_matched_f32,      "pt_matched.comp",     "TND_PACKED=0") \
     X(pt_matched_packed,   "pt_matched.comp",     "TND_PACKED=1") \
     X(dn_temporal_f32,     "dn_temporal.comp",    "TND_PACKED=0") \

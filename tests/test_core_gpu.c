@@ -1,6 +1,7 @@
 /* tests/test_core_gpu.c: the Vulkan context on a real driver (lavapipe in CI): device choice,
  * buffers, images, compute pipelines, push and specialisation constants, timestamps, and the
  * validation-message plumbing itself. Label: gpu. */
+#include "eval/eval.h"
 #include "shaders/encoding.h"
 #include "shaders/sampling.h"
 #include "shaders/shader_list.h"
@@ -467,6 +468,78 @@ static void test_shutdown(void)
     gpu_shutdown();
 }
 
+/* eval's metrics on the device (eval/metrics_gpu.c) against the CPU's (eval/metrics.c) on a
+ * smooth image with edges and texture and a noisy copy of it, at a size that is no multiple of a
+ * workgroup: relMSE, SMAPE and RMSE within 1e-5 relative (float sums per workgroup), PSNR within
+ * 1e-4 dB, SSIM within 1e-5 (float moments on the device, double on the CPU: 1e-7 of E[x^2]
+ * against C2 = 9e-4 on flat windows), FLIP within 2e-4 relative and its map within 2e-3 a pixel
+ * (float colour maths, the device's pow and cube root). */
+static void test_eval_metrics_on_device(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    enum { W = 157, H = 93, N = W * H };
+    ev_image ref = {0}, out = {0};
+    ev_gpu *g = NULL;
+    float *tr = malloc(3 * N * sizeof(float)), *to = malloc(3 * N * sizeof(float));
+    float *map_c = malloc(N * sizeof(float)), *map_g = malloc(N * sizeof(float));
+    REQUIRE(tr && to && map_c && map_g, "out of memory");
+    REQUIRE_OK(ev_image_alloc(W, H, &ref));
+    REQUIRE_OK(ev_image_alloc(W, H, &out));
+    uint32_t st = 5;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int k = 0; k < 3; k++) {
+                size_t i = 3 * ((size_t)y * W + x) + k;
+                st = st * 1664525u + 1013904223u;
+                float base = (0.05f + 0.9f * x / W) * ((x / 17 + y / 13) % 2 ? 1.0f : 0.25f) *
+                             (k == 2 ? 0.7f : 1.0f);
+                ref.rgb[i] = 1.5f * base;
+                out.rgb[i] = ref.rgb[i] * (0.5f + (float)(st >> 8) / 16777216.0f);
+            }
+    const double exposure = 1.1;
+    REQUIRE_OK(ev_gpu_create(vk, W, H, EV_FLIP_PPD, &g));
+    ev_gpu_metrics m;
+    REQUIRE_OK(ev_gpu_frame(g, &out, &ref, exposure, &m, map_g));
+    ev_tonemap(&ref, exposure, tr);
+    ev_tonemap(&out, exposure, to);
+    double relmse = ev_relmse(out.rgb, ref.rgb, 3 * N), smape = ev_smape(out.rgb, ref.rgb, 3 * N);
+    double rmse = sqrt(ev_mse(out.rgb, ref.rgb, 3 * N)), psnr = ev_psnr(ev_mse(to, tr, 3 * N));
+    double ssim, flip;
+    REQUIRE_OK(ev_ssim(to, tr, W, H, &ssim));
+    REQUIRE_OK(ev_flip(tr, to, W, H, EV_FLIP_PPD, map_c, &flip));
+    float worst = 0;
+    for (int q = 0; q < N; q++)
+        worst = fmaxf(worst, fabsf(map_c[q] - map_g[q]));
+    printf("     device / CPU: relMSE %.6g / %.6g, SMAPE %.6g / %.6g, RMSE %.6g / %.6g, PSNR %.5f / "
+           "%.5f, SSIM %.7f / %.7f, FLIP %.6f / %.6f (map: %.2g at worst), %.3f ms (%.3f, %.3f, "
+           "%.3f, %.3f)\n",
+           m.relmse, relmse, m.smape, smape, m.rmse, rmse, m.psnr, psnr, m.ssim, ssim, m.flip, flip,
+           worst, m.gpu_ms, m.pass_ms[0], m.pass_ms[1], m.pass_ms[2], m.pass_ms[3]);
+    CHECK_NEAR(m.relmse, relmse, 1e-5 * relmse, "relMSE");
+    CHECK_NEAR(m.smape, smape, 1e-5 * smape, "SMAPE");
+    CHECK_NEAR(m.rmse, rmse, 1e-5 * rmse, "RMSE");
+    CHECK_NEAR(m.psnr, psnr, 1e-4, "PSNR");
+    CHECK_NEAR(m.ssim, ssim, 1e-5, "SSIM");
+    CHECK_NEAR(m.flip, flip, 2e-4 * flip, "FLIP");
+    CHECK(worst < 2e-3f, "FLIP map differs by %g", worst);
+    ev_image small = {0};
+    REQUIRE_OK(ev_image_alloc(W - 1, H, &small));
+    CHECK(ev_gpu_frame(g, &small, &ref, exposure, &m, NULL) != TND_OK, "a frame of another size");
+    tnd_error_clear();
+    ev_image_free(&small);
+cleanup:
+    ev_gpu_destroy(g);
+    ev_image_free(&ref);
+    ev_image_free(&out);
+    free(tr);
+    free(to);
+    free(map_c);
+    free(map_g);
+    gpu_end();
+}
+
 TND_TEST_MAIN(T(test_context), T(test_validation_counts_errors), T(test_device_override),
               T(test_buffers), T(test_images), T(test_compute_and_timestamps),
-              T(test_rgbe_glsl_matches_c), T(test_rng_glsl_matches_c), T(test_contract_images), T(test_shutdown))
+              T(test_rgbe_glsl_matches_c), T(test_rng_glsl_matches_c), T(test_contract_images),
+              T(test_eval_metrics_on_device), T(test_shutdown))

@@ -86,6 +86,14 @@ try:
           0.75 < w["worth_relmse"] < 1.33, f"worth {w['worth_relmse']:.3f} by relMSE, "
           f"{w['worth_flip']:.3f} by FLIP (modelled)")
 
+    # the per-image metrics on the device (eval/metrics_gpu.c; lavapipe here) = the CPU's
+    ms = {on: json.loads(run("eval", "--out", f"{tmp}/m1", "--matched-reference", f"{tmp}/m",
+                             "--json", "--metrics-on", on).stdout)[0] for on in ("cpu", "device")}
+    keys = ("relmse", "smape", "rmse", "psnr", "ssim", "flip", "worth_relmse")
+    bad = [k for k in keys if abs(ms["cpu"][k] - ms["device"][k]) > 2e-4 * abs(ms["cpu"][k])]
+    check("eval --metrics-on device = the CPU's (relMSE, SMAPE, RMSE, PSNR, SSIM, FLIP; 2e-4)",
+          not bad, ", ".join(f"{k} {ms['cpu'][k]:.6g} / {ms['device'][k]:.6g}" for k in keys))
+
     # the estimator's own frames, averaged: frames differ in random numbers and Halton jitter
     run("render", "--denoiser", "off", "--frames", "64", "--out", f"{tmp}/rt", *size)
     frames = np.stack([img(f"{tmp}/rt/frame_{k:04d}.exr") for k in range(64)])
