@@ -31,10 +31,13 @@ static const app_cmd render_cmd = {
 static const app_cmd reference_cmd = {
     "reference",
     "Render converged reference frames of a scene's camera path: DIR/frame_NNNN.exr (linear HDR\n"
-    "radiance) and DIR/reference.json (the samples and remaining noise of every frame). The\n"
-    "unbiased path tracer (default), or with --estimator realtime the converged expectation of\n"
-    "the real-time estimator `render` runs with the same --bounces and --reflect-depth (a\n"
-    "matched reference: what a denoiser of that estimator can reach at best).",
+    "radiance, and in variance.Y the variance of one sample's luminance, from which eval finds\n"
+    "what a run is worth in samples) and DIR/reference.json (the samples, remaining noise,\n"
+    "sampling time and paths per second of every frame). The unbiased path tracer (default), or\n"
+    "with --estimator realtime the converged expectation of the real-time estimator `render`\n"
+    "runs with the same --bounces and --reflect-depth (a matched reference: what a denoiser of\n"
+    "that estimator can reach at best). Samples are shuffled Owen-scrambled Sobol' points\n"
+    "(docs/estimator.md).",
     "--out DIR [--scene PATH] [--frontend embree] [--frames N] [--size WxH] [--spp K] "
     "[--shard I/N]", NULL};
 
