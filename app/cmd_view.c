@@ -8,6 +8,7 @@
  * the next frame's contract as a capture. --script FILE plays timed key, mouse and resize events
  * and exits: the tests drive the window that way under Xvfb. */
 #include "app/app.h"
+#include "eval/eval.h"
 #include "pipeline/pipeline.h"
 #include "shaders/shader_list.h"
 #include "viewer/viewer.h"
@@ -34,7 +35,8 @@ static const app_cmd view_cmd = {
     "denoiser's parameters on their keys (, . a-trous iterations, M minimum alpha, G antilag\n"
     "gain, H recurrent's fast history, C its clamp: the overlay lists them), - = exposure bias, 7 8 environment rotation, 9 0 its intensity), V cycles\n"
     "the views (final, contract entries, back-end dumps), TAB the splits (noisy | denoised,\n"
-    "denoiser A | B, front-end A | B), R a progressive reference of a still camera, O the\n"
+    "denoiser A | B, front-end A | B), R a progressive reference of a still camera, X the\n"
+    "relative error, then FLIP, against that reference, O the\n"
     "overlay, F12 writes a screenshot (PNG, EXR and its repro state for `tandem render\n"
     "--view`), F11 the next frame's capture, F5 reloads the shaders from $TANDEM_SHADER_DIR\n"
     "(scripts/compile-shaders.sh), ESC quits.",
@@ -101,6 +103,12 @@ typedef struct viewer {
     bool keys[512];
     uint32_t view, ref_spp; /* ref_spp: the progressive reference's samples shown */
     float *ref_rgb;
+    /* X: the error views against the progressive reference (0 off, 1 relative error, 2 FLIP),
+     * their metrics on the device (eval/metrics_gpu.c) and the last mean */
+    uint32_t err_view;
+    ev_gpu *metrics;
+    float *err_rgb, *err_map;
+    double err_mean;
     char plugin_fe[1100]; /* a front-end plugin given at the start (F cycles to it) */
     char plugin_dn[1100]; /* a denoiser plugin given at the start (key 4) */
     double graph[GRAPH];
@@ -203,6 +211,10 @@ static void on_key(viewer *v, int key, bool down)
         break;
     case 'R':
         v->ref_on = !v->ref_on;
+        v->ref_spp = 0;
+        break;
+    case 'X':
+        v->err_view = (v->err_view + 1) % 3;
         v->ref_spp = 0;
         break;
     case '[': case ']':
@@ -327,6 +339,11 @@ static void close_pipeline(viewer *v)
     v->debug_px = NULL;
     free(v->ref_rgb);
     v->ref_rgb = NULL;
+    ev_gpu_destroy(v->metrics);
+    v->metrics = NULL;
+    free(v->err_rgb);
+    free(v->err_map);
+    v->err_rgb = v->err_map = NULL;
 }
 
 
@@ -368,7 +385,9 @@ static tnd_result open_pipeline(viewer *v)
                                                       .name = "view.debug"},
                              &v->debug));
     if (!(v->debug_px = malloc((size_t)w * h * 16)) ||
-        !(v->ref_rgb = malloc((size_t)w * h * 3 * sizeof(float)))) {
+        !(v->ref_rgb = malloc((size_t)w * h * 3 * sizeof(float))) ||
+        !(v->err_rgb = malloc((size_t)w * h * 3 * sizeof(float))) ||
+        !(v->err_map = malloc((size_t)w * h * sizeof(float)))) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
         goto fail;
     }
@@ -517,17 +536,66 @@ fail:
     return res;
 }
 
-/* A still camera's unbiased reference, 1, 2, 4, ... samples per pixel (each rendered afresh:
- * the front-ends key their samples by index), shown with the current exposure and Reinhard. */
+/* The progressive reference's next step: 1, 2, 4, ... 4096 samples per pixel (each rendered
+ * afresh: the front-ends key their samples by index). */
+static tnd_result reference_step(viewer *v)
+{
+    uint32_t spp = v->ref_spp ? (v->ref_spp < 4096 ? 2 * v->ref_spp : 4096) : 1;
+    if (spp == v->ref_spp)
+        return TND_OK;
+    tnd_result res = pl_frontend_reference(v->fe[0], 0, spp, v->ref_rgb, NULL, NULL, NULL, NULL);
+    if (res == TND_OK)
+        v->ref_spp = spp;
+    return res;
+}
+
+/* X: the final image (linear, after TAA) against the progressive reference, tone mapped as eval
+ * does (the reference's auto exposure): the relative error |o - r| / (r + 0.01) (mean over the
+ * channels, 1 and above at the top of the colour map), or FLIP's map from the device metrics
+ * (eval/metrics_gpu.c); the mean into err_mean (relMSE or FLIP). */
+static tnd_result error_view(viewer *v)
+{
+    tnd_result res = TND_OK;
+    uint32_t w = v->st.size[0], h = v->st.size[1];
+    size_t n = (size_t)w * h;
+    TND_TRY(reference_step(v));
+    TND_TRY(cmp_download_hdr(pl_chain_post(v->chain[0]), v->err_rgb));
+    ev_image out = {w, h, v->err_rgb, NULL}, ref = {w, h, v->ref_rgb, NULL};
+    ev_image_sanitize(&out);
+    if (v->err_view == 2) {
+        if (!v->metrics)
+            TND_TRY(ev_gpu_create(&v->vk, w, h, EV_FLIP_PPD, &v->metrics));
+        ev_gpu_metrics m;
+        TND_TRY(ev_gpu_frame(v->metrics, &out, &ref, ev_auto_exposure(&ref, 1), &m, v->err_map));
+        v->err_mean = m.flip;
+    } else {
+        for (size_t q = 0; q < n; q++) {
+            float e = 0;
+            for (int k = 0; k < 3; k++) {
+                float d = out.rgb[3 * q + k] - ref.rgb[3 * q + k];
+                e += fabsf(d) / (fabsf(ref.rgb[3 * q + k]) + 0.01f) / 3.0f;
+            }
+            v->err_map[q] = fminf(e, 1.0f);
+        }
+        v->err_mean = ev_relmse(out.rgb, ref.rgb, 3 * n);
+    }
+    ev_colormap(v->err_map, n, v->err_rgb);
+    for (size_t q = 0; q < n; q++) {
+        for (int k = 0; k < 3; k++)
+            v->debug_px[4 * q + k] = v->err_rgb[3 * q + k];
+        v->debug_px[4 * q + 3] = 1.0f;
+    }
+    TND_TRY(tnd_image_upload(&v->vk, &v->debug, v->debug_px, n * 16));
+fail:
+    return res;
+}
+
+/* A still camera's unbiased reference, shown with the current exposure and Reinhard. */
 static tnd_result progressive_reference(viewer *v)
 {
     tnd_result res = TND_OK;
     uint32_t w = v->st.size[0], h = v->st.size[1];
-    uint32_t spp = v->ref_spp ? (v->ref_spp < 4096 ? 2 * v->ref_spp : 4096) : 1;
-    if (spp != v->ref_spp) {
-        TND_TRY(pl_frontend_reference(v->fe[0], 0, spp, v->ref_rgb, NULL, NULL, NULL, NULL));
-        v->ref_spp = spp;
-    }
+    TND_TRY(reference_step(v));
     float exposure = 1.0f, log2_lum = 0.0f;
     TND_TRY(cmp_exposure(pl_chain_post(v->chain[0]), &exposure, &log2_lum));
     for (size_t q = 0; q < (size_t)w * h; q++) {
@@ -592,6 +660,9 @@ static void draw_overlay(viewer *v, const char *device, double fps)
                                                         : s->split_denoiser);
     if (v->ref_on)
         snprintf(sp, sizeof sp, "  reference %u spp (unbiased, Reinhard)", v->ref_spp);
+    if (v->err_view)
+        snprintf(sp, sizeof sp, "  %s %.4f against the reference at %u spp",
+                 v->err_view == 2 ? "FLIP" : "relative error; relMSE", v->err_mean, v->ref_spp);
     snprintf(line, sizeof line, "view %s%s   frame %u   history %u frames", vn, sp, v->frame,
              s->path_len);
     text(px, 4, y, line, fg);
@@ -869,8 +940,11 @@ static tnd_result frame(viewer *v)
         v->captures++;
         v->want_capture = false;
     }
-    bool shown_debug = v->view || v->ref_on;
-    if (v->ref_on && (pl_frontend_caps(v->fe[0]) & PL_CAP_REFERENCE))
+    bool can_ref = (pl_frontend_caps(v->fe[0]) & PL_CAP_REFERENCE) != 0;
+    bool shown_debug = v->view || v->ref_on || (v->err_view && can_ref);
+    if (v->err_view && can_ref)
+        TND_TRY(error_view(v));
+    else if (v->ref_on && can_ref)
         TND_TRY(progressive_reference(v));
     else if (v->view)
         TND_TRY(debug_view(v));

@@ -112,6 +112,30 @@ for k in ("position", "yaw", "pitch"):
 PYEOF
 check "the repro state round-trips (settings equal, camera kept)" "[ $? -eq 0 ]"
 
+# X: the error views against the progressive reference (relative error, then FLIP from the
+# device metrics), the overlay off so that the window shows the view itself; a screenshot in
+# each: what the window shows is no longer the final image, and the two views differ
+cat > "$TMP/errv.json" <<JSON
+{"events": [{"frame": 0, "key": "O"}, {"frame": 1, "key": "X"}, {"frame": 4, "screenshot": true},
+  {"frame": 5, "key": "X"}, {"frame": 8, "screenshot": true}, {"frame": 9, "key": "X"},
+  {"frame": 10, "screenshot": true}, {"frame": 11, "exit": true}]}
+JSON
+"${XVFB[@]}" "$T" view --scene "$SRC/data/scenes/cornell.gltf" --size 96x64 \
+    --script "$TMP/errv.json" --out "$TMP/errv" > "$TMP/errv.log" 2>&1
+check "X: the error views, exit 0" "[ $? -eq 0 ]" || cat "$TMP/errv.log"
+$PY - "$TMP/errv" <<'PYEOF'
+import sys
+import numpy as np, OpenImageIO as oiio
+d = sys.argv[1]
+def rd(p):
+    i = oiio.ImageInput.open(p); a = i.read_image(format="uint8"); i.close(); return np.asarray(a, int)
+rel, flip, off = (rd(f"{d}/shot_{k:04d}.view.png") for k in range(3))
+assert np.abs(rel - rd(f"{d}/shot_0000.png")).max() > 32, "relative error view: the final image"
+assert np.abs(flip - rel).max() > 32, "FLIP view: the same as the relative error's"
+assert (off == rd(f"{d}/shot_0002.png")).all(), "X a third time: the final image again"
+PYEOF
+check "X: relative error and FLIP views against the reference, then the final image again" "[ $? -eq 0 ]"
+
 # F5: the shaders again from $TANDEM_SHADER_DIR (scripts/compile-shaders.sh). The session
 # starts with the directory empty (the embedded code), takes a screenshot, waits until the test
 # compiled an inverting view_compose.comp into it, reloads, takes another. The overlay is off, so
