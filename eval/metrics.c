@@ -345,6 +345,16 @@ static void sep_filter(const float *src, uint32_t w, uint32_t h, const double *k
 }
 
 /* ---- SSIM ----------------------------------------------------------------------------------- */
+/* SSIM's window: 11 taps of a Gaussian of sigma 1.5, normalised */
+static void ssim_window(double g[11])
+{
+    double gs = 0;
+    for (int i = -5; i <= 5; i++)
+        gs += g[i + 5] = exp(-(double)(i * i) / (2.0 * 1.5 * 1.5));
+    for (int i = 0; i < 11; i++)
+        g[i] /= gs;
+}
+
 /* SSIM's vectorised way: each thread takes a band of output rows and keeps the last 2R + 1 input
  * rows' five moments, filtered horizontally over the windows that fit (no borders), in a ring;
  * per output row the vertical sums and the index. In double, as the scalar code: in float the
@@ -407,11 +417,8 @@ tnd_result ev_ssim(const float *o, const float *r, uint32_t w, uint32_t h, doubl
     enum { R = 5, T = 2 * R + 1 };
     if (reference_filters || w < T || h < T)
         return ev_ssim_reference(o, r, w, h, ssim);
-    double g[T], gs = 0;
-    for (int i = -R; i <= R; i++)
-        gs += g[i + R] = exp(-(double)(i * i) / (2.0 * 1.5 * 1.5));
-    for (int i = 0; i < T; i++)
-        g[i] /= gs;
+    double g[T];
+    ssim_window(g);
     uint32_t iw = w - 2 * R, rows = h - 2 * R;
     int threads = omp_get_max_threads();
     /* per thread: the ring (T rows x 5 moments), the vertical sums and the index, the input
@@ -447,11 +454,8 @@ tnd_result ev_ssim_reference(const float *o, const float *r, uint32_t w, uint32_
     if (w < 2 * R + 1 || h < 2 * R + 1)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: SSIM needs at least 11x11 pixels (got %ux%u)",
                         w, h);
-    double g[2 * R + 1], gs = 0;
-    for (int i = -R; i <= R; i++)
-        gs += g[i + R] = exp(-(double)(i * i) / (2.0 * 1.5 * 1.5));
-    for (int i = 0; i < 2 * R + 1; i++)
-        g[i] /= gs;
+    double g[2 * R + 1];
+    ssim_window(g);
     const double c1 = 0.01 * 0.01, c2 = 0.03 * 0.03;
     size_t n = (size_t)w * h;
     double *buf = malloc(n * 7 * sizeof(double));
@@ -683,54 +687,79 @@ EV_VEC_FN static void flip_error_fast(const float *restrict e0, const float *res
     }
 }
 
-tnd_result ev_flip_kernels(double ppd, float *table, size_t cap, int *rc, int *rf, double *cmax)
+/* FLIP's filters at ppd pixels per degree: the contrast-sensitivity functions of the three
+ * channels, the feature detectors (radius r), and c_max, the largest colour difference */
+typedef struct flip_set {
+    csf c[3];
+    int r;
+    double *ke, *kp, *ks;
+    double cmax;
+} flip_set;
+
+static void flip_set_free(flip_set *f)
+{
+    for (int k = 0; k < 3; k++)
+        csf_free(&f->c[k]);
+    free(f->ke);
+    free(f->kp);
+    free(f->ks);
+    *f = (flip_set){0};
+}
+
+static tnd_result flip_set_make(double ppd, flip_set *f)
 {
     tnd_result res = TND_OK;
-    csf c[3] = {{0}};
-    double *ke = NULL, *kp = NULL, *ks = NULL;
-    TND_TRY(csf_make(ppd, 1, 0.0047, 0, 1e-5, &c[0]));
-    TND_TRY(csf_make(ppd, 1, 0.0053, 0, 1e-5, &c[1]));
-    TND_TRY(csf_make(ppd, 34.1, 0.04, 13.5, 0.025, &c[2]));
-    int r;
-    feature_kernels(ppd, &r, &ke, &kp, &ks);
-    if (!ke || !kp || !ks) {
+    *f = (flip_set){0};
+    TND_TRY(csf_make(ppd, 1, 0.0047, 0, 1e-5, &f->c[0]));
+    TND_TRY(csf_make(ppd, 1, 0.0053, 0, 1e-5, &f->c[1]));
+    TND_TRY(csf_make(ppd, 34.1, 0.04, 13.5, 0.025, &f->c[2]));
+    feature_kernels(ppd, &f->r, &f->ke, &f->kp, &f->ks);
+    if (!f->ke || !f->kp || !f->ks) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
         goto fail;
     }
-    size_t tc = (size_t)(2 * c[0].r + 1), tf = (size_t)(2 * r + 1);
+    double lab_g[3], lab_b[3];
+    linrgb_to_hunt_lab((const double[3]){0, 1, 0}, lab_g);
+    linrgb_to_hunt_lab((const double[3]){0, 0, 1}, lab_b);
+    f->cmax = pow(hyab(lab_g, lab_b), 0.7);
+fail:
+    if (res != TND_OK)
+        flip_set_free(f);
+    return res;
+}
+
+tnd_result ev_flip_kernels(double ppd, float *table, size_t cap, int *rc, int *rf, double *cmax)
+{
+    tnd_result res = TND_OK;
+    flip_set fs;
+    TND_TRY(flip_set_make(ppd, &fs));
+    size_t tc = (size_t)(2 * fs.c[0].r + 1), tf = (size_t)(2 * fs.r + 1);
     if (4 * tc + 4 + 3 * tf + 11 > cap) {
         res = tnd_fail(TND_ERR_LIMIT, "eval: FLIP's kernels at %g pixels per degree are too wide "
                        "for the device metrics", ppd);
         goto fail;
     }
-    const double *g[4] = {c[0].g[0], c[1].g[0], c[2].g[0], c[2].g[1]};
-    const double wt[4] = {c[0].weight[0], c[1].weight[0], c[2].weight[0], c[2].weight[1]};
+    const double *g[4] = {fs.c[0].g[0], fs.c[1].g[0], fs.c[2].g[0], fs.c[2].g[1]};
+    const double wt[4] = {fs.c[0].weight[0], fs.c[1].weight[0], fs.c[2].weight[0],
+                          fs.c[2].weight[1]};
     for (int t = 0; t < 4; t++) {
         for (size_t i = 0; i < tc; i++)
             table[(size_t)t * tc + i] = (float)g[t][i];
         table[4 * tc + (size_t)t] = (float)wt[t];
     }
-    const double *f[3] = {ke, kp, ks};
+    const double *f[3] = {fs.ke, fs.kp, fs.ks};
     for (int t = 0; t < 3; t++)
         for (size_t i = 0; i < tf; i++)
             table[4 * tc + 4 + (size_t)t * tf + i] = (float)f[t][i];
-    double gs = 0, gg[11];
-    for (int i = -5; i <= 5; i++)
-        gs += gg[i + 5] = exp(-(double)(i * i) / (2.0 * 1.5 * 1.5));
+    double gg[11];
+    ssim_window(gg);
     for (int i = 0; i < 11; i++)
-        table[4 * tc + 4 + 3 * tf + (size_t)i] = (float)(gg[i] / gs);
-    double lab_g[3], lab_b[3];
-    linrgb_to_hunt_lab((const double[3]){0, 1, 0}, lab_g);
-    linrgb_to_hunt_lab((const double[3]){0, 0, 1}, lab_b);
-    *cmax = pow(hyab(lab_g, lab_b), 0.7);
-    *rc = c[0].r;
-    *rf = r;
+        table[4 * tc + 4 + 3 * tf + (size_t)i] = (float)gg[i];
+    *cmax = fs.cmax;
+    *rc = fs.c[0].r;
+    *rf = fs.r;
 fail:
-    for (int k = 0; k < 3; k++)
-        csf_free(&c[k]);
-    free(ke);
-    free(kp);
-    free(ks);
+    flip_set_free(&fs);
     return res;
 }
 
@@ -739,8 +768,7 @@ tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, 
 {
     tnd_result res = TND_OK;
     size_t n = (size_t)w * h;
-    csf c[3] = {{0}};
-    double *ke = NULL, *kp = NULL, *ks = NULL;
+    flip_set fs = {0};
     float *buf = malloc(n * 16 * sizeof(float));
     if (!buf)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
@@ -749,9 +777,8 @@ tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, 
     float *P[16];
     for (int i = 0; i < 16; i++)
         P[i] = buf + (size_t)i * n;
-    TND_TRY(csf_make(ppd, 1, 0.0047, 0, 1e-5, &c[0]));
-    TND_TRY(csf_make(ppd, 1, 0.0053, 0, 1e-5, &c[1]));
-    TND_TRY(csf_make(ppd, 34.1, 0.04, 13.5, 0.025, &c[2]));
+    TND_TRY(flip_set_make(ppd, &fs));
+    const csf *c = fs.c;
     const float *img[2] = {ref, test};
     if (!reference_filters)
         for (int m = 0; m < 2; m++)
@@ -776,11 +803,7 @@ tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, 
             }
         }
     /* colour difference */
-    double lab_g[3], lab_b[3];
-    linrgb_to_hunt_lab((const double[3]){0, 1, 0}, lab_g);
-    linrgb_to_hunt_lab((const double[3]){0, 0, 1}, lab_b);
-    const double qc = 0.7, qf = 0.5, pc = 0.4, pt = 0.95;
-    double cmax = pow(hyab(lab_g, lab_b), qc);
+    const double qc = 0.7, qf = 0.5, pc = 0.4, pt = 0.95, cmax = fs.cmax;
     float *color = P[15];
     if (!reference_filters)
         flip_color_fast((const float *const *)P + 6, n, (float)cmax, color);
@@ -803,12 +826,8 @@ tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, 
                                          : pt + (e - pc * cmax) / (cmax - pc * cmax) * (1 - pt));
     }
     /* features on the normalised luminance, (Y' + 16) / 116 of the unfiltered images */
-    int r;
-    feature_kernels(ppd, &r, &ke, &kp, &ks);
-    if (!ke || !kp || !ks) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
-        goto fail;
-    }
+    int r = fs.r;
+    const double *ke = fs.ke, *kp = fs.kp, *ks = fs.ks;
     /* P[6..11] are free now: [6+2m] edge magnitude, [7+2m] point magnitude of image m */
     for (int m = 0; m < 2; m++) {
         for (size_t q = 0; q < n; q++)
@@ -844,11 +863,7 @@ tnd_result ev_flip(const float *ref, const float *test, uint32_t w, uint32_t h, 
     }
     *mean = sum / (double)n;
 fail:
-    for (int k = 0; k < 3; k++)
-        csf_free(&c[k]);
-    free(ke);
-    free(kp);
-    free(ks);
+    flip_set_free(&fs);
     free(buf);
     return res;
 }
