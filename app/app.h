@@ -3,6 +3,7 @@
 #ifndef TND_APP_H
 #define TND_APP_H
 
+#include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
 
@@ -66,22 +67,37 @@ tnd_result app_params_collect(const double *vals, pl_param_set *set);
 int app_report(const char *what, tnd_result r);
 
 /* ---- progress bar on stderr (silent when stderr is not a terminal or with --quiet) ---------- */
-/* The environment map options of every command that loads a scene (--env FILE,
- * --env-intensity X, --env-rotation DEG): app_env_opts' three table entries, then
- * app_scene_load. */
+/* The scene options of every command that loads a scene: the environment map (--env FILE,
+ * --env-intensity X, --env-rotation DEG), the default light (--no-default-light) and a camera
+ * path (--camera-path orbit|dolly|flythrough|FILE.json, --path-duration, --path-radius,
+ * --path-height): APP_ENV_OPTS' table entries, then app_scene_load. Start from APP_ENV_INIT. */
 typedef struct app_env {
     const char *path;
     double intensity, rotation;
     bool opaque; /* (bench --opaque: cut-outs made opaque) */
+    bool no_default_light;
+    const char *camera_path;
+    double path_duration, path_radius, path_height; /* path_height NaN: from the bounds */
 } app_env;
-#define APP_ENV_INIT {NULL, 1.0, 0.0, false}
+#define APP_ENV_INIT {NULL, 1.0, 0.0, false, false, NULL, 0.0, 0.0, NAN}
 #define APP_ENV_OPTS(e)                                                                            \
     {"env", APP_OPT_STRING, &(e)->path, "FILE",                                                    \
      "light the scene by a latitude-longitude EXR (replaces its sky; docs/scenes.md)"},            \
         {"env-intensity", APP_OPT_FLOAT, &(e)->intensity, "X",                                     \
          "--env: radiance factor (default 1)"},                                                    \
         {"env-rotation", APP_OPT_FLOAT, &(e)->rotation, "DEG",                                     \
-         "--env: rotation about +Y in degrees (default 0)"}
+         "--env: rotation about +Y in degrees (default 0)"},                                       \
+        {"no-default-light", APP_OPT_FLAG, &(e)->no_default_light, NULL,                           \
+         "a scene without punctual light, sky or environment stays unlit (its emitters alone)"},   \
+        {"camera-path", APP_OPT_STRING, &(e)->camera_path, "P",                                    \
+         "orbit, dolly, flythrough (from the scene's bounds) or keyframes FILE.json: camera 0 "    \
+         "(docs/scenes.md)"},                                                                      \
+        {"path-duration", APP_OPT_FLOAT, &(e)->path_duration, "S",                                 \
+         "--camera-path: seconds once round or along (default 10)"},                               \
+        {"path-radius", APP_OPT_FLOAT, &(e)->path_radius, "R",                                     \
+         "--camera-path: orbit radius, dolly distance, flythrough radius (default: the bounds')"}, \
+        {"path-height", APP_OPT_FLOAT, &(e)->path_height, "H",                                     \
+         "--camera-path: height above the bounds' centre (default: the bounds')"}
 tnd_result app_scene_load(const char *path, const app_env *env, tnd_scene **scene);
 
 typedef struct app_progress {

@@ -77,6 +77,18 @@ static int scene_info(const char *path, const app_env *env, bool json)
             cJSON_AddStringToObject(def, "camera", s->default_camera);
         if (s->default_light[0])
             cJSON_AddStringToObject(def, "light", s->default_light);
+        if (s->camera_path[0])
+            cJSON_AddStringToObject(o, "camera_path", s->camera_path);
+        cJSON *miss = cJSON_AddArrayToObject(o, "missing_images");
+        for (uint32_t i = 0; i < s->missing_image_count; i++) {
+            const struct tnd_missing_image *mi = &s->missing_images[i];
+            cJSON *e = cJSON_CreateObject();
+            cJSON_AddItemToArray(miss, e);
+            cJSON_AddStringToObject(e, "image", mi->name);
+            cJSON_AddStringToObject(e, "material", mi->material);
+            cJSON_AddStringToObject(e, "reason", mi->reason);
+            cJSON_AddNumberToObject(e, "uses", mi->uses);
+        }
         cJSON *f = cJSON_AddArrayToObject(o, "features");
         for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
             if (s->features & (1u << b))
@@ -114,6 +126,15 @@ static int scene_info(const char *path, const app_env *env, bool json)
             printf("  default     %s\n", s->default_camera);
         if (s->default_light[0])
             printf("  default     %s\n", s->default_light);
+        if (s->camera_path[0])
+            printf("  camera 0    %s\n", s->camera_path);
+        if (s->missing_image_count)
+            printf("  missing     %u images (left out: their materials' factors alone):\n",
+                   s->missing_image_count);
+        for (uint32_t i = 0; i < s->missing_image_count; i++)
+            printf("    - %s (material '%s'%s): %s\n", s->missing_images[i].name,
+                   s->missing_images[i].material, s->missing_images[i].uses > 1 ? " and others" : "",
+                   s->missing_images[i].reason);
         printf("  requires:\n");
         for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
             if (s->features & (1u << b))

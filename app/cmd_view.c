@@ -119,6 +119,8 @@ typedef struct viewer {
     char note[200];
     double t_last;
     bool scripted;
+    app_env scene_opts; /* the command line's scene options (the state's environment over them) */
+    bool on_path;       /* following the scene's camera path until the camera is flown */
 } viewer;
 
 /* ---- input ----------------------------------------------------------------------------------- */
@@ -285,6 +287,16 @@ static void on_key(viewer *v, int key, bool down)
     }
 }
 
+/* The scene options: the command line's, with the state's environment. */
+static app_env scene_options(const viewer *v)
+{
+    app_env e = v->scene_opts;
+    e.path = v->st.env[0] ? v->st.env : NULL;
+    e.intensity = v->st.env_intensity;
+    e.rotation = v->st.env_rotation;
+    return e;
+}
+
 static void on_event(const vw_event *e, void *user)
 {
     viewer *v = user;
@@ -292,6 +304,7 @@ static void on_event(const vw_event *e, void *user)
         on_key(v, e->key, e->down);
     else if (e->kind == VW_MOUSE && e->drag) {
         v->ref_spp = 0; /* (the reference starts again) */
+        v->on_path = false;
         v->cam.yaw += 0.004 * e->dx;
         v->cam.pitch = fmax(-1.5, fmin(1.5, v->cam.pitch - 0.004 * e->dy));
     } else if (e->kind == VW_RESIZE) {
@@ -315,7 +328,7 @@ static void fly(viewer *v, double dt)
     for (int k = 0; k < 3; k++)
         v->cam.position[k] += speed * m[k];
     if (m[0] != 0 || m[1] != 0 || m[2] != 0)
-        v->ref_spp = 0;
+        v->ref_spp = 0, v->on_path = false;
 }
 
 static bool split(const app_view_state *s)
@@ -732,6 +745,36 @@ static void draw_overlay(viewer *v, const char *device, double fps)
 }
 
 /* ---- screenshots ----------------------------------------------------------------------------- */
+/* The flight since the last restart as a camera path file (--camera-path FILE.json): a key per
+ * frame at its scene time, looking where the camera looked, with the camera's field of view. */
+static tnd_result write_camera_path(const viewer *v, const char *path)
+{
+    const app_view_state *s = &v->st;
+    tnd_camera_key *keys = calloc(s->path_len ? s->path_len : 1, sizeof *keys);
+    if (!keys)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
+    float yfov = s->camera < v->scene->camera_count ? v->scene->cameras[s->camera].yfov : 0.8f;
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < s->path_len; i++) {
+        const app_view_cam *c = &s->path[i];
+        double cp = cos(c->pitch), at[3] = {c->position[0] + sin(c->yaw) * cp,
+                                            c->position[1] + sin(c->pitch),
+                                            c->position[2] - cos(c->yaw) * cp};
+        tnd_camera_key *k = &keys[n];
+        k->time = c->frame / s->fps;
+        if (n > 0 && !(k->time > keys[n - 1].time))
+            continue;
+        for (int j = 0; j < 3; j++)
+            k->position[j] = (float)c->position[j];
+        k->yfov = yfov;
+        if (tnd_quat_look_at(c->position, at, k->rotation))
+            n++;
+    }
+    tnd_result r = tnd_camera_path_write(path, keys, n);
+    free(keys);
+    return r;
+}
+
 static tnd_result screenshot(viewer *v)
 {
     tnd_result res = TND_OK;
@@ -759,9 +802,11 @@ static tnd_result screenshot(viewer *v)
     TND_TRY(app_write_png(path, rgb8, w, h));
     snprintf(path, sizeof path, "%s/shot_%04u.json", v->out, v->shots);
     TND_TRY(app_view_state_write(path, &v->st));
+    snprintf(path, sizeof path, "%s/shot_%04u.path.json", v->out, v->shots);
+    TND_TRY(write_camera_path(v, path));
     if (!app_quiet())
-        fprintf(stderr, "tandem: view: %s/shot_%04u.{png,exr,view.png,json} (frame %u)\n", v->out,
-                v->shots, v->frame - 1);
+        fprintf(stderr, "tandem: view: %s/shot_%04u.{png,exr,view.png,json,path.json} (frame %u)\n",
+                v->out, v->shots, v->frame - 1);
     v->shots++;
 fail:
     free(rgb8);
@@ -912,6 +957,8 @@ static tnd_result frame(viewer *v)
     bool first = s->path_len == 0;
     tnd_scene_state *cur = &v->ss[f & 1], *prev = &v->ss[(f + 1) & 1];
     TND_TRY(tnd_scene_evaluate(v->scene, f / s->fps, s->camera, aspect, cur));
+    if (v->on_path) /* --camera-path: the path's camera until the camera is flown */
+        app_view_camera_from_state(cur, f, &v->cam), v->ref_spp = 0;
     v->cam.frame = f;
     app_view_camera_apply(&v->cam, cur);
     if (first) { /* as render --view: the previous frame at the same camera */
@@ -1046,8 +1093,10 @@ int cmd_view(int argc, char **argv)
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
         goto fail;
     }
-    app_env scene_env = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation, false};
+    v->scene_opts = env;
+    app_env scene_env = scene_options(v);
     TND_TRY(app_scene_load(s->scene, &scene_env, &v->scene));
+    v->on_path = v->scene->camera_path[0] && s->camera == 0 && !from_state;
     if (!from_state) { /* the scene's camera at the first frame */
         tnd_scene_state st0 = {0};
         res = tnd_scene_evaluate(v->scene, 0.0, s->camera, (float)s->size[0] / s->size[1], &st0);
@@ -1079,7 +1128,7 @@ int cmd_view(int argc, char **argv)
             close_pipeline(v);
             tnd_scene_destroy(v->scene);
             v->scene = NULL;
-            app_env e = {s->env[0] ? s->env : NULL, s->env_intensity, s->env_rotation, false};
+            app_env e = scene_options(v);
             TND_TRY(app_scene_load(s->scene, &e, &v->scene));
             v->reload = false;
             v->rebuild = true;

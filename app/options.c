@@ -218,7 +218,13 @@ tnd_result app_scene_load(const char *path, const app_env *env, tnd_scene **scen
     tnd_scene_options o = {.env = env ? env->path : NULL,
                            .env_intensity = env ? (float)env->intensity : 1.0f,
                            .env_rotation = env ? (float)env->rotation : 0.0f,
-                           .opaque = env && env->opaque};
+                           .opaque = env && env->opaque,
+                           .no_default_light = env && env->no_default_light,
+                           .camera_path = env ? env->camera_path : NULL,
+                           .path_duration = env ? env->path_duration : 0.0,
+                           .path_radius = env ? env->path_radius : 0.0,
+                           .path_height = env && isfinite(env->path_height) ? env->path_height : 0,
+                           .path_height_given = env && isfinite(env->path_height)};
     return tnd_scene_load_with(path, &o, scene);
 }
 

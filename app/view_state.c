@@ -108,7 +108,10 @@ void app_view_state_options(const app_view_state *v, app_render_opts *o)
     o->taa = v->taa;
     o->tonemap = v->tonemap;
     o->exposure = v->exposure;
-    o->env = (app_env){v->env[0] ? v->env : NULL, v->env_intensity, v->env_rotation, false};
+    o->env = (app_env)APP_ENV_INIT;
+    o->env.path = v->env[0] ? v->env : NULL;
+    o->env.intensity = v->env_intensity;
+    o->env.rotation = v->env_rotation;
     o->params = v->params;
     o->exposure_bias = v->exposure_bias;
     o->bloom = v->bloom;

@@ -721,6 +721,9 @@ void tnd_mat4_trs(const float t[3], const float q[4], const float s[3], float ou
 void tnd_mat4_perspective(float yfov, float aspect, float znear, float zfar, float out[16]);
 /* Normalised quaternion slerp (shortest path). */
 void tnd_quat_slerp(const float a[4], const float b[4], float t, float out[4]);
+/* The rotation (x, y, z, w) of a camera at eye looking at target with +Y up (glTF cameras look
+ * down their -Z); false where the two coincide or the view is vertical. */
+bool tnd_quat_look_at(const double eye[3], const double target[3], float q[4]);
 /* World-space primary ray direction (unit) and origin through pixel position (px, py) (pixel
  * units, top-left origin, centres at +0.5) for the camera state's current view/proj. */
 void tnd_camera_ray(const tnd_camera_state *c, uint32_t width, uint32_t height, float px, float py,
@@ -845,14 +848,21 @@ typedef struct tnd_camera_def {
     float yfov, aspect, znear, zfar; /* aspect 0: the image's; zfar 0: infinite */
 } tnd_camera_def;
 
-typedef enum tnd_anim_path { TND_ANIM_T = 0, TND_ANIM_R, TND_ANIM_S } tnd_anim_path;
+/* What a channel animates: a node's translation, rotation or scale (glTF's paths), or the
+ * vertical field of view (radians) of the camera on that node (camera paths: docs/scenes.md). */
+typedef enum tnd_anim_path { TND_ANIM_T = 0, TND_ANIM_R, TND_ANIM_S, TND_ANIM_YFOV } tnd_anim_path;
+/* Values per key of a path: 3 (T, S), 4 (R: quaternion xyzw) or 1 (YFOV). */
+uint32_t tnd_anim_dim(tnd_anim_path p);
 typedef struct tnd_anim_channel {
     uint32_t node;
     tnd_anim_path path;
     uint32_t key_count;
     float *times;  /* seconds, increasing */
-    float *values; /* 3 (T, S) or 4 (R: quaternion xyzw) per key */
-    bool step;
+    /* per key: its value (dim floats, tnd_anim_dim); cubic: in-tangent, value, out-tangent
+     * (3 dim floats, glTF's CUBICSPLINE layout, tangents per second) */
+    float *values;
+    bool step;  /* glTF STEP: a key's value holds until the next */
+    bool cubic; /* glTF CUBICSPLINE: cubic Hermite between keys (rotations then normalised) */
 } tnd_anim_channel;
 
 /* Emissive triangle: an area light. */
@@ -945,11 +955,21 @@ typedef struct tnd_scene {
     uint32_t channel_count;
     float duration; /* seconds; 0 for a still scene */
     float sky[3];   /* uniform sky radiance, nits (unused where env is set) */
+    bool sky_set;   /* the scene states its sky (tandem_sky, even black): no default light */
     tnd_env env;    /* environment map (width 0: none); replaces the sky */
     uint32_t features;
     /* What the scene lacked and was given (empty when it had its own): a camera framing its
      * bounds, a default environment; each note says the rule, as announced on stderr. */
     char default_camera[256], default_light[256];
+    char camera_path[256]; /* the camera path given (camera 0), in words; empty: none */
+    /* Images a material names that could not be read (absent, a Blender procedural pseudo-URI,
+     * undecodable): each warned about once; the material keeps its factors alone (white base
+     * colour, a flat normal). */
+    struct tnd_missing_image {
+        char name[256], material[64], reason[96]; /* the first material that names it */
+        uint32_t uses;                            /* materials' slots naming it */
+    } *missing_images;
+    uint32_t missing_image_count;
 } tnd_scene;
 
 /* The defaults a scene without a camera or without any light gets (docs/scenes.md). */
@@ -968,7 +988,23 @@ typedef struct tnd_scene_options {
     float env_intensity;     /* its factor */
     float env_rotation;      /* degrees about +Y */
     bool opaque;             /* alpha-tested materials made opaque (what cut-outs cost: bench) */
+    bool no_default_light;   /* a scene without punctual lights, sky or environment stays unlit
+                                (its emitters alone) instead of getting the default sky */
+    /* A camera path (core/camera_path.c, docs/scenes.md): orbit, dolly, flythrough or a keyframe
+     * file (*.json); it becomes camera 0. NULL: none. */
+    const char *camera_path;
+    double path_duration;    /* seconds (<= 0: 10) */
+    double path_radius;      /* orbit radius, dolly distance, flythrough radius (<= 0: bounds') */
+    double path_height;      /* camera height above the bounds' centre, where path_height_given */
+    bool path_height_given;
 } tnd_scene_options;
+/* One keyframe of a camera path file: time (s), position, rotation (x, y, z, w), yfov (rad). */
+typedef struct tnd_camera_key {
+    double time;
+    float position[3], rotation[4], yfov;
+} tnd_camera_key;
+/* Write keyframes as a camera path file (what --camera-path FILE.json reads). */
+tnd_result tnd_camera_path_write(const char *path, const tnd_camera_key *keys, uint32_t n);
 tnd_result tnd_scene_load_with(const char *path, const tnd_scene_options *o, tnd_scene **scene);
 void tnd_scene_destroy(tnd_scene *scene);
 /* A 64-bit digest (FNV-1a) of everything a scene renders from once loaded: geometry, materials,
@@ -1104,6 +1140,13 @@ int32_t tnd_scene_add_node(tnd_scene *s, const char *name, int32_t parent, const
 int32_t tnd_scene_add_instance(tnd_scene *s, uint32_t mesh, uint32_t node);
 int32_t tnd_scene_add_camera(tnd_scene *s, uint32_t node, float yfov);
 int32_t tnd_scene_add_light(tnd_scene *s, const tnd_light *l);
+/* An animation channel (copies of the key_count times and their values, tnd_anim_channel's
+ * layout). */
+tnd_result tnd_scene_add_channel(tnd_scene *s, uint32_t node, tnd_anim_path path,
+                                 uint32_t key_count, const float *times, const float *values,
+                                 bool step, bool cubic);
 tnd_result tnd_scene_commit(tnd_scene *s);
+/* The same with load options (a camera path, no default light; env and opaque as a load's). */
+tnd_result tnd_scene_commit_with(tnd_scene *s, const tnd_scene_options *o);
 
 #endif

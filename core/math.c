@@ -150,6 +150,46 @@ void tnd_quat_slerp(const float a[4], const float b[4], float t, float out[4])
         out[i] = (float)(r[i] * n);
 }
 
+bool tnd_quat_look_at(const double eye[3], const double target[3], float q[4])
+{
+    /* the camera's +Z (it looks down -Z) points from the target to the eye; up is +Y */
+    double b[3] = {eye[0] - target[0], eye[1] - target[1], eye[2] - target[2]};
+    double bl = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+    double rl = sqrt(b[2] * b[2] + b[0] * b[0]);
+    if (!(bl > 0) || !(rl > 1e-9 * bl))
+        return false;
+    for (int k = 0; k < 3; k++)
+        b[k] /= bl;
+    rl = sqrt(b[2] * b[2] + b[0] * b[0]);
+    double rt[3] = {b[2] / rl, 0, -b[0] / rl}; /* (0, 1, 0) x b, normalised */
+    double up[3] = {b[1] * rt[2] - b[2] * rt[1], b[2] * rt[0] - b[0] * rt[2],
+                    b[0] * rt[1] - b[1] * rt[0]};
+    /* the rotation matrix (columns right, up, back) as a quaternion: Shepperd's method, from the
+     * largest of w, x, y, z so that no division is by a small number */
+    double m[3][3] = {{rt[0], up[0], b[0]}, {rt[1], up[1], b[1]}, {rt[2], up[2], b[2]}};
+    double tr = m[0][0] + m[1][1] + m[2][2], x, y, z, w;
+    if (tr >= m[0][0] && tr >= m[1][1] && tr >= m[2][2]) {
+        w = 0.5 * sqrt(1 + tr);
+        x = (m[2][1] - m[1][2]) / (4 * w), y = (m[0][2] - m[2][0]) / (4 * w);
+        z = (m[1][0] - m[0][1]) / (4 * w);
+    } else if (m[0][0] >= m[1][1] && m[0][0] >= m[2][2]) {
+        x = 0.5 * sqrt(1 + m[0][0] - m[1][1] - m[2][2]);
+        w = (m[2][1] - m[1][2]) / (4 * x), y = (m[0][1] + m[1][0]) / (4 * x);
+        z = (m[0][2] + m[2][0]) / (4 * x);
+    } else if (m[1][1] >= m[2][2]) {
+        y = 0.5 * sqrt(1 - m[0][0] + m[1][1] - m[2][2]);
+        w = (m[0][2] - m[2][0]) / (4 * y), x = (m[0][1] + m[1][0]) / (4 * y);
+        z = (m[1][2] + m[2][1]) / (4 * y);
+    } else {
+        z = 0.5 * sqrt(1 - m[0][0] - m[1][1] + m[2][2]);
+        w = (m[1][0] - m[0][1]) / (4 * z), x = (m[0][2] + m[2][0]) / (4 * z);
+        y = (m[1][2] + m[2][1]) / (4 * z);
+    }
+    double n = sqrt(x * x + y * y + z * z + w * w);
+    q[0] = (float)(x / n), q[1] = (float)(y / n), q[2] = (float)(z / n), q[3] = (float)(w / n);
+    return true;
+}
+
 void tnd_camera_ray(const tnd_camera_state *c, uint32_t width, uint32_t height, float px, float py,
                     float origin[3], float dir[3])
 {

@@ -49,6 +49,7 @@ void tnd_scene_destroy(tnd_scene *s)
     if (!s)
         return;
     tnd_env_free(&s->env);
+    free(s->missing_images);
     free(s->positions);
     free(s->normals);
     free(s->uvs);
@@ -103,12 +104,63 @@ void tnd_scene_bounds(const tnd_scene *s, const tnd_scene_state *st, double lo[3
     }
 }
 
-/* What a real asset may lack: a camera (one framing the scene's bounds at time 0 is added) and
- * any light (a uniform white sky). Each is noted in the scene and announced. */
-static tnd_result scene_defaults(tnd_scene *s)
+/* Animation flags (propagated to children: parents come first) and the duration. */
+static void anim_flags(tnd_scene *s)
 {
-    s->default_camera[0] = s->default_light[0] = '\0';
-    if (s->camera_count == 0 && s->instance_count > 0) {
+    for (uint32_t c = 0; c < s->channel_count; c++)
+        s->nodes[s->channels[c].node].animated = true;
+    for (uint32_t n = 0; n < s->node_count; n++)
+        if (s->nodes[n].parent >= 0 && s->nodes[s->nodes[n].parent].animated)
+            s->nodes[n].animated = true;
+    s->duration = 0;
+    for (uint32_t c = 0; c < s->channel_count; c++)
+        if (s->channels[c].key_count)
+            s->duration = fmaxf(s->duration, s->channels[c].times[s->channels[c].key_count - 1]);
+}
+
+/* A camera framing the bounds lo..hi (docs/scenes.md's rule). */
+static tnd_result default_camera(tnd_scene *s, const double lo[3], const double hi[3])
+{
+    double c[3], r2 = 0;
+    for (int k = 0; k < 3; k++) {
+        c[k] = 0.5 * (lo[k] + hi[k]);
+        r2 += 0.25 * (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    }
+    double rad = sqrt(r2) > 0 ? sqrt(r2) : 1.0;
+    double az = TND_DEFAULT_CAMERA_AZIMUTH_DEG * TND_PI / 180;
+    double el = TND_DEFAULT_CAMERA_ELEVATION_DEG * TND_PI / 180;
+    double yfov = TND_DEFAULT_CAMERA_YFOV_DEG * TND_PI / 180;
+    double dist = TND_DEFAULT_CAMERA_MARGIN * rad / sin(0.5 * yfov);
+    /* the camera's +Z (it looks down -Z) points from the centre to the camera */
+    double b[3] = {sin(az) * cos(el), sin(el), cos(az) * cos(el)}, eye[3];
+    float t[3], q[4];
+    for (int k = 0; k < 3; k++)
+        t[k] = (float)(eye[k] = c[k] + dist * b[k]);
+    tnd_quat_look_at(eye, c, q);
+    int32_t n = tnd_scene_add_node(s, "tandem_default_camera", -1, t, q, NULL);
+    if (n < 0 || tnd_scene_add_camera(s, (uint32_t)n, (float)yfov) < 0)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: %s: out of memory", s->path);
+    s->cameras[s->camera_count - 1].znear = (float)(1e-3 * dist);
+    snprintf(s->default_camera, sizeof s->default_camera,
+             "scene has no camera: framing its bounds (centre %.4g %.4g %.4g, radius %.4g) "
+             "from %.0f degrees right of +Z and %.0f above, yfov %.0f degrees, margin %.0f%%",
+             c[0], c[1], c[2], rad, TND_DEFAULT_CAMERA_AZIMUTH_DEG,
+             TND_DEFAULT_CAMERA_ELEVATION_DEG, TND_DEFAULT_CAMERA_YFOV_DEG,
+             100 * (TND_DEFAULT_CAMERA_MARGIN - 1));
+    tnd_info("scene", "%s: %s", s->path, s->default_camera);
+    return TND_OK;
+}
+
+/* What a real asset may lack: a camera (one framing the scene's bounds at time 0 is added; a
+ * camera path replaces it) and any light: without a punctual light, a sky (tandem_sky, even
+ * black) or an environment, a uniform white sky, whatever emissive surfaces it has (lamps and
+ * signs are decoration, not what lights a level), unless o->no_default_light. Each is noted in
+ * the scene and announced. */
+static tnd_result scene_defaults(tnd_scene *s, const tnd_scene_options *o)
+{
+    s->default_camera[0] = s->default_light[0] = s->camera_path[0] = '\0';
+    bool path = o && o->camera_path && o->camera_path[0];
+    if ((s->camera_count == 0 || path) && s->instance_count > 0) {
         tnd_scene_state st = {0};
         tnd_result r = tnd_scene_evaluate(s, 0, 0, 1.0f, &st);
         double lo[3], hi[3];
@@ -117,51 +169,29 @@ static tnd_result scene_defaults(tnd_scene *s)
         tnd_scene_state_free(&st);
         if (r != TND_OK)
             return r;
-        double c[3], r2 = 0;
-        for (int k = 0; k < 3; k++) {
-            c[k] = 0.5 * (lo[k] + hi[k]);
-            r2 += 0.25 * (hi[k] - lo[k]) * (hi[k] - lo[k]);
+        if (path) {
+            TND_TRY_RETURN(scene_camera_path(s, o, lo, hi));
+            anim_flags(s);
+        } else {
+            TND_TRY_RETURN(default_camera(s, lo, hi));
         }
-        double rad = sqrt(r2) > 0 ? sqrt(r2) : 1.0;
-        double az = TND_DEFAULT_CAMERA_AZIMUTH_DEG * TND_PI / 180;
-        double el = TND_DEFAULT_CAMERA_ELEVATION_DEG * TND_PI / 180;
-        double yfov = TND_DEFAULT_CAMERA_YFOV_DEG * TND_PI / 180;
-        double dist = TND_DEFAULT_CAMERA_MARGIN * rad / sin(0.5 * yfov);
-        /* the camera's +Z (it looks down -Z) points from the centre to the camera */
-        double b[3] = {sin(az) * cos(el), sin(el), cos(az) * cos(el)};
-        double rt[3] = {b[2], 0, -b[0]}; /* (0, 1, 0) x b, normalised */
-        double rl = sqrt(rt[0] * rt[0] + rt[2] * rt[2]);
-        rt[0] /= rl, rt[2] /= rl;
-        double up[3] = {b[1] * rt[2] - b[2] * rt[1], b[2] * rt[0] - b[0] * rt[2],
-                        b[0] * rt[1] - b[1] * rt[0]};
-        /* rotation matrix (columns right, up, back) to a quaternion */
-        double m00 = rt[0], m11 = up[1], m22 = b[2], tr = m00 + m11 + m22;
-        double qw = 0.5 * sqrt(fmax(0.0, 1 + tr));
-        float q[4] = {(float)((up[2] - b[1]) / (4 * qw)), (float)((b[0] - rt[2]) / (4 * qw)),
-                      (float)((rt[1] - up[0]) / (4 * qw)), (float)qw};
-        float t[3];
-        for (int k = 0; k < 3; k++)
-            t[k] = (float)(c[k] + dist * b[k]);
-        int32_t n = tnd_scene_add_node(s, "tandem_default_camera", -1, t, q, NULL);
-        if (n < 0 || tnd_scene_add_camera(s, (uint32_t)n, (float)yfov) < 0)
-            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: %s: out of memory", s->path);
-        s->cameras[s->camera_count - 1].znear = (float)(1e-3 * dist);
-        snprintf(s->default_camera, sizeof s->default_camera,
-                 "scene has no camera: framing its bounds (centre %.4g %.4g %.4g, radius %.4g) "
-                 "from %.0f degrees right of +Z and %.0f above, yfov %.0f degrees, margin %.0f%%",
-                 c[0], c[1], c[2], rad, TND_DEFAULT_CAMERA_AZIMUTH_DEG,
-                 TND_DEFAULT_CAMERA_ELEVATION_DEG, TND_DEFAULT_CAMERA_YFOV_DEG,
-                 100 * (TND_DEFAULT_CAMERA_MARGIN - 1));
-        tnd_info("scene", "%s: %s", s->path, s->default_camera);
     }
-    bool lit = s->light_count > 0 || s->emitter_count > 0 || s->sky[0] > 0 || s->sky[1] > 0 ||
+    bool lit = s->light_count > 0 || s->sky_set || s->sky[0] > 0 || s->sky[1] > 0 ||
                s->sky[2] > 0 || (s->env.width > 0 && s->env.mean_luminance > 0);
-    if (!lit) {
+    if (!lit && o && o->no_default_light) {
+        tnd_info("scene", "%s: no punctual light, sky or environment, and no default light asked "
+                 "for: lit by its %u emissive triangles alone",
+                 s->path, s->emitter_count);
+    } else if (!lit) {
         s->sky[0] = s->sky[1] = s->sky[2] = TND_DEFAULT_SKY;
+        char why[96] = "";
+        if (s->emitter_count)
+            snprintf(why, sizeof why, " (its %u emissive triangles do not count as lighting)",
+                     s->emitter_count);
         snprintf(s->default_light, sizeof s->default_light,
-                 "scene has no light: lit by the default environment, a uniform white sky of "
-                 "%g nits",
-                 (double)TND_DEFAULT_SKY);
+                 "scene has no punctual light, sky or environment%s: lit by the default "
+                 "environment, a uniform white sky of %g nits (--no-default-light: off)",
+                 why, (double)TND_DEFAULT_SKY);
         tnd_info("scene", "%s: %s", s->path, s->default_light);
     }
     return TND_OK;
@@ -260,17 +290,8 @@ tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o)
             s->emitters[s->emitter_count++] = (tnd_emitter){i, t};
         }
     }
-    /* animation flags propagate to children (parents come first) */
-    for (uint32_t c = 0; c < s->channel_count; c++)
-        s->nodes[s->channels[c].node].animated = true;
-    for (uint32_t n = 0; n < s->node_count; n++)
-        if (s->nodes[n].parent >= 0 && s->nodes[s->nodes[n].parent].animated)
-            s->nodes[n].animated = true;
-    s->duration = 0;
-    for (uint32_t c = 0; c < s->channel_count; c++)
-        if (s->channels[c].key_count)
-            s->duration = fmaxf(s->duration, s->channels[c].times[s->channels[c].key_count - 1]);
-    tnd_result dr = scene_defaults(s);
+    anim_flags(s);
+    tnd_result dr = scene_defaults(s, o);
     if (dr != TND_OK)
         return dr;
     /* features */
@@ -440,6 +461,48 @@ static uint32_t find_key(const tnd_anim_channel *c, float t)
     return lo;
 }
 
+uint32_t tnd_anim_dim(tnd_anim_path p)
+{
+    return p == TND_ANIM_R ? 4 : p == TND_ANIM_YFOV ? 1 : 3;
+}
+
+/* A channel's value at time t (clamped to its keys) into out (its dim floats): linear (slerp for
+ * rotations), STEP, or CUBICSPLINE as the glTF spec defines it: with s = (t - t_k) / d and
+ * d = t_k+1 - t_k, p = (2s^3 - 3s^2 + 1) v_k + (s^3 - 2s^2 + s) d b_k + (-2s^3 + 3s^2) v_k+1
+ * + (s^3 - s^2) d a_k+1 (b: out-tangent, a: in-tangent), a rotation then normalised. */
+static void anim_sample(const tnd_anim_channel *ch, double t, float *out)
+{
+    if (ch->key_count == 0)
+        return;
+    uint32_t dim = tnd_anim_dim(ch->path), k = find_key(ch, (float)t);
+    uint32_t k1 = k + 1 < ch->key_count ? k + 1 : k;
+    double d = ch->times[k1] - ch->times[k];
+    float u = 0;
+    if (k1 != k && !ch->step && (float)t > ch->times[k])
+        u = (float)((t - ch->times[k]) / d);
+    if (u > 1)
+        u = 1;
+    if (ch->cubic) {
+        const float *a = ch->values + 3 * dim * k, *b = ch->values + 3 * dim * k1;
+        double u2 = (double)u * u, u3 = u2 * u;
+        double h00 = 2 * u3 - 3 * u2 + 1, h10 = (u3 - 2 * u2 + u) * d, h01 = -2 * u3 + 3 * u2,
+               h11 = (u3 - u2) * d, n = 0;
+        for (uint32_t i = 0; i < dim; i++) {
+            out[i] = (float)(h00 * a[dim + i] + h10 * a[2 * dim + i] + h01 * b[dim + i] +
+                             h11 * b[i]);
+            n += (double)out[i] * out[i];
+        }
+        if (ch->path == TND_ANIM_R && n > 0)
+            for (uint32_t i = 0; i < 4; i++)
+                out[i] = (float)(out[i] / sqrt(n));
+    } else if (ch->path == TND_ANIM_R) {
+        tnd_quat_slerp(ch->values + 4 * k, ch->values + 4 * k1, u, out);
+    } else {
+        for (uint32_t i = 0; i < dim; i++)
+            out[i] = ch->values[dim * k + i] * (1 - u) + ch->values[dim * k1 + i] * u;
+    }
+}
+
 tnd_result tnd_scene_evaluate(const tnd_scene *s, double time, uint32_t camera, float aspect,
                               tnd_scene_state *st)
 {
@@ -463,22 +526,8 @@ tnd_result tnd_scene_evaluate(const tnd_scene *s, double time, uint32_t camera, 
         if (nd->animated)
             for (uint32_t c = 0; c < s->channel_count; c++) {
                 const tnd_anim_channel *ch = &s->channels[c];
-                if (ch->node != n || ch->key_count == 0)
-                    continue;
-                uint32_t k = find_key(ch, (float)t);
-                uint32_t k1 = k + 1 < ch->key_count ? k + 1 : k;
-                float u = 0;
-                if (k1 != k && !ch->step && (float)t > ch->times[k])
-                    u = (float)((t - ch->times[k]) / (ch->times[k1] - ch->times[k]));
-                if (u > 1)
-                    u = 1;
-                if (ch->path == TND_ANIM_R) {
-                    tnd_quat_slerp(ch->values + 4 * k, ch->values + 4 * k1, u, rot);
-                } else {
-                    float *dst = ch->path == TND_ANIM_T ? tr : sc;
-                    for (int i = 0; i < 3; i++)
-                        dst[i] = ch->values[3 * k + i] * (1 - u) + ch->values[3 * k1 + i] * u;
-                }
+                if (ch->node == n && ch->path != TND_ANIM_YFOV)
+                    anim_sample(ch, t, ch->path == TND_ANIM_T ? tr : ch->path == TND_ANIM_R ? rot : sc);
             }
         float local[16];
         tnd_mat4_trs(tr, rot, sc, local);
@@ -522,7 +571,11 @@ tnd_result tnd_scene_evaluate(const tnd_scene *s, double time, uint32_t camera, 
                 rigid[c * 4 + r] = n > 0 ? (float)(w[c * 4 + r] / n) : (c == r);
         }
         tnd_mat4_inverse(rigid, st->camera.view);
-        tnd_mat4_perspective(cd->yfov, aspect > 0 ? aspect : (cd->aspect > 0 ? cd->aspect : 1.0f),
+        float yfov = cd->yfov;
+        for (uint32_t c = 0; c < s->channel_count; c++)
+            if (s->channels[c].node == cd->node && s->channels[c].path == TND_ANIM_YFOV)
+                anim_sample(&s->channels[c], t, &yfov);
+        tnd_mat4_perspective(yfov, aspect > 0 ? aspect : (cd->aspect > 0 ? cd->aspect : 1.0f),
                              cd->znear, cd->zfar, st->camera.proj);
         memcpy(st->camera_position, w + 12, 3 * sizeof(float));
     } else if (s->camera_count) {
@@ -578,6 +631,7 @@ static tnd_result stress_scene(const char *spec, const tnd_scene_options *o, tnd
     s->instance_count = s->mesh_count;
     s->instances = calloc(s->instance_count, sizeof *s->instances);
     s->camera_count = 1;
+    s->sky_set = true; /* lit by its panel: a black sky, no default light */
     s->cameras = calloc(1, sizeof *s->cameras);
     if (!s->positions || !s->normals || !s->uvs || !s->tangents || !s->indices || !s->meshes ||
         !s->materials || !s->nodes || !s->instances || !s->cameras) {
@@ -793,8 +847,10 @@ uint64_t tnd_scene_digest(const tnd_scene *s)
         const tnd_anim_channel *c = &s->channels[i];
         uint32_t v[4] = {c->node, c->path, c->key_count, c->step};
         fnv(&h, v, sizeof v);
+        if (c->cubic)
+            fnv(&h, "cubic", 5);
         FNV_ARR(&h, c->times, c->key_count);
-        FNV_ARR(&h, c->values, (size_t)c->key_count * (c->path == TND_ANIM_R ? 4 : 3));
+        FNV_ARR(&h, c->values, (size_t)c->key_count * tnd_anim_dim(c->path) * (c->cubic ? 3 : 1));
     }
     fnv(&h, s->sky, sizeof s->sky);
     uint32_t ev[2] = {s->env.width, s->env.height};

@@ -141,7 +141,36 @@ int32_t tnd_scene_add_light(tnd_scene *s, const tnd_light *l)
     return (int32_t)s->light_count++;
 }
 
+tnd_result tnd_scene_add_channel(tnd_scene *s, uint32_t node, tnd_anim_path path,
+                                 uint32_t key_count, const float *times, const float *values,
+                                 bool step, bool cubic)
+{
+    if (node >= s->node_count || (unsigned)path > TND_ANIM_YFOV || key_count == 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "scene: %s: channel of node %u: bad arguments",
+                        s->path, node);
+    if (!grow((void **)&s->channels, s->channel_count, sizeof(tnd_anim_channel)))
+        return TND_ERR_OUT_OF_MEMORY;
+    size_t nv = (size_t)key_count * tnd_anim_dim(path) * (cubic ? 3 : 1);
+    tnd_anim_channel *c = &s->channels[s->channel_count];
+    *c = (tnd_anim_channel){node, path, key_count, malloc(key_count * sizeof(float)),
+                            malloc(nv * sizeof(float)), step, cubic};
+    if (!c->times || !c->values) {
+        free(c->times);
+        free(c->values);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    }
+    memcpy(c->times, times, key_count * sizeof(float));
+    memcpy(c->values, values, nv * sizeof(float));
+    s->channel_count++;
+    return TND_OK;
+}
+
 tnd_result tnd_scene_commit(tnd_scene *s)
 {
     return scene_finish(s, NULL);
+}
+
+tnd_result tnd_scene_commit_with(tnd_scene *s, const tnd_scene_options *o)
+{
+    return scene_finish(s, o);
 }

@@ -50,6 +50,11 @@ typedef struct gltf_ctx {
     cJSON *json;
     const struct aiScene *ai;
     tnd_scene *s;
+    const uint8_t *glb; /* the .glb's bytes (its BIN chunk), NULL for a .gltf */
+    size_t glb_size;
+    uint8_t **bufs; /* the glTF buffers read so far (buffer_get), nbuf of them */
+    size_t *buf_sizes;
+    int nbuf;
 } gltf_ctx;
 
 /* The JSON text of a .gltf, or the JSON chunk of a .glb. */
@@ -142,6 +147,21 @@ static double jnum(const cJSON *o, const char *k, double def)
 {
     const cJSON *v = jget(o, k);
     return cJSON_IsNumber(v) ? v->valuedouble : def;
+}
+
+/* A count, offset, length or index member: absent gives def; present, it must be an integer in
+ * [0, 2^48) (the one check every number that becomes a size or an address passes). */
+static bool jsize(const cJSON *o, const char *k, size_t def, size_t *out)
+{
+    const cJSON *v = jget(o, k);
+    *out = def;
+    if (!v)
+        return true;
+    if (!cJSON_IsNumber(v) || !(v->valuedouble >= 0) || v->valuedouble >= 281474976710656.0 ||
+        v->valuedouble != floor(v->valuedouble))
+        return false;
+    *out = (size_t)v->valuedouble;
+    return true;
 }
 
 /* The JSON node that assimp calls `name`. */
@@ -250,17 +270,125 @@ static tnd_result load_buffer(gltf_ctx *c, int b, const uint8_t *glb, size_t glb
     return TND_OK;
 }
 
-static tnd_result validate_indices(gltf_ctx *c, const uint8_t *glb, size_t glb_size)
+/* Buffer b, read once and kept until the load ends (buffers_free). */
+static tnd_result buffer_get(gltf_ctx *c, int b, const uint8_t **data, size_t *size)
+{
+    if (!c->bufs) {
+        c->nbuf = cJSON_GetArraySize(jget(c->json, "buffers"));
+        c->bufs = calloc((size_t)c->nbuf + 1, sizeof *c->bufs);
+        c->buf_sizes = calloc((size_t)c->nbuf + 1, sizeof *c->buf_sizes);
+        if (!c->bufs || !c->buf_sizes)
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    }
+    if (b < 0 || b >= c->nbuf)
+        return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: buffer %d does not exist", c->path, b);
+    if (!c->bufs[b])
+        TND_TRY_RETURN(load_buffer(c, b, c->glb, c->glb_size, &c->bufs[b], &c->buf_sizes[b]));
+    *data = c->bufs[b];
+    *size = c->buf_sizes[b];
+    return TND_OK;
+}
+
+static void buffers_free(gltf_ctx *c)
+{
+    for (int i = 0; c->bufs && i < c->nbuf; i++)
+        free(c->bufs[i]);
+    free(c->bufs);
+    free(c->buf_sizes);
+    c->bufs = NULL;
+    c->buf_sizes = NULL;
+}
+
+/* An accessor's elements where they lie in their buffer, every number checked (jsize) and every
+ * element inside its buffer view and the view inside its buffer. */
+typedef struct acc_view {
+    const uint8_t *p; /* the first element */
+    size_t count, stride;
+    int ct, comps; /* componentType, components per element */
+    size_t csize;  /* bytes per component */
+    bool normalized;
+} acc_view;
+
+static tnd_result accessor_view(gltf_ctx *c, int index, const char *what, acc_view *v)
+{
+    static const char *const types[] = {"SCALAR", "VEC2", "VEC3", "VEC4", "MAT2", "MAT3", "MAT4"};
+    static const int ncomp[] = {1, 2, 3, 4, 4, 9, 16};
+    const cJSON *a = cJSON_GetArrayItem(jget(c->json, "accessors"), index);
+    memset(v, 0, sizeof *v);
+    if (index < 0 || !a)
+        return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: %s: accessor %d does not exist", c->path,
+                        what, index);
+    const cJSON *ty = jget(a, "type");
+    for (int i = 0; i < 7 && cJSON_IsString(ty); i++)
+        if (strcmp(ty->valuestring, types[i]) == 0)
+            v->comps = ncomp[i];
+    v->ct = (int)jnum(a, "componentType", 0);
+    v->csize = v->ct == 5120 || v->ct == 5121 ? 1 : v->ct == 5122 || v->ct == 5123 ? 2
+               : v->ct == 5125 || v->ct == 5126                     ? 4
+                                                                    : 0;
+    v->normalized = cJSON_IsTrue(jget(a, "normalized"));
+    size_t aoff, voff, vlen, view, buf, stride;
+    const cJSON *bv = NULL;
+    bool ok = v->comps && v->csize && jsize(a, "count", 0, &v->count) &&
+              jsize(a, "byteOffset", 0, &aoff) && jsize(a, "bufferView", SIZE_MAX, &view) &&
+              view != SIZE_MAX && view < (size_t)INT32_MAX &&
+              (bv = cJSON_GetArrayItem(jget(c->json, "bufferViews"), (int)view)) &&
+              jsize(bv, "byteOffset", 0, &voff) && jsize(bv, "byteLength", 0, &vlen) &&
+              jsize(bv, "buffer", SIZE_MAX, &buf) && buf < (size_t)INT32_MAX &&
+              jsize(bv, "byteStride", 0, &stride);
+    if (!ok)
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "scene: %s: %s: accessor %d: bad type, component type, count, view or "
+                        "offset",
+                        c->path, what, index);
+    size_t elem = v->csize * (size_t)v->comps;
+    v->stride = stride ? stride : elem;
+    const uint8_t *data = NULL;
+    size_t size = 0;
+    TND_TRY_RETURN(buffer_get(c, (int)buf, &data, &size));
+    size_t span = v->count ? (v->count - 1) * v->stride + elem : 0;
+    if (voff > size || vlen > size - voff || aoff > vlen || span > vlen - aoff)
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "scene: %s: %s: accessor %d runs past its buffer view or buffer", c->path,
+                        what, index);
+    v->p = data + voff + aoff;
+    return TND_OK;
+}
+
+/* Component j of element i as a double (normalised integers mapped as glTF says). */
+static double acc_get(const acc_view *v, size_t i, int j)
+{
+    const uint8_t *p = v->p + i * v->stride + (size_t)j * v->csize;
+    switch (v->ct) {
+    case 5120: return v->normalized ? fmax((int8_t)p[0] / 127.0, -1.0) : (int8_t)p[0];
+    case 5121: return v->normalized ? p[0] / 255.0 : p[0];
+    case 5122: {
+        int16_t x;
+        memcpy(&x, p, 2);
+        return v->normalized ? fmax(x / 32767.0, -1.0) : x;
+    }
+    case 5123: {
+        uint16_t x;
+        memcpy(&x, p, 2);
+        return v->normalized ? x / 65535.0 : x;
+    }
+    case 5125: {
+        uint32_t x;
+        memcpy(&x, p, 4);
+        return x;
+    }
+    default: {
+        float x;
+        memcpy(&x, p, 4);
+        return x;
+    }
+    }
+}
+
+static tnd_result validate_indices(gltf_ctx *c)
 {
     tnd_result res = TND_OK;
-    const cJSON *accs = jget(c->json, "accessors"), *views = jget(c->json, "bufferViews");
-    int nbuf = cJSON_GetArraySize(jget(c->json, "buffers"));
-    uint8_t **bufs = calloc((size_t)nbuf + 1, sizeof *bufs);
-    size_t *sizes = calloc((size_t)nbuf + 1, sizeof *sizes);
-    if (!bufs || !sizes) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
-        goto done;
-    }
+    const cJSON *accs = jget(c->json, "accessors");
     const cJSON *meshes = jget(c->json, "meshes"), *mesh;
     int mi = 0;
     cJSON_ArrayForEach(mesh, meshes)
@@ -271,60 +399,35 @@ static tnd_result validate_indices(gltf_ctx *c, const uint8_t *glb, size_t glb_s
         {
             const cJSON *pa =
                 cJSON_GetArrayItem(accs, (int)jnum(jget(prim, "attributes"), "POSITION", -1));
-            const cJSON *ia = cJSON_GetArrayItem(accs, (int)jnum(prim, "indices", -1));
-            if (!pa) {
-                res = tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: mesh %d '%s': no POSITION accessor",
-                               c->path, mi, mname);
-                goto done;
-            }
-            if (!ia)
+            if (!pa)
+                return tnd_fail(TND_ERR_BAD_INPUT,
+                                "scene: %s: mesh %d '%s': no POSITION accessor", c->path, mi,
+                                mname);
+            size_t nverts;
+            if (!jget(prim, "indices"))
                 continue;
-            long nverts = (long)jnum(pa, "count", 0), count = (long)jnum(ia, "count", 0);
-            int ct = (int)jnum(ia, "componentType", 0);
-            int es = ct == 5121 ? 1 : ct == 5123 ? 2 : ct == 5125 ? 4 : 0;
-            const cJSON *bv = cJSON_GetArrayItem(views, (int)jnum(ia, "bufferView", -1));
-            int b = (int)jnum(bv, "buffer", -1);
-            if (!es || !bv || b < 0 || b >= nbuf) {
-                res = tnd_fail(TND_ERR_BAD_INPUT,
-                               "scene: %s: mesh %d '%s': bad index accessor (component type %d)",
-                               c->path, mi, mname, ct);
-                goto done;
-            }
-            if (!bufs[b])
-                TND_TRY(load_buffer(c, b, glb, glb_size, &bufs[b], &sizes[b]));
-            size_t off = (size_t)jnum(bv, "byteOffset", 0) + (size_t)jnum(ia, "byteOffset", 0);
-            size_t stride = (size_t)jnum(bv, "byteStride", es);
-            if (count < 0 || off + (count ? (size_t)(count - 1) * stride + es : 0) > sizes[b] ||
-                (size_t)jnum(ia, "byteOffset", 0) +
-                        (count ? (size_t)(count - 1) * stride + es : 0) >
-                    (size_t)jnum(bv, "byteLength", 0)) {
-                res = tnd_fail(TND_ERR_BAD_INPUT,
-                               "scene: %s: mesh %d '%s': index accessor runs past its buffer",
-                               c->path, mi, mname);
-                goto done;
-            }
-            for (long k = 0; k < count; k++) {
-                const uint8_t *p = bufs[b] + off + (size_t)k * stride;
-                uint32_t v = es == 1   ? p[0]
-                             : es == 2 ? (uint32_t)(p[0] | p[1] << 8)
-                                       : (uint32_t)p[0] | (uint32_t)p[1] << 8 |
-                                             (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-                if ((long)v >= nverts) {
-                    res = tnd_fail(TND_ERR_BAD_INPUT,
-                                   "scene: %s: mesh %d '%s': index %u out of range (%ld vertices)",
-                                   c->path, mi, mname, v, nverts);
-                    goto done;
-                }
+            if (!jsize(pa, "count", 0, &nverts))
+                return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: mesh %d '%s': bad POSITION count",
+                                c->path, mi, mname);
+            char what[320];
+            snprintf(what, sizeof what, "mesh %d '%s': indices", mi, mname);
+            acc_view v;
+            TND_TRY_RETURN(accessor_view(c, (int)jnum(prim, "indices", -1), what, &v));
+            if (v.comps != 1 || (v.ct != 5121 && v.ct != 5123 && v.ct != 5125))
+                return tnd_fail(TND_ERR_BAD_INPUT,
+                                "scene: %s: mesh %d '%s': bad index accessor (component type %d)",
+                                c->path, mi, mname, v.ct);
+            for (size_t k = 0; k < v.count; k++) {
+                double i = acc_get(&v, k, 0);
+                if (i >= (double)nverts)
+                    return tnd_fail(TND_ERR_BAD_INPUT,
+                                    "scene: %s: mesh %d '%s': index %.0f out of range (%zu "
+                                    "vertices)",
+                                    c->path, mi, mname, i, nverts);
             }
         }
         mi++;
     }
-done:
-fail:
-    for (int i = 0; bufs && i < nbuf; i++)
-        free(bufs[i]);
-    free(bufs);
-    free(sizes);
     return res;
 }
 
@@ -348,6 +451,11 @@ static int32_t load_texture(gltf_ctx *c, const struct aiMaterial *m, enum aiText
     for (uint32_t t = 0; t < s->texture_count; t++)
         if (strcmp(s->textures[t].name, p.data) == 0 && s->textures[t].srgb == srgb)
             return (int32_t)t;
+    for (uint32_t t = 0; t < s->missing_image_count; t++)
+        if (strncmp(s->missing_images[t].name, p.data, sizeof s->missing_images[t].name - 1) == 0) {
+            s->missing_images[t].uses++;
+            return -1;
+        }
     tnd_texture *nt = realloc(s->textures, (s->texture_count + 1) * sizeof *nt);
     if (!nt) {
         *res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
@@ -374,10 +482,29 @@ static int32_t load_texture(gltf_ctx *c, const struct aiMaterial *m, enum aiText
         snprintf(full, sizeof full, "%s%s", c->dir, p.data);
         px = stbi_load(full, &w, &h, &n, 4);
     }
-    if (!px) {
-        *res =
-            tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: material '%s': texture '%s': %s", c->path,
-                     matname, full, stbi_failure_reason() ? stbi_failure_reason() : "unreadable");
+    if (!px) { /* named once, and the material keeps its factors (docs/scenes.md) */
+        const char *why = stbi_failure_reason() ? stbi_failure_reason() : "unreadable";
+        if (p.data[0] != '*' && access(full, F_OK) != 0)
+            why = strncmp(p.data, "Procedural,", 11) == 0 ? "a Blender procedural texture, not an image"
+                                                          : "no such file";
+        struct tnd_missing_image *mi =
+            realloc(s->missing_images, (s->missing_image_count + 1) * sizeof *mi);
+        if (!mi) {
+            *res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+            return -1;
+        }
+        s->missing_images = mi;
+        mi += s->missing_image_count++;
+        memset(mi, 0, sizeof *mi);
+        put_name(mi->name, sizeof mi->name, p.data);
+        put_name(mi->material, sizeof mi->material, matname);
+        put_name(mi->reason, sizeof mi->reason, why);
+        mi->uses = 1;
+        tnd_warn("scene",
+                 "%s: material '%s': texture '%s': %s: left out (the material's factors alone: %s)",
+                 c->path, matname, full, why,
+                 type == aiTextureType_NORMALS || type == aiTextureType_HEIGHT ? "a flat normal"
+                                                                                : "no texture");
         return -1;
     }
     tx->width = (uint32_t)w;
@@ -810,9 +937,11 @@ static tnd_result load_cameras_lights(gltf_ctx *c)
     const cJSON *scenes = jget(c->json, "scenes");
     const cJSON *sc = cJSON_GetArrayItem(scenes, (int)jnum(c->json, "scene", 0));
     const cJSON *sky = jget(jget(sc, "extras"), "tandem_sky");
-    if (cJSON_GetArraySize(sky) == 3)
+    if (cJSON_GetArraySize(sky) == 3) {
         for (int k = 0; k < 3; k++)
             s->sky[k] = (float)cJSON_GetArrayItem(sky, k)->valuedouble;
+        s->sky_set = true;
+    }
     const cJSON *env = jget(jget(sc, "extras"), "tandem_env");
     if (env) {
         const cJSON *uri = jget(env, "uri");
@@ -837,8 +966,8 @@ static tnd_result load_cameras_lights(gltf_ctx *c)
     return TND_OK;
 }
 
-/* Whether the glTF sampler animating (node, path) is STEP. */
-static bool json_step(const gltf_ctx *c, const char *node, const char *path)
+/* The glTF sampler animating (node, path), or NULL. */
+static const cJSON *json_sampler(const gltf_ctx *c, const char *node, const char *path)
 {
     const cJSON *anims = jget(c->json, "animations"), *a;
     const cJSON *nodes = jget(c->json, "nodes");
@@ -854,12 +983,54 @@ static bool json_step(const gltf_ctx *c, const char *node, const char *path)
                 continue;
             if (json_node(c, node) != cJSON_GetArrayItem(nodes, ni))
                 continue;
-            const cJSON *smp = cJSON_GetArrayItem(samplers, (int)jnum(ch, "sampler", -1));
-            const cJSON *ip = jget(smp, "interpolation");
-            return cJSON_IsString(ip) && strcmp(ip->valuestring, "STEP") == 0;
+            return cJSON_GetArrayItem(samplers, (int)jnum(ch, "sampler", -1));
         }
     }
-    return false;
+    return NULL;
+}
+
+/* A CUBICSPLINE sampler's keys read from the file itself (assimp 5.2 keeps the values and drops
+ * the tangents): its input times and its output's in-tangent, value, out-tangent triples. */
+static tnd_result load_cubic(gltf_ctx *c, const cJSON *smp, const char *node, tnd_anim_channel *ch)
+{
+    uint32_t dim = tnd_anim_dim(ch->path);
+    char what[160];
+    snprintf(what, sizeof what, "animation of node '%s': CUBICSPLINE sampler", node);
+    acc_view in, out;
+    TND_TRY_RETURN(accessor_view(c, (int)jnum(smp, "input", -1), what, &in));
+    TND_TRY_RETURN(accessor_view(c, (int)jnum(smp, "output", -1), what, &out));
+    if (in.comps != 1 || (uint32_t)out.comps != dim || in.count == 0 ||
+        out.count != 3 * in.count || in.count > UINT32_MAX / 4)
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "scene: %s: %s: %zu keys need 3 x %zu outputs of %u components (it has "
+                        "%zu of %d)",
+                        c->path, what, in.count, in.count, dim, out.count, out.comps);
+    float *times = malloc(in.count * sizeof *times);
+    float *vals = malloc(out.count * dim * sizeof *vals);
+    if (!times || !vals) {
+        free(times);
+        free(vals);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory");
+    }
+    for (size_t k = 0; k < in.count; k++)
+        times[k] = (float)acc_get(&in, k, 0);
+    for (size_t k = 0; k < out.count; k++)
+        for (uint32_t d = 0; d < dim; d++)
+            vals[k * dim + d] = (float)acc_get(&out, k, (int)d);
+    free(ch->times);
+    free(ch->values);
+    ch->times = times;
+    ch->values = vals;
+    ch->key_count = (uint32_t)in.count;
+    ch->cubic = true;
+    for (size_t k = 0; k < in.count; k++)
+        for (uint32_t d = 0; d < 3 * dim; d++)
+            if (!isfinite(times[k]) || !isfinite(vals[3 * dim * k + d]) ||
+                (k > 0 && !(times[k] > times[k - 1])))
+                return tnd_fail(TND_ERR_BAD_INPUT,
+                                "scene: %s: %s: key %zu is not finite or out of order", c->path,
+                                what, k);
+    return TND_OK;
 }
 
 static tnd_result load_animation(gltf_ctx *c)
@@ -938,8 +1109,12 @@ static tnd_result load_animation(gltf_ctx *c)
                     continue;
                 }
                 static const char *const names[3] = {"translation", "rotation", "scale"};
-                ch->step = json_step(c, nd->name, names[path]);
-                s->channel_count++;
+                const cJSON *smp = json_sampler(c, nd->name, names[path]);
+                const cJSON *ip = jget(smp, "interpolation");
+                ch->step = cJSON_IsString(ip) && strcmp(ip->valuestring, "STEP") == 0;
+                s->channel_count++; /* (freed with the scene from here on) */
+                if (cJSON_IsString(ip) && strcmp(ip->valuestring, "CUBICSPLINE") == 0)
+                    TND_TRY_RETURN(load_cubic(c, smp, nd->name, ch));
             }
         }
     }
@@ -1324,7 +1499,9 @@ tnd_result scene_load_gltf(const char *path, const tnd_scene_options *o, tnd_sce
     TND_TRY(tnd_file_read(path, &bytes, &size));
     TND_TRY(parse_json(&c, bytes, size));
     bool glb = size >= 12 && memcmp(bytes, "glTF", 4) == 0;
-    TND_TRY(validate_indices(&c, glb ? bytes : NULL, glb ? size : 0));
+    c.glb = glb ? bytes : NULL;
+    c.glb_size = glb ? size : 0;
+    TND_TRY(validate_indices(&c));
     TND_TRY(ctx_import(&c, 0, false));
     TND_TRY(load_meshes(&c));
     TND_TRY(load_materials(&c));
@@ -1338,6 +1515,7 @@ tnd_result scene_load_gltf(const char *path, const tnd_scene_options *o, tnd_sce
 fail:
     if (c.ai)
         aiReleaseImport(c.ai);
+    buffers_free(&c);
     cJSON_Delete(c.json);
     free(bytes);
     tnd_scene_destroy(c.s);

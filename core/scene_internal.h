@@ -7,6 +7,9 @@
  * list, propagate animation flags, apply the user's options (o may be NULL), give what is
  * missing its default, compute the duration and the features. */
 tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o);
+/* The camera path o->camera_path over the bounds lo..hi as camera 0 (core/camera_path.c). */
+tnd_result scene_camera_path(tnd_scene *s, const tnd_scene_options *o, const double lo[3],
+                             const double hi[3]);
 tnd_material_kind scene_classify(const tnd_material *m);
 tnd_result scene_load_gltf(const char *path, const tnd_scene_options *o, tnd_scene **scene);
 /* OBJ + MTL, FBX, Collada, PLY, STL, 3DS through assimp alone (materials by the MTL rule). */

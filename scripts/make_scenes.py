@@ -7,7 +7,8 @@ committed; run this script only to change them:  python3 scripts/make_scenes.py 
 Units are metres; light intensities are glTF's photometric units (candela for point and spot
 lights, lux for directional lights, nits for emission x KHR_materials_emissive_strength).
 Tandem-specific data lives in glTF `extras`:
-  scene.extras.tandem_sky = [r, g, b]                   uniform sky radiance (nits)
+  scene.extras.tandem_sky = [r, g, b]                   uniform sky radiance (nits); [0, 0, 0]
+                                                        states a black sky (no default light)
   node.extras.tandem_light_schedule = {"fps": F, "keys": [[frame, scale], ...]}
                                                         step-wise intensity scale of a light node
 """
@@ -292,6 +293,8 @@ def cornell(out):
            r=quat_axis((0, 1, 0), -17))
     camera_path(g, "camera", [(0.0, (0.0, 1.0, 3.9), 0, 0), (2.0, (0.25, 1.05, 3.7), 3, -1),
                               (4.0, (0.0, 1.0, 3.9), 0, 0)])
+    # lit by its panel alone: a black sky stated, so that no default light is added
+    g.doc["scenes"][0]["extras"] = {"tandem_sky": [0, 0, 0]}
     g.write(out)
 
 
@@ -311,6 +314,7 @@ def closed_box(out):
            r=quat_axis((0, 1, 0), 25))
     cam = g.camera("camera", 70.0, 1.0)
     g.node("camera", t=(-0.2, 1.0, 0.9), r=look_rot(-12, -8), camera=cam)
+    g.doc["scenes"][0]["extras"] = {"tandem_sky": [0, 0, 0]}  # closed: no default light
     g.write(out)
 
 

@@ -122,6 +122,7 @@ static tnd_scene *lp_scene(double T, uint32_t *first_emitter)
     tnd_scene *s = NULL;
     if (tnd_scene_new("lambert_probe", &s) != TND_OK)
         return NULL;
+    s->sky_set = true; /* a black sky stated: the emitters alone light it */
     tnd_material rec = tnd_material_default("receiver");
     rec.base_color[0] = rec.base_color[1] = rec.base_color[2] = LP_ALBEDO;
     rec.metallic = 0.0f;
