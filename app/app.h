@@ -385,9 +385,10 @@ int cmd_merge(int argc, char **argv);
 /* `tandem bench --sweep` and `tandem sweep collect` (app/cmd_sweep.c) */
 /* emit: NULL (run here) or "slurm" (write DIR/slurm/ with the unbiased reference in `shards`
  * shards); DIR/sweep-plan.json either way. */
-int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
-              unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup,
-              unsigned timed, const char *emit, unsigned shards);
+/* env: the scene options every job loads the scene with (bench's --env, --camera-path, ...). */
+int app_sweep(const app_list *sweeps, const char *scene, const app_env *env, const char *out,
+              const char *reference, unsigned spp, const unsigned size[2], unsigned frames,
+              unsigned warmup, unsigned timed, const char *emit, unsigned shards);
 int cmd_sweep(int argc, char **argv);
 /* `tandem bench --extremes` (app/cmd_extremes.c) */
 int app_extremes(const char *scene, const char *out, const unsigned size[2], unsigned frames);

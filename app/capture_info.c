@@ -76,6 +76,7 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
     double agree[4] = {0, 0, 0, 0};
     uint64_t tested = 0;
     bool present[TND_CT_COUNT] = {false};
+    size_t fell_back[TND_CT_COUNT] = {0}; /* frames where an optional entry was absent */
     uint64_t nonfinite[TND_CT_COUNT] = {0};
     size_t grad_frames = 0, grad_files = 0; /* rendered with A-SVGF; with a samples file */
     for (size_t i = 0; i < n; i++) {
@@ -102,6 +103,7 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
         size_t npx = (size_t)cur.width * cur.height;
         for (int e = 0; e < TND_CT_COUNT; e++) {
             present[e] |= cur.present[e];
+            fell_back[e] += cur.fallback[e];
             nonfinite[e] += cur.nonfinite[e];
             const tnd_ct_info *ci = tnd_ct_get((tnd_ct)e);
             if (!cur.present[e] || ci->kind != TND_CT_FLOAT)
@@ -151,7 +153,11 @@ int app_capture_info(const char *captures, const char *map_path, bool json)
         const tnd_ct_info *ci = tnd_ct_get((tnd_ct)e);
         char src[512] = "";
         const char *how;
-        if (map) {
+        if (map && fell_back[e]) { /* an optional entry the files lack: what the mapping says */
+            how = "fallback";
+            snprintf(src, sizeof src, "absent from %zu of %zu frames: %s", fell_back[e], n,
+                     tnd_capture_map_fallback(map, (tnd_ct)e));
+        } else if (map) {
             how = tnd_capture_map_source(map, (tnd_ct)e, src, sizeof src) ? "fed"
                   : present[e]                                              ? "derived"
                                                                             : "default";

@@ -574,7 +574,7 @@ int cmd_bench(int argc, char **argv)
         return app_extremes(scene_given ? scene_path : TND_DATA_DIR "/scenes/extremes.gltf", out,
                             size, frames);
     if (sweeps.n)
-        return app_sweep(&sweeps, scene_path, out, reference, spp, size, frames, warmup, timed, emit,
+        return app_sweep(&sweeps, scene_path, &env, out, reference, spp, size, frames, warmup, timed, emit,
                          ref_shards ? ref_shards : frames < 64 ? frames : 64);
     const pl_denoiser_info *dn = NULL;
     if (overlap || whole_frame) {

@@ -183,7 +183,9 @@ int cmd_compare(int argc, char **argv)
     bool json = false;
     const char *reference = NULL, *report = NULL, *scene = NULL, *out = NULL, *denoiser = pl_denoiser_default();
     const char *frontends = "embree,vk";
-    unsigned frames = 8, spp = 64, size[2] = {160, 90};
+    unsigned frames = 8, spp = 64, size[2] = {160, 90}, camera = 0;
+    double fps = 30;
+    app_env env = APP_ENV_INIT; /* --scene: the scene options render takes */
     const app_opt opts[] = {
         {"min-gbuffer", APP_OPT_FLOAT, &min_gbuffer, "F",
          "G-buffer entries: fraction of pixels that must agree (default 0.99)"},
@@ -204,6 +206,9 @@ int cmd_compare(int argc, char **argv)
         {"frontends", APP_OPT_STRING, &frontends, "A,B",
          "with --scene: the two front-ends (default embree,vk: the cross-check)"},
         {"spp", APP_OPT_UINT, &spp, "K", "with --scene and no --reference: reference samples (default 64)"},
+        {"camera", APP_OPT_UINT, &camera, "N", "with --scene: the scene's camera (default 0)"},
+        {"fps", APP_OPT_FLOAT, &fps, "F", "with --scene: frames per second of scene time (default 30)"},
+        APP_ENV_OPTS(&env),
         {0},
     };
     const char *pos[2];
@@ -249,6 +254,9 @@ int cmd_compare(int argc, char **argv)
         app_render_opts base, o; /* the scene and path all three runs share */
         app_render_defaults(&base);
         base.scene = scene;
+        base.env = env;
+        base.camera = camera;
+        base.fps = fps;
         base.frames = frames;
         base.size[0] = size[0];
         base.size[1] = size[1];

@@ -157,6 +157,14 @@ tnd_result app_render_args(const app_render_opts *o, bool reference, app_args *a
           argn(a, "--env-intensity", o->env.intensity)) &&
          (!o->env.path || o->env.rotation == d.env.rotation ||
           argn(a, "--env-rotation", o->env.rotation)) &&
+         (!o->env.no_default_light || arg(a, "--no-default-light")) &&
+         args_str(a, "--camera-path", o->env.camera_path, NULL) &&
+         (!o->env.camera_path || o->env.path_duration == d.env.path_duration ||
+          argn(a, "--path-duration", o->env.path_duration)) &&
+         (!o->env.camera_path || o->env.path_radius == d.env.path_radius ||
+          argn(a, "--path-radius", o->env.path_radius)) &&
+         (!o->env.camera_path || !isfinite(o->env.path_height) ||
+          argn(a, "--path-height", o->env.path_height)) &&
          args_str(a, "--out", o->out, NULL) && (!o->quiet || arg(a, "--quiet"));
     if (!ok)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: its command line is too long",
@@ -544,6 +552,8 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
         cJSON_AddStringToObject(def, "camera", scene->default_camera);
     if (scene->default_light[0])
         cJSON_AddStringToObject(def, "light", scene->default_light);
+    if (scene->camera_path[0])
+        cJSON_AddStringToObject(j, "camera_path", scene->camera_path);
     if (scene->env.width) { /* the environment map, from --env or the scene */
         cJSON *env = cJSON_AddObjectToObject(j, "environment");
         cJSON_AddStringToObject(env, "path", scene->env.path);

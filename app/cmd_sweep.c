@@ -151,6 +151,8 @@ static const knob *find_knob(const char *key)
  * sweep run anywhere is gathered by the same code. */
 typedef struct sweep_plan {
     char scene[1100], out[1000], refdir[1000];
+    char env_path[1000], camera_path[1000]; /* the scene options' strings (env points here) */
+    app_env env;                             /* the scene options every job loads with */
     unsigned size[2], frames, warmup, spp;
     unsigned timed; /* frames each cell runs back to back for its times (0: its written frames) */
     bool own_reference; /* the unbiased reference is rendered into DIR/reference */
@@ -324,6 +326,7 @@ static void job_reference(const sweep_plan *P, sweep_job *j)
     j->reference = true;
     j->o.frontend = "vk";
     j->o.scene = P->scene;
+    j->o.env = P->env;
     j->o.frames = P->frames;
     j->o.size[0] = P->size[0];
     j->o.size[1] = P->size[1];
@@ -342,6 +345,7 @@ static tnd_result job_matched(const sweep_plan *P, int e, sweep_job *j)
     j->o.estimator = "realtime";
     j->o.frontend = "embree";
     j->o.scene = P->scene;
+    j->o.env = P->env;
     j->o.frames = P->frames;
     j->o.spp = P->spp;
     j->o.out = es->dir;
@@ -363,6 +367,7 @@ static tnd_result job_cell(const sweep_plan *P, int i, sweep_job *j)
     cell_dir(P, i, j->dir, sizeof j->dir);
     j->reference = false;
     j->o.scene = P->scene;
+    j->o.env = P->env;
     j->o.frames = P->frames;
     j->o.out = j->dir;
     j->o.quiet = true;
@@ -418,6 +423,16 @@ static tnd_result plan_write(const sweep_plan *P)
     cJSON_AddNumberToObject(j, "warmup", P->warmup);
     cJSON_AddNumberToObject(j, "timed_frames", P->timed);
     cJSON_AddNumberToObject(j, "spp", P->spp);
+    cJSON *so = cJSON_AddObjectToObject(j, "scene_options");
+    cJSON_AddStringToObject(so, "env", P->env_path);
+    cJSON_AddNumberToObject(so, "env_intensity", P->env.intensity);
+    cJSON_AddNumberToObject(so, "env_rotation", P->env.rotation);
+    cJSON_AddBoolToObject(so, "no_default_light", P->env.no_default_light);
+    cJSON_AddStringToObject(so, "camera_path", P->camera_path);
+    cJSON_AddNumberToObject(so, "path_duration", P->env.path_duration);
+    cJSON_AddNumberToObject(so, "path_radius", P->env.path_radius);
+    if (isfinite(P->env.path_height))
+        cJSON_AddNumberToObject(so, "path_height", P->env.path_height);
     cJSON *ka = cJSON_AddArrayToObject(j, "knobs");
     for (int k = 0; k < P->nkeys; k++)
         cJSON_AddItemToArray(ka, cJSON_CreateString(P->keys[k]->key));
@@ -504,6 +519,28 @@ static tnd_result plan_read(const char *dir, sweep_plan *P)
                        ? jnum(j, "timed_frames", 1u << 20, &ok)
                        : 0;
         P->spp = jnum(j, "spp", ~0u, &ok);
+        P->env = (app_env)APP_ENV_INIT;
+        const cJSON *so = cJSON_GetObjectItem(j, "scene_options"); /* (older plans: none) */
+        if (so) {
+            snprintf(P->env_path, sizeof P->env_path, "%s",
+                     jstr(so, "env", sizeof P->env_path, &ok));
+            snprintf(P->camera_path, sizeof P->camera_path, "%s",
+                     jstr(so, "camera_path", sizeof P->camera_path, &ok));
+            const char *nums[] = {"env_intensity", "env_rotation", "path_duration", "path_radius",
+                                  "path_height"};
+            double *dst[] = {&P->env.intensity, &P->env.rotation, &P->env.path_duration,
+                             &P->env.path_radius, &P->env.path_height};
+            for (int k = 0; k < 5; k++) {
+                const cJSON *v = cJSON_GetObjectItem(so, nums[k]);
+                if (v && !(cJSON_IsNumber(v) && isfinite(v->valuedouble)))
+                    ok = false;
+                else if (v)
+                    *dst[k] = v->valuedouble;
+            }
+            P->env.no_default_light = cJSON_IsTrue(cJSON_GetObjectItem(so, "no_default_light"));
+            P->env.path = P->env_path[0] ? P->env_path : NULL;
+            P->env.camera_path = P->camera_path[0] ? P->camera_path : NULL;
+        }
         P->nkeys = cJSON_GetArraySize(ka);
         P->nests = cJSON_GetArraySize(ea);
         P->total = cJSON_GetArraySize(ca);
@@ -752,11 +789,12 @@ static bool absolute(const char *p, char *out, size_t cap)
     return true;
 }
 
-int app_sweep(const app_list *sweeps, const char *scene, const char *out, const char *reference,
-              unsigned spp, const unsigned size[2], unsigned frames, unsigned warmup,
-              unsigned timed, const char *emit, unsigned shards)
+int app_sweep(const app_list *sweeps, const char *scene, const app_env *env, const char *out,
+              const char *reference, unsigned spp, const unsigned size[2], unsigned frames,
+              unsigned warmup, unsigned timed, const char *emit, unsigned shards)
 {
-    char scene_abs[1100], out_abs[1000], ref_abs[1000];
+    char scene_abs[1100], out_abs[1000], ref_abs[1000], env_abs[1000], path_abs[1000];
+    const char *env_path = env->path, *cam_path = env->camera_path;
     if (emit && strcmp(emit, "slurm") != 0) {
         fprintf(stderr, "tandem bench: --emit %s: slurm is the one scheduler written for\n", emit);
         return APP_EXIT_USAGE;
@@ -764,10 +802,14 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
     if (emit && out) {
         if (!absolute(scene, scene_abs, sizeof scene_abs) ||
             !absolute(out, out_abs, sizeof out_abs) ||
-            (reference && !absolute(reference, ref_abs, sizeof ref_abs))) {
+            (reference && !absolute(reference, ref_abs, sizeof ref_abs)) ||
+            (env_path && !absolute(env_path, env_abs, sizeof env_abs)) ||
+            (cam_path && strchr(cam_path, '.') && !absolute(cam_path, path_abs, sizeof path_abs))) {
             fprintf(stderr, "tandem bench: path too long\n");
             return APP_EXIT_USAGE;
         }
+        env_path = env_path ? env_abs : NULL; /* (the jobs run elsewhere) */
+        cam_path = cam_path && strchr(cam_path, '.') ? path_abs : cam_path;
         scene = scene_abs;
         out = out_abs;
         reference = reference ? ref_abs : NULL;
@@ -775,6 +817,17 @@ int app_sweep(const app_list *sweeps, const char *scene, const char *out, const 
     sweep_plan *P = calloc(1, sizeof *P);
     if (!P)
         return app_report("bench", tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory"));
+    if ((env_path && strlen(env_path) >= sizeof P->env_path) ||
+        (cam_path && strlen(cam_path) >= sizeof P->camera_path)) {
+        free(P);
+        fprintf(stderr, "tandem bench: path too long\n");
+        return APP_EXIT_USAGE;
+    }
+    P->env = *env;
+    snprintf(P->env_path, sizeof P->env_path, "%s", env_path ? env_path : "");
+    snprintf(P->camera_path, sizeof P->camera_path, "%s", cam_path ? cam_path : "");
+    P->env.path = env_path ? P->env_path : NULL;
+    P->env.camera_path = cam_path ? P->camera_path : NULL;
     int status = plan_make(sweeps, scene, out, reference, spp, size, frames, warmup, timed, P);
     if (status >= 0) {
         free(P);

@@ -51,6 +51,9 @@ typedef struct map_entry {
     /* motion: what the vector means (converted to previous - current, pixels, y down) */
     bool mv_negate, mv_y_up;
     int mv_unit;
+    /* "optional": "what happens without it": where the file lacks the entry's channels, the
+     * entry keeps its default and the frame says so (tnd_frame.fallback) */
+    char fallback[200];
 } map_entry;
 
 struct tnd_capture_map {
@@ -520,6 +523,20 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
             me->planar_to_distance = p2d;
             me->length = len;
         }
+        const cJSON *opt = cJSON_GetObjectItemCaseSensitive(it, "optional");
+        if (opt) {
+            if (!cJSON_IsString(opt) || !opt->valuestring[0] ||
+                strlen(opt->valuestring) >= sizeof me->fallback ||
+                tnd_ct_get(ci->id)->need == TND_NEED_REQUIRED) {
+                snprintf(msg, sizeof msg,
+                         "entry '%s': \"optional\" must state in words what happens without it "
+                         "(and the entry must not be required by the contract)",
+                         ci->name);
+                res = map_error(path, msg);
+                goto fail;
+            }
+            snprintf(me->fallback, sizeof me->fallback, "%s", opt->valuestring);
+        }
         me->nchan = me->length ? 3 : ci->comps;
         const cJSON *chans = cJSON_GetObjectItemCaseSensitive(it, "channels");
         if (!cJSON_IsArray(chans) || cJSON_GetArraySize(chans) != (int)me->nchan) {
@@ -625,6 +642,12 @@ fail:
     free(text);
     free(m);
     return res;
+}
+
+const char *tnd_capture_map_fallback(const tnd_capture_map *map, tnd_ct e)
+{
+    return (unsigned)e < TND_CT_COUNT && map->e[e].fed && map->e[e].fallback[0] ? map->e[e].fallback
+                                                                               : NULL;
 }
 
 const char *tnd_capture_map_name(const tnd_capture_map *map)
@@ -968,10 +991,20 @@ static void finish_after_derive(const tnd_capture_map *map, tnd_frame *f)
 }
 
 /* One entry from its channels, with its conversions, into f. */
-static void read_entry(const tnd_capture_map *map, int i, const tnd_exr_file *x,
-                       const tnd_exr_file *xm, const char *path, tnd_frame *f, cap_problems *p)
+/* Whether every channel the entry reads is in the file. */
+static bool entry_in_file(const tnd_capture_map *map, const map_entry *me, const tnd_exr_file *x)
 {
-    const map_entry *me = &map->e[i];
+    char full[300];
+    for (uint32_t k = 0; k < me->nchan; k++)
+        if (me->alts[k] && !find_alt(x, map->prefix, me->chan[k], me->alts[k], full, sizeof full))
+            return false;
+    return true;
+}
+
+static void read_entry(const tnd_capture_map *map, int i, const map_entry *me,
+                       const tnd_exr_file *x, const tnd_exr_file *xm, const char *path,
+                       tnd_frame *f, cap_problems *p)
+{
     const tnd_ct_info *e = tnd_ct_get((tnd_ct)i);
     size_t npx = (size_t)x->width * x->height;
     const float *src[4] = {0};
@@ -1188,8 +1221,19 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
             const tnd_exr_file *x = frame_file(map, mf, me->file, dir, key, path, &p);
             const tnd_exr_file *xm =
                 me->on_miss ? frame_file(map, mf, me->miss_file, dir, key, path, &p) : NULL;
+            if (x && me->fallback[0] && !entry_in_file(map, me, x)) {
+                /* optional and absent: its default (0) stands where a surface is hit; its
+                 * miss channels (the background) still fill the misses */
+                f->fallback[i] = true;
+                map_entry zero = *me;
+                for (uint32_t k = 0; k < zero.nchan; k++)
+                    zero.alts[k] = 0, zero.offset[k] = 0;
+                if (me->on_miss && xm)
+                    read_entry(map, i, &zero, x, xm, path, f, &p);
+                continue;
+            }
             if (x && (xm || !me->on_miss))
-                read_entry(map, i, x, xm, path, f, &p);
+                read_entry(map, i, me, x, xm, path, f, &p);
         }
     if (p.count) {
         res = tnd_fail(TND_ERR_BAD_INPUT, "capture: %s (mapping %s): %d problem%s:%s", path,

@@ -506,6 +506,9 @@ typedef struct tnd_frame {
     /* rendered with A-SVGF: the frame's gradient samples are stored beside it
      * (tnd_capture_gradients_path; none on a frame without history) */
     bool gradients;
+    /* entries a mapping marks optional that this frame's files lack: their defaults stand, as
+     * the mapping states (tnd_capture_map_fallback) */
+    bool fallback[TND_CT_COUNT];
 } tnd_frame;
 
 /* Allocate every entry, filled with defaults (position/geo_normal zero until derived). */
@@ -704,6 +707,8 @@ tnd_result tnd_capture_read_mapped(const char *path, const tnd_capture_map *map,
  * distance)"); false when the mapping does not feed it. */
 const char *tnd_capture_map_name(const tnd_capture_map *map);
 bool tnd_capture_map_source(const tnd_capture_map *map, tnd_ct e, char *buf, size_t cap);
+/* What happens where a file lacks entry e, in the mapping's words; NULL: e is not optional. */
+const char *tnd_capture_map_fallback(const tnd_capture_map *map, tnd_ct e);
 
 /* ---------------------------------------------------------------------------------------------
  * Math: column-major 4x4 matrices (m[col * 4 + row]), quaternions (x, y, z, w)

@@ -8,6 +8,8 @@ Imports SCENE.gltf (a Tandem scene, with its camera), makes its camera dolly tow
   data/mappings/blender_cycles.json reads: Combined, Z, Vector, Normal, Emission and Cycles'
   denoising data (Denoising Albedo, Normal, Depth), at SPP samples, no denoiser,
   no motion blur (the Vector pass needs it off);
+- OUTDIR/capture_default/frame_NNNN.exr: the same with Blender's default passes (Combined, Z)
+  plus Denoising Data and Vector only: no Emission, no Normal pass;
 - OUTDIR/converged/frame_NNNN.exr: the same frames' Combined at REF_SPP samples.
 Materials are as the importer makes them (Principled BSDF). Frames are numbered from 0 in the
 files (Blender's frame 1 is frame_0000)."""
@@ -57,10 +59,12 @@ vl = scene.view_layers[0]
 vl.name = "ViewLayer"
 
 
-def render(sub, samples, passes):
+def render(sub, samples, passes, emit=True):
     cy.samples = samples
     vl.use_pass_z = vl.use_pass_vector = vl.use_pass_normal = vl.use_pass_emit = passes
     vl.cycles.denoising_store_passes = passes
+    if not emit:  # Blender's default passes (Combined, Z) + Denoising Data + Vector
+        vl.use_pass_normal = vl.use_pass_emit = False
     img = scene.render.image_settings
     img.file_format = "OPEN_EXR_MULTILAYER" if passes else "OPEN_EXR"
     img.color_depth = "32"
@@ -76,4 +80,5 @@ def render(sub, samples, passes):
 
 
 render("capture", spp, True)
+render("capture_default", spp, True, emit=False)
 render("converged", ref_spp, False)

@@ -12,6 +12,9 @@ samples). Then:
   frames: reprojection works from the capture's depth, normals and motion), and the relMSE
   against the converged frames (`tandem eval`, over the sequence) must be at most half the noisy
   input's.
+- the same capture with Blender's default passes plus Denoising Data and Vector (no Emit pass:
+  the mapping's emission is optional) denoises too: off is still Combined, svgf halves the error,
+  and `tandem info --capture` names the fallback.
 Before issue 23 this capture came out black (no visibility buffer: every pixel a miss) and, with
 the motion vectors' sign wrong, never reprojected. Prints the figures, then "N passed, N failed".
 Skipped (exit 0, says why) when `blender` is not installed."""
@@ -120,6 +123,38 @@ def main():
         rn, rd = runs["off"][1]["relmse"], runs["svgf"][1]["relmse"]
         check(rd <= 0.5 * rn, "relMSE against converged Cycles (%d spp): noisy %.4f, svgf %.4f "
               "(%.1fx lower)" % (REF_SPP, rn, rd, rn / rd if rd > 0 else float("inf")))
+        # Blender's default passes + Denoising Data + Vector (no Emit pass): the mapping's
+        # emission is optional, so the capture denoises; off is still the Combined pass (the
+        # emitters filtered with their surroundings, the background from Combined where nothing
+        # is hit), svgf still halves the error, and info --capture names the fallback
+        cap = os.path.join(tmp, "capture_default")
+        chans = oiio.ImageBuf(os.path.join(cap, "frame_0000.exr")).spec().channelnames
+        check(not any(".Emit." in c for c in chans), "the default-pass capture has no Emit pass")
+        dflt = {}
+        for mode in ("off", "svgf"):
+            out = os.path.join(tmp, "default_" + mode)
+            subprocess.run([tandem, "denoise", "--quiet", "--captures", cap, "--map", mapping,
+                            "--denoiser", mode, "--taa", "off", "--out", out], check=True,
+                           stdout=subprocess.DEVNULL)
+            e = subprocess.run([tandem, "eval", "--quiet", "--out", out, "--reference",
+                                os.path.join(tmp, "converged"), "--json"], check=True,
+                               stdout=subprocess.PIPE, text=True)
+            dflt[mode] = (out, json.loads(e.stdout)[0])
+        worst = 0.0
+        for f in range(FRAMES):
+            noisy = read(os.path.join(cap, "frame_%04d.exr" % f), rgb)
+            off = read(os.path.join(dflt["off"][0], "frame_%04d.exr" % f))
+            worst = max(worst, float((np.abs(off - noisy) / np.maximum(np.abs(noisy), 1e-3)).max()))
+        check(worst <= 1e-5, "default passes: off equals Cycles' noisy Combined (max relative "
+              "difference %.2e)" % worst)
+        rn, rd = dflt["off"][1]["relmse"], dflt["svgf"][1]["relmse"]
+        check(rd <= 0.5 * rn, "default passes: relMSE noisy %.4f, svgf %.4f (%.1fx lower)"
+              % (rn, rd, rn / rd if rd > 0 else float("inf")))
+        r = subprocess.run([tandem, "info", "--capture", cap, "--map", mapping, "--json"],
+                           check=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        em = json.loads(r.stdout)["entries"]["emission"]
+        check(em["how"] == "fallback" and "filtered with their surroundings" in em["from"],
+              "info --capture names the fallback: %s: %s" % (em["how"], em["from"][:60]))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     print("%d passed, %d failed" % (passed, failed))
