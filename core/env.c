@@ -53,6 +53,14 @@ tnd_result tnd_env_from_pixels(const char *name, const float *rgb, uint32_t w, u
             }
             d[4 * i + k] = v * intensity;
         }
+    /* the texel edges (shaders/env.h: tnd_env_refine) */
+    float *edges = d + TND_ENV_OFFSET_EDGES(w, h);
+    for (uint32_t j = 0; j <= w; j++) {
+        double b = 2 * TND_PI * ((double)j / w - 0.5);
+        edges[2 * j] = (float)cos(b), edges[2 * j + 1] = (float)sin(b);
+    }
+    for (uint32_t i = 0; i <= h; i++)
+        edges[2 * (w + 1) + i] = (float)cos(TND_PI * i / h);
     /* weights luminance x sin(theta) at the row's centre; row sums in double */
     float *marg = d + TND_ENV_OFFSET_MARGINAL(w, h), *cond = d + TND_ENV_OFFSET_CONDITIONAL(w, h);
     double *row = malloc(h * sizeof *row);
@@ -153,6 +161,7 @@ static size_t env_texel(const tnd_env *e, const float dir[3], float *st)
     uint32_t cy = (uint32_t)fmaxf(v * (float)e->height, 0.0f);
     cx = cx < e->width ? cx : e->width - 1;
     cy = cy < e->height ? cy : e->height - 1;
+    tnd_env_refine(e->data, e->width, e->height, x, y, z, &cx, &cy);
     *st = sqrtf(fmaxf(0.0f, 1.0f - y * y));
     return (size_t)cy * e->width + cx;
 }

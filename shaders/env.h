@@ -13,7 +13,11 @@
  *
  * Radiance is the texel's (nearest, no filtering: the radiance is piecewise constant exactly as
  * the sampling density is, so an importance-sampled texel contributes L / pdf = its share of the
- * integral, and both front-ends find the same texel to the last bit of the direction).
+ * integral). Both front-ends find the same texel to the last bits of the direction: atan2 and
+ * acos give a first guess (a GPU computes them less exactly than the C library: lavapipe's
+ * differ by up to about 1e-5 rad, enough to cross a texel's edge on 1% of a frame's sky), then
+ * tnd_env_refine moves it across an edge where the direction lies on the edge's other side, by
+ * sign tests against tables of the edges (exact but for the last bits).
  *
  * Sampling: a 2D piecewise-constant distribution over the texels with weights luminance x sin
  * (theta at the row's centre): a row from the marginal cdf, a column from the row's conditional
@@ -25,6 +29,8 @@
  *   [0, 4WH)            texel (row-major): r, g, b radiance (nits, intensity applied), pdf_uv
  *   [4WH, 4WH + H)      marginal cdf over rows (inclusive: entry i = P(row <= i), last = 1)
  *   [4WH + H, 5WH + H)  per row, the conditional cdf over its columns (inclusive, last = 1)
+ *   [5WH + H, 5WH + H + 2(W + 1))  the column edges: cos b, sin b of b_j = 2 pi (j / W - 1/2)
+ *   [.., + H + 1)       the row edges: cos theta_i of theta_i = pi i / H
  * A row of zero weight has a flat cdf of 1 (never chosen). */
 #ifndef TND_ENV_H
 #define TND_ENV_H
@@ -44,7 +50,8 @@
 
 #define TND_ENV_OFFSET_MARGINAL(w, h) (4u * (w) * (h))
 #define TND_ENV_OFFSET_CONDITIONAL(w, h) (4u * (w) * (h) + (h))
-#define TND_ENV_FLOATS(w, h) (5u * (w) * (h) + (h))
+#define TND_ENV_OFFSET_EDGES(w, h) (5u * (w) * (h) + (h))
+#define TND_ENV_FLOATS(w, h) (5u * (w) * (h) + (h) + 2u * ((w) + 1u) + (h) + 1u)
 
 /* The first index i of [0, n) whose inclusive cdf entry env[first + i] exceeds u (the last one
  * when none does): the interval u falls in. */
@@ -78,6 +85,36 @@ static inline float tnd_env_remap(TND_ENV_ARG TND_ENV_U32 first, TND_ENV_U32 i, 
     float f = hi > lo ? (u - lo) / (hi - lo) : 0.5f;
     f = f > 0.0f ? f : 0.0f;
     return f < 0.99999994f ? f : 0.99999994f;
+}
+
+/* The texel (column, row: *cx, *cy) of a direction (x, y, z) in the map's frame, from a first
+ * guess one texel off at most: moved across the edge whose plane the direction lies beyond
+ * (columns wrap, rows clamp). Column edge j's plane holds +Y and (cos b_j, 0, sin b_j): the
+ * azimuth phi is past b_j where sin(phi - b_j), whose sign z cos b_j - x sin b_j has, is >= 0;
+ * row edge i: theta is past theta_i where y <= cos theta_i. */
+#ifdef TND_GLSL
+void tnd_env_refine(TND_ENV_U32 w, TND_ENV_U32 h, float x, float y, float z, inout TND_ENV_U32 cx,
+                    inout TND_ENV_U32 cy)
+#else
+static inline void tnd_env_refine(TND_ENV_ARG TND_ENV_U32 w, TND_ENV_U32 h, float x, float y,
+                                  float z, TND_ENV_U32 *pcx, TND_ENV_U32 *pcy)
+#endif
+{
+#ifndef TND_GLSL
+    TND_ENV_U32 cx = *pcx, cy = *pcy;
+#endif
+    TND_ENV_U32 e = TND_ENV_OFFSET_EDGES(w, h), r = e + 2u * (w + 1u);
+    if (z * TND_ENV_AT(e + 2u * cx) - x * TND_ENV_AT(e + 2u * cx + 1u) < 0.0f)
+        cx = cx > 0u ? cx - 1u : w - 1u;
+    else if (z * TND_ENV_AT(e + 2u * cx + 2u) - x * TND_ENV_AT(e + 2u * cx + 3u) >= 0.0f)
+        cx = cx + 1u < w ? cx + 1u : 0u;
+    if (y > TND_ENV_AT(r + cy))
+        cy = cy > 0u ? cy - 1u : 0u;
+    else if (y <= TND_ENV_AT(r + cy + 1u))
+        cy = cy + 1u < h ? cy + 1u : h - 1u;
+#ifndef TND_GLSL
+    *pcx = cx, *pcy = cy;
+#endif
 }
 
 /* Solid-angle density of a direction whose texel has density pdf_uv and whose sin theta is st

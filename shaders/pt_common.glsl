@@ -404,6 +404,7 @@ float env_lookup(vec3 dir, out vec3 rgb)
     float v = acos(y) * TND_INV_PI;
     uint cx = min(uint(max(u * float(w), 0.0)), w - 1u);
     uint cy = min(uint(max(v * float(h), 0.0)), h - 1u);
+    tnd_env_refine(w, h, x, y, z, cx, cy);
     uint t = 4u * (cy * w + cx);
     rgb = vec3(env_data[t], env_data[t + 1u], env_data[t + 2u]);
     return tnd_env_pdf(env_data[t + 3u], sqrt(max(0.0, 1.0 - y * y)));

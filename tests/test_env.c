@@ -276,7 +276,7 @@ static void test_bad_input(void)
     write_exr(path, 64, 32, rgb, 3, px);
     REQUIRE_OK(tnd_env_load(path, 1, 0, &e));
     CHECK(e.bad_texels == 4, "%u bad texel values counted (4 written)", e.bad_texels);
-    for (size_t i = 0; i < TND_ENV_FLOATS(64u, 32u); i++)
+    for (size_t i = 0; i < TND_ENV_OFFSET_EDGES(64u, 32u); i++) /* (the edges: cosines, sines) */
         CHECK(isfinite(e.data[i]) && e.data[i] >= 0, "value %zu of the environment: %g", i,
               (double)e.data[i]);
     /* sun.gltf (a sky and a sun) with a tandem_env naming bad.exr, then a missing file */
@@ -312,5 +312,64 @@ cleanup:
     rmdir(dir);
 }
 
-TND_TEST_MAIN(T(test_convention), T(test_density_normalised), T(test_importance_vs_uniform),
+/* Both front-ends find the same texel (shaders/env.h, tnd_env_refine): from a first guess one
+ * texel off either way, as a GPU's less exact atan2 and acos can give near an edge, the sign
+ * tests against the edge tables land on the texel exact (double) arithmetic finds, for
+ * directions up to 1e-5 rad from an edge (closer ones: the last bits decide either way). */
+static void test_texel_refine(void)
+{
+    const uint32_t w = 64, h = 32;
+    static float px[64 * 32 * 3];
+    for (size_t i = 0; i < sizeof px / sizeof *px; i++)
+        px[i] = 1.0f;
+    tnd_env e = {0};
+    REQUIRE_OK(tnd_env_from_pixels("refine", px, w, h, 1, 0, &e));
+    uint32_t state = 12345, checked = 0, bad = 0;
+    for (int k = 0; k < 20000; k++) {
+        /* a direction near a column edge and a row edge, on either side */
+        state = state * 1664525u + 1013904223u;
+        uint32_t j = state % (w + 1), i = 1 + (state >> 16) % (h - 1);
+        state = state * 1664525u + 1013904223u;
+        double dphi = ((double)(state >> 8) / 16777216.0 - 0.5) * 4e-3;
+        double dth = ((double)(state & 0xff) / 256.0 - 0.5) * 4e-3;
+        if (fabs(dphi) < 1e-5 || fabs(dth) < 1e-5)
+            continue;
+        double phi = 2 * TND_PI * ((double)j / w - 0.5) + dphi, th = TND_PI * i / h + dth;
+        if (th <= 0 || th >= TND_PI)
+            continue;
+        float x = (float)(cos(phi) * sin(th)), y = (float)cos(th), z = (float)(sin(phi) * sin(th));
+        double u = atan2((double)z, (double)x) / (2 * TND_PI) + 0.5, v = acos((double)y) / TND_PI;
+        uint32_t ex = (uint32_t)floor(u * w) % w, ey = (uint32_t)floor(v * h);
+        for (int gx = -1; gx <= 1; gx++)
+            for (int gy = -1; gy <= 1; gy++) {
+                uint32_t cx = (ex + w + (uint32_t)gx) % w, cy = ey;
+                if ((int)ey + gy < 0 || (int)ey + gy >= (int)h)
+                    continue;
+                cy = (uint32_t)((int)ey + gy);
+                tnd_env_refine(e.data, w, h, x, y, z, &cx, &cy);
+                checked++;
+                if ((cx != ex || cy != ey) && bad++ < 5)
+                    CHECK(false, "phi %.6f theta %.6f: guess off by (%d, %d): texel (%u, %u), "
+                                 "exact (%u, %u)",
+                          phi, th, gx, gy, cx, cy, ex, ey);
+            }
+    }
+    CHECK(bad == 0 && checked > 100000, "%u of %u refined guesses off the exact texel", bad,
+          checked);
+    /* and the lookup itself (atan2f and acosf, then refined) agrees with the exact texel */
+    float rgb[3], dir[3];
+    for (uint32_t t = 0; t < w * h; t++) /* each texel's colour: its index */
+        px[3 * t] = (float)t;
+    REQUIRE_OK(tnd_env_from_pixels("refine", px, w, h, 1, 0, &e));
+    dir[0] = (float)(cos(0.3) * sin(1.0)), dir[1] = (float)cos(1.0),
+    dir[2] = (float)(sin(0.3) * sin(1.0));
+    tnd_env_lookup(&e, dir, rgb);
+    uint32_t want = (uint32_t)floor(1.0 / TND_PI * h) * w +
+                    (uint32_t)floor((0.3 / (2 * TND_PI) + 0.5) * w);
+    CHECK(rgb[0] == (float)want, "lookup: texel %g, expected %u", (double)rgb[0], want);
+cleanup:
+    tnd_env_free(&e);
+}
+
+TND_TEST_MAIN(T(test_texel_refine), T(test_convention), T(test_density_normalised), T(test_importance_vs_uniform),
               T(test_bad_input))
