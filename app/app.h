@@ -78,8 +78,9 @@ typedef struct app_env {
     bool no_default_light;
     const char *camera_path;
     double path_duration, path_radius, path_height; /* path_height NaN: from the bounds */
+    const char *up; /* "y" (glTF's) or "z" */
 } app_env;
-#define APP_ENV_INIT {NULL, 1.0, 0.0, false, false, NULL, 0.0, 0.0, NAN}
+#define APP_ENV_INIT {NULL, 1.0, 0.0, false, false, NULL, 0.0, 0.0, NAN, "y"}
 #define APP_ENV_OPTS(e)                                                                            \
     {"env", APP_OPT_STRING, &(e)->path, "FILE",                                                    \
      "light the scene by a latitude-longitude EXR (replaces its sky; docs/scenes.md)"},            \
@@ -87,6 +88,9 @@ typedef struct app_env {
          "--env: radiance factor (default 1)"},                                                    \
         {"env-rotation", APP_OPT_FLOAT, &(e)->rotation, "DEG",                                     \
          "--env: rotation about +Y in degrees (default 0)"},                                       \
+        {"up", APP_OPT_STRING, &(e)->up, "y|z",                                                    \
+         "the scene's up axis: y (glTF's, default) or z (turned to +Y up: Stellarium's OBJs, "     \
+         "assimp's exports of .blend)"},                                                           \
         {"no-default-light", APP_OPT_FLAG, &(e)->no_default_light, NULL,                           \
          "a scene without punctual light, sky or environment stays unlit (its emitters alone)"},   \
         {"camera-path", APP_OPT_STRING, &(e)->camera_path, "P",                                    \

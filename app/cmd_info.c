@@ -41,12 +41,25 @@ static int scene_info(const char *path, const app_env *env, bool json)
     uint64_t unique = 0;
     for (uint32_t m = 0; m < s->mesh_count; m++)
         unique += s->meshes[m].triangle_count;
+    /* what the content takes on the host (and again on the GPU): the vertex arrays and indices,
+     * the textures as decoded (8-bit RGBA) and their mip chains */
+    double geo_mb = ((double)s->vertex_count * (12 + 12 + 8 + 16 + (s->uvs1 ? 8 : 0)) +
+                     4.0 * s->index_count) / 1e6,
+           tex_mb = 0, mip_mb = 0;
+    for (uint32_t t = 0; t < s->texture_count; t++)
+        for (uint32_t l = 0; l < s->textures[t].levels; l++)
+            *(l ? &mip_mb : &tex_mb) +=
+                4.0 * s->textures[t].level_w[l] * s->textures[t].level_h[l] / 1e6;
     if (json) {
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "scene", path);
         cJSON_AddNumberToObject(o, "triangles", (double)tnd_scene_triangles(s));
         cJSON_AddNumberToObject(o, "unique_triangles", (double)unique);
         cJSON_AddNumberToObject(o, "vertices", s->vertex_count);
+        cJSON *mem = cJSON_AddObjectToObject(o, "memory_mb");
+        cJSON_AddNumberToObject(mem, "geometry", geo_mb);
+        cJSON_AddNumberToObject(mem, "textures", tex_mb);
+        cJSON_AddNumberToObject(mem, "texture_mips", mip_mb);
         cJSON_AddNumberToObject(o, "meshes", s->mesh_count);
         cJSON_AddNumberToObject(o, "instances", s->instance_count);
         cJSON_AddNumberToObject(o, "nodes", s->node_count);
@@ -103,6 +116,8 @@ static int scene_info(const char *path, const app_env *env, bool json)
                (unsigned long long)tnd_scene_triangles(s), (unsigned long long)unique,
                s->mesh_count, s->vertex_count);
         printf("  instances   %u (%u nodes)\n", s->instance_count, s->node_count);
+        printf("  memory      %.1f MB geometry, %.1f MB textures (8-bit) + %.1f MB their mips\n",
+               geo_mb, tex_mb, mip_mb);
         printf("  materials  ");
         for (int k = 0; k < TND_MAT_KIND_COUNT; k++)
             printf(" %u %s%s", kinds[k], tnd_material_kind_name((tnd_material_kind)k),

@@ -158,6 +158,7 @@ tnd_result app_render_args(const app_render_opts *o, bool reference, app_args *a
          (!o->env.path || o->env.rotation == d.env.rotation ||
           argn(a, "--env-rotation", o->env.rotation)) &&
          (!o->env.no_default_light || arg(a, "--no-default-light")) &&
+         args_str(a, "--up", o->env.up, "y") &&
          args_str(a, "--camera-path", o->env.camera_path, NULL) &&
          (!o->env.camera_path || o->env.path_duration == d.env.path_duration ||
           argn(a, "--path-duration", o->env.path_duration)) &&

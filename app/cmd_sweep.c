@@ -428,6 +428,7 @@ static tnd_result plan_write(const sweep_plan *P)
     cJSON_AddNumberToObject(so, "env_intensity", P->env.intensity);
     cJSON_AddNumberToObject(so, "env_rotation", P->env.rotation);
     cJSON_AddBoolToObject(so, "no_default_light", P->env.no_default_light);
+    cJSON_AddBoolToObject(so, "up_z", P->env.up && strcmp(P->env.up, "z") == 0);
     cJSON_AddStringToObject(so, "camera_path", P->camera_path);
     cJSON_AddNumberToObject(so, "path_duration", P->env.path_duration);
     cJSON_AddNumberToObject(so, "path_radius", P->env.path_radius);
@@ -538,6 +539,7 @@ static tnd_result plan_read(const char *dir, sweep_plan *P)
                     *dst[k] = v->valuedouble;
             }
             P->env.no_default_light = cJSON_IsTrue(cJSON_GetObjectItem(so, "no_default_light"));
+            P->env.up = cJSON_IsTrue(cJSON_GetObjectItem(so, "up_z")) ? "z" : "y";
             P->env.path = P->env_path[0] ? P->env_path : NULL;
             P->env.camera_path = P->camera_path[0] ? P->camera_path : NULL;
         }

@@ -215,11 +215,14 @@ void app_progress_end(app_progress *p)
 
 tnd_result app_scene_load(const char *path, const app_env *env, tnd_scene **scene)
 {
+    if (env && env->up && strcmp(env->up, "y") != 0 && strcmp(env->up, "z") != 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--up %s: y or z", env->up);
     tnd_scene_options o = {.env = env ? env->path : NULL,
                            .env_intensity = env ? (float)env->intensity : 1.0f,
                            .env_rotation = env ? (float)env->rotation : 0.0f,
                            .opaque = env && env->opaque,
                            .no_default_light = env && env->no_default_light,
+                           .up_z = env && env->up && strcmp(env->up, "z") == 0,
                            .camera_path = env ? env->camera_path : NULL,
                            .path_duration = env ? env->path_duration : 0.0,
                            .path_radius = env ? env->path_radius : 0.0,

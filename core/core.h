@@ -726,6 +726,8 @@ void tnd_mat4_trs(const float t[3], const float q[4], const float s[3], float ou
 void tnd_mat4_perspective(float yfov, float aspect, float znear, float zfar, float out[16]);
 /* Normalised quaternion slerp (shortest path). */
 void tnd_quat_slerp(const float a[4], const float b[4], float t, float out[4]);
+/* out = a b (the rotation b, then a; out may alias either). */
+void tnd_quat_mul(const float a[4], const float b[4], float out[4]);
 /* The rotation (x, y, z, w) of a camera at eye looking at target with +Y up (glTF cameras look
  * down their -Z); false where the two coincide or the view is vertical. */
 bool tnd_quat_look_at(const double eye[3], const double target[3], float q[4]);
@@ -794,12 +796,13 @@ typedef struct tnd_texture {
     char name[256];
     uint32_t width, height;
     uint8_t *rgba8; /* width x height x 4, top row first, as decoded */
-    bool srgb;      /* base colour and emission textures */
-    /* Linear float RGBA mip chain (level 0 = rgba8 decoded, sRGB to linear when srgb), each
-     * level a 2x2 box filter of the one above; what both front-ends sample. */
+    bool srgb;      /* base colour and emission textures: RGB sRGB-encoded (alpha linear) */
+    /* The mip chain in the image's own 8 bits (level 0 = rgba8 itself; each further level a 2x2
+     * box filter of the one above in linear values, encoded again), what both front-ends
+     * sample, decoding through the one table of shaders/texel_lut.h. */
     uint32_t levels;
     uint32_t level_w[TND_TEXTURE_MAX_LEVELS], level_h[TND_TEXTURE_MAX_LEVELS];
-    float *level[TND_TEXTURE_MAX_LEVELS];
+    uint8_t *level[TND_TEXTURE_MAX_LEVELS];
 } tnd_texture;
 
 /* Build the mip chain of a decoded texture. */
@@ -993,6 +996,8 @@ typedef struct tnd_scene_options {
     float env_intensity;     /* its factor */
     float env_rotation;      /* degrees about +Y */
     bool opaque;             /* alpha-tested materials made opaque (what cut-outs cost: bench) */
+    bool up_z;               /* the scene was modelled with +Z up: turned to +Y up (root nodes
+                                and their channels rotated -90 degrees about +X) */
     bool no_default_light;   /* a scene without punctual lights, sky or environment stays unlit
                                 (its emitters alone) instead of getting the default sky */
     /* A camera path (core/camera_path.c, docs/scenes.md): orbit, dolly, flythrough or a keyframe

@@ -150,6 +150,15 @@ void tnd_quat_slerp(const float a[4], const float b[4], float t, float out[4])
         out[i] = (float)(r[i] * n);
 }
 
+void tnd_quat_mul(const float a[4], const float b[4], float out[4])
+{
+    float r[4] = {a[3] * b[0] + a[0] * b[3] + a[1] * b[2] - a[2] * b[1],
+                  a[3] * b[1] - a[0] * b[2] + a[1] * b[3] + a[2] * b[0],
+                  a[3] * b[2] + a[0] * b[1] - a[1] * b[0] + a[2] * b[3],
+                  a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2]};
+    memcpy(out, r, sizeof r);
+}
+
 bool tnd_quat_look_at(const double eye[3], const double target[3], float q[4])
 {
     /* the camera's +Z (it looks down -Z) points from the target to the eye; up is +Y */

@@ -5,6 +5,7 @@
  * tnd_scene_bounds. */
 #include "core/core.h"
 #include "core/scene_internal.h"
+#include "shaders/texel_lut.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -60,7 +61,7 @@ void tnd_scene_destroy(tnd_scene *s)
     free(s->materials);
     for (uint32_t i = 0; s->textures && i < s->texture_count; i++) {
         free(s->textures[i].rgba8);
-        for (uint32_t l = 0; l < s->textures[i].levels; l++)
+        for (uint32_t l = 1; l < s->textures[i].levels; l++) /* (level 0 is rgba8) */
             free(s->textures[i].level[l]);
     }
     free(s->textures);
@@ -99,6 +100,39 @@ void tnd_scene_bounds(const tnd_scene *s, const tnd_scene_state *st, double lo[3
                 double w = (double)x[4 * k] * p[0] + (double)x[4 * k + 1] * p[1] +
                            (double)x[4 * k + 2] * p[2] + x[4 * k + 3];
                 lo[k] = fmin(lo[k], w), hi[k] = fmax(hi[k], w);
+            }
+        }
+    }
+}
+
+/* A scene modelled with +Z up (Stellarium's scenery, assimp's exports of .blend files) turned to
+ * glTF's +Y up: every root node, and every channel animating one, rotated by -90 degrees about
+ * +X, so (x, y, z) becomes (x, z, -y). For a root's local T R S: Rx T R S = (Rx t) (qx r) S. */
+static void up_z_to_y(tnd_scene *s)
+{
+    const float h = (float)(0.5 * sqrt(2.0)), qx[4] = {-h, 0, 0, h};
+    for (uint32_t n = 0; n < s->node_count; n++) {
+        if (s->nodes[n].parent >= 0)
+            continue;
+        float *t = s->nodes[n].t, y = t[1];
+        t[1] = t[2], t[2] = -y;
+        float r[4];
+        tnd_quat_mul(qx, s->nodes[n].r, r);
+        memcpy(s->nodes[n].r, r, sizeof r);
+        for (uint32_t c = 0; c < s->channel_count; c++) {
+            tnd_anim_channel *ch = &s->channels[c];
+            if (ch->node != n || (ch->path != TND_ANIM_T && ch->path != TND_ANIM_R))
+                continue;
+            uint32_t dim = tnd_anim_dim(ch->path), per = ch->cubic ? 3 : 1;
+            for (uint32_t k = 0; k < ch->key_count * per; k++) { /* values and tangents alike */
+                float *v = ch->values + (size_t)dim * k;
+                if (ch->path == TND_ANIM_T) {
+                    float vy = v[1];
+                    v[1] = v[2], v[2] = -vy;
+                } else {
+                    tnd_quat_mul(qx, v, r);
+                    memcpy(v, r, sizeof r);
+                }
             }
         }
     }
@@ -208,6 +242,8 @@ tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o)
     if (o && o->opaque)
         for (uint32_t m = 0; m < s->material_count; m++)
             s->materials[m].alpha_test = false;
+    if (o && o->up_z)
+        up_z_to_y(s);
     if (s->env.width && (s->sky[0] > 0 || s->sky[1] > 0 || s->sky[2] > 0)) {
         tnd_info("scene", "%s: the environment map replaces the uniform sky", path);
         s->sky[0] = s->sky[1] = s->sky[2] = 0;
@@ -338,43 +374,64 @@ tnd_result scene_finish(tnd_scene *s, const tnd_scene_options *o)
     return TND_OK;
 }
 
-static float srgb_to_linear(float c)
+/* 8-bit texels as linear values (shaders/texel_lut.h; pt_scene.glsl's texel_decode): sRGB
+ * through the table, linear data (and alpha) as c x (1 / 255) */
+static const float srgb_lut[TND_TEXEL_LUT_SIZE] = {TND_TEXEL_LUT_VALUES};
+static const float unorm = (float)TND_TEXEL_UNORM;
+static inline float texel_value(uint8_t c, bool srgb)
 {
-    return c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f);
+    return srgb ? srgb_lut[c] : (float)c * unorm;
+}
+
+/* linear to the nearest 8-bit code (sRGB-encoded where srgb): the inverse of texel_value */
+static uint8_t encode8(float x, bool srgb)
+{
+    if (!srgb) {
+        float c = roundf(x * 255.0f);
+        return (uint8_t)(c < 0 ? 0 : c > 255 ? 255 : c);
+    }
+    const float *lut = srgb_lut;
+    int lo = 0, hi = 255;
+    while (lo < hi) { /* the first code whose value is >= x */
+        int mid = (lo + hi) / 2;
+        if (lut[mid] < x)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    if (lo > 0 && x - lut[lo - 1] <= lut[lo] - x)
+        lo--;
+    return (uint8_t)lo;
 }
 
 tnd_result tnd_texture_build_mips(tnd_texture *t)
 {
     uint32_t w = t->width, h = t->height;
-    t->levels = 0;
-    float *l0 = malloc((size_t)w * h * 4 * sizeof(float));
-    if (!l0)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: texture '%s': out of memory", t->name);
-    float lut[256];
-    for (int i = 0; i < 256; i++)
-        lut[i] = t->srgb ? srgb_to_linear((float)i / 255.0f) : (float)i / 255.0f;
-    for (size_t k = 0; k < (size_t)w * h; k++)
-        for (int c = 0; c < 4; c++)
-            l0[4 * k + c] = c == 3 ? (float)t->rgba8[4 * k + 3] / 255.0f : lut[t->rgba8[4 * k + c]];
-    t->level[0] = l0;
+    /* level 0 is the image as stored; each further level a 2x2 box filter of the one above, in
+     * linear values, stored again in 8 bits (sRGB-encoded where the texture is) */
+    t->level[0] = t->rgba8;
     t->level_w[0] = w;
     t->level_h[0] = h;
     t->levels = 1;
     while ((w > 1 || h > 1) && t->levels < TND_TEXTURE_MAX_LEVELS) {
         uint32_t nw = w > 1 ? w / 2 : 1, nh = h > 1 ? h / 2 : 1;
-        const float *src = t->level[t->levels - 1];
-        float *dst = malloc((size_t)nw * nh * 4 * sizeof(float));
+        const uint8_t *src = t->level[t->levels - 1];
+        uint8_t *dst = malloc((size_t)nw * nh * 4);
         if (!dst)
             return tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: texture '%s': out of memory", t->name);
         for (uint32_t y = 0; y < nh; y++)
-            for (uint32_t x = 0; x < nw; x++)
-                for (int c = 0; c < 4; c++) {
-                    uint32_t x0 = 2 * x < w ? 2 * x : w - 1, x1 = 2 * x + 1 < w ? 2 * x + 1 : x0;
-                    uint32_t y0 = 2 * y < h ? 2 * y : h - 1, y1 = 2 * y + 1 < h ? 2 * y + 1 : y0;
-                    dst[4 * ((size_t)y * nw + x) + c] =
-                        0.25f * (src[4 * ((size_t)y0 * w + x0) + c] + src[4 * ((size_t)y0 * w + x1) + c] +
-                                 src[4 * ((size_t)y1 * w + x0) + c] + src[4 * ((size_t)y1 * w + x1) + c]);
+            for (uint32_t x = 0; x < nw; x++) {
+                uint32_t x0 = 2 * x < w ? 2 * x : w - 1, x1 = 2 * x + 1 < w ? 2 * x + 1 : x0;
+                uint32_t y0 = 2 * y < h ? 2 * y : h - 1, y1 = 2 * y + 1 < h ? 2 * y + 1 : y0;
+                const uint8_t *a = src + 4 * ((size_t)y0 * w + x0), *b = src + 4 * ((size_t)y0 * w + x1);
+                const uint8_t *c = src + 4 * ((size_t)y1 * w + x0), *d = src + 4 * ((size_t)y1 * w + x1);
+                for (int k = 0; k < 4; k++) {
+                    bool sr = k < 3 && t->srgb;
+                    float m = 0.25f * (texel_value(a[k], sr) + texel_value(b[k], sr) +
+                                       texel_value(c[k], sr) + texel_value(d[k], sr));
+                    dst[4 * ((size_t)y * nw + x) + k] = encode8(m, sr);
                 }
+            }
         t->level[t->levels] = dst;
         t->level_w[t->levels] = nw;
         t->level_h[t->levels] = nh;
@@ -391,7 +448,7 @@ static void bilinear(const tnd_texture *t, uint32_t l, float u, float v, float o
     float fx = floorf(x), fy = floorf(y);
     float ax = x - fx, ay = y - fy;
     long ix = (long)fx, iy = (long)fy;
-    const float *d = t->level[l];
+    const uint8_t *d = t->level[l];
     for (int c = 0; c < 4; c++)
         out[c] = 0;
     for (int j = 0; j < 2; j++)
@@ -399,8 +456,9 @@ static void bilinear(const tnd_texture *t, uint32_t l, float u, float v, float o
             long xx = ((ix + i) % (long)w + (long)w) % (long)w;
             long yy = ((iy + j) % (long)h + (long)h) % (long)h;
             float wgt = (i ? ax : 1 - ax) * (j ? ay : 1 - ay);
+            const uint8_t *p = d + 4 * ((size_t)yy * w + (size_t)xx);
             for (int c = 0; c < 4; c++)
-                out[c] += wgt * d[4 * ((size_t)yy * w + (size_t)xx) + c];
+                out[c] += wgt * texel_value(p[c], c < 3 && t->srgb);
         }
 }
 

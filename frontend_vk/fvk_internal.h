@@ -17,7 +17,7 @@ struct fvk_context {
     tnd_precision precision;
     /* scene */
     tnd_buffer positions, normals, uvs, tangents, indices, meshes, materials, instances, lights,
-        frame_ubo, gradients, env, uvs1;
+        frame_ubo, gradients, env, uvs1, texel_lut; /* texel_lut: shaders/texel_lut.h's table */
     uint32_t gradient_capacity;
     fvk_texture *textures;
     uint32_t texture_count;

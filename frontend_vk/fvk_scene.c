@@ -1,9 +1,10 @@
 /* frontend_vk/fvk_scene.c: the scene on the GPU: vertex and index buffers, meshes, materials,
- * instances, light list, frame parameters, textures with their mip chains (linear float, as the
- * CPU samples them), and the acceleration structures (one compacted BLAS per mesh; a TLAS whose
+ * instances, light list, frame parameters, textures with their mip chains (8-bit, as the CPU
+ * keeps and samples them, with the table that decodes them), and the acceleration structures (one compacted BLAS per mesh; a TLAS whose
  * custom indices are Tandem's instance indices, refitted when instances move).
  * Entry points (internal): fvk_scene_upload, fvk_scene_free, fvk_scene_frame. */
 #include "frontend_vk/fvk_internal.h"
+#include "shaders/texel_lut.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -38,17 +39,18 @@ static void image_barrier(VkCommandBuffer cmd, VkImage img, uint32_t levels, VkI
                          0, 0, NULL, 0, NULL, 1, &b);
 }
 
-/* One texture: RGBA32F, every level of the CPU's mip chain, shader-read-only. */
+/* One texture: RGBA8 as stored (UINT: the shaders decode each byte through shaders/texel_lut.h
+ * as the CPU does), every level of the CPU's mip chain, shader-read-only. */
 static tnd_result upload_texture(tnd_vk *vk, const tnd_texture *t, fvk_texture *out)
 {
     tnd_result res = TND_OK;
     tnd_buffer st = {0};
     size_t total = 0;
     for (uint32_t l = 0; l < t->levels; l++)
-        total += (size_t)t->level_w[l] * t->level_h[l] * 16;
+        total += (size_t)t->level_w[l] * t->level_h[l] * 4;
     VkImageCreateInfo ici = {.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
                              .imageType = VK_IMAGE_TYPE_2D,
-                             .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                             .format = VK_FORMAT_R8G8B8A8_UINT,
                              .extent = {t->width, t->height, 1},
                              .mipLevels = t->levels,
                              .arrayLayers = 1,
@@ -70,7 +72,7 @@ static tnd_result upload_texture(tnd_vk *vk, const tnd_texture *t, fvk_texture *
     VkImageViewCreateInfo vci = {.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
                                  .image = out->image,
                                  .viewType = VK_IMAGE_VIEW_TYPE_2D,
-                                 .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                 .format = VK_FORMAT_R8G8B8A8_UINT,
                                  .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, t->levels, 0, 1}};
     TND_VK_TRY(vkCreateImageView(vk->device, &vci, NULL, &out->view));
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = total, .mem = TND_MEM_UPLOAD,
@@ -82,7 +84,7 @@ static tnd_result upload_texture(tnd_vk *vk, const tnd_texture *t, fvk_texture *
                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
     size_t off = 0;
     for (uint32_t l = 0; l < t->levels; l++) {
-        size_t bytes = (size_t)t->level_w[l] * t->level_h[l] * 16;
+        size_t bytes = (size_t)t->level_w[l] * t->level_h[l] * 4;
         memcpy((char *)st.mapped + off, t->level[l], bytes);
         VkBufferImageCopy r = {.bufferOffset = off,
                                .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, l, 0, 1},
@@ -115,7 +117,8 @@ void fvk_scene_free(fvk_context *c)
     tnd_vk *vk = c->vk;
     tnd_buffer *bufs[] = {&c->positions, &c->normals, &c->uvs,      &c->tangents,
                           &c->indices,   &c->meshes,  &c->materials, &c->instances,
-                          &c->lights,    &c->frame_ubo, &c->gradients, &c->env, &c->uvs1};
+                          &c->lights,    &c->frame_ubo, &c->gradients, &c->env, &c->uvs1,
+                          &c->texel_lut};
     for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
         tnd_buffer_destroy(vk, bufs[i]);
     for (uint32_t i = 0; c->textures && i < c->texture_count; i++)
@@ -152,6 +155,10 @@ tnd_result fvk_scene_upload(fvk_context *c)
                          "scene.uvs1", &c->uvs1));
     TND_TRY(upload_array(vk, s->tangents, (size_t)s->vertex_count * 16, "scene.tangents",
                          &c->tangents));
+    /* the sRGB decoding table (a storage buffer: lavapipe takes minutes to compile a constant
+     * array indexed per texel) */
+    static const float lut[TND_TEXEL_LUT_SIZE] = {TND_TEXEL_LUT_VALUES};
+    TND_TRY(upload_array(vk, lut, sizeof lut, "scene.texel_lut", &c->texel_lut));
     TND_TRY(upload_array(vk, s->indices, (size_t)s->index_count * 4, "scene.indices", &c->indices));
     gm = calloc(s->mesh_count + 1, sizeof *gm);
     gmat = calloc(s->material_count + 1, sizeof *gmat);
@@ -256,15 +263,15 @@ tnd_result fvk_scene_upload(fvk_context *c)
         for (uint32_t t = 0; t < s->texture_count; t++)
             TND_TRY(upload_texture(vk, &s->textures[t], &c->textures[t]));
     } else {
-        float white[4] = {1, 1, 1, 1};
+        uint8_t white[4] = {255, 255, 255, 255};
         tnd_texture w = {.name = "white", .width = 1, .height = 1, .levels = 1,
                          .level_w = {1}, .level_h = {1}, .level = {white}};
         TND_TRY(upload_texture(vk, &w, &c->textures[0]));
     }
     VkSamplerCreateInfo sci = {.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO,
-                               .magFilter = VK_FILTER_LINEAR,
-                               .minFilter = VK_FILTER_LINEAR,
-                               .mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR,
+                               .magFilter = VK_FILTER_NEAREST, /* (texelFetch only) */
+                               .minFilter = VK_FILTER_NEAREST,
+                               .mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST,
                                .addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT,
                                .addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT,
                                .addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT,

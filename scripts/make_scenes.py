@@ -269,6 +269,60 @@ def camera_path(g, name, keys, yfov=39.0, aspect=16 / 9, zfar=None):
 
 
 # ---- scenes --------------------------------------------------------------------------------
+
+def write_exr_rgb(path, w, h, pixel):
+    """A latitude-longitude RGB EXR (float channels, ZIPS compression: per scanline, the bytes
+    split into even and odd halves, delta-coded, deflated) written with the standard library
+    alone; pixel(u, v) gives (r, g, b) at the texel centre (u, v) in [0, 1)."""
+    def attr(name, typ, data):
+        return name.encode() + b"\0" + typ.encode() + b"\0" + struct.pack("<i", len(data)) + data
+    chans = b"".join(c.encode() + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in "BGR") + b"\0"
+    header = (struct.pack("<ii", 20000630, 2) +
+              attr("channels", "chlist", chans) +
+              attr("compression", "compression", bytes([2])) +
+              attr("dataWindow", "box2i", struct.pack("<iiii", 0, 0, w - 1, h - 1)) +
+              attr("displayWindow", "box2i", struct.pack("<iiii", 0, 0, w - 1, h - 1)) +
+              attr("lineOrder", "lineOrder", bytes([0])) +
+              attr("pixelAspectRatio", "float", struct.pack("<f", 1.0)) +
+              attr("screenWindowCenter", "v2f", struct.pack("<ff", 0.0, 0.0)) +
+              attr("screenWindowWidth", "float", struct.pack("<f", 1.0)) + b"\0")
+    blocks = []
+    for y in range(h):
+        rows = [[], [], []]
+        for x in range(w):
+            rgb = pixel((x + 0.5) / w, (y + 0.5) / h)
+            for k in range(3):
+                rows[k].append(rgb[k])
+        raw = b"".join(struct.pack("<%df" % w, *rows[k]) for k in (2, 1, 0))  # B, G, R
+        split = raw[0::2] + raw[1::2]
+        pred = bytearray(split)
+        for i in range(len(split) - 1, 0, -1):
+            pred[i] = (split[i] - split[i - 1] + 128 + 256) & 0xFF
+        data = zlib.compress(bytes(pred), 9)
+        if len(data) >= len(raw):
+            data = raw
+        blocks.append(struct.pack("<ii", y, len(data)) + data)
+    offset = len(header) + 8 * h
+    table = b""
+    for b in blocks:
+        table += struct.pack("<Q", offset)
+        offset += len(b)
+    with open(path, "wb") as f:
+        f.write(header + table + b"".join(blocks))
+
+
+def atrium_sky(u, v):
+    """A clear sky for the atrium (its sun is the directional light): blue at the zenith, pale at
+    the horizon, a dim warm ground; about 0.77 nits of mean luminance, as courtyard.exr had."""
+    y = math.cos(math.pi * v)
+    if y >= 0:
+        t = (1.0 - y) ** 3
+        zen, hor = (0.16, 0.30, 0.75), (0.95, 0.97, 1.0)
+        return tuple(2.15 * (zen[k] * (1 - t) + hor[k] * t) for k in range(3))
+    t = min(1.0, -y * 6.0)
+    hor, gnd = (0.95, 0.97, 1.0), (0.20, 0.18, 0.16)
+    return tuple(2.15 * (hor[k] * (1 - t) + gnd[k] * t) for k in range(3))
+
 def cornell(out):
     g = Gltf("cornell")
     white = g.material("white", (0.73, 0.73, 0.73))
@@ -503,7 +557,7 @@ def grid(w, d, nx, nz, tile):
 
 def atrium(out):
     """What real scenes stress, at a size benchmarks feel: a 16 x 24 m courtyard open to the sky
-    (courtyard.exr from Debian's blender-data, through the roof's opening) and a low sun; stone
+    (a generated clear sky, atrium_sky.exr, through the roof's opening) and a low sun; stone
     floor tiles and columns (over 500k triangles traced: 16 columns of 30k, instanced), wooden
     beams and benches, a stone fountain, galleries behind a cut-out railing (MASK) and planters of
     alpha-tested leaf cards (BLEND); a camera path through the colonnade (8 s)."""
@@ -593,8 +647,8 @@ def atrium(out):
                    r=quat_mul(quat_axis((0, 1, 0), yaw), quat_axis((1, 0, 0), tilt)))
     sl = g.light("sun", "directional", (1.0, 0.93, 0.8), 4.0)
     g.light_node("sun", sl, r=quat_mul(quat_axis((0, 1, 0), 35), quat_axis((1, 0, 0), -62)))
-    g.doc["scenes"][0]["extras"] = {"tandem_env": {
-        "uri": "/usr/share/blender/datafiles/studiolights/world/courtyard.exr", "intensity": 1.0}}
+    write_exr_rgb(os.path.join(out, "atrium_sky.exr"), 256, 128, atrium_sky)
+    g.doc["scenes"][0]["extras"] = {"tandem_env": {"uri": "atrium_sky.exr", "intensity": 1.0}}
     camera_path(g, "camera", [(0.0, (-2.0, 1.7, 10.5), -15, 2), (4.0, (-1.5, 1.7, 2.5), 10, 8),
                               (8.0, (1.5, 1.8, -6.0), 35, 14)], yfov=60.0)
     g.write(out)

@@ -145,7 +145,7 @@ vec3 safe_normalize(vec3 v)
     return l > 0.0 ? v / l : v;
 }
 
-vec4 sample_tex(int t, vec2 uv, float lod_base)
+vec4 sample_tex(int t, vec2 uv, float lod_base, bool srgb)
 {
     vec2 size = vec2(textureSize(textures[nonuniformEXT(t)], 0));
     float lod = lod_base + 0.5 * log2(size.x * size.y);
@@ -162,7 +162,7 @@ vec4 sample_tex(int t, vec2 uv, float lod_base)
     int l0 = int(lod);
     int l1 = float(l0 + 1) <= maxl ? l0 + 1 : l0;
     float f = lod - float(l0);
-    vec4 a = bilinear(t, l0, isz, uv), b = bilinear(t, l1, isz, uv);
+    vec4 a = bilinear(t, l0, isz, uv, srgb), b = bilinear(t, l1, isz, uv, srgb);
     return a + f * (b - a);
 }
 
@@ -172,7 +172,9 @@ vec4 sample_slot(tnd_gpu_material mat, uint k, int t, vec2 tuv[2], float lod_set
 {
     vec4 a = mat.uvx[2u * k], b = mat.uvx[2u * k + 1u];
     uint set = a.w != 0.0 ? 1u : 0u;
-    return sample_tex(t, uv_xform(a, b, tuv[set]), lod_set[set] + b.w);
+    /* base colour and emission are sRGB-encoded (core: the texture's srgb, by its slot) */
+    return sample_tex(t, uv_xform(a, b, tuv[set]), lod_set[set] + b.w,
+                      k == TND_TEX_BASE || k == TND_TEX_EMISSION);
 }
 
 surface surface_eval(uint inst, uint prim, vec2 bary, vec3 dir, float cone_width)

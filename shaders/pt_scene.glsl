@@ -8,6 +8,7 @@
 #include "encoding.h"
 #include "lights.h"
 #include "scene_gpu.h"
+#include "texel_lut.h"
 
 layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
 layout(set = 0, binding = 1, std140) uniform Frame { tnd_gpu_frame fr; };
@@ -21,10 +22,12 @@ layout(set = 0, binding = 8, std430) readonly buffer Materials { tnd_gpu_materia
 layout(set = 0, binding = 9, std430) readonly buffer Instances { tnd_gpu_instance instances[]; };
 layout(set = 0, binding = 10, std430) readonly buffer Lights { tnd_light_gpu lights[]; };
 layout(set = 0, binding = 11, std430) readonly buffer Gradients { tnd_gpu_gradient gradients[]; };
-layout(set = 0, binding = 12) uniform sampler2D textures[];
+layout(set = 0, binding = 12) uniform usampler2D textures[]; /* RGBA8 as stored */
 layout(set = 0, binding = 14, std430) readonly buffer Env { float env_data[]; };
 /* TEXCOORD_1 (the scene's TEXCOORD_0 again when no mesh has a second set) */
 layout(set = 0, binding = 15, std430) readonly buffer Uvs1 { float uvs1[]; };
+/* shaders/texel_lut.h's table (TND_TEXEL_LUT_SIZE floats), as the CPU decodes texels */
+layout(set = 0, binding = 16, std430) readonly buffer TexelLut { float texel_lut[]; };
 #include "env.h"
 
 
@@ -54,7 +57,16 @@ vec4 vtan(uint i)
 /* Trilinear filtering written out with texelFetch, the exact mirror of tnd_texture_sample (repeat
  * wrap, texel centres at +0.5, linear blend of two levels): the hardware's fixed-point filter
  * weights would make the two front-ends disagree on textured surfaces. */
-vec4 bilinear(int t, int level, ivec2 size0, vec2 uv)
+
+/* A texel's four bytes as linear values, core/scene.c's texel_value bit for bit: RGB through
+ * the sRGB table where srgb, linear data and alpha as c x (1 / 255). */
+vec4 texel_decode(uvec4 c, bool srgb)
+{
+    vec4 v = vec4(c) * float(TND_TEXEL_UNORM);
+    return srgb ? vec4(texel_lut[c.x], texel_lut[c.y], texel_lut[c.z], v.w) : v;
+}
+
+vec4 bilinear(int t, int level, ivec2 size0, vec2 uv, bool srgb)
 {
     /* level sizes as the CPU builds them (halving down to 1), not textureSize(level): lavapipe
      * answered that wrongly for a non-uniformly indexed sampler in this shader */
@@ -67,10 +79,10 @@ vec4 bilinear(int t, int level, ivec2 size0, vec2 uv)
     ivec2 p0 = ivec2(fl), p1 = p0 + 1;
     p0 = ivec2(p0.x < 0 ? p0.x + size.x : p0.x, p0.y < 0 ? p0.y + size.y : p0.y);
     p1 = ivec2(p1.x >= size.x ? p1.x - size.x : p1.x, p1.y >= size.y ? p1.y - size.y : p1.y);
-    vec4 t00 = texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p0.y), level);
-    vec4 t10 = texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p0.y), level);
-    vec4 t01 = texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p1.y), level);
-    vec4 t11 = texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p1.y), level);
+    vec4 t00 = texel_decode(texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p0.y), level), srgb);
+    vec4 t10 = texel_decode(texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p0.y), level), srgb);
+    vec4 t01 = texel_decode(texelFetch(textures[nonuniformEXT(t)], ivec2(p0.x, p1.y), level), srgb);
+    vec4 t11 = texel_decode(texelFetch(textures[nonuniformEXT(t)], ivec2(p1.x, p1.y), level), srgb);
     /* the CPU's order of summation: (0,0), (1,0), (0,1), (1,1) */
     vec4 r = ((1.0 - a.x) * (1.0 - a.y)) * t00;
     r += (a.x * (1.0 - a.y)) * t10;
@@ -101,7 +113,7 @@ bool alpha_pass(uint inst, uint prim, vec2 bary)
         if (tnd_nonfinite(uv.x) || tnd_nonfinite(uv.y))
             uv = vec2(0.0);
         uv -= floor(uv);
-        a *= bilinear(mat.tex.x, 0, textureSize(textures[nonuniformEXT(mat.tex.x)], 0), uv).a;
+        a *= bilinear(mat.tex.x, 0, textureSize(textures[nonuniformEXT(mat.tex.x)], 0), uv, true).a;
     }
     return a >= uintBitsToFloat(mat.info.z);
 }

@@ -1037,6 +1037,31 @@ static void test_camera_paths(void)
     tnd_scene_destroy(plain);
 }
 
+/* --up z (Stellarium's scenery, assimp's exports of .blend files): (x, y, z) becomes (x, z, -y)
+ * for geometry, and the default camera frames the turned bounds. The lamp level's floor spans
+ * x in [-4, 4], z in [-2, 2] at y = 0; turned, it spans y in [-2, 2] at z = 0 (its +Z side at
+ * y = +2). */
+static void test_up_z(void)
+{
+    tnd_scene_options o = {.up_z = true};
+    tnd_scene_state st = {0};
+    tnd_scene *s = lamp_level(&o, true);
+    REQUIRE(s, "lamp level: %s", tnd_error_detail());
+    double lo[3], hi[3];
+    CHECK_OK(tnd_scene_evaluate(s, 0, 0, 1.0f, &st));
+    tnd_scene_bounds(s, &st, lo, hi);
+    CHECK(fabs(lo[0] + 4) < 1e-5 && fabs(hi[0] - 4) < 1e-5 && fabs(lo[1] + 2) < 1e-5 &&
+              fabs(hi[1] - 2) < 1e-5 && fabs(lo[2] + 0.7) < 1e-5 && fabs(hi[2]) < 1e-5,
+          "turned bounds (%g %g %g) .. (%g %g %g)", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+    /* the floor's corner (4, 0, 2) is now at (4, 2, 0) */
+    const float *x = st.instance_xform;
+    float p[3] = {x[0] * 4 + x[2] * 2 + x[3], x[4] * 4 + x[6] * 2 + x[7], x[8] * 4 + x[10] * 2 + x[11]};
+    CHECK(fabsf(p[0] - 4) < 1e-5f && fabsf(p[1] - 2) < 1e-5f && fabsf(p[2]) < 1e-5f,
+          "corner at (%g %g %g)", p[0], p[1], p[2]);
+    tnd_scene_state_free(&st);
+    tnd_scene_destroy(s);
+}
+
 /* glTF CUBICSPLINE (spec 3.11): keys 0 s and 2 s, x from 0 (out-tangent 1/s) to 2 (in-tangent
  * 0), y from 0 (out-tangent 0) to 0 (in-tangent 3/s). By hand, with d = 2 and s = t / 2:
  * x = (s^3 - 2s^2 + s) d 1 + (-2s^3 + 3s^2) 2, y = (s^3 - s^2) d 3: at t = 0.5, x = 0.28125 +
@@ -1183,4 +1208,4 @@ TND_TEST_MAIN(T(test_shipped_scenes), T(test_values), T(test_animation), T(test_
               T(test_light_pick), T(test_bad_input), T(test_defaults),
               T(test_unsupported_named), T(test_other_formats), T(test_obj_mtl),
               T(test_texture_coordinates), T(test_default_light_levels), T(test_camera_paths),
-              T(test_cubicspline), T(test_missing_images))
+              T(test_cubicspline), T(test_missing_images), T(test_up_z))
