@@ -10,6 +10,7 @@
 #  - a repro state round-trips (--state, then a screenshot at once: the same settings, the path
 #    one frame longer at the same camera);
 #  - F5 reloads the shaders from $TANDEM_SHADER_DIR (an edited compositor inverts the window);
+#  - --camera-path: the viewer plays the orbit, F12 writes it as a camera path file, render takes it;
 #  - a bad script is refused by name.
 # The validation layer is on (the test's environment): an error fails the session.
 set -uo pipefail
@@ -135,6 +136,33 @@ assert np.abs(flip - rel).max() > 32, "FLIP view: the same as the relative error
 assert (off == rd(f"{d}/shot_0002.png")).all(), "X a third time: the final image again"
 PYEOF
 check "X: relative error and FLIP views against the reference, then the final image again" "[ $? -eq 0 ]"
+
+# --camera-path: the viewer plays the orbit (nothing flown), and F12 writes the flight as a
+# camera path file: a key per frame on the orbit's circle, which render takes back
+echo '{"events": [{"frame": 5, "screenshot": true}, {"frame": 6, "exit": true}]}' > "$TMP/orbit.json"
+"${XVFB[@]}" "$T" view --scene "$SRC/data/scenes/cornell.gltf" --size 96x64 --camera-path orbit \
+    --path-duration 2 --script "$TMP/orbit.json" --out "$TMP/orbit" > "$TMP/orbit.log" 2>&1
+check "--camera-path orbit: exit 0" "[ $? -eq 0 ]" || cat "$TMP/orbit.log"
+$PY - "$TMP/orbit/shot_0000.path.json" <<'PYEOF'
+import json, math, sys
+k = json.load(open(sys.argv[1]))["keyframes"]
+assert len(k) == 6, len(k)
+assert all(b["time"] > a["time"] for a, b in zip(k, k[1:])), "times increase"
+# on a circle about a vertical axis: the same height, the same distance from the centre of the
+# circle through the first, third and fifth keys (x, z)
+assert max(abs(e["position"][1] - k[0]["position"][1]) for e in k) < 1e-4, "one height"
+(x1, z1), (x2, z2), (x3, z3) = ((k[i]["position"][0], k[i]["position"][2]) for i in (0, 2, 4))
+d = 2 * (x1 * (z2 - z3) + x2 * (z3 - z1) + x3 * (z1 - z2))
+cx = ((x1 * x1 + z1 * z1) * (z2 - z3) + (x2 * x2 + z2 * z2) * (z3 - z1) + (x3 * x3 + z3 * z3) * (z1 - z2)) / d
+cz = ((x1 * x1 + z1 * z1) * (x3 - x2) + (x2 * x2 + z2 * z2) * (x1 - x3) + (x3 * x3 + z3 * z3) * (x2 - x1)) / d
+r = [math.hypot(e["position"][0] - cx, e["position"][2] - cz) for e in k]
+assert max(r) - min(r) < 1e-3 * max(r), r
+assert math.hypot(k[5]["position"][0] - k[0]["position"][0], k[5]["position"][2] - k[0]["position"][2]) > 0.1, "it moved"
+PYEOF
+check "F12 writes the orbit as a camera path (a key per frame, on its circle)" "[ $? -eq 0 ]"
+"$T" render --scene "$SRC/data/scenes/cornell.gltf" --size 96x64 --frames 6 \
+    --camera-path "$TMP/orbit/shot_0000.path.json" --out "$TMP/orbit_render" --quiet
+check "render --camera-path FILE.json takes the viewer's path" "[ $? -eq 0 ] && [ -e '$TMP/orbit_render/frame_0005.exr' ]"
 
 # F5: the shaders again from $TANDEM_SHADER_DIR (scripts/compile-shaders.sh). The session
 # starts with the directory empty (the embedded code), takes a screenshot, waits until the test
