@@ -346,8 +346,12 @@ static tnd_result accessor_view(gltf_ctx *c, int index, const char *what, acc_vi
     const uint8_t *data = NULL;
     size_t size = 0;
     TND_TRY_RETURN(buffer_get(c, (int)buf, &data, &size));
-    size_t span = v->count ? (v->count - 1) * v->stride + elem : 0;
-    if (voff > size || vlen > size - voff || aoff > vlen || span > vlen - aoff)
+    /* (in this order, so that nothing overflows: the view inside the buffer, the accessor's
+     * start inside the view, then its last element by division before multiplication) */
+    bool inside = voff <= size && vlen <= size - voff && aoff <= vlen &&
+                  (v->count == 0 || ((v->count - 1) <= (vlen - aoff) / v->stride &&
+                                     (v->count - 1) * v->stride + elem <= vlen - aoff));
+    if (!inside)
         return tnd_fail(TND_ERR_BAD_INPUT,
                         "scene: %s: %s: accessor %d runs past its buffer view or buffer", c->path,
                         what, index);

@@ -407,6 +407,11 @@ static char *load_capturing(const char *path, tnd_result *r)
     return text;
 }
 
+static void write_text(const char *path, const char *text)
+{
+    CHECK_OK(tnd_file_write_atomic(path, text, strlen(text)));
+}
+
 static void test_bad_input(void)
 {
     snprintf(dir, sizeof dir, "/tmp/tandem_scene_XXXXXX");
@@ -436,6 +441,32 @@ static void test_bad_input(void)
     uint32_t big = 999;
     patch_bin(bin, accessor_offset(p, 0, NULL, 1, 4), &big, 4);
     expect_error("index out of range", p, "floor", "999");
+
+    /* an index accessor's byteOffset of -1, 0.5 and 2^40 (the first read 1 byte before its
+     * buffer, a heap overflow, until every such number went through one check) */
+    const char *offsets[3] = {"-1", "0.5", "1099511627776"};
+    for (int k = 0; k < 3; k++) {
+        stage("cornell", true, false);
+        void *jt = NULL;
+        size_t jn = 0;
+        REQUIRE_OK(tnd_file_read(p, &jt, &jn));
+        cJSON *jj = cJSON_ParseWithLength(jt, jn);
+        free(jt);
+        REQUIRE(jj, "cornell.gltf parses");
+        cJSON *prim0 = cJSON_GetArrayItem(
+            cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(jj, "meshes"), 0),
+                                "primitives"),
+            0);
+        cJSON *acc = cJSON_GetArrayItem(cJSON_GetObjectItem(jj, "accessors"),
+                                        cJSON_GetObjectItem(prim0, "indices")->valueint);
+        cJSON_DeleteItemFromObject(acc, "byteOffset");
+        cJSON_AddItemToObject(acc, "byteOffset", cJSON_CreateRaw(offsets[k]));
+        char *txt2 = cJSON_Print(jj);
+        cJSON_Delete(jj);
+        write_text(p, txt2);
+        free(txt2);
+        expect_error("byteOffset", p, "floor", "accessor");
+    }
 
     /* NaN vertex: mesh 1 ('ceiling'), vertex 2, x */
     stage("cornell", true, false);
@@ -695,10 +726,6 @@ static void test_other_formats(void)
     }
 }
 
-static void write_text(const char *path, const char *text)
-{
-    CHECK_OK(tnd_file_write_atomic(path, text, strlen(text)));
-}
 
 /* MTL to metal-rough, statement by statement (docs/scenes.md "OBJ and MTL"): a plastic (Kd, Ks,
  * Ns), a metal (no Kd, Ks), a glass (illum 7, d, Ni), a lamp (Ke: an area light), a cut-out
