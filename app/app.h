@@ -128,12 +128,13 @@ typedef struct app_view_cam {
 } app_view_cam;
 typedef struct app_view_state {
     char scene[1024], frontend[1100], denoiser[1100], precision[16], taa[16], tonemap[16];
-    char exposure[32], env[1024], view[64];
+    char exposure[32], env[1024], view[64], up[4]; /* up: the scene's up axis (--up), "" = y */
     double bloom, fps, env_intensity, env_rotation, exposure_bias;
     pl_param_set params; /* the denoisers' parameters (pl_param) */
     char split_mode[16];                  /* off, noisy, denoiser, frontend */
     char split_denoiser[1100], split_frontend[1100]; /* the right half's, when split */
     uint32_t bounces, camera, size[2];
+    uint32_t no_default_light; /* --no-default-light: 1 */
     app_view_cam *path;
     uint32_t path_len, path_cap;
 } app_view_state;

@@ -294,6 +294,8 @@ static app_env scene_options(const viewer *v)
     e.path = v->st.env[0] ? v->st.env : NULL;
     e.intensity = v->st.env_intensity;
     e.rotation = v->st.env_rotation;
+    e.up = v->st.up[0] ? v->st.up : "y";
+    e.no_default_light = v->st.no_default_light != 0;
     return e;
 }
 
@@ -1054,6 +1056,8 @@ int cmd_view(int argc, char **argv)
     snprintf(s->tonemap, sizeof s->tonemap, "aces");
     snprintf(s->exposure, sizeof s->exposure, "auto");
     snprintf(s->env, sizeof s->env, "%s", env.path ? env.path : "");
+    snprintf(s->up, sizeof s->up, "%s", env.up ? env.up : "y"); /* (checked as the scene loads) */
+    s->no_default_light = env.no_default_light;
     snprintf(s->view, sizeof s->view, "final");
     snprintf(s->split_mode, sizeof s->split_mode, "off");
     bool from_state = false;

@@ -78,7 +78,7 @@ static const struct {
     F("precision", precision), F("taa", taa),           F("tonemap", tonemap),
     F("exposure", exposure),   F("env", env),           F("view", view),
     F("split", split_mode),    F("split_denoiser", split_denoiser),
-    F("split_frontend", split_frontend),
+    F("split_frontend", split_frontend), F("up", up),
 #undef F
 };
 static const struct {
@@ -95,7 +95,7 @@ static const struct {
     size_t offset;
 } uint_fields[] = {
 #define F(k, field) {k, offsetof(app_view_state, field)}
-    F("bounces", bounces), F("camera", camera),
+    F("bounces", bounces), F("camera", camera), F("no_default_light", no_default_light),
 #undef F
 };
 
@@ -112,6 +112,8 @@ void app_view_state_options(const app_view_state *v, app_render_opts *o)
     o->env.path = v->env[0] ? v->env : NULL;
     o->env.intensity = v->env_intensity;
     o->env.rotation = v->env_rotation;
+    o->env.up = v->up[0] ? v->up : "y";
+    o->env.no_default_light = v->no_default_light != 0;
     o->params = v->params;
     o->exposure_bias = v->exposure_bias;
     o->bloom = v->bloom;
