@@ -47,13 +47,22 @@ static tnd_result keys_alloc(path_keys *k, uint32_t n)
     return TND_OK;
 }
 
+/* The keys' times as the channels store them (float seconds); NULL when out of memory. */
+static float *key_times(const path_keys *k)
+{
+    float *t = malloc(k->n * sizeof *t);
+    for (uint32_t i = 0; t && i < k->n; i++)
+        t[i] = (float)k->time[i];
+    return t;
+}
+
 /* One channel of dim values per key as a CUBICSPLINE channel with Catmull-Rom tangents (one-sided
  * at the ends, or across the seam of a closed loop whose last key repeats its first). */
 static tnd_result add_cubic(tnd_scene *s, uint32_t node, tnd_anim_path path, const path_keys *k,
                             const float *v, uint32_t dim, bool closed)
 {
     uint32_t n = k->n;
-    float *times = malloc(n * sizeof *times), *vals = malloc(3 * (size_t)dim * n * sizeof *vals);
+    float *times = key_times(k), *vals = malloc(3 * (size_t)dim * n * sizeof *vals);
     if (!times || !vals) {
         free(times);
         free(vals);
@@ -66,7 +75,6 @@ static tnd_result add_cubic(tnd_scene *s, uint32_t node, tnd_anim_path path, con
         seam += (double)v[d] * v[dim * (n - 1) + d];
     double sgn = dim == 4 && seam < 0 ? -1.0 : 1.0;
     for (uint32_t i = 0; i < n; i++) {
-        times[i] = (float)k->time[i];
         /* neighbours: across the seam of a closed loop (n - 1 is the key 0 again) */
         bool wa = i == 0 && closed && n > 2, wb = i == n - 1 && closed && n > 2;
         uint32_t a = i > 0 ? i - 1 : (wa ? n - 2 : 0);
@@ -97,16 +105,11 @@ static double length3(const double v[3])
 static tnd_result generate(const char *kind, const tnd_scene_options *o, const double lo[3],
                            const double hi[3], path_keys *k, bool *closed, char *note, size_t cap)
 {
-    double c[3], r2 = 0;
-    for (int i = 0; i < 3; i++) {
-        c[i] = 0.5 * (lo[i] + hi[i]);
-        r2 += 0.25 * (hi[i] - lo[i]) * (hi[i] - lo[i]);
-    }
-    double rad = sqrt(r2) > 0 ? sqrt(r2) : 1.0;
+    double c[3], rad, dist;
+    scene_default_view(lo, hi, c, &rad, &dist);
     double yfov = TND_DEFAULT_CAMERA_YFOV_DEG * TND_PI / 180;
     double el = TND_DEFAULT_CAMERA_ELEVATION_DEG * TND_PI / 180;
     double az0 = TND_DEFAULT_CAMERA_AZIMUTH_DEG * TND_PI / 180;
-    double dist = TND_DEFAULT_CAMERA_MARGIN * rad / sin(0.5 * yfov);
     double dur = o->path_duration > 0 ? o->path_duration : PATH_DEFAULT_DURATION;
     bool orbit = strcasecmp(kind, "orbit") == 0, dolly = strcasecmp(kind, "dolly") == 0;
     bool fly = strcasecmp(kind, "flythrough") == 0;
@@ -286,11 +289,9 @@ tnd_result scene_camera_path(tnd_scene *s, const tnd_scene_options *o, const dou
         TND_TRY(add_cubic(s, (uint32_t)node, TND_ANIM_T, &k, k.pos, 3, closed));
         TND_TRY(add_cubic(s, (uint32_t)node, TND_ANIM_R, &k, k.rot, 4, closed));
         if (fov_moves) { /* linear: a zoom holds between equal keys, no overshoot */
-            float *times = malloc(k.n * sizeof *times);
+            float *times = key_times(&k);
             if (!times)
                 TND_TRY(tnd_fail(TND_ERR_OUT_OF_MEMORY, "scene: out of memory"));
-            for (uint32_t i = 0; i < k.n; i++)
-                times[i] = (float)k.time[i];
             res = tnd_scene_add_channel(s, (uint32_t)node, TND_ANIM_YFOV, k.n, times, k.fov,
                                         false, false);
             free(times);

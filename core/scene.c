@@ -152,19 +152,27 @@ static void anim_flags(tnd_scene *s)
             s->duration = fmaxf(s->duration, s->channels[c].times[s->channels[c].key_count - 1]);
 }
 
-/* A camera framing the bounds lo..hi (docs/scenes.md's rule). */
-static tnd_result default_camera(tnd_scene *s, const double lo[3], const double hi[3])
+void scene_default_view(const double lo[3], const double hi[3], double c[3], double *rad,
+                        double *dist)
 {
-    double c[3], r2 = 0;
+    double r2 = 0;
     for (int k = 0; k < 3; k++) {
         c[k] = 0.5 * (lo[k] + hi[k]);
         r2 += 0.25 * (hi[k] - lo[k]) * (hi[k] - lo[k]);
     }
-    double rad = sqrt(r2) > 0 ? sqrt(r2) : 1.0;
+    *rad = sqrt(r2) > 0 ? sqrt(r2) : 1.0;
+    double yfov = TND_DEFAULT_CAMERA_YFOV_DEG * TND_PI / 180;
+    *dist = TND_DEFAULT_CAMERA_MARGIN * *rad / sin(0.5 * yfov);
+}
+
+/* A camera framing the bounds lo..hi (docs/scenes.md's rule). */
+static tnd_result default_camera(tnd_scene *s, const double lo[3], const double hi[3])
+{
+    double c[3], rad, dist;
+    scene_default_view(lo, hi, c, &rad, &dist);
     double az = TND_DEFAULT_CAMERA_AZIMUTH_DEG * TND_PI / 180;
     double el = TND_DEFAULT_CAMERA_ELEVATION_DEG * TND_PI / 180;
     double yfov = TND_DEFAULT_CAMERA_YFOV_DEG * TND_PI / 180;
-    double dist = TND_DEFAULT_CAMERA_MARGIN * rad / sin(0.5 * yfov);
     /* the camera's +Z (it looks down -Z) points from the centre to the camera */
     double b[3] = {sin(az) * cos(el), sin(el), cos(az) * cos(el)}, eye[3];
     float t[3], q[4];

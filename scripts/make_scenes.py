@@ -102,14 +102,18 @@ class Gltf:
             self.images[name] = (len(self.doc["textures"]) - 1, data)
         return self.images[name][0]
 
-    def mesh(self, name, geo, material):
+    def primitive(self, geo, material):
         pos, nrm, uv, idx = geo
-        prim = {"attributes": {"POSITION": self.accessor(pos, "VEC3", target=34962, minmax=True),
+        return {"attributes": {"POSITION": self.accessor(pos, "VEC3", target=34962, minmax=True),
                                "NORMAL": self.accessor(nrm, "VEC3", target=34962),
                                "TEXCOORD_0": self.accessor(uv, "VEC2", target=34962)},
                 "indices": self.accessor(idx, "SCALAR", 5125, target=34963),
                 "material": material}
-        self.doc["meshes"].append({"name": name, "primitives": [prim]})
+
+    def mesh(self, name, geo, material, more=()):
+        """A mesh of one primitive (geo, material), and more (geo, material) pairs after it."""
+        prims = [self.primitive(g, m) for g, m in [(geo, material)] + list(more)]
+        self.doc["meshes"].append({"name": name, "primitives": prims})
         return len(self.doc["meshes"]) - 1
 
     def node(self, name, mesh=None, t=None, r=None, s=None, parent=None, **kw):

@@ -900,6 +900,12 @@ static void camera_at(const tnd_scene *s, double t, tnd_scene_state *st, double 
     }
 }
 
+static double distance(const double p[3], const double q[3])
+{
+    return sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                (p[2] - q[2]) * (p[2] - q[2]));
+}
+
 static double angle_to(const double p[3], const double d[3], const double at[3])
 {
     double v[3] = {at[0] - p[0], at[1] - p[1], at[2] - p[2]};
@@ -936,7 +942,7 @@ static void test_camera_paths(void)
           "orbit: duration %g, camera '%s', note '%s'", (double)s->duration, s->cameras[0].name,
           s->camera_path);
     camera_at(s, 0, &st, p, d);
-    CHECK(fabs(p[0] - p0[0]) + fabs(p[1] - p0[1]) + fabs(p[2] - p0[2]) < 1e-4 * ring,
+    CHECK(distance(p, p0) < 1e-4 * ring,
           "orbit starts at the default camera: (%g %g %g) vs (%g %g %g)", p[0], p[1], p[2], p0[0],
           p0[1], p0[2]);
     double worst_r = 0, worst_h = 0, worst_a = 0;
@@ -963,14 +969,10 @@ static void test_camera_paths(void)
     s = lamp_level(&o, true);
     REQUIRE(s, "dolly: %s", tnd_error_detail());
     camera_at(s, 0, &st, p, d);
-    double e0 = sqrt((p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]) +
-                     (p[2] - c[2]) * (p[2] - c[2]));
-    double worst = 0;
+    double e0 = distance(p, c), worst = 0;
     for (int i = 0; i <= 16; i++) {
         camera_at(s, 8.0 * i / 16, &st, p, d);
-        double e = sqrt((p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]) +
-                        (p[2] - c[2]) * (p[2] - c[2]));
-        worst = fmax(worst, fabs(e - (e0 - 3.0 * i / 16)) + angle_to(p, d, c));
+        worst = fmax(worst, fabs(distance(p, c) - (e0 - 3.0 * i / 16)) + angle_to(p, d, c));
     }
     CHECK(worst < 1e-4, "dolly: off its line by %.2g", worst);
     tnd_scene_state_free(&st);
@@ -1008,7 +1010,7 @@ static void test_camera_paths(void)
     const double at[3] = {0, 0.5, 0}, keys[3][3] = {{0, 1, 5}, {3, 1, 4}, {3, 2, -1}};
     for (int i = 0; i < 3; i++) {
         camera_at(s, i == 2 ? 3.0 : i, &st, p, d);
-        CHECK(fabs(p[0] - keys[i][0]) + fabs(p[1] - keys[i][1]) + fabs(p[2] - keys[i][2]) < 1e-5,
+        CHECK(distance(p, keys[i]) < 1e-5,
               "key %d: at (%g %g %g)", i, p[0], p[1], p[2]);
         if (i < 2)
             CHECK(angle_to(p, d, at) < 1e-5, "key %d looks at its target (off by %.2g)", i,
