@@ -198,6 +198,44 @@ tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, t
                              bool use_vk, bool use_dn, tnd_precision prec,
                              const pl_denoiser_info **dn, bool reference, struct pl_frontend **fr,
                              struct pl_chain **chain, struct cmp_desc *pd);
+/* The frame loop's one frame, as render runs it (and the Python binding, the dataset): frame i
+ * of the run (o->start + i): the scene's states (st[i & 1] the current; the previous evaluated
+ * too when `first`), the viewer's camera, the front-end's frame. */
+tnd_result app_frame_begin(const app_render_opts *o, const tnd_scene *scene,
+                           struct pl_frontend *fr, tnd_scene_state st[2], unsigned i, bool first);
+/* Its step through the chain (the front-end's bounces, the camera's jitter and spread, the
+ * frame time; `reset`: the history restarts). */
+pl_step app_frame_step(const app_render_opts *o, const tnd_scene_state *cur, unsigned i,
+                       bool reset);
+/* Samples [first, first + count) of the current frame's reference by o->estimator ("realtime":
+ * the matched one, composited where o->composite_on says; else unbiased, o->ref_bounces) added
+ * to the per-pixel sums (RGB, luminance^2); `frame`: scratch of the frame's size. */
+tnd_result app_reference_add(struct pl_frontend *fr, const app_render_opts *o, unsigned f,
+                             tnd_frame *frame, uint32_t first, uint32_t count, double *sum_rgb,
+                             double *sum_lum2, tnd_ref_stats *rs,
+                             void (*progress)(uint32_t, uint32_t, void *), void *user);
+/* render's or reference's options checked (no --out needed): an error names the option. */
+tnd_result app_render_check(const app_render_opts *o, bool reference);
+/* render's (or reference's) pipeline held open, frame by frame (app/session.c): what render
+ * builds from the options, each frame as render's loop runs it. Frames are asked for by number
+ * (o->start and o->view are not used): one that follows the frame before continues the history,
+ * any other restarts it. */
+typedef struct app_session app_session;
+tnd_result app_session_open(const app_render_opts *o, bool reference, app_session **s);
+void app_session_close(app_session *s);
+const tnd_scene *app_session_scene(const app_session *s);
+const app_render_opts *app_session_opts(const app_session *s);
+/* the denoiser that runs (after a fallback; NULL for a reference session) */
+const char *app_session_denoiser(const app_session *s);
+/* Frame f: render's frame_NNNN.exr into rgb (3 floats per pixel), its PNG's pixels into display
+ * (3 bytes per pixel; zeros where the CPU composites), the contract as the capture holds it into
+ * `contract` (each optional). */
+tnd_result app_session_frame(app_session *s, unsigned f, float *rgb, uint8_t *display,
+                             tnd_frame *contract);
+/* Frame f's reference (o->estimator, o->spp, o->until_noise): the mean into rgb and the variance
+ * of one sample's luminance into variance (optional), as reference's EXR holds them. */
+tnd_result app_session_reference(app_session *s, unsigned f, float *rgb, float *variance,
+                                 tnd_ref_stats *stats);
 /* "The other denoiser" of a comparison (the viewer's split): a denoiser's fallback, or the one
  * whose fallback it is, or the first that filters without gradient samples. */
 const pl_denoiser_info *app_denoiser_other(const pl_denoiser_info *d);
@@ -206,6 +244,10 @@ const pl_denoiser_info *app_denoiser_other(const pl_denoiser_info *d);
 void app_timings_members(FILE *f, const struct pl_chain *chain, const pl_step_result *r);
 /* Remove a directory and the files in it (no subdirectories): an output left by a failed run. */
 bool app_remove_flat_dir(const char *dir);
+/* `tandem info --scene PATH --json`'s object, and `tandem info --pipeline --json`'s (malloc'd
+ * text; NULL when out of memory) (app/cmd_info.c). */
+char *app_scene_info_json(const char *path, const tnd_scene *s);
+char *app_pipeline_json(void);
 /* tandem info --capture DIR [--map M] [--json] (app/capture_info.c). */
 int app_capture_info(const char *captures, const char *map_path, bool json);
 /* --taa on|off|W (a new-frame weight in (0, 1]) into the post chain's description. */

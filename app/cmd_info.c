@@ -27,89 +27,118 @@ static void material_kinds(const tnd_scene *s, uint32_t counts[TND_MAT_KIND_COUN
     }
 }
 
+/* A scene's contents as `tandem info --scene --json` prints them (and the Python binding's
+ * Scene.info()). */
+typedef struct scene_counts {
+    uint32_t kinds[TND_MAT_KIND_COUNT], lights[TND_LIGHT_TYPE_COUNT];
+    uint64_t unique;
+    double geo_mb, tex_mb, mip_mb;
+} scene_counts;
+
+static scene_counts count_scene(const tnd_scene *s)
+{
+    scene_counts c = {0};
+    material_kinds(s, c.kinds);
+    for (uint32_t l = 0; l < s->light_count; l++)
+        c.lights[s->lights[l].type]++;
+    c.lights[TND_LIGHT_AREA] = s->emitter_count;
+    for (uint32_t m = 0; m < s->mesh_count; m++)
+        c.unique += s->meshes[m].triangle_count;
+    /* what the content takes on the host (and again on the GPU): the vertex arrays and indices,
+     * the textures as decoded (8-bit RGBA) and their mip chains */
+    c.geo_mb = ((double)s->vertex_count * (12 + 12 + 8 + 16 + (s->uvs1 ? 8 : 0)) +
+                4.0 * s->index_count) / 1e6;
+    for (uint32_t t = 0; t < s->texture_count; t++)
+        for (uint32_t l = 0; l < s->textures[t].levels; l++)
+            *(l ? &c.mip_mb : &c.tex_mb) +=
+                4.0 * s->textures[t].level_w[l] * s->textures[t].level_h[l] / 1e6;
+    return c;
+}
+
+char *app_scene_info_json(const char *path, const tnd_scene *s)
+{
+    scene_counts c = count_scene(s);
+    const uint32_t *kinds = c.kinds, *lights = c.lights;
+    uint64_t unique = c.unique;
+    double geo_mb = c.geo_mb, tex_mb = c.tex_mb, mip_mb = c.mip_mb;
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "scene", path);
+    cJSON_AddNumberToObject(o, "triangles", (double)tnd_scene_triangles(s));
+    cJSON_AddNumberToObject(o, "unique_triangles", (double)unique);
+    cJSON_AddNumberToObject(o, "vertices", s->vertex_count);
+    cJSON *mem = cJSON_AddObjectToObject(o, "memory_mb");
+    cJSON_AddNumberToObject(mem, "geometry", geo_mb);
+    cJSON_AddNumberToObject(mem, "textures", tex_mb);
+    cJSON_AddNumberToObject(mem, "texture_mips", mip_mb);
+    cJSON_AddNumberToObject(o, "meshes", s->mesh_count);
+    cJSON_AddNumberToObject(o, "instances", s->instance_count);
+    cJSON_AddNumberToObject(o, "nodes", s->node_count);
+    cJSON_AddNumberToObject(o, "textures", s->texture_count);
+    cJSON *mk = cJSON_AddObjectToObject(o, "materials");
+    for (int k = 0; k < TND_MAT_KIND_COUNT; k++)
+        cJSON_AddNumberToObject(mk, tnd_material_kind_name((tnd_material_kind)k), kinds[k]);
+    cJSON *lk = cJSON_AddObjectToObject(o, "lights");
+    for (int k = 0; k < TND_LIGHT_TYPE_COUNT; k++)
+        cJSON_AddNumberToObject(lk, tnd_light_type_name((tnd_light_type)k), lights[k]);
+    cJSON_AddNumberToObject(o, "cameras", s->camera_count);
+    cJSON_AddNumberToObject(o, "animation_seconds", s->duration);
+    cJSON *sky = cJSON_AddArrayToObject(o, "sky");
+    for (int k = 0; k < 3; k++)
+        cJSON_AddItemToArray(sky, cJSON_CreateNumber(s->sky[k]));
+    if (s->env.width) {
+        cJSON *e = cJSON_AddObjectToObject(o, "environment");
+        cJSON_AddStringToObject(e, "path", s->env.path);
+        cJSON_AddNumberToObject(e, "width", s->env.width);
+        cJSON_AddNumberToObject(e, "height", s->env.height);
+        cJSON_AddNumberToObject(e, "intensity", s->env.intensity);
+        cJSON_AddNumberToObject(e, "rotation_degrees", s->env.rotation);
+        cJSON_AddNumberToObject(e, "mean_luminance", s->env.mean_luminance);
+        cJSON_AddNumberToObject(e, "bad_texels", s->env.bad_texels);
+    }
+    cJSON *def = cJSON_AddObjectToObject(o, "defaults");
+    if (s->default_camera[0])
+        cJSON_AddStringToObject(def, "camera", s->default_camera);
+    if (s->default_light[0])
+        cJSON_AddStringToObject(def, "light", s->default_light);
+    if (s->camera_path[0])
+        cJSON_AddStringToObject(o, "camera_path", s->camera_path);
+    cJSON *miss = cJSON_AddArrayToObject(o, "missing_images");
+    for (uint32_t i = 0; i < s->missing_image_count; i++) {
+        const struct tnd_missing_image *mi = &s->missing_images[i];
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddItemToArray(miss, e);
+        cJSON_AddStringToObject(e, "image", mi->name);
+        cJSON_AddStringToObject(e, "material", mi->material);
+        cJSON_AddStringToObject(e, "reason", mi->reason);
+        cJSON_AddNumberToObject(e, "uses", mi->uses);
+    }
+    cJSON *f = cJSON_AddArrayToObject(o, "features");
+    for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
+        if (s->features & (1u << b))
+            cJSON_AddItemToArray(f, cJSON_CreateString(tnd_feature_name(b)));
+    char *txt = cJSON_Print(o);
+    cJSON_Delete(o);
+    return txt;
+}
+
 static int scene_info(const char *path, const app_env *env, bool json)
 {
     tnd_scene *s = NULL;
     tnd_result r = app_scene_load(path, env, &s);
     if (r != TND_OK)
         return app_report("info", r);
-    uint32_t kinds[TND_MAT_KIND_COUNT], lights[TND_LIGHT_TYPE_COUNT] = {0};
-    material_kinds(s, kinds);
-    for (uint32_t l = 0; l < s->light_count; l++)
-        lights[s->lights[l].type]++;
-    lights[TND_LIGHT_AREA] = s->emitter_count;
-    uint64_t unique = 0;
-    for (uint32_t m = 0; m < s->mesh_count; m++)
-        unique += s->meshes[m].triangle_count;
-    /* what the content takes on the host (and again on the GPU): the vertex arrays and indices,
-     * the textures as decoded (8-bit RGBA) and their mip chains */
-    double geo_mb = ((double)s->vertex_count * (12 + 12 + 8 + 16 + (s->uvs1 ? 8 : 0)) +
-                     4.0 * s->index_count) / 1e6,
-           tex_mb = 0, mip_mb = 0;
-    for (uint32_t t = 0; t < s->texture_count; t++)
-        for (uint32_t l = 0; l < s->textures[t].levels; l++)
-            *(l ? &mip_mb : &tex_mb) +=
-                4.0 * s->textures[t].level_w[l] * s->textures[t].level_h[l] / 1e6;
+    scene_counts c = count_scene(s);
+    const uint32_t *kinds = c.kinds, *lights = c.lights;
+    uint64_t unique = c.unique;
+    double geo_mb = c.geo_mb, tex_mb = c.tex_mb, mip_mb = c.mip_mb;
     if (json) {
-        cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "scene", path);
-        cJSON_AddNumberToObject(o, "triangles", (double)tnd_scene_triangles(s));
-        cJSON_AddNumberToObject(o, "unique_triangles", (double)unique);
-        cJSON_AddNumberToObject(o, "vertices", s->vertex_count);
-        cJSON *mem = cJSON_AddObjectToObject(o, "memory_mb");
-        cJSON_AddNumberToObject(mem, "geometry", geo_mb);
-        cJSON_AddNumberToObject(mem, "textures", tex_mb);
-        cJSON_AddNumberToObject(mem, "texture_mips", mip_mb);
-        cJSON_AddNumberToObject(o, "meshes", s->mesh_count);
-        cJSON_AddNumberToObject(o, "instances", s->instance_count);
-        cJSON_AddNumberToObject(o, "nodes", s->node_count);
-        cJSON_AddNumberToObject(o, "textures", s->texture_count);
-        cJSON *mk = cJSON_AddObjectToObject(o, "materials");
-        for (int k = 0; k < TND_MAT_KIND_COUNT; k++)
-            cJSON_AddNumberToObject(mk, tnd_material_kind_name((tnd_material_kind)k), kinds[k]);
-        cJSON *lk = cJSON_AddObjectToObject(o, "lights");
-        for (int k = 0; k < TND_LIGHT_TYPE_COUNT; k++)
-            cJSON_AddNumberToObject(lk, tnd_light_type_name((tnd_light_type)k), lights[k]);
-        cJSON_AddNumberToObject(o, "cameras", s->camera_count);
-        cJSON_AddNumberToObject(o, "animation_seconds", s->duration);
-        cJSON *sky = cJSON_AddArrayToObject(o, "sky");
-        for (int k = 0; k < 3; k++)
-            cJSON_AddItemToArray(sky, cJSON_CreateNumber(s->sky[k]));
-        if (s->env.width) {
-            cJSON *e = cJSON_AddObjectToObject(o, "environment");
-            cJSON_AddStringToObject(e, "path", s->env.path);
-            cJSON_AddNumberToObject(e, "width", s->env.width);
-            cJSON_AddNumberToObject(e, "height", s->env.height);
-            cJSON_AddNumberToObject(e, "intensity", s->env.intensity);
-            cJSON_AddNumberToObject(e, "rotation_degrees", s->env.rotation);
-            cJSON_AddNumberToObject(e, "mean_luminance", s->env.mean_luminance);
-            cJSON_AddNumberToObject(e, "bad_texels", s->env.bad_texels);
+        char *txt = app_scene_info_json(path, s);
+        if (!txt) {
+            tnd_scene_destroy(s);
+            return app_report("info", tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory"));
         }
-        cJSON *def = cJSON_AddObjectToObject(o, "defaults");
-        if (s->default_camera[0])
-            cJSON_AddStringToObject(def, "camera", s->default_camera);
-        if (s->default_light[0])
-            cJSON_AddStringToObject(def, "light", s->default_light);
-        if (s->camera_path[0])
-            cJSON_AddStringToObject(o, "camera_path", s->camera_path);
-        cJSON *miss = cJSON_AddArrayToObject(o, "missing_images");
-        for (uint32_t i = 0; i < s->missing_image_count; i++) {
-            const struct tnd_missing_image *mi = &s->missing_images[i];
-            cJSON *e = cJSON_CreateObject();
-            cJSON_AddItemToArray(miss, e);
-            cJSON_AddStringToObject(e, "image", mi->name);
-            cJSON_AddStringToObject(e, "material", mi->material);
-            cJSON_AddStringToObject(e, "reason", mi->reason);
-            cJSON_AddNumberToObject(e, "uses", mi->uses);
-        }
-        cJSON *f = cJSON_AddArrayToObject(o, "features");
-        for (uint32_t b = 0; b < TND_FEATURE_COUNT; b++)
-            if (s->features & (1u << b))
-                cJSON_AddItemToArray(f, cJSON_CreateString(tnd_feature_name(b)));
-        char *txt = cJSON_Print(o);
         printf("%s\n", txt);
         free(txt);
-        cJSON_Delete(o);
     } else {
         printf("scene %s\n", path);
         printf("  triangles   %llu traced (%llu in %u meshes), %u vertices\n",
@@ -253,8 +282,11 @@ static void caps_text(uint32_t caps, const char *(*name)(uint32_t))
             printf("%s%s", k++ ? ", " : "", name(b));
 }
 
-static int pipeline_info(bool json)
+/* The registries (front-ends, denoisers with their parameters and passes, metrics) as JSON; as
+ * text on stdout too when `text`. */
+static cJSON *pipeline_build(bool text)
 {
+    bool json = !text;
     cJSON *root = cJSON_CreateObject(), *fa = cJSON_AddArrayToObject(root, "frontends"),
           *da = cJSON_AddArrayToObject(root, "denoisers"),
           *ma = cJSON_AddArrayToObject(root, "metrics");
@@ -334,14 +366,30 @@ static int pipeline_info(bool json)
         if (!json)
             printf(" %s", m->name);
     }
-    if (json) {
-        char *t = cJSON_Print(root);
-        printf("%s\n", t);
-        free(t);
-    } else {
+    if (text)
         printf("\n");
-    }
+    return root;
+}
+
+char *app_pipeline_json(void)
+{
+    cJSON *root = pipeline_build(false);
+    char *t = cJSON_Print(root);
     cJSON_Delete(root);
+    return t;
+}
+
+static int pipeline_info(bool json)
+{
+    if (!json) {
+        cJSON_Delete(pipeline_build(true));
+        return APP_EXIT_OK;
+    }
+    char *t = app_pipeline_json();
+    if (!t)
+        return app_report("info", tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory"));
+    printf("%s\n", t);
+    free(t);
     return APP_EXIT_OK;
 }
 

@@ -304,6 +304,42 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
 
 /* The options' values checked (render's and reference's, parsed or filled by a caller): -1, or
  * the exit status after a message. */
+tnd_result app_render_check(const app_render_opts *o, bool reference)
+{
+    if (strcmp(o->pipeline, "scene") != 0 && strcmp(o->pipeline, "full") != 0) {
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--pipeline %s: expected scene or full", o->pipeline);
+    }
+    if (!pl_frontend_live(o->frontend)) {
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--frontend '%s': expected %s", o->frontend,
+                pl_frontend_live_names());
+    }
+    if (o->reflect_depth > 16) {
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--reflect-depth is 1 to 16");
+    }
+    if (o->timed_frames && o->view) { /* (its camera path ends with the frames written) */
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--timed-frames runs the scene's path on after the frames; "
+                        "not with --view");
+    }
+    if (o->video && !app_have_program("ffmpeg")) {
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--video needs ffmpeg on PATH (Debian package ffmpeg)");
+    }
+    if (reference && strcmp(o->estimator, "unbiased") != 0 && strcmp(o->estimator, "realtime")) {
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--estimator %s: expected unbiased or realtime",
+                o->estimator);
+    }
+    if (reference && strcmp(o->composite_on, "device") != 0 && strcmp(o->composite_on, "host")) {
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--composite-on %s: expected device or host",
+                o->composite_on);
+    }
+    if (reference && (o->until_noise < 0 || o->until_noise >= 1)) {
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--until-noise is a fraction in (0, 1)");
+    }
+    if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0)) {
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--frames, --fps and --spp must be positive");
+    }
+    return TND_OK;
+}
+
 static int check_opts(const app_cmd *cmd, const render_opts *o, bool reference)
 {
     if (!o->out) {
@@ -311,45 +347,8 @@ static int check_opts(const app_cmd *cmd, const render_opts *o, bool reference)
                 cmd->name);
         return APP_EXIT_USAGE;
     }
-    if (strcmp(o->pipeline, "scene") != 0 && strcmp(o->pipeline, "full") != 0) {
-        fprintf(stderr, "tandem %s: --pipeline %s: expected scene or full\n", cmd->name, o->pipeline);
-        return APP_EXIT_USAGE;
-    }
-    if (!pl_frontend_live(o->frontend)) {
-        fprintf(stderr, "tandem %s: --frontend '%s': expected %s\n", cmd->name, o->frontend,
-                pl_frontend_live_names());
-        return APP_EXIT_USAGE;
-    }
-    if (o->reflect_depth > 16) {
-        fprintf(stderr, "tandem %s: --reflect-depth is 1 to 16\n", cmd->name);
-        return APP_EXIT_USAGE;
-    }
-    if (o->timed_frames && o->view) { /* (its camera path ends with the frames written) */
-        fprintf(stderr, "tandem %s: --timed-frames runs the scene's path on after the frames; "
-                        "not with --view\n", cmd->name);
-        return APP_EXIT_USAGE;
-    }
-    if (o->video && !app_have_program("ffmpeg")) {
-        fprintf(stderr, "tandem %s: --video needs ffmpeg on PATH (Debian package ffmpeg)\n",
-                cmd->name);
-        return APP_EXIT_USAGE;
-    }
-    if (reference && strcmp(o->estimator, "unbiased") != 0 && strcmp(o->estimator, "realtime")) {
-        fprintf(stderr, "tandem %s: --estimator %s: expected unbiased or realtime\n", cmd->name,
-                o->estimator);
-        return APP_EXIT_USAGE;
-    }
-    if (reference && strcmp(o->composite_on, "device") != 0 && strcmp(o->composite_on, "host")) {
-        fprintf(stderr, "tandem %s: --composite-on %s: expected device or host\n", cmd->name,
-                o->composite_on);
-        return APP_EXIT_USAGE;
-    }
-    if (reference && (o->until_noise < 0 || o->until_noise >= 1)) {
-        fprintf(stderr, "tandem %s: --until-noise is a fraction in (0, 1)\n", cmd->name);
-        return APP_EXIT_USAGE;
-    }
-    if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0)) {
-        fprintf(stderr, "tandem %s: --frames, --fps and --spp must be positive\n", cmd->name);
+    if (app_render_check(o, reference) != TND_OK) {
+        fprintf(stderr, "tandem %s: %s\n", cmd->name, tnd_error_detail());
         return APP_EXIT_USAGE;
     }
     return -1;
@@ -376,7 +375,7 @@ static void on_ref_progress(uint32_t done, uint32_t total, void *user)
 static tnd_result matched_reference_add(pl_frontend *fr, const render_opts *o, unsigned f,
                                         tnd_frame *frame, uint32_t first, uint32_t count,
                                         double *sum, double *sum2, tnd_ref_stats *stats,
-                                        ref_progress *rp)
+                                        void (*progress)(uint32_t, uint32_t, void *), void *rp)
 {
     tnd_result res = TND_OK;
     size_t n = (size_t)o->size[0] * o->size[1];
@@ -399,7 +398,8 @@ static tnd_result matched_reference_add(pl_frontend *fr, const render_opts *o, u
             double l = tnd_luminance(one[3 * q], one[3 * q + 1], one[3 * q + 2]);
             sum2[q] += l * l;
         }
-        on_ref_progress(s + 1 - first, count, rp);
+        if (progress)
+            progress(s + 1 - first, count, rp);
         if (stats->until_noise > 0 && (s + 1) % TND_REF_CHECK_EVERY == 0 && s + 1 < end &&
             tnd_ref_finish(sum, sum2, n, s + 1, NULL, NULL) < stats->until_noise) {
             done = s + 1;
@@ -410,6 +410,50 @@ static tnd_result matched_reference_add(pl_frontend *fr, const render_opts *o, u
 fail:
     free(one);
     return res;
+}
+
+tnd_result app_reference_add(pl_frontend *fr, const app_render_opts *o, unsigned f,
+                             tnd_frame *frame, uint32_t first, uint32_t count, double *sum_rgb,
+                             double *sum_lum2, tnd_ref_stats *rs,
+                             void (*progress)(uint32_t, uint32_t, void *), void *user)
+{
+    if (strcmp(o->estimator, "realtime") != 0)
+        return pl_frontend_reference_add(fr, o->ref_bounces, first, count, sum_rgb, sum_lum2, rs,
+                                         progress, user);
+    if (strcmp(o->composite_on, "device") == 0 && pl_frontend_has_matched(fr))
+        return pl_frontend_matched_add(fr, o->bounces, first, count, sum_rgb, sum_lum2, rs,
+                                       progress, user);
+    return matched_reference_add(fr, o, f, frame, first, count, sum_rgb, sum_lum2, rs, progress,
+                                 user);
+}
+
+tnd_result app_frame_begin(const app_render_opts *o, const tnd_scene *scene, pl_frontend *fr,
+                           tnd_scene_state st[2], unsigned i, bool first)
+{
+    tnd_result res = TND_OK;
+    unsigned f = o->start + i;
+    float aspect = (float)o->size[0] / (float)o->size[1];
+    tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
+    TND_TRY(tnd_scene_evaluate(scene, f / o->fps, o->camera, aspect, cur));
+    if (first)
+        TND_TRY(tnd_scene_evaluate(scene, f > 0 ? (f - 1) / o->fps : 0.0, o->camera, aspect, prev));
+    if (o->view) { /* the viewer's camera (its first frame: no camera motion before it) */
+        app_view_camera_apply(&o->view->path[i], cur);
+        if (first)
+            app_view_camera_apply(&o->view->path[i > 0 ? i - 1 : 0], prev);
+    }
+    TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o->size[0], o->size[1]));
+fail:
+    return res;
+}
+
+pl_step app_frame_step(const app_render_opts *o, const tnd_scene_state *cur, unsigned i,
+                       bool reset)
+{
+    return (pl_step){.params = {.bounces = o->bounces},
+                     .frame = dn_frame_for_camera(cur->camera.proj, o->size[1], o->start + i,
+                                                  reset),
+                     .dt = (float)(1.0 / o->fps)};
 }
 
 /* REFDIR/frame_NNNN.motion.exr: the frame's motion and depth at the pixel centres (the primary
@@ -508,10 +552,8 @@ static tnd_result time_back_to_back(const app_render_opts *o, const tnd_scene *s
             tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
             TND_TRY(tnd_scene_evaluate(scene, f / o->fps, o->camera, aspect, cur));
             TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o->size[0], o->size[1]));
-            pl_step step = {.params = {.bounces = o->bounces},
-                            .frame = dn_frame_for_camera(cur->camera.proj, o->size[1], f, false),
-                            .dt = (float)(1.0 / o->fps),
-                            .no_wait = true};
+            pl_step step = app_frame_step(o, cur, i, false);
+            step.no_wait = true;
             /* (without the GPU chain the CPU composite has to go somewhere) */
             TND_TRY(pl_chain_run(chain, fr, &step, lags ? NULL : rgb, NULL, &pr));
         } else {
@@ -853,7 +895,6 @@ static int run_opts(const render_opts *opts, bool reference)
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
         goto fail;
     }
-    float aspect = (float)o.size[0] / (float)o.size[1];
     app_progress bar;
     uint64_t ref_total = 0, ref_done = 0; /* samples of the work, taken */
     for (uint32_t k = 0; k < nparts; k++)
@@ -867,17 +908,8 @@ static int run_opts(const render_opts *opts, bool reference)
             continue; /* (another shard's frame) */
         bool first_frame = reference ? part == 0 : i == 0; /* (its previous state evaluated) */
         frames_begun = i + 1;
-        tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
-        TND_TRY(tnd_scene_evaluate(scene, f / o.fps, o.camera, aspect, cur));
-        if (first_frame)
-            TND_TRY(tnd_scene_evaluate(scene, f > 0 ? (f - 1) / o.fps : 0.0, o.camera, aspect,
-                                       prev));
-        if (o.view) { /* the viewer's camera (its first frame: no camera motion before it) */
-            app_view_camera_apply(&o.view->path[i], cur);
-            if (first_frame)
-                app_view_camera_apply(&o.view->path[i > 0 ? i - 1 : 0], prev);
-        }
-        TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o.size[0], o.size[1]));
+        tnd_scene_state *cur = &st[i & 1];
+        TND_TRY(app_frame_begin(&o, scene, fr, st, i, first_frame));
         if (reference) {
             const app_shard_part *pp = &parts[part];
             size_t n = (size_t)o.size[0] * o.size[1];
@@ -889,17 +921,9 @@ static int run_opts(const render_opts *opts, bool reference)
             if (pp->first == 0) /* (the shard that has the frame's first sample) */
                 TND_TRY(write_reference_motion(fr, &o, f, &frame));
             double t_sample = tnd_now();
-            if (matched && strcmp(o.composite_on, "device") == 0 && pl_frontend_has_matched(fr))
-                TND_TRY(pl_frontend_matched_add(fr, o.bounces, pp->first, pp->count, ref_sum,
-                                                ref_sum + 3 * n, rs, on_ref_progress, &rp));
-            else if (matched)
-                TND_TRY(matched_reference_add(fr, &o, f, &frame, pp->first, pp->count, ref_sum,
-                                              ref_sum + 3 * n, rs, &rp));
+            TND_TRY(app_reference_add(fr, &o, f, &frame, pp->first, pp->count, ref_sum,
+                                      ref_sum + 3 * n, rs, on_ref_progress, &rp));
             tnd_frame_destroy(&frame);
-            if (!matched)
-                TND_TRY(pl_frontend_reference_add(fr, o.ref_bounces, pp->first, pp->count,
-                                                  ref_sum, ref_sum + 3 * n, rs, on_ref_progress,
-                                                  &rp));
             rs->seconds = tnd_now() - t_sample;
             ref_done += pp->count;
             part_taken[part] = rs->spp - pp->first;
@@ -926,12 +950,10 @@ static int run_opts(const render_opts *opts, bool reference)
         snprintf(cap_path, sizeof cap_path, "%s/frame_%04u.exr", dir, f);
         app_dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
         snprintf(dc.stem, sizeof dc.stem, "%04u", f);
-        pl_step step = {.params = {.bounces = o.bounces},
-                        .frame = dn_frame_for_camera(cur->camera.proj, o.size[1], f, i == 0),
-                        .dt = (float)(1.0 / o.fps),
-                        .capture = o.capture ? cap_path : NULL,
-                        .after_backend = dump_mask ? app_dump_after_backend : NULL,
-                        .user = &dc};
+        pl_step step = app_frame_step(&o, cur, i, i == 0);
+        step.capture = o.capture ? cap_path : NULL;
+        step.after_backend = dump_mask ? app_dump_after_backend : NULL;
+        step.user = &dc;
         TND_TRY(pl_chain_run(chain, fr, &step, rgb, use_dn ? display : NULL, &pr));
         timings_entry(timings, i ? "," : "", f, chain, &pr);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);

@@ -1,7 +1,7 @@
 /* core/contract.c: the C side of the buffer contract: entry metadata generated from the table in
  * shaders/contract.h, host frames, quantisation to the packed precision (the exact C mirror of
  * shaders/encoding.h), and derived entries.
- * Entry points: tnd_ct_get, tnd_ct_find, tnd_frame_create/destroy/quantize/derive. */
+ * Entry points: tnd_ct_get, tnd_ct_find, tnd_frame_create/destroy/copy/quantize/derive. */
 #include "core/core.h"
 #include "shaders/encoding.h"
 
@@ -122,6 +122,25 @@ tnd_result tnd_frame_create(uint32_t width, uint32_t height, tnd_frame *f)
     tnd_mat4_identity(f->camera.proj);
     tnd_mat4_identity(f->camera.prev_view);
     tnd_mat4_identity(f->camera.prev_proj);
+    return TND_OK;
+}
+
+tnd_result tnd_frame_copy(const tnd_frame *src, tnd_frame *dst)
+{
+    if (!dst->block || dst->width != src->width || dst->height != src->height) {
+        tnd_frame_destroy(dst);
+        tnd_result res = tnd_frame_create(src->width, src->height, dst);
+        if (res != TND_OK)
+            return res;
+    }
+    void *block = dst->block, *data[TND_CT_COUNT];
+    memcpy(data, dst->data, sizeof data);
+    size_t n = (size_t)src->width * src->height;
+    for (int i = 0; i < TND_CT_COUNT; i++)
+        memcpy(data[i], src->data[i], n * tnd_ct_get((tnd_ct)i)->comps * 4);
+    *dst = *src;
+    dst->block = block;
+    memcpy(dst->data, data, sizeof data);
     return TND_OK;
 }
 

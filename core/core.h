@@ -514,6 +514,9 @@ typedef struct tnd_frame {
 /* Allocate every entry, filled with defaults (position/geo_normal zero until derived). */
 tnd_result tnd_frame_create(uint32_t width, uint32_t height, tnd_frame *f);
 void tnd_frame_destroy(tnd_frame *f);
+/* dst becomes a copy of src: every plane and flag (dst: a frame, or zeroed; reallocated when its
+ * size differs). */
+tnd_result tnd_frame_copy(const tnd_frame *src, tnd_frame *dst);
 static inline float *tnd_frame_f(const tnd_frame *f, tnd_ct id)
 {
     return (float *)f->data[id];

@@ -289,6 +289,8 @@ typedef struct pl_step {
     double yfov;            /* degrees */
     float dt;               /* seconds since the previous frame (post) */
     const char *capture;    /* write the frame's capture there (and its gradient samples beside) */
+    tnd_frame *host_out;    /* a copy of the frame's contract as the front-end gave it (what the
+                               capture holds), into this frame (tnd_frame_copy) */
     /* called after the back-end ran, before the post chain (dumps) */
     tnd_result (*after_backend)(dn_context *dn, void *user);
     void *user;

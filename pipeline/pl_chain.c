@@ -237,7 +237,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     bool gradients = c->d.backend && ((c->ops->info.caps & PL_DN_GRADIENTS) ||
                                       ((c->ops->info.caps & PL_DN_CONFIDENCE) &&
                                        (caps & PL_CAP_RESHADE)));
-    bool need_host = !gpu || s->capture || !c->d.backend || c->d.host_contract;
+    bool need_host = !gpu || s->capture || s->host_out || !c->d.backend || c->d.host_contract;
     if (recorded)
         tnd_frame_destroy(&c->host); /* (a recorded front-end reads into a fresh frame) */
     else if (need_host && !c->host.block)
@@ -254,6 +254,8 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
         df.pixel_spread = (float)(2.0 * tan_half / c->d.height);
         memcpy(c->prev_jitter, f->camera.jitter, sizeof c->prev_jitter);
     }
+    if (s->host_out)
+        TND_TRY(tnd_frame_copy(&c->host, s->host_out));
     if (s->capture) {
         c->host.gradients = gradients; /* the samples come beside it */
         TND_TRY(tnd_capture_write(s->capture, &c->host, TND_EXR_ZIP));
