@@ -429,6 +429,7 @@ int cmd_denoise(int argc, char **argv);
 int cmd_convert(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_merge(int argc, char **argv);
+int cmd_dataset(int argc, char **argv);
 /* `tandem bench --sweep` and `tandem sweep collect` (app/cmd_sweep.c) */
 /* emit: NULL (run here) or "slurm" (write DIR/slurm/ with the unbiased reference in `shards`
  * shards); DIR/sweep-plan.json either way. */

@@ -24,6 +24,8 @@ static const app_cmd commands[] = {
      "--captures DIR --map JSON --out DIR", cmd_convert},
     {"compare", "Compare two capture directories channel by channel (front-end cross-check).",
      "A B [options]", cmd_compare},
+    {"dataset", "Render training data for learned denoisers: contract, noisy, matched reference.",
+     "SPEC.json --out DIR [--shard I/N]", cmd_dataset},
     {"eval", "Evaluate a run against converged references: metrics, JSON/CSV, HTML report.",
      "--out DIR --reference REFDIR [--report REPORTDIR]", cmd_eval},
     {"contract", "Print the buffer contract: every entry, its EXR channels, formats and meaning.",

@@ -253,6 +253,13 @@ const pl_denoiser_info *pl_denoiser_at(uint32_t i);
  * the names. */
 tnd_result pl_denoiser_find(const char *name, const pl_denoiser_info **info);
 bool pl_denoiser_has_param(const pl_denoiser_info *d, const char *name);
+/* Python denoisers (--denoiser python:MODULE:CALLABLE) run through a host denoiser plugin
+ * (include/tandem/tandem_plugin.h): the Python bridge PL_PYTHON_BRIDGE, which starts an
+ * interpreter in the process, or, in a process that is Python already (the tandem package),
+ * the description it sets here (NULL: the bridge again). */
+#define PL_PYTHON_BRIDGE "libtandem_pybridge.so"
+struct tandem_plugin;
+void pl_python_set(const struct tandem_plugin *d);
 /* What runs behind a front-end with capabilities fe_caps: d, or its fallback where d needs
  * re-shaded gradient samples the front-end cannot give. */
 const pl_denoiser_info *pl_denoiser_for(const pl_denoiser_info *d, uint32_t fe_caps);

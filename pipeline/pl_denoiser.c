@@ -65,6 +65,8 @@ const pl_denoiser_ops *pl_denoiser_ops_find(const char *name)
 {
     if (strncmp(name, "plugin:", 7) == 0)
         return name[7] ? &pl_plugin_denoiser_ops : NULL;
+    if (strncmp(name, "python:", 7) == 0)
+        return name[7] ? &pl_python_denoiser_ops : NULL;
     for (int i = 0; i < REGISTERED; i++)
         if (strcmp(registry[i]->info.name, name) == 0)
             return registry[i];
@@ -76,7 +78,8 @@ tnd_result pl_denoiser_find(const char *name, const pl_denoiser_info **info)
     const pl_denoiser_ops *ops = pl_denoiser_ops_find(name);
     *info = ops ? &ops->info : NULL;
     if (!ops)
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoiser '%s' (expected %s or plugin:PATH.so)",
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoiser '%s' (expected %s, plugin:PATH.so or "
+                                                  "python:MODULE:CALLABLE)",
                         name, pl_denoiser_names());
     return TND_OK;
 }
@@ -133,6 +136,8 @@ uint32_t pl_pass_all(const pl_pass **out, uint32_t max)
     for (int i = 0; i < REGISTERED; i++)
         add_passes(registry[i]->info.passes, registry[i]->info.npasses, out, max, &n);
     add_passes(pl_plugin_denoiser_ops.info.passes, pl_plugin_denoiser_ops.info.npasses, out, max,
+               &n);
+    add_passes(pl_python_denoiser_ops.info.passes, pl_python_denoiser_ops.info.npasses, out, max,
                &n);
     add_passes(pl_post_passes, pl_post_pass_count, out, max, &n);
     return n;

@@ -123,6 +123,8 @@ typedef struct pl_denoiser_ops {
 const pl_denoiser_ops *pl_denoiser_ops_find(const char *name);
 /* The plugin adapter (pl_plugin.c): "plugin:PATH". */
 extern const pl_denoiser_ops pl_plugin_denoiser_ops;
+/* The host adapter for Python (pl_plugin.c): "python:MODULE:CALLABLE". */
+extern const pl_denoiser_ops pl_python_denoiser_ops;
 /* The built-in back-end in mode off (pl_dn_backend.c): what the plugin adapter composites the
  * noisy radiance with. */
 extern const pl_denoiser_ops pl_off_ops;

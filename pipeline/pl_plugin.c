@@ -10,6 +10,7 @@
 #include "shaders/sampling.h"
 
 #include <dlfcn.h>
+#include <unistd.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -60,6 +61,8 @@ static const char *kind_name(uint32_t k)
                                                                                  : "unknown kind";
 }
 
+static tnd_result plugin_check(const char *path, const tandem_plugin *d, uint32_t kind);
+
 /* Load PATH and check that it is a plugin of `kind` that Tandem can use. */
 static tnd_result plugin_open(const char *path, uint32_t kind, pl_plugin **out)
 {
@@ -92,6 +95,20 @@ static tnd_result plugin_open(const char *path, uint32_t kind, pl_plugin **out)
                        path, TANDEM_PLUGIN_ABI_VERSION);
         goto fail;
     }
+    TND_TRY(plugin_check(path, d, kind));
+    p->desc = d;
+    *out = p;
+    return TND_OK;
+fail:
+    plugin_close(p);
+    return res;
+}
+
+/* A plugin's description checked: ABI, kind (a denoiser: either kind of denoiser), the
+ * operations it must have, the entries it declares. */
+static tnd_result plugin_check(const char *path, const tandem_plugin *d, uint32_t kind)
+{
+    tnd_result res = TND_OK;
     if (!HAS_FIELD(d, tandem_plugin, denoiser)) {
         res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
                        "plugin %s: its description has struct_size %u, at least %zu expected",
@@ -104,7 +121,8 @@ static tnd_result plugin_open(const char *path, uint32_t kind, pl_plugin **out)
         goto fail;
     }
     const char *name = d->name ? d->name : "(unnamed)";
-    if (d->kind != kind) {
+    bool denoiser = d->kind == TANDEM_PLUGIN_DENOISER || d->kind == TANDEM_PLUGIN_HOST_DENOISER;
+    if (d->kind != kind && !(kind == TANDEM_PLUGIN_DENOISER && denoiser)) {
         res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "plugin %s (%s): a %s, not a %s", path, name,
                        kind_name(d->kind), kind_name(kind));
         goto fail;
@@ -131,6 +149,23 @@ static tnd_result plugin_open(const char *path, uint32_t kind, pl_plugin **out)
                                name, tnd_ct_get((tnd_ct)e)->name);
                 goto fail;
             }
+    } else if (d->kind == TANDEM_PLUGIN_HOST_DENOISER) {
+        const tandem_host_denoiser_plugin *n =
+            HAS_FIELD(d, tandem_plugin, host_denoiser) ? d->host_denoiser : NULL;
+        if (!n || !HAS_FIELD(n, tandem_host_denoiser_plugin, run) || !n->create || !n->destroy ||
+            !n->run) {
+            res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                           "plugin %s (%s): its host denoiser lacks create, destroy or run", path,
+                           name);
+            goto fail;
+        }
+        if (n->reads & ~(ALL_ENTRIES | TANDEM_INPUT_RADIANCE)) {
+            res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                           "plugin %s (%s): reads entries Tandem does not know (mask %#llx)",
+                           path, name,
+                           (unsigned long long)(n->reads & ~(ALL_ENTRIES | TANDEM_INPUT_RADIANCE)));
+            goto fail;
+        }
     } else {
         const tandem_denoiser_plugin *n = d->denoiser;
         if (!n || !HAS_FIELD(n, tandem_denoiser_plugin, record) || !n->create || !n->destroy ||
@@ -148,11 +183,7 @@ static tnd_result plugin_open(const char *path, uint32_t kind, pl_plugin **out)
             goto fail;
         }
     }
-    p->desc = d;
-    *out = p;
-    return TND_OK;
 fail:
-    plugin_close(p);
     return res;
 }
 
@@ -439,10 +470,242 @@ tnd_result pl_dnp_record(pl_dnp *d, VkCommandBuffer cmd, const tandem_frame_sett
     return TND_OK;
 }
 
+/* ---- host denoisers: "python:MODULE:CALLABLE", and plugins of kind HOST_DENOISER ------------ */
+/* The built-in back-end composites the noisy radiance; the contract and that radiance come to
+ * the host, the plugin runs there (timed by the wall clock), its radiance goes up into the
+ * output image the post chain reads. */
+static const tandem_plugin *python_in_process; /* the Python package's own (pl_python_set) */
+
+void pl_python_set(const tandem_plugin *d)
+{
+    python_in_process = d;
+}
+
+/* The Python bridge: TANDEM_PYTHON_BRIDGE, else beside the running program, in the build tree
+ * (python/tandem/) or the installed package (../lib/python3/dist-packages/tandem/). */
+static tnd_result python_bridge(char *out, size_t cap)
+{
+    static const char *const near[] = {"/python/tandem/", "/../lib/python3/dist-packages/tandem/"};
+    const char *env = getenv("TANDEM_PYTHON_BRIDGE");
+    if (env && *env) {
+        snprintf(out, cap, "%s", env);
+        return TND_OK;
+    }
+    char exe[1024];
+    ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n > 0) {
+        exe[n] = 0;
+        char *slash = strrchr(exe, '/');
+        if (slash)
+            *slash = 0;
+        for (size_t i = 0; i < sizeof near / sizeof *near; i++) {
+            snprintf(out, cap, "%s%s%s", exe, near[i], PL_PYTHON_BRIDGE);
+            if (access(out, R_OK) == 0)
+                return TND_OK;
+        }
+    }
+    return tnd_fail(TND_ERR_IO,
+                    "python: the bridge %s is not beside %s (build the project with Debian's "
+                    "python3-dev, or set TANDEM_PYTHON_BRIDGE)", PL_PYTHON_BRIDGE,
+                    n > 0 ? exe : "the program");
+}
+
+typedef struct hdn {
+    void *off;          /* the built-in adapter's context (pl_off_ops) */
+    pl_plugin *p;       /* the shared object (NULL: the Python package's own description) */
+    const tandem_host_denoiser_plugin *h;
+    void *state;
+    bool have_state;
+    tnd_vk *vk;
+    tnd_image out;
+    tnd_frame host;
+    float *radiance, *output;
+    uint32_t width, height;
+    tnd_precision precision;
+    double ms, ms_composite;
+    char label[1100];
+} hdn;
+
+static void hdn_destroy(void *ctx)
+{
+    hdn *p = ctx;
+    if (!p)
+        return;
+    if (p->have_state)
+        p->h->destroy(p->state);
+    if (p->out.image)
+        tnd_image_destroy(p->vk, &p->out);
+    tnd_frame_destroy(&p->host);
+    free(p->radiance);
+    free(p->output);
+    plugin_close(p->p);
+    pl_off_ops.destroy(p->off);
+    free(p);
+}
+
+/* `path`: the plugin (python: NULL, `options` its MODULE:CALLABLE) */
+static tnd_result hdn_open(const pl_dn_desc *d, const char *path, const char *options, hdn **out)
+{
+    tnd_result res = TND_OK;
+    *out = NULL;
+    hdn *p = calloc(1, sizeof *p);
+    if (!p)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "host denoiser: out of memory");
+    p->vk = d->vk;
+    p->width = d->width, p->height = d->height, p->precision = d->precision;
+    const tandem_plugin *desc = NULL;
+    if (path) {
+        snprintf(p->label, sizeof p->label, "plugin %s", path);
+        TND_TRY(plugin_open(path, TANDEM_PLUGIN_HOST_DENOISER, &p->p));
+        desc = p->p->desc;
+    } else if (!*options || !strchr(options, ':')) {
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                       "--denoiser python:%s: expected python:MODULE:CALLABLE", options);
+        goto fail;
+    } else if (python_in_process) {
+        snprintf(p->label, sizeof p->label, "python:%s", options);
+        TND_TRY(plugin_check(p->label, python_in_process, TANDEM_PLUGIN_HOST_DENOISER));
+        desc = python_in_process;
+    } else {
+        char bridge[1200];
+        snprintf(p->label, sizeof p->label, "python:%s", options);
+        TND_TRY(python_bridge(bridge, sizeof bridge));
+        TND_TRY(plugin_open(bridge, TANDEM_PLUGIN_HOST_DENOISER, &p->p));
+        desc = p->p->desc;
+    }
+    if (desc->kind != TANDEM_PLUGIN_HOST_DENOISER) {
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: a %s, not a host denoiser", p->label,
+                       kind_name(desc->kind));
+        goto fail;
+    }
+    p->h = desc->host_denoiser;
+    size_t n = (size_t)d->width * d->height;
+    p->radiance = malloc(n * 4 * sizeof(float));
+    p->output = calloc(n * 4, sizeof(float));
+    if (!p->radiance || !p->output) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", p->label);
+        goto fail;
+    }
+    TND_TRY(tnd_frame_create(d->width, d->height, &p->host));
+    TND_TRY(tnd_image_create(d->vk,
+                             &(tnd_image_desc){.width = d->width, .height = d->height,
+                                               .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                               .name = "host_denoiser.output"},
+                             &p->out));
+    pl_dn_desc od = *d;
+    od.params = NULL;
+    od.data = pl_off_ops.data;
+    od.npasses = pl_off_ops.info.npasses;
+    TND_TRY(pl_off_ops.create(&od, &p->off));
+    tandem_host_denoiser_create_info ci = {.struct_size = sizeof ci,
+                                           .width = d->width,
+                                           .height = d->height,
+                                           .precision = (uint32_t)d->precision,
+                                           .options = path ? "" : options};
+    char err[4096] = "";
+    if (p->h->create(&ci, &p->state, err, sizeof err) != 0) {
+        err[sizeof err - 1] = 0;
+        res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: create failed: %s", p->label,
+                       err[0] ? err : "no message");
+        goto fail;
+    }
+    p->have_state = true;
+    *out = p;
+    return TND_OK;
+fail:
+    hdn_destroy(p);
+    return res;
+}
+
+static tnd_result hdn_create(const pl_dn_desc *d, void **out)
+{
+    return hdn_open(d, NULL, d->path, (hdn **)out);
+}
+
+static tnd_result hdn_submit(void *ctx, const pl_dn_input *in)
+{
+    hdn *p = ctx;
+    tnd_result res = TND_OK;
+    double off[PL_DN_MAX_PASSES] = {0};
+    bool beside;
+    TND_TRY(pl_off_ops.submit(p->off, in));
+    TND_TRY(pl_off_ops.wait(p->off, off, &beside));
+    p->ms = 0;
+    double t0 = tnd_now();
+    size_t n = (size_t)p->width * p->height;
+    uint64_t reads = p->h->reads;
+    if (reads & ALL_ENTRIES)
+        TND_TRY(tnd_contract_download(p->vk, in->contract, &p->host));
+    if (reads & TANDEM_INPUT_RADIANCE)
+        TND_TRY(tnd_image_download(p->vk, pl_off_ops.output(p->off), p->radiance,
+                                   n * 4 * sizeof(float)));
+    tandem_frame_settings fs;
+    pl_plugin_settings(in->camera, p->width, p->height, in->params->bounces, in->params->sample,
+                       in->frame, in->dt, p->precision, &fs);
+    tandem_host_denoiser_io io = {.struct_size = sizeof io,
+                                  .width = p->width,
+                                  .height = p->height,
+                                  .radiance = reads & TANDEM_INPUT_RADIANCE ? p->radiance : NULL,
+                                  .output = p->output};
+    for (int e = 0; e < TANDEM_ENTRY_COUNT; e++)
+        if (reads & TANDEM_ENTRY_BIT(e))
+            io.entries[e] = p->host.data[e];
+    char err[4096] = "";
+    if (p->h->run(p->state, &fs, &io, err, sizeof err) != 0) {
+        err[sizeof err - 1] = 0;
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: frame %u: %s", p->label, fs.frame_index,
+                        err[0] ? err : "run failed");
+    }
+    TND_TRY(tnd_image_upload(p->vk, &p->out, p->output, n * 4 * sizeof(float)));
+    p->ms = 1e3 * (tnd_now() - t0);
+    p->ms_composite = off[0];
+fail:
+    return res;
+}
+
+static tnd_result hdn_wait(void *ctx, double *ms, bool *beside)
+{
+    hdn *p = ctx;
+    ms[0] = p->ms_composite;
+    ms[1] = p->ms;
+    *beside = false;
+    return TND_OK;
+}
+
+static const tnd_image *hdn_output(const void *ctx)
+{
+    return &((const hdn *)ctx)->out;
+}
+
+static const char *hdn_name(const void *ctx)
+{
+    return ((const hdn *)ctx)->label;
+}
+
+/* its passes: the noisy radiance's composite, the host's frame (to the host, the run, back) */
+static const pl_pass hdn_passes[] = {
+    {"composite", "composite_ms", PL_GROUP_BACKEND, NULL},
+    {"host", "denoiser_host_ms", PL_GROUP_BACKEND, NULL},
+};
+
+const pl_denoiser_ops pl_python_denoiser_ops = {
+    .info = {"python", "a denoiser in Python, on the host (python:MODULE:CALLABLE; docs/python.md)",
+             PL_DN_FILTERS | PL_DN_PLUGIN, NULL, NULL, 0, hdn_passes,
+             sizeof hdn_passes / sizeof *hdn_passes},
+    .create = hdn_create,
+    .destroy = hdn_destroy,
+    .submit = hdn_submit,
+    .wait = hdn_wait,
+    .output = hdn_output,
+    .plugin_name = hdn_name,
+};
+
 /* ---- the denoiser adapter: "plugin:PATH" as a registered denoiser ------------------------------ */
 /* The built-in back-end composites the noisy radiance (mode off) that the plugin may read; the
  * plugin's commands follow in their own submission, between full barriers, timed. */
 typedef struct pdn {
+    hdn *host; /* a plugin of kind HOST_DENOISER: the host adapter runs it (and the rest is
+                  unused) */
     void *off; /* the built-in adapter's context (pl_off_ops) */
     pl_dnp *dnp;
     tnd_vk *vk;
@@ -459,6 +722,7 @@ static void pdn_destroy(void *ctx)
     pdn *p = ctx;
     if (!p)
         return;
+    hdn_destroy(p->host);
     if (p->dnp) {
         tnd_pending_destroy(p->vk, &p->pending);
         tnd_timer_destroy(p->vk, &p->timer);
@@ -476,6 +740,15 @@ static tnd_result pdn_create(const pl_dn_desc *d, void **out)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "plugin: out of memory");
     p->vk = d->vk;
     p->width = d->width, p->height = d->height, p->precision = d->precision;
+    pl_plugin *probe; /* (which kind of denoiser it is) */
+    TND_TRY(plugin_open(d->path, TANDEM_PLUGIN_DENOISER, &probe));
+    bool host = probe->desc->kind == TANDEM_PLUGIN_HOST_DENOISER;
+    plugin_close(probe);
+    if (host) {
+        TND_TRY(hdn_open(d, d->path, "", &p->host));
+        *out = p;
+        return TND_OK;
+    }
     pl_dn_desc od = *d;
     od.params = NULL;
     od.data = pl_off_ops.data;
@@ -507,6 +780,8 @@ fail:
 static tnd_result pdn_submit(void *ctx, const pl_dn_input *in)
 {
     pdn *p = ctx;
+    if (p->host)
+        return hdn_submit(p->host, in);
     tnd_result res = TND_OK;
     TND_TRY(pl_off_ops.submit(p->off, in));
     TND_TRY(pdn_settle(p));
@@ -533,6 +808,8 @@ fail:
 static tnd_result pdn_wait(void *ctx, double *ms, bool *beside)
 {
     pdn *p = ctx;
+    if (p->host)
+        return hdn_wait(p->host, ms, beside);
     tnd_result res = TND_OK;
     double off[PL_DN_MAX_PASSES] = {0};
     TND_TRY(pl_off_ops.wait(p->off, off, beside));
@@ -546,12 +823,14 @@ fail:
 
 static const tnd_image *pdn_output(const void *ctx)
 {
-    return pl_dnp_output(((const pdn *)ctx)->dnp);
+    const pdn *p = ctx;
+    return p->host ? hdn_output(p->host) : pl_dnp_output(p->dnp);
 }
 
 static const char *pdn_name(const void *ctx)
 {
-    return pl_dnp_name(((const pdn *)ctx)->dnp);
+    const pdn *p = ctx;
+    return p->host ? p->host->p->desc->name : pl_dnp_name(p->dnp);
 }
 
 /* its passes: the noisy radiance's composite, the plugin's frame */

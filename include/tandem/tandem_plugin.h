@@ -176,10 +176,47 @@ typedef struct tandem_denoiser_plugin {
 typedef struct tandem_denoiser_plugin tandem_denoiser_plugin;
 #endif
 
+/* ---- host denoisers (the CPU) ---------------------------------------------------------------- */
+/* A denoiser that runs on the host: Tandem brings each frame's contract and noisy radiance to
+ * host memory, calls `run`, and takes the radiance it writes back into the frame (the post chain
+ * follows). Python denoisers (`--denoiser python:MODULE:CALLABLE`) are one: Tandem's Python
+ * bridge is a host denoiser plugin (docs/python.md). */
+typedef struct tandem_host_denoiser_create_info {
+    uint32_t struct_size;
+    uint32_t width, height;
+    uint32_t precision; /* tandem_precision of the contract (the host copies are float32 either
+                           way, holding the values as quantised) */
+    const char *options; /* what the user named the denoiser by after its kind (python: the
+                            MODULE:CALLABLE; plugins: "") */
+} tandem_host_denoiser_create_info;
+
+/* One frame in host memory: the entries in `reads` (width x height pixels of components(e)
+ * values each, float or uint32_t as tandem_host_frame; NULL for the others), the noisy radiance
+ * (RGBA, float) when asked (TANDEM_INPUT_RADIANCE), and the output to write: linear HDR
+ * radiance, RGBA float (alpha ignored), width x height, row-major from the top-left pixel. */
+typedef struct tandem_host_denoiser_io {
+    uint32_t struct_size;
+    uint32_t width, height;
+    const void *entries[TANDEM_ENTRY_COUNT];
+    const float *radiance;
+    float *output;
+} tandem_host_denoiser_io;
+
+typedef struct tandem_host_denoiser_plugin {
+    uint32_t struct_size;
+    uint64_t reads; /* entries (and TANDEM_INPUT_RADIANCE) it reads */
+    int (*create)(const tandem_host_denoiser_create_info *info, void **state, char *err,
+                  uint32_t err_cap);
+    void (*destroy)(void *state);
+    int (*run)(void *state, const tandem_frame_settings *settings,
+               const tandem_host_denoiser_io *io, char *err, uint32_t err_cap);
+} tandem_host_denoiser_plugin;
+
 /* ---- the description a plugin returns -------------------------------------------------------- */
 typedef enum tandem_plugin_kind {
     TANDEM_PLUGIN_FRONTEND = 1,
-    TANDEM_PLUGIN_DENOISER = 2
+    TANDEM_PLUGIN_DENOISER = 2,
+    TANDEM_PLUGIN_HOST_DENOISER = 3
 } tandem_plugin_kind;
 
 typedef struct tandem_plugin {
@@ -190,6 +227,7 @@ typedef struct tandem_plugin {
     const char *description;    /* one line */
     const tandem_frontend_plugin *frontend; /* kind FRONTEND */
     const tandem_denoiser_plugin *denoiser; /* kind DENOISER */
+    const tandem_host_denoiser_plugin *host_denoiser; /* kind HOST_DENOISER */
 } tandem_plugin;
 
 typedef const tandem_plugin *(*tandem_plugin_entry_fn)(uint32_t abi_version);
