@@ -71,6 +71,11 @@ static int bridge_create(const tandem_host_denoiser_create_info *ci, void **stat
                          uint32_t cap)
 {
     if (!Py_IsInitialized()) {
+        /* Tandem loads this plugin with its symbols local: libpython's go global again, so
+         * that extension modules (numpy's, torch's) find them */
+        Dl_info li;
+        if (dladdr((void *)Py_InitializeEx, &li) && li.dli_fname)
+            dlopen(li.dli_fname, RTLD_NOW | RTLD_GLOBAL | RTLD_NOLOAD);
         Py_InitializeEx(0);
         add_package_path();
         PyEval_SaveThread(); /* (every call takes the interpreter with PyGILState_Ensure) */

@@ -21,7 +21,8 @@ export DEBIAN_FRONTEND=noninteractive
 # assimp-testmodels: real glTF and OBJ models nobody here wrote; blender-data: real HDRIs from
 # HDRI Haven, CC0, in /usr/share/blender/datafiles/studiolights/world); GLFW for `tandem view`'s
 # window, Xvfb for its tests on a machine without a display; clang and its runtime for
-# libFuzzer, make fuzz; slurm-wlm and munge: a one-node Slurm cluster on localhost for
+# libFuzzer, make fuzz; python3-dev, -cffi, -pytest, -torch: the Python package, its bridge
+# for python: denoisers, its tests and the PyTorch example (docs/python.md); slurm-wlm and munge: a one-node Slurm cluster on localhost for
 # tests/test_slurm.sh).
 PKGS=(
     build-essential cmake pkg-config git
@@ -30,6 +31,7 @@ PKGS=(
     libglfw3-dev xvfb xauth clang libclang-rt-dev
     openexr openimageio-tools python3 ffmpeg
     python3-numpy python3-openimageio chromium
+    python3-dev python3-cffi python3-pytest python3-torch
     blender blender-data assimp-testmodels
     slurm-wlm munge
 )
