@@ -86,7 +86,7 @@ static tnd_result npz_write(const char *path, const npz_array *a, uint32_t n)
     snprintf(tmp, sizeof tmp, "%s.tmp", path);
     FILE *f = fopen(tmp, "wb");
     if (!f)
-        return tnd_fail(TND_ERR_IO, "dataset: %s: cannot create", tmp);
+        return tnd_fail(TND_ERR_IO, "%s: cannot create", tmp);
     uint8_t central[64 * 128];
     size_t clen = 0;
     uint32_t offset = 0;
@@ -124,7 +124,7 @@ static tnd_result npz_write(const char *path, const npz_array *a, uint32_t n)
     ok = fclose(f) == 0 && ok;
     if (!ok || rename(tmp, path) != 0) {
         remove(tmp);
-        return tnd_fail(TND_ERR_IO, "dataset: %s: cannot write", path);
+        return tnd_fail(TND_ERR_IO, "%s: cannot write", path);
     }
     return TND_OK;
 }
@@ -144,7 +144,7 @@ typedef struct spec {
 
 static tnd_result spec_fail(const char *path, const char *what)
 {
-    return tnd_fail(TND_ERR_BAD_INPUT, "dataset: %s: %s", path, what);
+    return tnd_fail(TND_ERR_BAD_INPUT, "%s: %s", path, what);
 }
 
 static bool get_uint(const cJSON *o, const char *k, unsigned *v, unsigned lo, unsigned hi)
@@ -200,7 +200,7 @@ static tnd_result spec_read(const char *path, spec *s)
     memset(s, 0, sizeof *s);
     FILE *f = fopen(path, "rb");
     if (!f)
-        return tnd_fail(TND_ERR_IO, "dataset: %s: cannot open: %s", path, strerror(errno));
+        return tnd_fail(TND_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     char *text = NULL;
     size_t len = 0, cap = 0;
     for (;;) {
@@ -209,7 +209,7 @@ static tnd_result spec_read(const char *path, spec *s)
             if (!t) {
                 free(text);
                 fclose(f);
-                return tnd_fail(TND_ERR_OUT_OF_MEMORY, "dataset: out of memory");
+                return tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
             }
             text = t;
         }
@@ -229,7 +229,7 @@ static tnd_result spec_read(const char *path, spec *s)
         for (size_t k = 0; k < sizeof top_keys / sizeof *top_keys; k++)
             known = known || strcmp(v->string, top_keys[k]) == 0;
         if (!known) {
-            res = tnd_fail(TND_ERR_BAD_INPUT, "dataset: %s: unknown key '%s'", path, v->string);
+            res = tnd_fail(TND_ERR_BAD_INPUT, "%s: unknown key '%s'", path, v->string);
             goto fail;
         }
     }
@@ -268,7 +268,7 @@ static tnd_result spec_read(const char *path, spec *s)
         goto fail;
     }
     if (strcmp(format, "exr") != 0 && strcmp(format, "npz") != 0) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "dataset: %s: format '%s': expected exr or npz", path,
+        res = tnd_fail(TND_ERR_BAD_INPUT, "%s: format '%s': expected exr or npz", path,
                        format);
         goto fail;
     }
@@ -283,7 +283,7 @@ static tnd_result spec_read(const char *path, spec *s)
         goto fail;
     }
     if (!(s->seq = calloc((size_t)n, sizeof *s->seq))) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "dataset: out of memory");
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
         goto fail;
     }
     for (const cJSON *q = seqs->child; q; q = q->next) {
@@ -296,7 +296,7 @@ static tnd_result spec_read(const char *path, spec *s)
             for (size_t k = 0; k < sizeof seq_keys / sizeof *seq_keys; k++)
                 known = known || strcmp(v->string, seq_keys[k]) == 0;
             if (!known) {
-                res = tnd_fail(TND_ERR_BAD_INPUT, "dataset: %s: sequence %u: unknown key '%s'",
+                res = tnd_fail(TND_ERR_BAD_INPUT, "%s: sequence %u: unknown key '%s'",
                                path, s->nseq, v->string);
                 goto fail;
             }
@@ -314,7 +314,7 @@ static tnd_result spec_read(const char *path, spec *s)
              get_uint(q, "camera", &sq->o.camera, 0, 1u << 20) && (!ndl || cJSON_IsBool(ndl));
         if (!ok) {
             res = tnd_fail(TND_ERR_BAD_INPUT,
-                           "dataset: %s: sequence %u: expected an object with \"scene\": PATH and "
+                           "%s: sequence %u: expected an object with \"scene\": PATH and "
                            "scene options (strings: name, camera_path, env, up; numbers: "
                            "path_duration, path_radius, path_height, env_intensity, "
                            "env_rotation, camera; no_default_light: true or false)",
@@ -328,13 +328,13 @@ static tnd_result spec_read(const char *path, spec *s)
             snprintf(sq->name, sizeof sq->name, "seq_%03u", s->nseq);
         for (const char *c = sq->name; *c; c++)
             if (*c == '/' || *c == '\\' || (c == sq->name && *c == '.')) {
-                res = tnd_fail(TND_ERR_BAD_INPUT, "dataset: %s: sequence %u: name '%s' is not a "
+                res = tnd_fail(TND_ERR_BAD_INPUT, "%s: sequence %u: name '%s' is not a "
                                                   "plain directory name", path, s->nseq, sq->name);
                 goto fail;
             }
         for (uint32_t k = 0; k < s->nseq; k++)
             if (strcmp(s->seq[k].name, sq->name) == 0) {
-                res = tnd_fail(TND_ERR_BAD_INPUT, "dataset: %s: two sequences named '%s'", path,
+                res = tnd_fail(TND_ERR_BAD_INPUT, "%s: two sequences named '%s'", path,
                                sq->name);
                 goto fail;
             }
@@ -474,7 +474,7 @@ static tnd_result frame_out_alloc(uint32_t W, uint32_t H, frame_out *w)
     if (!w->noisy || !w->matched || !w->unbiased || !w->matched_var || !w->unbiased_var ||
         !w->se || !w->sums) {
         frame_out_free(w);
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "dataset: out of memory");
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
     }
     return TND_OK;
 }
@@ -485,6 +485,7 @@ static tnd_result dataset_run(const char *spec_path, const char *out, const char
     tnd_result res = TND_OK;
     spec sp = {0};
     cJSON *manifest = NULL, *list = NULL;
+    bool out_existed = true, *made_dir = NULL;
     uint32_t shard = 0, shards = 1;
     if (shard_text)
         TND_TRY(app_shard_parse(shard_text, &shard, &shards));
@@ -497,7 +498,13 @@ static tnd_result dataset_run(const char *spec_path, const char *out, const char
     cJSON_AddNumberToObject(manifest, "shard", shard);
     cJSON_AddNumberToObject(manifest, "shards", shards);
     list = cJSON_AddArrayToObject(manifest, "frames");
+    struct stat st_out;
+    out_existed = stat(out, &st_out) == 0;
     TND_TRY(tnd_mkdirs(out));
+    if (!(made_dir = calloc(sp.nseq, sizeof *made_dir))) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
+        goto fail;
+    }
     uint64_t item = 0, done = 0;
     app_progress bar;
     app_progress_begin(&bar, "dataset",
@@ -514,6 +521,8 @@ static tnd_result dataset_run(const char *spec_path, const char *out, const char
             continue;
         char dir[2100];
         snprintf(dir, sizeof dir, "%s/%s", out, sq->name);
+        struct stat st_dir;
+        made_dir[q] = stat(dir, &st_dir) != 0;
         TND_TRY(tnd_mkdirs(dir));
         tnd_scene *scene = NULL;
         tnd_vk vk = {0};
@@ -570,7 +579,7 @@ static tnd_result dataset_run(const char *spec_path, const char *out, const char
     ok = (f && fclose(f) == 0) && ok;
     free(text);
     if (!ok) {
-        res = tnd_fail(TND_ERR_IO, "dataset: %s: cannot write", path);
+        res = tnd_fail(TND_ERR_IO, "%s: cannot write", path);
         goto fail;
     }
     if (!app_quiet())
@@ -578,6 +587,26 @@ static tnd_result dataset_run(const char *spec_path, const char *out, const char
                 (unsigned long long)done, done == 1 ? "" : "s", sp.nseq, sp.nseq == 1 ? "" : "s",
                 out);
 fail:
+    if (res != TND_OK && list) { /* a failed run leaves nothing of itself */
+        for (const cJSON *e = list->child; e; e = e->next) {
+            const cJSON *seq = cJSON_GetObjectItemCaseSensitive(e, "sequence");
+            for (const cJSON *fl = cJSON_GetObjectItemCaseSensitive(e, "files")->child; fl;
+                 fl = fl->next) {
+                char p[2400];
+                snprintf(p, sizeof p, "%s/%s/%s", out, seq->valuestring, fl->valuestring);
+                remove(p);
+            }
+        }
+        for (uint32_t q = 0; made_dir && q < sp.nseq; q++)
+            if (made_dir[q]) {
+                char p[2200];
+                snprintf(p, sizeof p, "%s/%s", out, sp.seq[q].name);
+                remove(p);
+            }
+        if (!out_existed)
+            remove(out);
+    }
+    free(made_dir);
     cJSON_Delete(manifest);
     spec_free(&sp);
     return res;

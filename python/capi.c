@@ -8,6 +8,8 @@
 #include "include/tandem/tandem_plugin.h"
 
 #include <cjson/cJSON.h>
+#include <fcntl.h>
+#include <unistd.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -562,17 +564,64 @@ API void tandem_sequence_summary(const tandem_sequence *s, tandem_summary *out)
                             s->nonfinite};
 }
 
-/* Call a command's function with arguments (as `tandem NAME ARGS...` without a process), quiet;
- * its failure's message in tnd_error_detail. */
+/* Call a command's function with arguments (as `tandem NAME ARGS...` without a process), quiet:
+ * its standard output discarded (the caller returns what it wrote to files), its standard error
+ * kept: on failure it is the message (tnd_error_detail), on success it goes on to the process's
+ * (warnings). */
 static int run_command(int (*cmd)(int, char **), const char *name, char **argv, int argc)
 {
     tnd_error_clear();
     bool was = app_set_quiet(true);
+    fflush(stdout);
+    fflush(stderr);
+    FILE *err = tmpfile();
+    int saved_out = dup(STDOUT_FILENO), saved_err = dup(STDERR_FILENO);
+    int null = open("/dev/null", O_WRONLY);
+    bool redirected = err && saved_out >= 0 && saved_err >= 0 && null >= 0;
+    if (redirected) {
+        dup2(null, STDOUT_FILENO);
+        dup2(fileno(err), STDERR_FILENO);
+    }
     int rc = cmd(argc, argv);
+    fflush(stdout);
+    fflush(stderr);
+    if (redirected) {
+        dup2(saved_out, STDOUT_FILENO);
+        dup2(saved_err, STDERR_FILENO);
+    }
+    char text[4096] = "";
+    if (err) {
+        rewind(err);
+        size_t n = fread(text, 1, sizeof text - 1, err);
+        text[n] = 0;
+        fclose(err);
+    }
+    if (saved_out >= 0)
+        close(saved_out);
+    if (saved_err >= 0)
+        close(saved_err);
+    if (null >= 0)
+        close(null);
     app_set_quiet(was);
-    if (rc != 0 && !*tnd_error_detail())
-        tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s failed (exit status %d; its message went to "
-                                           "standard error)", name, rc);
+    if (rc == 0) {
+        fputs(text, stderr);
+        return 0;
+    }
+    /* the message without the command's "tandem: NAME: " prefix, its last line first */
+    size_t n = strlen(text);
+    while (n && text[n - 1] == '\n')
+        text[--n] = 0;
+    char prefix[64];
+    snprintf(prefix, sizeof prefix, "tandem: %s: ", name);
+    char *last = strrchr(text, '\n'), *msg = last ? last + 1 : text;
+    if (strncmp(msg, prefix, strlen(prefix)) == 0)
+        msg += strlen(prefix);
+    else if (strncmp(msg, "tandem ", 7) == 0 && strchr(msg, ':'))
+        msg = strchr(msg, ':') + 2;
+    if (*msg)
+        tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: %s", name, msg);
+    else
+        tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s failed (exit status %d)", name, rc);
     return rc;
 }
 
@@ -603,9 +652,10 @@ API char *tandem_eval(const char *options_json)
     static const char *const keys[] = {"out", "reference", "matched_reference", "report",
                                        "exposure", "ppd", "metrics_on"};
     cJSON *root = NULL;
-    char *argv[2 + 2 * 7], bufs[7][64], nums[7][32], *out = NULL, *result = NULL;
+    char *argv[3 + 2 * 7], bufs[7][64], nums[7][32], *out = NULL, *result = NULL;
     int argc = 0;
     argv[argc++] = "eval";
+    argv[argc++] = "--quiet";
     if (parse_json(options_json, &root, "eval") != TND_OK)
         return NULL;
     for (const cJSON *v = root ? root->child : NULL; v; v = v->next) {
@@ -643,9 +693,10 @@ done:
 
 API char *tandem_dataset(const char *spec_path, const char *out, const char *shard)
 {
-    char *argv[8];
+    char *argv[9];
     int argc = 0;
     argv[argc++] = "dataset";
+    argv[argc++] = "--quiet";
     argv[argc++] = (char *)spec_path;
     argv[argc++] = "--out";
     argv[argc++] = (char *)out;

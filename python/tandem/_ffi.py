@@ -64,6 +64,9 @@ def get():
         ffi = cffi.FFI()
         ffi.cdef(_cdef_of(os.path.join(_HERE, "tandem_api.h")))
         ffi.cdef(_PLUGIN_CDEF)
-        lib = ffi.dlopen(os.path.join(_HERE, "libtandem_api.so"))
+        # (never unloaded: at the interpreter's exit the threads its libraries started, OpenMP's
+        # pool among them, outlive the module that holds the library)
+        lib = ffi.dlopen(os.path.join(_HERE, "libtandem_api.so"),
+                         ffi.RTLD_NOW | ffi.RTLD_NODELETE)
         _ffi, _lib = ffi, lib
     return _ffi, _lib
