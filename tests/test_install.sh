@@ -62,5 +62,25 @@ for i in 0 1 2 3; do
         fi
     done
 done
+# 3. the Python package where make install puts it (not under the sanitizers: Debian's Python
+# is not built with them), and the installed command finding its Python bridge there
+if [ -z "$SAN" ]; then
+    PY="$TMP/prefix/lib/python3/dist-packages"
+    for f in __init__.py _host.py libtandem_api.so libtandem_pybridge.so tandem_api.h; do
+        [ -e "$PY/tandem/$f" ] && ok "installed python package: $f" || bad "installed $f"
+    done
+    if PYTHONPATH="$PY" /usr/bin/python3 - "$TMP/run/capture/frame_0000.exr" <<'PYEOF'
+import sys, tandem
+c = tandem.read_capture(sys.argv[1])
+assert tandem.__file__.startswith(sys.argv[1].split("/run/")[0] + "/prefix/"), tandem.__file__
+assert c.present("albedo") and c["depth"].shape == (40, 64, 1)
+PYEOF
+    then ok "python: the installed package reads a capture"; else bad "python: installed package"; fi
+    if PYTHONPATH="$SRC/tests/python" "$TMP/prefix/bin/tandem" render --scene \
+           "$SRC/data/scenes/dynamic.gltf" --frontend embree --denoiser python:denoisers:Ema \
+           --frames 2 --size 64x40 --out "$TMP/py" --quiet && [ -e "$TMP/py/frame_0001.exr" ]
+    then ok "python: the installed tandem runs python:denoisers:Ema"
+    else bad "python: the installed tandem and python:denoisers:Ema"; fi
+fi
 echo "$pass passed, $failn failed"
 [ "$failn" -eq 0 ]
