@@ -42,11 +42,12 @@ def read_rgb(path):
 
 
 def main():
-    tandem, spheres, accumulate, broken = sys.argv[1:5]
+    tandem, spheres, accumulate, broken, host_copy = sys.argv[1:6]
     c = Checks(tandem)
     tmp = tempfile.mkdtemp(prefix="tandem_plugins_")
     try:
         run_checks(c, tmp, spheres, accumulate, broken)
+        host_checks(c, tmp, host_copy)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     c.finish()
@@ -183,6 +184,37 @@ def run_checks(c, tmp, spheres, accumulate, broken):
           "--frames", "2", "--size", "16x16", "--out", env_ok, "--quiet")
     c.check("the broken plugin with nothing broken renders", os.path.exists(
         os.path.join(env_ok, "frame_0001.exr")))
+
+
+def host_checks(c, tmp, host_copy):
+    """A host denoiser plugin that returns the noisy radiance: the frames of `--denoiser off`,
+    bit for bit, behind both front-ends (the contract and radiance to the host and back); a
+    failing frame: exit 1, its message, no output."""
+    cornell = os.path.join(SCENES, "cornell.gltf")
+    # (behind Embree, --denoiser off composites on the CPU and runs no post chain: TAA off on
+    # both, the GPU's composite against the CPU's within float rounding)
+    for fe, taa in (("vk", "on"), ("embree", "off")):
+        outs = {}
+        for dn in ("off", f"plugin:{host_copy}"):
+            outs[dn] = os.path.join(tmp, f"host_{fe}_{'off' if dn == 'off' else 'copy'}")
+            c.run("render", "--scene", cornell, "--frontend", fe, "--denoiser", dn, "--taa", taa,
+                  "--frames", "3", "--size", "40x24", "--out", outs[dn], "--quiet")
+        a, b = outs.values()
+        diff = max(float(np.max(np.abs(read_rgb(os.path.join(a, f"frame_{i:04d}.exr")) -
+                                       read_rgb(os.path.join(b, f"frame_{i:04d}.exr"))) /
+                                (np.abs(read_rgb(os.path.join(a, f"frame_{i:04d}.exr"))) + 1e-3)))
+                   for i in range(3))
+        c.check(f"host denoiser plugin behind {fe}: the noisy radiance through the host equals "
+                f"--denoiser off {'bit for bit' if fe == 'vk' else 'within 1e-5'}",
+                diff == 0 if fe == "vk" else diff <= 1e-5, f"largest relative difference {diff:.3g}")
+    out = os.path.join(tmp, "host_fail")
+    p = subprocess.run([c.tandem, "render", "--scene", cornell, "--frontend", "embree",
+                        "--denoiser", f"plugin:{host_copy}", "--frames", "3", "--size", "16x16",
+                        "--out", out], capture_output=True, text=True,
+                       env=dict(os.environ, TANDEM_TEST_HOST="fail"))
+    c.check("host denoiser plugin: a failing frame exits 1 with its message, no output",
+            p.returncode == 1 and "host_copy fails at frame 1" in p.stderr and
+            not os.path.exists(out), p.stderr[-300:])
 
 
 if __name__ == "__main__":

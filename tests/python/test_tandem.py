@@ -146,6 +146,21 @@ def test_python_denoiser_in_render(tmp_path):
     assert not bad.exists()
 
 
+def test_python_identity_is_off(tmp_path):
+    """A Python denoiser that returns the noisy radiance it gets renders --denoiser off's frames
+    bit for bit (Vulkan front-end on lavapipe: the radiance to Python and back unchanged)."""
+    out = tmp_path / "off"
+    run("render", "--scene", CORNELL, "--frontend", "vk", "--denoiser", "off", "--size", "40x24",
+        "--frames", "2", "--out", str(out))
+    import sys
+    sys.path.insert(0, HERE)
+    import denoisers
+    r = tandem.Renderer(CORNELL, frontend="vk", denoiser=denoisers.Identity, size=(40, 24))
+    for f in range(2):
+        px, _ = read_rgb(str(out / ("frame_%04d.exr" % f)))
+        assert np.array_equal(px[..., :3], r.frame(f, contract=False)["radiance"]), f
+
+
 def test_errors_raise_with_message(tmp_path):
     with pytest.raises(tandem.TandemError, match="nope.gltf: cannot open"):
         tandem.Scene(str(tmp_path / "nope.gltf"))
