@@ -4,7 +4,7 @@ Per frame it reads the noisy radiance and the G-buffer (albedo, normal, depth, m
 own previous output along the motion vectors (bilinear, with a disocclusion test on depth), and
 predicts per pixel a 5 x 5 filter over the demodulated noisy radiance (irradiance: radiance over
 albedo) and a blend weight between that filtered frame and the warped history; the result is
-modulated by the albedo again. 7,986 parameters. It is trained by train.py on `tandem dataset`
+modulated by the albedo again. 8,122 parameters. It is trained by train.py on `tandem dataset`
 frames against matched references and runs inside Tandem's frame loop:
 
     tandem render --denoiser python:temporal_denoiser:Denoiser ...   (PYTHONPATH=examples/python)
