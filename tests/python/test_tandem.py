@@ -83,9 +83,38 @@ def test_capture_round_trip(tmp_path):
     assert np.array_equal(px[..., :3], a.composite())
 
 
+def write_exr(path, rgb):
+    out = oiio.ImageOutput.create(path)
+    out.open(path, oiio.ImageSpec(rgb.shape[1], rgb.shape[0], 3, "float"))
+    out.write_image(np.ascontiguousarray(rgb, np.float32))
+    out.close()
+
+
 def test_mapped_capture(tmp_path):
-    """Another renderer's frame through a mapping (the Blender capture in the tree's test data
-    when present) reads as `tandem info --capture` sees it."""
+    """Another renderer's frames through a mapping (Open Image Denoise's training layout: one
+    EXR per feature) read as `tandem convert` converts them, entry for entry."""
+    rng = np.random.default_rng(7)
+    src = tmp_path / "oidn"
+    src.mkdir()
+    for name in ("a", "b"):
+        write_exr(str(src / (name + ".hdr.exr")), rng.random((12, 16, 3)) * 4)
+        write_exr(str(src / (name + ".alb.exr")), 0.1 + 0.8 * rng.random((12, 16, 3)))
+        write_exr(str(src / (name + ".nrm.exr")), rng.random((12, 16, 3)) * 2 - 1)
+    mapping = os.path.join(SRC, "data", "mappings", "oidn_training.json")
+    names = tandem.list_captures(str(src), map=mapping)
+    assert [os.path.basename(n) for n in names] == ["a.hdr.exr", "b.hdr.exr"]
+    conv = tmp_path / "conv"
+    run("convert", "--captures", str(src), "--map", mapping, "--out", str(conv))
+    prev = None
+    for i, n in enumerate(names):
+        got = tandem.read_capture(n, map=mapping, prev=prev)
+        want = tandem.read_capture(str(conv / ("frame_%04d.exr" % i)))
+        assert set(want.keys()) <= set(got.keys() + ["motion", "depth", "emission"])
+        for k in want.keys():
+            assert np.array_equal(got[k], want[k]), (n, k)
+        assert np.allclose(np.linalg.norm(got["normal"], axis=2), 1, atol=1e-5)
+        prev = got
+    # Tandem's own sequence lists its frames
     out = tmp_path / "run"
     run("render", "--scene", CORNELL, "--frames", "2", "--size", "32x24", "--capture", "--out",
         str(out))
