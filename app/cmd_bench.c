@@ -478,7 +478,8 @@ int cmd_bench(int argc, char **argv)
     app_env env = APP_ENV_INIT; /* (--overlap and --denoiser: the whole frame or the back-end) */
     char dn_help[300];
     snprintf(dn_help, sizeof dn_help,
-             "with --frontend vk: time the whole frame with this denoiser (%s, or plugin:PATH.so)",
+             "with --frontend vk: time the whole frame with this denoiser (%s, plugin:PATH.so or "
+             "python:MODULE:CALLABLE)",
              pl_denoiser_names());
     const app_opt opts[] = {
         {"denoiser", APP_OPT_STRING, &denoiser, "NAME", dn_help},
@@ -512,14 +513,18 @@ int cmd_bench(int argc, char **argv)
          "run the pipeline over every combination of knob values (repeatable; keys: bounces, "
          "every denoiser parameter (atrous, min-alpha or alpha, antilag, lf-sigma: tandem info "
          "--pipeline), gradient, denoiser, precision, taa, scale, frontend); needs --out"},
-        {"out", APP_OPT_STRING, &out, "DIR", "--sweep, --extremes: where runs, tables and the report go"},
+        {"out", APP_OPT_STRING, &out, "DIR",
+         "--sweep, --extremes: where runs, tables and the report go"},
         {"reference", APP_OPT_STRING, &reference, "REFDIR",
          "--sweep: references (default: rendered into DIR/reference with --spp)"},
-        {"spp", APP_OPT_UINT, &spp, "K", "--sweep: samples per pixel of the reference (default 64)"},
+        {"spp", APP_OPT_UINT, &spp, "K",
+         "--sweep: samples per pixel of the reference (default 64)"},
         {"frames", APP_OPT_UINT, &frames, "N", "--sweep: frames per run (default 12)"},
         {"extremes", APP_OPT_FLAG, &extremes, NULL,
-         "numerical stability report: the extremes scene (or --scene) through every mode; needs --out"},
-        {"warmup", APP_OPT_UINT, &warmup, "W", "--sweep: frames left out of times and metrics (default 4)"},
+         "numerical stability report: the extremes scene (or --scene) through every mode; needs "
+         "--out"},
+        {"warmup", APP_OPT_UINT, &warmup, "W",
+         "--sweep: frames left out of times and metrics (default 4)"},
         {"timed-frames", APP_OPT_UINT, &timed, "N",
          "--sweep: each cell's times from N frames back to back after its frames (render "
          "--timed-frames; default 24; 0: from its frames, each waited for)"},

@@ -191,11 +191,13 @@ static void spec_free(spec *s)
 /* The spec's settings (the whole set's, then each sequence's own over them). */
 static tnd_result spec_read(const char *path, spec *s)
 {
-    static const char *const top_keys[] = {"size", "frames", "fps", "frontend", "bounces", "spp",
-                                           "unbiased_spp", "format", "sequences", "precision"};
-    static const char *const seq_keys[] = {"name", "scene", "camera_path", "path_duration",
-                                           "path_radius", "path_height", "env", "env_intensity",
-                                           "env_rotation", "up", "camera", "no_default_light"};
+    static const char *const top_keys[] = {"size",      "frames",   "fps",          "frontend",
+                                           "bounces",   "spp",      "unbiased_spp", "format",
+                                           "sequences", "precision"};
+    static const char *const seq_keys[] = {
+        "name",         "scene",       "camera_path", "path_duration",
+        "path_radius",  "path_height", "env",         "env_intensity",
+        "env_rotation", "up",          "camera",      "no_default_light"};
     tnd_result res = TND_OK;
     memset(s, 0, sizeof *s);
     FILE *f = fopen(path, "rb");
@@ -268,8 +270,7 @@ static tnd_result spec_read(const char *path, spec *s)
         goto fail;
     }
     if (strcmp(format, "exr") != 0 && strcmp(format, "npz") != 0) {
-        res = tnd_fail(TND_ERR_BAD_INPUT, "%s: format '%s': expected exr or npz", path,
-                       format);
+        res = tnd_fail(TND_ERR_BAD_INPUT, "%s: format '%s': expected exr or npz", path, format);
         goto fail;
     }
     s->npz = strcmp(format, "npz") == 0;
@@ -296,8 +297,8 @@ static tnd_result spec_read(const char *path, spec *s)
             for (size_t k = 0; k < sizeof seq_keys / sizeof *seq_keys; k++)
                 known = known || strcmp(v->string, seq_keys[k]) == 0;
             if (!known) {
-                res = tnd_fail(TND_ERR_BAD_INPUT, "%s: sequence %u: unknown key '%s'",
-                               path, s->nseq, v->string);
+                res = tnd_fail(TND_ERR_BAD_INPUT, "%s: sequence %u: unknown key '%s'", path,
+                               s->nseq, v->string);
                 goto fail;
             }
         }
@@ -328,14 +329,15 @@ static tnd_result spec_read(const char *path, spec *s)
             snprintf(sq->name, sizeof sq->name, "seq_%03u", s->nseq);
         for (const char *c = sq->name; *c; c++)
             if (*c == '/' || *c == '\\' || (c == sq->name && *c == '.')) {
-                res = tnd_fail(TND_ERR_BAD_INPUT, "%s: sequence %u: name '%s' is not a "
-                                                  "plain directory name", path, s->nseq, sq->name);
+                res = tnd_fail(TND_ERR_BAD_INPUT,
+                               "%s: sequence %u: name '%s' is not a "
+                               "plain directory name",
+                               path, s->nseq, sq->name);
                 goto fail;
             }
         for (uint32_t k = 0; k < s->nseq; k++)
             if (strcmp(s->seq[k].name, sq->name) == 0) {
-                res = tnd_fail(TND_ERR_BAD_INPUT, "%s: two sequences named '%s'", path,
-                               sq->name);
+                res = tnd_fail(TND_ERR_BAD_INPUT, "%s: two sequences named '%s'", path, sq->name);
                 goto fail;
             }
         TND_TRY(app_render_check(&sq->o, true));
@@ -354,8 +356,8 @@ typedef struct frame_out {
     double *sums;
 } frame_out;
 
-static tnd_result reference_of(pl_frontend *fr, const app_render_opts *o, unsigned f,
-                               frame_out *w, float *rgb, float *var)
+static tnd_result reference_of(pl_frontend *fr, const app_render_opts *o, unsigned f, frame_out *w,
+                               float *rgb, float *var)
 {
     tnd_result res = TND_OK;
     size_t n = (size_t)o->size[0] * o->size[1];
@@ -384,9 +386,9 @@ static tnd_result write_rgb(const char *path, const float *rgb, const float *var
 }
 
 /* Frame f of a sequence into DIR/NAME/: its files named in `files` (a JSON object). */
-static tnd_result frame_write(const spec *sp, const sequence *sq, pl_frontend *fr,
-                              tnd_scene *scene, tnd_scene_state st[2], unsigned f,
-                              const char *dir, frame_out *w, cJSON *files)
+static tnd_result frame_write(const spec *sp, const sequence *sq, pl_frontend *fr, tnd_scene *scene,
+                              tnd_scene_state st[2], unsigned f, const char *dir, frame_out *w,
+                              cJSON *files)
 {
     tnd_result res = TND_OK;
     const app_render_opts *o = &sq->o;
@@ -411,8 +413,11 @@ static tnd_result frame_write(const spec *sp, const sequence *sq, pl_frontend *f
         uint32_t n = 0;
         for (int e = 0; e < TND_CT_COUNT; e++) {
             const tnd_ct_info *ci = tnd_ct_get((tnd_ct)e);
-            a[n++] = (npz_array){ci->name, w->contract.data[e],
-                                 ci->kind == TND_CT_UINT ? 'u' : 'f', {H, W, ci->comps}, 3};
+            a[n++] = (npz_array){ci->name,
+                                 w->contract.data[e],
+                                 ci->kind == TND_CT_UINT ? 'u' : 'f',
+                                 {H, W, ci->comps},
+                                 3};
         }
         const tnd_camera_state *c = &w->contract.camera;
         a[n++] = (npz_array){"noisy", w->noisy, 'f', {H, W, 3}, 3};
@@ -444,8 +449,14 @@ static tnd_result frame_write(const spec *sp, const sequence *sq, pl_frontend *f
         if (k == 0)
             TND_TRY(tnd_capture_write(path, &w->contract, TND_EXR_ZIP));
         else
-            TND_TRY(write_rgb(path, k == 1 ? w->noisy : k == 2 ? w->matched : w->unbiased,
-                              k == 1 ? NULL : k == 2 ? w->matched_var : w->unbiased_var, W, H));
+            TND_TRY(write_rgb(path,
+                              k == 1   ? w->noisy
+                              : k == 2 ? w->matched
+                                       : w->unbiased,
+                              k == 1   ? NULL
+                              : k == 2 ? w->matched_var
+                                       : w->unbiased_var,
+                              W, H));
         cJSON_AddStringToObject(files, kinds[k], strrchr(path, '/') + 1);
     }
 fail:
@@ -471,8 +482,8 @@ static tnd_result frame_out_alloc(uint32_t W, uint32_t H, frame_out *w)
     w->unbiased = malloc(3 * n * sizeof(float)), w->matched_var = malloc(n * sizeof(float));
     w->unbiased_var = malloc(n * sizeof(float)), w->se = malloc(n * sizeof(float));
     w->sums = malloc(4 * n * sizeof(double));
-    if (!w->noisy || !w->matched || !w->unbiased || !w->matched_var || !w->unbiased_var ||
-        !w->se || !w->sums) {
+    if (!w->noisy || !w->matched || !w->unbiased || !w->matched_var || !w->unbiased_var || !w->se ||
+        !w->sums) {
         frame_out_free(w);
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
     }
@@ -540,8 +551,8 @@ static tnd_result dataset_run(const char *spec_path, const char *out, const char
         if (res == TND_OK && use_vk)
             res = tnd_vk_create(&(tnd_vk_desc){0}, &vk);
         if (res == TND_OK)
-            res = app_pipeline_open(&sq->o, scene, &vk, use_vk, false, prec, &dn, true, &fr,
-                                    &chain, &pd);
+            res = app_pipeline_open(&sq->o, scene, &vk, use_vk, false, prec, &dn, true, &fr, &chain,
+                                    &pd);
         if (res == TND_OK)
             res = frame_out_alloc(sq->o.size[0], sq->o.size[1], &w);
         for (uint64_t k = first; res == TND_OK && k < item; k++) {

@@ -25,8 +25,10 @@ int cmd_denoise(int argc, char **argv)
     double yfov_deg = 40.0;
     char dn_help[300];
     snprintf(dn_help, sizeof dn_help,
-             "the denoiser: %s or plugin:PATH.so (default asvgf; one that needs gradient samples "
-             "runs as its fallback on captures without them)", pl_denoiser_names());
+             "the denoiser: %s, plugin:PATH.so or python:MODULE:CALLABLE (default asvgf; one that "
+             "needs gradient samples "
+             "runs as its fallback on captures without them)",
+             pl_denoiser_names());
     const app_opt opts[] = {
         {"captures", APP_OPT_STRING, &captures, "DIR",
          "directory of frame_NNNN.exr (or DIR/capture; another renderer's with --map)"},

@@ -307,7 +307,8 @@ static cJSON *pipeline_build(bool text)
         }
     }
     if (!json)
-        printf("denoisers (--denoiser; the first is the default; plugin:PATH.so loads one):\n");
+        printf("denoisers (--denoiser; the first is the default; plugin:PATH.so or "
+               "python:MODULE:CALLABLE loads one):\n");
     for (uint32_t i = 0; i < pl_denoiser_count(); i++) {
         const pl_denoiser_info *d = pl_denoiser_at(i);
         cJSON *o = cJSON_CreateObject(), *pa, *sa;

@@ -182,13 +182,17 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     char fe_help[200], dn_help[300];
     snprintf(fe_help, sizeof fe_help, "the front-end: %s (default embree)",
              pl_frontend_live_names());
-    snprintf(dn_help, sizeof dn_help, "the denoiser: %s, or plugin:PATH.so (default asvgf; "
-             "docs/denoise.md)", pl_denoiser_names());
+    snprintf(dn_help, sizeof dn_help,
+             "the denoiser: %s, plugin:PATH.so or python:MODULE:CALLABLE (default asvgf; "
+             "docs/denoise.md)",
+             pl_denoiser_names());
     /* what render and reference share: where, what, the path (one entry each) */
-#define COMMON_OPTS \
-    {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"}, \
-    {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"}, \
-    {"frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help}
+#define COMMON_OPTS                                                                                \
+    {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},                         \
+        {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"}, \
+    {                                                                                              \
+        "frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help                                  \
+    }
 #define PATH_OPTS \
     {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"}, \
     {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"}, \
@@ -302,41 +306,35 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     return -1;
 }
 
-/* The options' values checked (render's and reference's, parsed or filled by a caller): -1, or
- * the exit status after a message. */
+/* The options' values checked (render's and reference's, parsed or filled by a caller): an error
+ * names the option. */
 tnd_result app_render_check(const app_render_opts *o, bool reference)
 {
-    if (strcmp(o->pipeline, "scene") != 0 && strcmp(o->pipeline, "full") != 0) {
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--pipeline %s: expected scene or full", o->pipeline);
-    }
-    if (!pl_frontend_live(o->frontend)) {
+    if (strcmp(o->pipeline, "scene") != 0 && strcmp(o->pipeline, "full") != 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--pipeline %s: expected scene or full",
+                        o->pipeline);
+    if (!pl_frontend_live(o->frontend))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--frontend '%s': expected %s", o->frontend,
-                pl_frontend_live_names());
-    }
-    if (o->reflect_depth > 16) {
+                        pl_frontend_live_names());
+    if (o->reflect_depth > 16)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--reflect-depth is 1 to 16");
-    }
-    if (o->timed_frames && o->view) { /* (its camera path ends with the frames written) */
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--timed-frames runs the scene's path on after the frames; "
+    if (o->timed_frames && o->view) /* (its camera path ends with the frames written) */
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "--timed-frames runs the scene's path on after the frames; "
                         "not with --view");
-    }
-    if (o->video && !app_have_program("ffmpeg")) {
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--video needs ffmpeg on PATH (Debian package ffmpeg)");
-    }
-    if (reference && strcmp(o->estimator, "unbiased") != 0 && strcmp(o->estimator, "realtime")) {
+    if (o->video && !app_have_program("ffmpeg"))
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "--video needs ffmpeg on PATH (Debian package ffmpeg)");
+    if (reference && strcmp(o->estimator, "unbiased") != 0 && strcmp(o->estimator, "realtime"))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--estimator %s: expected unbiased or realtime",
-                o->estimator);
-    }
-    if (reference && strcmp(o->composite_on, "device") != 0 && strcmp(o->composite_on, "host")) {
+                        o->estimator);
+    if (reference && strcmp(o->composite_on, "device") != 0 && strcmp(o->composite_on, "host"))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--composite-on %s: expected device or host",
-                o->composite_on);
-    }
-    if (reference && (o->until_noise < 0 || o->until_noise >= 1)) {
+                        o->composite_on);
+    if (reference && (o->until_noise < 0 || o->until_noise >= 1))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--until-noise is a fraction in (0, 1)");
-    }
-    if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0)) {
+    if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--frames, --fps and --spp must be positive");
-    }
     return TND_OK;
 }
 

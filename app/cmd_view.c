@@ -1020,14 +1020,16 @@ int cmd_view(int argc, char **argv)
     app_env env = APP_ENV_INIT;
     char fe_help[200], dn_help[300];
     snprintf(fe_help, sizeof fe_help, "the front-end: %s (default vk)", pl_frontend_live_names());
-    snprintf(dn_help, sizeof dn_help, "the denoiser: %s or plugin:PATH.so (default %s)",
+    snprintf(dn_help, sizeof dn_help,
+             "the denoiser: %s, plugin:PATH.so or python:MODULE:CALLABLE (default %s)",
              pl_denoiser_names(), pl_denoiser_default());
     const app_opt opts[] = {
         {"scene", APP_OPT_STRING, &scene, "PATH", "glTF scene (default: cornell)"},
         {"frontend", APP_OPT_STRING, &frontend, "NAME", fe_help},
         {"denoiser", APP_OPT_STRING, &denoiser, "NAME", dn_help},
         {"size", APP_OPT_SIZE, size, "WxH", "window size (default 640x360)"},
-        {"state", APP_OPT_STRING, &state, "FILE", "start from a repro state (a screenshot's .json)"},
+        {"state", APP_OPT_STRING, &state, "FILE",
+         "start from a repro state (a screenshot's .json)"},
         {"script", APP_OPT_STRING, &script, "FILE",
          "play timed key, mouse and resize events, then exit (docs/viewer.md)"},
         {"frames", APP_OPT_UINT, &frames, "N", "exit after N frames (default: when closed)"},

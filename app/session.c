@@ -21,8 +21,8 @@ struct app_session {
     const pl_denoiser_info *dn;
     cmp_desc pd;
     tnd_scene_state st[2];
-    bool started;  /* a frame was run: `last` is the previous one */
-    unsigned last; /* the frame run last */
+    bool started;      /* a frame was run: `last` is the previous one */
+    unsigned last;     /* the frame run last */
     tnd_frame scratch; /* (references: the frame's contract) */
     double *sums;      /* (references: RGB and luminance^2 per pixel) */
 };
@@ -84,7 +84,8 @@ tnd_result app_session_open(const app_render_opts *o, bool reference, app_sessio
         !(pl_frontend_caps(s->fr) & PL_CAP_REFERENCE)) {
         res = tnd_fail(TND_ERR_UNSUPPORTED,
                        "--frontend %s renders no unbiased reference (--estimator realtime "
-                       "renders the matched one)", s->o.frontend);
+                       "renders the matched one)",
+                       s->o.frontend);
         goto fail;
     }
     *out = s;

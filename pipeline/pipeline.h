@@ -3,7 +3,8 @@
  * Embree tracer and capture replay ("replay": a recorded sequence that re-shades only from
  * stored gradient samples) are registered here, and app/ reaches them only through
  * pl_frontend_*: it names no fvk_/femb_ function. A denoiser is the same (pl_denoiser_ops in
- * pl_denoiser.c): svgf, asvgf and off (the built-in back-end), plugins through an adapter; each
+ * pl_denoiser.c): svgf, asvgf and off (the built-in back-end), plugins through an adapter,
+ * Python denoisers (python:MODULE:CALLABLE) through the host adapter; each
  * declares its capabilities, its parameters (pl_param: the command line, run.json, the
  * viewer's keys and states, the sweep's knobs are made from them) and the passes it times
  * (pl_pass: every timings writer prints from pl_chain_passes). docs/extending.md says how to

@@ -1,21 +1,24 @@
 /* pipeline/pl_plugin.c: plugins from shared objects (include/tandem/tandem_plugin.h): the
  * loader and its checks, the front-end adapter (a plugin that fills host buffers becomes a
  * pl_frontend_ops) and the denoiser adapter (a denoiser plugin becomes a pl_denoiser_ops: the
- * built-in back-end's composite of the noisy radiance, then the plugin's commands, timed). A
- * plugin's description is checked once when it is loaded: ABI version, kind, the operations it
- * must have, the entries it declares.
- * Entry points: pl_plugin_frontend_ops, pl_plugin_denoiser_ops, pl_dnp_create, pl_dnp_destroy,
- * pl_dnp_record, pl_dnp_reads, pl_dnp_name, pl_plugin_settings. */
+ * built-in back-end's composite of the noisy radiance, then the plugin's commands, timed), and
+ * the host adapter (a host denoiser plugin, and Python denoisers through the Python bridge or
+ * the Python package's own description: the composite, the contract and radiance to the host,
+ * the plugin's run, its radiance back up). A plugin's description is checked once when it is
+ * loaded: ABI version, kind, the operations it must have, the entries it declares.
+ * Entry points: pl_plugin_frontend_ops, pl_plugin_denoiser_ops, pl_python_denoiser_ops,
+ * pl_python_set, pl_dnp_create, pl_dnp_destroy, pl_dnp_record, pl_dnp_reads, pl_dnp_name,
+ * pl_plugin_settings. */
 #include "pipeline/pl_internal.h"
 #include "shaders/sampling.h"
 
 #include <dlfcn.h>
-#include <unistd.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* The ABI's entry numbers are the contract table's. */
 #define PL_SAME(ID) _Static_assert((int)TANDEM_ENTRY_##ID == (int)TND_CT_##ID, #ID);

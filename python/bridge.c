@@ -24,10 +24,10 @@ static void exception_text(char *err, uint32_t cap)
     PyErr_NormalizeException(&type, &value, &tb);
     snprintf(err, cap, "Python raised an exception");
     PyObject *mod = PyImport_ImportModule("traceback");
-    PyObject *lines = mod && value ? PyObject_CallMethod(mod, "format_exception", "OOO",
-                                                         type ? type : Py_None, value,
-                                                         tb ? tb : Py_None)
-                                   : NULL;
+    PyObject *lines = mod && value
+                          ? PyObject_CallMethod(mod, "format_exception", "OOO",
+                                                type ? type : Py_None, value, tb ? tb : Py_None)
+                          : NULL;
     PyObject *empty = PyUnicode_FromString("");
     PyObject *joined = lines && empty ? PyUnicode_Join(empty, lines) : NULL;
     const char *text = joined ? PyUnicode_AsUTF8(joined) : NULL;

@@ -205,7 +205,8 @@ static tnd_result parse_opts(const cJSON *root, bool render, bool reference, app
                 if (!pl_param_find(name))
                     return tnd_fail(TND_ERR_INVALID_ARGUMENT,
                                     "%s: params: no denoiser has a parameter '%s' (tandem info "
-                                    "--pipeline lists them)", what, p->string);
+                                    "--pipeline lists them)",
+                                    what, p->string);
                 TND_TRY(pl_param_set_put(&o->params, name, p->valuedouble));
             }
             continue;
@@ -547,8 +548,8 @@ API int tandem_sequence_add(tandem_sequence *s, uint32_t frame, const float *out
     if (r != TND_OK)
         return 1;
     s->nonfinite += bad;
-    *m = (tandem_metrics){fm.relmse,      fm.smape,    fm.rmse,         fm.psnr,
-                          fm.ssim,        fm.flip,     fm.temporal,     fm.mc_temporal,
+    *m = (tandem_metrics){fm.relmse,      fm.smape,        fm.rmse,       fm.psnr,
+                          fm.ssim,        fm.flip,         fm.temporal,   fm.mc_temporal,
                           fm.disoccluded, fm.worth_relmse, fm.worth_flip, bad};
     return 0;
 }
@@ -557,9 +558,9 @@ API void tandem_sequence_summary(const tandem_sequence *s, tandem_summary *out)
 {
     ev_summary e = {0};
     ev_sequence_summary(s->seq, &e);
-    *out = (tandem_summary){e.relmse,     e.smape,        e.rmse,        e.psnr,
-                            e.ssim,       e.flip,         e.temporal,    e.lag,
-                            e.mc_temporal, e.flicker,     e.flicker_ref, e.disocclusion_lag,
+    *out = (tandem_summary){e.relmse,       e.smape,      e.rmse,        e.psnr,
+                            e.ssim,         e.flip,       e.temporal,    e.lag,
+                            e.mc_temporal,  e.flicker,    e.flicker_ref, e.disocclusion_lag,
                             e.worth_relmse, e.worth_flip, e.changes,     e.disocclusions,
                             s->nonfinite};
 }
@@ -649,8 +650,8 @@ static char *read_text(const char *path)
 
 API char *tandem_eval(const char *options_json)
 {
-    static const char *const keys[] = {"out", "reference", "matched_reference", "report",
-                                       "exposure", "ppd", "metrics_on"};
+    static const char *const keys[] = {"out",      "reference", "matched_reference", "report",
+                                       "exposure", "ppd",       "metrics_on"};
     cJSON *root = NULL;
     char *argv[3 + 2 * 7], bufs[7][64], nums[7][32], *out = NULL, *result = NULL;
     int argc = 0;
