@@ -221,7 +221,10 @@ tnd_result app_render_check(const app_render_opts *o, bool reference);
  * (o->start and o->view are not used): one that follows the frame before continues the history,
  * any other restarts it. */
 typedef struct app_session app_session;
-tnd_result app_session_open(const app_render_opts *o, bool reference, app_session **s);
+/* `scene`: one loaded already (the caller's, outliving the session; o->scene and o->env then
+ * only name it), or NULL: loaded from o->scene with o->env. */
+tnd_result app_session_open(const app_render_opts *o, bool reference, const tnd_scene *scene,
+                            app_session **s);
 void app_session_close(app_session *s);
 const tnd_scene *app_session_scene(const app_session *s);
 const app_render_opts *app_session_opts(const app_session *s);

@@ -13,7 +13,8 @@
 struct app_session {
     app_render_opts o;
     bool reference;
-    tnd_scene *scene;
+    tnd_scene *own;          /* the scene it loaded (NULL: the caller's) */
+    const tnd_scene *scene;
     tnd_vk vk;
     bool have_vk, use_dn;
     pl_frontend *fr;
@@ -42,11 +43,12 @@ void app_session_close(app_session *s)
             vkDeviceWaitIdle(s->vk.device);
         tnd_vk_destroy(&s->vk);
     }
-    tnd_scene_destroy(s->scene);
+    tnd_scene_destroy(s->own);
     free(s);
 }
 
-tnd_result app_session_open(const app_render_opts *o, bool reference, app_session **out)
+tnd_result app_session_open(const app_render_opts *o, bool reference, const tnd_scene *scene,
+                            app_session **out)
 {
     *out = NULL;
     tnd_result res = app_render_check(o, reference);
@@ -73,7 +75,12 @@ tnd_result app_session_open(const app_render_opts *o, bool reference, app_sessio
         goto fail;
     /* the back-end on Vulkan unless a host front-end runs a denoiser that does not filter */
     s->use_dn = !reference && ((s->dn->caps & PL_DN_FILTERS) || use_vk);
-    TND_TRY(app_scene_load(s->o.scene, &s->o.env, &s->scene));
+    if (scene) {
+        s->scene = scene;
+    } else {
+        TND_TRY(app_scene_load(s->o.scene, &s->o.env, &s->own));
+        s->scene = s->own;
+    }
     if (use_vk || s->use_dn) {
         TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !use_vk}, &s->vk));
         s->have_vk = true;

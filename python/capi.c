@@ -34,6 +34,11 @@ API void tandem_free(void *p)
     free(p);
 }
 
+API int tandem_set_quiet(int quiet)
+{
+    return app_set_quiet(quiet != 0);
+}
+
 API const char *tandem_version(void)
 {
     return TND_VERSION_STRING;
@@ -413,6 +418,12 @@ struct tandem_renderer {
 
 API tandem_renderer *tandem_renderer_open(const char *options_json, int reference)
 {
+    return tandem_renderer_open_scene(NULL, options_json, reference);
+}
+
+API tandem_renderer *tandem_renderer_open_scene(const tandem_scene *scene,
+                                                const char *options_json, int reference)
+{
     const char *what = reference ? "reference" : "render";
     tandem_renderer *r = calloc(1, sizeof *r);
     if (!r)
@@ -426,7 +437,17 @@ API tandem_renderer *tandem_renderer_open(const char *options_json, int referenc
     if (reference && o.ref_bounces == ~0u && strcmp(o.estimator, "realtime") == 0)
         o.ref_bounces = o.bounces; /* (as the command line: a matched reference's bounces) */
     bool was = app_set_quiet(true);
-    tnd_result res = app_session_open(&o, reference != 0, &r->s);
+    if (scene) { /* (the scene's own path and options: run.json's record of them) */
+        o.scene = scene->path;
+        for (const cJSON *v = r->options ? r->options->child : NULL; v; v = v->next)
+            if (find_key(scene_keys, v->string) || strcmp(v->string, "scene") == 0) {
+                tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                         "%s: %s: the scene and its options come with the loaded scene "
+                         "(tandem.Scene(...)), not with the renderer", what, v->string);
+                goto fail;
+            }
+    }
+    tnd_result res = app_session_open(&o, reference != 0, scene ? scene->s : NULL, &r->s);
     app_set_quiet(was);
     if (res != TND_OK)
         goto fail;

@@ -55,7 +55,7 @@ class Learned(temporal_denoiser.Denoiser):
 runs = {}
 for name, dn in (("asvgf", "asvgf"), ("svgf", "svgf"), ("learned", Learned)):
     t0 = time.time()
-    r = tandem.Renderer(scene, frontend=a.frontend, denoiser=dn, size=(w, h))
+    r = tandem.Renderer(scene, frontend=a.frontend, denoiser=dn, size=(w, h))  # (scene: loaded once)
     runs[name] = [r.frame(f, contract=(name == "asvgf")) for f in range(a.frames)]
     print("2. %-8s %d frames in %.1f s (denoiser as run: %s)" % (name, a.frames, time.time() - t0,
                                                                 r.denoiser))

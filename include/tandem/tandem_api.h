@@ -23,6 +23,9 @@ extern "C" {
 const char *tandem_error(void);
 void tandem_free(void *p);
 const char *tandem_version(void);
+/* Info messages (a scene's defaults, a camera path's figures) off (warnings stay); returns the
+ * setting before. */
+int tandem_set_quiet(int quiet);
 /* The registries (front-ends, denoisers with their parameters and passes, metrics): what
  * `tandem info --pipeline --json` prints. */
 char *tandem_pipeline_json(void);
@@ -88,6 +91,10 @@ typedef struct tandem_renderer tandem_renderer;
  * estimator, until_noise, composite_on, the scene options (tandem_scene_load's) and params
  * (an object: the denoiser's parameters by name). */
 tandem_renderer *tandem_renderer_open(const char *options_json, int reference);
+/* The same on a scene loaded already (it must outlive the renderer; the options then hold no
+ * scene options). */
+tandem_renderer *tandem_renderer_open_scene(const tandem_scene *scene, const char *options_json,
+                                            int reference);
 void tandem_renderer_free(tandem_renderer *r);
 void tandem_renderer_size(const tandem_renderer *r, uint32_t *width, uint32_t *height);
 /* the denoiser that runs (after a fallback); "" for a reference renderer */

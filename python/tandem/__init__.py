@@ -15,7 +15,7 @@ import numpy as np
 from . import _ffi, _host
 from ._host import DenoiserFrame
 
-__all__ = ["TandemError", "version", "pipeline", "denoisers", "entries", "Scene", "Capture",
+__all__ = ["TandemError", "version", "set_quiet", "pipeline", "denoisers", "entries", "Scene", "Capture",
            "read_capture", "list_captures", "Renderer", "render", "reference", "metrics",
            "Sequence", "auto_exposure", "evaluate", "dataset", "load_dataset", "DenoiserFrame"]
 
@@ -62,6 +62,12 @@ def _ptr(a, ctype):
 def version():
     _, lib = _lib()
     return _lib()[0].string(lib.tandem_version()).decode()
+
+
+def set_quiet(quiet=True):
+    """Tandem's info messages on standard error (a scene's defaults, a camera path's figures)
+    off or on again; warnings always show. Returns the setting before."""
+    return bool(_lib()[1].tandem_set_quiet(int(quiet)))
 
 
 def pipeline():
@@ -267,7 +273,8 @@ def _denoiser_name(denoiser):
 
 
 class Renderer:
-    """``tandem render``'s pipeline (``tandem reference``'s with reference=True), frame by frame:
+    """``tandem render``'s pipeline (``tandem reference``'s with reference=True), frame by frame,
+    on a scene path or a loaded :class:`Scene` (loaded once, shared by renderers):
 
         r = Renderer("data/scenes/cornell.gltf", frontend="vk", denoiser="svgf", size=(320, 180))
         f = r.frame(0)            # dict: radiance, display, contract (a Capture)
@@ -282,9 +289,9 @@ class Renderer:
     def __init__(self, scene, reference=False, **options):
         ffi, lib = _lib()
         options = dict(options)
-        options["scene"] = os.fspath(scene.path if isinstance(scene, Scene) else scene)
-        if isinstance(scene, Scene):
-            options = {**scene.options, **options}
+        self.scene = scene  # (a Scene: loaded once, kept as long as the renderer)
+        if not isinstance(scene, Scene):
+            options["scene"] = os.fspath(scene)
         if "size" in options:
             options["size"] = list(options["size"])
         if "denoiser" in options:
@@ -292,9 +299,10 @@ class Renderer:
             if options["denoiser"] and options["denoiser"].startswith("python:"):
                 _install_python_plugin()
         self.reference_mode = bool(reference)
-        self._h = ffi.gc(_handle(lib.tandem_renderer_open(json.dumps(options).encode(),
-                                                          int(reference))),
-                         lib.tandem_renderer_free)
+        text = json.dumps(options).encode()
+        h = (lib.tandem_renderer_open_scene(scene._h, text, int(reference))
+             if isinstance(scene, Scene) else lib.tandem_renderer_open(text, int(reference)))
+        self._h = ffi.gc(_handle(h), lib.tandem_renderer_free)
         w, h = ffi.new("uint32_t *"), ffi.new("uint32_t *")
         lib.tandem_renderer_size(self._h, w, h)
         self.width, self.height = w[0], h[0]

@@ -195,6 +195,8 @@ def test_errors_raise_with_message(tmp_path):
         tandem.Scene(str(tmp_path / "nope.gltf"))
     with pytest.raises(tandem.TandemError, match="unknown option 'framez'"):
         tandem.Renderer(CORNELL, framez=3)
+    with pytest.raises(tandem.TandemError, match="up: the scene and its options come with"):
+        tandem.Renderer(tandem.Scene(CORNELL), up="z")
     with pytest.raises(tandem.TandemError, match="--frontend 'rays'"):
         tandem.Renderer(CORNELL, frontend="rays")
     with pytest.raises(tandem.TandemError, match="denoiser 'bm3d'"):
