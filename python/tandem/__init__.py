@@ -464,8 +464,12 @@ def load_dataset(directory):
                 with np.load(os.path.join(seq_dir, files["npz"])) as z:
                     d = {k: z[k] for k in z.files}
             else:
-                d = read_capture(os.path.join(seq_dir, files["capture"])).to_dict()
-                d = {k: np.array(v) for k, v in d.items()}
+                cap = read_capture(os.path.join(seq_dir, files["capture"]))
+                d = {k: np.array(v) for k, v in cap.to_dict().items()}
+                cam = cap.camera  # (as the .npz holds them: m[row, col])
+                for k in ("view", "proj", "prev_view", "prev_proj"):
+                    d[k] = cam[k].reshape(4, 4).T.copy()
+                d["jitter"] = cam["jitter"].copy()
                 d.update(_read_rgb_exr(seq_dir, files))
             d["sequence"], d["frame"] = e["sequence"], e["frame"]
             frames.append(d)

@@ -238,5 +238,13 @@ def test_dataset(tmp_path):
     for a, b in zip(data, parts):
         assert (a["sequence"], a["frame"]) == (b["sequence"], b["frame"])
         assert np.array_equal(a["matched"], b["matched"]) and np.array_equal(a["noisy"], b["noisy"])
+    # the same frames as EXR files
+    spec["format"] = "exr"
+    tandem.dataset(spec, str(tmp_path / "exr"))
+    exr = tandem.load_dataset(str(tmp_path / "exr"))
+    for a, b in zip(data, exr):
+        for k in ("noisy", "matched", "matched_variance", "albedo", "normal", "depth", "motion",
+                  "view", "proj", "jitter"):
+            assert np.array_equal(a[k], b[k]), k
     with pytest.raises(tandem.TandemError, match="unknown key 'fames'"):
         tandem.dataset({"fames": 2, "sequences": [{"scene": CORNELL}]}, str(tmp_path / "x"))
