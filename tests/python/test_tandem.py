@@ -175,6 +175,21 @@ def test_python_denoiser_in_render(tmp_path):
     assert not bad.exists()
 
 
+def test_python_denoiser_in_sweep(tmp_path):
+    """A sweep over denoisers takes a Python one beside a built-in: both cells timed and judged
+    against the same references (the Python one's time as denoiser_host_ms)."""
+    out = tmp_path / "sweep"
+    env = {"PYTHONPATH": HERE + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    run("bench", "--scene", CORNELL, "--sweep", "denoiser=svgf,python:denoisers:Ema", "--size",
+        "48x32", "--frames", "6", "--warmup", "2", "--spp", "16", "--out", str(out), env=env)
+    sweep = json.load(open(out / "sweep.json"))
+    runs = {r["knobs"]["denoiser"]: r for r in sweep["runs"]}
+    assert set(runs) == {"svgf", "python:denoisers:Ema"} and not sweep["failed"]
+    ema = runs["python:denoisers:Ema"]
+    assert ema["pass_ms"]["denoiser_host_ms"] > 0 and 0 < ema["relmse"] < 1
+    assert ema["matched_reference"] == runs["svgf"]["matched_reference"]
+
+
 def test_python_identity_is_off(tmp_path):
     """A Python denoiser that returns the noisy radiance it gets renders --denoiser off's frames
     bit for bit (Vulkan front-end on lavapipe: the radiance to Python and back unchanged)."""
