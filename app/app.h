@@ -56,6 +56,14 @@ bool app_quiet(void);
  * another sets its own and puts the caller's back. */
 bool app_set_quiet(bool quiet);
 
+/* Interrupts (SIGINT, SIGTERM): the command line catches them (app_interrupts_install, once in
+ * main; a second signal ends the process); long loops ask app_interrupted() between frames or
+ * batches of samples, finish what is in flight, write where they stopped and exit with
+ * app_interrupt_status() (128 + the signal: 130 for SIGINT, 143 for SIGTERM). */
+void app_interrupts_install(void);
+int app_interrupted(void); /* the signal, or 0 */
+const char *app_signal_name(int sig);
+int app_interrupt_status(void);
 /* The registered denoisers' parameters as options (pl_param: --NAME VALUE), after `base` (its
  * entries up to the terminator) into `out` (room for cap entries, terminated); their values land
  * in vals (PL_PARAMS_MAX doubles, NaN until given). Returns false when out is too small. */
@@ -166,6 +174,10 @@ typedef struct app_render_opts {
     app_env env;
     const app_view_state *view; /* --view FILE: its settings and camera path */
     const char *shard;          /* reference --shard I/N */
+    double checkpoint_s;        /* reference: seconds between checkpoints of a frame's sums (0:
+                                   after every run of samples); a frame done is one too */
+    const char *resume;         /* reference --resume DIR: the interrupted run's own options and
+                                   state (DIR/reference.partial.json), continued */
     unsigned timed_frames;      /* render: frames after the written ones, back to back, timed */
     bool quiet;                 /* no progress or messages (as --quiet, for this call only) */
 } app_render_opts;
@@ -400,6 +412,17 @@ tnd_result app_ref_json_write(const app_render_opts *o, const char *device,
 tnd_result app_ref_frame_finish(const app_render_opts *o, unsigned i, const double *sum_rgb,
                                 const double *sum_lum2, float *rgb, float *lum_se,
                                 tnd_ref_stats *rs, double *noise);
+/* DIR/reference.partial.json, an unfinished reference's state (written whole, at its start, at
+ * each checkpoint and frame, and when interrupted): its command line ("args"), the frames done
+ * with their figures ("done": index, frame, spp, rel_error, noise_relmse, seconds), the frame
+ * in progress ("at": index, seconds so far; its samples: DIR/frame_NNNN.sums) and the signal
+ * that stopped it. tandem reference --resume DIR reads it back (the parsed JSON; its "args"
+ * checked to be strings). */
+tnd_result app_ref_partial_write(const app_render_opts *o, const bool *done,
+                                 const tnd_ref_stats *rs, const double *noise, int at,
+                                 double at_seconds, int signal);
+struct cJSON;
+tnd_result app_ref_partial_read(const char *dir, struct cJSON **out);
 /* Part of a reference's work: samples [first, first + count) of frame `index` of the path. */
 typedef struct app_shard_part {
     uint32_t index, first, count;
@@ -411,6 +434,10 @@ tnd_result app_shard_parse(const char *text, uint32_t *shard, uint32_t *shards);
  * TND_REF_CHECK_EVERY samples (frame by frame), so that shards add up as one run does. */
 tnd_result app_shard_plan(uint32_t frames, uint32_t spp, uint32_t shard, uint32_t shards,
                           app_shard_part *parts, uint32_t *count);
+/* DIR/frame_NNNN.sums read back: its header checked against the size and frame, its first
+ * sample and count out, the sums (RGB per pixel, then luminance^2) into sums (4 per pixel). */
+tnd_result app_shard_sums_read(const char *dir, uint32_t w, uint32_t h, uint32_t frame,
+                               uint32_t *first, uint32_t *samples, double *sums);
 /* DIR/frame_NNNN.sums: one part's per-pixel sums (written whole or not at all). */
 tnd_result app_shard_sums_write(const char *dir, uint32_t w, uint32_t h, uint32_t frame,
                                 uint32_t first, uint32_t samples, const double *sum_rgb,

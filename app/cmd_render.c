@@ -63,6 +63,7 @@ void app_render_defaults(app_render_opts *o)
                        .ref_bounces = ~0u,
                        .estimator = "unbiased",
                        .composite_on = "device",
+                       .checkpoint_s = 60.0,
                        .size = {320, 180},
                        .fps = 30.0};
 }
@@ -132,7 +133,9 @@ tnd_result app_render_args(const app_render_opts *o, bool reference, app_args *a
              (o->spp == d.spp || argf(a, "--spp", "%u", o->spp)) &&
              (o->until_noise == d.until_noise ||
               argn(a, "--until-noise", o->until_noise)) &&
-             args_str(a, "--shard", o->shard, NULL) && args_str(a, "--rt-api", o->rt_api, d.rt_api);
+             args_str(a, "--shard", o->shard, NULL) && args_str(a, "--rt-api", o->rt_api, d.rt_api) &&
+             args_str(a, "--composite-on", o->composite_on, d.composite_on) &&
+             (o->checkpoint_s == d.checkpoint_s || argn(a, "--checkpoint", o->checkpoint_s));
     else {
         ok = ok && (o->bounces == d.bounces || argf(a, "--bounces", "%u", o->bounces)) &&
              args_str(a, "--denoiser", o->denoiser, d.denoiser);
@@ -260,6 +263,13 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"until-noise", APP_OPT_FLOAT, &o->until_noise, "P",
          "stop each frame once its mean relative standard error is below P (checked every 16 "
          "samples; --spp stays the most)"},
+        {"checkpoint", APP_OPT_FLOAT, &o->checkpoint_s, "S",
+         "keep the frame in progress's sums and the run's state in DIR every S seconds (default "
+         "60; 0: after every run of samples), so that an interrupted or killed run goes on with "
+         "--resume"},
+        {"resume", APP_OPT_STRING, &o->resume, "DIR",
+         "go on with the interrupted reference in DIR (its own options, from "
+         "DIR/reference.partial.json): the frames equal a run never interrupted"},
         {"shard", APP_OPT_STRING, &o->shard, "I/N",
          "render part I of N of the work (whole frames, or sample ranges when there are fewer "
          "frames than shards) as per-pixel sums and shard.json in DIR; tandem merge adds the "
@@ -578,9 +588,15 @@ fail:
 static tnd_result write_run_json(const render_opts *o, const char *device, const char *dn_name,
                                  const pl_denoiser_info *dn, const cmp_desc *pd,
                                  const char *passes, const tnd_scene *scene,
-                                 const pl_frontend *fr)
+                                 const pl_frontend *fr, int interrupted, unsigned written)
 {
     cJSON *j = cJSON_CreateObject();
+    if (interrupted) { /* (where the run stopped: the frames before are written) */
+        cJSON *in = cJSON_AddObjectToObject(j, "interrupted");
+        cJSON_AddStringToObject(in, "signal", app_signal_name(interrupted));
+        cJSON_AddNumberToObject(in, "frames_written", written);
+        cJSON_AddNumberToObject(in, "next_frame", o->start + written);
+    }
     cJSON_AddNumberToObject(j, "contract_version", TND_CONTRACT_VERSION);
     cJSON_AddStringToObject(j, "scene", o->scene);
     cJSON_AddStringToObject(j, "frontend", o->frontend);
@@ -724,7 +740,7 @@ fail:
  * files of the frames it began (images, captures with their gradient samples, motion, dumps'
  * directory when it made it) and its timings. */
 static void remove_partial(const render_opts *o, bool out_existed, bool dumps_made,
-                           unsigned begun)
+                           unsigned begun, const bool *keep)
 {
     char path[2400];
     snprintf(path, sizeof path, "%s/dump", o->out);
@@ -740,6 +756,8 @@ static void remove_partial(const render_opts *o, bool out_existed, bool dumps_ma
                                         "%s/frame_%04u.motion.exr", "%s/capture/frame_%04u.exr",
                                         "%s/frame_%04u.sums"};
     for (unsigned i = 0; i < begun; i++) {
+        if (keep && keep[i]) /* (a resumed reference's frames done before) */
+            continue;
         for (int k = 0; k < 5; k++) {
             snprintf(path, sizeof path, names[k], o->out, o->start + i);
             remove(path);
@@ -755,6 +773,64 @@ static void remove_partial(const render_opts *o, bool out_existed, bool dumps_ma
         snprintf(path, sizeof path, "%s/shard.json", o->out);
         remove(path);
     }
+}
+
+/* A reference frame's checkpoints: its sums (DIR/frame_NNNN.sums) and the run's state
+ * (reference.partial.json) when `every` seconds have passed since the last, or when interrupted. */
+typedef struct ref_checkpoint {
+    bool on;              /* (not for shards, which write their sums as their output) */
+    const render_opts *given; /* the options as given (its command line, to resume with) */
+    const bool *finished; /* the frames done */
+    const double *noise;
+    const tnd_ref_stats *all;
+    unsigned index;       /* the frame's */
+    double before;        /* its sampling seconds in runs before this one */
+    double start, last;   /* when its sampling began here; the last checkpoint */
+} ref_checkpoint;
+
+/* Samples [from, end) of frame f (a part of a reference) into the sums (RGB, then luminance^2)
+ * in runs of whole batches of TND_REF_CHECK_EVERY samples, each run about a second (the sums are
+ * those of one call: the front-ends add ranges split at multiples of TND_REF_CHECK_EVERY as the
+ * whole), and between runs: the noise target (--until-noise, as inside a run), an interrupt, a
+ * checkpoint due. rs->spp: the samples the sums hold; *stopped: interrupted before `end`. */
+static tnd_result sample_frame(pl_frontend *fr, const render_opts *o, unsigned f,
+                               tnd_frame *frame, uint32_t from, uint32_t end, double *sums,
+                               tnd_ref_stats *rs, ref_progress *rp, ref_checkpoint *cp,
+                               bool *stopped)
+{
+    tnd_result res = TND_OK;
+    size_t n = (size_t)o->size[0] * o->size[1];
+    uint32_t run = TND_REF_CHECK_EVERY;
+    *stopped = false;
+    rs->spp = from;
+    while (rs->spp < end) {
+        uint32_t at = rs->spp, count = end - at < run ? end - at : run;
+        double t0 = tnd_now();
+        TND_TRY(app_reference_add(fr, o, f, frame, at, count, sums, sums + 3 * n, rs,
+                                  on_ref_progress, rp));
+        rp->base += rs->spp - at;
+        if (rs->spp < at + count || rs->spp == end)
+            break; /* (the noise target inside the run, or all taken) */
+        if (o->until_noise > 0 &&
+            tnd_ref_finish(sums, sums + 3 * n, n, rs->spp, NULL, NULL) < o->until_noise)
+            break;
+        if (tnd_now() - t0 < 0.5 && run < (1u << 20))
+            run *= 2;
+        int sig = app_interrupted();
+        if (cp->on && (sig || tnd_now() - cp->last >= o->checkpoint_s)) {
+            TND_TRY(app_shard_sums_write(o->out, o->size[0], o->size[1], f, 0, rs->spp, sums,
+                                         sums + 3 * n));
+            TND_TRY(app_ref_partial_write(cp->given, cp->finished, cp->all, cp->noise, (int)cp->index,
+                                          cp->before + tnd_now() - cp->start, sig));
+            cp->last = tnd_now();
+        }
+        if (sig) {
+            *stopped = true;
+            break;
+        }
+    }
+fail:
+    return res;
 }
 
 /* render or reference with its options (parsed, or filled by a caller such as the sweep) */
@@ -811,6 +887,10 @@ static int run_opts(const render_opts *opts, bool reference)
     if (strlen(o.out) > 1500)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
     int status = APP_EXIT_FAIL;
+    bool *finished = NULL; /* reference (not a shard): the frames done (resumed: before too) */
+    int resume_at = -1, stopped = 0; /* the frame a resumed run's checkpoint holds; the signal */
+    double resume_seconds = 0;
+    cJSON *partial = NULL;
     if (reference) {
         parts = calloc(o.frames, sizeof *parts);
         part_taken = calloc(o.frames, sizeof *part_taken);
@@ -889,10 +969,40 @@ static int run_opts(const render_opts *opts, bool reference)
         lum_se = malloc((size_t)o.size[0] * o.size[1] * sizeof *lum_se);
         ref_sum = malloc((size_t)o.size[0] * o.size[1] * 4 * sizeof *ref_sum);
     }
-    if (!rgb || !display || (reference && (!ref_stats || !ref_noise || !lum_se || !ref_sum))) {
+    /* (a reference of a viewer's flight has no command line to resume with) */
+    bool resumable = reference && !o.shard && !o.view;
+    if (resumable)
+        finished = calloc(o.frames, sizeof *finished);
+    if (!rgb || !display || (reference && (!ref_stats || !ref_noise || !lum_se || !ref_sum)) ||
+        (resumable && !finished)) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", what);
         goto fail;
     }
+    if (o.resume) { /* the frames done and their figures, the frame in progress */
+        TND_TRY(app_ref_partial_read(o.resume, &partial));
+        const cJSON *e;
+        cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(partial, "done"))
+        {
+            double idx = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(e, "index"));
+            if (!(idx >= 0 && idx < o.frames))
+                continue;
+            unsigned k = (unsigned)idx;
+            finished[k] = true;
+            ref_stats[k].spp = (uint32_t)cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(e, "spp"));
+            ref_stats[k].rel_error = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(e, "rel_error"));
+            ref_stats[k].seconds = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(e, "seconds"));
+            ref_noise[k] = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(e, "noise_relmse"));
+        }
+        const cJSON *at = cJSON_GetObjectItemCaseSensitive(partial, "at");
+        double idx = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(at, "index"));
+        if (at && idx >= 0 && idx < o.frames) {
+            resume_at = (int)idx;
+            resume_seconds = cJSON_GetNumberValue(cJSON_GetObjectItemCaseSensitive(at, "seconds"));
+        }
+    }
+    if (finished) /* (a run killed from now on can be resumed) */
+        TND_TRY(app_ref_partial_write(opts, finished, ref_stats, ref_noise, resume_at,
+                                      resume_seconds, 0));
     app_progress bar;
     uint64_t ref_total = 0, ref_done = 0; /* samples of the work, taken */
     for (uint32_t k = 0; k < nparts; k++)
@@ -900,11 +1010,20 @@ static int run_opts(const render_opts *opts, bool reference)
     app_progress_begin(&bar, what, reference ? (unsigned)ref_total : o.frames);
     double t0 = tnd_now();
     uint32_t part = 0; /* reference: the next part of the work */
+    bool any_begun = false, mid_frame = false;
     for (unsigned i = 0; i < o.frames; i++) {
         unsigned f = o.start + i;
         if (reference && (part == nparts || parts[part].index != i))
             continue; /* (another shard's frame) */
-        bool first_frame = reference ? part == 0 : i == 0; /* (its previous state evaluated) */
+        if (finished && finished[i]) { /* (done before the run was resumed) */
+            ref_done += parts[part].count;
+            part++;
+            continue;
+        }
+        if ((stopped = app_interrupted()) != 0)
+            break; /* (between frames: the ones written stay) */
+        bool first_frame = !any_begun; /* (its previous state evaluated) */
+        any_begun = true;
         frames_begun = i + 1;
         tnd_scene_state *cur = &st[i & 1];
         TND_TRY(app_frame_begin(&o, scene, fr, st, i, first_frame));
@@ -919,10 +1038,40 @@ static int run_opts(const render_opts *opts, bool reference)
             if (pp->first == 0) /* (the shard that has the frame's first sample) */
                 TND_TRY(write_reference_motion(fr, &o, f, &frame));
             double t_sample = tnd_now();
-            TND_TRY(app_reference_add(fr, &o, f, &frame, pp->first, pp->count, ref_sum,
-                                      ref_sum + 3 * n, rs, on_ref_progress, &rp));
+            uint32_t from = pp->first;
+            ref_checkpoint cp = {.on = finished != NULL, .given = opts, .finished = finished,
+                                 .noise = ref_noise,
+                                 .all = ref_stats, .index = i, .start = t_sample,
+                                 .last = t_sample};
+            if ((int)i == resume_at) { /* its checkpoint's samples (none written yet: from 0) */
+                uint32_t cf = 0, cs = 0;
+                tnd_result rr = app_shard_sums_read(o.out, o.size[0], o.size[1], f, &cf, &cs,
+                                                    ref_sum);
+                if (rr == TND_OK && cf == 0 && cs <= o.spp && cs % TND_REF_CHECK_EVERY == 0) {
+                    from = cs;
+                    cp.before = resume_seconds;
+                    rp.base += cs;
+                } else if (rr != TND_ERR_IO) {
+                    res = rr != TND_OK ? rr
+                                       : tnd_fail(TND_ERR_BAD_INPUT,
+                                                  "--resume: %s/frame_%04u.sums holds samples "
+                                                  "[%u, +%u), not a checkpoint of this run",
+                                                  o.out, f, cf, cs);
+                    goto fail;
+                } else {
+                    memset(ref_sum, 0, 4 * n * sizeof *ref_sum);
+                }
+            }
+            bool cut = false;
+            TND_TRY(sample_frame(fr, &o, f, &frame, from, pp->first + pp->count, ref_sum, rs, &rp,
+                                 &cp, &cut));
             tnd_frame_destroy(&frame);
-            rs->seconds = tnd_now() - t_sample;
+            rs->seconds = cp.before + tnd_now() - t_sample;
+            if (cut) {
+                stopped = app_interrupted();
+                mid_frame = true;
+                break;
+            }
             ref_done += pp->count;
             part_taken[part] = rs->spp - pp->first;
             part++;
@@ -936,6 +1085,12 @@ static int run_opts(const render_opts *opts, bool reference)
             }
             TND_TRY(app_ref_frame_finish(&o, i, ref_sum, ref_sum + 3 * n, rgb, lum_se, rs,
                                          &ref_noise[i]));
+            if (finished) { /* (the frame's files, the state saying so, then no checkpoint) */
+                finished[i] = true;
+                TND_TRY(app_ref_partial_write(opts, finished, ref_stats, ref_noise, -1, 0, 0));
+                snprintf(path, sizeof path, "%s/frame_%04u.sums", o.out, f);
+                remove(path);
+            }
             if (!app_quiet())
                 fprintf(stderr, "%sreference: frame %u: %u spp, remaining noise %.2f%% (mean "
                                 "relative standard error), %.3g Mpaths/s\n",
@@ -964,6 +1119,36 @@ static int run_opts(const render_opts *opts, bool reference)
         app_progress_step(&bar, i + 1);
     }
     app_progress_end(&bar);
+    if (stopped) { /* interrupted: what is written stays, and says where the run stopped */
+        unsigned written = 0;
+        for (unsigned k = 0; k < o.frames; k++)
+            written += reference ? finished && finished[k] : k < frames_begun;
+        if (timings) {
+            fprintf(timings, "\n  ]\n}\n");
+            bool ok = fclose(timings) == 0;
+            timings = NULL;
+            if (!ok) {
+                res = tnd_fail(TND_ERR_IO, "render: %s/timings.json: write failed", o.out);
+                goto fail;
+            }
+        }
+        if (!reference)
+            TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
+                                   dn_name, dn,
+                                   pl_chain_post(chain) ? cmp_settings(pl_chain_post(chain))
+                                                        : &pd,
+                                   pl_chain_post(chain) ? cmp_passes(pl_chain_post(chain)) : NULL,
+                                   scene, fr, stopped, written));
+        else if (finished && !mid_frame) /* (mid-frame: its checkpoint wrote the state) */
+            TND_TRY(app_ref_partial_write(opts, finished, ref_stats, ref_noise, -1, 0, stopped));
+        fprintf(stderr, "%standem: %s: interrupted (%s): %u of %u frame%s written in %s/%s\n",
+                bar.enabled ? "\n" : "", what, app_signal_name(stopped), written, o.frames,
+                o.frames == 1 ? "" : "s", o.out,
+                finished ? "; tandem reference --resume DIR goes on from there"
+                : o.shard ? "; run the shard again" : "");
+        status = app_interrupt_status();
+        goto fail;
+    }
     if (timings && o.timed_frames)
         TND_TRY(time_back_to_back(&o, scene, fr, chain, st, o.frames, use_dn, rgb, timings));
     else if (timings)
@@ -981,15 +1166,18 @@ static int run_opts(const render_opts *opts, bool reference)
         TND_TRY(app_shard_json_write(&o, use_vk ? vk.info.name : "CPU (Embree)",
                                      tnd_scene_digest(scene), shard, shards, parts, part_taken,
                                      nparts));
-    else if (reference)
+    else if (reference) {
         TND_TRY(app_ref_json_write(&o, use_vk ? vk.info.name : "CPU (Embree)", ref_stats,
                                    ref_noise));
+        snprintf(path, sizeof path, "%s/reference.partial.json", o.out);
+        remove(path); /* (finished) */
+    }
     if (!reference)
         TND_TRY(write_run_json(&o, use_vk || use_dn ? vk.info.name : "CPU (Embree)",
                                dn_name, dn,
                                pl_chain_post(chain) ? cmp_settings(pl_chain_post(chain)) : &pd,
                                pl_chain_post(chain) ? cmp_passes(pl_chain_post(chain)) : NULL,
-                               scene, fr));
+                               scene, fr, 0, o.frames));
     if (o.video)
         TND_TRY(app_write_video(o.out, o.start, o.frames, o.fps));
     if ((use_vk || use_dn) && vk.validation && tnd_vk_validation_errors(&vk)) {
@@ -1005,13 +1193,15 @@ static int run_opts(const render_opts *opts, bool reference)
     }
     status = APP_EXIT_OK;
 fail:
-    if (status != APP_EXIT_OK)
+    if (status == APP_EXIT_FAIL)
         app_report(what, res);
     if (timings)
         fclose(timings);
     timings = NULL;
-    if (status != APP_EXIT_OK && begun_output)
-        remove_partial(&o, out_existed, dumps_made, frames_begun);
+    if (status == APP_EXIT_FAIL && begun_output)
+        remove_partial(&o, out_existed, dumps_made, frames_begun, finished);
+    free(finished);
+    cJSON_Delete(partial);
     tnd_frame_destroy(&frame);
     free(ref_stats);
     free(ref_noise);
@@ -1042,11 +1232,56 @@ int app_render(const app_render_opts *o, bool reference)
     return rc;
 }
 
+/* reference --resume DIR: the run's own command line from DIR/reference.partial.json, parsed as
+ * it was, then run on in DIR (nothing else may be given but --quiet). */
+static int resume(const render_opts *given, int argc, char **argv)
+{
+    for (int k = 1; k < argc; k++)
+        if (strcmp(argv[k], "--quiet") != 0 && strcmp(argv[k], "--resume") != 0 &&
+            !(k > 1 && strcmp(argv[k - 1], "--resume") == 0)) {
+            fprintf(stderr, "tandem reference: --resume DIR takes the run's own options from "
+                            "DIR/reference.partial.json (%s given)\n", argv[k]);
+            return APP_EXIT_USAGE;
+        }
+    cJSON *state = NULL;
+    tnd_result r = app_ref_partial_read(given->resume, &state);
+    if (r != TND_OK)
+        return app_report("reference", r);
+    const cJSON *args = cJSON_GetObjectItemCaseSensitive(state, "args");
+    int n = cJSON_GetArraySize(args);
+    char **v = calloc((size_t)n + 7, sizeof *v);
+    int rc = APP_EXIT_FAIL;
+    if (v) {
+        int c = 0;
+        v[c++] = "reference";
+        for (const cJSON *a = args->child; a; a = a->next)
+            v[c++] = a->valuestring;
+        v[c++] = "--out";
+        v[c++] = (char *)given->resume;
+        v[c++] = "--resume";
+        v[c++] = (char *)given->resume;
+        if (app_quiet())
+            v[c++] = "--quiet";
+        render_opts o;
+        rc = parse_common(&reference_cmd, &o, true, c, v);
+        if (rc < 0)
+            rc = app_render(&o, true);
+        free(v);
+    }
+    cJSON_Delete(state);
+    return rc;
+}
+
 static int run(bool reference, int argc, char **argv)
 {
     render_opts o;
     int rc = parse_common(reference ? &reference_cmd : &render_cmd, &o, reference, argc, argv);
-    if (rc < 0)
+    if (rc < 0 && reference && o.resume && !o.out)
+        rc = resume(&o, argc, argv);
+    else if (rc < 0 && o.resume && o.out && strcmp(o.resume, o.out) != 0) {
+        fprintf(stderr, "tandem reference: --resume DIR goes on in DIR: no --out\n");
+        rc = APP_EXIT_USAGE;
+    } else if (rc < 0)
         rc = app_render(&o, reference);
     app_view_state_free(&view_state);
     return rc;

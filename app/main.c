@@ -61,6 +61,7 @@ int main(int argc, char **argv)
         printf("tandem %s\n", TND_VERSION_STRING);
         return APP_EXIT_OK;
     }
+    app_interrupts_install();
     for (int i = 0; i < command_count; i++)
         if (strcmp(argv[1], commands[i].name) == 0)
             return commands[i].run(argc - 1, argv + 1);

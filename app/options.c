@@ -3,13 +3,48 @@
 #include "app/app.h"
 
 #include <dirent.h>
-#include <math.h>
 #include <errno.h>
+#include <math.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
 static bool quiet_flag;
+
+/* ---- interrupts ---------------------------------------------------------------------------- */
+static volatile sig_atomic_t interrupt_signal;
+
+static void on_interrupt(int sig)
+{
+    interrupt_signal = sig;
+}
+
+void app_interrupts_install(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_interrupt;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND; /* (a second signal ends the process at once) */
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
+
+int app_interrupted(void)
+{
+    return interrupt_signal;
+}
+
+const char *app_signal_name(int sig)
+{
+    return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal";
+}
+
+int app_interrupt_status(void)
+{
+    return 128 + interrupt_signal;
+}
 
 bool app_quiet(void)
 {

@@ -14,6 +14,14 @@
 #include <sys/stat.h>
 
 /* ---- what a single run and a merge both write --------------------------------------------- */
+static bool access_ok(const char *dir)
+{
+    char path[1700];
+    struct stat st;
+    snprintf(path, sizeof path, "%s/reference.json", dir);
+    return stat(path, &st) == 0;
+}
+
 double app_ref_noise_relmse(const float *rgb, const float *lum_se, size_t n)
 {
     double s = 0;
@@ -85,6 +93,100 @@ tnd_result app_ref_frame_finish(const app_render_opts *o, unsigned i, const doub
     tnd_result res = tnd_exr_write(path, o->size[0], o->size[1], ch, 4, NULL, 0, TND_EXR_ZIP);
     snprintf(path, sizeof path, "%s/frame_%04u.png", o->out, o->start + i);
     return res == TND_OK ? app_write_preview(path, rgb, o->size[0], o->size[1]) : res;
+}
+
+/* ---- an interrupted reference: its state, to resume ------------------------------------------ */
+tnd_result app_ref_partial_write(const app_render_opts *o, const bool *done,
+                                 const tnd_ref_stats *rs, const double *noise, int at,
+                                 double at_seconds, int signal)
+{
+    tnd_result res = TND_OK;
+    app_render_opts own = *o; /* (its command line: every option but where it goes) */
+    own.out = NULL;
+    own.quiet = false;
+    own.resume = NULL;
+    app_args a;
+    TND_TRY(app_render_args(&own, true, &a));
+    cJSON *j = cJSON_CreateObject(), *args = cJSON_AddArrayToObject(j, "args");
+    for (int k = 1; k < a.n; k++) /* (after "reference") */
+        cJSON_AddItemToArray(args, cJSON_CreateString(a.v[k]));
+    cJSON *d = cJSON_AddArrayToObject(j, "done");
+    for (unsigned i = 0; i < o->frames; i++) {
+        if (!done[i])
+            continue;
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddNumberToObject(e, "index", i);
+        cJSON_AddNumberToObject(e, "frame", o->start + i);
+        cJSON_AddNumberToObject(e, "spp", rs[i].spp);
+        cJSON_AddNumberToObject(e, "rel_error", rs[i].rel_error);
+        cJSON_AddNumberToObject(e, "noise_relmse", noise[i]);
+        cJSON_AddNumberToObject(e, "seconds", rs[i].seconds);
+        cJSON_AddItemToArray(d, e);
+    }
+    if (at >= 0) { /* (its samples: the checkpoint's, DIR/frame_NNNN.sums) */
+        cJSON *e = cJSON_AddObjectToObject(j, "at");
+        cJSON_AddNumberToObject(e, "index", at);
+        cJSON_AddNumberToObject(e, "frame", o->start + (unsigned)at);
+        cJSON_AddNumberToObject(e, "seconds", at_seconds);
+    }
+    if (signal)
+        cJSON_AddStringToObject(j, "interrupted", app_signal_name(signal));
+    char path[1700], tmp[1800];
+    snprintf(path, sizeof path, "%s/reference.partial.json", o->out);
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    char *txt = cJSON_Print(j);
+    cJSON_Delete(j);
+    FILE *fp = txt ? fopen(tmp, "w") : NULL;
+    bool ok = fp && fprintf(fp, "%s\n", txt) > 0;
+    free(txt);
+    ok = (fp && fclose(fp) == 0) && ok;
+    if (!ok || rename(tmp, path) != 0) {
+        remove(tmp);
+        res = tnd_fail(TND_ERR_IO, "reference: %s: cannot write", path);
+    }
+fail:
+    return res;
+}
+
+tnd_result app_ref_partial_read(const char *dir, cJSON **out)
+{
+    char path[1700];
+    snprintf(path, sizeof path, "%s/reference.partial.json", dir);
+    *out = NULL;
+    FILE *fp = fopen(path, "rb");
+    if (!fp)
+        return tnd_fail(TND_ERR_IO, "--resume %s: no %s (not an interrupted reference%s)", dir,
+                        path, access_ok(dir) ? "; a finished one has reference.json" : "");
+    char *text = NULL;
+    size_t len = 0;
+    for (;;) {
+        char *t = realloc(text, len + 65537);
+        if (!t) {
+            free(text);
+            fclose(fp);
+            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
+        }
+        text = t;
+        size_t got = fread(text + len, 1, 65536, fp);
+        len += got;
+        if (got < 65536)
+            break;
+    }
+    fclose(fp);
+    text[len] = 0;
+    cJSON *j = cJSON_Parse(text);
+    free(text);
+    const cJSON *args = cJSON_GetObjectItemCaseSensitive(j, "args");
+    bool ok = cJSON_IsArray(args) && cJSON_IsArray(cJSON_GetObjectItemCaseSensitive(j, "done"));
+    for (const cJSON *a = ok ? args->child : NULL; a; a = a->next)
+        ok = ok && cJSON_IsString(a);
+    if (!ok) {
+        cJSON_Delete(j);
+        return tnd_fail(TND_ERR_BAD_INPUT, "--resume: %s: not a reference's state (args, done)",
+                        path);
+    }
+    *out = j;
+    return TND_OK;
 }
 
 /* ---- shards --------------------------------------------------------------------------------- */
@@ -297,31 +399,50 @@ static int part_order(const void *a, const void *b)
     return x->first < y->first ? -1 : x->first > y->first;
 }
 
-/* Add one part's sums file to the frame's sums, after checking its header against the part. */
-static tnd_result add_sums(const char *dir, const merge_part *p, uint32_t w, uint32_t h,
-                           double *sum_rgb, double *sum_lum2, double *buf)
+tnd_result app_shard_sums_read(const char *dir, uint32_t w, uint32_t h, uint32_t frame,
+                               uint32_t *first, uint32_t *samples, double *sums)
 {
     char path[1700];
-    sums_name(path, sizeof path, dir, p->frame);
+    sums_name(path, sizeof path, dir, frame);
     size_t n = (size_t)w * h;
     FILE *fp = fopen(path, "rb");
     if (!fp)
-        return tnd_fail(TND_ERR_IO, "%s: cannot open (shard.json lists frame %u)", path, p->frame);
+        return tnd_fail(TND_ERR_IO, "%s: cannot open", path);
     sums_header hd;
     tnd_result res = TND_OK;
     if (fread(&hd, sizeof hd, 1, fp) != 1 || memcmp(hd.magic, SUMS_MAGIC, 8) != 0)
         res = tnd_fail(TND_ERR_BAD_INPUT, "%s: not a Tandem sums file", path);
-    else if (hd.width != w || hd.height != h || hd.frame != p->frame || hd.first != p->first ||
-             hd.samples != p->samples)
-        res = tnd_fail(TND_ERR_BAD_INPUT,
-                       "%s: holds %ux%u frame %u samples [%u, +%u), shard.json says %ux%u frame "
-                       "%u samples [%u, +%u)",
-                       path, hd.width, hd.height, hd.frame, hd.first, hd.samples, w, h, p->frame,
-                       p->first, p->samples);
-    else if (fread(buf, sizeof(double), 4 * n, fp) != 4 * n || fgetc(fp) != EOF)
+    else if (hd.width != w || hd.height != h || hd.frame != frame)
+        res = tnd_fail(TND_ERR_BAD_INPUT, "%s: holds %ux%u frame %u, expected %ux%u frame %u",
+                       path, hd.width, hd.height, hd.frame, w, h, frame);
+    else if (fread(sums, sizeof(double), 4 * n, fp) != 4 * n || fgetc(fp) != EOF)
         res = tnd_fail(TND_ERR_BAD_INPUT, "%s: truncated or too long (%zu sums expected)", path,
                        4 * n);
     fclose(fp);
+    *first = hd.first;
+    *samples = hd.samples;
+    return res;
+}
+
+/* Add one part's sums file to the frame's sums, after checking its header against the part. */
+static tnd_result add_sums(const char *dir, const merge_part *p, uint32_t w, uint32_t h,
+                           double *sum_rgb, double *sum_lum2, double *buf)
+{
+    size_t n = (size_t)w * h;
+    uint32_t first = 0, samples = 0;
+    tnd_result res = app_shard_sums_read(dir, w, h, p->frame, &first, &samples, buf);
+    if (res == TND_ERR_IO) {
+        char msg[2000];
+        snprintf(msg, sizeof msg, "%s", tnd_error_detail());
+        return tnd_fail(TND_ERR_IO, "%s (shard.json lists frame %u)", msg, p->frame);
+    }
+    if (res == TND_OK && (first != p->first || samples != p->samples)) {
+        char path[1700];
+        sums_name(path, sizeof path, dir, p->frame);
+        res = tnd_fail(TND_ERR_BAD_INPUT,
+                       "%s: holds samples [%u, +%u), shard.json says samples [%u, +%u)", path,
+                       first, samples, p->first, p->samples);
+    }
     if (res != TND_OK)
         return res;
     for (size_t q = 0; q < 3 * n; q++)
