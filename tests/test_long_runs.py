@@ -1,0 +1,134 @@
+#!/usr/bin/python3
+"""tests/test_long_runs.py TANDEM [--quick]: runs that are interrupted and go on.
+
+- A reference killed three times at random points (SIGINT, SIGTERM, SIGKILL) and resumed each
+  time with `tandem reference --resume DIR` ends with the files of a run never interrupted, byte
+  for byte (both estimators; the matched one summed on the device behind the Vulkan front-end).
+- A render interrupted: exit 130, the frames written whole (no .tmp left), run.json saying where
+  it stopped.
+- --resume refuses what it cannot go on with, by name.
+"""
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+from tandem_cli import Checks
+
+SRC = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CORNELL = os.path.join(SRC, "data", "scenes", "cornell.gltf")
+
+
+def same_files(a, b):
+    names = sorted(n for n in os.listdir(a) if n.startswith("frame_"))
+    diff = [n for n in names if not os.path.exists(os.path.join(b, n)) or
+            open(os.path.join(a, n), "rb").read() != open(os.path.join(b, n), "rb").read()]
+    extra = sorted(set(n for n in os.listdir(b) if n.startswith("frame_")) - set(names))
+    return names, diff + extra
+
+
+def killed_and_resumed(c, tmp, name, args, rng, quick):
+    whole, cut = os.path.join(tmp, name + "_whole"), os.path.join(tmp, name + "_cut")
+    t0 = time.time()
+    c.run("reference", *args, "--out", whole, "--quiet")
+    took = time.time() - t0
+    kills = [signal.SIGINT, signal.SIGTERM, signal.SIGKILL]
+    cmd = [c.tandem, "reference", *args, "--checkpoint", "0", "--out", cut, "--quiet"]
+    stops = []
+    for k, sig in enumerate(kills):
+        p = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
+        # somewhere in the middle of what is left (the run's own time, measured above)
+        time.sleep(rng.uniform(0.15, 0.3) * took)
+        p.send_signal(sig)
+        err = p.communicate()[1]
+        expect = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGKILL: -9}[sig]
+        state = os.path.join(cut, "reference.partial.json")
+        if p.returncode == 0:  # (it finished first: nothing to resume)
+            stops.append("finished")
+        else:
+            st = json.load(open(state))
+            at = st.get("at", {}).get("frame", "-")
+            stops.append(f"{sig.name} at frame {at}, {len(st['done'])} done")
+            c.check(f"{name}: {sig.name}: exit {expect}, the state kept",
+                    p.returncode == expect and (sig == signal.SIGKILL or
+                                                st.get("interrupted") == sig.name),
+                    f"exit {p.returncode}: {err.strip()[-200:]}")
+            if sig != signal.SIGKILL:
+                c.check(f"{name}: {sig.name}: says how to go on", "--resume" in err, err[-200:])
+        leftovers = [n for n in os.listdir(cut) if n.endswith(".tmp")]
+        c.check(f"{name}: no partial files after {sig.name}", not leftovers, str(leftovers))
+        cmd = [c.tandem, "reference", "--resume", cut, "--quiet"]
+    c.run("reference", "--resume", cut, "--quiet")
+    names, diff = same_files(whole, cut)
+    c.check(f"{name}: killed three times and resumed: {len(names)} files equal a run never "
+            f"interrupted", not diff and len(names) >= 6, f"stops: {'; '.join(stops)}; differ: {diff}")
+    c.check(f"{name}: finished: reference.json, no state or checkpoint left",
+            os.path.exists(os.path.join(cut, "reference.json")) and
+            not os.path.exists(os.path.join(cut, "reference.partial.json")) and
+            not any(n.endswith(".sums") for n in os.listdir(cut)))
+    a = json.load(open(os.path.join(whole, "reference.json")))
+    b = json.load(open(os.path.join(cut, "reference.json")))
+    c.check(f"{name}: reference.json's samples and noise the same",
+            [(f["spp"], f["rel_error"]) for f in a["frames"]] ==
+            [(f["spp"], f["rel_error"]) for f in b["frames"]])
+
+
+def main():
+    tandem = sys.argv[1]
+    quick = "--quick" in sys.argv
+    c = Checks(tandem)
+    rng = random.Random(43)
+    tmp = tempfile.mkdtemp(prefix="tandem_long_")
+    try:
+        spp = "512" if quick else "2048"
+        killed_and_resumed(c, tmp, "unbiased", ["--scene", CORNELL, "--frontend", "embree",
+                                                "--frames", "3", "--size", "48x32", "--spp", spp],
+                           rng, quick)
+        killed_and_resumed(c, tmp, "matched", ["--scene", CORNELL, "--frontend", "vk",
+                                               "--estimator", "realtime", "--frames", "3",
+                                               "--size", "48x32", "--spp", spp,
+                                               "--until-noise", "0.004"], rng, quick)
+
+        # a render interrupted between frames
+        out = os.path.join(tmp, "render")
+        p = subprocess.Popen([tandem, "render", "--scene", CORNELL, "--frontend", "embree",
+                              "--frames", "400", "--size", "64x40", "--out", out, "--quiet"],
+                             stderr=subprocess.PIPE, text=True)
+        time.sleep(2.0)
+        p.send_signal(signal.SIGINT)
+        err = p.communicate()[1]
+        run = json.load(open(os.path.join(out, "run.json"))) if os.path.exists(
+            os.path.join(out, "run.json")) else {}
+        exrs = sorted(n for n in os.listdir(out) if n.endswith(".exr"))
+        pngs = sorted(n for n in os.listdir(out) if n.endswith(".png"))
+        n = run.get("interrupted", {}).get("frames_written", -1)
+        c.check("render: SIGINT: exit 130, run.json says where it stopped, its frames whole",
+                p.returncode == 130 and 0 < n < 400 and len(exrs) == n and len(pngs) == n and
+                run["interrupted"]["signal"] == "SIGINT" and
+                run["interrupted"]["next_frame"] == n and
+                not any(x.endswith(".tmp") for x in os.listdir(out)) and
+                json.load(open(os.path.join(out, "timings.json")))["frames"][-1]["frame"] == n - 1,
+                f"exit {p.returncode}, {n} written, {len(exrs)} EXR: {err[-200:]}")
+
+        # what --resume refuses
+        done = os.path.join(tmp, "unbiased_whole")
+        for args, expect, msg in (
+                (["--resume", os.path.join(tmp, "none")], 1, "reference.partial.json"),
+                (["--resume", done], 1, "a finished one has reference.json"),
+                (["--resume", os.path.join(tmp, "unbiased_cut"), "--spp", "8"], 2,
+                 "takes the run's own options")):
+            r = c.run("reference", *args, expect=None)
+            c.check(f"--resume refuses: {msg}", r.returncode == expect and msg in r.stderr,
+                    f"exit {r.returncode}: {r.stderr.strip()[-200:]}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    c.finish()
+
+
+if __name__ == "__main__":
+    main()
