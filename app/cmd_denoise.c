@@ -163,7 +163,8 @@ int cmd_denoise(int argc, char **argv)
     }
     fprintf(timings, "{\n  \"denoiser\": \"%s\",\n  \"device\": \"%s\",\n  \"frames\": [",
             dn_name, vk.info.name);
-    for (size_t i = 0; i < n; i++) {
+    int stopped = 0; /* interrupted (between frames: the ones written stay) */
+    for (size_t i = 0; i < n && !(stopped = app_interrupted()); i++) {
         const char *name = pl_frontend_frame_name(rp, (uint32_t)i);
         app_dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
         snprintf(dc.stem, sizeof dc.stem, "%s", name);
@@ -188,7 +189,10 @@ int cmd_denoise(int argc, char **argv)
         app_progress_step(&bar, (unsigned)i + 1);
     }
     app_progress_end(&bar);
-    fprintf(timings, "\n  ]\n}\n");
+    if (stopped) /* (timings.json says where it stopped) */
+        fprintf(timings, "\n  ],\n  \"interrupted\": {\"signal\": \"%s\", \"frames_written\": %zu}",
+                app_signal_name(stopped), written);
+    fprintf(timings, "%s\n}\n", stopped ? "" : "\n  ]");
     if (fclose(timings) != 0) {
         timings = NULL;
         res = tnd_fail(TND_ERR_IO, "denoise: %s/timings.json: write failed", out);
@@ -199,16 +203,22 @@ int cmd_denoise(int argc, char **argv)
         res = tnd_fail(TND_ERR_VULKAN, "%u Vulkan validation error(s)", tnd_vk_validation_errors(&vk));
         goto fail;
     }
+    if (stopped) {
+        fprintf(stderr, "%standem: denoise: interrupted (%s): %zu of %zu frames written in %s/\n",
+                bar.enabled ? "\n" : "", app_signal_name(stopped), written, n, out);
+        status = app_interrupt_status();
+        goto fail;
+    }
     if (!app_quiet())
         fprintf(stderr, "tandem: denoise: %zu frame%s (%s) -> %s/\n", n, n == 1 ? "" : "s",
                 dn_name, out);
     status = APP_EXIT_OK;
 fail:
-    if (status != APP_EXIT_OK)
+    if (status == APP_EXIT_FAIL)
         app_report("denoise", res);
     if (timings)
         fclose(timings);
-    if (status != APP_EXIT_OK && begun) {
+    if (status == APP_EXIT_FAIL && begun) {
         if (dump_made)
             app_remove_flat_dir(dump_dir);
         if (!out_existed) {

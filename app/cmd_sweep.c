@@ -581,27 +581,65 @@ static tnd_result plan_read(const char *dir, sweep_plan *P)
 /* ---- running a sweep here, or writing it out for Slurm -------------------------------------- */
 static tnd_result sweep_collect(const char *dir, bool *complete);
 
-static tnd_result run_local(const sweep_plan *P)
+static bool exists(const char *path);
+
+/* A job already done (resuming): a reference with its reference.json, a run whose run.json does
+ * not say it was interrupted. */
+static bool job_done(const sweep_job *j, bool reference)
+{
+    char path[1400];
+    snprintf(path, sizeof path, "%s/%s", j->o.out, reference ? "reference.json" : "run.json");
+    if (!exists(path))
+        return false;
+    if (reference)
+        return true;
+    void *txt = NULL;
+    size_t len = 0;
+    bool done = tnd_file_read(path, &txt, &len) == TND_OK && !strstr(txt, "\"interrupted\"");
+    free(txt);
+    return done;
+}
+
+/* One job of the plan (resuming: not when done; a reference interrupted goes on). */
+static int run_job(sweep_job *j, bool reference, bool resume)
+{
+    if (resume && job_done(j, reference))
+        return APP_EXIT_OK;
+    char path[1400];
+    snprintf(path, sizeof path, "%s/reference.partial.json", j->o.out);
+    if (resume && reference && exists(path))
+        j->o.resume = j->o.out;
+    return app_render(&j->o, reference);
+}
+
+/* The plan's jobs here, in order (resume: those not done yet); *stopped: interrupted (the job
+ * in flight kept what it finished; tandem sweep resume DIR goes on). */
+static tnd_result run_local(const sweep_plan *P, bool resume, int *stopped)
 {
     tnd_result res = TND_OK;
     sweep_job j;
+    *stopped = 0;
     if (P->own_reference) {
         job_reference(P, &j);
-        if (app_render(&j.o, true) != APP_EXIT_OK)
+        if (run_job(&j, true, resume) != APP_EXIT_OK && !(*stopped = app_interrupted()))
             return tnd_fail(TND_ERR_IO, "bench: the reference (%s) failed", P->refdir);
     }
     app_progress bar;
     app_progress_begin(&bar, "sweep", (unsigned)(P->nests + P->total));
-    for (int e = 0; e < P->nests && res == TND_OK; e++) {
-        if ((res = job_matched(P, e, &j)) == TND_OK && app_render(&j.o, true) != APP_EXIT_OK)
+    for (int e = 0; e < P->nests && res == TND_OK && !*stopped; e++) {
+        if ((res = job_matched(P, e, &j)) == TND_OK && run_job(&j, true, resume) != APP_EXIT_OK &&
+            !(*stopped = app_interrupted()))
             res = tnd_fail(TND_ERR_IO, "bench: the matched reference %s failed", P->ests[e].dir);
         app_progress_step(&bar, (unsigned)e + 1);
     }
-    for (int i = 0; res == TND_OK && i < P->total; i++) {
-        if ((res = job_cell(P, i, &j)) == TND_OK && app_render(&j.o, false) != APP_EXIT_OK)
+    for (int i = 0; res == TND_OK && !*stopped && i < P->total; i++) {
+        if ((res = job_cell(P, i, &j)) == TND_OK && run_job(&j, false, resume) != APP_EXIT_OK &&
+            !(*stopped = app_interrupted()))
             res = tnd_fail(TND_ERR_IO, "bench: sweep run %d (%s) failed", i, j.dir);
         app_progress_step(&bar, (unsigned)(P->nests + i + 1));
     }
+    if (res == TND_OK && !*stopped)
+        *stopped = app_interrupted();
     app_progress_end(&bar);
     return res;
 }
@@ -791,6 +829,20 @@ static bool absolute(const char *p, char *out, size_t cap)
     return true;
 }
 
+/* After a local sweep's jobs: interrupted (the status of it, and how to go on), or collected. */
+static int finish_local(tnd_result res, int stopped, const char *out, const char *what)
+{
+    if (res == TND_OK && stopped) {
+        fprintf(stderr, "tandem: %s: interrupted (%s): the jobs done are kept; tandem sweep resume "
+                        "%s goes on\n", what, app_signal_name(stopped), out);
+        return app_interrupt_status();
+    }
+    bool complete = false;
+    if (res == TND_OK)
+        res = sweep_collect(out, &complete);
+    return res == TND_OK ? APP_EXIT_OK : app_report(what, res);
+}
+
 int app_sweep(const app_list *sweeps, const char *scene, const app_env *env, const char *out,
               const char *reference, unsigned spp, const unsigned size[2], unsigned frames,
               unsigned warmup, unsigned timed, const char *emit, unsigned shards)
@@ -861,13 +913,11 @@ int app_sweep(const app_list *sweeps, const char *scene, const app_env *env, con
         res = plan_write(P);
     if (res == TND_OK && emit)
         res = emit_slurm(P, shards);
-    else if (res == TND_OK)
-        res = run_local(P);
-    bool complete = false;
+    int stopped = 0;
     if (res == TND_OK && !emit)
-        res = sweep_collect(out, &complete);
+        res = run_local(P, false, &stopped);
     free(P);
-    return res == TND_OK ? APP_EXIT_OK : app_report("bench", res);
+    return finish_local(res, stopped, out, "bench");
 }
 
 /* ---- gathering: evaluate what finished, write sweep.json, sweep.csv and the report ---------- */
@@ -1187,8 +1237,10 @@ static const app_cmd sweep_cmd = {
     "sweep",
     "collect DIR: gather a sweep's finished cells (tandem bench --sweep ... --emit slurm, run on\n"
     "a cluster) into DIR/sweep.json, DIR/sweep.csv and DIR/report, as a local sweep writes them;\n"
-    "cells that failed or have not run are named, in the outputs and on stderr (exit 1).",
-    "collect DIR", NULL};
+    "cells that failed or have not run are named, in the outputs and on stderr (exit 1).\n"
+    "resume DIR: go on with a local sweep that was interrupted (bench --sweep ... --out DIR):\n"
+    "the jobs done are kept, an interrupted reference goes on, the rest run; then collect.",
+    "collect DIR | resume DIR", NULL};
 
 int cmd_sweep(int argc, char **argv)
 {
@@ -1198,9 +1250,21 @@ int cmd_sweep(int argc, char **argv)
     int rc = app_parse(&sweep_cmd, opts, argc, argv, pos, 2, &npos);
     if (rc >= 0)
         return rc;
-    if (npos != 2 || strcmp(pos[0], "collect") != 0) {
-        fprintf(stderr, "tandem sweep: expected 'collect DIR' (see tandem sweep --help)\n");
+    if (npos != 2 || (strcmp(pos[0], "collect") != 0 && strcmp(pos[0], "resume") != 0)) {
+        fprintf(stderr, "tandem sweep: expected 'collect DIR' or 'resume DIR' (see tandem sweep "
+                        "--help)\n");
         return APP_EXIT_USAGE;
+    }
+    if (strcmp(pos[0], "resume") == 0) { /* a local sweep interrupted: the jobs not done */
+        sweep_plan *P = calloc(1, sizeof *P);
+        if (!P)
+            return app_report("sweep", tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory"));
+        int stopped = 0;
+        tnd_result res = plan_read(pos[1], P);
+        if (res == TND_OK)
+            res = run_local(P, true, &stopped);
+        free(P);
+        return finish_local(res, stopped, pos[1], "sweep");
     }
     bool complete = false;
     tnd_result res = sweep_collect(pos[1], &complete);

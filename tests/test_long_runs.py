@@ -4,8 +4,9 @@
 - A reference killed three times at random points (SIGINT, SIGTERM, SIGKILL) and resumed each
   time with `tandem reference --resume DIR` ends with the files of a run never interrupted, byte
   for byte (both estimators; the matched one summed on the device behind the Vulkan front-end).
-- A render interrupted: exit 130, the frames written whole (no .tmp left), run.json saying where
-  it stopped.
+- A render and a denoise interrupted: exit 130 / 143, the frames written whole (no .tmp left),
+  run.json or timings.json saying where it stopped; a local sweep interrupted and resumed with
+  `tandem sweep resume DIR`: the figures of one never interrupted.
 - --resume refuses what it cannot go on with, by name.
 """
 import json
@@ -99,7 +100,10 @@ def main():
         p = subprocess.Popen([tandem, "render", "--scene", CORNELL, "--frontend", "embree",
                               "--frames", "400", "--size", "64x40", "--out", out, "--quiet"],
                              stderr=subprocess.PIPE, text=True)
-        time.sleep(2.0)
+        while p.poll() is None and not (os.path.isdir(out) and
+                                        any(x.endswith(".png") for x in os.listdir(out))):
+            time.sleep(0.01)
+        time.sleep(0.5)
         p.send_signal(signal.SIGINT)
         err = p.communicate()[1]
         run = json.load(open(os.path.join(out, "run.json"))) if os.path.exists(
@@ -113,6 +117,47 @@ def main():
                 run["interrupted"]["next_frame"] == n and
                 not any(x.endswith(".tmp") for x in os.listdir(out)) and
                 json.load(open(os.path.join(out, "timings.json")))["frames"][-1]["frame"] == n - 1,
+                f"exit {p.returncode}, {n} written, {len(exrs)} EXR: {err[-200:]}")
+
+        # a local sweep interrupted in its reference, then resumed: the same figures
+        sw_args = ["bench", "--scene", CORNELL, "--sweep", "atrous=1,3", "--size", "40x24",
+                   "--frames", "5", "--warmup", "2", "--spp", "128" if quick else "384"]
+        whole, cut = os.path.join(tmp, "sweep_whole"), os.path.join(tmp, "sweep_cut")
+        t0 = time.time()
+        c.run(*sw_args, "--out", whole, "--quiet")
+        took = time.time() - t0
+        p = subprocess.Popen([tandem, *sw_args, "--out", cut, "--quiet"], stderr=subprocess.PIPE,
+                             text=True)
+        time.sleep(0.3 * took)
+        p.send_signal(signal.SIGINT)
+        err = p.communicate()[1]
+        c.check("sweep: SIGINT: exit 130, says how to go on",
+                p.returncode == 130 and "tandem sweep resume" in err, err[-300:])
+        c.run("sweep", "resume", cut, "--quiet")
+        a = json.load(open(os.path.join(whole, "sweep.json")))["runs"]
+        b = json.load(open(os.path.join(cut, "sweep.json")))["runs"]
+        c.check("sweep: resumed: every cell's relMSE and FLIP those of a sweep never interrupted",
+                [(r["knobs"], r["relmse"], r["flip"]) for r in a] ==
+                [(r["knobs"], r["relmse"], r["flip"]) for r in b],
+                str([(r["relmse"], r["flip"]) for r in a + b]))
+
+        # tandem denoise interrupted between frames
+        caps = os.path.join(tmp, "caps")
+        c.run("render", "--scene", CORNELL, "--frontend", "embree", "--denoiser", "off",
+              "--frames", "60", "--size", "64x40", "--capture", "--out", caps, "--quiet")
+        dn = os.path.join(tmp, "denoised")
+        p = subprocess.Popen([tandem, "denoise", "--captures", caps, "--denoiser", "svgf",
+                              "--out", dn, "--quiet"], stderr=subprocess.PIPE, text=True)
+        while p.poll() is None and not (os.path.isdir(dn) and
+                                        any(x.endswith(".png") for x in os.listdir(dn))):
+            time.sleep(0.01)
+        p.send_signal(signal.SIGTERM)  # (as soon as its first frame is out)
+        err = p.communicate()[1]
+        tj = json.load(open(os.path.join(dn, "timings.json")))
+        n = tj.get("interrupted", {}).get("frames_written", -1)
+        exrs = [x for x in os.listdir(dn) if x.endswith(".exr")]
+        c.check("denoise: SIGTERM: exit 143, timings.json says where it stopped, its frames whole",
+                p.returncode == 143 and 0 < n < 60 and len(exrs) == n == len(tj["frames"]),
                 f"exit {p.returncode}, {n} written, {len(exrs)} EXR: {err[-200:]}")
 
         # what --resume refuses
