@@ -99,10 +99,19 @@ static tnd_result create_instance(bool validation, const tnd_vk_desc *desc, VkIn
             loader_version >= VK_API_VERSION_1_3 ? VK_API_VERSION_1_3 : VK_API_VERSION_1_2,
     };
     /* debug utils, then what the caller needs (a window system's surfaces) */
-    const char *ext_names[1 + TND_VK_MAX_INSTANCE_EXTENSIONS];
+    const char *ext_names[2 + TND_VK_MAX_INSTANCE_EXTENSIONS];
     uint32_t next = 0;
     if (*debug_utils)
         ext_names[next++] = VK_EXT_DEBUG_UTILS_EXTENSION_NAME;
+    /* the layer's synchronization checks with its core ones: a missing barrier between queued
+     * passes shows even on an in-order queue such as lavapipe's (the layer provides the
+     * extension that turns them on) */
+    VkValidationFeatureEnableEXT sync = VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+    VkValidationFeaturesEXT features = {.sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT,
+                                        .enabledValidationFeatureCount = 1,
+                                        .pEnabledValidationFeatures = &sync};
+    if (validation)
+        ext_names[next++] = VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME;
     uint32_t extra = desc ? desc->instance_extension_count : 0;
     if (extra > TND_VK_MAX_INSTANCE_EXTENSIONS) {
         res = tnd_fail(TND_ERR_LIMIT, "vulkan: %u instance extensions asked for (at most %d)",
@@ -119,6 +128,7 @@ static tnd_result create_instance(bool validation, const tnd_vk_desc *desc, VkIn
     }
     VkInstanceCreateInfo ci = {
         .sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO,
+        .pNext = validation ? &features : NULL,
         .pApplicationInfo = &app,
         .enabledLayerCount = validation ? 1 : 0,
         .ppEnabledLayerNames = validation ? &layer : NULL,
