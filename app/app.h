@@ -56,6 +56,11 @@ bool app_quiet(void);
  * another sets its own and puts the caller's back. */
 bool app_set_quiet(bool quiet);
 
+/* One run writes an output directory at a time: DIR/.tandem.lock, locked (fcntl) for as long as
+ * the run lasts (the system lets go when the process ends, killed or not); a second run there
+ * is refused, naming the first's process. app_unlock_dir removes it (fd < 0: nothing). */
+tnd_result app_lock_dir(const char *dir, int *fd);
+void app_unlock_dir(const char *dir, int fd);
 /* Interrupts (SIGINT, SIGTERM): the command line catches them (app_interrupts_install, once in
  * main; a second signal ends the process); long loops ask app_interrupted() between frames or
  * batches of samples, finish what is in flight, write where they stopped and exit with

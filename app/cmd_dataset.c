@@ -497,6 +497,7 @@ static tnd_result dataset_run(const char *spec_path, const char *out, const char
     spec sp = {0};
     cJSON *manifest = NULL, *list = NULL;
     bool out_existed = true, *made_dir = NULL;
+    int lock_fd = -1; /* the output directory's lock */
     uint32_t shard = 0, shards = 1;
     if (shard_text)
         TND_TRY(app_shard_parse(shard_text, &shard, &shards));
@@ -512,6 +513,7 @@ static tnd_result dataset_run(const char *spec_path, const char *out, const char
     struct stat st_out;
     out_existed = stat(out, &st_out) == 0;
     TND_TRY(tnd_mkdirs(out));
+    TND_TRY(app_lock_dir(out, &lock_fd));
     if (!(made_dir = calloc(sp.nseq, sizeof *made_dir))) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
         goto fail;
@@ -614,9 +616,13 @@ fail:
                 snprintf(p, sizeof p, "%s/%s", out, sp.seq[q].name);
                 remove(p);
             }
-        if (!out_existed)
+        if (!out_existed) {
+            app_unlock_dir(out, lock_fd);
+            lock_fd = -1;
             remove(out);
+        }
     }
+    app_unlock_dir(out, lock_fd);
     free(made_dir);
     cJSON_Delete(manifest);
     spec_free(&sp);

@@ -10,6 +10,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <sys/stat.h>
 
 static const app_cmd denoise_cmd = {
@@ -93,6 +94,7 @@ int cmd_denoise(int argc, char **argv)
     bool out_existed = stat(out, &out_st) == 0, dump_made = false;
     size_t written = 0;
     bool begun = false; /* the output was begun */
+    int lock_fd = -1;   /* the output directory's lock */
     tnd_vk vk = {0};
     pl_chain *chain = NULL; /* selection, re-shading (the stored samples), back-end, post */
     float *rgb = NULL;
@@ -149,6 +151,7 @@ int cmd_denoise(int argc, char **argv)
         goto fail;
     }
     TND_TRY(tnd_mkdirs(out));
+    TND_TRY(app_lock_dir(out, &lock_fd)); /* (before anything is written or removed there) */
     begun = true;
     if (dump_mask) {
         struct stat dst;
@@ -234,6 +237,10 @@ fail:
             remove(path);
         }
     }
+    if (lock_fd >= 0 && (status != APP_EXIT_FAIL || out_existed))
+        app_unlock_dir(out, lock_fd);
+    else if (lock_fd >= 0) /* (the directory itself is gone) */
+        close(lock_fd);
     free(rgb);
     free(display);
     pl_chain_destroy(chain);

@@ -14,6 +14,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <sys/stat.h>
 
 #ifndef TND_DATA_DIR
@@ -887,6 +888,7 @@ static int run_opts(const render_opts *opts, bool reference)
     if (strlen(o.out) > 1500)
         return app_report(what, tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
     int status = APP_EXIT_FAIL;
+    int lock_fd = -1;      /* the output directory's lock */
     bool *finished = NULL; /* reference (not a shard): the frames done (resumed: before too) */
     int resume_at = -1, stopped = 0; /* the frame a resumed run's checkpoint holds; the signal */
     double resume_seconds = 0;
@@ -939,8 +941,9 @@ static int run_opts(const render_opts *opts, bool reference)
     out_existed = stat(o.out, &out_st) == 0;
     snprintf(path, sizeof path, "%s/dump", o.out);
     dumps_made = dump_mask && stat(path, &dump_st) != 0;
-    begun_output = true;
     TND_TRY(tnd_mkdirs(o.out));
+    TND_TRY(app_lock_dir(o.out, &lock_fd)); /* (before anything is written or removed there) */
+    begun_output = true;
     if (!reference) {
         snprintf(path, sizeof path, "%s/timings.json", o.out);
         timings = fopen(path, "w");
@@ -1200,6 +1203,10 @@ fail:
     timings = NULL;
     if (status == APP_EXIT_FAIL && begun_output)
         remove_partial(&o, out_existed, dumps_made, frames_begun, finished);
+    if (lock_fd >= 0 && (status != APP_EXIT_FAIL || out_existed))
+        app_unlock_dir(o.out, lock_fd);
+    else if (lock_fd >= 0) /* (the directory itself is gone) */
+        close(lock_fd);
     free(finished);
     cJSON_Delete(partial);
     tnd_frame_destroy(&frame);

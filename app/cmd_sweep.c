@@ -913,11 +913,13 @@ int app_sweep(const app_list *sweeps, const char *scene, const app_env *env, con
         res = plan_write(P);
     if (res == TND_OK && emit)
         res = emit_slurm(P, shards);
-    int stopped = 0;
-    if (res == TND_OK && !emit)
+    int stopped = 0, lock_fd = -1;
+    if (res == TND_OK && !emit && (res = app_lock_dir(out, &lock_fd)) == TND_OK)
         res = run_local(P, false, &stopped);
     free(P);
-    return finish_local(res, stopped, out, "bench");
+    int rc = finish_local(res, stopped, out, "bench");
+    app_unlock_dir(out, lock_fd);
+    return rc;
 }
 
 /* ---- gathering: evaluate what finished, write sweep.json, sweep.csv and the report ---------- */
@@ -1259,12 +1261,14 @@ int cmd_sweep(int argc, char **argv)
         sweep_plan *P = calloc(1, sizeof *P);
         if (!P)
             return app_report("sweep", tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory"));
-        int stopped = 0;
+        int stopped = 0, lock_fd = -1;
         tnd_result res = plan_read(pos[1], P);
-        if (res == TND_OK)
+        if (res == TND_OK && (res = app_lock_dir(pos[1], &lock_fd)) == TND_OK)
             res = run_local(P, true, &stopped);
         free(P);
-        return finish_local(res, stopped, pos[1], "sweep");
+        int st = finish_local(res, stopped, pos[1], "sweep");
+        app_unlock_dir(pos[1], lock_fd);
+        return st;
     }
     bool complete = false;
     tnd_result res = sweep_collect(pos[1], &complete);

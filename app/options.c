@@ -4,6 +4,7 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <signal.h>
 #include <stdlib.h>
@@ -44,6 +45,46 @@ const char *app_signal_name(int sig)
 int app_interrupt_status(void)
 {
     return 128 + interrupt_signal;
+}
+
+/* ---- one writer per output directory --------------------------------------------------------- */
+#define LOCK_NAME ".tandem.lock"
+
+tnd_result app_lock_dir(const char *dir, int *fd)
+{
+    char path[2200];
+    snprintf(path, sizeof path, "%s/" LOCK_NAME, dir);
+    *fd = open(path, O_RDWR | O_CREAT, 0644);
+    if (*fd < 0)
+        return tnd_fail(TND_ERR_IO, "%s: cannot create its lock %s: %s", dir, LOCK_NAME,
+                        strerror(errno));
+    struct flock fl = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
+    if (fcntl(*fd, F_SETLK, &fl) != 0) { /* (held by another process: released when it ends) */
+        struct flock who = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
+        long pid = fcntl(*fd, F_GETLK, &who) == 0 && who.l_type != F_UNLCK ? (long)who.l_pid : 0;
+        close(*fd);
+        *fd = -1;
+        return tnd_fail(TND_ERR_IO,
+                        "%s: another tandem is writing there (process %ld holds %s/" LOCK_NAME
+                        "): one run per output directory",
+                        dir, pid, dir);
+    }
+    char text[32];
+    int len = snprintf(text, sizeof text, "%ld\n", (long)getpid());
+    if (ftruncate(*fd, 0) != 0 || write(*fd, text, (size_t)len) != len) {
+        /* (the pid is for people; the lock is the fcntl lock) */
+    }
+    return TND_OK;
+}
+
+void app_unlock_dir(const char *dir, int fd)
+{
+    if (fd < 0)
+        return;
+    char path[2200];
+    snprintf(path, sizeof path, "%s/" LOCK_NAME, dir);
+    unlink(path);
+    close(fd);
 }
 
 bool app_quiet(void)

@@ -104,6 +104,11 @@ def main():
                                         any(x.endswith(".png") for x in os.listdir(out))):
             time.sleep(0.01)
         time.sleep(0.5)
+        second = c.run("render", "--scene", CORNELL, "--frontend", "embree", "--frames", "2",
+                       "--size", "16x16", "--out", out, expect=None)
+        c.check("a second run into a directory being written: refused, naming the first",
+                second.returncode == 1 and "another tandem is writing there" in second.stderr and
+                str(p.pid) in second.stderr, second.stderr[-200:])
         p.send_signal(signal.SIGINT)
         err = p.communicate()[1]
         run = json.load(open(os.path.join(out, "run.json"))) if os.path.exists(
@@ -115,7 +120,7 @@ def main():
                 p.returncode == 130 and 0 < n < 400 and len(exrs) == n and len(pngs) == n and
                 run["interrupted"]["signal"] == "SIGINT" and
                 run["interrupted"]["next_frame"] == n and
-                not any(x.endswith(".tmp") for x in os.listdir(out)) and
+                not any(x.endswith(".tmp") or x == ".tandem.lock" for x in os.listdir(out)) and
                 json.load(open(os.path.join(out, "timings.json")))["frames"][-1]["frame"] == n - 1,
                 f"exit {p.returncode}, {n} written, {len(exrs)} EXR: {err[-200:]}")
 
