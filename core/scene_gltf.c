@@ -342,6 +342,12 @@ static tnd_result accessor_view(gltf_ctx *c, int index, const char *what, acc_vi
                         "offset",
                         c->path, what, index);
     size_t elem = v->csize * (size_t)v->comps;
+    /* (glTF: a stride is 4 to 252, a multiple of 4; and holds an element) */
+    if (stride && (stride < 4 || stride > 252 || stride % 4 || stride < elem))
+        return tnd_fail(TND_ERR_BAD_INPUT,
+                        "scene: %s: %s: accessor %d: buffer view %zu's byteStride %zu (4 to 252, "
+                        "a multiple of 4, at least the element's %zu bytes)",
+                        c->path, what, index, view, stride, elem);
     v->stride = stride ? stride : elem;
     const uint8_t *data = NULL;
     size_t size = 0;
@@ -389,7 +395,9 @@ static double acc_get(const acc_view *v, size_t i, int j)
     }
 }
 
-static tnd_result validate_indices(gltf_ctx *c)
+/* Every primitive's attributes inside their views and buffers, and its indices naming vertices
+ * that exist. */
+static tnd_result validate_primitives(gltf_ctx *c)
 {
     tnd_result res = TND_OK;
     const cJSON *accs = jget(c->json, "accessors");
@@ -408,6 +416,18 @@ static tnd_result validate_indices(gltf_ctx *c)
                                 "scene: %s: mesh %d '%s': no POSITION accessor", c->path, mi,
                                 mname);
             size_t nverts;
+            const cJSON *attr; /* every attribute's elements inside its view and buffer */
+            cJSON_ArrayForEach(attr, jget(prim, "attributes"))
+            {
+                char what[320];
+                snprintf(what, sizeof what, "mesh %d '%s': %s", mi, mname,
+                         attr->string ? attr->string : "attribute");
+                acc_view av;
+                if (!cJSON_IsNumber(attr))
+                    return tnd_fail(TND_ERR_BAD_INPUT, "scene: %s: %s: not an accessor index",
+                                    c->path, what);
+                TND_TRY_RETURN(accessor_view(c, (int)attr->valuedouble, what, &av));
+            }
             if (!jget(prim, "indices"))
                 continue;
             if (!jsize(pa, "count", 0, &nverts))
@@ -1505,7 +1525,7 @@ tnd_result scene_load_gltf(const char *path, const tnd_scene_options *o, tnd_sce
     bool glb = size >= 12 && memcmp(bytes, "glTF", 4) == 0;
     c.glb = glb ? bytes : NULL;
     c.glb_size = glb ? size : 0;
-    TND_TRY(validate_indices(&c));
+    TND_TRY(validate_primitives(&c));
     TND_TRY(ctx_import(&c, 0, false));
     TND_TRY(load_meshes(&c));
     TND_TRY(load_materials(&c));

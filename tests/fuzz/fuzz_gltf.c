@@ -18,3 +18,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     tnd_error_clear();
     return 0;
 }
+
+#ifdef TND_FUZZ_MUTATOR
+/* JSON-aware mutations beside libFuzzer's (tests/fuzz/fuzz_common.h) */
+size_t LLVMFuzzerCustomMutator(uint8_t *data, size_t size, size_t max_size, unsigned int seed);
+size_t LLVMFuzzerCustomMutator(uint8_t *data, size_t size, size_t max_size, unsigned int seed)
+{
+    return fuzz_json_mutate(data, size, max_size, seed);
+}
+#endif
