@@ -247,6 +247,8 @@ const tnd_scene *app_session_scene(const app_session *s);
 const app_render_opts *app_session_opts(const app_session *s);
 /* the denoiser that runs (after a fallback; NULL for a reference session) */
 const char *app_session_denoiser(const app_session *s);
+/* its Vulkan context (NULL where the CPU composites) */
+const tnd_vk *app_session_vk(const app_session *s);
 /* Frame f: render's frame_NNNN.exr into rgb (3 floats per pixel), its PNG's pixels into display
  * (3 bytes per pixel; zeros where the CPU composites), the contract as the capture holds it into
  * `contract` (each optional). */
@@ -473,6 +475,11 @@ int app_sweep(const app_list *sweeps, const char *scene, const app_env *env, con
               const char *reference, unsigned spp, const unsigned size[2], unsigned frames,
               unsigned warmup, unsigned timed, const char *emit, unsigned shards);
 int cmd_sweep(int argc, char **argv);
+/* `tandem bench --soak N` (app/soak.c): N frames through render's frame loop per front-end and
+ * denoiser (one of each when named), host RSS, open descriptors and device memory sampled; a
+ * table, or JSON with every sample. */
+int app_soak(const char *scene, const app_env *env, const unsigned size[2], unsigned frames,
+             const char *frontend, const char *denoiser, bool json);
 /* `tandem bench --extremes` (app/cmd_extremes.c) */
 int app_extremes(const char *scene, const char *out, const unsigned size[2], unsigned frames);
 

@@ -466,8 +466,8 @@ fail:
 
 int cmd_bench(int argc, char **argv)
 {
-    const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "embree";
-    unsigned size[2] = {256, 256}, repeats = 10, threads = 0, bounces = 1, frame = 0;
+    const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = NULL;
+    unsigned size[2] = {0, 0}, repeats = 10, threads = 0, bounces = 1, frame = 0, soak = 0;
     bool json = false, extremes = false, scene_given = false, per_dispatch = false;
     bool overlap = false, whole_frame = false, metrics = false;
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
@@ -520,6 +520,10 @@ int cmd_bench(int argc, char **argv)
         {"spp", APP_OPT_UINT, &spp, "K",
          "--sweep: samples per pixel of the reference (default 64)"},
         {"frames", APP_OPT_UINT, &frames, "N", "--sweep: frames per run (default 12)"},
+        {"soak", APP_OPT_UINT, &soak, "N",
+         "N frames through render's loop per front-end and denoiser (--frontend, --denoiser: one "
+         "of each), sampling host memory, open descriptors and device memory: flat after a "
+         "warm-up? (--json: every sample)"},
         {"extremes", APP_OPT_FLAG, &extremes, NULL,
          "numerical stability report: the extremes scene (or --scene) through every mode; needs "
          "--out"},
@@ -545,6 +549,13 @@ int cmd_bench(int argc, char **argv)
     int rc = app_parse(&bench_cmd, opts, argc, argv, pos, 1, &npos);
     if (rc >= 0)
         return rc;
+    /* (--soak: every front-end unless one is named, its own default size) */
+    const char *soak_frontend = frontend;
+    const unsigned soak_size[2] = {size[0] ? size[0] : 160, size[1] ? size[1] : 90};
+    if (!frontend)
+        frontend = "embree";
+    if (!size[0])
+        size[0] = size[1] = 256;
     if (npos && (!emit || out)) { /* (--emit slurm DIR) */
         fprintf(stderr, "tandem bench: unexpected argument '%s' (see tandem bench --help)\n",
                 pos[0]);
@@ -575,6 +586,8 @@ int cmd_bench(int argc, char **argv)
         }
         return APP_EXIT_OK;
     }
+    if (soak) /* (every front-end and denoiser unless named; 160x90 unless given) */
+        return app_soak(scene_path, &env, soak_size, soak, soak_frontend, denoiser, json);
     if (extremes)
         return app_extremes(scene_given ? scene_path : TND_DATA_DIR "/scenes/extremes.gltf", out,
                             size, frames);

@@ -4,7 +4,7 @@
  * each frame as render's loop does (app_frame_begin, app_frame_step, pl_chain_run), so that a
  * frame here is the frame render writes, bit for bit.
  * Entry points: app_session_open, app_session_close, app_session_frame, app_session_reference,
- * app_session_scene, app_session_opts. */
+ * app_session_scene, app_session_opts, app_session_denoiser, app_session_vk. */
 #include "app/app.h"
 
 #include <stdlib.h>
@@ -110,6 +110,11 @@ const tnd_scene *app_session_scene(const app_session *s)
 const app_render_opts *app_session_opts(const app_session *s)
 {
     return &s->o;
+}
+
+const tnd_vk *app_session_vk(const app_session *s)
+{
+    return s->have_vk ? &s->vk : NULL;
 }
 
 const char *app_session_denoiser(const app_session *s)

@@ -145,6 +145,7 @@ typedef struct tnd_vk_device_info {
     bool ray_query;      /* VK_KHR_ray_query + its feature */
     bool pipeline_executable_info; /* VK_KHR_pipeline_executable_properties */
     bool swapchain;      /* VK_KHR_swapchain (a window can present) */
+    bool memory_budget;  /* VK_EXT_memory_budget (tnd_vk_memory_in_use) */
     bool buffer_address; /* bufferDeviceAddress */
     bool timestamps;     /* compute queue has timestampValidBits > 0 */
     bool compute_ok;     /* Vulkan >= 1.2, buffer device address, a compute queue */
@@ -234,6 +235,7 @@ typedef struct tnd_vk {
     /* $TANDEM_PIPELINE_STATS=1 and VK_KHR_pipeline_executable_properties: every compute
      * pipeline's compiler statistics (registers, code size, ...) go to stderr when created */
     bool pipeline_stats;
+    bool memory_budget; /* VK_EXT_memory_budget enabled */
     tnd_vk_messages *messages;
 } tnd_vk;
 
@@ -310,6 +312,15 @@ tnd_result tnd_image_upload(tnd_vk *vk, const tnd_image *img, const void *data, 
 
 /* Pick a memory type with `bits` allowed and all of `props`; UINT32_MAX when none. */
 uint32_t tnd_vk_memory_type(const tnd_vk *vk, uint32_t bits, VkMemoryPropertyFlags props);
+/* Device memory in use by this process, all heaps together (VK_EXT_memory_budget's heap usage:
+ * what the driver counts, its own allocations included); false where the device lacks the
+ * extension. */
+bool tnd_vk_memory_in_use(const tnd_vk *vk, uint64_t *bytes);
+/* Every device allocation goes through these (vkAllocateMemory, vkFreeMemory), which count the
+ * allocations alive in the process: tnd_vk_live_allocations. */
+VkResult tnd_vk_allocate(const tnd_vk *vk, const VkMemoryAllocateInfo *ai, VkDeviceMemory *out);
+void tnd_vk_free(const tnd_vk *vk, VkDeviceMemory m);
+uint64_t tnd_vk_live_allocations(void);
 
 /* ---------------------------------------------------------------------------------------------
  * Vulkan: commands and synchronisation

@@ -162,6 +162,7 @@ static tnd_result query_device(VkPhysicalDevice pd, uint32_t index, tnd_vk_devic
     d->pipeline_executable_info =
         has_extension(exts, n, VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
     d->swapchain = has_extension(exts, n, VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+    d->memory_budget = has_extension(exts, n, VK_EXT_MEMORY_BUDGET_EXTENSION_NAME);
 
     VkPhysicalDeviceProperties base;
     vkGetPhysicalDeviceProperties(pd, &base);
@@ -481,8 +482,12 @@ tnd_result tnd_vk_create(const tnd_vk_desc *desc, tnd_vk *vk)
                 .samplerAnisotropy = have.features.samplerAnisotropy,
             },
     };
-    const char *exts[6];
+    const char *exts[7];
     uint32_t next = 0;
+    if (vk->info.memory_budget) { /* (what soak runs read: device memory in use) */
+        exts[next++] = VK_EXT_MEMORY_BUDGET_EXTENSION_NAME;
+        vk->memory_budget = true;
+    }
     if (desc->swapchain) {
         if (!vk->info.swapchain) {
             res = tnd_fail(TND_ERR_UNSUPPORTED, "vulkan: %s has no VK_KHR_swapchain",

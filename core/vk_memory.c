@@ -7,6 +7,7 @@
 #include "core/core.h"
 
 #include <stdio.h>
+#include <stdatomic.h>
 #include <string.h>
 
 uint32_t tnd_vk_memory_type(const tnd_vk *vk, uint32_t bits, VkMemoryPropertyFlags props)
@@ -50,7 +51,7 @@ static tnd_result allocate(tnd_vk *vk, VkMemoryRequirements req, tnd_mem_kind ki
                                .pNext = device_address ? &flags : NULL,
                                .allocationSize = req.size,
                                .memoryTypeIndex = type};
-    TND_VK_TRY(vkAllocateMemory(vk->device, &ai, NULL, out));
+    TND_VK_TRY(tnd_vk_allocate(vk, &ai, out));
     TND_VK_NAME(vk, VK_OBJECT_TYPE_DEVICE_MEMORY, *out, "%s.memory", name);
 fail:
     return res;
@@ -96,7 +97,7 @@ void tnd_buffer_destroy(tnd_vk *vk, tnd_buffer *buf)
     if (buf->buffer)
         vkDestroyBuffer(vk->device, buf->buffer, NULL);
     if (buf->memory)
-        vkFreeMemory(vk->device, buf->memory, NULL); /* unmaps implicitly */
+        tnd_vk_free(vk, buf->memory); /* unmaps implicitly */
     memset(buf, 0, sizeof *buf);
 }
 
@@ -234,7 +235,7 @@ void tnd_image_destroy(tnd_vk *vk, tnd_image *img)
     if (img->image)
         vkDestroyImage(vk->device, img->image, NULL);
     if (img->memory)
-        vkFreeMemory(vk->device, img->memory, NULL);
+        tnd_vk_free(vk, img->memory);
     memset(img, 0, sizeof *img);
 }
 
@@ -384,4 +385,44 @@ void tnd_cmd_barrier(VkCommandBuffer cmd)
 {
     memory_barrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_MEMORY_WRITE_BIT,
                    VK_ACCESS_MEMORY_READ_BIT);
+}
+
+bool tnd_vk_memory_in_use(const tnd_vk *vk, uint64_t *bytes)
+{
+    *bytes = 0;
+    if (!vk->memory_budget)
+        return false;
+    VkPhysicalDeviceMemoryBudgetPropertiesEXT budget = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MEMORY_BUDGET_PROPERTIES_EXT};
+    VkPhysicalDeviceMemoryProperties2 props = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MEMORY_PROPERTIES_2, .pNext = &budget};
+    vkGetPhysicalDeviceMemoryProperties2(vk->phys, &props);
+    for (uint32_t h = 0; h < props.memoryProperties.memoryHeapCount; h++)
+        *bytes += budget.heapUsage[h];
+    return true;
+}
+
+/* Tandem's device allocations alive in the process (soak runs: a leak of device memory shows as
+ * a count that grows). */
+static _Atomic uint64_t live_allocations;
+
+VkResult tnd_vk_allocate(const tnd_vk *vk, const VkMemoryAllocateInfo *ai, VkDeviceMemory *out)
+{
+    VkResult r = vkAllocateMemory(vk->device, ai, NULL, out);
+    if (r == VK_SUCCESS)
+        live_allocations++;
+    return r;
+}
+
+void tnd_vk_free(const tnd_vk *vk, VkDeviceMemory m)
+{
+    if (m) {
+        vkFreeMemory(vk->device, m, NULL);
+        live_allocations--;
+    }
+}
+
+uint64_t tnd_vk_live_allocations(void)
+{
+    return live_allocations;
 }

@@ -67,7 +67,7 @@ static tnd_result upload_texture(tnd_vk *vk, const tnd_texture *t, fvk_texture *
         .allocationSize = req.size,
         .memoryTypeIndex =
             tnd_vk_memory_type(vk, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT)};
-    TND_VK_TRY(vkAllocateMemory(vk->device, &ai, NULL, &out->memory));
+    TND_VK_TRY(tnd_vk_allocate(vk, &ai, &out->memory));
     TND_VK_TRY(vkBindImageMemory(vk->device, out->image, out->memory, 0));
     VkImageViewCreateInfo vci = {.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
                                  .image = out->image,
@@ -108,7 +108,7 @@ static void texture_destroy(tnd_vk *vk, fvk_texture *t)
     if (t->image)
         vkDestroyImage(vk->device, t->image, NULL);
     if (t->memory)
-        vkFreeMemory(vk->device, t->memory, NULL);
+        tnd_vk_free(vk, t->memory);
     memset(t, 0, sizeof *t);
 }
 

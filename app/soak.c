@@ -1,0 +1,245 @@
+/* app/soak.c: `tandem bench --soak N`: N frames through render's frame loop (app/session.c) for
+ * each front-end and denoiser, sampling the process's resident memory (/proc/self/statm), its
+ * open file descriptors (/proc/self/fd) and the device memory in use (VK_EXT_memory_budget) as
+ * it goes; after a warm-up each must stay flat: what a run of hours would leak shows in a few
+ * hundred frames as a slope (docs/reliability.md).
+ * Entry point: app_soak. */
+#include "app/app.h"
+
+#include <cjson/cJSON.h>
+#include <dirent.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+typedef struct soak_sample {
+    uint32_t frame;
+    double rss_mb, device_mb; /* device_mb < 0: not known (or a CPU device's: the host's) */
+    uint32_t fds;
+    uint64_t allocations;     /* Tandem's device allocations alive */
+} soak_sample;
+
+static double rss_mb(void)
+{
+    FILE *f = fopen("/proc/self/statm", "r");
+    unsigned long size = 0, resident = 0;
+    if (f) {
+        if (fscanf(f, "%lu %lu", &size, &resident) != 2)
+            resident = 0;
+        fclose(f);
+    }
+    return (double)resident * (double)sysconf(_SC_PAGESIZE) / (1024.0 * 1024.0);
+}
+
+static uint32_t open_fds(void)
+{
+    DIR *d = opendir("/proc/self/fd");
+    uint32_t n = 0;
+    if (!d)
+        return 0;
+    for (struct dirent *e; (e = readdir(d));)
+        n += e->d_name[0] != '.';
+    closedir(d);
+    return n ? n - 1 : 0; /* (the directory's own) */
+}
+
+/* Least-squares slope of y over x. */
+static double slope(const double *x, const double *y, uint32_t n)
+{
+    double mx = 0, my = 0, sxx = 0, sxy = 0;
+    for (uint32_t i = 0; i < n; i++)
+        mx += x[i] / n, my += y[i] / n;
+    for (uint32_t i = 0; i < n; i++)
+        sxx += (x[i] - mx) * (x[i] - mx), sxy += (x[i] - mx) * (y[i] - my);
+    return sxx > 0 ? sxy / sxx : 0.0;
+}
+
+typedef struct soak_row {
+    char frontend[64], denoiser[64];
+    uint32_t frames, warmup;
+    double seconds;
+    double rss_base, rss_end, rss_max, rss_kb_per_frame;
+    double dev_base, dev_end;
+    uint32_t fds_base, fds_end;
+    uint64_t allocs_base, allocs_end;
+    bool flat;
+} soak_row;
+
+/* One front-end and denoiser: n frames, samples into `out` (room for `cap`). */
+static tnd_result soak_one(const app_render_opts *o, uint32_t n, soak_sample *out, uint32_t cap,
+                           uint32_t *count, soak_row *row)
+{
+    tnd_result res = TND_OK;
+    app_session *s = NULL;
+    float *rgb = malloc((size_t)o->size[0] * o->size[1] * 3 * sizeof *rgb);
+    uint32_t every = n / cap + 1, k = 0;
+    if (!rgb)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "soak: out of memory");
+    TND_TRY(app_session_open(o, false, NULL, &s));
+    snprintf(row->denoiser, sizeof row->denoiser, "%s", app_session_denoiser(s));
+    double t0 = tnd_now();
+    uint32_t f = 0;
+    for (; f < n && !app_interrupted(); f++) {
+        TND_TRY(app_session_frame(s, f, rgb, NULL, NULL));
+        if ((f % every == 0 || f + 1 == n) && k < cap) {
+            uint64_t dev = 0;
+            const tnd_vk *vk = app_session_vk(s);
+            /* (a CPU device's heap is the host's memory, shared with everything: RSS stands) */
+            bool known = vk && vk->info.type != VK_PHYSICAL_DEVICE_TYPE_CPU &&
+                         tnd_vk_memory_in_use(vk, &dev);
+            out[k++] = (soak_sample){f, rss_mb(), known ? dev / 1048576.0 : -1, open_fds(),
+                                     tnd_vk_live_allocations()};
+        }
+    }
+    row->seconds = tnd_now() - t0;
+    row->frames = f;
+fail:
+    *count = k;
+    app_session_close(s);
+    free(rgb);
+    return res;
+}
+
+/* The figures of a run's samples after the warm-up. */
+static void judge(const soak_sample *sm, uint32_t k, soak_row *r)
+{
+    uint32_t b = 0;
+    while (b + 1 < k && sm[b].frame < r->warmup)
+        b++;
+    const soak_sample *base = &sm[b], *end = &sm[k - 1];
+    double x[1024], y[1024];
+    uint32_t m = 0;
+    r->rss_max = 0;
+    for (uint32_t i = b; i < k && m < 1024; i++, m++) {
+        x[m] = sm[i].frame, y[m] = sm[i].rss_mb * 1024.0;
+        r->rss_max = sm[i].rss_mb > r->rss_max ? sm[i].rss_mb : r->rss_max;
+    }
+    r->rss_base = base->rss_mb, r->rss_end = end->rss_mb;
+    r->rss_kb_per_frame = m > 2 ? slope(x, y, m) : 0.0;
+    r->dev_base = base->device_mb, r->dev_end = end->device_mb;
+    r->fds_base = base->fds, r->fds_end = end->fds;
+    r->allocs_base = base->allocations, r->allocs_end = end->allocations;
+    /* flat: under 1 KB a frame and 2 MB in all after the warm-up; the same descriptors, device
+     * allocations and device memory */
+    r->flat = r->rss_kb_per_frame < 1.0 && r->rss_max - r->rss_base < 2.0 &&
+              r->fds_end == r->fds_base && r->allocs_end == r->allocs_base &&
+              r->dev_end == r->dev_base;
+}
+
+int app_soak(const char *scene, const app_env *env, const unsigned size[2], unsigned frames,
+             const char *frontend, const char *denoiser, bool json)
+{
+    enum { CAP = 200 };
+    tnd_result res = TND_OK;
+    const char *fes[2] = {"embree", "vk"};
+    uint32_t nfe = 2, ndn = pl_denoiser_count();
+    if (frontend)
+        fes[0] = frontend, nfe = 1;
+    if (denoiser)
+        ndn = 1;
+    soak_row *rows = calloc((size_t)nfe * ndn, sizeof *rows);
+    soak_sample *sm = calloc(CAP, sizeof *sm);
+    cJSON *root = json ? cJSON_CreateObject() : NULL, *arr = NULL;
+    if (!rows || !sm) {
+        free(rows);
+        free(sm);
+        cJSON_Delete(root);
+        return app_report("bench", tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory"));
+    }
+    if (root) {
+        cJSON_AddStringToObject(root, "scene", scene);
+        cJSON_AddNumberToObject(root, "frames", frames);
+        cJSON_AddNumberToObject(root, "width", size[0]);
+        cJSON_AddNumberToObject(root, "height", size[1]);
+        arr = cJSON_AddArrayToObject(root, "runs");
+    }
+    uint32_t nrows = 0;
+    bool all_flat = true;
+    if (!json)
+        printf("soak: %u frames of %s at %ux%u per front-end and denoiser; after a warm-up of "
+               "%u frames:\n%-8s %-10s %8s %8s %8s %10s %7s %9s %14s %6s\n",
+               frames, scene, size[0], size[1], frames / 10 > 20 ? frames / 10 : 20, "frontend",
+               "denoiser", "fps", "RSS MB", "+MB", "KB/frame", "fds", "vk allocs", "device MB",
+               "");
+    for (uint32_t a = 0; a < nfe && res == TND_OK && !app_interrupted(); a++)
+        for (uint32_t d = 0; d < ndn && res == TND_OK && !app_interrupted(); d++) {
+            app_render_opts o;
+            app_render_defaults(&o);
+            o.scene = scene;
+            o.env = *env;
+            o.size[0] = size[0], o.size[1] = size[1];
+            o.frontend = fes[a];
+            o.denoiser = denoiser ? denoiser : pl_denoiser_at(d)->name;
+            o.quiet = true;
+            soak_row *r = &rows[nrows];
+            snprintf(r->frontend, sizeof r->frontend, "%s", fes[a]);
+            r->warmup = frames / 10 > 20 ? frames / 10 : 20;
+            uint32_t k = 0;
+            bool was = app_set_quiet(true);
+            res = soak_one(&o, frames, sm, CAP, &k, r);
+            app_set_quiet(was);
+            if (res != TND_OK || k == 0)
+                break;
+            judge(sm, k, r);
+            all_flat = all_flat && r->flat;
+            nrows++;
+            if (json) {
+                cJSON *e = cJSON_CreateObject();
+                cJSON_AddStringToObject(e, "frontend", r->frontend);
+                cJSON_AddStringToObject(e, "denoiser", r->denoiser);
+                cJSON_AddNumberToObject(e, "frames", r->frames);
+                cJSON_AddNumberToObject(e, "warmup", r->warmup);
+                cJSON_AddNumberToObject(e, "seconds", r->seconds);
+                cJSON_AddNumberToObject(e, "rss_mb_base", r->rss_base);
+                cJSON_AddNumberToObject(e, "rss_mb_end", r->rss_end);
+                cJSON_AddNumberToObject(e, "rss_mb_max", r->rss_max);
+                cJSON_AddNumberToObject(e, "rss_kb_per_frame", r->rss_kb_per_frame);
+                cJSON_AddNumberToObject(e, "fds_base", r->fds_base);
+                cJSON_AddNumberToObject(e, "fds_end", r->fds_end);
+                cJSON_AddNumberToObject(e, "vk_allocations_base", (double)r->allocs_base);
+                cJSON_AddNumberToObject(e, "vk_allocations_end", (double)r->allocs_end);
+                if (r->dev_base >= 0) {
+                    cJSON_AddNumberToObject(e, "device_mb_base", r->dev_base);
+                    cJSON_AddNumberToObject(e, "device_mb_end", r->dev_end);
+                }
+                cJSON_AddBoolToObject(e, "flat", r->flat);
+                cJSON *ss = cJSON_AddArrayToObject(e, "samples");
+                for (uint32_t i = 0; i < k; i++) {
+                    cJSON *q = cJSON_CreateObject();
+                    cJSON_AddNumberToObject(q, "frame", sm[i].frame);
+                    cJSON_AddNumberToObject(q, "rss_mb", sm[i].rss_mb);
+                    cJSON_AddNumberToObject(q, "fds", sm[i].fds);
+                    cJSON_AddNumberToObject(q, "vk_allocations", (double)sm[i].allocations);
+                    if (sm[i].device_mb >= 0)
+                        cJSON_AddNumberToObject(q, "device_mb", sm[i].device_mb);
+                    cJSON_AddItemToArray(ss, q);
+                }
+                cJSON_AddItemToArray(arr, e);
+            } else {
+                char dev[40] = "-";
+                if (r->dev_base >= 0)
+                    snprintf(dev, sizeof dev, "%.1f -> %.1f", r->dev_base, r->dev_end);
+                printf("%-8s %-10s %8.1f %8.1f %+8.2f %10.3f %3u->%-3u %4llu->%-4llu %14s %6s\n",
+                       r->frontend, r->denoiser, r->frames / r->seconds, r->rss_end,
+                       r->rss_end - r->rss_base, r->rss_kb_per_frame, r->fds_base, r->fds_end,
+                       (unsigned long long)r->allocs_base, (unsigned long long)r->allocs_end, dev,
+                       r->flat ? "flat" : "GROWS");
+            }
+        }
+    if (json && res == TND_OK) {
+        cJSON_AddBoolToObject(root, "flat", all_flat);
+        char *t = cJSON_Print(root);
+        printf("%s\n", t ? t : "{}");
+        free(t);
+    }
+    cJSON_Delete(root);
+    free(rows);
+    free(sm);
+    if (res != TND_OK)
+        return app_report("bench", res);
+    if (app_interrupted()) {
+        fprintf(stderr, "tandem: bench: soak interrupted (%s)\n", app_signal_name(app_interrupted()));
+        return app_interrupt_status();
+    }
+    return APP_EXIT_OK;
+}
