@@ -51,7 +51,20 @@ static tnd_result allocate(tnd_vk *vk, VkMemoryRequirements req, tnd_mem_kind ki
                                .pNext = device_address ? &flags : NULL,
                                .allocationSize = req.size,
                                .memoryTypeIndex = type};
-    TND_VK_TRY(tnd_vk_allocate(vk, &ai, out));
+    VkResult vr = tnd_vk_allocate(vk, &ai, out);
+    if (vr == VK_ERROR_OUT_OF_DEVICE_MEMORY || vr == VK_ERROR_OUT_OF_HOST_MEMORY) {
+        uint64_t used = 0;
+        bool known = tnd_vk_memory_in_use(vk, &used);
+        char in_use[64] = "";
+        if (known)
+            snprintf(in_use, sizeof in_use, ", %.0f MB in use", used / 1048576.0);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY,
+                        "vulkan: out of %s memory for '%s' (%.1f MB%s on %s): a smaller --size "
+                        "or scene",
+                        vr == VK_ERROR_OUT_OF_DEVICE_MEMORY ? "device" : "host", name,
+                        req.size / 1048576.0, in_use, vk->info.name);
+    }
+    TND_VK_TRY(vr);
     TND_VK_NAME(vk, VK_OBJECT_TYPE_DEVICE_MEMORY, *out, "%s.memory", name);
 fail:
     return res;
@@ -171,8 +184,11 @@ tnd_result tnd_image_create(tnd_vk *vk, const tnd_image_desc *desc, tnd_image *i
     const char *name = desc->name ? desc->name : "image";
     if (desc->width == 0 || desc->height == 0 || desc->width > vk->info.max_image_dimension_2d ||
         desc->height > vk->info.max_image_dimension_2d)
-        return tnd_fail(TND_ERR_LIMIT, "vulkan: image '%s' of %ux%u (device limit %u)", name,
-                        desc->width, desc->height, vk->info.max_image_dimension_2d);
+        return tnd_fail(TND_ERR_LIMIT,
+                        "vulkan: image '%s' of %ux%u: beyond %s's largest 2D image, %u a side "
+                        "(a smaller --size)",
+                        name, desc->width, desc->height, vk->info.name,
+                        vk->info.max_image_dimension_2d);
     VkImageUsageFlags usage =
         desc->usage ? desc->usage
                     : VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |

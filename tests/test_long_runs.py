@@ -165,6 +165,14 @@ def main():
                 p.returncode == 143 and 0 < n < 60 and len(exrs) == n == len(tj["frames"]),
                 f"exit {p.returncode}, {n} written, {len(exrs)} EXR: {err[-200:]}")
 
+        # an image the device cannot hold: refused by name before anything is written
+        big = os.path.join(tmp, "big")
+        r = c.run("render", "--scene", CORNELL, "--frontend", "vk", "--size", "20000x64",
+                  "--frames", "1", "--out", big, expect=None)
+        c.check("a frame wider than the device's largest image: exit 1, the limit named, no "
+                "output", r.returncode == 1 and "largest 2D image" in r.stderr and
+                "a smaller --size" in r.stderr and not os.path.exists(big), r.stderr[-200:])
+
         # what --resume refuses
         done = os.path.join(tmp, "unbiased_whole")
         for args, expect, msg in (
