@@ -1118,7 +1118,7 @@ int cmd_view(int argc, char **argv)
     snprintf(device, sizeof device, "%s", v->vk.info.name);
     v->t_last = tnd_now();
     double avg_dt = 0, t_start = tnd_now();
-    while (!v->quit && vw_window_poll(v->win)) {
+    while (!v->quit && !app_interrupted() && vw_window_poll(v->win)) {
         if (v->scripted)
             TND_TRY(play(v, events, n_events, &next_event));
         uint32_t w, h;
@@ -1186,8 +1186,12 @@ int cmd_view(int argc, char **argv)
                 v->steps / fmax(1e-9, tnd_now() - t_start), s->size[0], s->size[1], device,
                 v->shots, v->shots == 1 ? "" : "s");
     status = APP_EXIT_OK;
+    if (app_interrupted()) { /* (the window closed as by its close button: screenshots kept) */
+        fprintf(stderr, "tandem: view: interrupted (%s)\n", app_signal_name(app_interrupted()));
+        status = app_interrupt_status();
+    }
 fail:
-    if (status != APP_EXIT_OK)
+    if (status == APP_EXIT_FAIL)
         app_report("view", res);
     if (v->vk.device) {
         vkDeviceWaitIdle(v->vk.device);
