@@ -427,9 +427,13 @@ def evaluate(out, reference=None, matched_reference=None, report=None, exposure=
     holds."""
     opts = {"out": os.fspath(out), "metrics_on": metrics_on}
     for k, v in (("reference", reference), ("matched_reference", matched_reference),
-                 ("report", report), ("exposure", exposure), ("ppd", ppd)):
+                 ("report", report)):
         if v is not None:
-            opts[k] = v if isinstance(v, (int, float)) and not isinstance(v, bool) else os.fspath(v) if not isinstance(v, str) else v
+            opts[k] = os.fspath(v)
+    if exposure is not None:  # (eval's --exposure: "auto" or an EV100)
+        opts["exposure"] = str(exposure)
+    if ppd is not None:
+        opts["ppd"] = float(ppd)
     return json.loads(_take_string(_lib()[1].tandem_eval(json.dumps(opts).encode())))
 
 
