@@ -44,7 +44,7 @@ tnd_result app_ref_json_write(const app_render_opts *o, const char *device,
     snprintf(path, sizeof path, "%s/reference.json", o->out);
     FILE *fp = fopen(path, "w");
     if (!fp)
-        return tnd_fail(TND_ERR_IO, "reference: %s: cannot create", path);
+        return tnd_fail(TND_ERR_IO, "%s: cannot create", path);
     bool rt = strcmp(o->estimator, "realtime") == 0;
     fprintf(fp, "{\n  \"estimator\": \"%s\",\n  \"frontend\": \"%s\",\n  \"device\": \"%s\",\n",
             o->estimator, o->frontend, device);
@@ -69,7 +69,7 @@ tnd_result app_ref_json_write(const app_render_opts *o, const char *device,
                 app_ref_paths_per_s(o, &rs[i]));
     fprintf(fp, "\n  ]\n}\n");
     if (fclose(fp) != 0)
-        return tnd_fail(TND_ERR_IO, "reference: %s: write failed", path);
+        return tnd_fail(TND_ERR_IO, "%s: write failed", path);
     return TND_OK;
 }
 
@@ -142,7 +142,7 @@ tnd_result app_ref_partial_write(const app_render_opts *o, const bool *done,
     ok = (fp && fclose(fp) == 0) && ok;
     if (!ok || rename(tmp, path) != 0) {
         remove(tmp);
-        res = tnd_fail(TND_ERR_IO, "reference: %s: cannot write", path);
+        res = tnd_fail(TND_ERR_IO, "%s: cannot write (%s)", path, strerror(errno));
     }
 fail:
     return res;
@@ -264,14 +264,14 @@ tnd_result app_shard_sums_write(const char *dir, uint32_t w, uint32_t h, uint32_
     size_t n = (size_t)w * h;
     FILE *fp = fopen(tmp, "wb");
     if (!fp)
-        return tnd_fail(TND_ERR_IO, "reference: %s: cannot create", tmp);
+        return tnd_fail(TND_ERR_IO, "%s: cannot create", tmp);
     bool ok = fwrite(&hd, sizeof hd, 1, fp) == 1 && fwrite(sum_rgb, sizeof(double), 3 * n, fp) ==
                                                         3 * n &&
               fwrite(sum_lum2, sizeof(double), n, fp) == n;
     ok = fclose(fp) == 0 && ok;
     if (!ok || rename(tmp, path) != 0) {
         remove(tmp);
-        return tnd_fail(TND_ERR_IO, "reference: %s: write failed", path);
+        return tnd_fail(TND_ERR_IO, "%s: write failed", path);
     }
     return TND_OK;
 }
@@ -323,7 +323,7 @@ tnd_result app_shard_json_write(const app_render_opts *o, const char *device, ui
     if (fp)
         ok = fclose(fp) == 0 && ok;
     free(text);
-    return ok ? TND_OK : tnd_fail(TND_ERR_IO, "reference: %s: write failed", path);
+    return ok ? TND_OK : tnd_fail(TND_ERR_IO, "%s: write failed", path);
 }
 
 /* ---- tandem merge ------------------------------------------------------------------------- */

@@ -173,6 +173,28 @@ def main():
                 "output", r.returncode == 1 and "largest 2D image" in r.stderr and
                 "a smaller --size" in r.stderr and not os.path.exists(big), r.stderr[-200:])
 
+        # a full disk (a 300 KB tmpfs, where the machine lets us mount one): the file named, the
+        # run's output removed
+        full = os.path.join(tmp, "full")
+        os.makedirs(full)
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=300k", "tmpfs", full],
+                          capture_output=True).returncode == 0:
+            try:
+                for cmd in (["render", "--frames", "100"],
+                            ["reference", "--frames", "100", "--spp", "4"]):
+                    out = os.path.join(full, cmd[0])
+                    r = c.run(*cmd, "--scene", CORNELL, "--frontend", "embree", "--size",
+                              "64x40", "--out", out, expect=None)
+                    c.check(f"{cmd[0]} onto a full disk: exit 1, the file named, nothing left",
+                            r.returncode == 1 and full in r.stderr and
+                            ("No space left" in r.stderr or "cannot write" in r.stderr or
+                             "write failed" in r.stderr) and not os.path.exists(out),
+                            r.stderr.strip()[-200:])
+            finally:
+                subprocess.run(["umount", full])
+        else:
+            print("skip full disk: this machine does not let the test mount a tmpfs")
+
         # what --resume refuses
         done = os.path.join(tmp, "unbiased_whole")
         for args, expect, msg in (
