@@ -27,8 +27,7 @@ int cmd_denoise(int argc, char **argv)
     char dn_help[300];
     snprintf(dn_help, sizeof dn_help,
              "the denoiser: %s, plugin:PATH.so or python:MODULE:CALLABLE (default asvgf; one that "
-             "needs gradient samples "
-             "runs as its fallback on captures without them)",
+             "needs gradient samples runs as its fallback on captures without them)",
              pl_denoiser_names());
     const app_opt opts[] = {
         {"captures", APP_OPT_STRING, &captures, "DIR",

@@ -191,12 +191,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
              "docs/denoise.md)",
              pl_denoiser_names());
     /* what render and reference share: where, what, the path (one entry each) */
-#define COMMON_OPTS                                                                                \
-    {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"},                         \
-        {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"}, \
-    {                                                                                              \
-        "frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help                                  \
-    }
+#define COMMON_OPTS \
+    {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"}, \
+    {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"}, \
+    {"frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help}
 #define PATH_OPTS \
     {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"}, \
     {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"}, \
