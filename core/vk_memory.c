@@ -185,8 +185,8 @@ tnd_result tnd_image_create(tnd_vk *vk, const tnd_image_desc *desc, tnd_image *i
     if (desc->width == 0 || desc->height == 0 || desc->width > vk->info.max_image_dimension_2d ||
         desc->height > vk->info.max_image_dimension_2d)
         return tnd_fail(TND_ERR_LIMIT,
-                        "vulkan: image '%s' of %ux%u: beyond %s's largest 2D image, %u a side "
-                        "(a smaller --size)",
+                        "vulkan: image '%s' of %ux%u: beyond the device limit, %s's largest 2D "
+                        "image, %u a side (a smaller --size)",
                         name, desc->width, desc->height, vk->info.name,
                         vk->info.max_image_dimension_2d);
     VkImageUsageFlags usage =
