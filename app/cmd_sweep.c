@@ -913,8 +913,12 @@ int app_sweep(const app_list *sweeps, const char *scene, const app_env *env, con
         res = plan_write(P);
     if (res == TND_OK && emit)
         res = emit_slurm(P, shards);
+    if (emit) { /* (written for Slurm: nothing runs here) */
+        free(P);
+        return res == TND_OK ? APP_EXIT_OK : app_report("bench", res);
+    }
     int stopped = 0, lock_fd = -1;
-    if (res == TND_OK && !emit && (res = app_lock_dir(out, &lock_fd)) == TND_OK)
+    if (res == TND_OK && (res = app_lock_dir(out, &lock_fd)) == TND_OK)
         res = run_local(P, false, &stopped);
     free(P);
     int rc = finish_local(res, stopped, out, "bench");
