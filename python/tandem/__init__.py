@@ -107,6 +107,17 @@ class Scene:
 
 
 # ---- captures -------------------------------------------------------------------------------
+class _View(np.ndarray):
+    """A view of memory another object owns, holding that object (a capture's plane stays valid
+    as long as any array made from it lives)."""
+
+
+def _owned(arr, owner):
+    v = arr.view(_View)
+    v._owner = owner
+    return v
+
+
 class Capture:
     """One frame of the contract. ``cap["albedo"]`` is a view of the entry's plane (writable:
     set present for entries you fill), ``cap.present(name)``, ``cap.camera`` (a dict of views:
@@ -131,9 +142,8 @@ class Capture:
         e, comps, dtype = self._index(name)
         p = lib.tandem_capture_plane(self._h, e)
         buf = ffi.buffer(p, self.width * self.height * comps * 4)
-        arr = np.frombuffer(buf, dtype=dtype).reshape(self.height, self.width, comps)
-        arr.flags.writeable = True
-        return arr
+        return _owned(np.frombuffer(buf, dtype=dtype).reshape(self.height, self.width, comps),
+                      self)
 
     def __setitem__(self, name, value):
         self[name][...] = value
@@ -160,7 +170,8 @@ class Capture:
     def camera(self):
         ffi, lib = _lib()
         c = lib.tandem_capture_camera(self._h)
-        f = lambda field, n: np.frombuffer(ffi.buffer(getattr(c, field), 4 * n), np.float32)
+        f = lambda field, n: _owned(np.frombuffer(ffi.buffer(getattr(c, field), 4 * n),
+                                                  np.float32), self)
         return {"view": f("view", 16), "proj": f("proj", 16), "prev_view": f("prev_view", 16),
                 "prev_proj": f("prev_proj", 16), "jitter": f("jitter", 2),
                 "frame_index": c.frame_index}

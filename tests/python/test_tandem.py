@@ -64,6 +64,12 @@ def test_capture_round_trip(tmp_path):
     for k in a.keys():
         assert np.array_equal(a[k], b[k]), k
     assert np.array_equal(a.camera["view"], b.camera["view"])
+    # a view outlives the expression that read its capture (the view holds the capture)
+    import gc
+    albedo = tandem.read_capture(str(out / "capture" / "frame_0000.exr"))["albedo"][2:5]
+    gc.collect()
+    junk = [tandem.Capture(40, 30) for _ in range(4)]  # (memory a freed plane would go to)
+    assert np.array_equal(albedo, a["albedo"][2:5]) and len(junk) == 4
     # made from arrays: the required entries, a camera left out
     c = tandem.Capture(8, 6)
     rng = np.random.default_rng(1)
