@@ -200,28 +200,9 @@ static tnd_result spec_read(const char *path, spec *s)
         "env_rotation", "up",          "camera",      "no_default_light"};
     tnd_result res = TND_OK;
     memset(s, 0, sizeof *s);
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return tnd_fail(TND_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    char *text = NULL;
-    size_t len = 0, cap = 0;
-    for (;;) {
-        if (len + 4096 + 1 > cap) {
-            char *t = realloc(text, cap = 2 * cap + 8192);
-            if (!t) {
-                free(text);
-                fclose(f);
-                return tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
-            }
-            text = t;
-        }
-        size_t got = fread(text + len, 1, 4096, f);
-        len += got;
-        if (got < 4096)
-            break;
-    }
-    fclose(f);
-    text[len] = 0;
+    void *text = NULL;
+    size_t len = 0;
+    TND_TRY_RETURN(tnd_file_read(path, &text, &len));
     s->root = cJSON_Parse(text);
     free(text);
     if (!cJSON_IsObject(s->root))

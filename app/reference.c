@@ -153,27 +153,11 @@ tnd_result app_ref_partial_read(const char *dir, cJSON **out)
     char path[1700];
     snprintf(path, sizeof path, "%s/reference.partial.json", dir);
     *out = NULL;
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
+    void *text = NULL;
+    size_t len = 0;
+    if (tnd_file_read(path, &text, &len) != TND_OK)
         return tnd_fail(TND_ERR_IO, "--resume %s: no %s (not an interrupted reference%s)", dir,
                         path, access_ok(dir) ? "; a finished one has reference.json" : "");
-    char *text = NULL;
-    size_t len = 0;
-    for (;;) {
-        char *t = realloc(text, len + 65537);
-        if (!t) {
-            free(text);
-            fclose(fp);
-            return tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
-        }
-        text = t;
-        size_t got = fread(text + len, 1, 65536, fp);
-        len += got;
-        if (got < 65536)
-            break;
-    }
-    fclose(fp);
-    text[len] = 0;
     cJSON *j = cJSON_Parse(text);
     free(text);
     const cJSON *args = cJSON_GetObjectItemCaseSensitive(j, "args");

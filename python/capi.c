@@ -649,24 +649,9 @@ static int run_command(int (*cmd)(int, char **), const char *name, char **argv, 
 
 static char *read_text(const char *path)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        tnd_fail(TND_ERR_IO, "%s: cannot open", path);
-        return NULL;
-    }
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *t = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (t && fread(t, 1, (size_t)n, f) == (size_t)n) {
-        t[n] = 0;
-    } else {
-        free(t);
-        t = NULL;
-        tnd_fail(TND_ERR_IO, "%s: cannot read", path);
-    }
-    fclose(f);
-    return t;
+    void *t = NULL;
+    size_t n = 0;
+    return tnd_file_read(path, &t, &n) == TND_OK ? t : NULL;
 }
 
 API char *tandem_eval(const char *options_json)
