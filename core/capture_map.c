@@ -12,6 +12,7 @@
 #include <cjson/cJSON.h>
 #include <ctype.h>
 #include <dirent.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -76,6 +77,16 @@ struct tnd_capture_map {
 static tnd_result map_error(const char *path, const char *what)
 {
     return tnd_fail(TND_ERR_BAD_INPUT, "mapping: %s: %s", path, what);
+}
+
+/* A JSON number that becomes a float: finite and representable (a mapping's 1e39 or a number
+ * cJSON read as inf would turn every value it touches into inf or NaN). */
+static bool float_item(const cJSON *n, float *out)
+{
+    if (!cJSON_IsNumber(n) || !isfinite(n->valuedouble) || fabs(n->valuedouble) > FLT_MAX)
+        return false;
+    *out = (float)n->valuedouble;
+    return true;
 }
 
 /* ---- file patterns -------------------------------------------------------------------------- */
@@ -311,10 +322,19 @@ static bool load_camera(tnd_capture_map *m, const cJSON *root, char *msg, size_t
         return true;
     const cJSON *xf = cJSON_GetObjectItemCaseSensitive(cam, "xfov_degrees");
     const cJSON *yf = cJSON_GetObjectItemCaseSensitive(cam, "yfov_degrees");
-    if (cJSON_IsNumber(xf))
-        m->xfov = (float)(xf->valuedouble * TND_PI / 180.0);
-    if (cJSON_IsNumber(yf))
-        m->yfov = (float)(yf->valuedouble * TND_PI / 180.0);
+    const cJSON *fovs[2] = {xf, yf};
+    float *fov_dst[2] = {&m->xfov, &m->yfov};
+    for (int a = 0; a < 2; a++) {
+        if (!fovs[a])
+            continue;
+        if (!cJSON_IsNumber(fovs[a]) || !(fovs[a]->valuedouble > 0) ||
+            !(fovs[a]->valuedouble < 180)) {
+            snprintf(msg, cap, "camera.%s: degrees in (0, 180) expected",
+                     a ? "yfov_degrees" : "xfov_degrees");
+            return false;
+        }
+        *fov_dst[a] = (float)(fovs[a]->valuedouble * TND_PI / 180.0);
+    }
     const char *hdr = str_item(cam, "header"), *file = str_item(cam, "file");
     const char *conv = str_item(cam, "convention");
     if (hdr) {
@@ -451,7 +471,7 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
         goto fail;
     }
     const cJSON *ver = cJSON_GetObjectItemCaseSensitive(root, "tandem_mapping");
-    if (!cJSON_IsNumber(ver) || ver->valueint != 1) {
+    if (!cJSON_IsNumber(ver) || ver->valuedouble != 1.0) {
         res = map_error(path, "\"tandem_mapping\": 1 expected (the mapping format version)");
         goto fail;
     }
@@ -563,14 +583,14 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
             const cJSON *a = cJSON_GetObjectItemCaseSensitive(it, vec_keys[v]);
             if (!a)
                 continue;
-            if (cJSON_IsNumber(a)) {
-                for (uint32_t k = 0; k < me->nchan; k++)
-                    vec_dst[v][k] = (float)a->valuedouble;
-            } else if (cJSON_IsArray(a) && cJSON_GetArraySize(a) == (int)me->nchan) {
-                for (uint32_t k = 0; k < me->nchan; k++)
-                    vec_dst[v][k] = (float)cJSON_GetArrayItem(a, (int)k)->valuedouble;
-            } else {
-                snprintf(msg, sizeof msg, "entry '%s': \"%s\" must be a number or %u numbers",
+            bool good = cJSON_IsNumber(a) || (cJSON_IsArray(a) &&
+                                               cJSON_GetArraySize(a) == (int)me->nchan);
+            for (uint32_t k = 0; good && k < me->nchan; k++)
+                good = float_item(cJSON_IsArray(a) ? cJSON_GetArrayItem(a, (int)k) : a,
+                                  &vec_dst[v][k]);
+            if (!good) {
+                snprintf(msg, sizeof msg,
+                         "entry '%s': \"%s\" must be a finite number or %u finite numbers",
                          ci->name, vec_keys[v], me->nchan);
                 res = map_error(path, msg);
                 goto fail;
@@ -579,11 +599,12 @@ tnd_result tnd_capture_map_load(const char *path, tnd_capture_map **out)
         me->normalize = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(it, "normalize"));
         const cJSON *miss = cJSON_GetObjectItemCaseSensitive(it, "miss_at_or_above");
         if (miss) {
-            if (!cJSON_IsNumber(miss) || ci->id != TND_CT_DEPTH || !(miss->valuedouble > 0)) {
-                res = map_error(path, "\"miss_at_or_above\": a positive number, on depth only");
+            if (!float_item(miss, &me->miss_at) || ci->id != TND_CT_DEPTH ||
+                !(me->miss_at > 0)) {
+                res = map_error(path,
+                                "\"miss_at_or_above\": a positive finite number, on depth only");
                 goto fail;
             }
-            me->miss_at = (float)miss->valuedouble;
         }
         const cJSON *div = cJSON_GetObjectItemCaseSensitive(it, "divide_by");
         if (div) {
@@ -787,8 +808,8 @@ static tnd_result camera_mitsuba(const tnd_capture_map *map, const char *dir, co
                 fov->valuedouble > 0 && fov->valuedouble < 180;
     for (int i = 0; good && i < 16; i++) {
         const cJSON *v = cJSON_GetArrayItem(tw, i);
-        good = cJSON_IsNumber(v);
-        a[i] = good ? (float)v->valuedouble : 0.0f;
+        a[i] = 0.0f;
+        good = float_item(v, &a[i]);
     }
     if (good && axis)
         good = !strcmp(axis, "x") || !strcmp(axis, "y") || !strcmp(axis, "smaller") ||

@@ -607,6 +607,41 @@ static void test_cycles_mapping(void)
     CHECK(tnd_capture_map_load(mp, &map) == TND_ERR_BAD_INPUT &&
               strstr(tnd_error_detail(), "'colour' is not a contract entry"),
           "unknown entry: %s", tnd_error_detail());
+
+    /* every number that becomes a float or an angle is range-checked: extremes are refused with
+     * the key named, never read as inf/NaN or a string's 0 (cJSON reads 1e999 as inf) */
+    static const struct {
+        const char *json, *expect;
+    } extremes[] = {
+        {"{\"tandem_mapping\": 1.5, \"entries\": {}}", "\"tandem_mapping\": 1 expected"},
+        {"{\"tandem_mapping\": 1, \"camera\": {\"xfov_degrees\": 180}, \"entries\": {}}",
+         "camera.xfov_degrees: degrees in (0, 180)"},
+        {"{\"tandem_mapping\": 1, \"camera\": {\"yfov_degrees\": -1}, \"entries\": {}}",
+         "camera.yfov_degrees: degrees in (0, 180)"},
+        {"{\"tandem_mapping\": 1, \"camera\": {\"xfov_degrees\": \"40\"}, \"entries\": {}}",
+         "camera.xfov_degrees: degrees in (0, 180)"},
+        {"{\"tandem_mapping\": 1, \"entries\": {\"albedo\": {\"channels\": [\"R\", \"G\", "
+         "\"B\"], \"scale\": 1e999}}}",
+         "\"scale\" must be a finite number"},
+        {"{\"tandem_mapping\": 1, \"entries\": {\"albedo\": {\"channels\": [\"R\", \"G\", "
+         "\"B\"], \"offset\": [0, 1e39, 0]}}}",
+         "\"offset\" must be a finite number"},
+        {"{\"tandem_mapping\": 1, \"entries\": {\"albedo\": {\"channels\": [\"R\", \"G\", "
+         "\"B\"], \"scale\": [1, \"2\", 1]}}}",
+         "\"scale\" must be a finite number"},
+        {"{\"tandem_mapping\": 1, \"entries\": {\"depth\": {\"channels\": [\"Z\"], "
+         "\"miss_at_or_above\": 1e999}}}",
+         "\"miss_at_or_above\": a positive finite number"},
+    };
+    for (size_t x = 0; x < sizeof extremes / sizeof extremes[0]; x++) {
+        REQUIRE_OK(tnd_file_write_atomic(mp, extremes[x].json, strlen(extremes[x].json)));
+        r = tnd_capture_map_load(mp, &map);
+        CHECK(r == TND_ERR_BAD_INPUT && strstr(tnd_error_detail(), "partial.json") &&
+                  strstr(tnd_error_detail(), extremes[x].expect),
+              "extreme %zu refused (%s): %s", x, extremes[x].expect, tnd_error_detail());
+        tnd_capture_map_destroy(map);
+        map = NULL;
+    }
 cleanup:
     tnd_capture_map_destroy(map);
     tnd_frame_destroy(&f);
