@@ -1199,9 +1199,19 @@ fail:
     if (timings)
         fclose(timings);
     timings = NULL;
-    if (status == APP_EXIT_FAIL && begun_output)
+    /* A reference that lost its device keeps its checkpoints (nothing in it is wrong: the machine
+     * failed), so that it goes on where it stopped; any other failure leaves no partial output. */
+    bool keep_state = status == APP_EXIT_FAIL && finished && tnd_vk_device_lost();
+    if (keep_state) {
+        snprintf(path, sizeof path, "%s/reference.partial.json", o.out);
+        keep_state = access(path, F_OK) == 0;
+    }
+    if (keep_state)
+        fprintf(stderr, "tandem: %s: its checkpoints are kept: tandem reference --resume %s goes "
+                        "on from the last one\n", what, o.out);
+    else if (status == APP_EXIT_FAIL && begun_output)
         remove_partial(&o, out_existed, dumps_made, frames_begun, finished);
-    if (lock_fd >= 0 && (status != APP_EXIT_FAIL || out_existed))
+    if (lock_fd >= 0 && (status != APP_EXIT_FAIL || out_existed || keep_state))
         app_unlock_dir(o.out, lock_fd);
     else if (lock_fd >= 0) /* (the directory itself is gone) */
         close(lock_fd);

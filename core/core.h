@@ -65,6 +65,9 @@ void tnd_error_clear(void);
 const char *tnd_vk_result_name(VkResult r);
 /* Records `file:line: call -> VK_ERROR_...` and returns TND_ERR_VULKAN. */
 tnd_result tnd_fail_vk(const char *file, int line, const char *call, VkResult r);
+/* Has a Vulkan call in this process returned VK_ERROR_DEVICE_LOST (through tnd_fail_vk)? A run
+ * that stops on it failed through no fault of its own: what it can resume from is kept. */
+bool tnd_vk_device_lost(void);
 
 /* Check a Vulkan call in every build; on failure record the message, set `res` and jump to the
  * function's `fail:` cleanup label. The enclosing function declares `tnd_result res`. */
@@ -320,6 +323,12 @@ bool tnd_vk_memory_in_use(const tnd_vk *vk, uint64_t *bytes);
  * allocations alive in the process: tnd_vk_live_allocations. */
 VkResult tnd_vk_allocate(const tnd_vk *vk, const VkMemoryAllocateInfo *ai, VkDeviceMemory *out);
 void tnd_vk_free(const tnd_vk *vk, VkDeviceMemory m);
+/* Every wait for the device's work goes through here (one fence, no timeout: a lost device
+ * returns VK_ERROR_DEVICE_LOST rather than hang). $TANDEM_FAULT makes this and tnd_vk_allocate
+ * fail as a driver would (docs/reliability.md, "Faults"). */
+VkResult tnd_vk_wait(const tnd_vk *vk, VkFence fence);
+/* With $TANDEM_FAULT set: the waits and allocations counted so far, to stderr (tnd_vk_destroy). */
+void tnd_vk_fault_report(void);
 uint64_t tnd_vk_live_allocations(void);
 
 /* ---------------------------------------------------------------------------------------------

@@ -3,6 +3,7 @@
 #include "core/core.h"
 
 #include <errno.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -94,11 +95,26 @@ const char *tnd_vk_result_name(VkResult r)
     }
 }
 
+static _Atomic bool device_lost;
+
+bool tnd_vk_device_lost(void)
+{
+    return device_lost;
+}
+
 tnd_result tnd_fail_vk(const char *file, int line, const char *call, VkResult r)
 {
     /* Keep the call short: up to its first parenthesis, which names the function. */
     int n = (int)strcspn(call, "(");
     const char *base = strrchr(file, '/');
+    if (r == VK_ERROR_DEVICE_LOST) /* (what the user needs: it is not Tandem's input) */
+        device_lost = true;
+    if (r == VK_ERROR_DEVICE_LOST)
+        return tnd_fail(TND_ERR_VULKAN,
+                        "vulkan: the device was lost (%s:%d: %.*s -> VK_ERROR_DEVICE_LOST): a "
+                        "driver reset, a GPU fault or work that ran past the driver's time "
+                        "limit; the work in flight is gone",
+                        base ? base + 1 : file, line, n, call);
     return tnd_fail(TND_ERR_VULKAN, "%s:%d: %.*s -> %s", base ? base + 1 : file, line, n, call,
                     tnd_vk_result_name(r));
 }

@@ -577,6 +577,7 @@ fail:
 void tnd_vk_destroy(tnd_vk *vk)
 {
     if (vk->device) {
+        tnd_vk_fault_report();
         vkDeviceWaitIdle(vk->device);
         if (vk->fence)
             vkDestroyFence(vk->device, vk->fence, NULL);

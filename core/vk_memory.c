@@ -6,8 +6,10 @@
  * tnd_image_upload, tnd_cmd_begin, tnd_cmd_submit_wait, tnd_cmd_barrier. */
 #include "core/core.h"
 
+#include <pthread.h>
 #include <stdio.h>
 #include <stdatomic.h>
+#include <stdlib.h>
 #include <string.h>
 
 uint32_t tnd_vk_memory_type(const tnd_vk *vk, uint32_t bits, VkMemoryPropertyFlags props)
@@ -325,7 +327,7 @@ tnd_result tnd_cmd_submit_wait(tnd_vk *vk, VkCommandBuffer cmd)
         .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &cmd};
     TND_VK_TRY(vkResetFences(vk->device, 1, &vk->fence));
     TND_VK_TRY(vkQueueSubmit(vk->queue, 1, &si, vk->fence));
-    TND_VK_TRY(vkWaitForFences(vk->device, 1, &vk->fence, VK_TRUE, UINT64_MAX));
+    TND_VK_TRY(tnd_vk_wait(vk, vk->fence));
 fail:
     vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
     return res;
@@ -374,7 +376,7 @@ tnd_result tnd_pending_wait(tnd_vk *vk, tnd_pending *p)
     tnd_result res = TND_OK;
     if (!p->cmd)
         return TND_OK;
-    TND_VK_TRY(vkWaitForFences(vk->device, 1, &p->fence, VK_TRUE, UINT64_MAX));
+    TND_VK_TRY(tnd_vk_wait(vk, p->fence));
 fail: /* (a lost device: the command buffer goes all the same) */
     vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &p->cmd);
     p->cmd = VK_NULL_HANDLE;
@@ -422,11 +424,80 @@ bool tnd_vk_memory_in_use(const tnd_vk *vk, uint64_t *bytes)
  * a count that grows). */
 static _Atomic uint64_t live_allocations;
 
+/* ---- faults as a driver would report them ($TANDEM_FAULT, docs/reliability.md) ---------------
+ * What a run does when the device runs out of memory or is lost cannot be provoked on demand on
+ * real devices (lavapipe allocates from host memory; a lost device needs a driver reset), so the
+ * two places every allocation and every wait for the device's work pass through can be told to
+ * fail as the driver would:
+ *   device-memory=MB  an allocation that takes the process's device allocations (all made since
+ *                     it started, freed ones included) past MB fails, VK_ERROR_OUT_OF_DEVICE_MEMORY;
+ *   device-lost=N     the Nth wait for the device's work (counted in the process) and every one
+ *                     after it return VK_ERROR_DEVICE_LOST (the work itself finishes first, so
+ *                     what is destroyed afterwards is idle, as after a real loss).
+ * Comma-separated; a malformed value is reported once and ignored. */
+static struct {
+    uint64_t memory_limit; /* bytes; 0: none */
+    uint64_t lost_at;      /* waits; 0: none */
+    _Atomic uint64_t allocated, waits;
+} fault;
+static pthread_once_t fault_once = PTHREAD_ONCE_INIT;
+
+static void fault_init(void)
+{
+    const char *v = getenv("TANDEM_FAULT");
+    if (!v || !*v)
+        return;
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", v);
+    for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+        char *eq = strchr(t, '='), *end = NULL;
+        unsigned long long n = eq ? strtoull(eq + 1, &end, 10) : 0;
+        bool num = eq && end != eq + 1 && !*end && n > 0 && eq[1] != '-';
+        if (num && !strncmp(t, "device-memory=", 14) && n < (1ull << 44)) {
+            fault.memory_limit = n << 20;
+            tnd_warn("vulkan", "TANDEM_FAULT: device allocations fail past %llu MB (simulated)", n);
+        } else if (num && !strncmp(t, "device-lost=", 12)) {
+            fault.lost_at = n;
+            tnd_warn("vulkan", "TANDEM_FAULT: the device is lost at wait %llu (simulated)", n);
+        } else {
+            tnd_warn("vulkan",
+                     "TANDEM_FAULT: '%s' ignored (device-memory=MB or device-lost=N expected)", t);
+        }
+    }
+}
+
 VkResult tnd_vk_allocate(const tnd_vk *vk, const VkMemoryAllocateInfo *ai, VkDeviceMemory *out)
 {
+    pthread_once(&fault_once, fault_init);
+    if (fault.memory_limit || fault.lost_at) {
+        uint64_t total = atomic_fetch_add(&fault.allocated, ai->allocationSize) + ai->allocationSize;
+        if (fault.memory_limit && total > fault.memory_limit) {
+            *out = VK_NULL_HANDLE;
+            return VK_ERROR_OUT_OF_DEVICE_MEMORY;
+        }
+    }
     VkResult r = vkAllocateMemory(vk->device, ai, NULL, out);
     if (r == VK_SUCCESS)
         live_allocations++;
+    return r;
+}
+
+void tnd_vk_fault_report(void)
+{
+    if (fault.lost_at || fault.memory_limit) /* (so that a test can place a loss within a run) */
+        tnd_warn("vulkan", "TANDEM_FAULT: %llu waits for the device, %.1f MB allocated so far",
+                 (unsigned long long)fault.waits, fault.allocated / 1048576.0);
+}
+
+VkResult tnd_vk_wait(const tnd_vk *vk, VkFence fence)
+{
+    pthread_once(&fault_once, fault_init);
+    VkResult r = vkWaitForFences(vk->device, 1, &fence, VK_TRUE, UINT64_MAX);
+    if (r == VK_SUCCESS && (fault.lost_at || fault.memory_limit)) {
+        uint64_t n = ++fault.waits;
+        if (fault.lost_at && n >= fault.lost_at)
+            r = VK_ERROR_DEVICE_LOST;
+    }
     return r;
 }
 

@@ -23,9 +23,16 @@ static void test_result_catalogue(void)
 static void test_vk_error_format(void)
 {
     tnd_result r = tnd_fail_vk("/a/b/core/vk.c", 42, "vkCreateDevice(phys, &ci, NULL, &dev)",
-                               VK_ERROR_DEVICE_LOST);
+                               VK_ERROR_INITIALIZATION_FAILED);
     CHECK(r == TND_ERR_VULKAN, "code");
-    CHECK(strcmp(tnd_error_detail(), "vk.c:42: vkCreateDevice -> VK_ERROR_DEVICE_LOST") == 0,
+    CHECK(strcmp(tnd_error_detail(), "vk.c:42: vkCreateDevice -> VK_ERROR_INITIALIZATION_FAILED") ==
+              0,
+          "got '%s'", tnd_error_detail());
+    /* a lost device says so in words (it is not the user's input) and still names the call */
+    r = tnd_fail_vk("/a/b/core/vk.c", 42, "vkWaitForFences(d, 1, &f, VK_TRUE, ~0ull)",
+                    VK_ERROR_DEVICE_LOST);
+    CHECK(r == TND_ERR_VULKAN && strstr(tnd_error_detail(), "the device was lost") &&
+              strstr(tnd_error_detail(), "vk.c:42: vkWaitForFences -> VK_ERROR_DEVICE_LOST"),
           "got '%s'", tnd_error_detail());
     CHECK(strcmp(tnd_vk_result_name(VK_ERROR_OUT_OF_DEVICE_MEMORY),
                  "VK_ERROR_OUT_OF_DEVICE_MEMORY") == 0,

@@ -7,6 +7,9 @@
 - A render and a denoise interrupted: exit 130 / 143, the frames written whole (no .tmp left),
   run.json or timings.json saying where it stopped; a local sweep interrupted and resumed with
   `tandem sweep resume DIR`: the figures of one never interrupted.
+- A reference whose device is lost partway keeps its checkpoints and resumes to the same files;
+  a render whose device is lost or whose device memory runs out stops at once with the cause in
+  words and leaves nothing (TANDEM_FAULT makes the driver's failures happen on demand).
 - --resume refuses what it cannot go on with, by name.
 """
 import json
@@ -79,6 +82,43 @@ def killed_and_resumed(c, tmp, name, args, rng, quick):
             [(f["spp"], f["rel_error"]) for f in b["frames"]])
 
 
+def fault_waits(err):
+    """The waits for the device a run made (TANDEM_FAULT's closing line)."""
+    for line in err.splitlines():
+        if "TANDEM_FAULT:" in line and "waits for the device" in line:
+            return int(line.split("TANDEM_FAULT:")[1].split()[0])
+    return -1
+
+
+def lost_and_resumed(c, tmp, name, args, rng):
+    """A reference whose device is lost partway (TANDEM_FAULT, as the driver reports it): a clear
+    message, exit 1, its checkpoints kept; --resume ends with the files of a run never stopped."""
+    whole = os.path.join(tmp, name + "_whole")
+    env = dict(os.environ, TANDEM_FAULT="device-lost=1000000000")  # (counts, never fires)
+    count = os.path.join(tmp, name + "_count")
+    r = subprocess.run([c.tandem, "reference", *args, "--out", count, "--quiet"], env=env,
+                       capture_output=True, text=True)
+    waits = fault_waits(r.stderr)
+    c.check(f"{name}: TANDEM_FAULT counts the run's waits for the device",
+            r.returncode == 0 and waits > 10, f"exit {r.returncode}, {waits}: {r.stderr[-300:]}")
+    at = rng.randint(waits // 2, waits - 2)
+    lost = os.path.join(tmp, name + "_lost")
+    env["TANDEM_FAULT"] = f"device-lost={at}"
+    t0 = time.time()
+    r = subprocess.run([c.tandem, "reference", *args, "--checkpoint", "0", "--out", lost,
+                        "--quiet"], env=env, capture_output=True, text=True, timeout=300)
+    state = os.path.join(lost, "reference.partial.json")
+    c.check(f"{name}: device lost at wait {at} of {waits}: exit 1 in {time.time() - t0:.1f} s, "
+            "said in words, the checkpoints kept, no partial file",
+            r.returncode == 1 and "the device was lost" in r.stderr and
+            f"--resume {lost}" in r.stderr and os.path.exists(state) and
+            not any(n.endswith(".tmp") for n in os.listdir(lost)), r.stderr.strip()[-400:])
+    c.run("reference", "--resume", lost, "--quiet")
+    names, diff = same_files(whole, lost)
+    c.check(f"{name}: lost device, resumed: {len(names)} files equal a run never stopped",
+            not diff and len(names) >= 6, f"differ: {diff}")
+
+
 def main():
     tandem = sys.argv[1]
     quick = "--quick" in sys.argv
@@ -94,6 +134,26 @@ def main():
                                                "--estimator", "realtime", "--frames", "3",
                                                "--size", "48x32", "--spp", spp,
                                                "--until-noise", "0.004"], rng, quick)
+
+        lost_and_resumed(c, tmp, "matched", ["--scene", CORNELL, "--frontend", "vk",
+                                             "--estimator", "realtime", "--frames", "3",
+                                             "--size", "48x32", "--spp", spp,
+                                             "--until-noise", "0.004"], rng)
+
+        # a render whose device is lost, and one whose device memory runs out: exit 1 at once,
+        # said in words, nothing left (TANDEM_FAULT: as the driver reports them)
+        for fault, args, expect in (
+                ("device-lost=140", ["--frames", "20", "--size", "64x40"],  # (mid-run: 207 waits)
+                 ["the device was lost", "VK_ERROR_DEVICE_LOST"]),
+                ("device-memory=4", ["--frames", "2", "--size", "640x360"],
+                 ["out of device memory for '", "a smaller --size"])):
+            out = os.path.join(tmp, "fault")
+            r = subprocess.run([tandem, "render", "--scene", CORNELL, "--frontend", "vk", *args,
+                                "--out", out, "--quiet"], capture_output=True, text=True,
+                               env=dict(os.environ, TANDEM_FAULT=fault), timeout=300)
+            c.check(f"render, {fault}: exit 1, {expect[0]!r}, no output",
+                    r.returncode == 1 and all(e in r.stderr for e in expect) and
+                    not os.path.exists(out), r.stderr.strip()[-300:])
 
         # a render interrupted between frames
         out = os.path.join(tmp, "render")

@@ -336,7 +336,7 @@ tnd_result vw_window_present(vw_window *w, const tnd_image *img)
     else if (r != VK_SUCCESS)
         res = tnd_fail(TND_ERR_VULKAN, "window: vkQueuePresentKHR: %s", tnd_vk_result_name(r));
     /* one frame at a time: the command buffer and semaphores are reused next frame */
-    TND_VK_TRY(vkWaitForFences(vk->device, 1, &w->fence, VK_TRUE, UINT64_MAX));
+    TND_VK_TRY(tnd_vk_wait(vk, w->fence));
 fail:
     return res;
 }
