@@ -480,6 +480,19 @@ int cmd_sweep(int argc, char **argv);
  * table, or JSON with every sample. */
 int app_soak(const char *scene, const app_env *env, const unsigned size[2], unsigned frames,
              const char *frontend, const char *denoiser, bool json);
+/* The soak recorder (app/soak.c), for any frame loop (bench's, the viewer's): begin with the
+ * frames planned, call _frame after each (it samples every frames/200-th and the last), _end
+ * judges (true: flat after the warm-up), _json is a cJSON object of the figures and samples,
+ * _print a table row (with its header when `title`). */
+typedef struct app_soak_rec app_soak_rec;
+app_soak_rec *app_soak_rec_begin(uint32_t frames);
+void app_soak_rec_frame(app_soak_rec *r, uint32_t f, bool last, const tnd_vk *vk);
+bool app_soak_rec_end(app_soak_rec *r, uint32_t frames, const char *frontend,
+                      const char *denoiser);
+void *app_soak_rec_json(const app_soak_rec *r);
+void app_soak_rec_print(const app_soak_rec *r, const char *title, const char *scene,
+                        const unsigned size[2]);
+void app_soak_rec_free(app_soak_rec *r);
 /* `tandem bench --extremes` (app/cmd_extremes.c) */
 int app_extremes(const char *scene, const char *out, const unsigned size[2], unsigned frames);
 

@@ -1017,6 +1017,8 @@ int cmd_view(int argc, char **argv)
     const char *scene = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = "vk",
                *denoiser = pl_denoiser_default(), *state = NULL, *script = NULL, *out = ".";
     unsigned size[2] = {640, 360}, frames = 0;
+    bool soak = false, json = false;
+    app_soak_rec *rec = NULL;
     app_env env = APP_ENV_INIT;
     char fe_help[200], dn_help[300];
     snprintf(fe_help, sizeof fe_help, "the front-end: %s (default vk)", pl_frontend_live_names());
@@ -1033,6 +1035,10 @@ int cmd_view(int argc, char **argv)
         {"script", APP_OPT_STRING, &script, "FILE",
          "play timed key, mouse and resize events, then exit (docs/viewer.md)"},
         {"frames", APP_OPT_UINT, &frames, "N", "exit after N frames (default: when closed)"},
+        {"soak", APP_OPT_FLAG, &soak, NULL,
+         "with --frames N: sample memory, descriptors and device allocations over the viewer's "
+         "loop and print whether they stay flat, as bench --soak does (docs/reliability.md)"},
+        {"json", APP_OPT_FLAG, &json, NULL, "--soak's figures as JSON, with every sample"},
         {"out", APP_OPT_STRING, &out, "DIR", "where screenshots and captures go (default .)"},
         APP_ENV_OPTS(&env),
         {0},
@@ -1043,6 +1049,11 @@ int cmd_view(int argc, char **argv)
     if (rc >= 0) {
         free(v);
         return rc;
+    }
+    if (soak && !frames) {
+        free(v);
+        fprintf(stderr, "tandem view: --soak needs --frames N (the frames it judges)\n");
+        return APP_EXIT_USAGE;
     }
     tnd_result res = TND_OK;
     script_event *events = NULL;
@@ -1116,6 +1127,10 @@ int cmd_view(int argc, char **argv)
     TND_TRY(open_pipeline(v));
     char device[300];
     snprintf(device, sizeof device, "%s", v->vk.info.name);
+    if (soak && !(rec = app_soak_rec_begin(frames))) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
+        goto fail;
+    }
     v->t_last = tnd_now();
     double avg_dt = 0, t_start = tnd_now();
     while (!v->quit && !app_interrupted() && vw_window_poll(v->win)) {
@@ -1166,6 +1181,7 @@ int cmd_view(int argc, char **argv)
             memset(v->overlay_px, 0, (size_t)OVERLAY_W * OVERLAY_H * 4);
         TND_TRY(frame(v));
         v->steps++;
+        app_soak_rec_frame(rec, v->steps - 1, frames && v->steps >= frames, &v->vk);
         if (v->want_shot) {
             v->want_shot = false;
             TND_TRY(screenshot(v));
@@ -1185,6 +1201,25 @@ int cmd_view(int argc, char **argv)
                 "screenshot%s\n", v->steps, tnd_now() - t_start,
                 v->steps / fmax(1e-9, tnd_now() - t_start), s->size[0], s->size[1], device,
                 v->shots, v->shots == 1 ? "" : "s");
+    if (rec) { /* (the front-end and denoiser the loop ended with) */
+        app_soak_rec_end(rec, v->steps, s->frontend, s->denoiser);
+        if (json) {
+            cJSON *root = cJSON_CreateObject(), *runs = cJSON_AddArrayToObject(root, "runs");
+            cJSON_AddStringToObject(root, "scene", s->scene);
+            cJSON_AddNumberToObject(root, "frames", v->steps);
+            cJSON_AddNumberToObject(root, "width", s->size[0]);
+            cJSON_AddNumberToObject(root, "height", s->size[1]);
+            cJSON *row = app_soak_rec_json(rec);
+            cJSON_AddBoolToObject(root, "flat", cJSON_IsTrue(cJSON_GetObjectItem(row, "flat")));
+            cJSON_AddItemToArray(runs, row);
+            char *t = cJSON_Print(root);
+            printf("%s\n", t ? t : "{}");
+            free(t);
+            cJSON_Delete(root);
+        } else {
+            app_soak_rec_print(rec, "in the viewer's loop", s->scene, s->size);
+        }
+    }
     status = APP_EXIT_OK;
     if (app_interrupted()) { /* (the window closed as by its close button: screenshots kept) */
         fprintf(stderr, "tandem: view: interrupted (%s)\n", app_signal_name(app_interrupted()));
@@ -1208,6 +1243,7 @@ fail:
     app_view_state_free(s);
     free(v->overlay_px);
     free(events);
+    app_soak_rec_free(rec);
     free(v);
     return status;
 }

@@ -2,8 +2,9 @@
  * each front-end and denoiser, sampling the process's resident memory (/proc/self/statm), its
  * open file descriptors (/proc/self/fd) and the device memory in use (VK_EXT_memory_budget) as
  * it goes; after a warm-up each must stay flat: what a run of hours would leak shows in a few
- * hundred frames as a slope (docs/reliability.md).
- * Entry point: app_soak. */
+ * hundred frames as a slope (docs/reliability.md). The recorder (app_soak_rec_*) is what
+ * `tandem view --soak` samples the viewer's own loop with.
+ * Entry points: app_soak, app_soak_rec_*. */
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
@@ -65,39 +66,36 @@ typedef struct soak_row {
     bool flat;
 } soak_row;
 
-/* One front-end and denoiser: n frames, samples into `out` (room for `cap`). */
-static tnd_result soak_one(const app_render_opts *o, uint32_t n, soak_sample *out, uint32_t cap,
-                           uint32_t *count, soak_row *row)
+enum { SOAK_CAP = 200 }; /* samples kept per run (every frames/CAP-th frame) */
+
+struct app_soak_rec {
+    soak_sample sm[SOAK_CAP];
+    uint32_t k, every;
+    double t0;
+    soak_row row;
+};
+
+app_soak_rec *app_soak_rec_begin(uint32_t frames)
 {
-    tnd_result res = TND_OK;
-    app_session *s = NULL;
-    float *rgb = malloc((size_t)o->size[0] * o->size[1] * 3 * sizeof *rgb);
-    uint32_t every = n / cap + 1, k = 0;
-    if (!rgb)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "soak: out of memory");
-    TND_TRY(app_session_open(o, false, NULL, &s));
-    snprintf(row->denoiser, sizeof row->denoiser, "%s", app_session_denoiser(s));
-    double t0 = tnd_now();
-    uint32_t f = 0;
-    for (; f < n && !app_interrupted(); f++) {
-        TND_TRY(app_session_frame(s, f, rgb, NULL, NULL));
-        if ((f % every == 0 || f + 1 == n) && k < cap) {
-            uint64_t dev = 0;
-            const tnd_vk *vk = app_session_vk(s);
-            /* (a CPU device's heap is the host's memory, shared with everything: RSS stands) */
-            bool known = vk && vk->info.type != VK_PHYSICAL_DEVICE_TYPE_CPU &&
-                         tnd_vk_memory_in_use(vk, &dev);
-            out[k++] = (soak_sample){f, rss_mb(), known ? dev / 1048576.0 : -1, open_fds(),
-                                     tnd_vk_live_allocations()};
-        }
-    }
-    row->seconds = tnd_now() - t0;
-    row->frames = f;
-fail:
-    *count = k;
-    app_session_close(s);
-    free(rgb);
-    return res;
+    app_soak_rec *r = calloc(1, sizeof *r);
+    if (!r)
+        return NULL;
+    r->every = frames / SOAK_CAP + 1;
+    r->row.warmup = frames / 10 > 20 ? frames / 10 : 20;
+    r->t0 = tnd_now();
+    return r;
+}
+
+void app_soak_rec_frame(app_soak_rec *r, uint32_t f, bool last, const tnd_vk *vk)
+{
+    if (!r || (f % r->every != 0 && !last) || r->k == SOAK_CAP)
+        return;
+    uint64_t dev = 0;
+    /* (a CPU device's heap is the host's memory, shared with everything: RSS stands) */
+    bool known = vk && vk->info.type != VK_PHYSICAL_DEVICE_TYPE_CPU &&
+                 tnd_vk_memory_in_use(vk, &dev);
+    r->sm[r->k++] = (soak_sample){f, rss_mb(), known ? dev / 1048576.0 : -1, open_fds(),
+                                  tnd_vk_live_allocations()};
 }
 
 /* The figures of a run's samples after the warm-up. */
@@ -107,10 +105,10 @@ static void judge(const soak_sample *sm, uint32_t k, soak_row *r)
     while (b + 1 < k && sm[b].frame < r->warmup)
         b++;
     const soak_sample *base = &sm[b], *end = &sm[k - 1];
-    double x[1024], y[1024];
+    double x[SOAK_CAP], y[SOAK_CAP];
     uint32_t m = 0;
     r->rss_max = 0;
-    for (uint32_t i = b; i < k && m < 1024; i++, m++) {
+    for (uint32_t i = b; i < k; i++, m++) {
         x[m] = sm[i].frame, y[m] = sm[i].rss_mb * 1024.0;
         r->rss_max = sm[i].rss_mb > r->rss_max ? sm[i].rss_mb : r->rss_max;
     }
@@ -126,10 +124,103 @@ static void judge(const soak_sample *sm, uint32_t k, soak_row *r)
               r->dev_end == r->dev_base;
 }
 
+bool app_soak_rec_end(app_soak_rec *r, uint32_t frames, const char *frontend,
+                      const char *denoiser)
+{
+    r->row.seconds = tnd_now() - r->t0;
+    r->row.frames = frames;
+    snprintf(r->row.frontend, sizeof r->row.frontend, "%s", frontend);
+    snprintf(r->row.denoiser, sizeof r->row.denoiser, "%s", denoiser);
+    if (r->k == 0)
+        return false;
+    judge(r->sm, r->k, &r->row);
+    return r->row.flat;
+}
+
+void *app_soak_rec_json(const app_soak_rec *rec)
+{
+    const soak_row *r = &rec->row;
+    cJSON *e = cJSON_CreateObject();
+    cJSON_AddStringToObject(e, "frontend", r->frontend);
+    cJSON_AddStringToObject(e, "denoiser", r->denoiser);
+    cJSON_AddNumberToObject(e, "frames", r->frames);
+    cJSON_AddNumberToObject(e, "warmup", r->warmup);
+    cJSON_AddNumberToObject(e, "seconds", r->seconds);
+    cJSON_AddNumberToObject(e, "rss_mb_base", r->rss_base);
+    cJSON_AddNumberToObject(e, "rss_mb_end", r->rss_end);
+    cJSON_AddNumberToObject(e, "rss_mb_max", r->rss_max);
+    cJSON_AddNumberToObject(e, "rss_kb_per_frame", r->rss_kb_per_frame);
+    cJSON_AddNumberToObject(e, "fds_base", r->fds_base);
+    cJSON_AddNumberToObject(e, "fds_end", r->fds_end);
+    cJSON_AddNumberToObject(e, "vk_allocations_base", (double)r->allocs_base);
+    cJSON_AddNumberToObject(e, "vk_allocations_end", (double)r->allocs_end);
+    if (r->dev_base >= 0) {
+        cJSON_AddNumberToObject(e, "device_mb_base", r->dev_base);
+        cJSON_AddNumberToObject(e, "device_mb_end", r->dev_end);
+    }
+    cJSON_AddBoolToObject(e, "flat", r->flat);
+    cJSON *ss = cJSON_AddArrayToObject(e, "samples");
+    for (uint32_t i = 0; i < rec->k; i++) {
+        const soak_sample *q = &rec->sm[i];
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddNumberToObject(o, "frame", q->frame);
+        cJSON_AddNumberToObject(o, "rss_mb", q->rss_mb);
+        cJSON_AddNumberToObject(o, "fds", q->fds);
+        cJSON_AddNumberToObject(o, "vk_allocations", (double)q->allocations);
+        if (q->device_mb >= 0)
+            cJSON_AddNumberToObject(o, "device_mb", q->device_mb);
+        cJSON_AddItemToArray(ss, o);
+    }
+    return e;
+}
+
+void app_soak_rec_print(const app_soak_rec *rec, const char *title, const char *scene,
+                        const unsigned size[2])
+{
+    const soak_row *r = &rec->row;
+    if (title)
+        printf("soak: %u frames of %s at %ux%u %s; after a warm-up of %u frames:\n%-8s %-10s "
+               "%8s %8s %8s %10s %7s %9s %14s %6s\n",
+               r->frames, scene, size[0], size[1], title, r->warmup, "frontend", "denoiser", "fps",
+               "RSS MB", "+MB", "KB/frame", "fds", "vk allocs", "device MB", "");
+    char dev[40] = "-";
+    if (r->dev_base >= 0)
+        snprintf(dev, sizeof dev, "%.1f -> %.1f", r->dev_base, r->dev_end);
+    printf("%-8s %-10s %8.1f %8.1f %+8.2f %10.3f %3u->%-3u %4llu->%-4llu %14s %6s\n", r->frontend,
+           r->denoiser, r->frames / r->seconds, r->rss_end, r->rss_end - r->rss_base,
+           r->rss_kb_per_frame, r->fds_base, r->fds_end, (unsigned long long)r->allocs_base,
+           (unsigned long long)r->allocs_end, dev, r->flat ? "flat" : "GROWS");
+}
+
+void app_soak_rec_free(app_soak_rec *r)
+{
+    free(r);
+}
+
+/* One front-end and denoiser: n frames of render's loop into `rec`. */
+static tnd_result soak_one(const app_render_opts *o, uint32_t n, app_soak_rec *rec)
+{
+    tnd_result res = TND_OK;
+    app_session *s = NULL;
+    float *rgb = malloc((size_t)o->size[0] * o->size[1] * 3 * sizeof *rgb);
+    if (!rgb)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "soak: out of memory");
+    TND_TRY(app_session_open(o, false, NULL, &s));
+    uint32_t f = 0;
+    for (; f < n && !app_interrupted(); f++) {
+        TND_TRY(app_session_frame(s, f, rgb, NULL, NULL));
+        app_soak_rec_frame(rec, f, f + 1 == n, app_session_vk(s));
+    }
+    app_soak_rec_end(rec, f, o->frontend, app_session_denoiser(s));
+fail:
+    app_session_close(s);
+    free(rgb);
+    return res;
+}
+
 int app_soak(const char *scene, const app_env *env, const unsigned size[2], unsigned frames,
              const char *frontend, const char *denoiser, bool json)
 {
-    enum { CAP = 200 };
     tnd_result res = TND_OK;
     const char *fes[2] = {"embree", "vk"};
     uint32_t nfe = 2, ndn = pl_denoiser_count();
@@ -137,15 +228,7 @@ int app_soak(const char *scene, const app_env *env, const unsigned size[2], unsi
         fes[0] = frontend, nfe = 1;
     if (denoiser)
         ndn = 1;
-    soak_row *rows = calloc((size_t)nfe * ndn, sizeof *rows);
-    soak_sample *sm = calloc(CAP, sizeof *sm);
     cJSON *root = json ? cJSON_CreateObject() : NULL, *arr = NULL;
-    if (!rows || !sm) {
-        free(rows);
-        free(sm);
-        cJSON_Delete(root);
-        return app_report("bench", tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory"));
-    }
     if (root) {
         cJSON_AddStringToObject(root, "scene", scene);
         cJSON_AddNumberToObject(root, "frames", frames);
@@ -153,14 +236,7 @@ int app_soak(const char *scene, const app_env *env, const unsigned size[2], unsi
         cJSON_AddNumberToObject(root, "height", size[1]);
         arr = cJSON_AddArrayToObject(root, "runs");
     }
-    uint32_t nrows = 0;
-    bool all_flat = true;
-    if (!json)
-        printf("soak: %u frames of %s at %ux%u per front-end and denoiser; after a warm-up of "
-               "%u frames:\n%-8s %-10s %8s %8s %8s %10s %7s %9s %14s %6s\n",
-               frames, scene, size[0], size[1], frames / 10 > 20 ? frames / 10 : 20, "frontend",
-               "denoiser", "fps", "RSS MB", "+MB", "KB/frame", "fds", "vk allocs", "device MB",
-               "");
+    bool all_flat = true, first = true;
     for (uint32_t a = 0; a < nfe && res == TND_OK && !app_interrupted(); a++)
         for (uint32_t d = 0; d < ndn && res == TND_OK && !app_interrupted(); d++) {
             app_render_opts o;
@@ -171,60 +247,24 @@ int app_soak(const char *scene, const app_env *env, const unsigned size[2], unsi
             o.frontend = fes[a];
             o.denoiser = denoiser ? denoiser : pl_denoiser_at(d)->name;
             o.quiet = true;
-            soak_row *r = &rows[nrows];
-            snprintf(r->frontend, sizeof r->frontend, "%s", fes[a]);
-            r->warmup = frames / 10 > 20 ? frames / 10 : 20;
-            uint32_t k = 0;
-            bool was = app_set_quiet(true);
-            res = soak_one(&o, frames, sm, CAP, &k, r);
-            app_set_quiet(was);
-            if (res != TND_OK || k == 0)
+            app_soak_rec *rec = app_soak_rec_begin(frames);
+            if (!rec) {
+                res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "soak: out of memory");
                 break;
-            judge(sm, k, r);
-            all_flat = all_flat && r->flat;
-            nrows++;
-            if (json) {
-                cJSON *e = cJSON_CreateObject();
-                cJSON_AddStringToObject(e, "frontend", r->frontend);
-                cJSON_AddStringToObject(e, "denoiser", r->denoiser);
-                cJSON_AddNumberToObject(e, "frames", r->frames);
-                cJSON_AddNumberToObject(e, "warmup", r->warmup);
-                cJSON_AddNumberToObject(e, "seconds", r->seconds);
-                cJSON_AddNumberToObject(e, "rss_mb_base", r->rss_base);
-                cJSON_AddNumberToObject(e, "rss_mb_end", r->rss_end);
-                cJSON_AddNumberToObject(e, "rss_mb_max", r->rss_max);
-                cJSON_AddNumberToObject(e, "rss_kb_per_frame", r->rss_kb_per_frame);
-                cJSON_AddNumberToObject(e, "fds_base", r->fds_base);
-                cJSON_AddNumberToObject(e, "fds_end", r->fds_end);
-                cJSON_AddNumberToObject(e, "vk_allocations_base", (double)r->allocs_base);
-                cJSON_AddNumberToObject(e, "vk_allocations_end", (double)r->allocs_end);
-                if (r->dev_base >= 0) {
-                    cJSON_AddNumberToObject(e, "device_mb_base", r->dev_base);
-                    cJSON_AddNumberToObject(e, "device_mb_end", r->dev_end);
-                }
-                cJSON_AddBoolToObject(e, "flat", r->flat);
-                cJSON *ss = cJSON_AddArrayToObject(e, "samples");
-                for (uint32_t i = 0; i < k; i++) {
-                    cJSON *q = cJSON_CreateObject();
-                    cJSON_AddNumberToObject(q, "frame", sm[i].frame);
-                    cJSON_AddNumberToObject(q, "rss_mb", sm[i].rss_mb);
-                    cJSON_AddNumberToObject(q, "fds", sm[i].fds);
-                    cJSON_AddNumberToObject(q, "vk_allocations", (double)sm[i].allocations);
-                    if (sm[i].device_mb >= 0)
-                        cJSON_AddNumberToObject(q, "device_mb", sm[i].device_mb);
-                    cJSON_AddItemToArray(ss, q);
-                }
-                cJSON_AddItemToArray(arr, e);
-            } else {
-                char dev[40] = "-";
-                if (r->dev_base >= 0)
-                    snprintf(dev, sizeof dev, "%.1f -> %.1f", r->dev_base, r->dev_end);
-                printf("%-8s %-10s %8.1f %8.1f %+8.2f %10.3f %3u->%-3u %4llu->%-4llu %14s %6s\n",
-                       r->frontend, r->denoiser, r->frames / r->seconds, r->rss_end,
-                       r->rss_end - r->rss_base, r->rss_kb_per_frame, r->fds_base, r->fds_end,
-                       (unsigned long long)r->allocs_base, (unsigned long long)r->allocs_end, dev,
-                       r->flat ? "flat" : "GROWS");
             }
+            bool was = app_set_quiet(true);
+            res = soak_one(&o, frames, rec);
+            app_set_quiet(was);
+            if (res == TND_OK && rec->k > 0) {
+                all_flat = all_flat && rec->row.flat;
+                if (json)
+                    cJSON_AddItemToArray(arr, app_soak_rec_json(rec));
+                else
+                    app_soak_rec_print(rec, first ? "per front-end and denoiser" : NULL, scene,
+                                       size);
+                first = false;
+            }
+            app_soak_rec_free(rec);
         }
     if (json && res == TND_OK) {
         cJSON_AddBoolToObject(root, "flat", all_flat);
@@ -233,8 +273,6 @@ int app_soak(const char *scene, const app_env *env, const unsigned size[2], unsi
         free(t);
     }
     cJSON_Delete(root);
-    free(rows);
-    free(sm);
     if (res != TND_OK)
         return app_report("bench", res);
     if (app_interrupted()) {
