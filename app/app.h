@@ -289,6 +289,9 @@ double app_median(double *v, unsigned n);
  * `bytes` between device-local buffers: medians of `repeats` after a warm-up (app/bandwidth.c). */
 tnd_result app_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double *transfer_gbs,
                          double *compute_gbs);
+/* A JSON document (cJSON *) as PATH, indented, ending in a newline, whole or not at all
+ * (tnd_file_write_atomic); the caller keeps `json`. */
+tnd_result app_json_write(const char *path, const void *json);
 /* 8-bit sRGB RGB as PNG (written to PATH.tmp, then renamed: no partial file). */
 tnd_result app_write_png(const char *path, const uint8_t *rgb8, uint32_t w, uint32_t h);
 bool app_have_program(const char *prog);

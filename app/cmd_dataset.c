@@ -567,15 +567,7 @@ static tnd_result dataset_run(const char *spec_path, const char *out, const char
         snprintf(path, sizeof path, "%s/manifest-%u-of-%u.json", out, shard, shards);
     else
         snprintf(path, sizeof path, "%s/manifest.json", out);
-    char *text = cJSON_Print(manifest);
-    FILE *f = text ? fopen(path, "w") : NULL;
-    bool ok = f && fputs(text, f) >= 0 && fputc('\n', f) != EOF;
-    ok = (f && fclose(f) == 0) && ok;
-    free(text);
-    if (!ok) {
-        res = tnd_fail(TND_ERR_IO, "%s: cannot write", path);
-        goto fail;
-    }
+    TND_TRY(app_json_write(path, manifest));
     if (!app_quiet())
         fprintf(stderr, "tandem: dataset: %llu frame%s of %u sequence%s -> %s/\n",
                 (unsigned long long)done, done == 1 ? "" : "s", sp.nseq, sp.nseq == 1 ? "" : "s",

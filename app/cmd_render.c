@@ -676,14 +676,9 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     }
     char path[2048];
     snprintf(path, sizeof path, "%s/run.json", o->out);
-    char *txt = cJSON_Print(j);
+    tnd_result res = app_json_write(path, j);
     cJSON_Delete(j);
-    FILE *fp = txt ? fopen(path, "w") : NULL;
-    bool ok = fp && fprintf(fp, "%s\n", txt) > 0;
-    free(txt);
-    if (fp && fclose(fp) != 0)
-        ok = false;
-    return ok ? TND_OK : tnd_fail(TND_ERR_IO, "render: %s: cannot write", path);
+    return res;
 }
 
 /* The front-end and the chain as render builds them (tandem view builds its own with it). */

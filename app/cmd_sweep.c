@@ -458,13 +458,10 @@ static tnd_result plan_write(const sweep_plan *P)
         cJSON_AddStringToObject(o, "dir", dir);
         cJSON_AddItemToArray(ca, o);
     }
-    char *text = cJSON_Print(j);
-    cJSON_Delete(j);
     char path[1100];
     snprintf(path, sizeof path, "%s/sweep-plan.json", P->out);
-    tnd_result res = text ? tnd_file_write_atomic(path, text, strlen(text))
-                          : tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
-    free(text);
+    tnd_result res = app_json_write(path, j);
+    cJSON_Delete(j);
     return res;
 }
 

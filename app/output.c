@@ -1,7 +1,8 @@
-/* app/output.c: the image files every command writes: linear HDR EXR (RGB float), a preview
- * PNG, and the MP4 of a run's PNGs (ffmpeg). */
+/* app/output.c: the files every command writes: linear HDR EXR (RGB float), a preview PNG, the
+ * MP4 of a run's PNGs (ffmpeg), and JSON documents. */
 #include "app/app.h"
 
+#include <cjson/cJSON.h>
 #include <errno.h>
 #include <math.h>
 #include <stb/stb_image_write.h>
@@ -112,4 +113,19 @@ tnd_result app_write_video(const char *dir, unsigned first, unsigned count, doub
                         out, WIFEXITED(status) ? WEXITSTATUS(status) : -1);
     }
     return TND_OK;
+}
+
+tnd_result app_json_write(const char *path, const void *json)
+{
+    char *txt = cJSON_Print(json);
+    size_t n = txt ? strlen(txt) : 0;
+    char *all = txt ? realloc(txt, n + 2) : NULL;
+    if (!all) {
+        free(txt);
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "%s: out of memory", path);
+    }
+    all[n] = '\n', all[n + 1] = '\0';
+    tnd_result res = tnd_file_write_atomic(path, all, n + 1);
+    free(all);
+    return res;
 }

@@ -131,19 +131,10 @@ tnd_result app_ref_partial_write(const app_render_opts *o, const bool *done,
     }
     if (signal)
         cJSON_AddStringToObject(j, "interrupted", app_signal_name(signal));
-    char path[1700], tmp[1800];
+    char path[1700];
     snprintf(path, sizeof path, "%s/reference.partial.json", o->out);
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    char *txt = cJSON_Print(j);
+    res = app_json_write(path, j);
     cJSON_Delete(j);
-    FILE *fp = txt ? fopen(tmp, "w") : NULL;
-    bool ok = fp && fprintf(fp, "%s\n", txt) > 0;
-    free(txt);
-    ok = (fp && fclose(fp) == 0) && ok;
-    if (!ok || rename(tmp, path) != 0) {
-        remove(tmp);
-        res = tnd_fail(TND_ERR_IO, "%s: cannot write (%s)", path, strerror(errno));
-    }
 fail:
     return res;
 }
@@ -300,14 +291,9 @@ tnd_result app_shard_json_write(const app_render_opts *o, const char *device, ui
         cJSON_AddNumberToObject(p, "samples", taken[k]);
         cJSON_AddItemToArray(arr, p);
     }
-    char *text = cJSON_Print(j);
+    tnd_result res = app_json_write(path, j);
     cJSON_Delete(j);
-    FILE *fp = text ? fopen(path, "w") : NULL;
-    bool ok = fp && fputs(text, fp) >= 0 && fputc('\n', fp) != EOF;
-    if (fp)
-        ok = fclose(fp) == 0 && ok;
-    free(text);
-    return ok ? TND_OK : tnd_fail(TND_ERR_IO, "%s: write failed", path);
+    return res;
 }
 
 /* ---- tandem merge ------------------------------------------------------------------------- */

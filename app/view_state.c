@@ -158,12 +158,8 @@ tnd_result app_view_state_write(const char *path, const app_view_state *s)
         cJSON_AddNumberToObject(e, "pitch", c->pitch);
         cJSON_AddItemToArray(p, e);
     }
-    char *txt = cJSON_Print(j);
+    tnd_result res = app_json_write(path, j);
     cJSON_Delete(j);
-    if (!txt)
-        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
-    tnd_result res = tnd_file_write_atomic(path, txt, strlen(txt));
-    free(txt);
     return res;
 }
 
