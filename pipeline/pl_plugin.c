@@ -513,6 +513,17 @@ static tnd_result python_bridge(char *out, size_t cap)
                     n > 0 ? exe : "the program");
 }
 
+/* The built-in back-end in mode off (its composite of the noisy radiance, which a plugin may
+ * read), with the plugin's frame size and precision: both adapters run their plugin after it. */
+static tnd_result off_create(const pl_dn_desc *d, void **off)
+{
+    pl_dn_desc od = *d;
+    od.params = NULL;
+    od.data = pl_off_ops.data;
+    od.npasses = pl_off_ops.info.npasses;
+    return pl_off_ops.create(&od, off);
+}
+
 typedef struct hdn {
     void *off;          /* the built-in adapter's context (pl_off_ops) */
     pl_plugin *p;       /* the shared object (NULL: the Python package's own description) */
@@ -595,11 +606,7 @@ static tnd_result hdn_open(const pl_dn_desc *d, const char *path, const char *op
                                                .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                .name = "host_denoiser.output"},
                              &p->out));
-    pl_dn_desc od = *d;
-    od.params = NULL;
-    od.data = pl_off_ops.data;
-    od.npasses = pl_off_ops.info.npasses;
-    TND_TRY(pl_off_ops.create(&od, &p->off));
+    TND_TRY(off_create(d, &p->off));
     tandem_host_denoiser_create_info ci = {.struct_size = sizeof ci,
                                            .width = d->width,
                                            .height = d->height,
@@ -752,14 +759,10 @@ static tnd_result pdn_create(const pl_dn_desc *d, void **out)
         *out = p;
         return TND_OK;
     }
-    pl_dn_desc od = *d;
-    od.params = NULL;
-    od.data = pl_off_ops.data;
-    od.npasses = pl_off_ops.info.npasses;
     TND_TRY(pl_dnp_create(d->vk, d->path, d->width, d->height, d->precision, &p->dnp));
     TND_TRY(tnd_pending_create(d->vk, &p->pending));
     TND_TRY(tnd_timer_create(d->vk, &p->timer));
-    TND_TRY(pl_off_ops.create(&od, &p->off));
+    TND_TRY(off_create(d, &p->off));
     *out = p;
     return TND_OK;
 fail:
