@@ -9,6 +9,7 @@
 
 #include <cjson/cJSON.h>
 #include <dirent.h>
+#include <malloc.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -18,6 +19,7 @@ typedef struct soak_sample {
     double rss_mb, device_mb; /* device_mb < 0: not known (or a CPU device's: the host's) */
     uint32_t fds;
     uint64_t allocations;     /* Tandem's device allocations alive */
+    double heap_mb;           /* malloc's bytes in use (every arena; mmapped blocks included) */
 } soak_sample;
 
 static double rss_mb(void)
@@ -30,6 +32,14 @@ static double rss_mb(void)
         fclose(f);
     }
     return (double)resident * (double)sysconf(_SC_PAGESIZE) / (1024.0 * 1024.0);
+}
+
+/* What the process's malloc holds in use: RSS that grows while this stays flat is the allocator's
+ * arenas or a library's own mappings, not memory the program keeps. */
+static double heap_mb(void)
+{
+    struct mallinfo2 mi = mallinfo2();
+    return (double)(mi.uordblks + mi.hblkhd) / (1024.0 * 1024.0);
 }
 
 static uint32_t open_fds(void)
@@ -61,6 +71,7 @@ typedef struct soak_row {
     double seconds;
     double rss_base, rss_end, rss_max, rss_kb_per_frame;
     double dev_base, dev_end;
+    double heap_base, heap_end;
     uint32_t fds_base, fds_end;
     uint64_t allocs_base, allocs_end;
     bool flat;
@@ -95,7 +106,7 @@ void app_soak_rec_frame(app_soak_rec *r, uint32_t f, bool last, const tnd_vk *vk
     bool known = vk && vk->info.type != VK_PHYSICAL_DEVICE_TYPE_CPU &&
                  tnd_vk_memory_in_use(vk, &dev);
     r->sm[r->k++] = (soak_sample){f, rss_mb(), known ? dev / 1048576.0 : -1, open_fds(),
-                                  tnd_vk_live_allocations()};
+                                  tnd_vk_live_allocations(), heap_mb()};
 }
 
 /* The figures of a run's samples after the warm-up. */
@@ -115,6 +126,7 @@ static void judge(const soak_sample *sm, uint32_t k, soak_row *r)
     r->rss_base = base->rss_mb, r->rss_end = end->rss_mb;
     r->rss_kb_per_frame = m > 2 ? slope(x, y, m) : 0.0;
     r->dev_base = base->device_mb, r->dev_end = end->device_mb;
+    r->heap_base = base->heap_mb, r->heap_end = end->heap_mb;
     r->fds_base = base->fds, r->fds_end = end->fds;
     r->allocs_base = base->allocations, r->allocs_end = end->allocations;
     /* flat: under 1 KB a frame and 2 MB in all after the warm-up; the same descriptors, device
@@ -150,6 +162,8 @@ void *app_soak_rec_json(const app_soak_rec *rec)
     cJSON_AddNumberToObject(e, "rss_mb_end", r->rss_end);
     cJSON_AddNumberToObject(e, "rss_mb_max", r->rss_max);
     cJSON_AddNumberToObject(e, "rss_kb_per_frame", r->rss_kb_per_frame);
+    cJSON_AddNumberToObject(e, "heap_mb_base", r->heap_base);
+    cJSON_AddNumberToObject(e, "heap_mb_end", r->heap_end);
     cJSON_AddNumberToObject(e, "fds_base", r->fds_base);
     cJSON_AddNumberToObject(e, "fds_end", r->fds_end);
     cJSON_AddNumberToObject(e, "vk_allocations_base", (double)r->allocs_base);
@@ -165,6 +179,7 @@ void *app_soak_rec_json(const app_soak_rec *rec)
         cJSON *o = cJSON_CreateObject();
         cJSON_AddNumberToObject(o, "frame", q->frame);
         cJSON_AddNumberToObject(o, "rss_mb", q->rss_mb);
+        cJSON_AddNumberToObject(o, "heap_mb", q->heap_mb);
         cJSON_AddNumberToObject(o, "fds", q->fds);
         cJSON_AddNumberToObject(o, "vk_allocations", (double)q->allocations);
         if (q->device_mb >= 0)
@@ -180,15 +195,15 @@ void app_soak_rec_print(const app_soak_rec *rec, const char *title, const char *
     const soak_row *r = &rec->row;
     if (title)
         printf("soak: %u frames of %s at %ux%u %s; after a warm-up of %u frames:\n%-8s %-10s "
-               "%8s %8s %8s %10s %7s %9s %14s %6s\n",
+               "%8s %8s %8s %10s %9s %7s %9s %14s %6s\n",
                r->frames, scene, size[0], size[1], title, r->warmup, "frontend", "denoiser", "fps",
-               "RSS MB", "+MB", "KB/frame", "fds", "vk allocs", "device MB", "");
+               "RSS MB", "+MB", "KB/frame", "heap +KB", "fds", "vk allocs", "device MB", "");
     char dev[40] = "-";
     if (r->dev_base >= 0)
         snprintf(dev, sizeof dev, "%.1f -> %.1f", r->dev_base, r->dev_end);
-    printf("%-8s %-10s %8.1f %8.1f %+8.2f %10.3f %3u->%-3u %4llu->%-4llu %14s %6s\n", r->frontend,
-           r->denoiser, r->frames / r->seconds, r->rss_end, r->rss_end - r->rss_base,
-           r->rss_kb_per_frame, r->fds_base, r->fds_end, (unsigned long long)r->allocs_base,
+    printf("%-8s %-10s %8.1f %8.1f %+8.2f %10.3f %+9.1f %3u->%-3u %4llu->%-4llu %14s %6s\n",
+           r->frontend, r->denoiser, r->frames / r->seconds, r->rss_end, r->rss_end - r->rss_base,
+           r->rss_kb_per_frame, 1024.0 * (r->heap_end - r->heap_base), r->fds_base, r->fds_end, (unsigned long long)r->allocs_base,
            (unsigned long long)r->allocs_end, dev, r->flat ? "flat" : "GROWS");
 }
 
