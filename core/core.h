@@ -235,7 +235,7 @@ typedef struct tnd_vk {
     bool validation;
     bool ray_tracing; /* RT pipeline + acceleration structures enabled */
     bool ray_query;   /* ray query enabled */
-    /* $TANDEM_PIPELINE_STATS=1 and VK_KHR_pipeline_executable_properties: every compute
+    /* $TANDEM_PIPELINE_STATS=1 and VK_KHR_pipeline_executable_properties: every compute and RT
      * pipeline's compiler statistics (registers, code size, ...) go to stderr when created */
     bool pipeline_stats;
     bool memory_budget; /* VK_EXT_memory_budget enabled */

@@ -52,8 +52,8 @@ static void print_statistics(tnd_vk *vk, VkPipeline pipe, const char *name)
     if (!props_fn || !stats_fn)
         return;
     VkPipelineInfoKHR pi = {.sType = VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR, .pipeline = pipe};
-    VkPipelineExecutablePropertiesKHR props[4];
-    uint32_t n = 4;
+    VkPipelineExecutablePropertiesKHR props[16]; /* (a ray-tracing pipeline: one per shader) */
+    uint32_t n = 16;
     for (uint32_t k = 0; k < n; k++)
         props[k] = (VkPipelineExecutablePropertiesKHR){
             .sType = VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR};
@@ -226,10 +226,13 @@ tnd_result tnd_rt_pipeline_create(tnd_vk *vk, const tnd_rt_desc *desc, VkPipelin
         .pGroups = groups,
         .maxPipelineRayRecursionDepth = recursion,
         .layout = desc->layout,
+        .flags = vk->pipeline_stats ? VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR : 0,
     };
     TND_VK_TRY(vk->fn.vkCreateRayTracingPipelinesKHR(vk->device, VK_NULL_HANDLE, VK_NULL_HANDLE, 1,
                                                      &ci, NULL, pipe));
     TND_VK_NAME(vk, VK_OBJECT_TYPE_PIPELINE, *pipe, "%s", name);
+    if (vk->pipeline_stats)
+        print_statistics(vk, *pipe, name);
 
     /* Fetch the handles and write them at their aligned places. */
     uint32_t hs = vk->info.shader_group_handle_size;
