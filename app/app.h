@@ -134,9 +134,11 @@ void app_progress_end(app_progress *p);
 struct dn_context;
 tnd_result app_parse_dump(const char *list, uint32_t *mask);
 /* The viewer's repro state (app/view_state.c): its settings and the camera of every frame since
- * the history last restarted; tandem render --view FILE reproduces it frame for frame. */
+ * the history last restarted; tandem render --view FILE reproduces it frame for frame. A camera
+ * held still is one entry for all its frames (a viewer left running does not grow). */
 typedef struct app_view_cam {
-    uint32_t frame;
+    uint32_t frame;                 /* the first frame it is the camera of */
+    uint32_t frames;                /* how many (1 or more): frame .. frame + frames - 1 */
     double position[3], yaw, pitch; /* radians: yaw about +Y from -Z towards +X, pitch up */
 } app_view_cam;
 typedef struct app_view_state {
@@ -149,12 +151,19 @@ typedef struct app_view_state {
     uint32_t bounces, camera, size[2];
     uint32_t no_default_light; /* --no-default-light: 1 */
     app_view_cam *path;
-    uint32_t path_len, path_cap;
+    uint32_t path_len, path_cap; /* entries */
+    uint32_t path_frames;        /* frames: the entries' `frames` summed */
 } app_view_state;
 tnd_result app_view_state_read(const char *path, app_view_state *s);
 tnd_result app_view_state_write(const char *path, const app_view_state *s);
 void app_view_state_free(app_view_state *s);
+/* The camera of the next frame (c->frame: the frame after the path's last; c->frames unused):
+ * the last entry held one frame longer when the camera is the same, else a new entry. */
 tnd_result app_view_state_push(app_view_state *s, const app_view_cam *c);
+/* The entry holding the path's i-th frame (0: its first), i < path_frames. */
+const app_view_cam *app_view_state_at(const app_view_state *s, uint32_t i);
+/* The path emptied (the history restarts). */
+void app_view_state_restart(app_view_state *s);
 /* The frame's camera into a scene state (its view matrix and position; the projection stays). */
 void app_view_camera_apply(const app_view_cam *c, tnd_scene_state *st);
 void app_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, app_view_cam *c);

@@ -309,7 +309,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
                 o->ref_bounces = o->bounces;
         }
         o->start = view_state.path[0].frame;
-        o->frames = view_state.path_len;
+        o->frames = view_state.path_frames;
         o->view = &view_state;
     }
     return -1;
@@ -445,9 +445,9 @@ tnd_result app_frame_begin(const app_render_opts *o, const tnd_scene *scene, pl_
     if (first)
         TND_TRY(tnd_scene_evaluate(scene, f > 0 ? (f - 1) / o->fps : 0.0, o->camera, aspect, prev));
     if (o->view) { /* the viewer's camera (its first frame: no camera motion before it) */
-        app_view_camera_apply(&o->view->path[i], cur);
+        app_view_camera_apply(app_view_state_at(o->view, i), cur);
         if (first)
-            app_view_camera_apply(&o->view->path[i > 0 ? i - 1 : 0], prev);
+            app_view_camera_apply(app_view_state_at(o->view, i > 0 ? i - 1 : 0), prev);
     }
     TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o->size[0], o->size[1]));
 fail:

@@ -408,7 +408,7 @@ static tnd_result open_pipeline(viewer *v)
     }
     TND_TRY(tnd_frame_create(w, h, &v->host));
     /* the history restarts: a new flight */
-    s->path_len = 0;
+    app_view_state_restart(s);
     v->ref_spp = 0;
     v->rebuild = false;
 fail:
@@ -679,7 +679,7 @@ static void draw_overlay(viewer *v, const char *device, double fps)
         snprintf(sp, sizeof sp, "  %s %.4f against the reference at %u spp",
                  v->err_view == 2 ? "FLIP" : "relative error; relMSE", v->err_mean, v->ref_spp);
     snprintf(line, sizeof line, "view %s%s   frame %u   history %u frames", vn, sp, v->frame,
-             s->path_len);
+             s->path_frames);
     text(px, 4, y, line, fg);
     y += 10;
     /* GPU ms of every pass of the frame (pl_chain_passes), groups apart, on two lines */
@@ -752,18 +752,20 @@ static void draw_overlay(viewer *v, const char *device, double fps)
 static tnd_result write_camera_path(const viewer *v, const char *path)
 {
     const app_view_state *s = &v->st;
-    tnd_camera_key *keys = calloc(s->path_len ? s->path_len : 1, sizeof *keys);
+    tnd_camera_key *keys = calloc(s->path_len ? 2 * s->path_len : 1, sizeof *keys);
     if (!keys)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
     float yfov = s->camera < v->scene->camera_count ? v->scene->cameras[s->camera].yfov : 0.8f;
     uint32_t n = 0;
-    for (uint32_t i = 0; i < s->path_len; i++) {
-        const app_view_cam *c = &s->path[i];
+    for (uint32_t i = 0; i < 2 * s->path_len; i++) { /* (a held camera: its first and last) */
+        const app_view_cam *c = &s->path[i / 2];
+        if (i % 2 && c->frames == 1)
+            continue;
         double cp = cos(c->pitch), at[3] = {c->position[0] + sin(c->yaw) * cp,
                                             c->position[1] + sin(c->pitch),
                                             c->position[2] - cos(c->yaw) * cp};
         tnd_camera_key *k = &keys[n];
-        k->time = c->frame / s->fps;
+        k->time = (c->frame + (i % 2 ? c->frames - 1 : 0)) / s->fps;
         if (n > 0 && !(k->time > keys[n - 1].time))
             continue;
         for (int j = 0; j < 3; j++)
@@ -1122,7 +1124,7 @@ int cmd_view(int argc, char **argv)
         tnd_scene_state_free(&st0);
         TND_TRY(res);
     } else {
-        v->frame = s->path[s->path_len - 1].frame + 1;
+        v->frame = s->path[s->path_len - 1].frame + s->path[s->path_len - 1].frames;
     }
     TND_TRY(open_pipeline(v));
     char device[300];

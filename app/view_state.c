@@ -17,10 +17,22 @@ void app_view_state_free(app_view_state *s)
 {
     free(s->path);
     s->path = NULL;
-    s->path_len = s->path_cap = 0;
+    s->path_len = s->path_cap = s->path_frames = 0;
 }
 
-tnd_result app_view_state_push(app_view_state *s, const app_view_cam *c)
+void app_view_state_restart(app_view_state *s)
+{
+    s->path_len = s->path_frames = 0;
+}
+
+static bool same_pose(const app_view_cam *a, const app_view_cam *b)
+{
+    return !memcmp(a->position, b->position, sizeof a->position) && a->yaw == b->yaw &&
+           a->pitch == b->pitch;
+}
+
+/* An entry as it is (its frames included). */
+static tnd_result append(app_view_state *s, const app_view_cam *c)
 {
     if (s->path_len == s->path_cap) {
         uint32_t cap = s->path_cap ? 2 * s->path_cap : 64;
@@ -31,7 +43,35 @@ tnd_result app_view_state_push(app_view_state *s, const app_view_cam *c)
         s->path_cap = cap;
     }
     s->path[s->path_len++] = *c;
+    s->path_frames += c->frames;
     return TND_OK;
+}
+
+tnd_result app_view_state_push(app_view_state *s, const app_view_cam *c)
+{
+    app_view_cam *last = s->path_len ? &s->path[s->path_len - 1] : NULL;
+    if (last && same_pose(last, c) && last->frames < UINT32_MAX / 2 &&
+        c->frame == last->frame + last->frames) {
+        last->frames++;
+        s->path_frames++;
+        return TND_OK;
+    }
+    app_view_cam e = *c;
+    e.frames = 1;
+    return append(s, &e);
+}
+
+const app_view_cam *app_view_state_at(const app_view_state *s, uint32_t i)
+{
+    uint32_t f = s->path[0].frame + i, lo = 0, hi = s->path_len - 1;
+    while (lo < hi) { /* the last entry starting at or before f */
+        uint32_t mid = lo + (hi - lo + 1) / 2;
+        if (s->path[mid].frame <= f)
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    return &s->path[lo];
 }
 
 void app_view_camera_apply(const app_view_cam *c, tnd_scene_state *st)
@@ -151,6 +191,8 @@ tnd_result app_view_state_write(const char *path, const app_view_state *s)
         const app_view_cam *c = &s->path[i];
         cJSON *e = cJSON_CreateObject();
         cJSON_AddNumberToObject(e, "frame", c->frame);
+        if (c->frames > 1)
+            cJSON_AddNumberToObject(e, "frames", c->frames);
         cJSON *pos = cJSON_AddArrayToObject(e, "position");
         for (int k = 0; k < 3; k++)
             cJSON_AddItemToArray(pos, cJSON_CreateNumber(c->position[k]));
@@ -250,8 +292,13 @@ tnd_result app_view_state_read(const char *path, app_view_state *s)
         app_view_cam c = {0};
         const cJSON *f = cJSON_GetObjectItem(e, "frame"), *pos = cJSON_GetObjectItem(e, "position");
         const cJSON *yaw = cJSON_GetObjectItem(e, "yaw"), *pitch = cJSON_GetObjectItem(e, "pitch");
-        bool ok = cJSON_IsNumber(f) && f->valuedouble >= 0 && cJSON_IsNumber(yaw) &&
-                  cJSON_IsNumber(pitch) && cJSON_GetArraySize(pos) == 3;
+        const cJSON *nf = cJSON_GetObjectItem(e, "frames"); /* (absent: 1) */
+        bool ok = cJSON_IsNumber(f) && f->valuedouble >= 0 && f->valuedouble < 2147483648.0 &&
+                  f->valuedouble == floor(f->valuedouble) && cJSON_IsNumber(yaw) &&
+                  cJSON_IsNumber(pitch) && cJSON_GetArraySize(pos) == 3 &&
+                  (!nf || (cJSON_IsNumber(nf) && nf->valuedouble >= 1 &&
+                           nf->valuedouble < 2147483648.0 &&
+                           nf->valuedouble == floor(nf->valuedouble)));
         for (int k = 0; ok && k < 3; k++) {
             const cJSON *v = cJSON_GetArrayItem(pos, k);
             ok = cJSON_IsNumber(v) && isfinite(v->valuedouble);
@@ -261,20 +308,27 @@ tnd_result app_view_state_read(const char *path, app_view_state *s)
         if (!ok || !isfinite(yaw->valuedouble) || !isfinite(pitch->valuedouble)) {
             res = tnd_fail(TND_ERR_BAD_INPUT,
                            "view state %s: path entry %u: frame, position [x, y, z], yaw and "
-                           "pitch expected", path, s->path_len);
+                           "pitch expected (and frames, a whole number from 1)", path,
+                           s->path_len);
             goto fail;
         }
         c.frame = (uint32_t)f->valuedouble;
+        c.frames = nf ? (uint32_t)nf->valuedouble : 1;
         c.yaw = yaw->valuedouble;
         c.pitch = pitch->valuedouble;
-        if (s->path_len && c.frame != s->path[s->path_len - 1].frame + 1) {
+        const app_view_cam *last = s->path_len ? &s->path[s->path_len - 1] : NULL;
+        if (last && (uint64_t)c.frame != (uint64_t)last->frame + last->frames) {
             res = tnd_fail(TND_ERR_BAD_INPUT,
-                           "view state %s: path entry %u: frame %u after %u (frames follow "
-                           "each other)", path, s->path_len, c.frame,
-                           s->path[s->path_len - 1].frame);
+                           "view state %s: path entry %u: frame %u after %u frame%s from %u "
+                           "(frames follow each other)", path, s->path_len, c.frame,
+                           last->frames, last->frames == 1 ? "" : "s", last->frame);
             goto fail;
         }
-        TND_TRY(app_view_state_push(s, &c));
+        if ((uint64_t)s->path_frames + c.frames > 2147483647u) {
+            res = tnd_fail(TND_ERR_BAD_INPUT, "view state %s: over 2^31 frames", path);
+            goto fail;
+        }
+        TND_TRY(append(s, &c));
     }
 fail:
     cJSON_Delete(j);

@@ -24,6 +24,10 @@ bad() { echo "FAIL $1"; failn=$((failn + 1)); }
 check() { if eval "$2"; then ok "$1"; else bad "$1"; fi; }
 XVFB=(xvfb-run -a -s "-screen 0 1024x768x24")
 PY=/usr/bin/python3
+# a repro state's last frame (a camera held still is one path entry with "frames")
+last_frame() {
+    $PY -c "import json, sys; e = json.load(open(sys.argv[1]))['path'][-1]; print(e['frame'] + e.get('frames', 1) - 1)" "$1"
+}
 
 # no display
 DISPLAY= WAYLAND_DISPLAY= "$T" view --frames 1 --out "$TMP/none" > "$TMP/none.log" 2>&1
@@ -70,7 +74,8 @@ d = sys.argv[1]
 for i in range(4):
     j = json.load(open(f"{d}/shot_{i:04d}.json"))
     print(i, j["size"][0], j["size"][1], j["denoiser"], j["frontend"], j["view"], j["split"],
-          len(j["path"]), j["min_alpha"], j["antilag"], j["exposure_bias"])
+          sum(e.get("frames", 1) for e in j["path"]), j["min_alpha"], j["antilag"],
+          j["exposure_bias"])
 PYEOF
 cat "$TMP/states.txt"
 check "the states follow the session (resize, denoiser, view, split, front-end, knobs)" \
@@ -82,7 +87,7 @@ check "the states follow the session (resize, denoiser, view, split, front-end, 
 # each screenshot's final image = render --view of its state
 for i in 0 1 2 3; do
     st="$TMP/shots/shot_000$i.json"
-    last=$($PY -c "import json; print(json.load(open('$st'))['path'][-1]['frame'])")
+    last=$(last_frame "$st")
     "$T" render --view "$st" --out "$TMP/render$i" --quiet > "$TMP/render$i.log" 2>&1 ||
         cat "$TMP/render$i.log"
     f=$(printf 'frame_%04d' "$last")
@@ -107,7 +112,8 @@ a, b = (json.load(open(p)) for p in sys.argv[1:3])
 pa, pb = a.pop("path"), b.pop("path")
 assert a == b, (a, b)
 # a new flight from the state's last camera: one frame, the next frame index
-assert len(pb) == 1 and pb[0]["frame"] == pa[-1]["frame"] + 1, pb
+assert len(pb) == 1 and pb[0].get("frames", 1) == 1, pb
+assert pb[0]["frame"] == pa[-1]["frame"] + pa[-1].get("frames", 1), (pa[-1], pb)
 for k in ("position", "yaw", "pitch"):
     assert pb[0][k] == pa[-1][k], (k, pb[0][k], pa[-1][k])
 PYEOF
@@ -199,9 +205,29 @@ assert np.abs(v1 - (255 - f1)).max() <= 1, "after F5: its inverse"
 PYEOF
 check "F5: the window shows the final image, then (the edited shader) its inverse" "[ $? -eq 0 ]"
 "$T" render --view "$TMP/reload/shot_0001.json" --out "$TMP/reload_r" --quiet
-last=$($PY -c "import json; print(json.load(open('$TMP/reload/shot_0001.json'))['path'][-1]['frame'])")
+last=$(last_frame "$TMP/reload/shot_0001.json")
 check "F5: the final image still equals render --view (only the compositor changed)" \
     "cmp -s '$TMP/reload_r/$(printf frame_%04d "$last").png' '$TMP/reload/shot_0001.png'"
+
+# a camera held still is one path entry however long it is held (a viewer left running does
+# not grow: docs/reliability.md, "Soak"); a state whose entries do not follow each other, or
+# with "frames": 0, is refused by name
+$PY - "$TMP/reload/shot_0001.json" "$TMP/held_bad.json" "$TMP/held_zero.json" <<'PYEOF'
+import json, sys
+j = json.load(open(sys.argv[1]))
+# (F5 restarted the history at frame 4: frames 4 to 7 at one camera)
+assert len(j["path"]) == 1 and j["path"][0]["frames"] == 4, j["path"]
+bad = dict(j, path=[dict(j["path"][0]), dict(j["path"][0], frame=j["path"][0]["frame"] + 7)])
+json.dump(bad, open(sys.argv[2], "w"))
+json.dump(dict(j, path=[dict(j["path"][0], frames=0)]), open(sys.argv[3], "w"))
+PYEOF
+check "a still camera is one path entry with its 4 frames" "[ $? -eq 0 ]"
+"$T" render --view "$TMP/held_bad.json" --out "$TMP/held_bad" > "$TMP/held_bad.log" 2>&1
+check "a path whose entries leave a gap: exit 1, named" \
+    "[ $? -eq 1 ] && grep -q 'held_bad.json: path entry 1: frame 11 after 4 frames from 4' '$TMP/held_bad.log'"
+"$T" render --view "$TMP/held_zero.json" --out "$TMP/held_zero" > "$TMP/held_zero.log" 2>&1
+check "a path entry of 0 frames: exit 1, named" \
+    "[ $? -eq 1 ] && grep -q 'held_zero.json: path entry 0:' '$TMP/held_zero.log'"
 
 # a bad script
 echo '{"events": [{"frame": 0, "key": "NOPE"}]}' > "$TMP/bad.json"
