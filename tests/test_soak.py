@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """tests/test_soak.py TANDEM: a short soak (`tandem bench --soak`): every front-end and denoiser
 through render's frame loop for 240 frames; after the warm-up the process's resident memory
-grows by less than 1 KB a frame and 2 MB in all, its open descriptors and Tandem's live device
-allocations stay the same (docs/reliability.md has a 10,000-frame run). Then the viewer's own loop
+grows by less than 1 KB a frame and 2 MB in all, malloc's bytes in use by less than 32 bytes a
+frame, its open descriptors and Tandem's live device allocations stay the same (docs/reliability.md has a 10,000-frame run). Then the viewer's own loop
 (`tandem view --soak`, under Xvfb): flat over 200 frames, and over eight cycles of switching
 through every denoiser and both front-ends (each switch rebuilds the pipeline) the allocations,
 descriptors and resident memory at the start of each cycle the same. Release build only: the
@@ -30,7 +30,8 @@ def main():
         name = f"{r['frontend']} {r['denoiser']}"
         c.check(f"soak {name}: {r['frames']} frames, flat after {r['warmup']}: RSS "
                 f"{r['rss_mb_base']:.1f} -> {r['rss_mb_end']:.1f} MB "
-                f"({r['rss_kb_per_frame']:+.3f} KB/frame), fds {r['fds_base']} -> {r['fds_end']}, "
+                f"({r['rss_kb_per_frame']:+.3f} KB/frame), heap {r['heap_kb_per_frame'] * 1024:+.1f} "
+                f"B/frame, fds {r['fds_base']} -> {r['fds_end']}, "
                 f"vk allocations {r['vk_allocations_base']} -> {r['vk_allocations_end']}",
                 r["flat"] and r["frames"] == 240)
     viewer(c)
@@ -58,7 +59,8 @@ def viewer(c):
         if r:
             c.check(f"viewer's loop: {r['frames']} frames, flat after {r['warmup']}: RSS "
                     f"{r['rss_mb_base']:.1f} -> {r['rss_mb_end']:.1f} MB "
-                    f"({r['rss_kb_per_frame']:+.3f} KB/frame), fds {r['fds_base']} -> "
+                    f"({r['rss_kb_per_frame']:+.3f} KB/frame), heap "
+                    f"{r['heap_kb_per_frame'] * 1024:+.1f} B/frame, fds {r['fds_base']} -> "
                     f"{r['fds_end']}, vk allocations {r['vk_allocations_base']} -> "
                     f"{r['vk_allocations_end']}", r["flat"] and r["frames"] == 200)
         # every 40 frames: denoisers 2, 3, 4, the other front-end, denoiser 1, back (a pipeline
