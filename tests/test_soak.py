@@ -2,7 +2,8 @@
 """tests/test_soak.py TANDEM: a short soak (`tandem bench --soak`): every front-end and denoiser
 through render's frame loop for 240 frames; after the warm-up the process's resident memory
 grows by less than 1 KB a frame and 2 MB in all, malloc's bytes in use by less than 32 bytes a
-frame, its open descriptors and Tandem's live device allocations stay the same (docs/reliability.md has a 10,000-frame run). Then the viewer's own loop
+frame, its open descriptors and Tandem's live device allocations stay the same
+(docs/reliability.md has a 10,000-frame run). Then the viewer's own loop
 (`tandem view --soak`, under Xvfb): flat over 200 frames, and over eight cycles of switching
 through every denoiser and both front-ends (each switch rebuilds the pipeline) the allocations,
 descriptors and resident memory at the start of each cycle the same. Release build only: the
