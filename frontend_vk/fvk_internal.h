@@ -18,6 +18,11 @@ struct fvk_context {
     /* scene */
     tnd_buffer positions, normals, uvs, tangents, indices, meshes, materials, instances, lights,
         frame_ubo, gradients, env, uvs1, texel_lut; /* texel_lut: shaders/texel_lut.h's table */
+    /* the alpha test's data, what the any-hit reads in two steps (shaders/pt_scene.glsl
+     * alpha_pass): per alpha-tested mesh a record and its triangles' UVs; alpha_at[mesh]: the
+     * record's vec4 index + 1 (0: none), which each instance carries in info.z */
+    tnd_buffer alpha;
+    uint32_t *alpha_at;
     uint32_t gradient_capacity;
     fvk_texture *textures;
     uint32_t texture_count;

@@ -15,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { SCENE_BINDINGS = 17 };
+enum { SCENE_BINDINGS = 18 };
 
 static tnd_result create_layouts(fvk_context *c)
 {
@@ -157,7 +157,7 @@ static void write_scene_set_to(fvk_context *c, VkDescriptorSet set)
                                               &c->indices,   &c->meshes,    &c->materials,
                                               &c->instances, &c->lights,    &c->gradients,
                                               NULL,          NULL,          &c->env,
-                                              &c->uvs1,      &c->texel_lut};
+                                              &c->uvs1,      &c->texel_lut, &c->alpha};
     VkDescriptorImageInfo acc = {VK_NULL_HANDLE, c->accum.view, VK_IMAGE_LAYOUT_GENERAL};
     VkDescriptorBufferInfo bi[SCENE_BINDINGS];
     VkWriteDescriptorSet w[SCENE_BINDINGS];

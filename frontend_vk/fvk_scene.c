@@ -118,7 +118,7 @@ void fvk_scene_free(fvk_context *c)
     tnd_buffer *bufs[] = {&c->positions, &c->normals, &c->uvs,      &c->tangents,
                           &c->indices,   &c->meshes,  &c->materials, &c->instances,
                           &c->lights,    &c->frame_ubo, &c->gradients, &c->env, &c->uvs1,
-                          &c->texel_lut};
+                          &c->texel_lut, &c->alpha};
     for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
         tnd_buffer_destroy(vk, bufs[i]);
     for (uint32_t i = 0; c->textures && i < c->texture_count; i++)
@@ -135,7 +135,66 @@ void fvk_scene_free(fvk_context *c)
     c->blas = NULL;
     free(c->inst);
     c->inst = NULL;
+    free(c->alpha_at);
+    c->alpha_at = NULL;
     tnd_lights_free(&c->light_list);
+}
+
+/* The alpha test's data (fvk_internal.h): for each mesh of an alpha-tested material, three vec4
+ * (its base colour texture's UV transform, the transform's second row with the base alpha in w;
+ * the texture, its size and the cutoff's bits as uints), then two vec4 per triangle: its three
+ * UVs in the texture's set, as stored. The any-hit does tnd_material_alpha_pass's arithmetic on
+ * them, the same as when it read the instance, mesh, material, indices and UVs in turn. */
+static tnd_result alpha_upload(fvk_context *c)
+{
+    const tnd_scene *s = c->scene;
+    size_t n = 1; /* (vec4s; one unused, so that the buffer is never empty) */
+    c->alpha_at = calloc(s->mesh_count + 1, sizeof *c->alpha_at);
+    if (!c->alpha_at)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+    for (uint32_t m = 0; m < s->mesh_count; m++) {
+        const tnd_mesh *me = &s->meshes[m];
+        if (me->triangle_count && s->materials[me->material].alpha_test) {
+            c->alpha_at[m] = (uint32_t)n + 1;
+            n += 3 + 2 * (size_t)me->triangle_count;
+        }
+    }
+    if (n >= UINT32_MAX / 2)
+        return tnd_fail(TND_ERR_LIMIT, "frontend_vk: too many alpha-tested triangles");
+    float *a = calloc(4 * n, sizeof *a);
+    if (!a)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+    for (uint32_t m = 0; m < s->mesh_count; m++) {
+        if (!c->alpha_at[m])
+            continue;
+        const tnd_mesh *me = &s->meshes[m];
+        const tnd_material *mt = &s->materials[me->material];
+        const tnd_uv_xform *x = &mt->uvx[TND_TEX_BASE];
+        float *r = a + 4 * (size_t)(c->alpha_at[m] - 1);
+        int32_t tex = mt->tex_base_color;
+        uint32_t w = 0, h = 0;
+        if (tex >= 0 && (uint32_t)tex < s->texture_count)
+            w = s->textures[tex].width, h = s->textures[tex].height;
+        else
+            tex = -1;
+        const float row[8] = {x->m[0], x->m[1], x->m[2], (float)x->set,
+                              x->m[3], x->m[4], x->m[5], mt->base_color[3]};
+        memcpy(r, row, sizeof row);
+        uint32_t info[4] = {(uint32_t)tex, w, h, 0};
+        memcpy(&info[3], &mt->alpha_cutoff, sizeof(float));
+        memcpy(r + 8, info, sizeof info);
+        const float *uv = x->set != 0 && s->uvs1 ? s->uvs1 : s->uvs; /* (vuv_set) */
+        for (uint32_t t = 0; t < me->triangle_count; t++) {
+            float *q = r + 12 + 8 * (size_t)t;
+            for (int k = 0; k < 3; k++) {
+                uint32_t v = me->first_vertex + s->indices[me->first_index + 3 * t + k];
+                q[2 * k] = uv[2 * (size_t)v], q[2 * k + 1] = uv[2 * (size_t)v + 1];
+            }
+        }
+    }
+    tnd_result res = upload_array(c->vk, a, 4 * n * sizeof *a, "scene.alpha", &c->alpha);
+    free(a);
+    return res;
 }
 
 tnd_result fvk_scene_upload(fvk_context *c)
@@ -160,6 +219,7 @@ tnd_result fvk_scene_upload(fvk_context *c)
     static const float lut[TND_TEXEL_LUT_SIZE] = {TND_TEXEL_LUT_VALUES};
     TND_TRY(upload_array(vk, lut, sizeof lut, "scene.texel_lut", &c->texel_lut));
     TND_TRY(upload_array(vk, s->indices, (size_t)s->index_count * 4, "scene.indices", &c->indices));
+    TND_TRY(alpha_upload(c));
     gm = calloc(s->mesh_count + 1, sizeof *gm);
     gmat = calloc(s->material_count + 1, sizeof *gmat);
     md = calloc(s->mesh_count + 1, sizeof *md);
@@ -304,7 +364,8 @@ tnd_result fvk_scene_frame(fvk_context *c, const tnd_scene_state *cur, const tnd
         c->inst[i].custom_index = i;
         memcpy(gi[i].xform, x, 12 * sizeof(float));
         memcpy(gi[i].prev_xform, px, 12 * sizeof(float));
-        gi[i].info = (tnd_guvec4){s->instances[i].mesh, c->light_list.instance_first[i], 0, 0};
+        gi[i].info = (tnd_guvec4){s->instances[i].mesh, c->light_list.instance_first[i],
+                                  c->alpha_at[s->instances[i].mesh], 0};
     }
     if (first || moved) {
         double t0 = tnd_now();

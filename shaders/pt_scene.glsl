@@ -28,6 +28,8 @@ layout(set = 0, binding = 14, std430) readonly buffer Env { float env_data[]; };
 layout(set = 0, binding = 15, std430) readonly buffer Uvs1 { float uvs1[]; };
 /* shaders/texel_lut.h's table (TND_TEXEL_LUT_SIZE floats), as the CPU decodes texels */
 layout(set = 0, binding = 16, std430) readonly buffer TexelLut { float texel_lut[]; };
+/* the alpha test's records and UVs (alpha_pass) */
+layout(set = 0, binding = 17, std430) readonly buffer Alpha { vec4 alpha_data[]; };
 #include "env.h"
 
 
@@ -92,30 +94,31 @@ vec4 bilinear(int t, int level, ivec2 size0, vec2 uv, bool srgb)
 }
 
 /* Whether a ray meets the surface of instance inst's triangle prim at barycentrics bary: always,
- * or for an alpha-tested material (info.y = 1), where base colour alpha x its texture's alpha
- * at level 0 reaches the cutoff (info.z, float bits): tnd_material_alpha_pass's arithmetic. */
+ * or for an alpha-tested material, where base colour alpha x its texture's alpha at level 0
+ * reaches the cutoff: tnd_material_alpha_pass's arithmetic. The data come from the alpha buffer
+ * (frontend_vk/fvk_scene.c alpha_upload) in two steps, the instance's record index, then the
+ * record and the triangle's UVs together: a chain of the instance, its mesh, its material, three
+ * indices and their UVs cost the H200 about 1 ms a frame on atrium (docs/performance.md). */
 bool alpha_pass(uint inst, uint prim, vec2 bary)
 {
-    tnd_gpu_mesh M = meshes[instances[inst].info.x];
-    tnd_gpu_material mat = materials[M.info.x];
-    if (mat.info.y == 0u)
+    uint at = instances[inst].info.z;
+    if (at == 0u)
         return true;
-    float a = mat.base_color.a;
-    if (USES(TND_USES_TEXTURES) && mat.tex.x >= 0) {
-        uint fi = M.range.z + 3u * prim;
-        vec4 xa = mat.uvx[2u * TND_TEX_BASE], xb = mat.uvx[2u * TND_TEX_BASE + 1u];
-        uint set = xa.w != 0.0 ? 1u : 0u;
-        vec2 t0 = vuv_set(set, M.range.x + indices[fi]),
-             t1 = vuv_set(set, M.range.x + indices[fi + 1u]),
-             t2 = vuv_set(set, M.range.x + indices[fi + 2u]);
+    at -= 1u;
+    vec4 xa = alpha_data[at], xb = alpha_data[at + 1u];
+    uvec4 info = floatBitsToUint(alpha_data[at + 2u]); /* texture, width, height, cutoff */
+    float a = xb.w;
+    if (USES(TND_USES_TEXTURES) && int(info.x) >= 0) {
+        vec4 p = alpha_data[at + 3u + 2u * prim], q = alpha_data[at + 4u + 2u * prim];
+        vec2 t0 = p.xy, t1 = p.zw, t2 = q.xy;
         float w0 = 1.0 - bary.x - bary.y;
         vec2 uv = uv_xform(xa, xb, w0 * t0 + bary.x * t1 + bary.y * t2);
         if (tnd_nonfinite(uv.x) || tnd_nonfinite(uv.y))
             uv = vec2(0.0);
         uv -= floor(uv);
-        a *= bilinear(mat.tex.x, 0, textureSize(textures[nonuniformEXT(mat.tex.x)], 0), uv, true).a;
+        a *= bilinear(int(info.x), 0, ivec2(info.yz), uv, true).a;
     }
-    return a >= uintBitsToFloat(mat.info.z);
+    return a >= uintBitsToFloat(info.w);
 }
 
 #endif
