@@ -3,7 +3,8 @@
  * One allocation per resource: Tandem creates a few dozen resources per run, far below
  * maxMemoryAllocationCount, and dedicated allocations keep lifetimes obvious.
  * Entry points: tnd_buffer_create/destroy/upload/download, tnd_image_create/destroy,
- * tnd_image_upload, tnd_cmd_begin, tnd_cmd_submit_wait, tnd_cmd_barrier. */
+ * tnd_image_upload, tnd_cmd_begin, tnd_cmd_submit_wait, tnd_cmd_barrier, and the two seams every
+ * allocation and every wait for the device pass through: tnd_vk_allocate, tnd_vk_wait. */
 #include "core/core.h"
 
 #include <pthread.h>
