@@ -162,6 +162,7 @@ typedef struct tnd_vk_device_info {
     uint32_t min_scratch_offset_alignment;
     uint64_t max_primitive_count;
     uint64_t max_instance_count;
+    uint64_t max_geometry_count; /* geometries in one BLAS */
     /* general limits */
     uint32_t max_image_dimension_2d;
     uint32_t max_compute_workgroup_invocations;

@@ -218,6 +218,7 @@ static tnd_result query_device(VkPhysicalDevice pd, uint32_t index, tnd_vk_devic
         d->min_scratch_offset_alignment = asp.minAccelerationStructureScratchOffsetAlignment;
         d->max_primitive_count = asp.maxPrimitiveCount;
         d->max_instance_count = asp.maxInstanceCount;
+        d->max_geometry_count = asp.maxGeometryCount;
 
         VkPhysicalDeviceAccelerationStructureFeaturesKHR asf = {
             .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR};

@@ -3,7 +3,10 @@
  * BLAS: built with ALLOW_COMPACTION | PREFER_FAST_TRACE, then copied into a buffer of the
  * compacted size (typically about half). TLAS: ALLOW_UPDATE so that moving instances refit
  * rather than rebuild. Scratch addresses honour minAccelerationStructureScratchOffsetAlignment.
- * Entry points: fvk_blas_build, fvk_blas_destroy, fvk_tlas_build, fvk_tlas_destroy. */
+ * A BLAS may hold several meshes, each with the transform its vertices take as it is built
+ * (fvk_blas_build_parts: the static instances of a scene in one BLAS, fvk_scene.c).
+ * Entry points: fvk_blas_build, fvk_blas_build_parts, fvk_blas_destroy, fvk_tlas_build,
+ * fvk_tlas_destroy. */
 #include "frontend_vk/frontend_vk.h"
 
 #include <stdio.h>
@@ -66,25 +69,55 @@ void fvk_blas_destroy(tnd_vk *vk, fvk_blas *blas)
 
 tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t count, fvk_blas *out)
 {
+    fvk_blas_part *parts = calloc(count ? count : 1, sizeof *parts);
+    fvk_blas_desc *desc = calloc(count ? count : 1, sizeof *desc);
     tnd_result res = TND_OK;
-    tnd_buffer geo = {0}, scratch = {0};
+    if (!parts || !desc) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "accel: out of memory");
+        goto fail;
+    }
+    for (uint32_t m = 0; m < count; m++) {
+        parts[m] = (fvk_blas_part){.mesh = m};
+        desc[m] = (fvk_blas_desc){.parts = &parts[m], .part_count = 1, .name = meshes[m].name};
+    }
+    res = fvk_blas_build_parts(vk, meshes, count, desc, count, out);
+fail:
+    free(parts);
+    free(desc);
+    return res;
+}
+
+tnd_result fvk_blas_build_parts(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t mesh_count,
+                                const fvk_blas_desc *desc, uint32_t count, fvk_blas *out)
+{
+    tnd_result res = TND_OK;
+    tnd_buffer geo = {0}, scratch = {0}, xform = {0};
     VkQueryPool query = VK_NULL_HANDLE;
+    uint32_t nparts = 0;
+    bool transforms = false;
+    for (uint32_t b = 0; b < count; b++) {
+        nparts += desc[b].part_count;
+        for (uint32_t p = 0; p < desc[b].part_count; p++)
+            transforms |= desc[b].parts[p].transform != NULL;
+    }
     fvk_blas *tmp = calloc(count ? count : 1, sizeof *tmp);
-    VkDeviceSize *vtx_off = calloc(count ? count : 1, sizeof *vtx_off);
-    VkDeviceSize *idx_off = calloc(count ? count : 1, sizeof *idx_off);
-    VkAccelerationStructureGeometryKHR *geoms = calloc(count ? count : 1, sizeof *geoms);
+    VkDeviceSize *vtx_off = calloc(mesh_count ? mesh_count : 1, sizeof *vtx_off);
+    VkDeviceSize *idx_off = calloc(mesh_count ? mesh_count : 1, sizeof *idx_off);
+    VkAccelerationStructureGeometryKHR *geoms = calloc(nparts ? nparts : 1, sizeof *geoms);
+    VkAccelerationStructureBuildRangeInfoKHR *ranges = calloc(nparts ? nparts : 1, sizeof *ranges);
+    uint32_t *prims = calloc(nparts ? nparts : 1, sizeof *prims);
     VkAccelerationStructureBuildGeometryInfoKHR *infos = calloc(count ? count : 1, sizeof *infos);
-    VkAccelerationStructureBuildRangeInfoKHR *ranges = calloc(count ? count : 1, sizeof *ranges);
     VkDeviceSize *scratch_off = calloc(count ? count : 1, sizeof *scratch_off);
     uint64_t *compact = calloc(count ? count : 1, sizeof *compact);
     memset(out, 0, sizeof *out * count);
-    if (!tmp || !vtx_off || !idx_off || !geoms || !infos || !ranges || !scratch_off || !compact) {
+    if (!tmp || !vtx_off || !idx_off || !geoms || !ranges || !prims || !infos || !scratch_off ||
+        !compact) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "accel: out of memory");
         goto fail;
     }
     /* Validate and lay out all meshes in one geometry buffer. */
     VkDeviceSize total = 0;
-    for (uint32_t m = 0; m < count; m++) {
+    for (uint32_t m = 0; m < mesh_count; m++) {
         const fvk_mesh_desc *d = &meshes[m];
         const char *nm = d->name ? d->name : "";
         if (d->triangle_count == 0 || d->vertex_count == 0) {
@@ -110,7 +143,30 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
         idx_off[m] = total;
         total = align_up(total + 12ull * d->triangle_count, 16);
     }
-    if (count == 0)
+    /* ... and each BLAS's geometries: within the device's limits, meshes that exist */
+    for (uint32_t b = 0; b < count; b++) {
+        uint64_t tris = 0;
+        for (uint32_t p = 0; p < desc[b].part_count; p++) {
+            if (desc[b].parts[p].mesh >= mesh_count) {
+                res = tnd_fail(TND_ERR_INVALID_ARGUMENT, "accel: BLAS %u: mesh %u of %u", b,
+                               desc[b].parts[p].mesh, mesh_count);
+                goto fail;
+            }
+            tris += meshes[desc[b].parts[p].mesh].triangle_count;
+        }
+        if (desc[b].part_count == 0 || tris > vk->info.max_primitive_count ||
+            (desc[b].part_count > 1 && desc[b].part_count > vk->info.max_geometry_count)) {
+            res = tnd_fail(TND_ERR_LIMIT,
+                           "accel: BLAS %u '%s': %u geometries, %llu triangles (device limits "
+                           "%llu, %llu)",
+                           b, desc[b].name ? desc[b].name : "", desc[b].part_count,
+                           (unsigned long long)tris,
+                           (unsigned long long)vk->info.max_geometry_count,
+                           (unsigned long long)vk->info.max_primitive_count);
+            goto fail;
+        }
+    }
+    if (count == 0 || mesh_count == 0)
         goto fail; /* nothing to build; res is TND_OK */
     TND_TRY(tnd_buffer_create(
         vk,
@@ -127,7 +183,7 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
             res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "accel: out of memory");
             goto fail;
         }
-        for (uint32_t m = 0; m < count; m++) {
+        for (uint32_t m = 0; m < mesh_count; m++) {
             memcpy(staging + vtx_off[m], meshes[m].positions, 12ull * meshes[m].vertex_count);
             memcpy(staging + idx_off[m], meshes[m].indices, 12ull * meshes[m].triangle_count);
         }
@@ -136,53 +192,87 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
         if (res != TND_OK)
             goto fail;
     }
+    /* the parts' transforms (VkTransformMatrixKHR: 3x4 row-major, 48 bytes, 16-byte aligned),
+     * applied to the vertices as the BLAS is built; identity for a part without one */
+    if (transforms) {
+        TND_TRY(tnd_buffer_create(
+            vk,
+            &(tnd_buffer_desc){
+                .size = 48ull * nparts,
+                .usage = VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR |
+                         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                .device_address = true,
+                .name = "accel.blas_transforms"},
+            &xform));
+        float *x = malloc(48ull * nparts);
+        if (!x) {
+            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "accel: out of memory");
+            goto fail;
+        }
+        static const float identity[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+        for (uint32_t b = 0, k = 0; b < count; b++)
+            for (uint32_t p = 0; p < desc[b].part_count; p++, k++)
+                memcpy(x + 12 * (size_t)k,
+                       desc[b].parts[p].transform ? desc[b].parts[p].transform : identity, 48);
+        res = tnd_buffer_upload(vk, &xform, 0, x, 48ull * nparts);
+        free(x);
+        if (res != TND_OK)
+            goto fail;
+    }
 
     VkDeviceSize scratch_total = 0, sa = vk->info.min_scratch_offset_alignment;
-    for (uint32_t m = 0; m < count; m++) {
-        geoms[m] = (VkAccelerationStructureGeometryKHR){
-            .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR,
-            .geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR,
-            /* alpha-tested geometry: any-hit once per triangle (the test has no side effects,
-             * but a second call would be wasted) */
-            .flags = meshes[m].alpha_tested ? VK_GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION_BIT_KHR
-                                            : VK_GEOMETRY_OPAQUE_BIT_KHR,
-            .geometry.triangles = {
-                .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_TRIANGLES_DATA_KHR,
-                .vertexFormat = VK_FORMAT_R32G32B32_SFLOAT,
-                .vertexData.deviceAddress = geo.address + vtx_off[m],
-                .vertexStride = 12,
-                .maxVertex = meshes[m].vertex_count - 1,
-                .indexType = VK_INDEX_TYPE_UINT32,
-                .indexData.deviceAddress = geo.address + idx_off[m],
-            }};
-        infos[m] = (VkAccelerationStructureBuildGeometryInfoKHR){
+    for (uint32_t b = 0, k = 0; b < count; b++) {
+        uint32_t first = k;
+        for (uint32_t p = 0; p < desc[b].part_count; p++, k++) {
+            const fvk_mesh_desc *d = &meshes[desc[b].parts[p].mesh];
+            uint32_t m = desc[b].parts[p].mesh;
+            geoms[k] = (VkAccelerationStructureGeometryKHR){
+                .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR,
+                .geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR,
+                /* alpha-tested geometry: any-hit once per triangle (the test has no side
+                 * effects, but a second call would be wasted) */
+                .flags = d->alpha_tested ? VK_GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION_BIT_KHR
+                                         : VK_GEOMETRY_OPAQUE_BIT_KHR,
+                .geometry.triangles = {
+                    .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_TRIANGLES_DATA_KHR,
+                    .vertexFormat = VK_FORMAT_R32G32B32_SFLOAT,
+                    .vertexData.deviceAddress = geo.address + vtx_off[m],
+                    .vertexStride = 12,
+                    .maxVertex = d->vertex_count - 1,
+                    .indexType = VK_INDEX_TYPE_UINT32,
+                    .indexData.deviceAddress = geo.address + idx_off[m],
+                    .transformData.deviceAddress = transforms ? xform.address + 48ull * k : 0,
+                }};
+            ranges[k] = (VkAccelerationStructureBuildRangeInfoKHR){.primitiveCount =
+                                                                       d->triangle_count};
+            prims[k] = d->triangle_count;
+        }
+        infos[b] = (VkAccelerationStructureBuildGeometryInfoKHR){
             .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_GEOMETRY_INFO_KHR,
             .type = VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR,
             .flags = VK_BUILD_ACCELERATION_STRUCTURE_PREFER_FAST_TRACE_BIT_KHR |
                      VK_BUILD_ACCELERATION_STRUCTURE_ALLOW_COMPACTION_BIT_KHR,
             .mode = VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR,
-            .geometryCount = 1,
-            .pGeometries = &geoms[m]};
-        ranges[m] =
-            (VkAccelerationStructureBuildRangeInfoKHR){.primitiveCount = meshes[m].triangle_count};
+            .geometryCount = desc[b].part_count,
+            .pGeometries = &geoms[first]};
         VkAccelerationStructureBuildSizesInfoKHR sz = {
             .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR};
         vk->fn.vkGetAccelerationStructureBuildSizesKHR(
-            vk->device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &infos[m],
-            &meshes[m].triangle_count, &sz);
+            vk->device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &infos[b], &prims[first],
+            &sz);
         char name[96];
-        snprintf(name, sizeof name, "accel.blas[%u].build", m);
+        snprintf(name, sizeof name, "accel.blas[%u].build", b);
         TND_TRY(create_as(vk, VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR,
-                          sz.accelerationStructureSize, name, &tmp[m].storage, &tmp[m].as));
-        tmp[m].built_bytes = sz.accelerationStructureSize;
-        infos[m].dstAccelerationStructure = tmp[m].as;
-        scratch_off[m] = scratch_total;
+                          sz.accelerationStructureSize, name, &tmp[b].storage, &tmp[b].as));
+        tmp[b].built_bytes = sz.accelerationStructureSize;
+        infos[b].dstAccelerationStructure = tmp[b].as;
+        scratch_off[b] = scratch_total;
         scratch_total = align_up(scratch_total + sz.buildScratchSize, sa);
     }
     TND_TRY(scratch_buffer(vk, scratch_total, "accel.blas_scratch", &scratch));
     VkDeviceAddress sbase = align_up(scratch.address, sa);
-    for (uint32_t m = 0; m < count; m++)
-        infos[m].scratchData.deviceAddress = sbase + scratch_off[m];
+    for (uint32_t b = 0; b < count; b++)
+        infos[b].scratchData.deviceAddress = sbase + scratch_off[b];
 
     VkQueryPoolCreateInfo qci = {.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
                                  .queryType =
@@ -192,10 +282,10 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(vk, &cmd));
     vkCmdResetQueryPool(cmd, query, 0, count);
-    /* One build call per mesh keeps the pointer arrays simple; builds run back to back. */
-    for (uint32_t m = 0; m < count; m++) {
-        const VkAccelerationStructureBuildRangeInfoKHR *r = &ranges[m];
-        vk->fn.vkCmdBuildAccelerationStructuresKHR(cmd, 1, &infos[m], &r);
+    /* One build call per BLAS keeps the pointer arrays simple; builds run back to back. */
+    for (uint32_t b = 0, k = 0; b < count; k += desc[b].part_count, b++) {
+        const VkAccelerationStructureBuildRangeInfoKHR *r = &ranges[k];
+        vk->fn.vkCmdBuildAccelerationStructuresKHR(cmd, 1, &infos[b], &r);
     }
     tnd_cmd_barrier(cmd);
     VkAccelerationStructureKHR *handles = malloc(count * sizeof *handles);
@@ -205,8 +295,8 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "accel: out of memory");
         goto fail;
     }
-    for (uint32_t m = 0; m < count; m++)
-        handles[m] = tmp[m].as;
+    for (uint32_t b = 0; b < count; b++)
+        handles[b] = tmp[b].as;
     vk->fn.vkCmdWriteAccelerationStructuresPropertiesKHR(
         cmd, count, handles, VK_QUERY_TYPE_ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR, query, 0);
     free(handles);
@@ -216,44 +306,47 @@ tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t coun
                                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
 
     /* Compact: copy each BLAS into a right-sized one. */
-    for (uint32_t m = 0; m < count; m++) {
+    for (uint32_t b = 0, k = 0; b < count; b++) {
         char name[96];
-        snprintf(name, sizeof name, "accel.blas[%u] %s", m, meshes[m].name ? meshes[m].name : "");
-        TND_TRY(create_as(vk, VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, compact[m], name,
-                          &out[m].storage, &out[m].as));
-        out[m].compacted_bytes = compact[m];
-        out[m].built_bytes = tmp[m].built_bytes;
-        out[m].triangle_count = meshes[m].triangle_count;
+        snprintf(name, sizeof name, "accel.blas[%u] %s", b, desc[b].name ? desc[b].name : "");
+        TND_TRY(create_as(vk, VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, compact[b], name,
+                          &out[b].storage, &out[b].as));
+        out[b].compacted_bytes = compact[b];
+        out[b].built_bytes = tmp[b].built_bytes;
+        for (uint32_t p = 0; p < desc[b].part_count; p++, k++)
+            out[b].triangle_count += prims[k];
     }
     TND_TRY(tnd_cmd_begin(vk, &cmd));
-    for (uint32_t m = 0; m < count; m++) {
+    for (uint32_t b = 0; b < count; b++) {
         VkCopyAccelerationStructureInfoKHR ci = {
             .sType = VK_STRUCTURE_TYPE_COPY_ACCELERATION_STRUCTURE_INFO_KHR,
-            .src = tmp[m].as,
-            .dst = out[m].as,
+            .src = tmp[b].as,
+            .dst = out[b].as,
             .mode = VK_COPY_ACCELERATION_STRUCTURE_MODE_COMPACT_KHR};
         vk->fn.vkCmdCopyAccelerationStructureKHR(cmd, &ci);
     }
     tnd_cmd_barrier(cmd);
     TND_TRY(tnd_cmd_submit_wait(vk, cmd));
-    for (uint32_t m = 0; m < count; m++)
-        out[m].address = as_address(vk, out[m].as);
+    for (uint32_t b = 0; b < count; b++)
+        out[b].address = as_address(vk, out[b].as);
 fail:
     if (res != TND_OK)
-        for (uint32_t m = 0; m < count; m++)
-            fvk_blas_destroy(vk, &out[m]);
-    for (uint32_t m = 0; tmp && m < count; m++)
-        fvk_blas_destroy(vk, &tmp[m]);
+        for (uint32_t b = 0; b < count; b++)
+            fvk_blas_destroy(vk, &out[b]);
+    for (uint32_t b = 0; tmp && b < count; b++)
+        fvk_blas_destroy(vk, &tmp[b]);
     if (query)
         vkDestroyQueryPool(vk->device, query, NULL);
     tnd_buffer_destroy(vk, &scratch);
+    tnd_buffer_destroy(vk, &xform);
     tnd_buffer_destroy(vk, &geo);
     free(tmp);
     free(vtx_off);
     free(idx_off);
     free(geoms);
-    free(infos);
     free(ranges);
+    free(prims);
+    free(infos);
     free(scratch_off);
     free(compact);
     return res;

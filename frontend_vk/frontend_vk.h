@@ -29,6 +29,20 @@ typedef struct fvk_blas {
 /* Build one BLAS per mesh (opaque triangles, fast trace, compacted). `out` holds `count`
  * entries. Indices are validated against vertex_count before anything is uploaded. */
 tnd_result fvk_blas_build(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t count, fvk_blas *out);
+/* A BLAS of several geometries: meshes[parts[k].mesh], in order (gl_GeometryIndexEXT k), each
+ * with its vertices through a 3x4 row-major transform as the BLAS is built (NULL: as they are). */
+typedef struct fvk_blas_part {
+    uint32_t mesh;
+    const float *transform;
+} fvk_blas_part;
+typedef struct fvk_blas_desc {
+    const fvk_blas_part *parts;
+    uint32_t part_count;
+    const char *name;
+} fvk_blas_desc;
+/* `count` BLASes, out[b] from desc[b] (compacted, fast trace; the meshes validated first). */
+tnd_result fvk_blas_build_parts(tnd_vk *vk, const fvk_mesh_desc *meshes, uint32_t mesh_count,
+                                const fvk_blas_desc *desc, uint32_t count, fvk_blas *out);
 void fvk_blas_destroy(tnd_vk *vk, fvk_blas *blas);
 
 typedef struct fvk_instance {
@@ -149,6 +163,9 @@ tnd_result fvk_matched_add(fvk_context *ctx, uint32_t bounces, uint32_t first, u
                            void *user);
 /* The API the passes use (after AUTO was resolved). */
 fvk_rt_api fvk_api(const fvk_context *ctx);
+/* The BLASes that hold runs of static instances (fvk_scene.c merge_static), and the instances
+ * in them; 0 before the first frame, where nothing was merged, or once one of them moved. */
+uint32_t fvk_static_runs(const fvk_context *ctx, uint32_t *instances);
 /* The contract images of the last render. */
 const tnd_contract_gpu *fvk_contract(const fvk_context *ctx);
 

@@ -27,9 +27,18 @@ struct fvk_context {
     fvk_texture *textures;
     uint32_t texture_count;
     VkSampler sampler;
-    fvk_blas *blas;
+    fvk_blas *blas; /* per mesh, then the merged runs' (mesh_count + run) */
     fvk_tlas tlas;
-    fvk_instance *inst;
+    fvk_instance *inst; /* the TLAS's instances */
+    /* Static instances merged (fvk_scene_frame, merge_static): each run of consecutive
+     * instances that never move is one BLAS of their meshes as placed, one TLAS instance whose
+     * custom index is the run's first instance; the shaders add gl_GeometryIndexEXT (one
+     * geometry per instance, in order), so a hit names the scene's instance as before. */
+    bool merge_tried, unmerged; /* unmerged: a merged instance moved after all */
+    uint32_t run_count;
+    uint32_t *run_of;  /* per instance: its run + 1 (0: an instance of its own) */
+    uint32_t *run_first;
+    float *last_xf;    /* per instance, the transform of the last TLAS build */
     tnd_light_list light_list;
     double tlas_ms;
     /* pipeline */

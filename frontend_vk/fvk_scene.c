@@ -129,10 +129,17 @@ void fvk_scene_free(fvk_context *c)
         vkDestroySampler(vk->device, c->sampler, NULL);
     c->sampler = VK_NULL_HANDLE;
     fvk_tlas_destroy(vk, &c->tlas);
-    for (uint32_t i = 0; c->blas && i < c->scene->mesh_count; i++)
+    for (uint32_t i = 0; c->blas && i < c->scene->mesh_count + c->run_count; i++)
         fvk_blas_destroy(vk, &c->blas[i]);
     free(c->blas);
     c->blas = NULL;
+    free(c->run_of);
+    free(c->run_first);
+    free(c->last_xf);
+    c->run_of = c->run_first = NULL;
+    c->last_xf = NULL;
+    c->run_count = 0;
+    c->merge_tried = c->unmerged = false;
     free(c->inst);
     c->inst = NULL;
     free(c->alpha_at);
@@ -223,9 +230,10 @@ tnd_result fvk_scene_upload(fvk_context *c)
     gm = calloc(s->mesh_count + 1, sizeof *gm);
     gmat = calloc(s->material_count + 1, sizeof *gmat);
     md = calloc(s->mesh_count + 1, sizeof *md);
-    c->blas = calloc(s->mesh_count + 1, sizeof *c->blas);
+    c->blas = calloc(s->mesh_count + s->instance_count + 1, sizeof *c->blas);
     c->inst = calloc(s->instance_count + 1, sizeof *c->inst);
-    if (!gm || !gmat || !md || !c->blas || !c->inst) {
+    c->last_xf = calloc(12 * (size_t)s->instance_count + 1, sizeof *c->last_xf);
+    if (!gm || !gmat || !md || !c->blas || !c->inst || !c->last_xf) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
         goto fail;
     }
@@ -344,6 +352,112 @@ fail:
     return res;
 }
 
+/* Static instances in BLASes of their own (c->run_of): on the H200, whose driver traverses in
+ * software, two levels of many overlapping instance boxes cost more per ray than one BVH over
+ * the placed triangles: whole frame at 1080p, 129 instances of Debian's morse `buildings_2`
+ * 6.26 -> 4.79 ms, 115 of the 2CylinderEngine 3.30 -> 3.08, 382 of `atrium` 9.43 -> 9.25; but
+ * 8 of `cornell` 2.22 -> 2.25 and 11 of `materials` 6.34 -> 6.43 (docs/performance.md). So a
+ * run is a maximal sequence of FVK_MERGE_MIN or more consecutive instances whose nodes are
+ * not animated, within FVK_MERGE_TRIANGLES placed triangles over all runs (the BVH's memory:
+ * the instances' triangles are copied into it). Their transforms are this frame's (fixed:
+ * nothing animates them). TANDEM_MERGE_STATIC (a developer switch, for timing the two against
+ * each other): 0 keeps every instance on its own, N >= 2 merges runs of N or more. */
+enum { FVK_MERGE_MIN = 32, FVK_MERGE_TRIANGLES = 8u << 20 };
+static uint32_t vk_geometry_limit(const tnd_vk *vk)
+{
+    return vk->info.max_geometry_count > 0xffffffu ? 0xffffffu : (uint32_t)vk->info.max_geometry_count;
+}
+
+static tnd_result merge_static(fvk_context *c, const tnd_scene_state *cur)
+{
+    tnd_result res = TND_OK;
+    const tnd_scene *s = c->scene;
+    const char *env = getenv("TANDEM_MERGE_STATIC");
+    uint32_t min_run = FVK_MERGE_MIN;
+    if (env && *env) {
+        char *end;
+        unsigned long v = strtoul(env, &end, 10);
+        min_run = *end || v == 1 ? FVK_MERGE_MIN : v > 0xffffffu ? 0xffffffu : (uint32_t)v;
+    }
+    fvk_mesh_desc *md = NULL;
+    uint32_t *mesh_at = NULL;
+    fvk_blas_part *parts = NULL;
+    fvk_blas_desc *desc = NULL;
+    uint32_t nruns = 0;
+    if (min_run == 0 || s->instance_count < min_run)
+        return TND_OK;
+    c->run_of = calloc(s->instance_count, sizeof *c->run_of);
+    c->run_first = calloc(s->instance_count, sizeof *c->run_first);
+    md = calloc(s->mesh_count + 1, sizeof *md);
+    mesh_at = calloc(s->mesh_count + 1, sizeof *mesh_at);
+    parts = calloc(s->instance_count, sizeof *parts);
+    desc = calloc(s->instance_count, sizeof *desc);
+    if (!c->run_of || !c->run_first || !md || !mesh_at || !parts || !desc) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
+        goto fail;
+    }
+    /* the meshes with triangles, as fvk_scene_upload built them */
+    uint32_t nz = 0;
+    for (uint32_t m = 0; m < s->mesh_count; m++) {
+        const tnd_mesh *me = &s->meshes[m];
+        if (!me->triangle_count)
+            continue;
+        mesh_at[m] = nz;
+        md[nz++] = (fvk_mesh_desc){s->positions + 3 * (size_t)me->first_vertex, me->vertex_count,
+                                   s->indices + me->first_index, me->triangle_count, me->name,
+                                   s->materials[me->material].alpha_test};
+    }
+    uint64_t budget = FVK_MERGE_TRIANGLES;
+    uint32_t nparts = 0;
+    for (uint32_t i = 0; i < s->instance_count;) {
+        uint32_t j = i;
+        uint64_t tris = 0;
+        while (j < s->instance_count && !s->instances[j].animated &&
+               s->meshes[s->instances[j].mesh].triangle_count &&
+               j - i < vk_geometry_limit(c->vk) &&
+               tris + s->meshes[s->instances[j].mesh].triangle_count <= budget)
+            tris += s->meshes[s->instances[j++].mesh].triangle_count;
+        if (j - i >= min_run) {
+            desc[nruns] = (fvk_blas_desc){.parts = &parts[nparts], .part_count = j - i,
+                                          .name = "static instances"};
+            c->run_first[nruns] = i;
+            for (uint32_t k = i; k < j; k++) {
+                c->run_of[k] = nruns + 1;
+                parts[nparts++] = (fvk_blas_part){mesh_at[s->instances[k].mesh],
+                                                  cur->instance_xform + 12 * (size_t)k};
+            }
+            nruns++;
+            budget -= tris;
+        }
+        i = j > i ? j : i + 1;
+    }
+    if (nruns) {
+        TND_TRY(fvk_blas_build_parts(c->vk, md, nz, desc, nruns, c->blas + s->mesh_count));
+        c->run_count = nruns;
+    }
+fail:
+    if (res != TND_OK || !nruns) {
+        free(c->run_of);
+        c->run_of = NULL;
+    }
+    free(md);
+    free(mesh_at);
+    free(parts);
+    free(desc);
+    return res;
+}
+
+uint32_t fvk_static_runs(const fvk_context *c, uint32_t *instances)
+{
+    uint32_t n = 0;
+    bool on = c->run_of && !c->unmerged;
+    for (uint32_t i = 0; on && instances && i < c->scene->instance_count; i++)
+        n += c->run_of[i] != 0;
+    if (instances)
+        *instances = n;
+    return on ? c->run_count : 0;
+}
+
 tnd_result fvk_scene_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_scene_state *prev,
                            bool first)
 {
@@ -354,23 +468,39 @@ tnd_result fvk_scene_frame(fvk_context *c, const tnd_scene_state *cur, const tnd
     if (c->light_list.count)
         memcpy(c->lights.mapped, c->light_list.lights,
                c->light_list.count * sizeof(tnd_light_gpu));
+    if (!c->merge_tried) {
+        c->merge_tried = true;
+        TND_TRY(merge_static(c, cur));
+    }
     tnd_gpu_instance *gi = c->instances.mapped;
-    bool moved = false;
+    bool moved = first, unmerge = false;
     for (uint32_t i = 0; i < s->instance_count; i++) {
         const float *x = cur->instance_xform + 12 * i, *px = prev->instance_xform + 12 * i;
-        moved |= memcmp(c->inst[i].transform, x, 12 * sizeof(float)) != 0;
-        memcpy(c->inst[i].transform, x, 12 * sizeof(float));
-        c->inst[i].blas = s->instances[i].mesh;
-        c->inst[i].custom_index = i;
+        bool m = memcmp(c->last_xf + 12 * (size_t)i, x, 12 * sizeof(float)) != 0;
+        moved |= m;
+        unmerge |= m && !first && c->run_of && c->run_of[i] && !c->unmerged;
+        memcpy(c->last_xf + 12 * (size_t)i, x, 12 * sizeof(float));
         memcpy(gi[i].xform, x, 12 * sizeof(float));
         memcpy(gi[i].prev_xform, px, 12 * sizeof(float));
         gi[i].info = (tnd_guvec4){s->instances[i].mesh, c->light_list.instance_first[i],
                                   c->alpha_at[s->instances[i].mesh], 0};
     }
-    if (first || moved) {
+    c->unmerged |= unmerge; /* (from here on every instance is its own; the BLASes stay) */
+    if (moved) {
+        static const float identity[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+        uint32_t n = 0;
+        for (uint32_t i = 0; i < s->instance_count; i++) {
+            uint32_t r = c->run_of && !c->unmerged ? c->run_of[i] : 0;
+            if (r && c->run_first[r - 1] != i)
+                continue; /* (in its run's BLAS) */
+            c->inst[n] = (fvk_instance){.blas = r ? s->mesh_count + r - 1 : s->instances[i].mesh,
+                                        .custom_index = i};
+            memcpy(c->inst[n++].transform, r ? identity : c->last_xf + 12 * (size_t)i,
+                   12 * sizeof(float));
+        }
         double t0 = tnd_now();
-        TND_TRY(fvk_tlas_build(c->vk, c->blas, s->mesh_count, c->inst, s->instance_count,
-                               !first, &c->tlas));
+        TND_TRY(fvk_tlas_build(c->vk, c->blas, s->mesh_count + c->run_count, c->inst, n,
+                               !first && !unmerge, &c->tlas));
         c->tlas_ms = 1e3 * (tnd_now() - t0);
     }
 fail:

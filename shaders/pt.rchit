@@ -14,7 +14,8 @@ hitAttributeEXT vec2 bary;
 void main()
 {
     payload.t = gl_HitTEXT;
-    payload.inst = uint(gl_InstanceCustomIndexEXT);
+    /* the scene's instance: a merged run's first plus the geometry (frontend_vk/fvk_scene.c) */
+    payload.inst = uint(gl_InstanceCustomIndexEXT + gl_GeometryIndexEXT);
     payload.prim = uint(gl_PrimitiveID);
     payload.bary = bary;
 }

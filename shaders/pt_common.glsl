@@ -68,7 +68,8 @@ void alpha_candidates(rayQueryEXT q)
     while (rayQueryProceedEXT(q)) {
         if (USES(TND_USES_ALPHA) && rayQueryGetIntersectionTypeEXT(q, false) ==
                                         gl_RayQueryCandidateIntersectionTriangleEXT) {
-            uint inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(q, false));
+            uint inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(q, false) +
+                             rayQueryGetIntersectionGeometryIndexEXT(q, false));
             uint prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(q, false));
             if (alpha_pass(inst, prim, rayQueryGetIntersectionBarycentricsEXT(q, false)))
                 rayQueryConfirmIntersectionEXT(q);
@@ -86,7 +87,9 @@ bool trace_closest(vec3 org, vec3 dir, float tmax, out hit_info h)
         return false;
     }
     h.t = rayQueryGetIntersectionTEXT(q, true);
-    h.inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(q, true));
+    /* the scene's instance: a merged run's first plus the geometry (frontend_vk/fvk_scene.c) */
+    h.inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(q, true) +
+                  rayQueryGetIntersectionGeometryIndexEXT(q, true));
     h.prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(q, true));
     h.bary = rayQueryGetIntersectionBarycentricsEXT(q, true);
     return true;
