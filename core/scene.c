@@ -484,6 +484,12 @@ void tnd_texture_sample(const tnd_texture *t, float u, float v, float lod, float
     uint32_t l0 = (uint32_t)lod, l1 = l0 + 1 < t->levels ? l0 + 1 : l0;
     float f = lod - (float)l0, a[4], b[4];
     bilinear(t, l0, u, v, a);
+    /* (no second level where it has no weight: a + 0 (b - a) is a, texels being finite and not
+     * -0; the GPU's skip too) */
+    if (f == 0.0f || l1 == l0) {
+        memcpy(out, a, sizeof a);
+        return;
+    }
     bilinear(t, l1, u, v, b);
     for (int c = 0; c < 4; c++)
         out[c] = a[c] + f * (b[c] - a[c]);

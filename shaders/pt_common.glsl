@@ -165,7 +165,12 @@ vec4 sample_tex(int t, vec2 uv, float lod_base, bool srgb)
     int l0 = int(lod);
     int l1 = float(l0 + 1) <= maxl ? l0 + 1 : l0;
     float f = lod - float(l0);
-    vec4 a = bilinear(t, l0, isz, uv, srgb), b = bilinear(t, l1, isz, uv, srgb);
+    vec4 a = bilinear(t, l0, isz, uv, srgb);
+    /* (no second level where it has no weight: a + 0 (b - a) is a, texels being finite and not
+     * -0; magnified and clamped footprints, the CPU's skip too) */
+    if (f == 0.0 || l1 == l0)
+        return a;
+    vec4 b = bilinear(t, l1, isz, uv, srgb);
     return a + f * (b - a);
 }
 
