@@ -473,6 +473,7 @@ VkResult tnd_vk_allocate(const tnd_vk *vk, const VkMemoryAllocateInfo *ai, VkDev
     if (fault.memory_limit || fault.lost_at) {
         uint64_t total = atomic_fetch_add(&fault.allocated, ai->allocationSize) + ai->allocationSize;
         if (fault.memory_limit && total > fault.memory_limit) {
+            atomic_fetch_sub(&fault.allocated, ai->allocationSize); /* (not made) */
             *out = VK_NULL_HANDLE;
             return VK_ERROR_OUT_OF_DEVICE_MEMORY;
         }

@@ -432,8 +432,17 @@ static tnd_result merge_static(fvk_context *c, const tnd_scene_state *cur)
         i = j > i ? j : i + 1;
     }
     if (nruns) {
-        TND_TRY(fvk_blas_build_parts(c->vk, md, nz, desc, nruns, c->blas + s->mesh_count));
-        c->run_count = nruns;
+        res = fvk_blas_build_parts(c->vk, md, nz, desc, nruns, c->blas + s->mesh_count);
+        if (res != TND_OK && !tnd_vk_device_lost()) {
+            /* (the merge is an optimisation: out of device memory for the copies, the
+             * instances stay apart and the frame goes on) */
+            tnd_warn("frontend_vk", "static instances left apart: %s", tnd_error_detail());
+            tnd_error_clear();
+            res = TND_OK;
+            nruns = 0;
+        }
+        if (res == TND_OK)
+            c->run_count = nruns;
     }
 fail:
     if (res != TND_OK || !nruns) {
