@@ -487,7 +487,8 @@ tnd_result fvk_scene_frame(fvk_context *c, const tnd_scene_state *cur, const tnd
         const float *x = cur->instance_xform + 12 * i, *px = prev->instance_xform + 12 * i;
         bool m = memcmp(c->last_xf + 12 * (size_t)i, x, 12 * sizeof(float)) != 0;
         moved |= m;
-        unmerge |= m && !first && c->run_of && c->run_of[i] && !c->unmerged;
+        /* (a merged instance that moved since the last TLAS build: first frames too) */
+        unmerge |= m && c->tlas.as && c->run_of && c->run_of[i] && !c->unmerged;
         memcpy(c->last_xf + 12 * (size_t)i, x, 12 * sizeof(float));
         memcpy(gi[i].xform, x, 12 * sizeof(float));
         memcpy(gi[i].prev_xform, px, 12 * sizeof(float));
