@@ -486,7 +486,7 @@ void tnd_texture_sample(const tnd_texture *t, float u, float v, float lod, float
     bilinear(t, l0, u, v, a);
     /* (no second level where it has no weight: a + 0 (b - a) is a, texels being finite and not
      * -0; the GPU's skip too) */
-    if (f == 0.0f || l1 == l0) {
+    if (f == 0.0f) { /* (also where l1 is l0: lod is then the last level, a whole number) */
         memcpy(out, a, sizeof a);
         return;
     }

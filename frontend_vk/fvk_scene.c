@@ -204,6 +204,15 @@ static tnd_result alpha_upload(fvk_context *c)
     return res;
 }
 
+/* Mesh m as a BLAS takes it (fvk_scene_upload's per-mesh BLASes, merge_static's runs). */
+static fvk_mesh_desc mesh_desc(const tnd_scene *s, uint32_t m)
+{
+    const tnd_mesh *me = &s->meshes[m];
+    return (fvk_mesh_desc){s->positions + 3 * (size_t)me->first_vertex, me->vertex_count,
+                           s->indices + me->first_index, me->triangle_count, me->name,
+                           s->materials[me->material].alpha_test};
+}
+
 tnd_result fvk_scene_upload(fvk_context *c)
 {
     tnd_result res = TND_OK;
@@ -242,9 +251,7 @@ tnd_result fvk_scene_upload(fvk_context *c)
         gm[m] = (tnd_gpu_mesh){{me->first_vertex, me->vertex_count, me->first_index,
                                 me->triangle_count},
                                {me->material, 0, 0, 0}};
-        md[m] = (fvk_mesh_desc){s->positions + 3 * (size_t)me->first_vertex, me->vertex_count,
-                                s->indices + me->first_index, me->triangle_count, me->name,
-                                s->materials[me->material].alpha_test};
+        md[m] = mesh_desc(s, m);
     }
     for (uint32_t m = 0; m < s->material_count; m++) {
         const tnd_material *mt = &s->materials[m];
@@ -403,9 +410,7 @@ static tnd_result merge_static(fvk_context *c, const tnd_scene_state *cur)
         if (!me->triangle_count)
             continue;
         mesh_at[m] = nz;
-        md[nz++] = (fvk_mesh_desc){s->positions + 3 * (size_t)me->first_vertex, me->vertex_count,
-                                   s->indices + me->first_index, me->triangle_count, me->name,
-                                   s->materials[me->material].alpha_test};
+        md[nz++] = mesh_desc(s, m);
     }
     uint64_t budget = FVK_MERGE_TRIANGLES;
     uint32_t nparts = 0;

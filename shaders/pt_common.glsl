@@ -167,8 +167,8 @@ vec4 sample_tex(int t, vec2 uv, float lod_base, bool srgb)
     float f = lod - float(l0);
     vec4 a = bilinear(t, l0, isz, uv, srgb);
     /* (no second level where it has no weight: a + 0 (b - a) is a, texels being finite and not
-     * -0; magnified and clamped footprints, the CPU's skip too) */
-    if (f == 0.0 || l1 == l0)
+     * -0; magnified and clamped footprints, where lod is a whole number; the CPU skips too) */
+    if (f == 0.0)
         return a;
     vec4 b = bilinear(t, l1, isz, uv, srgb);
     return a + f * (b - a);
