@@ -26,7 +26,10 @@ spp stands for every frame (its noise, a relMSE near 0.13 / 4096 = 3e-5, is unde
 smallest error measured here; --quick: 1024 spp, 1.3e-4, under 10% of the errors of its 16
 frames); the moving camera's are rendered per frame at 512 spp (--quick: 256; noise under
 5e-4, some 2-3% of the errors compared; both denoisers are measured against the same frames,
-so it cancels in their ratio).
+so it cancels in their ratio). Both are the Embree front-end's; --quick renders them with the
+Vulkan one (the same expectation, test_matched_reference cross-checks the two): lavapipe is not
+built with the sanitizers, so under them it takes 42 s instead of 230 (in the release build
+Embree is the faster, 7 s against 17 for the box).
 
 usage: test_convergence.py TANDEM [--quick]   (--quick: fewer frames, for the sanitizer build)
 """
@@ -50,6 +53,7 @@ CORNELL = os.path.join(ROOT, "data", "scenes", "cornell.gltf")
 C = Checks(TANDEM)
 check, run = C.check, C.run
 FRAMES = 16 if QUICK else 32
+REF_FRONTEND = ["--frontend", "vk" if QUICK else "embree"]
 
 
 def lum(path):
@@ -65,7 +69,7 @@ def curve(d, series=0):
 tmp = tempfile.mkdtemp(prefix="tandem_convergence_")
 try:
     box = ["--scene", BOX, "--size", "64x64", "--quiet"]
-    run("reference", "--estimator", "realtime", "--frames", "1", "--spp",
+    run("reference", *REF_FRONTEND, "--estimator", "realtime", "--frames", "1", "--spp",
         "1024" if QUICK else "4096", "--out", f"{tmp}/ref1", *box)
     os.makedirs(f"{tmp}/ref")
     for k in range(FRAMES):  # the still camera: one expectation for every frame
@@ -111,7 +115,8 @@ try:
 
     # the moving camera over static light: A-SVGF's gradients must not cost it against SVGF
     cam = ["--scene", CORNELL, "--size", "64x36", "--frames", "16", "--quiet"]
-    run("reference", "--estimator", "realtime", "--spp", "256" if QUICK else "512",
+    run("reference", *REF_FRONTEND, "--estimator", "realtime", "--spp",
+        "256" if QUICK else "512",
         "--out", f"{tmp}/cref", *cam)
     got = {}
     for dn in ("asvgf", "svgf"):
