@@ -42,11 +42,10 @@ vec3 clamp_to_box(vec3 slow, vec3 m1, vec3 m2, float n, vec3 own)
 }
 
 /* The work group's fast histories with a 2-texel apron, loaded once (each 5x5 window reads 25
- * of them): hf and spec in YCoCg, the lf L0, and the texel's field (NO_SURFACE where none). */
+ * of them), two 16-byte texels per tap: s_hf hf in YCoCg and the lf L0, s_sp spec in YCoCg and
+ * the texel's field (NO_SURFACE where none) as float bits. */
 const uint NO_SURFACE = 0xffu;
-shared vec3 s_hf[12][12], s_sp[12][12];
-shared float s_l0[12][12];
-shared uint s_field[12][12];
+shared vec4 s_hf[12][12], s_sp[12][12];
 
 void load_tile(uint cur)
 {
@@ -56,10 +55,9 @@ void load_tile(uint cur)
         ivec2 q = clamp(origin + t, ivec2(0), last); /* (the image's edge texels repeat) */
         uvec2 gq = imageLoad(fgeo, q).xy;
         uvec4 f = imageLoad(hist_fast[cur], q);
-        s_hf[t.y][t.x] = to_ycocg(at_hf(f));
-        s_sp[t.y][t.x] = to_ycocg(at_spec(f));
-        s_l0[t.y][t.x] = at_variance(f); /* (w: the fast lf L0) */
-        s_field[t.y][t.x] = gq.x == DN_FGEO_NONE ? NO_SURFACE : fgeo_field(gq.y);
+        s_hf[t.y][t.x] = vec4(to_ycocg(at_hf(f)), at_variance(f)); /* (w: the fast lf L0) */
+        s_sp[t.y][t.x] = vec4(to_ycocg(at_spec(f)),
+                              uintBitsToFloat(gq.x == DN_FGEO_NONE ? NO_SURFACE : fgeo_field(gq.y)));
     }
 }
 
@@ -94,10 +92,12 @@ void main()
     for (int j = -2; j <= 2; j++)
         for (int i = -2; i <= 2; i++) {
             ivec2 t = lp + ivec2(i, j);
-            if (s_field[t.y][t.x] != field)
+            vec4 sp = s_sp[t.y][t.x];
+            if (floatBitsToUint(sp.w) != field)
                 continue;
-            vec3 a = s_hf[t.y][t.x], b = s_sp[t.y][t.x];
-            float c = s_l0[t.y][t.x];
+            vec4 hf = s_hf[t.y][t.x];
+            vec3 a = hf.xyz, b = sp.xyz;
+            float c = hf.w;
             m1_hf += a, m2_hf += a * a, m1_sp += b, m2_sp += b * b, m1_l0 += c, m2_l0 += c * c;
             n += 1.0;
         }
