@@ -415,15 +415,6 @@ static void dispatch(dn_context *c, VkCommandBuffer cmd, VkPipeline pipe, const 
                   (c->height + 7) / 8);
 }
 
-/* a-trous iteration i (step 2^i): work groups of 8 x 8 pixels 2^i apart, 2^i x 2^i of them per
- * block of 8 x 8 x 4^i pixels (dn_atrous.comp's lattice) */
-static void dispatch_atrous(dn_context *c, VkCommandBuffer cmd, uint32_t slot, uint32_t i)
-{
-    uint32_t block = 8u << i;
-    dispatch_grid(c, cmd, c->atrous, "atrous", (uint32_t[2]){slot, i},
-                  (c->width + block - 1) / block << i, (c->height + block - 1) / block << i);
-}
-
 /* the modes that select gradient samples (A-SVGF; recurrent, as its confidence) */
 static bool uses_gradients(const dn_desc *d)
 {
@@ -754,7 +745,7 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
             tnd_timer_end(cmd, &c->timer, s_l);
             s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous");
             for (uint32_t i = 0; i < iters; i++)
-                dispatch_atrous(c, cmd, slot, i);
+                dispatch(c, cmd, c->atrous, "atrous", slot, i);
             tnd_timer_end(cmd, &c->timer, s_a);
         } else {
             s_a = tnd_timer_begin(cmd, &c->timer, "denoise.atrous+lf");
@@ -768,7 +759,7 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
                 if (n_lf == iters + 1 && lone < n_lf && k >= lone)
                     ka = k == lone ? iters : k - 1;
                 if (ka < iters)
-                    dispatch_atrous(c, cmd, slot, ka);
+                    dispatch(c, cmd, c->atrous, "atrous", slot, ka);
                 if (k < n_lf) /* after: its few groups fill the a-trous's last wave (H200:
                                  a-trous + lf 0.500 -> 0.494 ms, dynamic) */
                     dispatch_lf(c, cmd, k);

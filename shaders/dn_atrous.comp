@@ -9,57 +9,21 @@
  *   0.05 (mirror-like surfaces stay sharp).
  * lf is filtered at 1/3 resolution (dn_lf.comp).
  * Nothing is fed back into the histories (SVGF fed iteration 0's hf output back: a blur that
- * compounded every frame, docs/denoise.md). Reads ping-pong slot i & 1, writes the other.
- * A work group filters a lattice of 8 x 8 pixels `step` apart (dn_context.c dispatches
- * ceil(size / (8 step)) x step groups per axis: a block of 8 step x 8 step pixels is step x step
- * groups, one per residue), so that every tap of its pixels lies on the lattice's 10 x 10 tile
- * with a one-texel apron: the tile's texels (the ping-pong texel DN_B_AT: hf, spec and the
- * variance as 16-bit wide-range floats; the filter geometry DN_B_FGEO: tangent-plane offset,
- * packed normal, roughness and field) are loaded and decoded once into shared memory, 100
- * decodes per 64 pixels instead of 9 per pixel (the octahedral normal's decode is about a fifth
- * of a tap's operations). */
+ * compounded every frame, docs/denoise.md). Reads ping-pong slot i & 1, writes the other. Each
+ * tap is two loads: the ping-pong texel (DN_B_AT: hf, spec and the variance as 16-bit
+ * wide-range floats) and the filter geometry (DN_B_FGEO: tangent-plane offset, packed normal,
+ * roughness and field); they are issued before the tap's tests. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "dn_common.glsl"
 
-/* The tile: texel (tx, ty) is the image's pixel lattice_origin() + (tx - 1, ty - 1) x step.
- * s_geo: normal and the tangent-plane offset's bits (DN_FGEO_NONE: no surface); s_hf: hf and
- * variance, s_sp: spec and the filter geometry's second word, all as the taps use them
- * (scaled by 2^-95, at_*_scaled). */
-shared vec4 s_geo[10][10], s_hf[10][10], s_sp[10][10];
-
-/* the lattice's first pixel: the block's origin plus the group's residue */
-ivec2 lattice_origin(int step)
-{
-    ivec2 g = ivec2(gl_WorkGroupID.xy), block = g >> findLSB(uint(step));
-    return block * (8 * step) + (g - block * step);
-}
-
-void load_tile(uint src, ivec2 origin, int step)
-{
-    ivec2 last = ivec2(P.size.xy) - 1;
-    for (uint k = gl_LocalInvocationIndex; k < 100u; k += 64u) {
-        ivec2 t = ivec2(k % 10u, k / 10u);
-        /* (a texel outside the image is loaded clamped; no tap uses it) */
-        ivec2 q = clamp(origin + (t - 1) * step, ivec2(0), last);
-        uvec4 a = imageLoad(at[src], q);
-        uvec2 gq = imageLoad(fgeo, q).xy;
-        s_geo[t.y][t.x] = vec4(fgeo_normal(gq.y), uintBitsToFloat(gq.x));
-        s_hf[t.y][t.x] = vec4(at_hf_scaled(a), at_variance_scaled(a));
-        s_sp[t.y][t.x] = vec4(at_spec_scaled(a), uintBitsToFloat(gq.y));
-    }
-}
-
 void main()
 {
-    uint i = pc.iteration, src = i & 1u, dst = 1u - src;
-    int step = 1 << int(i);
-    ivec2 lid = ivec2(gl_LocalInvocationID.xy), origin = lattice_origin(step);
-    ivec2 p = origin + lid * step;
-    load_tile(src, origin, step);
-    barrier();
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (!inside(p))
         return;
+    uint i = pc.iteration, src = i & 1u, dst = 1u - src;
+    int step = 1 << int(i);
     /* a channel whose iterations are done is carried through unchanged */
     bool do_hf = i < P.iters.x, do_spec = i < P.iters.z;
     uvec4 c = imageLoad(at[src], p);
@@ -90,49 +54,49 @@ void main()
     float spec_exp = clamp(2.0 / a2 - 2.0, 8.0, P.misc.z);
     bool filter_spec = do_spec && rough >= 0.05; /* mirror-like surfaces stay sharp */
     /* the centre tap: every weight is h = 1 */
-    vec3 s_hf_sum = c_hf * UF16_SCALE, s_spec = c_spec * UF16_SCALE;
+    vec3 s_hf = c_hf * UF16_SCALE, s_spec = c_spec * UF16_SCALE;
     float w_hf = 1.0, w_spec = 1.0, var_acc = c_var * UF16_SCALE;
     const float log2_k[2] = float[2](1.0, 2.0); /* -log2 h: edge 0.5, corner 0.25 */
-    /* a tap counts only if its mirror image about the centre lies in the image too: the kernel
-     * stays symmetric at the image's border (a one-sided kernel there averages a gradient's
-     * pixels with brighter or darker ones on one side only: the closed box's top row came out
-     * 5-16% too bright) */
     ivec2 last = ivec2(P.size.xy) - 1;
-    bvec2 both = bvec2(p.x >= step && p.x + step <= last.x, p.y >= step && p.y + step <= last.y);
     for (int y = -1; y <= 1; y++)
         for (int x = -1; x <= 1; x++) {
             if (x == 0 && y == 0)
                 continue;
-            if ((x != 0 && !both.x) || (y != 0 && !both.y))
-                continue;
-            ivec2 t = lid + 1 + ivec2(x, y);
-            vec4 geo = s_geo[t.y][t.x], sp = s_sp[t.y][t.x];
-            uint gy = floatBitsToUint(sp.w);
-            if (floatBitsToUint(geo.w) == DN_FGEO_NONE || fgeo_field(gy) != field)
+            ivec2 q = p + ivec2(x, y) * step;
+            /* a tap counts only if its mirror image about the centre lies in the image too:
+             * the kernel stays symmetric at the image's border (a one-sided kernel there
+             * averages a gradient's pixels with brighter or darker ones on one side only: the
+             * closed box's top row came out 5-16% too bright) */
+            ivec2 qm = p - ivec2(x, y) * step;
+            bool in_image = q == clamp(q, ivec2(0), last) && qm == clamp(qm, ivec2(0), last);
+            q = clamp(q, ivec2(0), last); /* the loads are issued before the tests */
+            uvec4 t = imageLoad(at[src], q);
+            uvec2 gq = imageLoad(fgeo, q).xy;
+            if (!in_image || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field)
                 continue;
             /* the distance of this pixel to the neighbour's tangent plane, and all factors of
              * a weight in one exp2: h x exp(-a) x nn^e x exp(-b) = exp2(e log2(nn) - (a + b)
              * log2(e) + log2(h)), one log2 shared by hf and spec */
-            vec3 nq = geo.xyz;
-            float plane = abs(geo.w - dot(nq, pos)) * inv_sigma_z + log2_k[abs(x) + abs(y) - 1];
+            vec3 nq = fgeo_normal(gq.y);
+            float plane = abs(uintBitsToFloat(gq.x) - dot(nq, pos)) * inv_sigma_z +
+                          log2_k[abs(x) + abs(y) - 1];
             float log_nn = log2(max(dot(n, nq), 1e-30));
             if (do_hf) {
-                vec4 q_hf = s_hf[t.y][t.x];
-                float w = exp2(P.weights.y * log_nn -
-                               (plane + abs(luma(q_hf.rgb) - l) * inv_sigma_l));
-                s_hf_sum += w * q_hf.rgb;
-                var_acc += w * w * q_hf.a;
+                vec3 q_hf = at_hf_scaled(t);
+                float w = exp2(P.weights.y * log_nn - (plane + abs(luma(q_hf) - l) * inv_sigma_l));
+                s_hf += w * q_hf;
+                var_acc += w * w * at_variance_scaled(t);
                 w_hf += w;
             }
             if (filter_spec) {
                 float w = exp2(spec_exp * log_nn - plane) *
-                          max(0.0, 1.0 - 10.0 * abs(rough - fgeo_roughness(gy)));
-                s_spec += w * sp.rgb;
+                          max(0.0, 1.0 - 10.0 * abs(rough - fgeo_roughness(gq.y)));
+                s_spec += w * at_spec_scaled(t);
                 w_spec += w;
             }
         }
     /* encoded from the scaled values (a channel carried through re-encodes to its own code) */
-    vec3 o_hf = s_hf_sum / w_hf;
+    vec3 o_hf = s_hf / w_hf;
     imageStore(at[dst], p, at_pack_scaled(do_hf ? o_hf : at_hf_scaled(c),
                                           filter_spec ? s_spec / w_spec : at_spec_scaled(c),
                                           do_hf ? var_acc / (w_hf * w_hf) : at_variance_scaled(c),
