@@ -46,15 +46,16 @@ float spec_weight(uvec4 g, float w)
 
 /* Adds the previous frame's texel q with weight w where it saw this pixel's surface: the same
  * instance and field, the depth within 10% after the motion's depth delta (t_depth), geometric
- * normals within 25 degrees; spec weighs the shading normals' agreement too. */
-void tap(ivec2 q, float w)
+ * normals within 25 degrees; spec weighs the shading normals' agreement too. Whether it was
+ * tested and passed. */
+bool tap(ivec2 q, float w)
 {
     if (!inside(q) || w <= 0.0)
-        return;
+        return false;
     uint prev = 1u - pc.slot;
     uvec4 g = imageLoad(prev_geo, q); /* the previous surface in one texel */
     if (!saw_surface(g, true))
-        return;
+        return false;
     uvec4 hf_q = imageLoad(hist_hf[prev], q); /* hf, its length, moments */
     uvec4 lf_q = imageLoad(hist_lf[prev], q); /* SH, CoCg, length */
     uvec2 sp_q = imageLoad(hist_spec[prev], q).xy; /* spec, its length */
@@ -76,6 +77,7 @@ void tap(ivec2 q, float w)
     h_spec += ws * vec4(spec_rgb, 0.0);
     wsum += w;
     wsum_spec += ws;
+    return true;
 }
 
 /* Whether the previous frame's texel q saw this pixel's surface (tap()'s tests). */
@@ -98,8 +100,10 @@ vec4 catmull_rom(float t)
  * 4x4 footprint without its corners (12 taps, renormalised: NRD's reprojection) where every tap
  * saw this surface: a bilinear resampling every frame blurs a history a little more each time
  * the camera moves; the cubic keeps it sharp. False where a tap failed (the bilinear taps
- * stay). The fast histories keep the bilinear taps (they only bound the slow ones). */
-bool resample_cubic(vec2 pp, bool with_spec, out vec3 hf, out vec3 spec)
+ * stay). The fast histories keep the bilinear taps (they only bound the slow ones). `passed`:
+ * the bilinear taps (bit j * 2 + i of tap (i, j)) that tap() tested and passed, the 4x4's inner
+ * 2x2: they are not tested again. */
+bool resample_cubic(vec2 pp, bool with_spec, uint passed, out vec3 hf, out vec3 spec)
 {
     ivec2 b = ivec2(floor(pp)) - 1;
     vec2 f = pp - floor(pp);
@@ -112,7 +116,8 @@ bool resample_cubic(vec2 pp, bool with_spec, out vec3 hf, out vec3 spec)
             if ((i == 0 || i == 3) && (j == 0 || j == 3))
                 continue; /* (the corners) */
             ivec2 q = b + ivec2(i, j);
-            if (!same_surface(q))
+            bool inner = i >= 1 && i <= 2 && j >= 1 && j <= 2;
+            if (!(inner && (passed & 1u << ((j - 1) * 2 + i - 1)) != 0u) && !same_surface(q))
                 return false;
             float w = wx[i] * wy[j];
             uvec4 rc_q = imageLoad(hist_rc[prev], q);
@@ -198,6 +203,7 @@ void main()
      * fallback to the 3x3 around it where none passes was tried: at a disocclusion it hands the
      * pixel a neighbour's stale history, relMSE 0.12 -> 0.14 on the pixels `dynamic`'s cube
      * uncovers, for no gain a still camera can measure.) */
+    uint passed = 0u; /* the bilinear taps that saw this surface (resample_cubic) */
     if (P.size.z != 0u && vis.x != TND_VIS_NONE) {
         t_inst = vis.x, t_field = field, t_depth = depth + motion.z, t_gn = gn, t_n = n;
         t_shininess = shininess;
@@ -206,7 +212,8 @@ void main()
         vec2 f = pp - vec2(p0);
         for (int j = 0; j < 2; j++)
             for (int i = 0; i < 2; i++)
-                tap(p0 + ivec2(i, j), (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y));
+                if (tap(p0 + ivec2(i, j), (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y)))
+                    passed |= 1u << (j * 2 + i);
     }
     /* Recurrent: the reflection's distance (this frame's specular sample's, blended into the
      * history's; 0 where none is known) and, from it, where the reflection was in the previous
@@ -269,7 +276,7 @@ void main()
     vec3 cr_hf, cr_spec;
     bool cr_with_spec = v_wsum <= 1e-4 && wsum_spec > 0.999;
     if (P.size.w == DN_RUN_RECURRENT && wsum > 0.999 && vis.x != TND_VIS_NONE)
-        cubic = resample_cubic(vec2(p) + motion.xy, cr_with_spec, cr_hf, cr_spec);
+        cubic = resample_cubic(vec2(p) + motion.xy, cr_with_spec, passed, cr_hf, cr_spec);
     float l = luma(hf);
     vec4 out_hf, out_mom, out_sh, out_spec;
     vec3 fast_hf = hf, fast_spec = spec; /* recurrent: the fast histories */
