@@ -119,11 +119,13 @@ tnd_result dn_wait(dn_context *ctx, dn_timings *t);
 enum { DN_GRADIENT_WORDS = 7 };
 uint32_t dn_gradient_capacity(const dn_context *ctx);
 /* The same selection handed over on the GPU: `buffer` (owned by the back-end, valid until the
- * next selection) holds one tnd_gpu_gradient per stratum, `slots` of them, pixel
- * TND_GRADIENT_NONE where a stratum has no sample; fvk_shade_gradient_slots reads it directly.
- * Saves the read-back and the host's copy of the list each frame. */
+ * next selection) holds one tnd_gpu_gradient per stratum, `slots` of them in rows of `row`
+ * (the strata's grid, row by row), pixel TND_GRADIENT_NONE where a stratum has no sample;
+ * fvk_shade_gradient_slots reads it directly. Saves the read-back and the host's copy of the
+ * list each frame. */
 tnd_result dn_select_gradients_gpu(dn_context *ctx, const tnd_contract_gpu *contract,
-                                   const dn_frame *frame, VkBuffer *buffer, uint32_t *slots);
+                                   const dn_frame *frame, VkBuffer *buffer, uint32_t *slots,
+                                   uint32_t *row);
 tnd_result dn_select_gradients(dn_context *ctx, const tnd_contract_gpu *contract,
                                const dn_frame *frame, uint32_t *samples, uint32_t *count);
 /* Debug dumps of the back-end's buffers after the last dn_run (tandem render --dump): dump i

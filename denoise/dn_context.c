@@ -634,10 +634,11 @@ fail:
 }
 
 tnd_result dn_select_gradients_gpu(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f,
-                                   VkBuffer *buffer, uint32_t *slots)
+                                   VkBuffer *buffer, uint32_t *slots, uint32_t *row)
 {
     *buffer = VK_NULL_HANDLE;
     *slots = 0;
+    *row = c->grad_w;
     if (!uses_gradients(&c->desc))
         return TND_OK;
     tnd_result res = select_pass(c, ct, f, false);

@@ -127,11 +127,11 @@ tnd_result fvk_last_timings(fvk_context *ctx, bool wait, fvk_timings *t);
 tnd_result fvk_shade_gradients(fvk_context *ctx, const fvk_params *p, const uint32_t *samples,
                                uint32_t count, fvk_timings *t);
 /* The same, reading the back-end's per-stratum list where it lies on the GPU
- * (dn_select_gradients_gpu: `slots` tnd_gpu_gradient entries, TND_GRADIENT_NONE skipped): no
- * read-back and no upload. The entries come from the back-end's own pass over the contract,
- * so they are trusted (no range check). */
+ * (dn_select_gradients_gpu: `slots` tnd_gpu_gradient entries in rows of `row`, the strata's
+ * grid; TND_GRADIENT_NONE skipped): no read-back and no upload. The entries come from the
+ * back-end's own pass over the contract, so they are trusted (no range check). */
 tnd_result fvk_shade_gradient_slots(fvk_context *ctx, const fvk_params *p, VkBuffer slots_buffer,
-                                    uint32_t slots, fvk_timings *t);
+                                    uint32_t slots, uint32_t row, fvk_timings *t);
 /* Reference: unbiased progressive path tracing on the GPU, as femb_reference (same paths for
  * the same keys): spp samples per pixel, radiance in rgb (3 floats per pixel), the standard error
  * of each pixel's luminance mean in lum_se (optional), the samples taken and the mean relative

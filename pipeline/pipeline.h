@@ -100,9 +100,10 @@ const tnd_contract_gpu *pl_frontend_contract(const pl_frontend *fe);
  * contract for GPU front-ends (host untouched), else into `host` (then quantised). */
 tnd_result pl_frontend_reshade(pl_frontend *fe, const pl_params *p, const uint32_t *words,
                                uint32_t count, tnd_frame *host, pl_timings *t);
-/* The same from the back-end's GPU slot buffer (GPU front-ends only). */
+/* The same from the back-end's GPU slot buffer (GPU front-ends only): `count` slots in rows of
+ * `row` (the strata's grid). */
 tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuffer slots,
-                                     uint32_t count, pl_timings *t);
+                                     uint32_t count, uint32_t row, pl_timings *t);
 /* A recorded front-end's frames (0 for a live one) and frame i's name (its file). */
 uint32_t pl_frontend_length(const pl_frontend *fe);
 const char *pl_frontend_frame_name(const pl_frontend *fe, uint32_t i);

@@ -280,7 +280,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
          * frame's random numbers on the surface seen there */
         uint32_t n = 0;
         if (gpu && s->capture) { /* the list comes to the host, for the capture */
-            TND_TRY(c->ops->select(c->dn, ct, &df, c->grads, NULL, &n));
+            TND_TRY(c->ops->select(c->dn, ct, &df, c->grads, NULL, &n, NULL));
             TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, NULL, ft));
             if (n) { /* the contract as re-shaded, at the samples */
                 if (!c->reshaded.block)
@@ -290,10 +290,11 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
             }
         } else if (gpu) { /* the sample list stays on the GPU */
             VkBuffer slots;
-            TND_TRY(c->ops->select(c->dn, ct, &df, NULL, &slots, &n));
-            TND_TRY(pl_frontend_reshade_slots(fe, &s->params, slots, n, ft));
+            uint32_t row = 0;
+            TND_TRY(c->ops->select(c->dn, ct, &df, NULL, &slots, &n, &row));
+            TND_TRY(pl_frontend_reshade_slots(fe, &s->params, slots, n, row, ft));
         } else {
-            TND_TRY(c->ops->select(c->dn, ct, &df, c->grads, NULL, &n));
+            TND_TRY(c->ops->select(c->dn, ct, &df, c->grads, NULL, &n, NULL));
             /* (a recorded front-end checks the selection even when it is empty) */
             if (n || recorded)
                 TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, &c->host, ft));

@@ -144,11 +144,11 @@ static uint32_t backend_capacity(const void *ctx)
 }
 
 static tnd_result backend_select(void *ctx, const tnd_contract_gpu *ct, const dn_frame *f,
-                                 uint32_t *words, VkBuffer *slots, uint32_t *n)
+                                 uint32_t *words, VkBuffer *slots, uint32_t *n, uint32_t *row)
 {
     dn_context *dn = ((backend *)ctx)->dn;
     return words ? dn_select_gradients(dn, ct, f, words, n)
-                 : dn_select_gradients_gpu(dn, ct, f, slots, n);
+                 : dn_select_gradients_gpu(dn, ct, f, slots, n, row);
 }
 
 static tnd_result backend_submit(void *ctx, const pl_dn_input *in)

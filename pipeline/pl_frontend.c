@@ -145,12 +145,12 @@ static tnd_result vk_reshade(void *ctx, const pl_params *p, const uint32_t *word
 }
 
 static tnd_result vk_reshade_slots(void *ctx, const pl_params *p, VkBuffer slots, uint32_t n,
-                                   pl_timings *t)
+                                   uint32_t row, pl_timings *t)
 {
     vk_fe *v = ctx;
     fvk_params fp = vk_params(p);
     fvk_timings tm = {0};
-    tnd_result res = fvk_shade_gradient_slots(v->gv, &fp, slots, n, t ? &tm : NULL);
+    tnd_result res = fvk_shade_gradient_slots(v->gv, &fp, slots, n, row, t ? &tm : NULL);
     if (t)
         t->gradient_ms = tm.gradient_ms;
     return res;
@@ -528,12 +528,12 @@ tnd_result pl_frontend_reshade(pl_frontend *fe, const pl_params *p, const uint32
 }
 
 tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuffer slots,
-                                     uint32_t count, pl_timings *t)
+                                     uint32_t count, uint32_t row, pl_timings *t)
 {
     if (!fe->ops->reshade_slots)
         return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' re-shades host lists only",
                         fe->ops->name);
-    return fe->ops->reshade_slots(fe->ctx, p, slots, count, t);
+    return fe->ops->reshade_slots(fe->ctx, p, slots, count, row, t);
 }
 
 tnd_result pl_frontend_reference_add(pl_frontend *fe, uint32_t max_bounces, uint32_t first,

@@ -24,7 +24,7 @@ typedef struct pl_frontend_ops {
     tnd_result (*reshade)(void *ctx, const pl_params *p, const uint32_t *words, uint32_t n,
                           tnd_frame *host, pl_timings *t);
     tnd_result (*reshade_slots)(void *ctx, const pl_params *p, VkBuffer slots, uint32_t n,
-                                pl_timings *t);
+                                uint32_t row, pl_timings *t);
     tnd_result (*reference)(void *ctx, uint32_t max_bounces, uint32_t first, uint32_t count,
                             double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
                             void (*progress)(uint32_t, uint32_t, void *), void *user);
@@ -103,10 +103,11 @@ typedef struct pl_denoiser_ops {
     tnd_result (*create)(const pl_dn_desc *d, void **ctx);
     void (*destroy)(void *ctx);
     /* PL_DN_GRADIENTS: this frame's gradient samples, to the host (words, PL_GRADIENT_WORDS
-     * each, room for capacity()) or left on the GPU (slots: the buffer, *n its slots) */
+     * each, room for capacity()) or left on the GPU (slots: the buffer, *n its slots in rows
+     * of *row) */
     uint32_t (*capacity)(const void *ctx);
     tnd_result (*select)(void *ctx, const tnd_contract_gpu *ct, const dn_frame *f,
-                         uint32_t *words, VkBuffer *slots, uint32_t *n);
+                         uint32_t *words, VkBuffer *slots, uint32_t *n, uint32_t *row);
     /* record and submit the frame (not waited for); wait for it: its passes' times */
     tnd_result (*submit)(void *ctx, const pl_dn_input *in);
     tnd_result (*wait)(void *ctx, double *ms, bool *beside);

@@ -1019,11 +1019,13 @@ static void test_asvgf_follows_light_switch(void)
         if (fr < first + 8) {
             REQUIRE_OK(fvk_render(gv, &(fvk_params){.bounces = 1}, NULL));
             VkBuffer slots_buf;
-            uint32_t slots = 0;
-            REQUIRE_OK(dn_select_gradients_gpu(dd, fvk_contract(gv), &df, &slots_buf, &slots));
-            CHECK(slots == cap, "GPU hand-over: %u slots, expected %u", slots, cap);
+            uint32_t slots = 0, row = 0;
             REQUIRE_OK(
-                fvk_shade_gradient_slots(gv, &(fvk_params){.bounces = 1}, slots_buf, slots, NULL));
+                dn_select_gradients_gpu(dd, fvk_contract(gv), &df, &slots_buf, &slots, &row));
+            CHECK(slots == cap && row == 32, /* the strata grid: 32 x 18 */
+                  "GPU hand-over: %u slots in rows of %u, expected %u", slots, row, cap);
+            REQUIRE_OK(fvk_shade_gradient_slots(gv, &(fvk_params){.bounces = 1}, slots_buf, slots,
+                                                row, NULL));
             REQUIRE_OK(dn_run(dd, fvk_contract(gv), &df, NULL));
             REQUIRE_OK(dn_download(db, ob));
             REQUIRE_OK(dn_download(dd, oh));
