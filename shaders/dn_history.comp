@@ -43,7 +43,8 @@ vec3 clamp_to_box(vec3 slow, vec3 m1, vec3 m2, float n, vec3 own)
 
 /* The work group's fast histories with a 2-texel apron, loaded once (each 5x5 window reads 25
  * of them), two 16-byte texels per tap: s_hf hf in YCoCg and the lf L0, s_sp spec in YCoCg and
- * the texel's field (NO_SURFACE where none) as float bits. */
+ * the texel's field (NO_SURFACE where none) as a float (a whole number: exact, and no
+ * denormal bit pattern a device could flush). */
 const uint NO_SURFACE = 0xffu;
 shared vec4 s_hf[12][12], s_sp[12][12];
 
@@ -57,7 +58,7 @@ void load_tile(uint cur)
         uvec4 f = imageLoad(hist_fast[cur], q);
         s_hf[t.y][t.x] = vec4(to_ycocg(at_hf(f)), at_variance(f)); /* (w: the fast lf L0) */
         s_sp[t.y][t.x] = vec4(to_ycocg(at_spec(f)),
-                              uintBitsToFloat(gq.x == DN_FGEO_NONE ? NO_SURFACE : fgeo_field(gq.y)));
+                              float(gq.x == DN_FGEO_NONE ? NO_SURFACE : fgeo_field(gq.y)));
     }
 }
 
@@ -93,7 +94,7 @@ void main()
         for (int i = -2; i <= 2; i++) {
             ivec2 t = lp + ivec2(i, j);
             vec4 sp = s_sp[t.y][t.x];
-            if (floatBitsToUint(sp.w) != field)
+            if (sp.w != float(field))
                 continue;
             vec4 hf = s_hf[t.y][t.x];
             vec3 a = hf.xyz, b = sp.xyz;
