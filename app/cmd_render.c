@@ -700,6 +700,7 @@ tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, t
                                                    .full_pipeline =
                                                        strcmp(o->pipeline, "full") == 0,
                                                    .reflect_depth = o->reflect_depth,
+                                                   .references = reference,
                                                    .threads = o->threads,
                                                    .scene_path = o->scene},
                                fr));

@@ -80,6 +80,9 @@ typedef struct fvk_desc {
     bool full_pipeline;      /* compile every light type, textures, normal maps and sky in, whatever
                                 the scene holds (default: only what the scene requires) */
     uint32_t reflect_depth;  /* as femb_desc */
+    bool references;         /* renders references: their passes are made here, the real-time
+                                frame's on its first render (either kind is made when first
+                                needed; this keeps the compile out of a reference's time) */
 } fvk_desc;
 
 typedef struct fvk_params {

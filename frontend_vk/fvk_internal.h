@@ -44,8 +44,14 @@ struct fvk_context {
     /* pipeline */
     VkDescriptorSetLayout set_layout[2];
     VkPipelineLayout layout;
-    VkPipeline pipeline;      /* ray-tracing pipeline (FVK_RT_PIPELINE) */
-    VkPipeline compute[3];    /* primary, shade, reference (FVK_RT_QUERY) */
+    /* The passes, twice: [0] the real-time frame's (the real-time sample word only), [1] every
+     * sample word (references, matched references; TND_USES_REFERENCE, made on first use). */
+    struct fvk_passes {
+        VkPipeline pipeline;  /* ray-tracing pipeline (FVK_RT_PIPELINE) */
+        tnd_sbt sbt;
+        VkPipeline compute[3]; /* primary, shade, reference (FVK_RT_QUERY) */
+    } passes[2];
+    int bound;                /* the passes bind_all bound last (what launch launches) */
     VkPipeline matched;       /* pt_matched.comp: a matched reference's sample summed */
     tnd_image accum;          /* reference accumulation (rgb sum, luminance^2 sum) */
     fvk_rt_api api;
@@ -53,7 +59,6 @@ struct fvk_context {
     uint32_t reflect_depth;   /* specular vertices of the primary chain (frame params.w) */
     uint32_t ref_bounces;     /* fvk_set_reference_bounces (0: full paths; frame params.x) */
     char variant[160];
-    tnd_sbt sbt;
     VkDescriptorPool pool;
     VkDescriptorSet sets[2];
     /* The scene set again, its gradient binding (11) at the back-end's per-stratum list

@@ -85,64 +85,90 @@ fvk_rt_api fvk_api(const fvk_context *c)
     return c->api;
 }
 
-static tnd_result create_compute(fvk_context *c)
+/* Stage *n of a ray-tracing pipeline's list: shader `id` as `kind`; returns its index. */
+static uint32_t add_stage(tnd_rt_stage *stages, uint32_t *n, tnd_shader id,
+                          VkShaderStageFlagBits kind)
+{
+    stages[*n].code = tnd_spirv_code(id, &stages[*n].bytes, NULL);
+    stages[*n].stage = kind;
+    return (*n)++;
+}
+
+/* The passes' specialization: the scene's features, with TND_USES_REFERENCE only for the passes
+ * that draw reference samples (v 1). */
+static uint32_t passes_uses(const fvk_context *c, int v)
+{
+    return v ? c->uses | TND_USES_REFERENCE : c->uses & ~TND_USES_REFERENCE;
+}
+
+/* The passes v (0: the real-time frame's, 1: references') as compute pipelines (FVK_RT_QUERY:
+ * primary and shade, and pt_reference for v 1) or one ray-tracing pipeline of all three raygens
+ * either way (v 0 never launches pt_reference; without it in the pipeline, the H200's primary
+ * pass ran 20% slower: docs/performance.md). */
+static tnd_result create_passes(fvk_context *c, int v)
 {
     tnd_result res = TND_OK;
+    struct fvk_passes *ps = &c->passes[v];
     bool packed = c->precision == TND_PRECISION_PACKED;
-    const tnd_shader ids[3] = {packed ? TND_SHADER_pt_primary_rq_packed : TND_SHADER_pt_primary_rq_f32,
-                               packed ? TND_SHADER_pt_shade_rq_packed : TND_SHADER_pt_shade_rq_f32,
-                               TND_SHADER_pt_reference_rq};
-    const char *names[3] = {"frontend_vk.primary_rq", "frontend_vk.shade_rq",
-                            "frontend_vk.reference_rq"};
+    uint32_t uses = passes_uses(c, v);
     const VkSpecializationMapEntry entry = {0, 0, sizeof(uint32_t)};
-    const VkSpecializationInfo spec = {1, &entry, sizeof(uint32_t), &c->uses};
-    for (int i = 0; i < 3; i++) {
-        size_t bytes;
-        const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
-        TND_TRY(tnd_compute_pipeline_create(c->vk,
-                                            &(tnd_compute_desc){.code = code, .bytes = bytes,
-                                                                .layout = c->layout,
-                                                                .spec = &spec,
-                                                                .name = names[i]},
-                                            &c->compute[i]));
+    const VkSpecializationInfo spec = {1, &entry, sizeof(uint32_t), &uses};
+    if (c->api == FVK_RT_QUERY) {
+        const tnd_shader ids[3] = {
+            packed ? TND_SHADER_pt_primary_rq_packed : TND_SHADER_pt_primary_rq_f32,
+            packed ? TND_SHADER_pt_shade_rq_packed : TND_SHADER_pt_shade_rq_f32,
+            TND_SHADER_pt_reference_rq};
+        const char *names[2][3] = {{"frontend_vk.primary_rq", "frontend_vk.shade_rq", ""},
+                                   {"frontend_vk.primary_rq.ref", "frontend_vk.shade_rq.ref",
+                                    "frontend_vk.reference_rq"}};
+        for (int i = 0; i < (v ? 3 : 2); i++) {
+            size_t bytes;
+            const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
+            TND_TRY(tnd_compute_pipeline_create(c->vk,
+                                                &(tnd_compute_desc){.code = code,
+                                                                    .bytes = bytes,
+                                                                    .layout = c->layout,
+                                                                    .spec = &spec,
+                                                                    .name = names[v][i]},
+                                                &ps->compute[i]));
+        }
+        return res;
     }
+    /* stages: the raygens, the two miss shaders, the closest hit, the any-hit only where the
+     * scene has alpha-tested geometry */
+    const tnd_shader raygen_ids[3] = {
+        packed ? TND_SHADER_pt_primary_packed : TND_SHADER_pt_primary_f32,
+        packed ? TND_SHADER_pt_shade_packed : TND_SHADER_pt_shade_f32, TND_SHADER_pt_reference};
+    tnd_rt_stage stages[7];
+    uint32_t n = 0, raygen[3], miss[2];
+    for (int i = 0; i < 3; i++)
+        raygen[i] = add_stage(stages, &n, raygen_ids[i], VK_SHADER_STAGE_RAYGEN_BIT_KHR);
+    miss[0] = add_stage(stages, &n, TND_SHADER_pt_rmiss, VK_SHADER_STAGE_MISS_BIT_KHR);
+    miss[1] = add_stage(stages, &n, TND_SHADER_pt_shadow_rmiss, VK_SHADER_STAGE_MISS_BIT_KHR);
+    tnd_rt_hit_group hit = {
+        .closest_hit =
+            (int)add_stage(stages, &n, TND_SHADER_pt_rchit, VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR),
+        .any_hit = -1};
+    if (c->uses & TND_USES_ALPHA)
+        hit.any_hit =
+            (int)add_stage(stages, &n, TND_SHADER_pt_alpha_rahit, VK_SHADER_STAGE_ANY_HIT_BIT_KHR);
+    res = tnd_rt_pipeline_create(
+        c->vk,
+        &(tnd_rt_desc){.stages = stages, .stage_count = n, .raygen = raygen,
+                       .raygen_count = 3, .miss = miss, .miss_count = 2,
+                       .hit = &hit, .hit_count = 1, .max_recursion = 1, .layout = c->layout,
+                       .spec = &spec, .name = v ? "frontend_vk.pt.ref" : "frontend_vk.pt"},
+        &ps->pipeline, &ps->sbt);
 fail:
     return res;
 }
 
-static tnd_result create_pipeline(fvk_context *c)
+/* The passes v, made the first time they are needed (fvk_create makes those its desc asks for). */
+static tnd_result need_passes(fvk_context *c, int v)
 {
-    bool packed = c->precision == TND_PRECISION_PACKED;
-    const tnd_shader ids[7] = {packed ? TND_SHADER_pt_primary_packed : TND_SHADER_pt_primary_f32,
-                               packed ? TND_SHADER_pt_shade_packed : TND_SHADER_pt_shade_f32,
-                               TND_SHADER_pt_reference,
-                               TND_SHADER_pt_rmiss, TND_SHADER_pt_shadow_rmiss,
-                               TND_SHADER_pt_rchit, TND_SHADER_pt_alpha_rahit};
-    const VkShaderStageFlagBits kinds[7] = {
-        VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_RAYGEN_BIT_KHR,
-        VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
-        VK_SHADER_STAGE_MISS_BIT_KHR,   VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR,
-        VK_SHADER_STAGE_ANY_HIT_BIT_KHR};
-    /* the any-hit shader only where the scene has alpha-tested geometry */
-    bool alpha = (c->uses & TND_USES_ALPHA) != 0;
-    int nstages = alpha ? 7 : 6;
-    tnd_rt_stage stages[7];
-    for (int i = 0; i < nstages; i++) {
-        stages[i].code = tnd_spirv_code(ids[i], &stages[i].bytes, NULL);
-        stages[i].stage = kinds[i];
-    }
-    const uint32_t raygen[3] = {0, 1, 2}, miss[2] = {3, 4};
-    const VkSpecializationMapEntry entry = {0, 0, sizeof(uint32_t)};
-    const VkSpecializationInfo spec = {1, &entry, sizeof(uint32_t), &c->uses};
-    const tnd_rt_hit_group hit = {.closest_hit = 5, .any_hit = alpha ? 6 : -1};
-    return tnd_rt_pipeline_create(c->vk,
-                                  &(tnd_rt_desc){.stages = stages, .stage_count = (uint32_t)nstages,
-                                                 .raygen = raygen, .raygen_count = 3,
-                                                 .miss = miss, .miss_count = 2, .hit = &hit,
-                                                 .hit_count = 1, .max_recursion = 1,
-                                                 .layout = c->layout, .spec = &spec,
-                                                 .name = "frontend_vk.pt"},
-                                  &c->pipeline, &c->sbt);
+    bool made = c->api == FVK_RT_QUERY ? c->passes[v].compute[0] != VK_NULL_HANDLE
+                                       : c->passes[v].pipeline != VK_NULL_HANDLE;
+    return made ? TND_OK : create_passes(c, v);
 }
 
 /* The scene set `set` (its gradient binding, 11, at our list). */
@@ -247,12 +273,15 @@ void fvk_destroy(fvk_context *c)
         tnd_timer_destroy(vk, &c->timer[i]);
     }
     tnd_contract_gpu_destroy(vk, &c->contract);
-    tnd_sbt_destroy(vk, &c->sbt);
-    if (c->pipeline)
-        vkDestroyPipeline(vk->device, c->pipeline, NULL);
-    for (int i = 0; i < 3; i++)
-        if (c->compute[i])
-            vkDestroyPipeline(vk->device, c->compute[i], NULL);
+    for (int v = 0; v < 2; v++) {
+        struct fvk_passes *ps = &c->passes[v];
+        tnd_sbt_destroy(vk, &ps->sbt);
+        if (ps->pipeline)
+            vkDestroyPipeline(vk->device, ps->pipeline, NULL);
+        for (int i = 0; i < 3; i++)
+            if (ps->compute[i])
+                vkDestroyPipeline(vk->device, ps->compute[i], NULL);
+    }
     if (c->matched)
         vkDestroyPipeline(vk->device, c->matched, NULL);
     tnd_image_destroy(vk, &c->accum);
@@ -339,10 +368,7 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
         c->reflect_depth = TND_MAX_SPECULAR_DEPTH;
     TND_TRY(fvk_scene_upload(c));
     TND_TRY(create_layouts(c));
-    if (c->api == FVK_RT_QUERY)
-        TND_TRY(create_compute(c));
-    else
-        TND_TRY(create_pipeline(c));
+    TND_TRY(create_passes(c, desc && desc->references ? 1 : 0));
     {
         size_t bytes;
         tnd_shader id = c->precision == TND_PRECISION_PACKED ? TND_SHADER_pt_matched_packed
@@ -442,13 +468,16 @@ static void set_params(fvk_context *c, const fvk_params *p)
 }
 
 /* Bind the passes' pipeline(s) and sets (the scene set, or the slot set for slot launches), push
- * the mode. */
-static void bind_all(fvk_context *c, VkCommandBuffer cmd, uint32_t mode, bool slots)
+ * the mode. The passes: the reference ones where the frame parameters' sample word is a
+ * reference's or `reference` says so (need_passes made them), else the real-time ones. */
+static void bind_all(fvk_context *c, VkCommandBuffer cmd, uint32_t mode, bool slots,
+                     bool reference)
 {
     VkPipelineBindPoint bp = c->api == FVK_RT_QUERY ? VK_PIPELINE_BIND_POINT_COMPUTE
                                                     : VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR;
+    c->bound = reference || c->ubo.params.y != TND_SAMPLE_REALTIME;
     if (c->api != FVK_RT_QUERY)
-        vkCmdBindPipeline(cmd, bp, c->pipeline);
+        vkCmdBindPipeline(cmd, bp, c->passes[c->bound].pipeline);
     VkDescriptorSet sets[2] = {slots ? c->slot_set : c->sets[0], c->sets[1]};
     vkCmdBindDescriptorSets(cmd, bp, c->layout, 0, 2, sets, 0, NULL);
     vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT,
@@ -461,11 +490,12 @@ static tnd_result begin_passes(fvk_context *c, int run, uint32_t mode, bool slot
                                VkCommandBuffer *cmd)
 {
     tnd_result res = TND_OK;
+    TND_TRY(need_passes(c, c->ubo.params.y != TND_SAMPLE_REALTIME));
     TND_TRY(tnd_cmd_begin(c->vk, cmd));
     if (run >= 0)
         tnd_timer_reset(*cmd, &c->timer[run]);
     vkCmdUpdateBuffer(*cmd, c->frame_ubo.buffer, 0, sizeof c->ubo, &c->ubo);
-    bind_all(c, *cmd, mode, slots);
+    bind_all(c, *cmd, mode, slots, false);
     tnd_cmd_barrier(*cmd);
 fail:
     return res;
@@ -476,14 +506,16 @@ static void launch(fvk_context *c, VkCommandBuffer cmd, int which, uint32_t w, u
                    bool linear)
 {
     if (c->api == FVK_RT_QUERY) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->compute[which]);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                          c->passes[c->bound].compute[which]);
         if (linear)
             vkCmdDispatch(cmd, (w + 63) / 64, 1, 1);
         else
             vkCmdDispatch(cmd, (w + 7) / 8, (h + 7) / 8, 1);
     } else {
-        c->vk->fn.vkCmdTraceRaysKHR(cmd, &c->sbt.raygen[which], &c->sbt.miss, &c->sbt.hit,
-                                    &c->sbt.callable, w, h, 1);
+        const tnd_sbt *sbt = &c->passes[c->bound].sbt;
+        c->vk->fn.vkCmdTraceRaysKHR(cmd, &sbt->raygen[which], &sbt->miss, &sbt->hit,
+                                    &sbt->callable, w, h, 1);
     }
 }
 
@@ -620,7 +652,7 @@ void fvk_set_reference_bounces(fvk_context *c, uint32_t bounces)
  * each), or a matched reference's (the real-time passes, then pt_matched.comp). */
 static void record_unbiased(fvk_context *c, VkCommandBuffer cmd, uint32_t b0, uint32_t b1)
 {
-    bind_all(c, cmd, 0, false);
+    bind_all(c, cmd, 0, false, true);
     for (uint32_t s = b0; s < b1; s++) {
         uint32_t pc[2] = {s, b0};
         vkCmdPushConstants(cmd, c->layout,
@@ -642,7 +674,7 @@ static void record_matched(fvk_context *c, VkCommandBuffer cmd, uint32_t b0, uin
          * the update after the last sample's reads and before this one's) */
         vkCmdUpdateBuffer(cmd, c->frame_ubo.buffer, 0, sizeof c->ubo, &c->ubo);
         tnd_cmd_barrier(cmd);
-        bind_all(c, cmd, 0, false);
+        bind_all(c, cmd, 0, false, true);
         launch(c, cmd, 0, c->width, c->height, false);
         tnd_cmd_barrier(cmd);
         launch(c, cmd, 1, c->width, c->height, false);
@@ -673,8 +705,9 @@ static tnd_result add_batches(fvk_context *c, bool matched, uint32_t first, uint
     float *acc = malloc(n * 16);
     if (!acc)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
-    TND_TRY(settle(c, FVK_ALL)); /* (the accumulation image, the frame parameters) */
-    tnd_gpu_frame saved = c->ubo;
+    tnd_gpu_frame saved = c->ubo; /* (restored at the end, failed or not) */
+    TND_TRY(settle(c, FVK_ALL));  /* (the accumulation image, the frame parameters) */
+    TND_TRY(need_passes(c, 1));
     const uint32_t batch = TND_REF_CHECK_EVERY;
     double until = stats ? stats->until_noise : 0.0;
     uint32_t end = first + count, done = end;

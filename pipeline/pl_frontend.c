@@ -64,7 +64,8 @@ static tnd_result vk_create(const tnd_scene *scene, const pl_frontend_desc *d, v
     res = fvk_create(d->vk, scene,
                      &(fvk_desc){.precision = d->precision, .rt_api = api,
                                  .full_pipeline = d->full_pipeline,
-                                 .reflect_depth = d->reflect_depth},
+                                 .reflect_depth = d->reflect_depth,
+                                 .references = d->references},
                      &v->gv);
     if (res != TND_OK) {
         free(v);

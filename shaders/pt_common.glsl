@@ -11,6 +11,11 @@
 #extension GL_EXT_ray_tracing : require
 #endif
 
+/* (the scene's bindings and specialization first: sampling.h draws reference samples only in
+ * passes built with TND_USES_REFERENCE) */
+#include "pt_scene.glsl"
+#define TND_RAND_REFERENCE USES(TND_USES_REFERENCE)
+
 #include "brdf.h"
 #include "lights.h"
 #include "sampling.h"
@@ -18,8 +23,6 @@
 #include "encoding.h"
 #include "specular.h"
 #include "offset.h"
-
-#include "pt_scene.glsl"
 
 #define TND_CONTRACT_SET 1
 #include "contract.h"

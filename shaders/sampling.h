@@ -136,9 +136,15 @@ uint tnd_sobol1_rev(uint i)
     i ^= (i >> 8) & 0x00ff00ffu;
     return i ^ (i >> 16);
 }
+/* A pass that never draws reference samples defines TND_RAND_REFERENCE false before including
+ * this file (the path tracer's real-time passes: TND_USES_REFERENCE, scene_gpu.h), and the
+ * Sobol' branch folds away from every draw. */
+#ifndef TND_RAND_REFERENCE
+#define TND_RAND_REFERENCE true
+#endif
 float tnd_rand(uint pixel, uint frame, uint smp, uint dim)
 {
-    if (smp == TND_SAMPLE_REALTIME)
+    if (!(TND_RAND_REFERENCE) || smp == TND_SAMPLE_REALTIME)
         return float(tnd_pcg4d(uvec4(pixel, frame, smp, dim)).x >> 8) * (1.0 / 16777216.0);
     uint pc = tnd_dim_pair(dim);
     uvec4 seed = tnd_pcg4d(uvec4(pixel, frame, pc >> 1, TND_QMC_SALT));

@@ -89,7 +89,12 @@ _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 7 * 16, "frame layout");
 #define TND_USES_SPECULAR 128u  /* mirrors and glass */
 #define TND_USES_ENV 256u       /* an environment map */
 #define TND_USES_ALPHA 512u     /* alpha-tested geometry (any-hit, candidate loop) */
-#define TND_USES_ALL 1023u
+/* Not a feature of the scene but of the passes: they may draw reference samples (shuffled Owen-
+ * scrambled Sobol' points, sampling.h). The real-time passes are built without it, so that
+ * tnd_rand's Sobol' branch folds away from them (it cost `materials`' shading pass 7% on the
+ * H200, docs/performance.md); references and matched references run passes built with it. */
+#define TND_USES_REFERENCE 1024u
+#define TND_USES_ALL 2047u
 
 /* Gradient sample for the shading pass (matches femb_gradient_sample). In the back-end's
  * per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a sample has
