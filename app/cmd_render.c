@@ -701,6 +701,7 @@ tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, t
                                                        strcmp(o->pipeline, "full") == 0,
                                                    .reflect_depth = o->reflect_depth,
                                                    .references = reference,
+                                                   .bounces = o->bounces,
                                                    .threads = o->threads,
                                                    .scene_path = o->scene},
                                fr));

@@ -83,6 +83,9 @@ typedef struct fvk_desc {
     bool references;         /* renders references: their passes are made here, the real-time
                                 frame's on its first render (either kind is made when first
                                 needed; this keeps the compile out of a reference's time) */
+    uint32_t bounces;        /* the indirect bounces the passes are first built for (0: 1, the
+                                default): the shading pass is specialised for the count a frame
+                                (or a matched reference) asks, and built again for another */
 } fvk_desc;
 
 typedef struct fvk_params {

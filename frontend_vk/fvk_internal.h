@@ -11,6 +11,9 @@ typedef struct fvk_texture {
     VkImageView view;
 } fvk_texture;
 
+/* need_passes: the passes as they are, whatever bounces they were built for */
+#define FVK_ANY_BOUNCES UINT32_MAX
+
 struct fvk_context {
     tnd_vk *vk;
     const tnd_scene *scene;
@@ -50,6 +53,7 @@ struct fvk_context {
         VkPipeline pipeline;  /* ray-tracing pipeline (FVK_RT_PIPELINE) */
         tnd_sbt sbt;
         VkPipeline compute[3]; /* primary, shade, reference (FVK_RT_QUERY) */
+        uint32_t bounces_spec; /* the indirect bounces they are built for + 1 (0: any) */
     } passes[2];
     int bound;                /* the passes bind_all bound last (what launch launches) */
     VkPipeline matched;       /* pt_matched.comp: a matched reference's sample summed */

@@ -105,14 +105,17 @@ static uint32_t passes_uses(const fvk_context *c, int v)
  * primary and shade, and pt_reference for v 1) or one ray-tracing pipeline of all three raygens
  * either way (v 0 never launches pt_reference; without it in the pipeline, the H200's primary
  * pass ran 20% slower: docs/performance.md). */
-static tnd_result create_passes(fvk_context *c, int v)
+static tnd_result create_passes(fvk_context *c, int v, uint32_t bounces_spec)
 {
     tnd_result res = TND_OK;
     struct fvk_passes *ps = &c->passes[v];
     bool packed = c->precision == TND_PRECISION_PACKED;
-    uint32_t uses = passes_uses(c, v);
-    const VkSpecializationMapEntry entry = {0, 0, sizeof(uint32_t)};
-    const VkSpecializationInfo spec = {1, &entry, sizeof(uint32_t), &uses};
+    /* constant 0: what the scene and the passes use; 1: the bounces built for (pt_shade.glsl) */
+    const uint32_t constants[2] = {passes_uses(c, v), bounces_spec};
+    const VkSpecializationMapEntry entries[2] = {{0, 0, sizeof(uint32_t)},
+                                                 {1, sizeof(uint32_t), sizeof(uint32_t)}};
+    const VkSpecializationInfo spec = {2, entries, sizeof constants, constants};
+    ps->bounces_spec = bounces_spec;
     if (c->api == FVK_RT_QUERY) {
         const tnd_shader ids[3] = {
             packed ? TND_SHADER_pt_primary_rq_packed : TND_SHADER_pt_primary_rq_f32,
@@ -161,14 +164,6 @@ static tnd_result create_passes(fvk_context *c, int v)
         &ps->pipeline, &ps->sbt);
 fail:
     return res;
-}
-
-/* The passes v, made the first time they are needed (fvk_create makes those its desc asks for). */
-static tnd_result need_passes(fvk_context *c, int v)
-{
-    bool made = c->api == FVK_RT_QUERY ? c->passes[v].compute[0] != VK_NULL_HANDLE
-                                       : c->passes[v].pipeline != VK_NULL_HANDLE;
-    return made ? TND_OK : create_passes(c, v);
 }
 
 /* The scene set `set` (its gradient binding, 11, at our list). */
@@ -261,6 +256,38 @@ tnd_result fvk_last_timings(fvk_context *c, bool wait, fvk_timings *t)
     return res;
 }
 
+static void destroy_passes(fvk_context *c, int v)
+{
+    struct fvk_passes *ps = &c->passes[v];
+    tnd_sbt_destroy(c->vk, &ps->sbt);
+    if (ps->pipeline)
+        vkDestroyPipeline(c->vk->device, ps->pipeline, NULL);
+    for (int i = 0; i < 3; i++)
+        if (ps->compute[i])
+            vkDestroyPipeline(c->vk->device, ps->compute[i], NULL);
+    *ps = (struct fvk_passes){0};
+}
+
+/* The passes v built for `bounces_spec` (FVK_ANY_BOUNCES: whatever they were built for, or the
+ * frame parameters' count where none are): made the first time they are needed, and made again
+ * when a frame asks another count (after what was submitted with them is done). */
+static tnd_result need_passes(fvk_context *c, int v, uint32_t bounces_spec)
+{
+    tnd_result res = TND_OK;
+    struct fvk_passes *ps = &c->passes[v];
+    bool made = c->api == FVK_RT_QUERY ? ps->compute[0] != VK_NULL_HANDLE
+                                       : ps->pipeline != VK_NULL_HANDLE;
+    if (made && (bounces_spec == FVK_ANY_BOUNCES || ps->bounces_spec == bounces_spec))
+        return TND_OK;
+    if (made) {
+        TND_TRY(settle(c, FVK_ALL));
+        destroy_passes(c, v);
+    }
+    TND_TRY(create_passes(c, v, bounces_spec == FVK_ANY_BOUNCES ? 0u : bounces_spec));
+fail:
+    return res;
+}
+
 void fvk_destroy(fvk_context *c)
 {
     if (!c)
@@ -273,15 +300,8 @@ void fvk_destroy(fvk_context *c)
         tnd_timer_destroy(vk, &c->timer[i]);
     }
     tnd_contract_gpu_destroy(vk, &c->contract);
-    for (int v = 0; v < 2; v++) {
-        struct fvk_passes *ps = &c->passes[v];
-        tnd_sbt_destroy(vk, &ps->sbt);
-        if (ps->pipeline)
-            vkDestroyPipeline(vk->device, ps->pipeline, NULL);
-        for (int i = 0; i < 3; i++)
-            if (ps->compute[i])
-                vkDestroyPipeline(vk->device, ps->compute[i], NULL);
-    }
+    for (int v = 0; v < 2; v++)
+        destroy_passes(c, v);
     if (c->matched)
         vkDestroyPipeline(vk->device, c->matched, NULL);
     tnd_image_destroy(vk, &c->accum);
@@ -368,7 +388,8 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
         c->reflect_depth = TND_MAX_SPECULAR_DEPTH;
     TND_TRY(fvk_scene_upload(c));
     TND_TRY(create_layouts(c));
-    TND_TRY(create_passes(c, desc && desc->references ? 1 : 0));
+    TND_TRY(create_passes(c, desc && desc->references ? 1 : 0,
+                          (desc && desc->bounces ? desc->bounces : 1u) + 1u));
     {
         size_t bytes;
         tnd_shader id = c->precision == TND_PRECISION_PACKED ? TND_SHADER_pt_matched_packed
@@ -467,15 +488,13 @@ static void set_params(fvk_context *c, const fvk_params *p)
     f->jitter.x = jit[0], f->jitter.y = jit[1];
 }
 
-/* Bind the passes' pipeline(s) and sets (the scene set, or the slot set for slot launches), push
- * the mode. The passes: the reference ones where the frame parameters' sample word is a
- * reference's or `reference` says so (need_passes made them), else the real-time ones. */
-static void bind_all(fvk_context *c, VkCommandBuffer cmd, uint32_t mode, bool slots,
-                     bool reference)
+/* Bind the passes v's pipeline (need_passes made them) and the sets (the scene set, or the slot
+ * set for slot launches), push the mode. */
+static void bind_all(fvk_context *c, VkCommandBuffer cmd, uint32_t mode, bool slots, int v)
 {
     VkPipelineBindPoint bp = c->api == FVK_RT_QUERY ? VK_PIPELINE_BIND_POINT_COMPUTE
                                                     : VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR;
-    c->bound = reference || c->ubo.params.y != TND_SAMPLE_REALTIME;
+    c->bound = v;
     if (c->api != FVK_RT_QUERY)
         vkCmdBindPipeline(cmd, bp, c->passes[c->bound].pipeline);
     VkDescriptorSet sets[2] = {slots ? c->slot_set : c->sets[0], c->sets[1]};
@@ -485,17 +504,21 @@ static void bind_all(fvk_context *c, VkCommandBuffer cmd, uint32_t mode, bool sl
 }
 
 /* A command buffer for passes: run `run`'s timer reset (run < 0: none), the frame parameters as
- * they are now (the command buffer keeps its copy), the bindings, a barrier. */
-static tnd_result begin_passes(fvk_context *c, int run, uint32_t mode, bool slots,
+ * they are now (the command buffer keeps its copy), the bindings (the passes the frame
+ * parameters ask for, or with `reference` the reference passes), a barrier. */
+static tnd_result begin_passes(fvk_context *c, int run, uint32_t mode, bool slots, bool reference,
                                VkCommandBuffer *cmd)
 {
     tnd_result res = TND_OK;
-    TND_TRY(need_passes(c, c->ubo.params.y != TND_SAMPLE_REALTIME));
+    /* the passes for the frame parameters: a reference's sample word or the real-time one, and
+     * the bounces (references' batches: the reference passes as add_batches made them) */
+    int v = reference || c->ubo.params.y != TND_SAMPLE_REALTIME;
+    TND_TRY(need_passes(c, v, reference ? FVK_ANY_BOUNCES : c->ubo.params.x + 1u));
     TND_TRY(tnd_cmd_begin(c->vk, cmd));
     if (run >= 0)
         tnd_timer_reset(*cmd, &c->timer[run]);
     vkCmdUpdateBuffer(*cmd, c->frame_ubo.buffer, 0, sizeof c->ubo, &c->ubo);
-    bind_all(c, *cmd, mode, slots, false);
+    bind_all(c, *cmd, mode, slots, v);
     tnd_cmd_barrier(*cmd);
 fail:
     return res;
@@ -527,7 +550,7 @@ tnd_result fvk_render(fvk_context *c, const fvk_params *p, fvk_timings *t)
     TND_TRY(settle(c, FVK_ALL)); /* (the timers; the times of the frame before into c->last) */
     set_params(c, p);
     VkCommandBuffer cmd;
-    TND_TRY(begin_passes(c, 0, 0, false, &cmd));
+    TND_TRY(begin_passes(c, 0, 0, false, false, &cmd));
     int s0 = tnd_timer_begin(cmd, &c->timer[0], "frontend_vk.primary");
     launch(c, cmd, 0, c->width, c->height, false);
     tnd_timer_end(cmd, &c->timer[0], s0);
@@ -580,7 +603,7 @@ static tnd_result launch_gradients(fvk_context *c, const fvk_params *p, uint32_t
     set_params(c, p);
     c->ubo.params.z = count;
     VkCommandBuffer cmd;
-    TND_TRY(begin_passes(c, 1, 1, slots, &cmd));
+    TND_TRY(begin_passes(c, 1, 1, slots, false, &cmd));
     int s0 = tnd_timer_begin(cmd, &c->timer[1], "frontend_vk.gradients");
     if (slots && row && count % row == 0 && c->api != FVK_RT_QUERY)
         launch(c, cmd, 1, row, count / row, false); /* (pt_shade.rgen: y x width + x) */
@@ -652,7 +675,7 @@ void fvk_set_reference_bounces(fvk_context *c, uint32_t bounces)
  * each), or a matched reference's (the real-time passes, then pt_matched.comp). */
 static void record_unbiased(fvk_context *c, VkCommandBuffer cmd, uint32_t b0, uint32_t b1)
 {
-    bind_all(c, cmd, 0, false, true);
+    bind_all(c, cmd, 0, false, 1);
     for (uint32_t s = b0; s < b1; s++) {
         uint32_t pc[2] = {s, b0};
         vkCmdPushConstants(cmd, c->layout,
@@ -674,7 +697,7 @@ static void record_matched(fvk_context *c, VkCommandBuffer cmd, uint32_t b0, uin
          * the update after the last sample's reads and before this one's) */
         vkCmdUpdateBuffer(cmd, c->frame_ubo.buffer, 0, sizeof c->ubo, &c->ubo);
         tnd_cmd_barrier(cmd);
-        bind_all(c, cmd, 0, false, true);
+        bind_all(c, cmd, 0, false, 1);
         launch(c, cmd, 0, c->width, c->height, false);
         tnd_cmd_barrier(cmd);
         launch(c, cmd, 1, c->width, c->height, false);
@@ -707,7 +730,8 @@ static tnd_result add_batches(fvk_context *c, bool matched, uint32_t first, uint
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
     tnd_gpu_frame saved = c->ubo; /* (restored at the end, failed or not) */
     TND_TRY(settle(c, FVK_ALL));  /* (the accumulation image, the frame parameters) */
-    TND_TRY(need_passes(c, 1));
+    /* (a matched reference's passes built for its bounces; the unbiased passes take any) */
+    TND_TRY(need_passes(c, 1, matched ? c->ref_bounces + 1u : FVK_ANY_BOUNCES));
     const uint32_t batch = TND_REF_CHECK_EVERY;
     double until = stats ? stats->until_noise : 0.0;
     uint32_t end = first + count, done = end;
@@ -715,7 +739,7 @@ static tnd_result add_batches(fvk_context *c, bool matched, uint32_t first, uint
         uint32_t b1 = (b0 / batch + 1) * batch < end ? (b0 / batch + 1) * batch : end;
         VkCommandBuffer cmd;
         c->ubo.params.x = c->ref_bounces; /* (the unbiased passes: 0, full paths) */
-        TND_TRY(begin_passes(c, -1, 0, false, &cmd));
+        TND_TRY(begin_passes(c, -1, 0, false, true, &cmd));
         if (matched)
             record_matched(c, cmd, b0, b1);
         else

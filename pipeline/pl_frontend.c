@@ -65,7 +65,8 @@ static tnd_result vk_create(const tnd_scene *scene, const pl_frontend_desc *d, v
                      &(fvk_desc){.precision = d->precision, .rt_api = api,
                                  .full_pipeline = d->full_pipeline,
                                  .reflect_depth = d->reflect_depth,
-                                 .references = d->references},
+                                 .references = d->references,
+                                 .bounces = d->bounces},
                      &v->gv);
     if (res != TND_OK) {
         free(v);

@@ -8,6 +8,12 @@
 
 layout(push_constant) uniform Push { uint mode; } pc;
 
+/* The indirect bounces these passes are built for, plus one (0: the frame parameters' count):
+ * fvk_pt.c need_passes specialises the real-time passes for the count the frame asks, so that
+ * trace_path's code for vertices it cannot reach folds away (13% of `cornell`'s shading pass on
+ * the H200, docs/performance.md). */
+layout(constant_id = 1) const uint TND_BOUNCES_PLUS_ONE = 0u;
+
 #if TND_PACKED
 #define STORE_RGBE(img, p, v) imageStore(img, p, uvec4(tnd_rgbe_encode3(v), 0u, 0u, 0u))
 #else
@@ -88,8 +94,9 @@ void pt_shade_main(uvec2 launch)
         vec3 wi, w;
         float pdf;
         bool is_spec;
-        if (fr.params.x > 0u && sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
-            vec3 Li = trace_path(key, s.p, offset_ray(s.p, s.ng), wi, 1u, fr.params.x, 2u, pdf,
+        uint bounces = TND_BOUNCES_PLUS_ONE != 0u ? TND_BOUNCES_PLUS_ONE - 1u : fr.params.x;
+        if (bounces > 0u && sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
+            vec3 Li = trace_path(key, s.p, offset_ray(s.p, s.ng), wi, 1u, bounces, 2u, pdf,
                                  depth * fr.jitter.z);
             vec3 contrib = w * Li;
             for (int k = 0; k < 3; k++)
