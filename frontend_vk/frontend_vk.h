@@ -80,12 +80,13 @@ typedef struct fvk_desc {
     bool full_pipeline;      /* compile every light type, textures, normal maps and sky in, whatever
                                 the scene holds (default: only what the scene requires) */
     uint32_t reflect_depth;  /* as femb_desc */
-    bool references;         /* renders references: their passes are made here, the real-time
-                                frame's on its first render (either kind is made when first
-                                needed; this keeps the compile out of a reference's time) */
-    uint32_t bounces;        /* the indirect bounces the passes are first built for (0: 1, the
-                                default): the shading pass is specialised for the count a frame
-                                (or a matched reference) asks, and built again for another */
+    bool references;         /* renders references: their passes (every sample word, any bounce
+                                count) are made here and draw its real-time frames too (the
+                                motion a reference writes); otherwise they are made when a
+                                reference first needs them */
+    uint32_t bounces;        /* the indirect bounces the real-time passes are first built for (0:
+                                1, the default): the shading pass is specialised for the count a
+                                frame asks, and built again when a frame asks another */
 } fvk_desc;
 
 typedef struct fvk_params {

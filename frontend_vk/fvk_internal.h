@@ -11,9 +11,6 @@ typedef struct fvk_texture {
     VkImageView view;
 } fvk_texture;
 
-/* need_passes: the passes as they are, whatever bounces they were built for */
-#define FVK_ANY_BOUNCES UINT32_MAX
-
 struct fvk_context {
     tnd_vk *vk;
     const tnd_scene *scene;
@@ -56,6 +53,7 @@ struct fvk_context {
         uint32_t bounces_spec; /* the indirect bounces they are built for + 1 (0: any) */
     } passes[2];
     int bound;                /* the passes bind_all bound last (what launch launches) */
+    bool references;          /* fvk_desc.references: every frame with the reference passes */
     VkPipeline matched;       /* pt_matched.comp: a matched reference's sample summed */
     tnd_image accum;          /* reference accumulation (rgb sum, luminance^2 sum) */
     fvk_rt_api api;

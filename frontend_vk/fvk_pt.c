@@ -268,22 +268,26 @@ static void destroy_passes(fvk_context *c, int v)
     *ps = (struct fvk_passes){0};
 }
 
-/* The passes v built for `bounces_spec` (FVK_ANY_BOUNCES: whatever they were built for, or the
- * frame parameters' count where none are): made the first time they are needed, and made again
- * when a frame asks another count (after what was submitted with them is done). */
-static tnd_result need_passes(fvk_context *c, int v, uint32_t bounces_spec)
+/* The passes v for frames of `bounces` indirect bounces: made the first time they are needed.
+ * The real-time passes are built for the count (and made again when a frame asks another,
+ * after what was submitted with them is done); the reference passes take the count from the
+ * frame parameters, whatever it is (a reference's context also writes each frame's motion
+ * with a frame of none: one build serves both, as before the real-time passes were
+ * specialised). */
+static tnd_result need_passes(fvk_context *c, int v, uint32_t bounces)
 {
     tnd_result res = TND_OK;
     struct fvk_passes *ps = &c->passes[v];
+    uint32_t bounces_spec = v ? 0u : bounces + 1u;
     bool made = c->api == FVK_RT_QUERY ? ps->compute[0] != VK_NULL_HANDLE
                                        : ps->pipeline != VK_NULL_HANDLE;
-    if (made && (bounces_spec == FVK_ANY_BOUNCES || ps->bounces_spec == bounces_spec))
+    if (made && ps->bounces_spec == bounces_spec)
         return TND_OK;
     if (made) {
         TND_TRY(settle(c, FVK_ALL));
         destroy_passes(c, v);
     }
-    TND_TRY(create_passes(c, v, bounces_spec == FVK_ANY_BOUNCES ? 0u : bounces_spec));
+    TND_TRY(create_passes(c, v, bounces_spec));
 fail:
     return res;
 }
@@ -388,8 +392,8 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
         c->reflect_depth = TND_MAX_SPECULAR_DEPTH;
     TND_TRY(fvk_scene_upload(c));
     TND_TRY(create_layouts(c));
-    TND_TRY(create_passes(c, desc && desc->references ? 1 : 0,
-                          (desc && desc->bounces ? desc->bounces : 1u) + 1u));
+    c->references = desc && desc->references;
+    TND_TRY(need_passes(c, c->references, desc && desc->bounces ? desc->bounces : 1u));
     {
         size_t bytes;
         tnd_shader id = c->precision == TND_PRECISION_PACKED ? TND_SHADER_pt_matched_packed
@@ -510,10 +514,10 @@ static tnd_result begin_passes(fvk_context *c, int run, uint32_t mode, bool slot
                                VkCommandBuffer *cmd)
 {
     tnd_result res = TND_OK;
-    /* the passes for the frame parameters: a reference's sample word or the real-time one, and
-     * the bounces (references' batches: the reference passes as add_batches made them) */
-    int v = reference || c->ubo.params.y != TND_SAMPLE_REALTIME;
-    TND_TRY(need_passes(c, v, reference ? FVK_ANY_BOUNCES : c->ubo.params.x + 1u));
+    /* the passes for the frame parameters (a reference's sample word or the real-time one, and
+     * the bounces); a context for references draws every frame with its reference passes */
+    int v = reference || c->references || c->ubo.params.y != TND_SAMPLE_REALTIME;
+    TND_TRY(need_passes(c, v, c->ubo.params.x));
     TND_TRY(tnd_cmd_begin(c->vk, cmd));
     if (run >= 0)
         tnd_timer_reset(*cmd, &c->timer[run]);
@@ -730,8 +734,7 @@ static tnd_result add_batches(fvk_context *c, bool matched, uint32_t first, uint
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
     tnd_gpu_frame saved = c->ubo; /* (restored at the end, failed or not) */
     TND_TRY(settle(c, FVK_ALL));  /* (the accumulation image, the frame parameters) */
-    /* (a matched reference's passes built for its bounces; the unbiased passes take any) */
-    TND_TRY(need_passes(c, 1, matched ? c->ref_bounces + 1u : FVK_ANY_BOUNCES));
+    TND_TRY(need_passes(c, 1, c->ref_bounces));
     const uint32_t batch = TND_REF_CHECK_EVERY;
     double until = stats ? stats->until_noise : 0.0;
     uint32_t end = first + count, done = end;
