@@ -74,6 +74,16 @@ typedef enum fvk_rt_api {
 } fvk_rt_api;
 tnd_result fvk_rt_api_parse(const char *s, fvk_rt_api *api);
 
+/* The passes' own specialisation (fvk_desc.specialise): the real-time passes built for the
+ * real-time sample word and the frame's bounce count. On (the default) for GPUs; off for CPU
+ * devices (lavapipe), where every build costs a compile of up to a minute (`materials`) and one
+ * build that draws every sample word and bounce count serves all frames, as before it existed. */
+typedef enum fvk_specialise {
+    FVK_SPECIALISE_AUTO = 0, /* on unless the device is a CPU */
+    FVK_SPECIALISE_ON,
+    FVK_SPECIALISE_OFF
+} fvk_specialise;
+
 typedef struct fvk_desc {
     tnd_precision precision; /* contract storage the passes write */
     fvk_rt_api rt_api;
@@ -87,6 +97,7 @@ typedef struct fvk_desc {
     uint32_t bounces;        /* the indirect bounces the real-time passes are first built for (0:
                                 1, the default): the shading pass is specialised for the count a
                                 frame asks, and built again when a frame asks another */
+    fvk_specialise specialise; /* the passes' own specialisation (above) */
 } fvk_desc;
 
 typedef struct fvk_params {

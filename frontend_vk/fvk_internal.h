@@ -55,6 +55,7 @@ struct fvk_context {
     } passes[2];
     int bound;                /* the passes bind_all bound last (what launch launches) */
     bool references;          /* fvk_desc.references: every frame with the reference passes */
+    bool specialise;          /* fvk_desc.specialise resolved: false, every frame with them too */
     VkPipeline matched;       /* pt_matched.comp: a matched reference's sample summed */
     tnd_image accum;          /* reference accumulation (rgb sum, luminance^2 sum) */
     fvk_rt_api api;

@@ -278,7 +278,7 @@ static tnd_result need_passes(fvk_context *c, int v, uint32_t bounces)
 {
     tnd_result res = TND_OK;
     struct fvk_passes *ps = &c->passes[v];
-    uint32_t bounces_spec = v ? 0u : bounces + 1u;
+    uint32_t bounces_spec = v || !c->specialise ? 0u : bounces + 1u;
     bool made = c->api == FVK_RT_QUERY ? ps->compute[0] != VK_NULL_HANDLE
                                        : ps->pipeline != VK_NULL_HANDLE;
     if (made && ps->bounces_spec == bounces_spec)
@@ -393,7 +393,11 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
     TND_TRY(fvk_scene_upload(c));
     TND_TRY(create_layouts(c));
     c->references = desc && desc->references;
-    TND_TRY(need_passes(c, c->references, desc && desc->bounces ? desc->bounces : 1u));
+    fvk_specialise sp = desc ? desc->specialise : FVK_SPECIALISE_AUTO;
+    c->specialise = sp == FVK_SPECIALISE_ON ||
+                    (sp == FVK_SPECIALISE_AUTO && vk->info.type != VK_PHYSICAL_DEVICE_TYPE_CPU);
+    TND_TRY(need_passes(c, c->references || !c->specialise,
+                        desc && desc->bounces ? desc->bounces : 1u));
     {
         size_t bytes;
         tnd_shader id = c->precision == TND_PRECISION_PACKED ? TND_SHADER_pt_matched_packed
@@ -515,8 +519,10 @@ static tnd_result begin_passes(fvk_context *c, int run, uint32_t mode, bool slot
 {
     tnd_result res = TND_OK;
     /* the passes for the frame parameters (a reference's sample word or the real-time one, and
-     * the bounces); a context for references draws every frame with its reference passes */
-    int v = reference || c->references || c->ubo.params.y != TND_SAMPLE_REALTIME;
+     * the bounces); a context for references, or without the passes' own specialisation, draws
+     * every frame with the reference passes */
+    int v = reference || c->references || !c->specialise ||
+            c->ubo.params.y != TND_SAMPLE_REALTIME;
     TND_TRY(need_passes(c, v, c->ubo.params.x));
     TND_TRY(tnd_cmd_begin(c->vk, cmd));
     if (run >= 0)

@@ -741,26 +741,38 @@ static void test_shading_matches_embree(void)
     gpu_end();
 }
 
-/* The shading pass is built for the bounces a frame asks (fvk_pt.c need_passes): a context built
+/* The shading pass is built for the bounces a frame asks (fvk_pt.c need_passes; forced on here:
+ * lavapipe, a CPU device, builds one set of passes for every count by default): a context built
  * for one bounce and asked for three builds its passes again, and shades exactly as one built for
- * three from the start; the counts give different signals, so a stale build could not pass. */
+ * three from the start and as the unspecialised passes; the counts give different signals, so a
+ * stale build could not pass. */
 static void test_bounces_rebuilt(void)
 {
     tnd_vk *vk = gpu_begin();
     REQUIRE(vk, "no context");
     enum { W = 48, H = 27 };
     tnd_scene *s = NULL;
-    fvk_context *a = NULL, *b = NULL;
+    fvk_context *a = NULL, *b = NULL, *g = NULL;
     tnd_scene_state st = {0};
-    tnd_frame f1 = {0}, f3 = {0}, g3 = {0};
-    tnd_frame *out[3] = {&f1, &f3, &g3};
-    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/materials.gltf", &s));
+    tnd_frame f1 = {0}, f3 = {0}, b3 = {0}, g3 = {0};
+    tnd_frame *out[4] = {&f1, &f3, &b3, &g3};
+    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/cornell.gltf", &s));
     REQUIRE_OK(tnd_scene_evaluate(s, 0.0, 0, (float)W / H, &st));
-    REQUIRE_OK(fvk_create(vk, s, &(fvk_desc){.precision = TND_PRECISION_F32}, &a));
-    REQUIRE_OK(fvk_create(vk, s, &(fvk_desc){.precision = TND_PRECISION_F32, .bounces = 3}, &b));
-    const uint32_t bounces[3] = {1, 3, 3};
-    for (int i = 0; i < 3; i++) {
-        fvk_context *c = i < 2 ? a : b;
+    REQUIRE_OK(fvk_create(vk, s,
+                          &(fvk_desc){.precision = TND_PRECISION_F32,
+                                      .specialise = FVK_SPECIALISE_ON},
+                          &a));
+    REQUIRE_OK(fvk_create(vk, s,
+                          &(fvk_desc){.precision = TND_PRECISION_F32, .bounces = 3,
+                                      .specialise = FVK_SPECIALISE_ON},
+                          &b));
+    REQUIRE_OK(fvk_create(vk, s,
+                          &(fvk_desc){.precision = TND_PRECISION_F32,
+                                      .specialise = FVK_SPECIALISE_OFF},
+                          &g));
+    const uint32_t bounces[4] = {1, 3, 3, 3};
+    for (int i = 0; i < 4; i++) {
+        fvk_context *c = i < 2 ? a : i == 2 ? b : g;
         REQUIRE_OK(fvk_set_frame(c, &st, &st, 5, W, H));
         REQUIRE_OK(fvk_render(c, &(fvk_params){.bounces = bounces[i]}, NULL));
         REQUIRE_OK(tnd_frame_create(W, H, out[i]));
@@ -769,18 +781,22 @@ static void test_bounces_rebuilt(void)
     const tnd_ct ch[4] = {TND_CT_HF, TND_CT_LF_SH, TND_CT_LF_COCG, TND_CT_SPEC};
     for (int k = 0; k < 4; k++) {
         size_t bytes = (size_t)W * H * tnd_ct_get(ch[k])->comps * sizeof(float);
-        CHECK(memcmp(tnd_frame_f(&f3, ch[k]), tnd_frame_f(&g3, ch[k]), bytes) == 0,
+        CHECK(memcmp(tnd_frame_f(&f3, ch[k]), tnd_frame_f(&b3, ch[k]), bytes) == 0,
               "%s: rebuilt for 3 bounces differs from built for 3", tnd_ct_get(ch[k])->name);
+        CHECK(memcmp(tnd_frame_f(&g3, ch[k]), tnd_frame_f(&b3, ch[k]), bytes) == 0,
+              "%s: the unspecialised passes differ from those built for 3 bounces",
+              tnd_ct_get(ch[k])->name);
     }
     size_t lf = (size_t)W * H * tnd_ct_get(TND_CT_LF_SH)->comps * sizeof(float);
     CHECK(memcmp(tnd_frame_f(&f1, TND_CT_LF_SH), tnd_frame_f(&f3, TND_CT_LF_SH), lf) != 0,
           "1 and 3 bounces give the same indirect light");
 cleanup:
-    for (int i = 0; i < 3; i++)
+    for (int i = 0; i < 4; i++)
         tnd_frame_destroy(out[i]);
     tnd_scene_state_free(&st);
     fvk_destroy(a);
     fvk_destroy(b);
+    fvk_destroy(g);
     tnd_scene_destroy(s);
     gpu_end();
 }
