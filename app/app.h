@@ -23,7 +23,14 @@ typedef enum app_opt_kind {
     APP_OPT_FLOAT,    /* double */
     APP_OPT_SIZE,     /* unsigned[2], "WxH" */
     APP_OPT_LIST,     /* app_list: the option may repeat */
+    APP_OPT_BOUNCES,  /* unsigned: a count, or "half" (APP_BOUNCES_HALF) */
 } app_opt_kind;
+
+/* `--bounces half`: one indirect bounce at half resolution (pl_params.half_indirect); commands
+ * turn it into a count of 1 and the flag (app_bounces_split) before anything reads the count. */
+#define APP_BOUNCES_HALF 0xfffffffeu
+/* A --bounces value as its count (half: 1) and *half. */
+unsigned app_bounces_split(unsigned value, bool *half);
 
 #define APP_LIST_MAX 8
 typedef struct app_list {
@@ -176,6 +183,7 @@ typedef struct app_render_opts {
     double bloom, exposure_bias;
     pl_param_set params; /* the denoiser's parameters given (pl_param) */
     unsigned frames, start, threads, bounces, spp, camera, reflect_depth;
+    bool half_indirect; /* render --bounces half: bounces 1, its paths at half resolution */
     unsigned ref_bounces; /* reference: --bounces as given (~0: not given): the realtime
                              estimator's bounces (default 1), or the unbiased path's cap (default
                              none) */

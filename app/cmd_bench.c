@@ -27,6 +27,32 @@ static const app_cmd bench_cmd = {
     "[--repeats N] [--json]",
     NULL};
 
+/* --bounces as the frame parameters (a count, or APP_BOUNCES_HALF: 1 at half resolution), in
+ * JSON and in words */
+static pl_params bench_params(unsigned bounces)
+{
+    bool half;
+    unsigned n = app_bounces_split(bounces, &half);
+    return (pl_params){.bounces = n, .half_indirect = half};
+}
+
+static void bench_bounces_json(cJSON *o, unsigned bounces)
+{
+    if (bounces == APP_BOUNCES_HALF)
+        cJSON_AddStringToObject(o, "bounces", "half");
+    else
+        bench_bounces_json(o, bounces);
+}
+
+static const char *bounces_words(unsigned bounces, char *buf, size_t size)
+{
+    if (bounces == APP_BOUNCES_HALF)
+        snprintf(buf, size, "1 bounce at half resolution");
+    else
+        snprintf(buf, size, "%u bounce%s", bounces, bounces == 1 ? "" : "s");
+    return buf;
+}
+
 static tnd_result bench_vk(const tnd_scene *s, const char *fe_name, const tnd_scene_state *st,
                            unsigned frame,
                            const unsigned size[2], unsigned bounces, unsigned repeats,
@@ -49,10 +75,10 @@ static tnd_result bench_vk(const tnd_scene *s, const char *fe_name, const tnd_sc
     TND_TRY(pl_frontend_set_frame(gv, st, st, frame, size[0], size[1]));
     *t_build = tnd_now() - t0;
     for (int w = 0; w < 3; w++)
-        TND_TRY(pl_frontend_render(gv, &(pl_params){.bounces = bounces}, NULL, NULL));
+        TND_TRY(pl_frontend_render(gv, (pl_params[]){bench_params(bounces)}, NULL, NULL));
     for (unsigned r = 0; r < repeats; r++) {
         pl_timings tm;
-        TND_TRY(pl_frontend_render(gv, &(pl_params){.bounces = bounces}, NULL, &tm));
+        TND_TRY(pl_frontend_render(gv, (pl_params[]){bench_params(bounces)}, NULL, &tm));
         tp[r] = tm.primary_ms;
         ts[r] = tm.shade_ms;
     }
@@ -121,7 +147,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, con
         goto fail;
     }
     float aspect = (float)size[0] / size[1];
-    pl_params fp = {.bounces = bounces};
+    pl_params fp = bench_params(bounces);
     for (unsigned i = 0; i < WARM + repeats; i++) {
         unsigned f = frame + i;
         tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
@@ -204,7 +230,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, con
         cJSON_AddStringToObject(o, "device", vk.info.name);
         cJSON_AddNumberToObject(o, "width", size[0]);
         cJSON_AddNumberToObject(o, "height", size[1]);
-        cJSON_AddNumberToObject(o, "bounces", bounces);
+        bench_bounces_json(o, bounces);
         cJSON_AddNumberToObject(o, "frames", repeats);
         cJSON_AddNumberToObject(o, "copy_bandwidth_gb_per_s", bandwidth);
         cJSON_AddNumberToObject(o, "transfer_copy_gb_per_s", transfer_bw);
@@ -244,9 +270,10 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, con
         free(txt);
         cJSON_Delete(o);
     } else {
-        printf("bench %s + %s (%s contract): %s, %ux%u, 1 spp, %u bounce%s, %u frames back to "
+        char bw[48];
+        printf("bench %s + %s (%s contract): %s, %ux%u, 1 spp, %s, %u frames back to "
                "back\n", fe_name, dn_name, tnd_precision_name(prec), scene_path, size[0],
-               size[1], bounces, bounces == 1 ? "" : "s", repeats);
+               size[1], bounces_words(bounces, bw, sizeof bw), repeats);
         printf("  device %s; copy bandwidth (%.0f MiB, bytes read + written): compute copy %.0f "
                "GB/s, vkCmdCopyBuffer %.0f GB/s\n",
                vk.info.name, copy_mib, compute_bw, transfer_bw);
@@ -365,7 +392,7 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
                 double h1 = tnd_now();
                 TND_TRY(pl_frontend_set_frame(fe[m], cur, prev, f, size[0], size[1]));
                 double h2 = tnd_now();
-                pl_step step = {.params = {.bounces = bounces},
+                pl_step step = {.params = bench_params(bounces),
                                 .frame = dn_frame_for_camera(cur->camera.proj, size[1], f, f == 0),
                                 .dt = 1.0f / 30.0f,
                                 .no_wait = m == OV_NO_WAIT};
@@ -506,7 +533,8 @@ int cmd_bench(int argc, char **argv)
         {"size", APP_OPT_SIZE, size, "WxH", "image size (default 256x256)"},
         {"repeats", APP_OPT_UINT, &repeats, "N", "timed repetitions (default 10)"},
         {"threads", APP_OPT_UINT, &threads, "N", "CPU threads (default: all cores)"},
-        {"bounces", APP_OPT_UINT, &bounces, "N", "indirect bounces (default 1)"},
+        {"bounces", APP_OPT_BOUNCES, &bounces, "N|half",
+         "indirect bounces (default 1; half: as render --bounces half)"},
         {"frame", APP_OPT_UINT, &frame, "F", "frame of the camera path (default 0)"},
         {"json", APP_OPT_FLAG, &json, NULL, "print the results as JSON"},
         {"sweep", APP_OPT_LIST, &sweeps, "KEY=V1,V2,...",
@@ -655,7 +683,7 @@ int cmd_bench(int argc, char **argv)
     TND_TRY(tnd_scene_evaluate(s, frame / 30.0, 0, (float)size[0] / size[1], &st));
     TND_TRY(pl_frontend_set_frame(c, &st, &st, frame, size[0], size[1]));
     t_build = tnd_now() - t_build;
-    TND_TRY(pl_frontend_benchmark(c, &(pl_params){.bounces = bounces}, use_vk ? 1 : repeats,
+    TND_TRY(pl_frontend_benchmark(c, (pl_params[]){bench_params(bounces)}, use_vk ? 1 : repeats,
                                   &b));
     if (use_vk) {
         /* the GPU traces exactly the rays the Embree front-end counted (same random numbers,
@@ -677,7 +705,7 @@ int cmd_bench(int argc, char **argv)
         cJSON_AddNumberToObject(o, "threads", threads_used);
         if (!use_vk)
             cJSON_AddStringToObject(o, "simd", simd);
-        cJSON_AddNumberToObject(o, "bounces", bounces);
+        bench_bounces_json(o, bounces);
         cJSON_AddNumberToObject(o, "rays_per_frame", (double)b.rays);
         cJSON_AddNumberToObject(o, "primary_ms", b.primary_ms);
         cJSON_AddNumberToObject(o, "shade_ms", b.shade_ms);
@@ -697,9 +725,10 @@ int cmd_bench(int argc, char **argv)
         free(txt);
         cJSON_Delete(o);
     } else {
-        printf("bench %s: %s, %llu triangles, %ux%u, 1 spp, %u bounce%s%s\n", frontend,
-               scene_path, (unsigned long long)tnd_scene_triangles(s), size[0], size[1], bounces,
-               bounces == 1 ? "" : "s", use_vk ? " (GPU timestamps)" : "");
+        char bw[48];
+        printf("bench %s: %s, %llu triangles, %ux%u, 1 spp, %s%s\n", frontend, scene_path,
+               (unsigned long long)tnd_scene_triangles(s), size[0], size[1],
+               bounces_words(bounces, bw, sizeof bw), use_vk ? " (GPU timestamps)" : "");
         printf("  scene load %.2f s, BVH build %.2f s\n", t_load, t_build);
         if (!use_vk)
             printf("  %u threads, estimator lanes in %s\n", threads_used, simd);

@@ -130,7 +130,9 @@ tnd_result app_render_args(const app_render_opts *o, bool reference, app_args *a
          (o->reflect_depth == d.reflect_depth ||
           argf(a, "--reflect-depth", "%u", o->reflect_depth));
     if (reference)
-        ok = ok && (o->ref_bounces == d.ref_bounces || argf(a, "--bounces", "%u", o->ref_bounces)) &&
+        ok = ok && (o->ref_bounces == APP_BOUNCES_HALF ? args_str(a, "--bounces", "half", NULL)
+                    : o->ref_bounces == d.ref_bounces ||
+                          argf(a, "--bounces", "%u", o->ref_bounces)) &&
              (o->spp == d.spp || argf(a, "--spp", "%u", o->spp)) &&
              (o->until_noise == d.until_noise ||
               argn(a, "--until-noise", o->until_noise)) &&
@@ -138,7 +140,9 @@ tnd_result app_render_args(const app_render_opts *o, bool reference, app_args *a
              args_str(a, "--composite-on", o->composite_on, d.composite_on) &&
              (o->checkpoint_s == d.checkpoint_s || argn(a, "--checkpoint", o->checkpoint_s));
     else {
-        ok = ok && (o->bounces == d.bounces || argf(a, "--bounces", "%u", o->bounces)) &&
+        ok = ok && (o->half_indirect ? args_str(a, "--bounces", "half", NULL)
+                                     : o->bounces == d.bounces ||
+                                           argf(a, "--bounces", "%u", o->bounces)) &&
              args_str(a, "--denoiser", o->denoiser, d.denoiser);
         for (uint32_t i = 0; ok && i < o->params.n; i++) /* the denoiser's parameters */
             ok = argn(a, keep(a, "--%s", o->params.param[i]->name), o->params.value[i]);
@@ -205,7 +209,9 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     const app_opt render_opts_tbl[] = {
         COMMON_OPTS,
         PATH_OPTS,
-        {"bounces", APP_OPT_UINT, &o->bounces, "N", "indirect bounces (default 1)"},
+        {"bounces", APP_OPT_BOUNCES, &o->bounces, "N|half",
+         "indirect bounces (default 1); half: one, traced for half the pixels each frame (a "
+         "checkerboard that alternates, weighted 2: Q2RTX's GI low)"},
         {"reflect-depth", APP_OPT_UINT, &o->reflect_depth, "N",
          "mirrors and glass the primary pass looks through (default 4, 1 to 16)"},
         {"precision", APP_OPT_STRING, &o->precision, "P", "contract precision: float32 or packed"},
@@ -250,8 +256,9 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
          "unbiased (full paths, Russian roulette; the default) or realtime (the expectation of "
          "render's estimator: samples of it with fresh random numbers and pixel offsets, "
          "composited and averaged)"},
-        {"bounces", APP_OPT_UINT, &o->ref_bounces, "N",
-         "realtime: the estimator's indirect bounces (as render --bounces; default 1); "
+        {"bounces", APP_OPT_BOUNCES, &o->ref_bounces, "N",
+         "realtime: the estimator's indirect bounces (as render --bounces, default 1; half: the "
+         "expectation of render --bounces half, that of 1); "
          "unbiased: a cap on the path length (default none)"},
         {"reflect-depth", APP_OPT_UINT, &o->reflect_depth, "N",
          "realtime: mirrors and glass the primary pass looks through (as render; default 4)"},
@@ -288,6 +295,8 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     int rc = app_parse(cmd, reference ? ref_opts_tbl : with_params, argc, argv, pos, 0, &npos);
     if (rc >= 0)
         return rc;
+    if (!reference)
+        o->bounces = app_bounces_split(o->bounces, &o->half_indirect);
     tnd_result pr = reference ? TND_OK : app_params_collect(param_vals, &o->params);
     if (pr != TND_OK) {
         app_report(cmd->name, pr);
@@ -457,7 +466,7 @@ fail:
 pl_step app_frame_step(const app_render_opts *o, const tnd_scene_state *cur, unsigned i,
                        bool reset)
 {
-    return (pl_step){.params = {.bounces = o->bounces},
+    return (pl_step){.params = {.bounces = o->bounces, .half_indirect = o->half_indirect},
                      .frame = dn_frame_for_camera(cur->camera.proj, o->size[1], o->start + i,
                                                   reset),
                      .dt = (float)(1.0 / o->fps)};
@@ -629,7 +638,10 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     cJSON_AddNumberToObject(j, "start", o->start);
     cJSON_AddNumberToObject(j, "fps", o->fps);
     cJSON_AddNumberToObject(j, "camera", o->camera);
-    cJSON_AddNumberToObject(j, "bounces", o->bounces);
+    if (o->half_indirect)
+        cJSON_AddStringToObject(j, "bounces", "half");
+    else
+        cJSON_AddNumberToObject(j, "bounces", o->bounces);
     cJSON_AddNumberToObject(j, "reflect_depth", o->reflect_depth ? o->reflect_depth : TND_REFLECT_DEPTH);
     cJSON_AddStringToObject(j, "precision", o->precision);
     cJSON_AddStringToObject(j, "denoiser", dn_name);
@@ -834,8 +846,19 @@ static int run_opts(const render_opts *opts, bool reference)
 {
     render_opts o = *opts;
     const char *what = reference ? "reference" : "render";
+    /* --bounces half: render's count 1, its paths at half resolution; a matched reference's
+     * expectation is that of 1 (each pixel's, over two frames) */
+    if (!reference && o.bounces == APP_BOUNCES_HALF)
+        o.bounces = app_bounces_split(o.bounces, &o.half_indirect);
     if (reference) { /* --bounces: the estimator's (default 1) or the path length cap (none) */
         bool rt = strcmp(o.estimator, "realtime") == 0;
+        if (o.ref_bounces == APP_BOUNCES_HALF && !rt) {
+            fprintf(stderr, "tandem reference: --bounces half: only with --estimator realtime "
+                            "(unbiased: a cap on the path length)\n");
+            return APP_EXIT_USAGE;
+        }
+        if (o.ref_bounces == APP_BOUNCES_HALF)
+            o.ref_bounces = 1;
         if (rt)
             o.bounces = o.ref_bounces == ~0u ? 1 : o.ref_bounces;
         o.ref_bounces = rt || o.ref_bounces == ~0u ? 0 : o.ref_bounces;

@@ -25,7 +25,7 @@ typedef struct knob {
 /* The knobs: render's settings, then every denoiser parameter of the registry (pl_param: a cell
  * gives its value to the denoisers that have it). */
 static const knob fixed_knobs[] = {
-    {"bounces", "--bounces", "indirect bounces"},
+    {"bounces", "--bounces", "indirect bounces (a count, or half)"},
     {"gradient", "--denoiser", "A-SVGF temporal gradients: on (asvgf) or off (svgf)"},
     {"denoiser", "--denoiser", "a registered denoiser (tandem render --help lists them)"},
     {"precision", "--precision", "contract precision: float32 or packed"},
@@ -284,8 +284,10 @@ static int plan_make(const app_list *sweeps, const char *scene, const char *out,
                          (unsigned)fmax(1, lround(size[0] * s)),
                          (unsigned)fmax(1, lround(size[1] * s)));
             }
+            /* (half: the matched reference of 1, whose expectation it has) */
             if (strcmp(P->keys[k]->key, "bounces") == 0)
-                snprintf(P->cell_bounces[i], sizeof P->cell_bounces[i], "%s", v);
+                snprintf(P->cell_bounces[i], sizeof P->cell_bounces[i], "%s",
+                         strcmp(v, "half") == 0 ? "1" : v);
         }
         /* the cell's estimator (its bounces and resolution) and its matched reference */
         P->cell_est[i] = -1;
@@ -382,8 +384,12 @@ static tnd_result job_cell(const sweep_plan *P, int i, sweep_job *j)
             continue; /* (in the cell's size) */
         } else if (strcmp(key, "bounces") == 0) {
             unsigned long b = strtoul(val, &end, 10);
-            if (*end || end == val || *val == '-' || b > 64)
-                return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep bounces=%s: a count", val);
+            j->o.half_indirect = strcmp(val, "half") == 0;
+            if (j->o.half_indirect)
+                b = 1;
+            else if (*end || end == val || *val == '-' || b > 64)
+                return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep bounces=%s: a count or half",
+                                val);
             j->o.bounces = (unsigned)b;
         } else if (strcmp(key, "gradient") == 0) {
             /* on: the denoiser of re-shaded gradient samples; off: its fallback */

@@ -146,7 +146,12 @@ static int parse_value(const app_cmd *cmd, const app_opt *o, const char *v)
         *(int *)o->dest = (int)x;
         return 0;
     }
+    case APP_OPT_BOUNCES: /* a count, or half */
     case APP_OPT_UINT: {
+        if (o->kind == APP_OPT_BOUNCES && strcmp(v, "half") == 0) {
+            *(unsigned *)o->dest = APP_BOUNCES_HALF;
+            return 0;
+        }
         if (*v == '-')
             break;
         unsigned long x = strtoul(v, &end, 10);
@@ -177,7 +182,9 @@ static int parse_value(const app_cmd *cmd, const app_opt *o, const char *v)
     }
     }
     fprintf(stderr, "tandem %s: --%s: bad value '%s'%s\n", cmd->name, o->name, v,
-            o->kind == APP_OPT_SIZE ? " (expected WxH, e.g. 640x360)" : "");
+            o->kind == APP_OPT_SIZE      ? " (expected WxH, e.g. 640x360)"
+            : o->kind == APP_OPT_BOUNCES ? " (expected a count or half)"
+                                         : "");
     return -1;
 }
 
@@ -382,4 +389,10 @@ void app_timings_members(FILE *f, const pl_chain *chain, const pl_step_result *r
             fprintf(f, ", \"%.*s_beside_%s\": %s", (int)(strlen(p[i]->key) - 3), p[i]->key,
                     p[i]->beside, r->beside ? "true" : "false");
     }
+}
+
+unsigned app_bounces_split(unsigned value, bool *half)
+{
+    *half = value == APP_BOUNCES_HALF;
+    return *half ? 1 : value;
 }

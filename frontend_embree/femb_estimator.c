@@ -814,8 +814,12 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         float wi[3][NL], w[3][NL], pdf[NL], Li[3][NL], first_t[NL] = {0};
         uint8_t is_spec[NL], ok[NL];
         sample_brdf(S, &L, &P, 0, n, wi, w, pdf, is_spec, ok);
+        /* (half resolution: the lane's choice in the frame its key was drawn for) */
+        float weight = p->half_indirect ? 2.0f : 1.0f;
         for (uint32_t i = 0; i < n; i++) {
-            P.active[i] = live[i] & ok[i];
+            P.active[i] = live[i] & ok[i] &
+                          (!p->half_indirect ||
+                           TND_HALF_TRACED(P.key_pixel[i], P.key_frame[i], c->width));
             for (int k = 0; k < 3; k++)
                 P.dir[k][i] = wi[k][i];
             P.pdf_prev[i] = pdf[i];
@@ -828,7 +832,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         LANES (i, n) {
             float ct[3];
             for (int k = 0; k < 3; k++) {
-                ct[k] = w[k][i] * Li[k][i];
+                ct[k] = w[k][i] * Li[k][i] * weight;
                 /* a broken sample must not poison the history */
                 ct[k] = (ct[k] >= 0.0f) & (ct[k] <= FLT_MAX) ? ct[k] : 0.0f;
             }

@@ -27,6 +27,9 @@ typedef struct femb_params {
      * offset) */
     bool set_jitter;
     float jitter[2];
+    /* the indirect paths at half resolution (`--bounces half`): only pixels where
+     * TND_HALF_TRACED (shaders/sampling.h) holds trace theirs, weighted 2 */
+    bool half_indirect;
 } femb_params;
 
 typedef struct femb_context femb_context;

@@ -105,6 +105,7 @@ typedef struct fvk_params {
     uint32_t sample;  /* as femb_params: 0 (TND_SAMPLE_REALTIME), or a matched reference's */
     bool set_jitter;  /* as femb_params */
     float jitter[2];
+    bool half_indirect; /* as femb_params */
 } fvk_params;
 
 /* GPU times of a fvk_render and the gradient launch after it, per pass; tlas_ms: the wall clock of

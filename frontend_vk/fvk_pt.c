@@ -488,6 +488,7 @@ static void set_params(fvk_context *c, const fvk_params *p)
     f->params.x = p ? p->bounces : 1;
     f->params.y = p ? p->sample : TND_SAMPLE_REALTIME;
     f->params.w = c->reflect_depth;
+    f->indirect.x = p && p->half_indirect && f->params.x > 0 ? 1u : 0u;
     float jit[2];
     if (p && p->set_jitter)
         memcpy(jit, p->jitter, sizeof jit);
@@ -566,7 +567,8 @@ tnd_result fvk_render(fvk_context *c, const fvk_params *p, fvk_timings *t)
     tnd_timer_end(cmd, &c->timer[0], s0);
     tnd_cmd_barrier(cmd);
     int s1 = tnd_timer_begin(cmd, &c->timer[0], "frontend_vk.shade");
-    launch(c, cmd, 1, c->width, c->height, false);
+    /* (half resolution: pt_shade.glsl's shade_pixel takes rows in pairs) */
+    launch(c, cmd, 1, c->width, c->height + (c->ubo.indirect.x ? c->height & 1 : 0), false);
     tnd_timer_end(cmd, &c->timer[0], s1);
     tnd_cmd_barrier(cmd); /* (whatever the queue runs next reads the contract) */
     TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->run[0]));

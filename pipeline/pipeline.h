@@ -23,6 +23,8 @@ typedef struct pl_params {
     uint32_t sample;  /* sample word: 0 (TND_SAMPLE_REALTIME), a matched reference's s + 1 */
     bool set_jitter;  /* replace the frame's Halton jitter by `jitter` (pixels) */
     float jitter[2];
+    bool half_indirect; /* the indirect paths of half the pixels, a checkerboard that alternates
+                           each frame, weighted 2 (`--bounces half`; femb_params) */
 } pl_params;
 
 /* What the last call took: GPU timestamps (Vulkan) or the CPU's wall clock (Embree, which does

@@ -46,7 +46,8 @@ typedef struct vk_fe {
 
 static fvk_params vk_params(const pl_params *p)
 {
-    return p ? (fvk_params){p->bounces, p->sample, p->set_jitter, {p->jitter[0], p->jitter[1]}}
+    return p ? (fvk_params){p->bounces, p->sample, p->set_jitter, {p->jitter[0], p->jitter[1]},
+                           p->half_indirect}
              : (fvk_params){.bounces = 1};
 }
 
@@ -208,7 +209,8 @@ typedef struct emb_fe {
 
 static femb_params emb_params(const pl_params *p)
 {
-    return p ? (femb_params){p->bounces, p->sample, p->set_jitter, {p->jitter[0], p->jitter[1]}}
+    return p ? (femb_params){p->bounces, p->sample, p->set_jitter, {p->jitter[0], p->jitter[1]},
+                           p->half_indirect}
              : (femb_params){.bounces = 1};
 }
 

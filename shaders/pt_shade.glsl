@@ -23,6 +23,27 @@ layout(constant_id = 1) const uint TND_BOUNCES_PLUS_ONE = 0u;
 const float SH_C0 = 0.282094791773878;
 const float SH_C1 = 0.488602511902920;
 
+/* The pixel launch l of mode 0 shades (false: none). Each its own, or with the indirect paths at
+ * half resolution (TND_HALF_TRACED) the launch is W x 2 ceil(H / 2): its first ceil(H / 2) rows
+ * take the pixels that trace theirs this frame, one of each column's pair of rows, the rest the
+ * other of each pair. A warp's lanes then all trace or all do not: with the two kinds side by
+ * side in every warp, half the lanes would wait through each bounce (docs/performance.md). */
+bool shade_pixel(uvec2 l, out ivec2 ip)
+{
+    uint W = fr.frame.y, H = fr.frame.z;
+    if (fr.indirect.x == 0u) {
+        ip = ivec2(l);
+        return l.x < W && l.y < H;
+    }
+    uint half_rows = (H + 1u) / 2u;
+    bool traced = l.y < half_rows;
+    uint pair = traced ? l.y : l.y - half_rows;
+    /* (x + y + frame even: y's parity is that of x + frame) */
+    uint y = 2u * pair + (((l.x + fr.frame.x) & 1u) ^ (traced ? 0u : 1u));
+    ip = ivec2(l.x, y);
+    return l.x < W && pair < half_rows && y < H;
+}
+
 void pt_shade_main(uvec2 launch)
 {
     ivec2 ip;
@@ -49,7 +70,8 @@ void pt_shade_main(uvec2 launch)
         imageStore(img_emission, ip, vec4(s.emission, 0.0));
         key = uvec3(g.a.z, g.a.y, TND_SAMPLE_REALTIME);
     } else {
-        ip = ivec2(launch);
+        if (!shade_pixel(launch, ip))
+            return;
         uvec2 r = imageLoad(img_rng, ip).xy;
         key = uvec3(r.y, r.x, fr.params.y); /* (TND_SAMPLE_REALTIME but in a matched reference) */
     }
@@ -95,10 +117,15 @@ void pt_shade_main(uvec2 launch)
         float pdf;
         bool is_spec;
         uint bounces = TND_BOUNCES_PLUS_ONE != 0u ? TND_BOUNCES_PLUS_ONE - 1u : fr.params.x;
-        if (bounces > 0u && sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
+        /* (half resolution: this pixel's choice in the frame its key was drawn for) */
+        bool half_rate = fr.indirect.x != 0u;
+        if (bounces > 0u && (!half_rate || TND_HALF_TRACED(key.x, key.y, W)) &&
+            sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
             vec3 Li = trace_path(key, s.p, offset_ray(s.p, s.ng), wi, 1u, bounces, 2u, pdf,
                                  depth * fr.jitter.z);
             vec3 contrib = w * Li;
+            if (half_rate)
+                contrib *= 2.0;
             for (int k = 0; k < 3; k++)
                 if (tnd_nonfinite(contrib[k]) || contrib[k] < 0.0)
                     contrib[k] = 0.0;

@@ -17,8 +17,7 @@ void main()
         if (i >= fr.params.z)
             return;
         launch = uvec2(i, 0u);
-    } else if (launch.x >= fr.frame.y || launch.y >= fr.frame.z)
-        return;
+    } /* (mode 0: pt_shade_main tests the launch's bounds) */
 #else
     if (launch.x >= fr.frame.y || launch.y >= fr.frame.z)
         return;

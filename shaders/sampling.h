@@ -61,6 +61,16 @@
  * ends them long before); a matched reference traces the real-time estimator's count instead. */
 #define TND_REFERENCE_MAX_BOUNCES 64u
 
+/* The indirect paths at half resolution (`--bounces half`; Q2RTX's global illumination "low",
+ * whose bounce pass covers half the rows): the real-time estimator traces the indirect path of
+ * pixel (x, y) of frame f only where x + y + f is even, a checkerboard that alternates each
+ * frame, and weights what it brings back by 2. Each pixel's estimate stays unbiased over any two
+ * consecutive frames (and over any two neighbours of a frame); direct light is as before. From
+ * the sample key's words (pixel y W + x, frame), so a gradient sample re-draws its own frame's
+ * choice. */
+#define TND_HALF_TRACED(key_pixel, key_frame, width)                                               \
+    (((((key_pixel) % (width)) + ((key_pixel) / (width)) + (key_frame)) & 1u) == 0u)
+
 #ifdef TND_GLSL
 #define TND_DIM_ENUM(name, off, text) const uint TND_DIM_##name = uint(off);
 TND_DIM_LIST(TND_DIM_ENUM)

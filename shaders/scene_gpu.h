@@ -57,6 +57,8 @@ struct tnd_gpu_frame {
     uvec4 params;        /* x: bounces, y: the real-time pass's sample word (0; a matched
                             reference's samples: s + 1), z: gradient count, w: specular
                             vertices the primary chain follows */
+    uvec4 indirect;      /* x: 1: the indirect paths of half the pixels (TND_HALF_TRACED,
+                            shaders/sampling.h), 0: of every pixel */
 };
 
 #ifndef TND_GLSL
@@ -71,7 +73,7 @@ typedef struct tnd_gpu_frame tnd_gpu_frame;
 _Static_assert(sizeof(tnd_gpu_mesh) == 32, "mesh layout");
 _Static_assert(sizeof(tnd_gpu_material) == 224, "material layout");
 _Static_assert(sizeof(tnd_gpu_instance) == 112, "instance layout");
-_Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 7 * 16, "frame layout");
+_Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 8 * 16, "frame layout");
 #endif
 
 /* What the front-end's shaders model (specialization constant 0 of every pass, a bit mask):
