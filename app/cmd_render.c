@@ -714,6 +714,7 @@ tnd_result app_pipeline_open(const app_render_opts *o, const tnd_scene *scene, t
                                                    .reflect_depth = o->reflect_depth,
                                                    .references = reference,
                                                    .bounces = o->bounces,
+                                                   .half_indirect = o->half_indirect,
                                                    .threads = o->threads,
                                                    .scene_path = o->scene},
                                fr));

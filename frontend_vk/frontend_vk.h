@@ -97,6 +97,7 @@ typedef struct fvk_desc {
     uint32_t bounces;        /* the indirect bounces the real-time passes are first built for (0:
                                 1, the default): the shading pass is specialised for the count a
                                 frame asks, and built again when a frame asks another */
+    bool half_indirect;      /* the real-time passes are first built for --bounces half */
     fvk_specialise specialise; /* the passes' own specialisation (above) */
 } fvk_desc;
 

@@ -45,13 +45,15 @@ struct fvk_context {
     VkDescriptorSetLayout set_layout[2];
     VkPipelineLayout layout;
     /* The passes, twice (fvk_pt.c need_passes): [0] the real-time frame's (the real-time sample
-     * word only, built for the frame's bounce count), [1] every sample word and bounce count
+     * word only, built for the frame's bounce count and --bounces half or not), [1] every sample word and bounce count
      * (references, matched references; TND_USES_REFERENCE). Each made when first needed. */
     struct fvk_passes {
         VkPipeline pipeline;  /* ray-tracing pipeline (FVK_RT_PIPELINE) */
         tnd_sbt sbt;
         VkPipeline compute[3]; /* primary, shade, reference (FVK_RT_QUERY) */
         uint32_t bounces_spec; /* the bounces they are built for + 1 (0: the frame's) */
+        uint32_t half_spec;    /* built for the indirect paths of every pixel (1), of half (2),
+                                  or as the frame says (0) */
     } passes[2];
     int bound;                /* the passes bind_all bound last (what launch launches) */
     bool references;          /* fvk_desc.references: every frame with the reference passes */

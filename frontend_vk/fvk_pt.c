@@ -105,17 +105,20 @@ static uint32_t passes_uses(const fvk_context *c, int v)
  * primary and shade, and pt_reference for v 1) or one ray-tracing pipeline of all three raygens
  * either way (v 0 never launches pt_reference; without it in the pipeline, the H200's primary
  * pass ran 20% slower: docs/performance.md). */
-static tnd_result create_passes(fvk_context *c, int v, uint32_t bounces_spec)
+static tnd_result create_passes(fvk_context *c, int v, uint32_t bounces_spec, uint32_t half_spec)
 {
     tnd_result res = TND_OK;
     struct fvk_passes *ps = &c->passes[v];
     bool packed = c->precision == TND_PRECISION_PACKED;
-    /* constant 0: what the scene and the passes use; 1: the bounces built for (pt_shade.glsl) */
-    const uint32_t constants[2] = {passes_uses(c, v), bounces_spec};
-    const VkSpecializationMapEntry entries[2] = {{0, 0, sizeof(uint32_t)},
-                                                 {1, sizeof(uint32_t), sizeof(uint32_t)}};
-    const VkSpecializationInfo spec = {2, entries, sizeof constants, constants};
+    /* constant 0: what the scene and the passes use; 1: the bounces built for, 2: the indirect
+     * paths' resolution built for (pt_shade.glsl) */
+    const uint32_t constants[3] = {passes_uses(c, v), bounces_spec, half_spec};
+    const VkSpecializationMapEntry entries[3] = {{0, 0, sizeof(uint32_t)},
+                                                 {1, sizeof(uint32_t), sizeof(uint32_t)},
+                                                 {2, 2 * sizeof(uint32_t), sizeof(uint32_t)}};
+    const VkSpecializationInfo spec = {3, entries, sizeof constants, constants};
     ps->bounces_spec = bounces_spec;
+    ps->half_spec = half_spec;
     if (c->api == FVK_RT_QUERY) {
         const tnd_shader ids[3] = {
             packed ? TND_SHADER_pt_primary_rq_packed : TND_SHADER_pt_primary_rq_f32,
@@ -268,26 +271,27 @@ static void destroy_passes(fvk_context *c, int v)
     *ps = (struct fvk_passes){0};
 }
 
-/* The passes v for frames of `bounces` indirect bounces: made the first time they are needed.
- * The real-time passes are built for the count (and made again when a frame asks another,
- * after what was submitted with them is done); the reference passes take the count from the
- * frame parameters, whatever it is (a reference's context also writes each frame's motion
- * with a frame of none: one build serves both, as before the real-time passes were
- * specialised). */
-static tnd_result need_passes(fvk_context *c, int v, uint32_t bounces)
+/* The passes v for frames of `bounces` indirect bounces (`half`: at half resolution): made the
+ * first time they are needed. The real-time passes are built for the count and the resolution
+ * (and made again when a frame asks others, after what was submitted with them is done); the
+ * reference passes take both from the frame parameters, whatever they are (a reference's
+ * context also writes each frame's motion with a frame of none: one build serves both, as
+ * before the real-time passes were specialised). */
+static tnd_result need_passes(fvk_context *c, int v, uint32_t bounces, bool half)
 {
     tnd_result res = TND_OK;
     struct fvk_passes *ps = &c->passes[v];
     uint32_t bounces_spec = v || !c->specialise ? 0u : bounces + 1u;
+    uint32_t half_spec = v || !c->specialise ? 0u : half ? 2u : 1u;
     bool made = c->api == FVK_RT_QUERY ? ps->compute[0] != VK_NULL_HANDLE
                                        : ps->pipeline != VK_NULL_HANDLE;
-    if (made && ps->bounces_spec == bounces_spec)
+    if (made && ps->bounces_spec == bounces_spec && ps->half_spec == half_spec)
         return TND_OK;
     if (made) {
         TND_TRY(settle(c, FVK_ALL));
         destroy_passes(c, v);
     }
-    TND_TRY(create_passes(c, v, bounces_spec));
+    TND_TRY(create_passes(c, v, bounces_spec, half_spec));
 fail:
     return res;
 }
@@ -397,7 +401,7 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
     c->specialise = sp == FVK_SPECIALISE_ON ||
                     (sp == FVK_SPECIALISE_AUTO && vk->info.type != VK_PHYSICAL_DEVICE_TYPE_CPU);
     TND_TRY(need_passes(c, c->references || !c->specialise,
-                        desc && desc->bounces ? desc->bounces : 1u));
+                        desc && desc->bounces ? desc->bounces : 1u, desc && desc->half_indirect));
     {
         size_t bytes;
         tnd_shader id = c->precision == TND_PRECISION_PACKED ? TND_SHADER_pt_matched_packed
@@ -524,7 +528,7 @@ static tnd_result begin_passes(fvk_context *c, int run, uint32_t mode, bool slot
      * every frame with the reference passes */
     int v = reference || c->references || !c->specialise ||
             c->ubo.params.y != TND_SAMPLE_REALTIME;
-    TND_TRY(need_passes(c, v, c->ubo.params.x));
+    TND_TRY(need_passes(c, v, c->ubo.params.x, c->ubo.indirect.x != 0));
     TND_TRY(tnd_cmd_begin(c->vk, cmd));
     if (run >= 0)
         tnd_timer_reset(*cmd, &c->timer[run]);
@@ -742,7 +746,7 @@ static tnd_result add_batches(fvk_context *c, bool matched, uint32_t first, uint
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "frontend_vk: out of memory");
     tnd_gpu_frame saved = c->ubo; /* (restored at the end, failed or not) */
     TND_TRY(settle(c, FVK_ALL));  /* (the accumulation image, the frame parameters) */
-    TND_TRY(need_passes(c, 1, c->ref_bounces));
+    TND_TRY(need_passes(c, 1, c->ref_bounces, false));
     const uint32_t batch = TND_REF_CHECK_EVERY;
     double until = stats ? stats->until_noise : 0.0;
     uint32_t end = first + count, done = end;

@@ -54,6 +54,7 @@ typedef struct pl_frontend_desc {
     uint32_t reflect_depth;  /* mirrors/glass the primary pass follows (0: 4) */
     bool references;         /* vk: for references (their shader variant made at creation) */
     uint32_t bounces;        /* vk: the bounces its real-time shaders are first built for (0: 1) */
+    bool half_indirect;      /* vk: ... and for --bounces half */
     uint32_t threads;        /* embree: CPU threads (0: all) */
     const char *captures;    /* replay: the capture directory (or a run's output, DIR/capture) */
     const struct tnd_capture_map *map; /* replay: another renderer's mapping (NULL: Tandem's) */

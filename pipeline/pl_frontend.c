@@ -67,7 +67,8 @@ static tnd_result vk_create(const tnd_scene *scene, const pl_frontend_desc *d, v
                                  .full_pipeline = d->full_pipeline,
                                  .reflect_depth = d->reflect_depth,
                                  .references = d->references,
-                                 .bounces = d->bounces},
+                                 .bounces = d->bounces,
+                                 .half_indirect = d->half_indirect},
                      &v->gv);
     if (res != TND_OK) {
         free(v);

@@ -13,6 +13,14 @@ layout(push_constant) uniform Push { uint mode; } pc;
  * trace_path's code for vertices it cannot reach folds away (13% of `cornell`'s shading pass on
  * the H200, docs/performance.md). */
 layout(constant_id = 1) const uint TND_BOUNCES_PLUS_ONE = 0u;
+/* The indirect paths built for: every pixel's (1), half of them (2, TND_HALF_TRACED), or as the
+ * frame parameters say (0): the test costs the full-resolution pass 2-3% where it is not folded
+ * away (`atrium` on the H200, docs/performance.md). */
+layout(constant_id = 2) const uint TND_HALF_SPEC = 0u;
+bool half_rate()
+{
+    return TND_HALF_SPEC != 0u ? TND_HALF_SPEC == 2u : fr.indirect.x != 0u;
+}
 
 #if TND_PACKED
 #define STORE_RGBE(img, p, v) imageStore(img, p, uvec4(tnd_rgbe_encode3(v), 0u, 0u, 0u))
@@ -31,7 +39,7 @@ const float SH_C1 = 0.488602511902920;
 bool shade_pixel(uvec2 l, out ivec2 ip)
 {
     uint W = fr.frame.y, H = fr.frame.z;
-    if (fr.indirect.x == 0u) {
+    if (!half_rate()) {
         ip = ivec2(l);
         return l.x < W && l.y < H;
     }
@@ -118,13 +126,13 @@ void pt_shade_main(uvec2 launch)
         bool is_spec;
         uint bounces = TND_BOUNCES_PLUS_ONE != 0u ? TND_BOUNCES_PLUS_ONE - 1u : fr.params.x;
         /* (half resolution: this pixel's choice in the frame its key was drawn for) */
-        bool half_rate = fr.indirect.x != 0u;
-        if (bounces > 0u && (!half_rate || TND_HALF_TRACED(key.x, key.y, W)) &&
+        bool halved = half_rate();
+        if (bounces > 0u && (!halved || TND_HALF_TRACED(key.x, key.y, W)) &&
             sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
             vec3 Li = trace_path(key, s.p, offset_ray(s.p, s.ng), wi, 1u, bounces, 2u, pdf,
                                  depth * fr.jitter.z);
             vec3 contrib = w * Li;
-            if (half_rate)
+            if (halved)
                 contrib *= 2.0;
             for (int k = 0; k < 3; k++)
                 if (tnd_nonfinite(contrib[k]) || contrib[k] < 0.0)

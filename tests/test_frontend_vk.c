@@ -749,11 +749,12 @@ static void test_shading_matches_embree(void)
     gpu_end();
 }
 
-/* The shading pass is built for the bounces a frame asks (fvk_pt.c need_passes; forced on here:
- * lavapipe, a CPU device, builds one set of passes for every count by default): a context built
- * for one bounce and asked for three builds its passes again, and shades exactly as one built for
- * three from the start and as the unspecialised passes; the counts give different signals, so a
- * stale build could not pass. */
+/* The shading pass is built for the bounces a frame asks, and for --bounces half or not
+ * (fvk_pt.c need_passes; forced on here: lavapipe, a CPU device, builds one set of passes for
+ * every count by default): a context built for one bounce and asked for three builds its passes
+ * again, and shades exactly as one built for three from the start and as the unspecialised
+ * passes; the counts give different signals, so a stale build could not pass. The same for a
+ * frame of --bounces half after them. */
 static void test_bounces_rebuilt(void)
 {
     tnd_vk *vk = gpu_begin();
@@ -762,7 +763,7 @@ static void test_bounces_rebuilt(void)
     tnd_scene *s = NULL;
     fvk_context *a = NULL, *b = NULL, *g = NULL;
     tnd_scene_state st = {0};
-    tnd_frame f1 = {0}, f3 = {0}, b3 = {0}, g3 = {0};
+    tnd_frame f1 = {0}, f3 = {0}, b3 = {0}, g3 = {0}, half[2] = {{0}};
     tnd_frame *out[4] = {&f1, &f3, &b3, &g3};
     REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/cornell.gltf", &s));
     REQUIRE_OK(tnd_scene_evaluate(s, 0.0, 0, (float)W / H, &st));
@@ -798,9 +799,26 @@ static void test_bounces_rebuilt(void)
     size_t lf = (size_t)W * H * tnd_ct_get(TND_CT_LF_SH)->comps * sizeof(float);
     CHECK(memcmp(tnd_frame_f(&f1, TND_CT_LF_SH), tnd_frame_f(&f3, TND_CT_LF_SH), lf) != 0,
           "1 and 3 bounces give the same indirect light");
+    /* --bounces half: the passes built for it again (constant 2), as the unspecialised ones */
+    for (int i = 0; i < 2; i++) {
+        fvk_context *c = i ? g : a;
+        REQUIRE_OK(fvk_render(c, &(fvk_params){.bounces = 1, .half_indirect = true}, NULL));
+        REQUIRE_OK(tnd_frame_create(W, H, &half[i]));
+        REQUIRE_OK(tnd_contract_download(vk, fvk_contract(c), &half[i]));
+    }
+    for (int k = 0; k < 4; k++) {
+        size_t bytes = (size_t)W * H * tnd_ct_get(ch[k])->comps * sizeof(float);
+        CHECK(memcmp(tnd_frame_f(&half[0], ch[k]), tnd_frame_f(&half[1], ch[k]), bytes) == 0,
+              "%s: built for --bounces half differs from the unspecialised passes",
+              tnd_ct_get(ch[k])->name);
+    }
+    CHECK(memcmp(tnd_frame_f(&f1, TND_CT_LF_SH), tnd_frame_f(&half[0], TND_CT_LF_SH), lf) != 0,
+          "--bounces half gives the indirect light of 1");
 cleanup:
     for (int i = 0; i < 4; i++)
         tnd_frame_destroy(out[i]);
+    tnd_frame_destroy(&half[0]);
+    tnd_frame_destroy(&half[1]);
     tnd_scene_state_free(&st);
     fvk_destroy(a);
     fvk_destroy(b);
