@@ -83,7 +83,7 @@ API double tandem_entry_default(uint32_t e)
 }
 
 /* ---- options as JSON ---------------------------------------------------------------------- */
-typedef enum { K_STR, K_UINT, K_DOUBLE, K_BOOL, K_SIZE } kind;
+typedef enum { K_STR, K_UINT, K_DOUBLE, K_BOOL, K_SIZE, K_BOUNCES } kind;
 typedef struct key {
     const char *name;
     kind k;
@@ -110,7 +110,7 @@ static const key render_keys[] = {
     {"denoiser", K_STR, O(denoiser)},
     {"size", K_SIZE, O(size)},
     {"precision", K_STR, O(precision)},
-    {"bounces", K_UINT, O(bounces)},
+    {"bounces", K_BOUNCES, O(bounces)}, /* a count or "half" */
     {"fps", K_DOUBLE, O(fps)},
     {"camera", K_UINT, O(camera)},
     {"threads", K_UINT, O(threads)},
@@ -159,6 +159,15 @@ static tnd_result put(const key *k, const cJSON *v, void *base, const char *what
             return tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: %s: expected a number", what, k->name);
         *(double *)at = v->valuedouble;
         return TND_OK;
+    case K_BOUNCES: /* (render --bounces: a count, or "half") */
+        if (cJSON_IsString(v) && strcmp(v->valuestring, "half") == 0) {
+            *(unsigned *)at = APP_BOUNCES_HALF;
+            return TND_OK;
+        }
+        if (cJSON_IsString(v))
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: %s: expected a count or \"half\"",
+                            what, k->name);
+        /* fall through */
     case K_UINT:
         if (!cJSON_IsNumber(v) || v->valuedouble < 0 || v->valuedouble > 4294967295.0 ||
             v->valuedouble != floor(v->valuedouble))
@@ -181,6 +190,10 @@ static tnd_result put(const key *k, const cJSON *v, void *base, const char *what
     return TND_OK;
 }
 
+/* reference's --bounces (a key of its own: a compound literal in the loop would not outlive
+ * the statement that made it) */
+static const key ref_bounces_key = {"bounces", K_BOUNCES, offsetof(app_render_opts, ref_bounces)};
+
 /* The options object onto render's options (the denoiser's parameters from "params"). */
 static tnd_result parse_opts(const cJSON *root, bool render, bool reference, app_render_opts *o,
                              const char *what)
@@ -193,7 +206,7 @@ static tnd_result parse_opts(const cJSON *root, bool render, bool reference, app
         if (!k && render)
             k = find_key(render_keys, v->string);
         if (k && reference && strcmp(k->name, "bounces") == 0) /* (reference's --bounces) */
-            k = &(key){"bounces", K_UINT, offsetof(app_render_opts, ref_bounces)};
+            k = &ref_bounces_key;
         if (k) {
             TND_TRY(put(k, v, o, what));
             continue;
@@ -434,6 +447,18 @@ API tandem_renderer *tandem_renderer_open_scene(const tandem_scene *scene,
     if (parse_json(options_json, &r->options, what) != TND_OK ||
         parse_opts(r->options, true, reference != 0, &o, what) != TND_OK)
         goto fail;
+    /* bounces "half": render's 1 at half resolution; a matched reference's expectation is
+     * that of 1 (as the command line) */
+    if (!reference)
+        o.bounces = app_bounces_split(o.bounces, &o.half_indirect);
+    if (reference && o.ref_bounces == APP_BOUNCES_HALF) {
+        if (strcmp(o.estimator, "realtime") != 0) {
+            tnd_fail(TND_ERR_INVALID_ARGUMENT, "reference: bounces \"half\": only with the "
+                                               "realtime estimator");
+            goto fail;
+        }
+        o.ref_bounces = 1;
+    }
     if (reference && o.ref_bounces == ~0u && strcmp(o.estimator, "realtime") == 0)
         o.ref_bounces = o.bounces; /* (as the command line: a matched reference's bounces) */
     bool was = app_set_quiet(true);

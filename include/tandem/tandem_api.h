@@ -86,10 +86,10 @@ char *tandem_capture_list(const char *dir, const char *map_path);
 /* ---- rendering: render's and reference's pipeline, frame by frame ---- */
 typedef struct tandem_renderer tandem_renderer;
 /* options_json: render's options (reference's with `reference`) by their command-line names
- * with '_' for '-': scene, frontend, denoiser, size [W, H], precision, bounces, fps, camera,
- * threads, rt_api, pipeline, reflect_depth, taa, tonemap, exposure, exposure_bias, bloom, spp,
- * estimator, until_noise, composite_on, the scene options (tandem_scene_load's) and params
- * (an object: the denoiser's parameters by name). */
+ * with '_' for '-': scene, frontend, denoiser, size [W, H], precision, bounces (a count or
+ * "half"), fps, camera, threads, rt_api, pipeline, reflect_depth, taa, tonemap, exposure,
+ * exposure_bias, bloom, spp, estimator, until_noise, composite_on, the scene options
+ * (tandem_scene_load's) and params (an object: the denoiser's parameters by name). */
 tandem_renderer *tandem_renderer_open(const char *options_json, int reference);
 /* The same on a scene loaded already (it must outlive the renderer; the options then hold no
  * scene options). */

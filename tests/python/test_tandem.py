@@ -32,15 +32,18 @@ def read_rgb(path):
     return px, names
 
 
-@pytest.mark.parametrize("frontend,denoiser", [("embree", "svgf"), ("embree", "off"),
-                                               ("vk", "asvgf")])
-def test_render_equals_command(tmp_path, frontend, denoiser):
+@pytest.mark.parametrize("frontend,denoiser,bounces", [("embree", "svgf", 1), ("embree", "off", 1),
+                                                       ("vk", "asvgf", 1), ("vk", "asvgf", "half"),
+                                                       ("embree", "svgf", "half")])
+def test_render_equals_command(tmp_path, frontend, denoiser, bounces):
     """Renderer frames are render's frame_NNNN.exr and its captures, bit for bit (the Vulkan
-    front-end on lavapipe with A-SVGF's re-shading and the post chain)."""
+    front-end on lavapipe with A-SVGF's re-shading and the post chain; bounces "half" as
+    --bounces half)."""
     out = tmp_path / "run"
     run("render", "--scene", CORNELL, "--frontend", frontend, "--denoiser", denoiser, "--size",
-        "48x32", "--frames", "3", "--capture", "--out", str(out))
-    r = tandem.Renderer(CORNELL, frontend=frontend, denoiser=denoiser, size=(48, 32))
+        "48x32", "--frames", "3", "--capture", "--bounces", str(bounces), "--out", str(out))
+    r = tandem.Renderer(CORNELL, frontend=frontend, denoiser=denoiser, size=(48, 32),
+                        bounces=bounces)
     for f in range(3):
         fr = r.frame(f)
         px, _ = read_rgb(str(out / ("frame_%04d.exr" % f)))
@@ -218,6 +221,10 @@ def test_errors_raise_with_message(tmp_path):
         tandem.Renderer(CORNELL, framez=3)
     with pytest.raises(tandem.TandemError, match="up: the scene and its options come with"):
         tandem.Renderer(tandem.Scene(CORNELL), up="z")
+    with pytest.raises(tandem.TandemError, match='bounces: expected a count or "half"'):
+        tandem.Renderer(CORNELL, bounces="quarter")
+    with pytest.raises(tandem.TandemError, match='bounces "half": only with the realtime'):
+        tandem.Renderer(CORNELL, reference=True, bounces="half")
     with pytest.raises(tandem.TandemError, match="--frontend 'rays'"):
         tandem.Renderer(CORNELL, frontend="rays")
     with pytest.raises(tandem.TandemError, match="denoiser 'bm3d'"):
