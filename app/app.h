@@ -157,6 +157,7 @@ typedef struct app_view_state {
     char split_denoiser[1100], split_frontend[1100]; /* the right half's, when split */
     uint32_t bounces, camera, size[2];
     uint32_t no_default_light; /* --no-default-light: 1 */
+    uint32_t half_indirect;    /* bounces "half": 1 (bounces 1, at half resolution) */
     app_view_cam *path;
     uint32_t path_len, path_cap; /* entries */
     uint32_t path_frames;        /* frames: the entries' `frames` summed */

@@ -31,7 +31,8 @@ static const app_cmd view_cmd = {
     "The pipeline live in a window: fly the camera (WASD, Q/E down/up, drag to look; shift\n"
     "faster, control slower), change the knobs (1/2/3/4/5 the registered denoisers in order\n"
     "(asvgf/svgf/off/recurrent), then the denoiser plugin, F front-end (the registered ones,\n"
-    "then the front-end plugin), [ ] bounces, P precision, T TAA, K tone curve, B bloom, the\n"
+    "then the front-end plugin), [ ] bounces (0, half, 1, 2, ...), P precision, T TAA, K\n"
+    "tone curve, B bloom, the\n"
     "denoiser's parameters on their keys (, . a-trous iterations, M minimum alpha, G antilag\n"
     "gain, H recurrent's fast history, C its clamp: the overlay lists them), - = exposure bias, 7 8 environment rotation, 9 0 its intensity), V cycles\n"
     "the views (final, contract entries, back-end dumps), TAB the splits (noisy | denoised,\n"
@@ -219,9 +220,17 @@ static void on_key(viewer *v, int key, bool down)
         v->err_view = (v->err_view + 1) % 3;
         v->ref_spp = 0;
         break;
-    case '[': case ']':
-        if (key == '[' && s->bounces > 0)
+    case '[': case ']': /* 0, half (one at half resolution), 1, 2, ... 16 */
+        if (key == '[' && s->half_indirect)
+            s->half_indirect = 0, s->bounces = 0;
+        else if (key == '[' && s->bounces == 1)
+            s->half_indirect = 1;
+        else if (key == '[' && s->bounces > 0)
             s->bounces--;
+        else if (key == ']' && s->bounces == 0)
+            s->half_indirect = 1, s->bounces = 1;
+        else if (key == ']' && s->half_indirect)
+            s->half_indirect = 0;
         else if (key == ']' && s->bounces < 16)
             s->bounces++;
         v->rebuild = true;
@@ -661,9 +670,11 @@ static void draw_overlay(viewer *v, const char *device, double fps)
              pl_frontend_describe(v->fe[0], who, sizeof who), pl_frontend_models(v->fe[0]));
     text(px, 4, y, line, fg);
     y += 10;
-    snprintf(line, sizeof line, "denoiser %.60s  bounces %u  %s  TAA %s  %s  bloom %.2f",
-             v->chain[0] && pl_chain_plugin_name(v->chain[0]) ? s->denoiser : v->dn->name,
-             s->bounces, s->precision, s->taa, s->tonemap, s->bloom);
+    char nb[16];
+    snprintf(nb, sizeof nb, s->half_indirect ? "half" : "%u", s->bounces);
+    snprintf(line, sizeof line, "denoiser %.60s  bounces %s  %s  TAA %s  %s  bloom %.2f",
+             v->chain[0] && pl_chain_plugin_name(v->chain[0]) ? s->denoiser : v->dn->name, nb,
+             s->precision, s->taa, s->tonemap, s->bloom);
     text(px, 4, y, line, fg);
     y += 10;
     char sp[200] = "";
@@ -975,7 +986,7 @@ static tnd_result frame(viewer *v)
     snprintf(cap, sizeof cap, "%s/capture_%04u.exr", v->out, v->captures);
     for (int i = 0; i < (split(s) ? 2 : 1); i++) {
         TND_TRY(pl_frontend_set_frame(v->fe[i], cur, prev, f, w, h));
-        pl_step step = {.params = {.bounces = s->bounces},
+        pl_step step = {.params = {.bounces = s->bounces, .half_indirect = s->half_indirect != 0},
                         .frame = dn_frame_for_camera(cur->camera.proj, h, f, first),
                         .dt = (float)(1.0 / s->fps),
                         .capture = i == 0 && v->want_capture ? cap : NULL,

@@ -136,6 +136,7 @@ static const struct {
 } uint_fields[] = {
 #define F(k, field) {k, offsetof(app_view_state, field)}
     F("bounces", bounces), F("camera", camera), F("no_default_light", no_default_light),
+    F("half_indirect", half_indirect),
 #undef F
 };
 
@@ -159,6 +160,7 @@ void app_view_state_options(const app_view_state *v, app_render_opts *o)
     o->bloom = v->bloom;
     o->fps = v->fps;
     o->bounces = v->bounces;
+    o->half_indirect = v->half_indirect != 0 && v->bounces == 1;
     o->camera = v->camera;
     o->size[0] = v->size[0];
     o->size[1] = v->size[1];

@@ -43,6 +43,7 @@ cat > "$TMP/session.json" <<'JSON'
   {"frame": 9, "screenshot": true},
   {"frame": 10, "resize": [200, 120]},
   {"frame": 11, "key": "2"},
+  {"frame": 11, "key": "LEFT_BRACKET"},
   {"frame": 12, "key": "A", "down": true},
   {"frame": 14, "key": "A", "down": false},
   {"frame": 17, "screenshot": true},
@@ -75,14 +76,14 @@ for i in range(4):
     j = json.load(open(f"{d}/shot_{i:04d}.json"))
     print(i, j["size"][0], j["size"][1], j["denoiser"], j["frontend"], j["view"], j["split"],
           sum(e.get("frames", 1) for e in j["path"]), j["min_alpha"], j["antilag"],
-          j["exposure_bias"])
+          j["exposure_bias"], j["bounces"], j["half_indirect"])
 PYEOF
 cat "$TMP/states.txt"
-check "the states follow the session (resize, denoiser, view, split, front-end, knobs)" \
-    "grep -q '^0 160 90 asvgf vk final off 10 0 0 0$' '$TMP/states.txt' &&
-     grep -q '^1 200 120 svgf vk final off 7 ' '$TMP/states.txt' &&
-     grep -q '^2 200 120 svgf vk normal noisy 3 ' '$TMP/states.txt' &&
-     grep -q '^3 200 120 off embree normal frontend 3 0.05 2 0.5$' '$TMP/states.txt'"
+check "the states follow the session (resize, denoiser, view, split, front-end, knobs, [: bounces half)" \
+    "grep -q '^0 160 90 asvgf vk final off 10 0 0 0 1 0$' '$TMP/states.txt' &&
+     grep -q '^1 200 120 svgf vk final off 7 .* 1 1$' '$TMP/states.txt' &&
+     grep -q '^2 200 120 svgf vk normal noisy 3 .* 1 1$' '$TMP/states.txt' &&
+     grep -q '^3 200 120 off embree normal frontend 3 0.05 2 0.5 1 1$' '$TMP/states.txt'"
 
 # each screenshot's final image = render --view of its state
 for i in 0 1 2 3; do
