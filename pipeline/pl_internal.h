@@ -54,9 +54,10 @@ extern const pl_frontend_ops pl_plugin_frontend_ops;
 /* The camera of frame `frame` from the scene's states (prev NULL: cur). */
 void pl_camera_from_states(const tnd_scene_state *cur, const tnd_scene_state *prev,
                            uint32_t frame, pl_camera *cam);
-/* The ABI's per-frame settings; df NULL: no jitter history, spread or reset. */
-void pl_plugin_settings(const pl_camera *cam, uint32_t w, uint32_t h, uint32_t bounces,
-                        uint32_t sample, const dn_frame *df, float dt, tnd_precision precision,
+/* The ABI's per-frame settings; df NULL: no jitter history, spread or reset; p NULL: one
+ * bounce, the real-time sample word. */
+void pl_plugin_settings(const pl_camera *cam, uint32_t w, uint32_t h, const pl_params *p,
+                        const dn_frame *df, float dt, tnd_precision precision,
                         tandem_frame_settings *s);
 
 /* A denoiser plugin: its state, its output image (RGBA32F). */

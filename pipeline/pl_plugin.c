@@ -195,8 +195,8 @@ static const char *plugin_name(const pl_plugin *p)
     return p->desc->name ? p->desc->name : "(unnamed)";
 }
 
-void pl_plugin_settings(const pl_camera *cam, uint32_t w, uint32_t h, uint32_t bounces,
-                        uint32_t sample, const dn_frame *df, float dt, tnd_precision precision,
+void pl_plugin_settings(const pl_camera *cam, uint32_t w, uint32_t h, const pl_params *p,
+                        const dn_frame *df, float dt, tnd_precision precision,
                         tandem_frame_settings *s)
 {
     *s = (tandem_frame_settings){.struct_size = sizeof *s,
@@ -207,9 +207,10 @@ void pl_plugin_settings(const pl_camera *cam, uint32_t w, uint32_t h, uint32_t b
                                  .pixel_spread = df ? df->pixel_spread : 0.0f,
                                  .time_s = (float)cam->time,
                                  .dt_s = dt,
-                                 .bounces = bounces,
-                                 .sample = sample,
-                                 .precision = (uint32_t)precision};
+                                 .bounces = p ? p->bounces : 1,
+                                 .sample = p ? p->sample : 0,
+                                 .precision = (uint32_t)precision,
+                                 .half_indirect = p && p->half_indirect};
     memcpy(s->view, cam->state.view, sizeof s->view);
     memcpy(s->proj, cam->state.proj, sizeof s->proj);
     memcpy(s->prev_view, cam->state.prev_view, sizeof s->prev_view);
@@ -313,8 +314,7 @@ static tnd_result pfe_render(void *ctx, const pl_params *p, tnd_frame *host, pl_
     memcpy(df.jitter, cam.state.jitter, sizeof df.jitter);
     tnd_jitter(cam.state.frame_index ? cam.state.frame_index - 1 : 0, df.prev_jitter);
     tandem_frame_settings s;
-    pl_plugin_settings(&cam, f->width, f->height, p ? p->bounces : 1, p ? p->sample : 0, &df,
-                       f->dt, f->precision, &s);
+    pl_plugin_settings(&cam, f->width, f->height, p, &df, f->dt, f->precision, &s);
     tandem_host_frame hf = {.struct_size = sizeof hf, .width = f->width, .height = f->height};
     for (int e = 0; e < TANDEM_ENTRY_COUNT; e++)
         hf.entries[e] = (fp->writes & TANDEM_ENTRY_BIT(e)) ? host->data[e] : NULL;
@@ -650,8 +650,8 @@ static tnd_result hdn_submit(void *ctx, const pl_dn_input *in)
         TND_TRY(tnd_image_download(p->vk, pl_off_ops.output(p->off), p->radiance,
                                    n * 4 * sizeof(float)));
     tandem_frame_settings fs;
-    pl_plugin_settings(in->camera, p->width, p->height, in->params->bounces, in->params->sample,
-                       in->frame, in->dt, p->precision, &fs);
+    pl_plugin_settings(in->camera, p->width, p->height, in->params, in->frame, in->dt,
+                       p->precision, &fs);
     tandem_host_denoiser_io io = {.struct_size = sizeof io,
                                   .width = p->width,
                                   .height = p->height,
@@ -792,8 +792,8 @@ static tnd_result pdn_submit(void *ctx, const pl_dn_input *in)
     TND_TRY(pl_off_ops.submit(p->off, in));
     TND_TRY(pdn_settle(p));
     tandem_frame_settings fs; /* the ABI's settings of the frame */
-    pl_plugin_settings(in->camera, p->width, p->height, in->params->bounces, in->params->sample,
-                       in->frame, in->dt, p->precision, &fs);
+    pl_plugin_settings(in->camera, p->width, p->height, in->params, in->frame, in->dt,
+                       p->precision, &fs);
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(p->vk, &cmd));
     tnd_timer_reset(cmd, &p->timer);

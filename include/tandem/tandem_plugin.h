@@ -92,6 +92,11 @@ typedef struct tandem_frame_settings {
                                    of a matched reference (key the random numbers on it, and on
                                    frame_index and the pixel, so that samples differ) */
     uint32_t precision;         /* tandem_precision of the contract */
+    /* front-ends (appended: read it only where struct_size covers it): non-zero for `--bounces
+     * half`, one bounce (bounces 1) traced only at the pixels (x, y) where x + y + frame_index
+     * is even, weighted 2, the others without an indirect sample (docs/estimator.md); a
+     * front-end that ignores it traces every pixel's, which has the same expectation */
+    uint32_t half_indirect;
 } tandem_frame_settings;
 
 /* ---- front-ends ------------------------------------------------------------------------------ */

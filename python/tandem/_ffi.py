@@ -18,7 +18,7 @@ typedef struct tandem_frame_settings {
     float view[16], proj[16], prev_view[16], prev_proj[16];
     float jitter[2], prev_jitter[2], camera_position[3];
     float pixel_spread, time_s, dt_s;
-    uint32_t bounces, sample, precision;
+    uint32_t bounces, sample, precision, half_indirect;
 } tandem_frame_settings;
 typedef struct tandem_host_denoiser_create_info {
     uint32_t struct_size, width, height, precision;

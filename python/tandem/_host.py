@@ -18,7 +18,8 @@ ENTRIES = (("albedo", 3), ("normal", 3), ("geo_normal", 3), ("position", 3), ("d
            ("lf_cocg", 2), ("spec", 3), ("path", 1))
 _UINT = {"vis_id", "rng", "path"}
 
-# tandem_frame_settings: 5 uint32, 64 + 10 floats, 3 uint32
+# tandem_frame_settings: 5 uint32, 64 + 10 floats, 3 uint32 (then half_indirect, where the
+# struct's size has it)
 _SETTINGS_BYTES = 4 * (5 + 74 + 3)
 
 # denoisers the package registered by object (python:__tandem__:ID)
@@ -53,7 +54,8 @@ class DenoiserFrame:
     contract entry, (h, w, components) float32 (uint32 for vis_id, rng, path); ``index``,
     ``reset`` (the history is invalid: first frame or a cut), the camera: ``view``, ``proj``,
     ``prev_view``, ``prev_proj`` (4 x 4, numpy's m[row, col]), ``jitter``, ``prev_jitter``
-    (pixels), ``position``, ``pixel_spread`` (radians per pixel), ``time``, ``dt`` (seconds).
+    (pixels), ``position``, ``pixel_spread`` (radians per pixel), ``time``, ``dt`` (seconds),
+    ``bounces``, ``sample``, ``half_indirect`` (``--bounces half``).
     """
 
     def __init__(self, width, height, settings, entries, radiance):
@@ -67,6 +69,8 @@ class DenoiserFrame:
         self.position = f[73:76]
         self.pixel_spread, self.time, self.dt = float(f[76]), float(f[77]), float(f[78])
         self.bounces, self.sample = int(u[79]), int(u[80])
+        self.half_indirect = len(settings) >= _SETTINGS_BYTES + 4 and bool(
+            np.frombuffer(settings, dtype=np.uint32, count=1, offset=_SETTINGS_BYTES)[0])
         self.entries = {}
         for (name, comps), buf in zip(ENTRIES, entries):
             if buf is not None:
