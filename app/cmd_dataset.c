@@ -239,15 +239,20 @@ static tnd_result spec_read(const char *path, spec *s)
         base.size[0] = (unsigned)cJSON_GetArrayItem(size, 0)->valuedouble;
         base.size[1] = (unsigned)cJSON_GetArrayItem(size, 1)->valuedouble;
     }
+    /* bounces: a count, or "half" (render --bounces half: the matched reference's is 1) */
+    const cJSON *half = cJSON_GetObjectItemCaseSensitive(s->root, "bounces");
+    base.half_indirect = cJSON_IsString(half) && strcmp(half->valuestring, "half") == 0;
+    if (base.half_indirect)
+        base.bounces = 1;
     if (!get_uint(s->root, "frames", &base.frames, 1, 100000) ||
-        !get_uint(s->root, "bounces", &base.bounces, 0, 64) ||
+        (!base.half_indirect && !get_uint(s->root, "bounces", &base.bounces, 0, 64)) ||
         !get_uint(s->root, "spp", &base.spp, 1, 1u << 20) ||
         !get_uint(s->root, "unbiased_spp", &unbiased, 0, 1u << 20) ||
         !get_num(s->root, "fps", &base.fps) || !(base.fps > 0) ||
         !get_str(s->root, "frontend", &base.frontend) ||
         !get_str(s->root, "precision", &base.precision) || !get_str(s->root, "format", &format)) {
-        res = spec_fail(path, "frames (1..100000), bounces, spp, unbiased_spp: whole numbers; fps "
-                              "> 0; frontend, precision, format: strings");
+        res = spec_fail(path, "frames (1..100000), bounces (or \"half\"), spp, unbiased_spp: "
+                              "whole numbers; fps > 0; frontend, precision, format: strings");
         goto fail;
     }
     if (strcmp(format, "exr") != 0 && strcmp(format, "npz") != 0) {
@@ -377,7 +382,10 @@ static tnd_result frame_write(const spec *sp, const sequence *sq, pl_frontend *f
     char path[2400];
     TND_TRY(app_frame_begin(o, scene, fr, st, f, true));
     /* the contract as render --capture writes it, and its composite */
-    TND_TRY(pl_frontend_render(fr, &(pl_params){.bounces = o->bounces}, &w->contract, NULL));
+    TND_TRY(pl_frontend_render(fr,
+                               &(pl_params){.bounces = o->bounces,
+                                            .half_indirect = o->half_indirect},
+                               &w->contract, NULL));
     tnd_frame_composite(&w->contract, w->noisy);
     tnd_frame_interleave(&w->contract, w->noisy);
     app_render_opts ro = *o;

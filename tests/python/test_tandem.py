@@ -237,6 +237,23 @@ def test_errors_raise_with_message(tmp_path):
         tandem.Sequence(8, 8, 1.0).add(np.zeros((4, 4, 3)), np.zeros((8, 8, 3)))
 
 
+def test_dataset_half(tmp_path):
+    """A dataset of bounces "half": the contract as render --bounces half makes it, and the
+    matched reference of one bounce (its expectation)."""
+    spec = {"size": [40, 24], "frames": 2, "spp": 8, "format": "npz", "bounces": "half",
+            "sequences": [{"scene": CORNELL, "name": "c"}]}
+    tandem.dataset(spec, str(tmp_path / "d"))
+    data = tandem.load_dataset(str(tmp_path / "d"))
+    r = tandem.Renderer(CORNELL, frontend="embree", denoiser="off", size=(40, 24), bounces="half")
+    ref = tandem.Renderer(CORNELL, reference=True, frontend="embree", estimator="realtime",
+                          spp=8, size=(40, 24), bounces=1)
+    assert len(data) == 2
+    for d in data:
+        c = r.frame(d["frame"])["contract"]
+        assert np.array_equal(d["lf_sh"], c["lf_sh"]) and np.array_equal(d["noisy"], c.composite())
+        assert np.array_equal(d["matched"], ref.reference(d["frame"])["radiance"])
+
+
 def test_dataset(tmp_path):
     """tandem dataset's frames: the contract as render --capture writes it, the noisy composite
     of it, the matched reference as `reference --estimator realtime` renders it; two shards
