@@ -45,8 +45,9 @@ struct fvk_context {
     VkDescriptorSetLayout set_layout[2];
     VkPipelineLayout layout;
     /* The passes, twice (fvk_pt.c need_passes): [0] the real-time frame's (the real-time sample
-     * word only, built for the frame's bounce count and --bounces half or not), [1] every sample word and bounce count
-     * (references, matched references; TND_USES_REFERENCE). Each made when first needed. */
+     * word only, built for the frame's bounce count and --bounces half or not), [1] every sample
+     * word, bounce count and resolution (references, matched references; TND_USES_REFERENCE).
+     * Each made when first needed. */
     struct fvk_passes {
         VkPipeline pipeline;  /* ray-tracing pipeline (FVK_RT_PIPELINE) */
         tnd_sbt sbt;

@@ -844,7 +844,8 @@ static void check_half(const tnd_frame *h, const tnd_frame *one, const tnd_frame
             size_t q = (size_t)y * W + x;
             bool t = ((x + y + frame) & 1) == 0, ok = true;
             for (int k = 0; k < 3; k++)
-                ok &= tnd_frame_f(h, TND_CT_HF)[3 * q + k] == tnd_frame_f(one, TND_CT_HF)[3 * q + k];
+                ok &= tnd_frame_f(h, TND_CT_HF)[3 * q + k] ==
+                      tnd_frame_f(one, TND_CT_HF)[3 * q + k];
             for (int k = 0; k < 4; k++) {
                 float a = tnd_frame_f(h, TND_CT_LF_SH)[4 * q + k];
                 ok &= a == (t ? 2.0f * tnd_frame_f(one, TND_CT_LF_SH)[4 * q + k] : 0.0f);
@@ -876,7 +877,8 @@ static void test_half_indirect(void)
     REQUIRE(vk, "no context");
     enum { W = 48, H = 27 };
     pair p;
-    tnd_frame one[2][2] = {{{0}}}, zero[2][2] = {{{0}}}, half[2][2] = {{{0}}}; /* [frame][cpu, gpu] */
+    /* [frame][cpu, gpu] */
+    tnd_frame one[2][2] = {{{0}}}, zero[2][2] = {{{0}}}, half[2][2] = {{{0}}};
     uint32_t samples[7 * 60], n = 0;
     REQUIRE_OK(pair_open(vk, &p, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
     for (int f = 0; f < 2; f++) {
@@ -942,7 +944,8 @@ static void test_half_indirect(void)
             for (int c = 0; c < 3; c++) {
                 uint32_t m = tnd_ct_get(chs[c])->comps;
                 for (uint32_t j = 0; j < m; j++) {
-                    float a = tnd_frame_f(was, chs[c])[m * q + j], b = tnd_frame_f(now, chs[c])[m * q + j];
+                    float a = tnd_frame_f(was, chs[c])[m * q + j],
+                          b = tnd_frame_f(now, chs[c])[m * q + j];
                     close &= fabsf(a - b) <= 1e-4f * fmaxf(fabsf(a), 1e-6f);
                 }
             }

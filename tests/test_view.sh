@@ -79,7 +79,7 @@ for i in range(4):
           j["exposure_bias"], j["bounces"], j["half_indirect"])
 PYEOF
 cat "$TMP/states.txt"
-check "the states follow the session (resize, denoiser, view, split, front-end, knobs, [: bounces half)" \
+check "the states follow the session (resize, denoiser, view, split, front-end, knobs, half)" \
     "grep -q '^0 160 90 asvgf vk final off 10 0 0 0 1 0$' '$TMP/states.txt' &&
      grep -q '^1 200 120 svgf vk final off 7 .* 1 1$' '$TMP/states.txt' &&
      grep -q '^2 200 120 svgf vk normal noisy 3 .* 1 1$' '$TMP/states.txt' &&
