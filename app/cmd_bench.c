@@ -41,7 +41,7 @@ static void bench_bounces_json(cJSON *o, unsigned bounces)
     if (bounces == APP_BOUNCES_HALF)
         cJSON_AddStringToObject(o, "bounces", "half");
     else
-        bench_bounces_json(o, bounces);
+        cJSON_AddNumberToObject(o, "bounces", bounces);
 }
 
 static const char *bounces_words(unsigned bounces, char *buf, size_t size)

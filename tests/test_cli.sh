@@ -82,8 +82,12 @@ check "render of a bad scene exits 1 with no output" $?
 "$T" render --out "$tmp/x" --size 0x5 2>/dev/null; rc=$?
 [ $rc -eq 2 ]; check "render --size 0x5 is a usage error" $?
 "$T" bench --size 32x32 --repeats 2 --json >"$tmp/bench.json" 2>/dev/null
-python3 -c "import json,sys; d=json.load(open(sys.argv[1])); assert d['rays_per_frame'] > 1024 and d['frontend_mrays_per_s'] > 0" "$tmp/bench.json"
+python3 -c "import json,sys; d=json.load(open(sys.argv[1])); assert d['rays_per_frame'] > 1024 and d['frontend_mrays_per_s'] > 0 and d['bounces'] == 1" "$tmp/bench.json"
 check "bench --json reports rays and rates" $?
+# --bounces half: the indirect paths of half the pixels, so fewer rays than one bounce's
+"$T" bench --size 32x32 --repeats 2 --bounces half --json >"$tmp/bench_half.json" 2>/dev/null
+python3 -c "import json,sys; a, h = (json.load(open(p)) for p in sys.argv[1:3]); assert h['bounces'] == 'half' and a['rays_per_frame'] * 0.95 > h['rays_per_frame'] > a['rays_per_frame'] * 0.6, (a['rays_per_frame'], h['rays_per_frame'])" "$tmp/bench.json" "$tmp/bench_half.json"
+check "bench --bounces half traces fewer rays and says half" $?
 "$T" bench --frontend vk --denoiser asvgf --scene "$SRC/data/scenes/dynamic.gltf" --size 48x27 --repeats 3 --json >"$tmp/bench_dn.json" 2>/dev/null
 python3 - "$tmp/bench_dn.json" <<'PY'
 import json, sys
