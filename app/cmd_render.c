@@ -847,10 +847,8 @@ static int run_opts(const render_opts *opts, bool reference)
 {
     render_opts o = *opts;
     const char *what = reference ? "reference" : "render";
-    /* --bounces half: render's count 1, its paths at half resolution; a matched reference's
-     * expectation is that of 1 (each pixel's, over two frames) */
-    if (!reference && o.bounces == APP_BOUNCES_HALF)
-        o.bounces = app_bounces_split(o.bounces, &o.half_indirect);
+    /* (render's --bounces half was split into a count of 1 and half_indirect by the parse; a
+     * matched reference's expectation is that of 1: each pixel's, over two frames) */
     if (reference) { /* --bounces: the estimator's (default 1) or the path length cap (none) */
         bool rt = strcmp(o.estimator, "realtime") == 0;
         if (o.ref_bounces == APP_BOUNCES_HALF && !rt) {
