@@ -29,6 +29,8 @@ typedef enum app_opt_kind {
 /* `--bounces half`: one indirect bounce at half resolution (pl_params.half_indirect); commands
  * turn it into a count of 1 and the flag (app_bounces_split) before anything reads the count. */
 #define APP_BOUNCES_HALF 0xfffffffeu
+/* A --bounces word: a count (0 to max) or "half" (APP_BOUNCES_HALF); false for any other. */
+bool app_bounces_parse(const char *v, unsigned max, unsigned *value);
 /* A --bounces value as its count (half: 1) and *half. */
 unsigned app_bounces_split(unsigned value, bool *half);
 
@@ -251,6 +253,10 @@ tnd_result app_reference_add(struct pl_frontend *fr, const app_render_opts *o, u
                              void (*progress)(uint32_t, uint32_t, void *), void *user);
 /* render's or reference's options checked (no --out needed): an error names the option. */
 tnd_result app_render_check(const app_render_opts *o, bool reference);
+/* A reference's --bounces (o->ref_bounces as given, ~0: none; half: realtime's 1) as its run
+ * takes it: the realtime estimator's count in o->bounces (default 1), the unbiased path's cap in
+ * o->ref_bounces (0: none). Once, after app_render_check. */
+void app_reference_bounces(app_render_opts *o);
 /* render's (or reference's) pipeline held open, frame by frame (app/session.c): what render
  * builds from the options, each frame as render's loop runs it. Frames are asked for by number
  * (o->start and o->view are not used): one that follows the frame before continues the history,

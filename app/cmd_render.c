@@ -326,6 +326,16 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
 
 /* The options' values checked (render's and reference's, parsed or filled by a caller): an error
  * names the option. */
+void app_reference_bounces(app_render_opts *o)
+{
+    bool rt = strcmp(o->estimator, "realtime") == 0;
+    if (o->ref_bounces == APP_BOUNCES_HALF) /* (realtime: app_render_check refuses the other) */
+        o->ref_bounces = 1;
+    if (rt)
+        o->bounces = o->ref_bounces == ~0u ? 1 : o->ref_bounces;
+    o->ref_bounces = rt || o->ref_bounces == ~0u ? 0 : o->ref_bounces;
+}
+
 tnd_result app_render_check(const app_render_opts *o, bool reference)
 {
     if (strcmp(o->pipeline, "scene") != 0 && strcmp(o->pipeline, "full") != 0)
@@ -349,6 +359,9 @@ tnd_result app_render_check(const app_render_opts *o, bool reference)
     if (reference && strcmp(o->composite_on, "device") != 0 && strcmp(o->composite_on, "host"))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--composite-on %s: expected device or host",
                         o->composite_on);
+    if (reference && o->ref_bounces == APP_BOUNCES_HALF && strcmp(o->estimator, "realtime") != 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--bounces half: only with the realtime "
+                                                  "estimator (unbiased: a cap on the path length)");
     if (reference && (o->until_noise < 0 || o->until_noise >= 1))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--until-noise is a fraction in (0, 1)");
     if (o->frames == 0 || !(o->fps > 0) || (reference && o->spp == 0))
@@ -847,21 +860,9 @@ static int run_opts(const render_opts *opts, bool reference)
 {
     render_opts o = *opts;
     const char *what = reference ? "reference" : "render";
-    /* (render's --bounces half was split into a count of 1 and half_indirect by the parse; a
-     * matched reference's expectation is that of 1: each pixel's, over two frames) */
-    if (reference) { /* --bounces: the estimator's (default 1) or the path length cap (none) */
-        bool rt = strcmp(o.estimator, "realtime") == 0;
-        if (o.ref_bounces == APP_BOUNCES_HALF && !rt) {
-            fprintf(stderr, "tandem reference: --bounces half: only with --estimator realtime "
-                            "(unbiased: a cap on the path length)\n");
-            return APP_EXIT_USAGE;
-        }
-        if (o.ref_bounces == APP_BOUNCES_HALF)
-            o.ref_bounces = 1;
-        if (rt)
-            o.bounces = o.ref_bounces == ~0u ? 1 : o.ref_bounces;
-        o.ref_bounces = rt || o.ref_bounces == ~0u ? 0 : o.ref_bounces;
-    }
+    /* (render's --bounces half was split into a count of 1 and half_indirect by the parse) */
+    if (reference)
+        app_reference_bounces(&o);
 
     tnd_precision prec = TND_PRECISION_F32;
     tnd_result res = tnd_precision_parse(o.precision, &prec);

@@ -241,6 +241,15 @@ static int plan_make(const app_list *sweeps, const char *scene, const char *out,
                     goto done;
                 }
             }
+        if (strcmp(key, "bounces") == 0)
+            for (int i = 0; i < nvalues[k]; i++) {
+                unsigned b;
+                if (!app_bounces_parse(values[k][i], 64, &b)) {
+                    fprintf(stderr, "tandem bench: --sweep bounces=%s: a count (0 to 64) or half\n",
+                            values[k][i]);
+                    goto done;
+                }
+            }
         if (strcmp(key, "gradient") == 0)
             for (int i = 0; i < nvalues[k]; i++)
                 if (strcmp(values[k][i], "on") != 0 && strcmp(values[k][i], "off") != 0) {
@@ -383,14 +392,11 @@ static tnd_result job_cell(const sweep_plan *P, int i, sweep_job *j)
         if (strcmp(key, "scale") == 0) {
             continue; /* (in the cell's size) */
         } else if (strcmp(key, "bounces") == 0) {
-            unsigned long b = strtoul(val, &end, 10);
-            j->o.half_indirect = strcmp(val, "half") == 0;
-            if (j->o.half_indirect)
-                b = 1;
-            else if (*end || end == val || *val == '-' || b > 64)
-                return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep bounces=%s: a count or half",
-                                val);
-            j->o.bounces = (unsigned)b;
+            unsigned b;
+            if (!app_bounces_parse(val, 64, &b))
+                return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep bounces=%s: a count (0 to 64) "
+                                                   "or half", val);
+            j->o.bounces = app_bounces_split(b, &j->o.half_indirect);
         } else if (strcmp(key, "gradient") == 0) {
             /* on: the denoiser of re-shaded gradient samples; off: its fallback */
             const pl_denoiser_info *g = pl_denoiser_with(PL_DN_GRADIENTS);

@@ -147,11 +147,10 @@ static int parse_value(const app_cmd *cmd, const app_opt *o, const char *v)
         return 0;
     }
     case APP_OPT_BOUNCES: /* a count, or half */
+        if (!app_bounces_parse(v, APP_BOUNCES_HALF - 1, (unsigned *)o->dest))
+            break;
+        return 0;
     case APP_OPT_UINT: {
-        if (o->kind == APP_OPT_BOUNCES && strcmp(v, "half") == 0) {
-            *(unsigned *)o->dest = APP_BOUNCES_HALF;
-            return 0;
-        }
         if (*v == '-')
             break;
         unsigned long x = strtoul(v, &end, 10);
@@ -389,6 +388,21 @@ void app_timings_members(FILE *f, const pl_chain *chain, const pl_step_result *r
             fprintf(f, ", \"%.*s_beside_%s\": %s", (int)(strlen(p[i]->key) - 3), p[i]->key,
                     p[i]->beside, r->beside ? "true" : "false");
     }
+}
+
+bool app_bounces_parse(const char *v, unsigned max, unsigned *value)
+{
+    if (strcmp(v, "half") == 0) {
+        *value = APP_BOUNCES_HALF;
+        return true;
+    }
+    char *end;
+    errno = 0;
+    unsigned long x = strtoul(v, &end, 10);
+    if (errno || *v == '-' || !*v || *end || x > max)
+        return false;
+    *value = (unsigned)x;
+    return true;
 }
 
 unsigned app_bounces_split(unsigned value, bool *half)

@@ -61,12 +61,8 @@ tnd_result app_session_open(const app_render_opts *o, bool reference, const tnd_
     s->o.start = 0; /* (frames are asked for by number) */
     s->o.view = NULL;
     s->reference = reference;
-    if (reference) { /* --bounces as reference takes it (run_opts) */
-        bool rt = strcmp(s->o.estimator, "realtime") == 0;
-        if (rt)
-            s->o.bounces = s->o.ref_bounces == ~0u ? 1 : s->o.ref_bounces;
-        s->o.ref_bounces = rt || s->o.ref_bounces == ~0u ? 0 : s->o.ref_bounces;
-    }
+    if (reference) /* --bounces as reference takes it (run_opts) */
+        app_reference_bounces(&s->o);
     tnd_precision prec;
     if ((res = tnd_precision_parse(s->o.precision, &prec)) != TND_OK)
         goto fail;

@@ -447,20 +447,10 @@ API tandem_renderer *tandem_renderer_open_scene(const tandem_scene *scene,
     if (parse_json(options_json, &r->options, what) != TND_OK ||
         parse_opts(r->options, true, reference != 0, &o, what) != TND_OK)
         goto fail;
-    /* bounces "half": render's 1 at half resolution; a matched reference's expectation is
-     * that of 1 (as the command line) */
+    /* bounces "half": render's 1 at half resolution; a reference's as the command line's
+     * (app_reference_bounces, through app_session_open) */
     if (!reference)
         o.bounces = app_bounces_split(o.bounces, &o.half_indirect);
-    if (reference && o.ref_bounces == APP_BOUNCES_HALF) {
-        if (strcmp(o.estimator, "realtime") != 0) {
-            tnd_fail(TND_ERR_INVALID_ARGUMENT, "reference: bounces \"half\": only with the "
-                                               "realtime estimator");
-            goto fail;
-        }
-        o.ref_bounces = 1;
-    }
-    if (reference && o.ref_bounces == ~0u && strcmp(o.estimator, "realtime") == 0)
-        o.ref_bounces = o.bounces; /* (as the command line: a matched reference's bounces) */
     bool was = app_set_quiet(true);
     if (scene) { /* (the scene's own path and options: run.json's record of them) */
         o.scene = scene->path;

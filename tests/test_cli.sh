@@ -88,6 +88,15 @@ check "bench --json reports rays and rates" $?
 "$T" bench --size 32x32 --repeats 2 --bounces half --json >"$tmp/bench_half.json" 2>/dev/null
 python3 -c "import json,sys; a, h = (json.load(open(p)) for p in sys.argv[1:3]); assert h['bounces'] == 'half' and a['rays_per_frame'] * 0.95 > h['rays_per_frame'] > a['rays_per_frame'] * 0.6, (a['rays_per_frame'], h['rays_per_frame'])" "$tmp/bench.json" "$tmp/bench_half.json"
 check "bench --bounces half traces fewer rays and says half" $?
+# a bounce count no command takes: a usage error naming the value, from the one parse they share
+"$T" bench --size 32x32 --bounces quarter 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "'quarter'" "$tmp/err"; check "bench --bounces quarter is a usage error" $?
+"$T" bench --sweep bounces=half,65 --out "$tmp/sweep_bad" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "bounces=65: a count (0 to 64) or half" "$tmp/err" && [ ! -e "$tmp/sweep_bad" ]
+check "bench --sweep bounces=65 is a usage error with no output" $?
+"$T" reference --estimator unbiased --bounces half --out "$tmp/ref_half" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "half: only with the realtime estimator" "$tmp/err" && [ ! -e "$tmp/ref_half" ]
+check "reference --estimator unbiased --bounces half is a usage error" $?
 "$T" bench --frontend vk --denoiser asvgf --scene "$SRC/data/scenes/dynamic.gltf" --size 48x27 --repeats 3 --json >"$tmp/bench_dn.json" 2>/dev/null
 python3 - "$tmp/bench_dn.json" <<'PY'
 import json, sys

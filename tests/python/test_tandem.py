@@ -223,7 +223,7 @@ def test_errors_raise_with_message(tmp_path):
         tandem.Renderer(tandem.Scene(CORNELL), up="z")
     with pytest.raises(tandem.TandemError, match='bounces: expected a count or "half"'):
         tandem.Renderer(CORNELL, bounces="quarter")
-    with pytest.raises(tandem.TandemError, match='bounces "half": only with the realtime'):
+    with pytest.raises(tandem.TandemError, match='--bounces half: only with the realtime'):
         tandem.Renderer(CORNELL, reference=True, bounces="half")
     with pytest.raises(tandem.TandemError, match="--frontend 'rays'"):
         tandem.Renderer(CORNELL, frontend="rays")
