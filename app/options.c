@@ -254,7 +254,11 @@ int app_parse(const app_cmd *cmd, const app_opt *opts, int argc, char **argv, co
 int app_report(const char *what, tnd_result r)
 {
     const char *d = tnd_error_detail();
-    fprintf(stderr, "tandem: %s: %s\n", what, *d ? d : tnd_result_message(r));
+    size_t n = strlen(what);
+    if (strncmp(d, what, n) == 0 && d[n] == ':') /* (a message that names the command itself) */
+        fprintf(stderr, "tandem: %s\n", d);
+    else
+        fprintf(stderr, "tandem: %s: %s\n", what, *d ? d : tnd_result_message(r));
     return APP_EXIT_FAIL;
 }
 
