@@ -5,6 +5,7 @@
 #include "core/core.h"
 #include "shaders/encoding.h"
 
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,10 +59,12 @@ void tnd_contract_gpu_destroy(tnd_vk *vk, tnd_contract_gpu *c)
 tnd_result tnd_contract_gpu_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision p,
                                    tnd_contract_gpu *c)
 {
+    static atomic_uint_fast64_t serials;
     memset(c, 0, sizeof *c);
     c->precision = p;
     c->width = width;
     c->height = height;
+    c->serial = (uint64_t)atomic_fetch_add(&serials, 1) + 1;
     for (int i = 0; i < TND_CT_COUNT; i++) {
         char name[64];
         snprintf(name, sizeof name, "contract.%s", tnd_ct_get((tnd_ct)i)->name);

@@ -1079,6 +1079,9 @@ typedef struct tnd_contract_gpu {
     tnd_image images[TND_CT_COUNT]; /* binding i = entry i (shaders/contract.h) */
     tnd_precision precision;
     uint32_t width, height;
+    /* unique to this creation in the process (never 0): what a cache of descriptor writes
+     * compares, as a destroyed image's handles may be handed out again */
+    uint64_t serial;
 } tnd_contract_gpu;
 
 VkFormat tnd_ct_format(tnd_ct id, tnd_precision p);

@@ -42,6 +42,10 @@ struct dn_context {
     tnd_image prev_lum, prev_key, grad[2]; /* A-SVGF */
     tnd_image lf_geo; /* 1/3-res lf anchors: position, depth */
     tnd_buffer params, samples, samples_host; /* samples: device-local; _host: its read-back */
+    /* the parameters of the pass recorded next: each command buffer carries its copy
+     * (record_params), so that the host never writes `params` under a queued pass */
+    dn_params host_params;
+    uint64_t ct_serial; /* the contract sets[1] points at (write_contract_set; 0: none) */
     uint32_t grad_w, grad_h;
     uint32_t selected_frame; /* c->frame + 1 when dn_select_gradients ran for this frame */
     VkDescriptorSetLayout layouts[2];
@@ -50,19 +54,21 @@ struct dn_context {
     VkDescriptorSet sets[2];
     VkPipeline temporal, history, atrous, composite, grad_select, gradients, lf, lf_down;
     tnd_timer timer, select_timer, fine; /* fine: per dispatch (desc.dispatch_timing) */
-    double select_ms; /* GPU time of the last selection */
-    bool select_due;  /* a selection without a host copy is in flight in `pending` */
+    double select_ms; /* GPU time of the last selection read */
+    bool select_due;  /* a selection without a host copy is in flight in `select_pending` */
+    uint32_t select_frame; /* the frame (c->frame) that selection is for */
     double fine_ms[TND_TIMER_MAX_PASSES]; /* the last dn_run's, fine.count of them */
     bool batching; /* dispatches recorded now are independent: no barrier after each */
     bool fine_on;  /* recording dn_run with desc.dispatch_timing: time each dispatch */
     bool have_history;
     bool last_gradients; /* the last frame ran with gradient samples */
-    /* the frame in flight (dn_submit), or the selection before it, and its timestamp slots;
-     * `last` its timings once read */
-    tnd_pending pending;
+    /* the frame in flight (dn_submit) and its timestamp slots, `last` its timings once read;
+     * the selection (dn_select_gradients_gpu) has its own, so that the back-end's passes are
+     * recorded and queued behind it without waiting for it */
+    tnd_pending pending, select_pending;
     struct {
         int grad, temporal, history, lf, atrous, composite;
-        double select_ms;
+        uint32_t frame; /* c->frame of the frame in flight */
         bool due; /* timestamps not read yet */
     } rec;
     dn_timings last;
@@ -156,6 +162,7 @@ void dn_destroy(dn_context *c)
     if (vk->device)
         vkDeviceWaitIdle(vk->device);
     tnd_pending_destroy(vk, &c->pending);
+    tnd_pending_destroy(vk, &c->select_pending);
     tnd_timer_destroy(vk, &c->timer);
     tnd_timer_destroy(vk, &c->select_timer);
     tnd_timer_destroy(vk, &c->fine);
@@ -368,6 +375,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     TND_TRY(create_pipelines(c));
     write_own_set(c);
     TND_TRY(tnd_pending_create(vk, &c->pending));
+    TND_TRY(tnd_pending_create(vk, &c->select_pending));
     TND_TRY(tnd_timer_create(vk, &c->timer));
     TND_TRY(tnd_timer_create(vk, &c->select_timer));
     if (c->desc.dispatch_timing)
@@ -483,7 +491,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
                     : d->mode == DN_MODE_ASVGF     ? DN_RUN_ASVGF
                     : d->mode == DN_MODE_RECURRENT ? DN_RUN_RECURRENT
                                                    : DN_RUN_SVGF;
-    *(dn_params *)c->params.mapped = (dn_params){
+    c->host_params = (dn_params){
         .size = {c->width, c->height, history ? 1u : 0u, mode},
         .iters = {d->iters_hf, d->iters_lf, d->iters_spec, d->grad_segment},
         .alpha = {d->min_alpha_hf, d->min_alpha_lf, d->min_alpha_spec, d->min_alpha_moments},
@@ -495,7 +503,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
         .frame = {c->frame, 0, 0, 0},
         .rc = {d->fast_frames, d->clamp_sigma, d->history_fix, d->fix_stride},
     };
-    dn_params *P = c->params.mapped;
+    dn_params *P = &c->host_params;
     if (f->has_camera) {
         float cam[3], prev[3];
         view_position(f->view, cam);
@@ -505,6 +513,23 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
         P->cam_pos = (dn_vec4){cam[0], cam[1], cam[2], 0.0f};
         P->cam_delta = (dn_vec4){cam[0] - prev[0], cam[1] - prev[1], cam[2] - prev[2], 1.0f};
     }
+}
+
+/* The parameters fill_params made, into the params buffer as the command buffer runs (after
+ * its first barrier: the passes queued before it have read theirs): all but the filter
+ * geometry's origin, which copy_origin writes (dn_submit) or the frame before left (the
+ * selection does not read it). Followed by a barrier for the uniform reads. */
+static void record_params(dn_context *c, VkCommandBuffer cmd)
+{
+    const VkDeviceSize a = offsetof(dn_params, origin_position), b = offsetof(dn_params, frame);
+    vkCmdUpdateBuffer(cmd, c->params.buffer, 0, a, &c->host_params);
+    vkCmdUpdateBuffer(cmd, c->params.buffer, b, sizeof(dn_params) - b,
+                      (const char *)&c->host_params + b);
+    VkMemoryBarrier mb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
+                          .srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
+                          .dstAccessMask = VK_ACCESS_UNIFORM_READ_BIT};
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                         0, 1, &mb, 0, NULL, 0, NULL);
 }
 
 /* The filter geometry's origin (dn_params.origin_*): the contract's position and visibility at
@@ -556,16 +581,28 @@ static void dispatch_lf(dn_context *c, VkCommandBuffer cmd, uint32_t k)
         dispatch_third(c, cmd, c->lf, "lf", k);
 }
 
-/* Wait for the frame in flight and read its timestamps (c->last); every entry point that writes
- * the parameters or descriptor sets, or reads the back-end's images, settles first. */
-static tnd_result settle(dn_context *c)
+/* Wait for the selection in flight and read its time (c->select_ms). */
+static tnd_result settle_select(dn_context *c)
 {
     tnd_result res = TND_OK;
-    TND_TRY(tnd_pending_wait(c->vk, &c->pending));
+    TND_TRY(tnd_pending_wait(c->vk, &c->select_pending));
     if (c->select_due) {
         c->select_due = false;
         TND_TRY(tnd_timer_read(c->vk, &c->select_timer, &c->select_ms));
     }
+fail:
+    return res;
+}
+
+/* Wait for the frame in flight and read its timestamps (c->last), with its selection's (done
+ * before it in the queue); a selection for the next frame may stay in flight. Every entry point
+ * that records the back-end's passes, or reads its images, settles first. */
+static tnd_result settle(dn_context *c)
+{
+    tnd_result res = TND_OK;
+    TND_TRY(tnd_pending_wait(c->vk, &c->pending));
+    if (c->select_due && c->select_frame == c->rec.frame)
+        TND_TRY(settle_select(c));
     if (!c->rec.due)
         return TND_OK;
     c->rec.due = false;
@@ -575,7 +612,7 @@ static tnd_result settle(dn_context *c)
     *t = (dn_timings){0};
     int k = 0;
     if (c->rec.grad >= 0) {
-        t->select_ms = c->rec.select_ms;
+        t->select_ms = c->select_ms;
         t->gradient_ms = ms[k++];
     }
     if (c->rec.temporal >= 0)
@@ -594,20 +631,36 @@ fail:
     return res;
 }
 
+/* Point sets[1] at the contract `ct`, where it is not already: a set a queued pass reads is
+ * rewritten only once both passes in flight are done. */
+static tnd_result write_contract_set(dn_context *c, const tnd_contract_gpu *ct)
+{
+    tnd_result res = TND_OK;
+    if (ct->serial && ct->serial == c->ct_serial)
+        return TND_OK;
+    TND_TRY(settle_select(c));
+    TND_TRY(settle(c));
+    tnd_contract_write_set(c->vk, c->sets[1], ct);
+    c->ct_serial = ct->serial;
+fail:
+    return res;
+}
+
 /* The selection pass; `host`: also copy the list to the read-back buffer. */
 static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *f,
                               bool host)
 {
     tnd_result res = TND_OK;
     TND_TRY(check_contract(c, ct));
-    TND_TRY(settle(c));
-    tnd_contract_write_set(c->vk, c->sets[1], ct);
+    TND_TRY(settle_select(c)); /* (the selection before: its timer and command buffer) */
+    TND_TRY(write_contract_set(c, ct));
     fill_params(c, f, false);
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(c->vk, &cmd));
     tnd_timer_reset(cmd, &c->select_timer);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
+    record_params(c, cmd);
     int s_s = tnd_timer_begin(cmd, &c->select_timer, "denoise.grad_select");
     dispatch_tiles(c, cmd, c->grad_select, "select");
     tnd_cmd_barrier(cmd); /* for the copy and the front-end's passes that read the samples */
@@ -625,8 +678,9 @@ static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const d
         TND_TRY(tnd_cmd_submit_wait(c->vk, cmd));
         TND_TRY(tnd_timer_read(c->vk, &c->select_timer, &c->select_ms));
     } else { /* the front-end's launches and the back-end's passes come after it in the queue */
-        TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->pending));
+        TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->select_pending));
         c->select_due = true;
+        c->select_frame = c->frame;
     }
     c->selected_frame = c->frame + 1;
 fail:
@@ -696,8 +750,8 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
 {
     tnd_result res = TND_OK;
     TND_TRY(check_contract(c, ct));
-    TND_TRY(settle(c));
-    tnd_contract_write_set(c->vk, c->sets[1], ct);
+    TND_TRY(settle(c)); /* (the frame before; not this frame's selection, queued before it) */
+    TND_TRY(write_contract_set(c, ct));
     const dn_desc *d = &c->desc;
     bool gradients = uses_gradients(d) && c->selected_frame == c->frame + 1 &&
                      c->have_history && !f->reset;
@@ -713,6 +767,7 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
     c->fine_on = d->dispatch_timing;
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
+    record_params(c, cmd);
     copy_origin(c, cmd, ct);
     int s_g = -1, s_t = -1, s_h = -1, s_l = -1, s_a = -1;
     if (gradients) {
@@ -781,7 +836,7 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
     c->rec.lf = s_l;
     c->rec.atrous = s_a;
     c->rec.composite = s_c;
-    c->rec.select_ms = c->select_ms;
+    c->rec.frame = c->frame;
     TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->pending));
     c->rec.due = true;
     c->have_history = true;
