@@ -601,7 +601,7 @@ static tnd_result settle(dn_context *c)
 {
     tnd_result res = TND_OK;
     TND_TRY(tnd_pending_wait(c->vk, &c->pending));
-    if (c->select_due && c->select_frame == c->rec.frame)
+    if (c->rec.due && c->select_due && c->select_frame == c->rec.frame)
         TND_TRY(settle_select(c));
     if (!c->rec.due)
         return TND_OK;
