@@ -324,8 +324,6 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     return -1;
 }
 
-/* The options' values checked (render's and reference's, parsed or filled by a caller): an error
- * names the option. */
 void app_reference_bounces(app_render_opts *o)
 {
     bool rt = strcmp(o->estimator, "realtime") == 0;
@@ -336,6 +334,8 @@ void app_reference_bounces(app_render_opts *o)
     o->ref_bounces = rt || o->ref_bounces == ~0u ? 0 : o->ref_bounces;
 }
 
+/* The options' values checked (render's and reference's, parsed or filled by a caller): an error
+ * names the option. */
 tnd_result app_render_check(const app_render_opts *o, bool reference)
 {
     if (strcmp(o->pipeline, "scene") != 0 && strcmp(o->pipeline, "full") != 0)

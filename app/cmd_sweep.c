@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 enum { MAX_KEYS = 6, MAX_VALUES = 8, MAX_RUNS = 256 };
+enum { SWEEP_MAX_BOUNCES = 64 }; /* a sweep cell's --bounces: a count up to this, or half */
 
 typedef struct knob {
     const char *key, *option, *help;
@@ -244,9 +245,9 @@ static int plan_make(const app_list *sweeps, const char *scene, const char *out,
         if (strcmp(key, "bounces") == 0)
             for (int i = 0; i < nvalues[k]; i++) {
                 unsigned b;
-                if (!app_bounces_parse(values[k][i], 64, &b)) {
-                    fprintf(stderr, "tandem bench: --sweep bounces=%s: a count (0 to 64) or half\n",
-                            values[k][i]);
+                if (!app_bounces_parse(values[k][i], SWEEP_MAX_BOUNCES, &b)) {
+                    fprintf(stderr, "tandem bench: --sweep bounces=%s: a count (0 to %u) or half\n",
+                            values[k][i], SWEEP_MAX_BOUNCES);
                     goto done;
                 }
             }
@@ -363,7 +364,7 @@ static tnd_result job_matched(const sweep_plan *P, int e, sweep_job *j)
     j->o.quiet = true;
     char *end;
     unsigned long b = strtoul(es->bounces, &end, 10);
-    if (*end || end == es->bounces || b > 64 ||
+    if (*end || end == es->bounces || b > SWEEP_MAX_BOUNCES ||
         sscanf(es->size, "%ux%u", &j->o.size[0], &j->o.size[1]) != 2)
         return tnd_fail(TND_ERR_BAD_INPUT, "bench: estimator %d: bounces '%s', size '%s'", e,
                         es->bounces, es->size);
@@ -393,9 +394,9 @@ static tnd_result job_cell(const sweep_plan *P, int i, sweep_job *j)
             continue; /* (in the cell's size) */
         } else if (strcmp(key, "bounces") == 0) {
             unsigned b;
-            if (!app_bounces_parse(val, 64, &b))
-                return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep bounces=%s: a count (0 to 64) "
-                                                   "or half", val);
+            if (!app_bounces_parse(val, SWEEP_MAX_BOUNCES, &b))
+                return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep bounces=%s: a count (0 to %u) "
+                                                   "or half", val, SWEEP_MAX_BOUNCES);
             j->o.bounces = app_bounces_split(b, &j->o.half_indirect);
         } else if (strcmp(key, "gradient") == 0) {
             /* on: the denoiser of re-shaded gradient samples; off: its fallback */
