@@ -325,16 +325,20 @@ fail:
 /* The whole frame (front-end, back-end, post) back to back, three ways in one run: the
  * contract brought to the host and every pass waited for (what the chain did before it kept the
  * contract on the GPU), the contract on the GPU with every frame waited for, and frames recorded
- * without waiting for the previous one. Blocks of frames take turns (noise on these machines
- * drifts in minutes); each way has its own front-end and chain, so histories do not mix. */
-enum { OV_HOST, OV_GPU, OV_NO_WAIT, OV_COUNT };
+ * without waiting for the previous one; a fourth where the denoiser's gradient samples are
+ * re-shaded inside the front-end's shading pass: frames not waited for, re-shaded in a launch of
+ * their own (pl_chain_desc.separate_reshade). Blocks of frames take turns (noise on these
+ * machines drifts in minutes); each way has its own front-end and chain, so histories do not
+ * mix. */
+enum { OV_HOST, OV_GPU, OV_NO_WAIT, OV_SEPARATE, OV_COUNT };
 enum { WF_MAX = 32 }; /* the whole frame's passes (pl_chain_passes), in their groups */
 static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const unsigned size[2],
                                 unsigned bounces, unsigned blocks, const char *denoiser,
                                 tnd_precision prec, bool json, bool with_host)
 {
     static const char *const ov_name[OV_COUNT] = {"host_contract_blocking", "gpu_contract_blocking",
-                                                  "gpu_contract_no_wait"};
+                                                  "gpu_contract_no_wait",
+                                                  "gpu_contract_no_wait_separate_reshade"};
     enum { BLOCK = 8, WARM = 2 };
     tnd_result res = TND_OK;
     tnd_vk vk = {0};
@@ -342,7 +346,8 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
     pl_chain *chain[OV_COUNT] = {0};
     tnd_scene_state st[2] = {{0}};
     double *ms[OV_COUNT] = {0};
-    const int m0 = with_host ? OV_HOST : OV_GPU; /* the ways run */
+    const int m0 = with_host ? OV_HOST : OV_GPU; /* the ways run (OV_SEPARATE: see below) */
+    bool way[OV_COUNT] = {false};
     /* the GPU-contract way's passes, frame by frame (its frames are waited for: their
      * timestamps are the frame's own) */
     double *pass[WF_MAX] = {0};
@@ -365,12 +370,21 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
     TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !pl_frontend_needs_gpu(fe_name)}, &vk));
     cmp_desc pd = {.taa = true, .interleave = (s->features & TND_FEATURE(SPLIT)) != 0};
     for (int m = m0; m < OV_COUNT; m++) {
+        if (m == OV_SEPARATE) { /* a front-end that folds re-shading in, a denoiser that asks */
+            uint32_t dc = pl_chain_denoiser_info(chain[OV_GPU])->caps;
+            uint32_t fc = pl_frontend_caps(fe[OV_GPU]);
+            if (!(fc & PL_CAP_SHADE_SLOTS) ||
+                !((dc & PL_DN_GRADIENTS) || ((dc & PL_DN_CONFIDENCE) && (fc & PL_CAP_RESHADE))))
+                break;
+        }
+        way[m] = true;
         TND_TRY(pl_frontend_create(fe_name, s, &(pl_frontend_desc){.vk = &vk, .precision = prec},
                                    &fe[m]));
         TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = size[0], .height = size[1],
                                                  .precision = prec, .backend = true,
                                                  .denoiser = denoiser, .post = pd,
-                                                 .host_contract = m == OV_HOST},
+                                                 .host_contract = m == OV_HOST,
+                                                 .separate_reshade = m == OV_SEPARATE},
                                 &chain[m]));
     }
     nwf = pl_chain_passes(chain[OV_GPU], wf, WF_MAX);
@@ -381,7 +395,7 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
         }
     float aspect = (float)size[0] / size[1];
     for (unsigned b = 0; b < WARM + blocks; b++)
-        for (int m = m0; m < OV_COUNT; m++) {
+        for (int m = m0; m < OV_COUNT && way[m]; m++) {
             double t0 = tnd_now();
             for (unsigned i = 0; i < BLOCK; i++) {
                 unsigned f = b * BLOCK + i; /* the same frames for every way */
@@ -395,7 +409,7 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
                 pl_step step = {.params = bench_params(bounces),
                                 .frame = dn_frame_for_camera(cur->camera.proj, size[1], f, f == 0),
                                 .dt = 1.0f / 30.0f,
-                                .no_wait = m == OV_NO_WAIT};
+                                .no_wait = m >= OV_NO_WAIT};
                 pl_step_result pr = {0};
                 TND_TRY(pl_chain_run(chain[m], fe[m], &step, NULL, NULL, &pr));
                 if (m == OV_GPU && b >= WARM) {
@@ -416,7 +430,7 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
                 ms[m][b - WARM] = 1e3 * (tnd_now() - t0) / BLOCK;
         }
     double med[OV_COUNT], pmed[WF_MAX], group[PL_GROUPS] = {0}, gpu = 0;
-    for (int m = m0; m < OV_COUNT; m++)
+    for (int m = m0; m < OV_COUNT && way[m]; m++)
         med[m] = app_median(ms[m], blocks);
     for (uint32_t k = 0; k < nwf; k++) {
         pmed[k] = app_median(pass[k], blocks * BLOCK);
@@ -434,12 +448,14 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
         cJSON_AddNumberToObject(o, "height", size[1]);
         cJSON_AddNumberToObject(o, "frames_per_block", BLOCK);
         cJSON_AddNumberToObject(o, "blocks", blocks);
-        for (int m = m0; m < OV_COUNT; m++)
+        for (int m = m0; m < OV_COUNT && way[m]; m++)
             cJSON_AddNumberToObject(o, ov_name[m], med[m]);
         if (with_host) {
             cJSON_AddNumberToObject(o, "gpu_over_host", med[OV_GPU] / med[OV_HOST]);
             cJSON_AddNumberToObject(o, "no_wait_over_host", med[OV_NO_WAIT] / med[OV_HOST]);
         }
+        if (way[OV_SEPARATE])
+            cJSON_AddNumberToObject(o, "separate_over_folded", med[OV_SEPARATE] / med[OV_NO_WAIT]);
         cJSON *g = cJSON_AddObjectToObject(o, "gpu_ms"); /* medians per pass, and their sums */
         for (uint32_t k = 0; k < nwf; k++)
             cJSON_AddNumberToObject(g, wf[k]->name, pmed[k]);
@@ -458,8 +474,8 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
                "%d frames taking turns)\n",
                with_host ? "--overlap" : "--whole-frame", who, size[0], size[1], pl_chain_denoiser_info(chain[OV_GPU])->name,
                tnd_precision_name(prec), blocks, BLOCK);
-        for (int m = m0; m < OV_COUNT; m++)
-            printf("  %-24s %9.3f ms  %5.3fx\n", ov_name[m], med[m], med[m] / med[m0]);
+        for (int m = m0; m < OV_COUNT && way[m]; m++)
+            printf("  %-37s %9.3f ms  %5.3fx\n", ov_name[m], med[m], med[m] / med[m0]);
         printf("  GPU ms per pass (medians of %u frames, contract on the GPU, each frame waited "
                "for; the front-end's are CPU wall clock with embree):\n", blocks * BLOCK);
         for (int k = 0; k < PL_GROUPS; k++) {

@@ -20,6 +20,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+_Static_assert(DN_STRATUM == TND_GRADIENT_STRATUM,
+               "the sample list's strata, as the Vulkan front-end's shading pass reads them");
+
 /* histories: hf (+ moments), lf (SH, CoCg, length), spec (+ length); a-trous ping-pong; lf
  * ping-pong (1/3 res: tangent plane and CoCg, SH) */
 enum { N_PAIRED = 8, N_SINGLE = 8 };
@@ -868,16 +871,18 @@ void dn_traffic_of(const dn_context *c, dn_traffic *t)
     *t = (dn_traffic){0};
     if (asvgf) {
         /* the stratum's 9 pixels: vis, motion, depth, geometric normal, path now; the previous
-         * surface (16) and luminances (4) at the reprojection; lf now and the lf history at
-         * the reprojection (16); per stratum the sample written (32), one gradient texel (lf
-         * sums, previous luminances), and at the chosen pixel the previous luminances, rng key
-         * and surface (4 + 8 + 16 + 16) */
+         * surface (16) and luminances (4) at the reprojection; the lf history at the
+         * reprojection (16); per stratum the sample written (32), one gradient texel (lf
+         * history sum, previous luminances), and at the chosen pixel the previous luminances,
+         * rng key and surface (4 + 8 + 16 + 16) */
         t->select = n * (CT(VIS_ID) + CT(MOTION) + CT(DEPTH) + CT(GEO_NORMAL) + CT(PATH) + 16 +
-                         4 + CT(LF_SH) + 16) +
+                         4 + 16) +
                     n3 * (32 + 16 + 4 + 8 + 16 + 16);
-        /* rows: per stratum the lf sums and previous luminances, the sample, hf and spec at
-         * the sample pixel, the texel written; columns: one texel read, one written */
-        t->gradient = n3 * (16 + 32 + CT(HF) + CT(SPEC) + 16 + 16 + 16);
+        /* rows: the stratum's 9 pixels' vis and lf now; per stratum the lf history sum and
+         * previous luminances, the sample, hf and spec at the sample pixel, the texel written;
+         * columns: one texel read, one written */
+        t->gradient = n * (CT(VIS_ID) + CT(LF_SH)) +
+                      n3 * (16 + 32 + CT(HF) + CT(SPEC) + 16 + 16 + 16);
     }
     if (filter) {
         t->temporal = n * (CT(VIS_ID) + CT(HF) + CT(SPEC) + CT(LF_SH) + CT(LF_COCG) + CT(DEPTH) +

@@ -138,6 +138,15 @@ tnd_result fvk_set_frame(fvk_context *ctx, const tnd_scene_state *cur, const tnd
  * and the back-end's passes included, sees the contract written: the passes end with a full
  * barrier). The gradient launches below do the same. */
 tnd_result fvk_render(fvk_context *ctx, const fvk_params *p, fvk_timings *t);
+/* fvk_render in two submissions, for a denoiser whose gradient selection reads this frame's
+ * G-buffer between them: the primary pass, then the shading pass. With the back-end's
+ * per-stratum list (dn_select_gradients_gpu's buffer, rows of `row`), the shading pass re-shades
+ * the listed pixels in place, as fvk_shade_gradient_slots would after it, without a launch of
+ * their own: the contract afterwards is the same (shaders/pt_shade.glsl, mode 2). Without a list
+ * (VK_NULL_HANDLE) it is fvk_render's. A render or set_frame between the two is refused. */
+tnd_result fvk_render_primary(fvk_context *ctx, const fvk_params *p);
+tnd_result fvk_render_shade(fvk_context *ctx, const fvk_params *p, VkBuffer slots_buffer,
+                            uint32_t row, fvk_timings *t);
 /* The times of the last render and gradient launch read: with `wait`, of the last submitted
  * (waits for them); without, of those that had finished when this frame's render was submitted
  * (the frame before), without waiting. */

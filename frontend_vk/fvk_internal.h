@@ -73,11 +73,17 @@ struct fvk_context {
      * render uses. */
     VkDescriptorSet slot_set;
     VkBuffer slot_buffer; /* what slot_set's binding 11 points at (VK_NULL_HANDLE: ours) */
+    bool slot_set_queued; /* a submission not yet waited for binds slot_set */
     /* The passes' submissions: render (primary + shading) and the gradient launches, each with its
      * own fence and timer. Neither is waited for when submitted; every entry point that writes
      * what a submitted pass reads (the scene buffers, descriptor sets, the frame parameters'
      * shadow is not among them: each command buffer carries its own copy) settles first. */
     tnd_pending run[2];
+    /* A render in two submissions (fvk_render_primary, then fvk_render_shade as run[0]): the
+     * primary pass's, its times in timer[0] with the shading pass's, read once run[0] is done
+     * (a fence covers every earlier submission) */
+    tnd_pending primary_run;
+    bool primary_open; /* a primary pass was submitted without its shading pass yet */
     tnd_timer timer[2];
     bool due[2];            /* run[i]'s timestamps are still to be read */
     double due_tlas_ms;     /* tlas_ms of the render in flight */

@@ -236,6 +236,8 @@ static tnd_result settle(fvk_context *c, unsigned mask)
     for (int i = 0; i < 2; i++) {
         if (!(mask & (1u << i)))
             continue;
+        if (i == 0) /* (the primary pass of a render in two; done when run[0] is) */
+            TND_TRY(tnd_pending_wait(c->vk, &c->primary_run));
         TND_TRY(tnd_pending_wait(c->vk, &c->run[i]));
         if (!c->due[i])
             continue;
@@ -248,6 +250,8 @@ static tnd_result settle(fvk_context *c, unsigned mask)
         else
             c->last.gradient_ms = ms[0];
     }
+    if ((mask & FVK_ALL) == FVK_ALL)
+        c->slot_set_queued = false;
 fail:
     return res;
 }
@@ -307,6 +311,7 @@ void fvk_destroy(fvk_context *c)
         tnd_pending_destroy(vk, &c->run[i]);
         tnd_timer_destroy(vk, &c->timer[i]);
     }
+    tnd_pending_destroy(vk, &c->primary_run);
     tnd_contract_gpu_destroy(vk, &c->contract);
     for (int v = 0; v < 2; v++)
         destroy_passes(c, v);
@@ -417,6 +422,7 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
         TND_TRY(tnd_timer_create(vk, &c->timer[i]));
         TND_TRY(tnd_pending_create(vk, &c->run[i]));
     }
+    TND_TRY(tnd_pending_create(vk, &c->primary_run));
     *out = c;
     return TND_OK;
 fail:
@@ -436,6 +442,9 @@ tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_s
     if (!prev)
         prev = cur;
     bool first = !c->have_frame;
+    if (c->primary_open)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "frontend_vk: set_frame before the last primary pass's shading pass");
     /* the buffers, sets and images below are what the frame before read: its passes first (the
      * queue ran them before the back-end's passes of that frame, so this rarely waits) */
     TND_TRY(settle(c, FVK_ALL));
@@ -557,19 +566,30 @@ static void launch(fvk_context *c, VkCommandBuffer cmd, int which, uint32_t w, u
     }
 }
 
-tnd_result fvk_render(fvk_context *c, const fvk_params *p, fvk_timings *t)
+/* A render's first command buffer: the frame parameters, timer[0] reset, the primary pass. */
+static tnd_result begin_render(fvk_context *c, const fvk_params *p, VkCommandBuffer *cmd)
 {
     tnd_result res = TND_OK;
     if (!c->have_frame)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "frontend_vk: render before set_frame");
+    if (c->primary_open)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "frontend_vk: render before the last primary pass's shading pass");
     TND_TRY(settle(c, FVK_ALL)); /* (the timers; the times of the frame before into c->last) */
     set_params(c, p);
-    VkCommandBuffer cmd;
-    TND_TRY(begin_passes(c, 0, 0, false, false, &cmd));
-    int s0 = tnd_timer_begin(cmd, &c->timer[0], "frontend_vk.primary");
-    launch(c, cmd, 0, c->width, c->height, false);
-    tnd_timer_end(cmd, &c->timer[0], s0);
-    tnd_cmd_barrier(cmd);
+    TND_TRY(begin_passes(c, 0, 0, false, false, cmd));
+    int s0 = tnd_timer_begin(*cmd, &c->timer[0], "frontend_vk.primary");
+    launch(c, *cmd, 0, c->width, c->height, false);
+    tnd_timer_end(*cmd, &c->timer[0], s0);
+    tnd_cmd_barrier(*cmd);
+fail:
+    return res;
+}
+
+/* A render's last command buffer: the shading pass, submitted as run[0]. */
+static tnd_result end_render(fvk_context *c, VkCommandBuffer cmd, fvk_timings *t)
+{
+    tnd_result res = TND_OK;
     int s1 = tnd_timer_begin(cmd, &c->timer[0], "frontend_vk.shade");
     /* (half resolution: pt_shade.glsl's shade_pixel takes rows in pairs) */
     launch(c, cmd, 1, c->width, c->height + (c->ubo.indirect.x ? c->height & 1 : 0), false);
@@ -586,13 +606,39 @@ fail:
     return res;
 }
 
-/* Point the slot set's gradient binding (11) at `buffer`: only a slot launch reads that set. */
+tnd_result fvk_render(fvk_context *c, const fvk_params *p, fvk_timings *t)
+{
+    tnd_result res = TND_OK;
+    VkCommandBuffer cmd;
+    TND_TRY(begin_render(c, p, &cmd));
+    TND_TRY(end_render(c, cmd, t));
+fail:
+    return res;
+}
+
+tnd_result fvk_render_primary(fvk_context *c, const fvk_params *p)
+{
+    tnd_result res = TND_OK;
+    VkCommandBuffer cmd;
+    TND_TRY(begin_render(c, p, &cmd));
+    TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->primary_run));
+    c->primary_open = true;
+fail:
+    return res;
+}
+
+/* Point the slot set's gradient binding (11) at `buffer`: only slot launches and shading passes
+ * with slots (fvk_render_shade) read that set. Each frame's set_frame points it back at ours
+ * (write_scene_set) once nothing is in flight; a wait here only where a submission since reads
+ * it (not the frame's primary pass: the host waiting for it would leave the GPU idle while it
+ * wakes). */
 static tnd_result bind_slot_buffer(fvk_context *c, VkBuffer buffer)
 {
     tnd_result res = TND_OK;
     if (buffer == c->slot_buffer)
         return TND_OK;
-    TND_TRY(settle(c, FVK_GRADIENTS));
+    if (c->slot_set_queued)
+        TND_TRY(settle(c, FVK_ALL));
     VkDescriptorBufferInfo bi = {buffer, 0, VK_WHOLE_SIZE};
     VkWriteDescriptorSet w = {.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
                               .dstSet = c->slot_set,
@@ -615,6 +661,9 @@ static tnd_result launch_gradients(fvk_context *c, const fvk_params *p, uint32_t
                                    uint32_t row, bool slots, fvk_timings *t)
 {
     tnd_result res = TND_OK;
+    if (c->primary_open)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "frontend_vk: gradient samples before the frame's shading pass");
     TND_TRY(settle(c, FVK_GRADIENTS)); /* (the launch before: its timer) */
     set_params(c, p);
     c->ubo.params.z = count;
@@ -629,6 +678,7 @@ static tnd_result launch_gradients(fvk_context *c, const fvk_params *p, uint32_t
     tnd_cmd_barrier(cmd);
     TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->run[1]));
     c->due[1] = true;
+    c->slot_set_queued |= slots;
     if (t) {
         TND_TRY(settle(c, FVK_GRADIENTS));
         t->gradient_ms = c->last.gradient_ms;
@@ -680,6 +730,27 @@ tnd_result fvk_shade_gradient_slots(fvk_context *c, const fvk_params *p, VkBuffe
         return TND_OK;
     tnd_result res = bind_slot_buffer(c, slots_buffer);
     return res == TND_OK ? launch_gradients(c, p, slots, row, true, t) : res;
+}
+
+tnd_result fvk_render_shade(fvk_context *c, const fvk_params *p, VkBuffer slots_buffer,
+                            uint32_t row, fvk_timings *t)
+{
+    tnd_result res = TND_OK;
+    if (!c->primary_open)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "frontend_vk: a shading pass without its primary pass");
+    c->primary_open = false;
+    bool slots = slots_buffer != VK_NULL_HANDLE && row > 0;
+    if (slots)
+        TND_TRY(bind_slot_buffer(c, slots_buffer));
+    set_params(c, p); /* (as the primary pass had them) */
+    c->ubo.params.z = slots ? row : 0u;
+    VkCommandBuffer cmd;
+    TND_TRY(begin_passes(c, -1, slots ? 2u : 0u, slots, false, &cmd));
+    c->slot_set_queued |= slots; /* (end_render submits it) */
+    TND_TRY(end_render(c, cmd, t));
+fail:
+    return res;
 }
 
 void fvk_set_reference_bounces(fvk_context *c, uint32_t bounces)

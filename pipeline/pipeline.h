@@ -41,6 +41,9 @@ enum {
     PL_CAP_RECORDED = 16u,    /* a recorded sequence: pl_frontend_length frames, set by index */
     PL_CAP_QUEUED = 32u,      /* render and re-shade without `t` only submit to the GPU's queue;
                                  pl_frontend_timings gives their times later */
+    PL_CAP_SHADE_SLOTS = 64u, /* renders in two steps, primary then shading, and re-shades the
+                                 back-end's slots inside the shading pass
+                                 (pl_frontend_render_primary, pl_frontend_render_shade) */
 };
 
 /* A capability bit's name ("gpu_contract", "reshade", ...; NULL past the last), for listings. */
@@ -109,6 +112,15 @@ tnd_result pl_frontend_reshade(pl_frontend *fe, const pl_params *p, const uint32
  * `row` (the strata's grid). */
 tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuffer slots,
                                      uint32_t count, uint32_t row, pl_timings *t);
+/* pl_frontend_render in two steps (PL_CAP_SHADE_SLOTS, GPU front-ends), so that the back-end's
+ * gradient selection, which reads the primary pass's G-buffer, runs between them: the primary
+ * pass, then the shading pass, which shades the pixels the slots name (`row` per row of the
+ * strata's grid; VK_NULL_HANDLE: none) as pl_frontend_reshade_slots would re-shade them after
+ * it, without a launch of their own. No host copy: a caller that wants the frame as rendered
+ * before re-shading (a capture) renders in one step. */
+tnd_result pl_frontend_render_primary(pl_frontend *fe, const pl_params *p);
+tnd_result pl_frontend_render_shade(pl_frontend *fe, const pl_params *p, VkBuffer slots,
+                                    uint32_t row, pl_timings *t);
 /* A recorded front-end's frames (0 for a live one) and frame i's name (its file). */
 uint32_t pl_frontend_length(const pl_frontend *fe);
 const char *pl_frontend_frame_name(const pl_frontend *fe, uint32_t i);
@@ -293,6 +305,9 @@ typedef struct pl_chain_desc {
     bool no_post;            /* the back-end alone (bench) */
     bool host_contract;      /* bring a GPU front-end's contract to the host every frame (what
                                 the chain did before it kept it on the GPU; for measurements) */
+    bool separate_reshade;   /* re-shade gradient samples in a launch of their own after the
+                                shading pass, also where the front-end can fold them into it
+                                (PL_CAP_SHADE_SLOTS; the same contract; for measurements) */
 } pl_chain_desc;
 
 typedef struct pl_step {

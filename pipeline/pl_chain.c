@@ -1,5 +1,6 @@
 /* pipeline/pl_chain.c: the frame after the front-end, written once: gradient selection (for a
- * denoiser that asks for re-shaded samples), re-shading by the front-end, the denoiser (through
+ * denoiser that asks for re-shaded samples), re-shading by the front-end (in its shading pass,
+ * the selection between its primary and shading passes, where it can), the denoiser (through
  * its registered operations, pl_denoiser.c), the post chain, and the outputs a caller asks for
  * (the host frame, a capture with its gradient samples, the HDR and display images). render,
  * denoise (capture replay) and bench run their frames through pl_chain_run. The contract stays on
@@ -238,11 +239,27 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
                                       ((c->ops->info.caps & PL_DN_CONFIDENCE) &&
                                        (caps & PL_CAP_RESHADE)));
     bool need_host = !gpu || s->capture || s->host_out || !c->d.backend || c->d.host_contract;
+    /* the selection between the front-end's primary and shading passes, which re-shades the
+     * samples in place: no re-shading launch (it cost `cornell` 0.17 ms of 2.18 at 1080p on the
+     * H200, docs/performance.md); where the frame goes to the host, it goes as rendered */
+    bool fold = gradients && !need_host && !s->frame_from_host && (caps & PL_CAP_SHADE_SLOTS) &&
+                !c->d.separate_reshade;
     if (recorded)
         tnd_frame_destroy(&c->host); /* (a recorded front-end reads into a fresh frame) */
     else if (need_host && !c->host.block)
         TND_TRY(tnd_frame_create(c->d.width, c->d.height, &c->host));
-    TND_TRY(pl_frontend_render(fe, &s->params, need_host ? &c->host : NULL, ft));
+    if (fold) {
+        TND_TRY(pl_frontend_render_primary(fe, &s->params));
+        VkBuffer slots = VK_NULL_HANDLE;
+        uint32_t n = 0, row = 0;
+        tnd_result sel = c->ops->select(c->dn, pl_frontend_contract(fe), &s->frame, NULL, &slots,
+                                        &n, &row);
+        /* (the shading pass either way: the front-end's frame is not left half-made) */
+        TND_TRY(pl_frontend_render_shade(fe, &s->params, n ? slots : VK_NULL_HANDLE, row, ft));
+        TND_TRY(sel);
+    } else {
+        TND_TRY(pl_frontend_render(fe, &s->params, need_host ? &c->host : NULL, ft));
+    }
     dn_frame df = s->frame;
     if (s->frame_from_host) { /* a recorded frame: its own jitter and projection */
         const tnd_frame *f = &c->host;
@@ -275,7 +292,7 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
                                             &c->upload));
         TND_TRY(tnd_contract_upload(c->d.vk, &c->upload, &c->host));
     }
-    if (gradients) {
+    if (gradients && !fold) {
         /* A-SVGF: the denoiser picks pixels, the front-end re-shades them with the previous
          * frame's random numbers on the surface seen there */
         uint32_t n = 0;

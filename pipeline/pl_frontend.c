@@ -160,6 +160,25 @@ static tnd_result vk_reshade_slots(void *ctx, const pl_params *p, VkBuffer slots
     return res;
 }
 
+static tnd_result vk_render_primary(void *ctx, const pl_params *p)
+{
+    vk_fe *v = ctx;
+    fvk_params fp = vk_params(p);
+    return fvk_render_primary(v->gv, &fp);
+}
+
+static tnd_result vk_render_shade(void *ctx, const pl_params *p, VkBuffer slots, uint32_t row,
+                                  pl_timings *t)
+{
+    vk_fe *v = ctx;
+    fvk_params fp = vk_params(p);
+    fvk_timings tm = {0};
+    tnd_result res = fvk_render_shade(v->gv, &fp, slots, row, t ? &tm : NULL);
+    if (t)
+        *t = (pl_timings){tm.primary_ms, tm.shade_ms, tm.tlas_ms, 0.0};
+    return res;
+}
+
 static tnd_result vk_reference(void *ctx, uint32_t max_bounces, uint32_t first, uint32_t count,
                                double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
                                void (*progress)(uint32_t, uint32_t, void *), void *user)
@@ -187,7 +206,8 @@ static tnd_result vk_timings(void *ctx, bool wait, pl_timings *t)
 
 static const pl_frontend_ops vk_ops = {
     .name = "vk",
-    .caps = PL_CAP_GPU_CONTRACT | PL_CAP_RESHADE | PL_CAP_REFERENCE | PL_CAP_QUEUED,
+    .caps = PL_CAP_GPU_CONTRACT | PL_CAP_RESHADE | PL_CAP_REFERENCE | PL_CAP_QUEUED |
+            PL_CAP_SHADE_SLOTS,
     .create = vk_create,
     .destroy = vk_destroy,
     .describe = vk_describe,
@@ -197,6 +217,8 @@ static const pl_frontend_ops vk_ops = {
     .contract = vk_contract,
     .reshade = vk_reshade,
     .reshade_slots = vk_reshade_slots,
+    .render_primary = vk_render_primary,
+    .render_shade = vk_render_shade,
     .reference = vk_reference,
     .matched = vk_matched,
     .timings = vk_timings,
@@ -395,9 +417,10 @@ uint32_t pl_frontend_caps_of(const char *name)
 const char *pl_frontend_cap_name(uint32_t bit)
 {
     /* in PL_CAP_* order */
-    static const char *const names[] = {"gpu_contract", "reshade",  "reference",
-                                        "benchmark",    "recorded", "queued"};
-    _Static_assert(1u << (sizeof names / sizeof *names - 1) == PL_CAP_QUEUED, "one name a bit");
+    static const char *const names[] = {"gpu_contract", "reshade", "reference",  "benchmark",
+                                        "recorded",     "queued",  "shade_slots"};
+    _Static_assert(1u << (sizeof names / sizeof *names - 1) == PL_CAP_SHADE_SLOTS,
+                   "one name a bit");
     return bit < sizeof names / sizeof *names ? names[bit] : NULL;
 }
 
@@ -539,6 +562,23 @@ tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuff
         return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' re-shades host lists only",
                         fe->ops->name);
     return fe->ops->reshade_slots(fe->ctx, p, slots, count, row, t);
+}
+
+tnd_result pl_frontend_render_primary(pl_frontend *fe, const pl_params *p)
+{
+    if (!(pl_frontend_caps(fe) & PL_CAP_SHADE_SLOTS))
+        return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' renders in one step",
+                        fe->ops->name);
+    return fe->ops->render_primary(fe->ctx, p);
+}
+
+tnd_result pl_frontend_render_shade(pl_frontend *fe, const pl_params *p, VkBuffer slots,
+                                    uint32_t row, pl_timings *t)
+{
+    if (!(pl_frontend_caps(fe) & PL_CAP_SHADE_SLOTS))
+        return tnd_fail(TND_ERR_UNSUPPORTED, "pipeline: front-end '%s' renders in one step",
+                        fe->ops->name);
+    return fe->ops->render_shade(fe->ctx, p, slots, row, t);
 }
 
 tnd_result pl_frontend_reference_add(pl_frontend *fe, uint32_t max_bounces, uint32_t first,

@@ -25,6 +25,10 @@ typedef struct pl_frontend_ops {
                           tnd_frame *host, pl_timings *t);
     tnd_result (*reshade_slots)(void *ctx, const pl_params *p, VkBuffer slots, uint32_t n,
                                 uint32_t row, pl_timings *t);
+    /* PL_CAP_SHADE_SLOTS: render in two steps, the slots re-shaded in the second */
+    tnd_result (*render_primary)(void *ctx, const pl_params *p);
+    tnd_result (*render_shade)(void *ctx, const pl_params *p, VkBuffer slots, uint32_t row,
+                               pl_timings *t);
     tnd_result (*reference)(void *ctx, uint32_t max_bounces, uint32_t first, uint32_t count,
                             double *sum_rgb, double *sum_lum2, tnd_ref_stats *stats,
                             void (*progress)(uint32_t, uint32_t, void *), void *user);

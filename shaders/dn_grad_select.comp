@@ -5,10 +5,12 @@
  * brightest previous hf + spec (a random pick in a moving penumbra often misses the change; ties:
  * the first in row order). Writes the sample (pixel, the previous frame's rng key and surface) for
  * the front-end to re-shade (the composite looks its pixels up there too: no per-pixel mask), the
- * sample's previous luminances (grad[0].zw), and the stratum's sums of the raw lf L0 now and of the
- * accumulated L0 history at the reprojected pixels (grad[0].xy) for dn_gradients.comp (here, where
- * the pixels are visited anyway, and before the re-shading: the sample's fresh L0 counts as "now",
- * not the previous frame's, which would hide 1/9 of a change). A non-finite motion counts as none.
+ * sample's previous luminances (grad[0].zw), and the stratum's sum of the accumulated lf L0 history
+ * at the reprojected pixels (grad[0].y) for dn_gradients.comp (here, where the pixels are visited
+ * anyway; the sum of the raw L0 now is dn_gradients.comp's, after the re-shading). It reads only
+ * the primary pass's G-buffer of this frame: the Vulkan front-end runs it between its primary and
+ * its shading pass, which re-shades the samples in place (docs/denoise.md). A non-finite motion
+ * counts as none.
  * One thread per pixel tests its pixel; one thread per stratum then picks among the nine through
  * shared memory (a thread per stratum doing the nine tests itself is latency-bound: nine chains of
  * dependent loads). */
@@ -19,7 +21,7 @@
 
 shared float s_score[DN_TILE_N];  /* previous hf + spec luminance of a candidate, else 0 */
 shared uint s_target[DN_TILE_N];  /* its reprojected pixel, x | y << 16 */
-shared vec2 s_lf[DN_TILE_N];      /* raw lf L0 now, accumulated lf L0 at the reprojection */
+shared float s_hist[DN_TILE_N];   /* the accumulated lf L0 at the reprojection */
 
 void main()
 {
@@ -27,7 +29,7 @@ void main()
     uint li = gl_LocalInvocationIndex;
     float score = 0.0;
     ivec2 pp = ivec2(0);
-    vec2 lf = vec2(0.0);
+    float hist = 0.0;
     if (inside(p) && P.size.z != 0u) {
         uvec2 vis = imageLoad(img_vis_id, p).xy;
         vec3 m = imageLoad(img_motion, p).xyz;
@@ -40,9 +42,8 @@ void main()
             /* a history is its pixel's mean: the pixel's own footprint moved (no jitter, as the
              * temporal pass reads it), or a still image would compare with a neighbour's */
             ivec2 pf = ivec2(floor(vec2(p) + m.xy + 0.5));
-            lf.x = finite4(imageLoad(img_lf_sh, p)).w;
             float l0 = inside(pf) ? hist_lf_l0(imageLoad(hist_lf[1u - pc.slot], pf)) : 0.0;
-            lf.y = tnd_nonfinite(l0) ? 0.0 : l0;
+            hist = tnd_nonfinite(l0) ? 0.0 : l0;
         }
         uvec4 g = inside(pp) ? imageLoad(prev_geo, pp) : uvec4(TND_VIS_NONE, 0u, 0u, 0u);
         if (vis.x != TND_VIS_NONE && g.x == vis.x) {
@@ -59,7 +60,7 @@ void main()
         }
     }
     s_score[li] = score;
-    s_lf[li] = lf;
+    s_hist[li] = hist;
     s_target[li] = score > 0.0 ? uint(pp.x) | uint(pp.y) << 16u : 0u;
     barrier();
     if (li < DN_TILE_STRATA) {
@@ -92,11 +93,11 @@ void main()
                 gout = vec4(0.0, 0.0, pl.x, pl.y);
             }
             samples[uint(s.y * gs.x + s.x)] = smp;
-            vec2 sum = vec2(0.0);
+            float sum = 0.0;
             for (int j = 0; j < DN_STRATUM; j++)
                 for (int i = 0; i < DN_STRATUM; i++)
-                    sum += s_lf[tile_pixel_index(li, i, j)];
-            imageStore(grad[0], s, vec4(sum, gout.zw));
+                    sum += s_hist[tile_pixel_index(li, i, j)];
+            imageStore(grad[0], s, vec4(0.0, sum, gout.zw));
         }
     }
 }

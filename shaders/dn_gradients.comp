@@ -1,9 +1,11 @@
 /* dn_gradients.comp: the temporal gradient per stratum and its blur at 1/3 resolution, as Q2RTX
  * does. hf and spec are normalised before filtering: g = (|l_now - l_prev| / max(l_now,
  * l_prev))^2 at the re-shaded sample pixel (0 without a sample or when both are 0). lf is too
- * sparse for per-sample ratios: the stratum's sums of the raw L0 now and of the accumulated L0
- * history at the reprojected pixels (summed by dn_grad_select.comp into grad[0].xy) go into zw,
- * normalised after the blur: z = (|now - prev| / max(now, prev))^2. The blur: a-trous, step
+ * sparse for per-sample ratios: the stratum's sums of the raw L0 now (summed here, after the
+ * re-shading: the sample pixel's re-shaded L0, this frame's light on the previous frame's random
+ * numbers) and of the accumulated L0 history at the reprojected pixels (dn_grad_select.comp's,
+ * grad[0].y) go into zw, normalised after the blur: z = (|now - prev| / max(now, prev))^2. The
+ * blur: a-trous, step
  * 2^i, 3x3 weights 1 / 0.5 / 0.25, no edge stopping, taps outside count as zero (Q2RTX); hf and
  * spec (xy) for iterations 0..2 (steps 1..4), lf (zw) for all 7 (steps 1..64).
  * It runs separably: each 3x3 iteration is a 3-tap filter along x times one along y (weights
@@ -39,7 +41,14 @@ float grad_of(float now, float prev)
 /* stratum s before the blur: xy the hf and spec gradients of its sample, zw the lf sums */
 vec4 gradient(ivec2 s)
 {
-    vec4 g0 = imageLoad(grad[0], s); /* xy: lf sums, zw: the sample's previous lums */
+    vec4 g0 = imageLoad(grad[0], s); /* y: the lf history's sum, zw: the sample's previous lums */
+    float now = 0.0; /* the raw lf L0 of the stratum's visible pixels, in row order */
+    for (int j = 0; j < DN_STRATUM; j++)
+        for (int i = 0; i < DN_STRATUM; i++) {
+            ivec2 p = s * DN_STRATUM + ivec2(i, j);
+            if (inside(p) && imageLoad(img_vis_id, p).x != TND_VIS_NONE)
+                now += finite4(imageLoad(img_lf_sh, p)).w;
+        }
     tnd_gpu_gradient smp = samples[uint(s.y * grad_size().x + s.x)];
     vec2 g = vec2(0.0);
     if (smp.b.w != 0u) {
@@ -48,7 +57,7 @@ vec4 gradient(ivec2 s)
         float spec = lum_rounded(luma(finite3(load_spec(q))));
         g = vec2(grad_of(hf, g0.z), grad_of(spec, g0.w));
     }
-    return vec4(g, max(g0.xy, vec2(0.0)));
+    return vec4(g, max(vec2(now, g0.y), vec2(0.0)));
 }
 
 void main()

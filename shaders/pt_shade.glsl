@@ -2,7 +2,10 @@
  * direct light, one indirect bounce (or more), outputs hf, lf (SH + CoCg), spec. Mode 0 shades
  * every pixel from the G-buffer; mode 1 shades the gradient samples (one launch each): it patches
  * the G-buffer at the sample's pixel with the previous surface re-evaluated on this frame's
- * geometry and shades it with the previous frame's key. */
+ * geometry and shades it with the previous frame's key. Mode 2 is mode 0 with mode 1 folded in:
+ * the back-end's per-stratum list (selected from this frame's primary pass) names at most one
+ * pixel per 3x3 stratum, which is shaded as mode 1 shades it instead of with its own sample (the
+ * contract afterwards is that of mode 0 then mode 1, without the second launch). */
 #include "pt_common.glsl"
 
 
@@ -52,6 +55,27 @@ bool shade_pixel(uvec2 l, out ivec2 ip)
     return l.x < W && pair < half_rows && y < H;
 }
 
+/* Gradient sample g at its pixel ip: the G-buffer there patched with the previous frame's
+ * surface re-evaluated on this frame's geometry; the previous frame's key. */
+uvec3 patch_gradient(tnd_gpu_gradient g, ivec2 ip)
+{
+    vec2 bary = vec2(uintBitsToFloat(g.b.y), uintBitsToFloat(g.b.z));
+    uint inst = g.a.w, prim = g.b.x;
+    vec3 dv = surface_from_camera(inst, prim, bary);
+    surface s = surface_eval(inst, prim, bary, safe_normalize(dv), length(dv) * fr.jitter.z);
+    imageStore(img_vis_id, ip, uvec4(inst, prim, 0u, 0u));
+    imageStore(img_vis_bary, ip, vec4(bary, 0.0, 0.0));
+    imageStore(img_rng, ip, uvec4(g.a.y, g.a.z, 0u, 0u));
+    imageStore(img_albedo, ip, vec4(s.base, 0.0));
+    imageStore(img_normal, ip, vec4(s.ns, 0.0));
+    imageStore(img_geo_normal, ip, vec4(s.ng, 0.0));
+    imageStore(img_position, ip, vec4(s.p, 0.0));
+    imageStore(img_roughness, ip, vec4(s.roughness));
+    imageStore(img_metallic, ip, vec4(s.metallic));
+    imageStore(img_emission, ip, vec4(s.emission, 0.0));
+    return uvec3(g.a.z, g.a.y, TND_SAMPLE_REALTIME);
+}
+
 void pt_shade_main(uvec2 launch)
 {
     ivec2 ip;
@@ -62,26 +86,21 @@ void pt_shade_main(uvec2 launch)
         if (g.a.x == TND_GRADIENT_NONE) /* a stratum without a sample */
             return;
         ip = ivec2(int(g.a.x % W), int(g.a.x / W));
-        vec2 bary = vec2(uintBitsToFloat(g.b.y), uintBitsToFloat(g.b.z));
-        uint inst = g.a.w, prim = g.b.x;
-        vec3 dv = surface_from_camera(inst, prim, bary);
-        surface s = surface_eval(inst, prim, bary, safe_normalize(dv), length(dv) * fr.jitter.z);
-        imageStore(img_vis_id, ip, uvec4(inst, prim, 0u, 0u));
-        imageStore(img_vis_bary, ip, vec4(bary, 0.0, 0.0));
-        imageStore(img_rng, ip, uvec4(g.a.y, g.a.z, 0u, 0u));
-        imageStore(img_albedo, ip, vec4(s.base, 0.0));
-        imageStore(img_normal, ip, vec4(s.ns, 0.0));
-        imageStore(img_geo_normal, ip, vec4(s.ng, 0.0));
-        imageStore(img_position, ip, vec4(s.p, 0.0));
-        imageStore(img_roughness, ip, vec4(s.roughness));
-        imageStore(img_metallic, ip, vec4(s.metallic));
-        imageStore(img_emission, ip, vec4(s.emission, 0.0));
-        key = uvec3(g.a.z, g.a.y, TND_SAMPLE_REALTIME);
+        key = patch_gradient(g, ip);
     } else {
         if (!shade_pixel(launch, ip))
             return;
-        uvec2 r = imageLoad(img_rng, ip).xy;
-        key = uvec3(r.y, r.x, fr.params.y); /* (TND_SAMPLE_REALTIME but in a matched reference) */
+        /* mode 2: this pixel's stratum's slot, in rows of fr.params.z (the strata's grid) */
+        uvec2 st = uvec2(ip) / TND_GRADIENT_STRATUM;
+        uint pixel = uint(ip.y) * W + uint(ip.x);
+        tnd_gpu_gradient g;
+        if (pc.mode == 2u && (g = gradients[st.y * fr.params.z + st.x]).a.x == pixel) {
+            key = patch_gradient(g, ip);
+        } else {
+            uvec2 r = imageLoad(img_rng, ip).xy;
+            key = uvec3(r.y, r.x, fr.params.y); /* (TND_SAMPLE_REALTIME but in a matched
+                                                    reference) */
+        }
     }
     vec3 hf = vec3(0.0), spec = vec3(0.0);
     float spec_hit = 0.0; /* (no specular-lobe sample) */

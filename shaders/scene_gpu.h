@@ -100,8 +100,10 @@ _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 8 * 16, "frame layout");
 
 /* Gradient sample for the shading pass (matches femb_gradient_sample). In the back-end's
  * per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a sample has
- * pixel TND_GRADIENT_NONE and is skipped. */
+ * pixel TND_GRADIENT_NONE and is skipped; the list is the grid of TND_GRADIENT_STRATUM^2-pixel
+ * strata in rows (pixel (x, y)'s stratum: (y / 3) x row + x / 3), at most one sample each. */
 #define TND_GRADIENT_NONE 0xFFFFFFFFu
+#define TND_GRADIENT_STRATUM 3u
 struct tnd_gpu_gradient {
 #ifdef TND_GLSL
     uvec4 a; /* pixel, rng frame, rng pixel, instance */

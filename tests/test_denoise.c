@@ -788,8 +788,6 @@ static void test_gradient_samples_reproduce_static(void)
         memset(&f1, 0, sizeof f1);
         REQUIRE_OK(
             test_embree_frame(r.fe, &r.st, &r.st, i, W, H, &(femb_params){.bounces = 2}, &f1));
-        for (int q = 0; q < W * H; q++) /* the lf L0 the selection sums, before the re-shading */
-            l0_now[q] = tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + 3];
         REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f1));
         uint32_t n = 0;
         REQUIRE_OK(dn_select_gradients(dn, &r.ct, &df, grads, &n));
@@ -860,6 +858,8 @@ static void test_gradient_samples_reproduce_static(void)
             for (uint32_t k = 0; k < n; k++)
                 was[fg[k].pixel] = 1;
         REQUIRE_OK(femb_shade_gradients(r.fe, &(femb_params){.bounces = 2}, fg, n, &f1));
+        for (int q = 0; q < W * H; q++) /* the lf L0 the gradient pass sums: re-shaded */
+            l0_now[q] = tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + 3];
         for (uint32_t k = 0; k < n; k++) {
             uint32_t q = fg[k].pixel, pq = fg[k].rng_pixel;
             const tnd_ct ch[2] = {TND_CT_HF, TND_CT_SPEC};
@@ -1223,70 +1223,95 @@ cleanup:
 }
 
 /* The frame pipeline with nothing waited for between its submissions (the Vulkan front-end's
- * render and re-shading, the back-end's selection, each queued behind the one before) gives the
- * frames of the pipeline that waits for each: `dynamic` (a moving light and objects, A-SVGF with
- * its gradients and TAA), six frames queued back to back, the last taken (which waits), bit for
- * bit. The times of queued frames come lagged, one frame late, and are the GPU's own. */
+ * primary pass, the back-end's selection, the front-end's shading pass, which re-shades the
+ * selection's samples in place, each queued behind the one before) gives the frames of the
+ * pipeline that waits for each, and those of the pipeline that re-shades the samples in a launch
+ * of their own after the shading pass (pl_chain_desc.separate_reshade: render, selection,
+ * re-shading): `dynamic` (a moving light and objects, A-SVGF with its gradients and TAA), six
+ * frames queued back to back, the last taken (which waits), bit for bit, with every pixel's
+ * indirect path and with half of them (`--bounces half`: a sample pixel traces as the frame its
+ * key was drawn for), through the ray-tracing pipeline and ray query. The times of queued frames come lagged, one frame late, and are the GPU's
+ * own; folded, the re-shading has no time of its own. */
 static void test_queued_frames_match_waited(void)
 {
-    enum { WQ = 48, HQ = 32, FRAMES = 6 };
+    enum { WQ = 48, HQ = 32, FRAMES = 6, M = 3 };
     tnd_vk *vk = gpu_begin();
     REQUIRE(vk, "no context");
     tnd_scene *s = NULL;
-    pl_frontend *fe[2] = {0};
-    pl_chain *chain[2] = {0};
+    pl_frontend *fe[M] = {0};
+    pl_chain *chain[M] = {0};
     tnd_scene_state st[2] = {{0}};
-    static float out[2][WQ * HQ * 3];
+    static float out[M][WQ * HQ * 3];
     REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/dynamic.gltf", &s));
-    for (int m = 0; m < 2; m++) {
-        REQUIRE_OK(pl_frontend_create("vk", s, &(pl_frontend_desc){.vk = vk, .rt_api = "pipeline"},
-                                      &fe[m]));
-        CHECK(pl_frontend_caps(fe[m]) & PL_CAP_QUEUED, "the Vulkan front-end queues its passes");
-        REQUIRE_OK(pl_chain_create(&(pl_chain_desc){.vk = vk, .width = WQ, .height = HQ,
-                                                    .backend = true,
-                                                    .denoiser = "asvgf",
-                                                    .post = {.taa = true}},
-                                   &chain[m]));
-    }
-    /* the temporal pass among the denoiser's (its registry entry lists them) */
-    uint32_t tp = 0;
-    const pl_denoiser_info *di = pl_chain_denoiser_info(chain[0]);
-    while (tp < di->npasses && strcmp(di->passes[tp].name, "temporal") != 0)
-        tp++;
-    CHECK(tp < di->npasses, "asvgf lists a temporal pass");
-    int lagged = 0, timed = 0;
-    for (uint32_t f = 0; f < FRAMES; f++) {
-        REQUIRE_OK(tnd_scene_evaluate(s, f / 30.0, 0, (float)WQ / HQ, &st[0]));
-        REQUIRE_OK(tnd_scene_evaluate(s, f ? (f - 1) / 30.0 : 0.0, 0, (float)WQ / HQ, &st[1]));
-        for (int m = 0; m < 2; m++) { /* m = 0 waits for every frame, m = 1 for the last */
-            bool take = m == 0 || f == FRAMES - 1;
-            REQUIRE_OK(pl_frontend_set_frame(fe[m], &st[0], &st[1], f, WQ, HQ));
-            pl_step step = {.params = {.bounces = 1},
-                            .frame = dn_frame_for_camera(st[0].camera.proj, HQ, f, f == 0),
-                            .dt = 1.0f / 30.0f,
-                            .no_wait = !take};
-            pl_step_result r;
-            REQUIRE_OK(pl_chain_run(chain[m], fe[m], &step, take ? out[m] : NULL, NULL, &r));
-            if (m == 0) /* this frame's own times */
-                CHECK(r.fe.primary_ms > 0 && r.fe.shade_ms > 0 && r.dn[tp] > 0,
-                      "frame %u: primary %g, shading %g, temporal %g ms", f, r.fe.primary_ms,
-                      r.fe.shade_ms, r.dn[tp]);
-            if (m == 1 && f > 0 && !take) { /* the frame before's */
-                lagged += r.lagged;
-                timed += r.fe.primary_ms > 0 && r.fe.shade_ms > 0 && r.fe.gradient_ms > 0 &&
-                         r.dn[tp] > 0 && r.post.taa_ms > 0;
+    /* the ray-tracing pipeline with every pixel's path and with half; ray query with half */
+    for (int run = 0; run < 3; run++) {
+        int half = run > 0;
+        const char *api = run < 2 ? "pipeline" : "query";
+        for (int m = 0; m < M; m++) { /* m = 0 waits for every frame, 1 and 2 for the last */
+            REQUIRE_OK(pl_frontend_create("vk", s, &(pl_frontend_desc){.vk = vk, .rt_api = api},
+                                          &fe[m]));
+            CHECK(pl_frontend_caps(fe[m]) & PL_CAP_QUEUED, "the Vulkan front-end queues its passes");
+            CHECK(pl_frontend_caps(fe[m]) & PL_CAP_SHADE_SLOTS,
+                  "the Vulkan front-end re-shades in its shading pass");
+            REQUIRE_OK(pl_chain_create(&(pl_chain_desc){.vk = vk, .width = WQ, .height = HQ,
+                                                        .backend = true,
+                                                        .denoiser = "asvgf",
+                                                        .post = {.taa = true},
+                                                        .separate_reshade = m == 2},
+                                       &chain[m]));
+        }
+        /* the temporal pass among the denoiser's (its registry entry lists them) */
+        uint32_t tp = 0;
+        const pl_denoiser_info *di = pl_chain_denoiser_info(chain[0]);
+        while (tp < di->npasses && strcmp(di->passes[tp].name, "temporal") != 0)
+            tp++;
+        CHECK(tp < di->npasses, "asvgf lists a temporal pass");
+        int lagged[M] = {0}, timed[M] = {0};
+        for (uint32_t f = 0; f < FRAMES; f++) {
+            REQUIRE_OK(tnd_scene_evaluate(s, f / 30.0, 0, (float)WQ / HQ, &st[0]));
+            REQUIRE_OK(tnd_scene_evaluate(s, f ? (f - 1) / 30.0 : 0.0, 0, (float)WQ / HQ, &st[1]));
+            for (int m = 0; m < M; m++) {
+                bool take = m == 0 || f == FRAMES - 1;
+                REQUIRE_OK(pl_frontend_set_frame(fe[m], &st[0], &st[1], f, WQ, HQ));
+                pl_step step = {.params = {.bounces = 1, .half_indirect = half},
+                                .frame = dn_frame_for_camera(st[0].camera.proj, HQ, f, f == 0),
+                                .dt = 1.0f / 30.0f,
+                                .no_wait = !take};
+                pl_step_result r;
+                REQUIRE_OK(pl_chain_run(chain[m], fe[m], &step, take ? out[m] : NULL, NULL, &r));
+                if (m == 0) /* this frame's own times */
+                    CHECK(r.fe.primary_ms > 0 && r.fe.shade_ms > 0 && r.fe.gradient_ms == 0 &&
+                              r.dn[tp] > 0,
+                          "frame %u: primary %g, shading %g, re-shading %g, temporal %g ms", f,
+                          r.fe.primary_ms, r.fe.shade_ms, r.fe.gradient_ms, r.dn[tp]);
+                if (m > 0 && f > 0 && !take) { /* the frame before's */
+                    lagged[m] += r.lagged;
+                    /* folded (m = 1): no re-shading launch to time */
+                    timed[m] += r.fe.primary_ms > 0 && r.fe.shade_ms > 0 &&
+                                (m == 2 ? r.fe.gradient_ms > 0 : r.fe.gradient_ms == 0) &&
+                                r.dn[tp] > 0 && r.post.taa_ms > 0;
+                }
             }
         }
+        for (int m = 1; m < M; m++) {
+            CHECK(lagged[m] == FRAMES - 2 && timed[m] == FRAMES - 2,
+                  "%s, half %d, pipeline %d: queued frames 1..%d: %d lagged, %d with every pass "
+                  "timed",
+                  api, half, m, FRAMES - 2, lagged[m], timed[m]);
+            size_t differ = 0;
+            for (size_t k = 0; k < sizeof out[0] / sizeof out[0][0]; k++)
+                differ += memcmp(&out[0][k], &out[m][k], sizeof(float)) != 0;
+            CHECK(differ == 0, "%s, half %d: pipeline %d's frame %d differs in %zu of %zu values",
+                  api, half, m, FRAMES - 1, differ, sizeof out[0] / sizeof out[0][0]);
+        }
+        for (int m = 0; m < M; m++) {
+            pl_chain_destroy(chain[m]);
+            pl_frontend_destroy(fe[m]);
+            chain[m] = NULL, fe[m] = NULL;
+        }
     }
-    CHECK(lagged == FRAMES - 2 && timed == FRAMES - 2,
-          "queued frames 1..%d: %d lagged, %d with every pass timed", FRAMES - 2, lagged, timed);
-    size_t differ = 0;
-    for (size_t k = 0; k < sizeof out[0] / sizeof out[0][0]; k++)
-        differ += memcmp(&out[0][k], &out[1][k], sizeof(float)) != 0;
-    CHECK(differ == 0, "the queued pipeline's frame %d differs in %zu of %zu values", FRAMES - 1,
-          differ, sizeof out[0] / sizeof out[0][0]);
 cleanup:
-    for (int m = 0; m < 2; m++) {
+    for (int m = 0; m < M; m++) {
         pl_chain_destroy(chain[m]);
         pl_frontend_destroy(fe[m]);
     }
