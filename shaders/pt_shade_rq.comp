@@ -1,6 +1,6 @@
 /* pt_shade_rq.comp: the ray-query twin of pt_shade.rgen (same body, inline ray queries), for
- * devices with VK_KHR_ray_query (--rt-api query). 8x8 groups over the image; gradient samples
- * (shade mode 1) are numbered linearly over groups of 64. */
+ * devices with VK_KHR_ray_query (--rt-api query). 8x8 groups over the image (modes 0 and 2);
+ * gradient samples (shade mode 1) are numbered linearly over groups of 64. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define TND_RAY_QUERY 1
