@@ -1230,8 +1230,10 @@ cleanup:
  * re-shading): `dynamic` (a moving light and objects, A-SVGF with its gradients and TAA), six
  * frames queued back to back, the last taken (which waits), bit for bit, with every pixel's
  * indirect path and with half of them (`--bounces half`: a sample pixel traces as the frame its
- * key was drawn for), through the ray-tracing pipeline and ray query. The times of queued frames come lagged, one frame late, and are the GPU's
- * own; folded, the re-shading has no time of its own. */
+ * key was drawn for), through the ray-tracing pipeline and ray query; and Khronos' BoxTextured
+ * (Debian's assimp test models: a textured surface rebuilt at the samples). The times of queued
+ * frames come lagged, one frame late, and are the GPU's own; folded, the re-shading has no time
+ * of its own. */
 static void test_queued_frames_match_waited(void)
 {
     enum { WQ = 48, HQ = 32, FRAMES = 6, M = 3 };
@@ -1242,11 +1244,17 @@ static void test_queued_frames_match_waited(void)
     pl_chain *chain[M] = {0};
     tnd_scene_state st[2] = {{0}};
     static float out[M][WQ * HQ * 3];
-    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/dynamic.gltf", &s));
-    /* the ray-tracing pipeline with every pixel's path and with half; ray query with half */
-    for (int run = 0; run < 3; run++) {
-        int half = run > 0;
-        const char *api = run < 2 ? "pipeline" : "query";
+    /* the ray-tracing pipeline with every pixel's path and with half; ray query with half; a
+     * textured model from outside */
+    for (int run = 0; run < 4; run++) {
+        int half = run == 1 || run == 2;
+        const char *api = run == 2 ? "query" : "pipeline";
+        const char *path = run < 3 ? TND_SOURCE_DIR "/data/scenes/dynamic.gltf"
+                                   : "/usr/share/assimp/models/glTF2/BoxTextured-glTF/"
+                                     "BoxTextured.gltf";
+        tnd_scene_destroy(s);
+        s = NULL;
+        REQUIRE_OK(tnd_scene_load(path, &s));
         for (int m = 0; m < M; m++) { /* m = 0 waits for every frame, 1 and 2 for the last */
             REQUIRE_OK(pl_frontend_create("vk", s, &(pl_frontend_desc){.vk = vk, .rt_api = api},
                                           &fe[m]));
