@@ -5,9 +5,9 @@
  * re-shading: the sample pixel's re-shaded L0, this frame's light on the previous frame's random
  * numbers) and of the accumulated L0 history at the reprojected pixels (dn_grad_select.comp's,
  * grad[0].y) go into zw, normalised after the blur: z = (|now - prev| / max(now, prev))^2. The
- * blur: a-trous, step
- * 2^i, 3x3 weights 1 / 0.5 / 0.25, no edge stopping, taps outside count as zero (Q2RTX); hf and
- * spec (xy) for iterations 0..2 (steps 1..4), lf (zw) for all 7 (steps 1..64).
+ * blur: a-trous, step 2^i, 3x3 weights 1 / 0.5 / 0.25, no edge stopping, taps outside count as
+ * zero (Q2RTX); hf and spec (xy) for iterations 0..2 (steps 1..4), lf (zw) for all 7 (steps
+ * 1..64).
  * It runs separably: each 3x3 iteration is a 3-tap filter along x times one along y (weights
  * 0.25 / 0.5 / 0.25; an outside tap is zero on either axis, so the masks separate too), and
  * filters along different axes commute, so the seven iterations along rows (pc.iteration 0:
