@@ -2,8 +2,9 @@
 # The GPU-performance goals (docs/performance.md, issue 44) measured in one go on the GPU machine:
 # the whole frame of each goal scene at 1080p (and `cornell` at 4K), every pixel's indirect path
 # and half of them, A-SVGF, frames not waited for, with the re-shading folded into the shading
-# pass and in a launch of its own (bench --whole-frame's fourth way), then each built-in
-# denoiser's back-end against its bandwidth floor. One JSON file per case in OUT; summarise them
+# pass and in a launch of its own (bench --whole-frame's fourth way), `atrium` with its cut-outs
+# opaque (the any-hit's share of its shading pass), then each built-in denoiser's back-end
+# against its bandwidth floor. One JSON file per case in OUT; summarise them
 # with scripts/gpu_goals_table.py OUT (on any machine with Python).
 #
 #   . .gpu/env.sh; scripts/gpu-goals.sh OUT [SIZE]
@@ -41,6 +42,9 @@ whole cornell --scene $S/cornell.gltf --size "$SIZE"
 whole cornell_4k --scene $S/cornell.gltf --size "$BIG"
 whole materials --scene $S/materials.gltf --size "$SIZE"
 whole atrium --scene $S/atrium.gltf --size "$SIZE"
+# the any-hit's share of atrium's shading pass: against its cut-outs made opaque
+run atrium_opaque --whole-frame --frontend vk --denoiser asvgf --opaque --scene $S/atrium.gltf \
+    --size "$SIZE"
 if [ -n "${ENGINE:-}" ] && [ -f "$ENGINE" ] && [ -f "${ENV_MAP:-}" ]; then
     whole engine --scene "$ENGINE" --env "$ENV_MAP" --size "$SIZE"
 fi

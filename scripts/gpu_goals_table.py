@@ -5,7 +5,8 @@
 
 Whole frames: wall ms per frame, frames not waited for (the re-shading folded into the shading
 pass, and in a launch of its own), their ratio, and the GPU ms of the shading pass and of the
-frame's timed passes. Back-ends: GPU ms against the bandwidth floor of bench --denoiser."""
+frame's timed passes; the any-hit's share of atrium's shading pass (against --opaque). Back-ends:
+GPU ms against the bandwidth floor of bench --denoiser."""
 import json
 import os
 import sys
@@ -19,6 +20,7 @@ GOALS = {  # whole frame, wall ms not waited for (issue 44)
     "level": 5.0,
 }
 FLOOR_GOAL = 0.70  # the back-end at >= 70% of its bandwidth floor
+ANYHIT_GOAL = 0.15  # the any-hit under 15% of atrium's shading pass
 
 
 def load(path):
@@ -58,6 +60,17 @@ def main(argv):
         ratio = "" if folded is None or sep is None else f"{sep / folded:.3f}"
         print(f"| {scene} | {bounces} | {j.get('width')}x{j.get('height')} | {fmt(folded)} | "
               f"{fmt(sep)} | {ratio} | {fmt(g.get('shade'))} | {fmt(g.get('frame'))} | {met} |")
+    opaque = os.path.join(out, "atrium_opaque.json")
+    cut = os.path.join(out, "frame_atrium_1.json")
+    if os.path.exists(opaque) and os.path.exists(cut):
+        a = load(cut).get("gpu_ms", {}).get("shade")
+        o = load(opaque).get("gpu_ms", {}).get("shade")
+        if a and o is not None:
+            share = (a - o) / a
+            print()
+            print(f"any-hit's share of atrium's shading pass: ({a:.3f} - {o:.3f} opaque) / {a:.3f} "
+                  f"= {100 * share:.0f}% (goal under {100 * ANYHIT_GOAL:.0f}%: "
+                  f"{'met' if share < ANYHIT_GOAL else 'missed'})")
     print()
     print("| back-end | size | GPU ms | floor ms | of floor | goal |")
     print("|---|---|---|---|---|---|")
