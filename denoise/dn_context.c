@@ -371,9 +371,11 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                      .mem = TND_MEM_READBACK,
                                                      .name = "denoise.samples_host"},
                               &c->samples_host));
+    /* (written only by the command buffers, record_params and copy_origin: device-local, as
+     * the front-end's frame parameters) */
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(dn_params),
                                                      .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
-                                                     .mem = TND_MEM_UPLOAD, .name = "denoise.params"},
+                                                     .mem = TND_MEM_DEVICE, .name = "denoise.params"},
                               &c->params));
     TND_TRY(create_pipelines(c));
     write_own_set(c);
