@@ -371,8 +371,8 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
                                                      .mem = TND_MEM_READBACK,
                                                      .name = "denoise.samples_host"},
                               &c->samples_host));
-    /* (written only by the command buffers, record_params and copy_origin: device-local, as
-     * the front-end's frame parameters) */
+    /* (written only by the command buffers, record_params: device-local, as the front-end's
+     * frame parameters) */
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(dn_params),
                                                      .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                                      .mem = TND_MEM_DEVICE, .name = "denoise.params"},
@@ -522,32 +522,22 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
 
 /* The parameters fill_params made, into the params buffer as the command buffer runs (after
  * its first barrier: the passes queued before it have read theirs): all but the filter
- * geometry's origin, which copy_origin writes (dn_submit) or the frame before left (the
- * selection does not read it). Followed by a barrier for the uniform reads. */
-static void record_params(dn_context *c, VkCommandBuffer cmd)
+ * geometry's origin, which is copied from contract `ct`'s position and visibility at the centre
+ * pixel (dn_submit) or stays as the frame before left it (`ct` NULL: the selection does not read
+ * it). Then one barrier for the uniform reads. */
+static void record_params(dn_context *c, VkCommandBuffer cmd, const tnd_contract_gpu *ct)
 {
     const VkDeviceSize a = offsetof(dn_params, origin_position), b = offsetof(dn_params, frame);
     vkCmdUpdateBuffer(cmd, c->params.buffer, 0, a, &c->host_params);
     vkCmdUpdateBuffer(cmd, c->params.buffer, b, sizeof(dn_params) - b,
                       (const char *)&c->host_params + b);
-    VkMemoryBarrier mb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
-                          .srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
-                          .dstAccessMask = VK_ACCESS_UNIFORM_READ_BIT};
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                         0, 1, &mb, 0, NULL, 0, NULL);
-}
-
-/* The filter geometry's origin (dn_params.origin_*): the contract's position and visibility at
- * the centre pixel, copied into the params buffer after the host's write of the rest. */
-static void copy_origin(dn_context *c, VkCommandBuffer cmd, const tnd_contract_gpu *ct)
-{
     VkOffset3D centre = {(int32_t)(c->width / 2), (int32_t)(c->height / 2), 0};
     const struct {
         tnd_ct id;
         VkDeviceSize offset;
     } fields[2] = {{TND_CT_POSITION, offsetof(dn_params, origin_position)},
                    {TND_CT_VIS_ID, offsetof(dn_params, origin_vis)}};
-    for (int i = 0; i < 2; i++) {
+    for (int i = 0; ct && i < 2; i++) {
         VkBufferImageCopy r = {.bufferOffset = fields[i].offset,
                                .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
                                .imageOffset = centre,
@@ -555,11 +545,11 @@ static void copy_origin(dn_context *c, VkCommandBuffer cmd, const tnd_contract_g
         vkCmdCopyImageToBuffer(cmd, ct->images[fields[i].id].image, VK_IMAGE_LAYOUT_GENERAL,
                                c->params.buffer, 1, &r);
     }
-    VkMemoryBarrier b = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
-                         .srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
-                         .dstAccessMask = VK_ACCESS_UNIFORM_READ_BIT};
+    VkMemoryBarrier mb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
+                          .srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
+                          .dstAccessMask = VK_ACCESS_UNIFORM_READ_BIT};
     vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                         0, 1, &b, 0, NULL, 0, NULL);
+                         0, 1, &mb, 0, NULL, 0, NULL);
 }
 
 /* a pass in stratum tiles (one thread per pixel, DN_TILE_W x DN_TILE_H per work group) */
@@ -665,7 +655,7 @@ static tnd_result select_pass(dn_context *c, const tnd_contract_gpu *ct, const d
     tnd_timer_reset(cmd, &c->select_timer);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
-    record_params(c, cmd);
+    record_params(c, cmd, NULL);
     int s_s = tnd_timer_begin(cmd, &c->select_timer, "denoise.grad_select");
     dispatch_tiles(c, cmd, c->grad_select, "select");
     tnd_cmd_barrier(cmd); /* for the copy and the front-end's passes that read the samples */
@@ -772,8 +762,7 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
     c->fine_on = d->dispatch_timing;
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 2, c->sets, 0, NULL);
     tnd_cmd_barrier(cmd);
-    record_params(c, cmd);
-    copy_origin(c, cmd, ct);
+    record_params(c, cmd, ct);
     int s_g = -1, s_t = -1, s_h = -1, s_l = -1, s_a = -1;
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
