@@ -1231,7 +1231,8 @@ cleanup:
  * frames queued back to back, the last taken (which waits), bit for bit, with every pixel's
  * indirect path and with half of them (`--bounces half`: a sample pixel traces as the frame its
  * key was drawn for), through the ray-tracing pipeline and ray query; and Khronos' BoxTextured
- * (Debian's assimp test models: a textured surface rebuilt at the samples). The times of queued
+ * (Debian's assimp test models: a textured surface rebuilt at the samples) with the packed
+ * contract. The times of queued
  * frames come lagged, one frame late, and are the GPU's own; folded, the re-shading has no time
  * of its own. */
 static void test_queued_frames_match_waited(void)
@@ -1245,10 +1246,11 @@ static void test_queued_frames_match_waited(void)
     tnd_scene_state st[2] = {{0}};
     static float out[M][WQ * HQ * 3];
     /* the ray-tracing pipeline with every pixel's path and with half; ray query with half; a
-     * textured model from outside */
+     * textured model from outside, with the packed contract */
     for (int run = 0; run < 4; run++) {
         int half = run == 1 || run == 2;
         const char *api = run == 2 ? "query" : "pipeline";
+        tnd_precision prec = run == 3 ? TND_PRECISION_PACKED : TND_PRECISION_F32;
         const char *path = run < 3 ? TND_SOURCE_DIR "/data/scenes/dynamic.gltf"
                                    : "/usr/share/assimp/models/glTF2/BoxTextured-glTF/"
                                      "BoxTextured.gltf";
@@ -1256,13 +1258,13 @@ static void test_queued_frames_match_waited(void)
         s = NULL;
         REQUIRE_OK(tnd_scene_load(path, &s));
         for (int m = 0; m < M; m++) { /* m = 0 waits for every frame, 1 and 2 for the last */
-            REQUIRE_OK(pl_frontend_create("vk", s, &(pl_frontend_desc){.vk = vk, .rt_api = api},
-                                          &fe[m]));
+            REQUIRE_OK(pl_frontend_create(
+                "vk", s, &(pl_frontend_desc){.vk = vk, .precision = prec, .rt_api = api}, &fe[m]));
             CHECK(pl_frontend_caps(fe[m]) & PL_CAP_QUEUED, "the Vulkan front-end queues its passes");
             CHECK(pl_frontend_caps(fe[m]) & PL_CAP_SHADE_SLOTS,
                   "the Vulkan front-end re-shades in its shading pass");
             REQUIRE_OK(pl_chain_create(&(pl_chain_desc){.vk = vk, .width = WQ, .height = HQ,
-                                                        .backend = true,
+                                                        .precision = prec, .backend = true,
                                                         .denoiser = "asvgf",
                                                         .post = {.taa = true},
                                                         .separate_reshade = m == 2},
