@@ -228,9 +228,75 @@ void tnd_exr_close(tnd_exr_file *f)
     memset(f, 0, sizeof *f);
 }
 
-/* Every attribute of the (single-part) header fits in the file. OpenEXR 3.1's C++ reader trusts
- * a declared size and allocates it before reading (a 3 KB file whose "Software" string says
- * 1.9 GB took 2 GB: found by tests/fuzz/fuzz_env); OpenEXRCore had read the same header. */
+/* The bytes the C++ reader consumes for an attribute of a fixed-size type (0: not one). It
+ * reads that many whatever the attribute declares, so a declared size that differs loses its
+ * place in the header: a float "dwaCompressionLevel" declaring 1074 bytes led it to read a
+ * string of 1.85 GB from the bytes after (found by tests/fuzz/fuzz_env). */
+static int fixed_attribute_size(const char *type)
+{
+    static const struct {
+        const char *type;
+        int bytes;
+    } fixed[] = {{"box2i", 16},   {"box2f", 16},         {"chromaticities", 32},
+                 {"compression", 1}, {"double", 8},      {"envmap", 1},
+                 {"float", 4},    {"int", 4},            {"keycode", 28},
+                 {"lineOrder", 1}, {"m33f", 36},         {"m33d", 72},
+                 {"m44f", 64},    {"m44d", 128},         {"rational", 8},
+                 {"tiledesc", 9}, {"timecode", 8},       {"v2i", 8},
+                 {"v2f", 8},      {"v2d", 16},           {"v3i", 12},
+                 {"v3f", 12},     {"v3d", 24},           {"deepImageState", 1}};
+    for (size_t i = 0; i < sizeof fixed / sizeof *fixed; i++)
+        if (strcmp(type, fixed[i].type) == 0)
+            return fixed[i].bytes;
+    return 0;
+}
+
+static uint32_t le32(const uint8_t *b)
+{
+    return (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+}
+
+/* Whether the value of a variable-size attribute (`v`, `size` bytes) ends where the C++ reader
+ * would stop reading it: a channel list at its empty name, a preview after its width x height
+ * RGBA bytes, each string of a string vector within the value. Other types it reads as
+ * declared. */
+static bool variable_attribute_fits(const char *type, const uint8_t *v, int64_t size)
+{
+    if (strcmp(type, "chlist") == 0) {
+        int64_t at = 0;
+        for (;;) { /* name, then pixel type, pLinear and 3 reserved bytes, x and y sampling */
+            int64_t len = 0;
+            while (at + len < size && v[at + len] != 0)
+                len++;
+            if (at + len >= size)
+                return false;
+            if (len == 0)
+                return at + 1 == size;
+            at += len + 1 + 16;
+            if (at > size)
+                return false;
+        }
+    }
+    if (strcmp(type, "preview") == 0)
+        return size >= 8 && (int64_t)le32(v) * le32(v + 4) * 4 == size - 8;
+    if (strcmp(type, "stringvector") == 0) {
+        for (int64_t at = 0; at < size;) {
+            if (size - at < 4)
+                return false;
+            int64_t len = (int32_t)le32(v + at);
+            at += 4;
+            if (len < 0 || len > size - at)
+                return false;
+            at += len;
+        }
+    }
+    return true;
+}
+
+/* Every attribute of the (single-part) header fits in the file, and is read by OpenEXR 3.1's C++
+ * reader as it declares itself. That reader trusts a declared size and allocates it before
+ * reading (a 3 KB file whose "Software" string says 1.9 GB took 2 GB: found by
+ * tests/fuzz/fuzz_env); OpenEXRCore had read the same header. */
 static tnd_result check_header_sizes(const char *path)
 {
     FILE *fp = fopen(path, "rb");
@@ -278,7 +344,29 @@ static tnd_result check_header_sizes(const char *path)
                            "the file holds", path, name[0], name[1], (long long)size);
             goto done;
         }
-        if (fseek(fp, (long)size, SEEK_CUR) != 0) {
+        int fixed = fixed_attribute_size(name[1]);
+        if (fixed && size != fixed) {
+            res = tnd_fail(TND_ERR_BAD_INPUT,
+                           "exr: %s: header attribute '%s' (%s) declares %lld bytes; the type "
+                           "has %d", path, name[0], name[1], (long long)size, fixed);
+            goto done;
+        }
+        if (!fixed) { /* the value itself, where its reader stops on what it holds */
+            uint8_t *value = malloc(size ? (size_t)size : 1);
+            if (!value) {
+                res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "exr: %s: out of memory", path);
+                goto done;
+            }
+            bool ok = fread(value, 1, (size_t)size, fp) == (size_t)size &&
+                      variable_attribute_fits(name[1], value, size);
+            free(value);
+            if (!ok) {
+                res = tnd_fail(TND_ERR_BAD_INPUT,
+                               "exr: %s: header attribute '%s' (%s): its %lld bytes do not hold "
+                               "one value of its type", path, name[0], name[1], (long long)size);
+                goto done;
+            }
+        } else if (fseek(fp, (long)size, SEEK_CUR) != 0) {
             res = tnd_fail(TND_ERR_IO, "exr: %s: cannot seek", path);
             goto done;
         }

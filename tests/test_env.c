@@ -268,6 +268,22 @@ static void test_bad_input(void)
               strstr(tnd_error_detail(), "not an RGB image"),
           "luminance only: %s", tnd_error_detail());
     CHECK(e.width == 0 && e.data == NULL, "a failed load leaves the environment as it was");
+    /* DWAB headers the C++ reader would misread (fuzzing's finds): an attribute of a fixed-size
+     * type declaring another size, a string longer than the file; refused by name before it
+     * reads them (it allocated 1.85 and 1.9 GB) */
+    const struct {
+        const char *file, *says;
+    } dwab[2] = {{"oom-float-attribute-declares-1074-bytes.exr",
+                  "'dwaCompressionLevel' (float) declares 1074 bytes; the type has 4"},
+                 {"oom-dwab-software-string-1.9GB.exr", "more than the file holds"}};
+    for (int i = 0; i < 2; i++) {
+        char fz[512];
+        snprintf(fz, sizeof fz, "%s/tests/fuzz/regressions/env/%s", TND_SOURCE_DIR, dwab[i].file);
+        r = tnd_env_load(fz, 1, 0, &e);
+        CHECK(r == TND_ERR_BAD_INPUT && strstr(tnd_error_detail(), fz) &&
+                  strstr(tnd_error_detail(), dwab[i].says),
+              "%s: %s", dwab[i].file, tnd_error_detail());
+    }
     /* NaN, Inf and negative texels: counted, set to 0 */
     for (int i = 0; i < 64 * 32 * 3; i++)
         px[i] = 0.5f;
