@@ -277,8 +277,11 @@ static bool variable_attribute_fits(const char *type, const uint8_t *v, int64_t 
                 return false;
         }
     }
-    if (strcmp(type, "preview") == 0)
-        return size >= 8 && (int64_t)le32(v) * le32(v + 4) * 4 == size - 8;
+    if (strcmp(type, "preview") == 0) { /* (w x h x 4 compared without overflowing) */
+        uint64_t w = size >= 8 ? le32(v) : 0, h = size >= 8 ? le32(v + 4) : 0;
+        return size >= 8 && (w == 0 || h <= (uint64_t)(size - 8) / 4 / w) &&
+               w * h * 4 == (uint64_t)(size - 8);
+    }
     if (strcmp(type, "stringvector") == 0) {
         for (int64_t at = 0; at < size;) {
             if (size - at < 4)
