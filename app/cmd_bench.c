@@ -27,18 +27,18 @@ static const app_cmd bench_cmd = {
     "[--repeats N] [--json]",
     NULL};
 
-/* --bounces as the frame parameters (a count, or APP_BOUNCES_HALF: 1 at half resolution), in
+/* --bounces as the frame parameters (a count, or RN_BOUNCES_HALF: 1 at half resolution), in
  * JSON and in words */
 static pl_params bench_params(unsigned bounces)
 {
     bool half;
-    unsigned n = app_bounces_split(bounces, &half);
+    unsigned n = rn_bounces_split(bounces, &half);
     return (pl_params){.bounces = n, .half_indirect = half};
 }
 
 static void bench_bounces_json(cJSON *o, unsigned bounces)
 {
-    if (bounces == APP_BOUNCES_HALF)
+    if (bounces == RN_BOUNCES_HALF)
         cJSON_AddStringToObject(o, "bounces", "half");
     else
         cJSON_AddNumberToObject(o, "bounces", bounces);
@@ -46,7 +46,7 @@ static void bench_bounces_json(cJSON *o, unsigned bounces)
 
 static const char *bounces_words(unsigned bounces, char *buf, size_t size)
 {
-    if (bounces == APP_BOUNCES_HALF)
+    if (bounces == RN_BOUNCES_HALF)
         snprintf(buf, size, "1 bounce at half resolution");
     else
         snprintf(buf, size, "%u bounce%s", bounces, bounces == 1 ? "" : "s");
@@ -82,8 +82,8 @@ static tnd_result bench_vk(const tnd_scene *s, const char *fe_name, const tnd_sc
         tp[r] = tm.primary_ms;
         ts[r] = tm.shade_ms;
     }
-    b->primary_ms = app_median(tp, repeats);
-    b->shade_ms = app_median(ts, repeats);
+    b->primary_ms = rn_median(tp, repeats);
+    b->shade_ms = rn_median(ts, repeats);
     b->raw_ms = 0;
     char who[300];
     printf("device: %s\n", pl_frontend_describe(gv, who, sizeof who));
@@ -207,11 +207,11 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, con
      * frame, between 64 MiB and 1 GiB (larger than any cache) */
     double copy_mib = fmin(1024.0, fmax(64.0, 8.0 * traffic / (1 << 20)));
     double transfer_bw = 0, compute_bw = 0;
-    TND_TRY(app_bandwidth(&vk, (VkDeviceSize)copy_mib << 20, 9, &transfer_bw, &compute_bw));
+    TND_TRY(rn_bandwidth(&vk, (VkDeviceSize)copy_mib << 20, 9, &transfer_bw, &compute_bw));
     double bandwidth = fmax(transfer_bw, compute_bw); /* the floor: the faster of the two */
     double med[MAXP + 1];
     for (uint32_t k = 0; k <= np; k++)
-        med[k] = app_median(v[k], repeats);
+        med[k] = rn_median(v[k], repeats);
     double backend = 0, backend_bytes = 0;
     for (uint32_t k = nfe; k < np; k++)
         backend += med[k], backend_bytes += bytes[k];
@@ -258,7 +258,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, con
             for (uint32_t k = 0; k < nd; k++) {
                 cJSON *q = cJSON_CreateObject();
                 cJSON_AddStringToObject(q, "name", dnames[k]);
-                cJSON_AddNumberToObject(q, "median_ms", app_median(dv + (size_t)k * repeats, repeats));
+                cJSON_AddNumberToObject(q, "median_ms", rn_median(dv + (size_t)k * repeats, repeats));
                 cJSON_AddItemToArray(dd, q);
             }
         }
@@ -305,7 +305,7 @@ static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, con
             printf("  per dispatch (back-end, each with its own timestamps; the select pass is "
                    "above):\n");
             for (uint32_t k = 0; k < nd; k++)
-                printf("    %-18s %9.3f\n", dnames[k], app_median(dv + (size_t)k * repeats, repeats));
+                printf("    %-18s %9.3f\n", dnames[k], rn_median(dv + (size_t)k * repeats, repeats));
         }
     }
 #undef FLOOR
@@ -431,9 +431,9 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
         }
     double med[OV_COUNT], pmed[WF_MAX], group[PL_GROUPS] = {0}, gpu = 0;
     for (int m = m0; m < OV_COUNT && way[m]; m++)
-        med[m] = app_median(ms[m], blocks);
+        med[m] = rn_median(ms[m], blocks);
     for (uint32_t k = 0; k < nwf; k++) {
-        pmed[k] = app_median(pass[k], blocks * BLOCK);
+        pmed[k] = rn_median(pass[k], blocks * BLOCK);
         group[wf[k]->group] += pmed[k];
         gpu += pmed[k];
     }
@@ -464,7 +464,7 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
         cJSON_AddNumberToObject(g, "frame", gpu);
         cJSON *h = cJSON_AddObjectToObject(o, "host_ms_not_waited");
         for (int k = 0; k < 3; k++)
-            cJSON_AddNumberToObject(h, host_name[k], app_median(host[k], blocks * BLOCK));
+            cJSON_AddNumberToObject(h, host_name[k], rn_median(host[k], blocks * BLOCK));
         char *txt = cJSON_Print(o);
         printf("%s\n", txt);
         free(txt);
@@ -488,7 +488,7 @@ static tnd_result bench_overlap(const tnd_scene *s, const char *fe_name, const u
         printf("    %-10s %8.3f\n", "frame", gpu);
         printf("  host ms per frame not waited for (medians): ");
         for (int k = 0; k < 3; k++)
-            printf("%s%s %.3f", k ? ", " : "", host_name[k], app_median(host[k], blocks * BLOCK));
+            printf("%s%s %.3f", k ? ", " : "", host_name[k], rn_median(host[k], blocks * BLOCK));
         printf(" (chain_run: recording, submission, any wait for the frame before)\n");
     }
 fail:
@@ -507,6 +507,92 @@ fail:
     return res;
 }
 
+/* ---- bench --soak N ---------------------------------------------------------------------- */
+void app_soak_print(const rn_soak_rec *rec, const char *title, const char *scene,
+                    const unsigned size[2])
+{
+    const rn_soak_row *r = rn_soak_rec_row(rec);
+    if (title)
+        printf("soak: %u frames of %s at %ux%u %s; after a warm-up of %u frames:\n%-8s %-10s "
+               "%8s %8s %8s %10s %9s %7s %9s %14s %6s\n",
+               r->frames, scene, size[0], size[1], title, r->warmup, "frontend", "denoiser", "fps",
+               "RSS MB", "+MB", "KB/frame", "heap +KB", "fds", "vk allocs", "device MB", "");
+    char dev[40] = "-";
+    if (r->dev_base >= 0)
+        snprintf(dev, sizeof dev, "%.1f -> %.1f", r->dev_base, r->dev_end);
+    printf("%-8s %-10s %8.1f %8.1f %+8.2f %10.3f %+9.1f %3u->%-3u %4llu->%-4llu %14s %6s\n",
+           r->frontend, r->denoiser, r->frames / r->seconds, r->rss_end, r->rss_end - r->rss_base,
+           r->rss_kb_per_frame, 1024.0 * (r->heap_end - r->heap_base), r->fds_base, r->fds_end,
+           (unsigned long long)r->allocs_base, (unsigned long long)r->allocs_end, dev,
+           r->flat ? "flat" : "GROWS");
+}
+
+typedef struct soak_out {
+    cJSON *runs; /* --json: the runs' objects; else rows printed as they end */
+    const char *scene;
+    const unsigned *size;
+    bool first;
+} soak_out;
+
+static void on_soak_run(const rn_soak_rec *rec, void *user)
+{
+    soak_out *so = user;
+    if (so->runs)
+        cJSON_AddItemToArray(so->runs, rn_soak_rec_json(rec));
+    else
+        app_soak_print(rec, so->first ? "per front-end and denoiser" : NULL, so->scene, so->size);
+    so->first = false;
+}
+
+static int bench_soak(const char *scene, const rn_env *env, const unsigned size[2],
+                      unsigned frames, const char *frontend, const char *denoiser, bool json)
+{
+    cJSON *root = json ? cJSON_CreateObject() : NULL;
+    soak_out so = {.scene = scene, .size = size, .first = true};
+    if (root) {
+        cJSON_AddStringToObject(root, "scene", scene);
+        cJSON_AddNumberToObject(root, "frames", frames);
+        cJSON_AddNumberToObject(root, "width", size[0]);
+        cJSON_AddNumberToObject(root, "height", size[1]);
+        so.runs = cJSON_AddArrayToObject(root, "runs");
+    }
+    rn_soak_opts o = {.scene = scene, .env = *env, .size = {size[0], size[1]}, .frames = frames,
+                      .frontend = frontend, .denoiser = denoiser, .on_run = on_soak_run,
+                      .user = &so};
+    rn_host h = app_host();
+    bool flat = false;
+    tnd_result res = rn_soak(&o, &h, &flat);
+    if (root && (res == TND_OK || res == TND_ERR_INTERRUPTED)) {
+        cJSON_AddBoolToObject(root, "flat", flat);
+        char *t = cJSON_Print(root);
+        printf("%s\n", t ? t : "{}");
+        free(t);
+    }
+    cJSON_Delete(root);
+    return app_finish("bench", res);
+}
+
+/* ---- bench --extremes --------------------------------------------------------------------- */
+/* exit 1 when any output or buffer holds a NaN or an Inf */
+static int bench_extremes(const char *scene, const char *out, const unsigned size[2],
+                          unsigned frames)
+{
+    if (!out || strlen(out) > 900) {
+        fprintf(stderr, "tandem bench: --extremes needs --out DIR (a short path)\n");
+        return APP_EXIT_USAGE;
+    }
+    rn_host h = app_host();
+    ev_text summary = {0};
+    uint64_t bad = 0;
+    tnd_result res = rn_extremes(scene, out, size, frames, &h, &summary, &bad);
+    if (res == TND_OK && summary.s)
+        fputs(summary.s, stdout);
+    ev_text_free(&summary);
+    if (res != TND_OK)
+        return app_finish("bench", res);
+    return bad ? APP_EXIT_FAIL : APP_EXIT_OK;
+}
+
 int cmd_bench(int argc, char **argv)
 {
     const char *scene_path = TND_DATA_DIR "/scenes/cornell.gltf", *frontend = NULL;
@@ -518,7 +604,7 @@ int cmd_bench(int argc, char **argv)
     app_list sweeps = {0};
     unsigned frames = 12, warmup = 4, spp = 64, ref_shards = 0, timed = 24;
     const char *emit = NULL;
-    app_env env = APP_ENV_INIT; /* (--overlap and --denoiser: the whole frame or the back-end) */
+    rn_env env = RN_ENV_INIT; /* (--overlap and --denoiser: the whole frame or the back-end) */
     char dn_help[300];
     snprintf(dn_help, sizeof dn_help,
              "with --frontend vk: time the whole frame with this denoiser (%s, plugin:PATH.so or "
@@ -631,13 +717,18 @@ int cmd_bench(int argc, char **argv)
         return APP_EXIT_OK;
     }
     if (soak) /* (every front-end and denoiser unless named; 160x90 unless given) */
-        return app_soak(scene_path, &env, soak_size, soak, soak_frontend, denoiser, json);
+        return bench_soak(scene_path, &env, soak_size, soak, soak_frontend, denoiser, json);
     if (extremes)
-        return app_extremes(scene_given ? scene_path : TND_DATA_DIR "/scenes/extremes.gltf", out,
-                            size, frames);
+        return bench_extremes(scene_given ? scene_path : TND_DATA_DIR "/scenes/extremes.gltf",
+                              out, size, frames);
     if (sweeps.n)
-        return app_sweep(&sweeps, scene_path, &env, out, reference, spp, size, frames, warmup, timed, emit,
-                         ref_shards ? ref_shards : frames < 64 ? frames : 64);
+        return app_sweep(&(rn_sweep_opts){.sweeps = sweeps.v, .nsweeps = sweeps.n,
+                                           .scene = scene_path, .env = env, .out = out,
+                                           .reference = reference, .spp = spp,
+                                           .size = {size[0], size[1]}, .frames = frames,
+                                           .warmup = warmup, .timed = timed, .emit = emit,
+                                           .shards = ref_shards ? ref_shards
+                                                     : frames < 64 ? frames : 64});
     const pl_denoiser_info *dn = NULL;
     if (overlap || whole_frame) {
         tnd_precision prec;
@@ -647,7 +738,7 @@ int cmd_bench(int argc, char **argv)
             return APP_EXIT_USAGE;
         }
         tnd_scene *sc = NULL;
-        res = app_scene_load(scene_path, &env, &sc);
+        res = rn_scene_load(scene_path, &env, &sc);
         if (res == TND_OK)
             res = bench_overlap(sc, frontend, size, bounces, repeats, denoiser ? denoiser : "svgf",
                                 prec, json, overlap);
@@ -671,7 +762,7 @@ int cmd_bench(int argc, char **argv)
             return APP_EXIT_USAGE;
         }
         tnd_scene *sc = NULL;
-        res = app_scene_load(scene_path, &env, &sc);
+        res = rn_scene_load(scene_path, &env, &sc);
         if (res == TND_OK)
             res = bench_pipeline(sc, scene_path, frontend, frame, size, bounces, repeats, rt_api,
                                  full, denoiser, prec, json, per_dispatch);

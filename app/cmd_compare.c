@@ -3,7 +3,7 @@
  * must agree to float precision on --min-gbuffer of the pixels (the rest lie on triangle edges);
  * the noisy signals on --min-signal of the pixels that see the same surface (same path traced).
  * Exit 1 past those floors. With --scene: renders both front-ends (--frontends, registered names)
- * and the reference first, calling render as a function (app_render), then evaluates both. */
+ * and the reference first through the run layer (rn_render_nested), then evaluates both. */
 #include "app/app.h"
 
 #include <cjson/cJSON.h>
@@ -44,7 +44,7 @@ static int agreement(const char *da, const char *db, double min_gbuffer, double 
 {
     *res = TND_OK;
     uint32_t *list = NULL, nf = 0;
-    if ((*res = app_list_frames(da, &list, &nf)) != TND_OK)
+    if ((*res = rn_list_frames(da, &list, &nf)) != TND_OK)
         return APP_EXIT_FAIL;
     char(*names)[32] = calloc(nf + 1, sizeof *names);
     if (!names) {
@@ -213,7 +213,7 @@ int cmd_compare(int argc, char **argv)
     const char *frontends = "embree,vk";
     unsigned frames = 8, spp = 64, size[2] = {160, 90}, camera = 0;
     double fps = 30;
-    app_env env = APP_ENV_INIT; /* --scene: the scene options render takes */
+    rn_env env = RN_ENV_INIT; /* --scene: the scene options render takes */
     const app_opt opts[] = {
         {"min-gbuffer", APP_OPT_FLOAT, &min_gbuffer, "F",
          "G-buffer entries: fraction of pixels that must agree (default 0.99)"},
@@ -279,8 +279,9 @@ int cmd_compare(int argc, char **argv)
         snprintf(run_a, sizeof run_a, "%s/%s", out, fe[0]);
         snprintf(run_b, sizeof run_b, "%s/%s", out, fe[1]);
         const char *dirs[2] = {run_a, run_b};
-        app_render_opts base, o; /* the scene and path all three runs share */
-        app_render_defaults(&base);
+        rn_render_opts base, o; /* the scene and path all three runs share */
+        rn_host h = app_host();
+        rn_render_defaults(&base);
         base.scene = scene;
         base.env = env;
         base.camera = camera;
@@ -294,7 +295,7 @@ int cmd_compare(int argc, char **argv)
             o.capture = true;
             o.denoiser = denoiser;
             o.out = dirs[i];
-            if (app_render(&o, false) != APP_EXIT_OK)
+            if (rn_render_nested(&o, false, &h) != TND_OK)
                 res = tnd_fail(TND_ERR_IO, "compare: tandem render --out %s failed", dirs[i]);
         }
         if (reference) {
@@ -304,7 +305,7 @@ int cmd_compare(int argc, char **argv)
             o = base;
             o.spp = spp;
             o.out = refdir;
-            if (app_render(&o, true) != APP_EXIT_OK)
+            if (rn_render_nested(&o, true, &h) != TND_OK)
                 res = tnd_fail(TND_ERR_IO, "compare: tandem reference --out %s failed", refdir);
         }
         snprintf(report_dir, sizeof report_dir, "%s/report", out);
@@ -326,19 +327,19 @@ int cmd_compare(int argc, char **argv)
         return app_report("compare", res);
     }
     if (reference) {
-        app_eval e = {0};
+        rn_eval e = {0};
         snprintf(e.ref, sizeof e.ref, "%s", reference);
-        res = app_eval_add(&e, scene ? fe[0] : run_a, run_a, APP_SERIES_OUTPUT);
+        res = rn_eval_add(&e, scene ? fe[0] : run_a, run_a, RN_SERIES_OUTPUT);
         if (res == TND_OK)
-            res = app_eval_add(&e, scene ? fe[1] : run_b, run_b, APP_SERIES_OUTPUT);
+            res = rn_eval_add(&e, scene ? fe[1] : run_b, run_b, RN_SERIES_OUTPUT);
         if (res == TND_OK)
-            res = app_eval_run(&e);
+            res = rn_eval_run(&e);
         cJSON *ev = cJSON_AddArrayToObject(root, "eval");
         for (uint32_t i = 0; res == TND_OK && i < e.nseries; i++) {
             const ev_summary *s = &e.series[i].summary;
             cJSON *o = cJSON_CreateObject();
             cJSON_AddStringToObject(o, "name", e.series[i].name);
-            app_metrics_json(o, s);
+            rn_metrics_json(o, s);
             cJSON_AddItemToArray(ev, o);
             if (!json) {
                 printf("  %s against %s:", e.series[i].name, reference);
@@ -358,13 +359,13 @@ int cmd_compare(int argc, char **argv)
             snprintf(title, sizeof title, "Tandem compare: %s and %s against %s", run_a, run_b,
                      reference);
             res = html.failed ? tnd_fail(TND_ERR_OUT_OF_MEMORY, "compare: out of memory")
-                              : app_eval_report(&e, report, title, settings, html.s);
+                              : rn_eval_report(&e, report, title, settings, html.s);
             free(settings);
             ev_text_free(&html);
             if (res == TND_OK && !json)
                 printf("  report: %s/index.html\n", report);
         }
-        app_eval_free(&e);
+        rn_eval_free(&e);
         if (res != TND_OK) {
             cJSON_Delete(root);
             return app_report("compare", res);

@@ -78,7 +78,7 @@ fail:
     if (status != APP_EXIT_OK) {
         app_report("convert", res);
         if (began && !out_existed) { /* no partial output */
-            app_remove_flat_dir(out);
+            rn_remove_flat_dir(out);
         } else {
             for (size_t i = 0; began && i <= written && i < n; i++) {
                 snprintf(dst, sizeof dst, "%s/frame_%04zu.exr", out, i);

@@ -71,10 +71,10 @@ int cmd_denoise(int argc, char **argv)
         return app_report("denoise",
                           tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out/--captures: path too long"));
     uint32_t dump_mask = 0;
-    if ((res = app_parse_dump(dump, &dump_mask)) != TND_OK)
+    if ((res = rn_dump_parse(dump, &dump_mask)) != TND_OK)
         return app_report("denoise", res);
     cmp_desc post_d = {0};
-    if ((res = app_taa_parse(taa, &post_d)) != TND_OK)
+    if ((res = rn_taa_parse(taa, &post_d)) != TND_OK)
         return app_report("denoise", res);
     char path[2300];
     tnd_capture_map *map = NULL;
@@ -150,7 +150,7 @@ int cmd_denoise(int argc, char **argv)
         goto fail;
     }
     TND_TRY(tnd_mkdirs(out));
-    TND_TRY(app_lock_dir(out, &lock_fd)); /* (before anything is written or removed there) */
+    TND_TRY(rn_lock_dir(out, &lock_fd)); /* (before anything is written or removed there) */
     begun = true;
     if (dump_mask) {
         struct stat dst;
@@ -168,32 +168,32 @@ int cmd_denoise(int argc, char **argv)
     int stopped = 0; /* interrupted (between frames: the ones written stay) */
     for (size_t i = 0; i < n && !(stopped = app_interrupted()); i++) {
         const char *name = pl_frontend_frame_name(rp, (uint32_t)i);
-        app_dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
+        rn_dump_ctx dc = {.mask = dump_mask, .dir = dump_dir};
         snprintf(dc.stem, sizeof dc.stem, "%s", name);
         char *dot = strrchr(dc.stem, '.');
         if (dot)
             *dot = '\0';
         TND_TRY(pl_frontend_set_frame(rp, NULL, NULL, (uint32_t)i, 0, 0));
         pl_step step = {.frame = {.reset = i == 0}, .frame_from_host = true, .yfov = yfov_deg,
-                        .dt = 1.0f / 30, .after_backend = dump_mask ? app_dump_after_backend : NULL,
+                        .dt = 1.0f / 30, .after_backend = dump_mask ? rn_dump_after_backend : NULL,
                         .user = &dc};
         pl_step_result pr;
         TND_TRY(pl_chain_run(chain, rp, &step, rgb, display, &pr));
         fprintf(timings, "%s\n    {\"file\": \"%s\"", i ? "," : "", name);
-        app_timings_members(timings, chain, &pr); /* every pass of the chain */
+        rn_timings_members(timings, chain, &pr); /* every pass of the chain */
         fputc('}', timings);
         snprintf(path, sizeof path, "%s/%s", out, name);
-        TND_TRY(app_write_rgb_exr(path, rgb, w, h));
+        TND_TRY(rn_write_rgb_exr(path, rgb, w, h));
         size_t l = strlen(path);
         memcpy(path + l - 4, ".png", 5);
-        TND_TRY(app_write_png(path, display, w, h));
+        TND_TRY(rn_write_png(path, display, w, h));
         written = i + 1;
         app_progress_step(&bar, (unsigned)i + 1);
     }
     app_progress_end(&bar);
     if (stopped) /* (timings.json says where it stopped) */
         fprintf(timings, "\n  ],\n  \"interrupted\": {\"signal\": \"%s\", \"frames_written\": %zu}",
-                app_signal_name(stopped), written);
+                rn_signal_name(stopped), written);
     fprintf(timings, "%s\n}\n", stopped ? "" : "\n  ]");
     if (fclose(timings) != 0) {
         timings = NULL;
@@ -207,7 +207,7 @@ int cmd_denoise(int argc, char **argv)
     }
     if (stopped) {
         fprintf(stderr, "%standem: denoise: interrupted (%s): %zu of %zu frames written in %s/\n",
-                bar.enabled ? "\n" : "", app_signal_name(stopped), written, n, out);
+                bar.enabled ? "\n" : "", rn_signal_name(stopped), written, n, out);
         status = app_interrupt_status();
         goto fail;
     }
@@ -222,9 +222,9 @@ fail:
         fclose(timings);
     if (status == APP_EXIT_FAIL && begun) {
         if (dump_made)
-            app_remove_flat_dir(dump_dir);
+            rn_remove_flat_dir(dump_dir);
         if (!out_existed) {
-            app_remove_flat_dir(out);
+            rn_remove_flat_dir(out);
         } else { /* only this run's files */
             for (size_t i = 0; i < written + 1 && i < n; i++) {
                 snprintf(path, sizeof path, "%s/%s", out, pl_frontend_frame_name(rp, (uint32_t)i));
@@ -237,7 +237,7 @@ fail:
         }
     }
     if (lock_fd >= 0 && (status != APP_EXIT_FAIL || out_existed))
-        app_unlock_dir(out, lock_fd);
+        rn_unlock_dir(out, lock_fd);
     else if (lock_fd >= 0) /* (the directory itself is gone) */
         close(lock_fd);
     free(rgb);

@@ -1,5 +1,5 @@
 /* app/cmd_view.c: `tandem view`: the pipeline live in a window. The frame is render's (the same
- * front-end and chain, built by app_pipeline_open from the same options), the camera flies
+ * front-end and chain, built by rn_pipeline_open from the same options), the camera flies
  * (WASD/QE, mouse drag), keys change the knobs (each change restarts the history), V cycles the
  * views (the final image, every contract entry, the back-end's dumps, in false colour where it
  * helps), TAB splits the window (noisy | denoised), and an overlay shows the device, the GPU time
@@ -85,7 +85,7 @@ static uint32_t view_find(const char *name)
 }
 
 typedef struct viewer {
-    app_view_state st; /* the settings and the flight since the last restart */
+    rn_view_state st; /* the settings and the flight since the last restart */
     tnd_vk vk;
     vw_window *win;
     vw_compose *compose;
@@ -100,7 +100,7 @@ typedef struct viewer {
     tnd_scene_state ss[2];
     uint32_t frame, steps; /* the scene's frame index; frames shown since the start */
     bool rebuild, reload, reload_shaders, show_overlay, ref_on, quit, want_shot, want_capture;
-    app_view_cam cam;
+    rn_view_cam cam;
     bool keys[512];
     uint32_t view, ref_spp; /* ref_spp: the progressive reference's samples shown */
     float *ref_rgb;
@@ -120,7 +120,7 @@ typedef struct viewer {
     char note[200];
     double t_last;
     bool scripted;
-    app_env scene_opts; /* the command line's scene options (the state's environment over them) */
+    rn_env scene_opts; /* the command line's scene options (the state's environment over them) */
     bool on_path;       /* following the scene's camera path until the camera is flown */
 } viewer;
 
@@ -163,7 +163,7 @@ static void on_key(viewer *v, int key, bool down)
         v->keys[key] = down;
     if (!down)
         return;
-    app_view_state *s = &v->st;
+    rn_view_state *s = &v->st;
     const char *dn = NULL;
     /* 1, 2, ...: the registered denoisers in order, then the plugin given at the start */
     if (key >= '1' && key < '1' + (int)pl_denoiser_count())
@@ -273,7 +273,7 @@ static void on_key(viewer *v, int key, bool down)
         const pl_denoiser_info *d = NULL;
         if (pl_denoiser_find(s->denoiser, &d) != TND_OK)
             d = pl_denoiser_at(0);
-        snprintf(s->split_denoiser, sizeof s->split_denoiser, "%s", app_denoiser_other(d)->name);
+        snprintf(s->split_denoiser, sizeof s->split_denoiser, "%s", pl_denoiser_other(d)->name);
         snprintf(s->split_frontend, sizeof s->split_frontend, "%s", other_frontend(s->frontend));
         v->rebuild = true;
         set_note(v, "split %s", s->split_mode);
@@ -297,9 +297,9 @@ static void on_key(viewer *v, int key, bool down)
 }
 
 /* The scene options: the command line's, with the state's environment. */
-static app_env scene_options(const viewer *v)
+static rn_env scene_options(const viewer *v)
 {
-    app_env e = v->scene_opts;
+    rn_env e = v->scene_opts;
     e.path = v->st.env[0] ? v->st.env : NULL;
     e.intensity = v->st.env_intensity;
     e.rotation = v->st.env_rotation;
@@ -342,7 +342,7 @@ static void fly(viewer *v, double dt)
         v->ref_spp = 0, v->on_path = false;
 }
 
-static bool split(const app_view_state *s)
+static bool split(const rn_view_state *s)
 {
     return s->split_mode[0] && strcmp(s->split_mode, "off") != 0;
 }
@@ -375,7 +375,7 @@ static tnd_result open_pipeline(viewer *v)
 {
     tnd_result res = TND_OK;
     close_pipeline(v);
-    app_view_state *s = &v->st;
+    rn_view_state *s = &v->st;
     tnd_precision prec;
     TND_TRY(tnd_precision_parse(s->precision, &prec));
     for (int i = 0; i < (split(s) ? 2 : 1); i++) {
@@ -386,16 +386,17 @@ static tnd_result open_pipeline(viewer *v)
                                                                     : s->denoiser;
         const pl_denoiser_info *info;
         TND_TRY(pl_denoiser_find(dn, &info));
-        app_render_opts o;
-        app_render_defaults(&o); /* (the viewer's frame is render's) */
-        app_view_state_options(s, &o);
+        rn_render_opts o;
+        rn_render_defaults(&o); /* (the viewer's frame is render's) */
+        rn_view_state_options(s, &o);
         o.denoiser = dn;
         o.quiet = true; /* (its state keeps every parameter; a denoiser takes its own) */
         if (i == 1 && strcmp(s->split_mode, "frontend") == 0)
             o.frontend = s->split_frontend;
         cmp_desc pd;
-        TND_TRY(app_pipeline_open(&o, v->scene, &v->vk, pl_frontend_needs_gpu(o.frontend), true,
-                                  prec, &info, false, &v->fe[i], &v->chain[i], &pd));
+        rn_host h = app_host();
+        TND_TRY(rn_pipeline_open(&o, v->scene, &v->vk, pl_frontend_needs_gpu(o.frontend), true,
+                                 prec, &info, false, &v->fe[i], &v->chain[i], &pd, &h));
         if (i == 0)
             v->dn = info;
     }
@@ -417,7 +418,7 @@ static tnd_result open_pipeline(viewer *v)
     }
     TND_TRY(tnd_frame_create(w, h, &v->host));
     /* the history restarts: a new flight */
-    app_view_state_restart(s);
+    rn_view_state_restart(s);
     v->ref_spp = 0;
     v->rebuild = false;
 fail:
@@ -658,7 +659,7 @@ static void draw_overlay(viewer *v, const char *device, double fps)
     const uint8_t bg[4] = {0, 0, 0, 150}, fg[4] = {235, 235, 235, 255},
                   bar[4] = {80, 200, 120, 230}, hot[4] = {240, 120, 60, 230};
     fill(px, 0, 0, OVERLAY_W, OVERLAY_H, bg);
-    const app_view_state *s = &v->st;
+    const rn_view_state *s = &v->st;
     char line[400], who[300], vn[64];
     view_name(v->view, vn, sizeof vn);
     int y = 4;
@@ -762,14 +763,14 @@ static void draw_overlay(viewer *v, const char *device, double fps)
  * frame at its scene time, looking where the camera looked, with the camera's field of view. */
 static tnd_result write_camera_path(const viewer *v, const char *path)
 {
-    const app_view_state *s = &v->st;
+    const rn_view_state *s = &v->st;
     tnd_camera_key *keys = calloc(s->path_len ? 2 * s->path_len : 1, sizeof *keys);
     if (!keys)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
     float yfov = s->camera < v->scene->camera_count ? v->scene->cameras[s->camera].yfov : 0.8f;
     uint32_t n = 0;
     for (uint32_t i = 0; i < 2 * s->path_len; i++) { /* (a held camera: its first and last) */
-        const app_view_cam *c = &s->path[i / 2];
+        const rn_view_cam *c = &s->path[i / 2];
         if (i % 2 && c->frames == 1)
             continue;
         double cp = cos(c->pitch), at[3] = {c->position[0] + sin(c->yaw) * cp,
@@ -806,17 +807,17 @@ static tnd_result screenshot(viewer *v)
     TND_TRY(pl_chain_finish(v->chain[0], NULL));
     TND_TRY(cmp_download_display(post, rgb8));
     snprintf(path, sizeof path, "%s/shot_%04u.png", v->out, v->shots);
-    TND_TRY(app_write_png(path, rgb8, w, h));
+    TND_TRY(rn_write_png(path, rgb8, w, h));
     TND_TRY(cmp_download_hdr(post, rgb));
     snprintf(path, sizeof path, "%s/shot_%04u.exr", v->out, v->shots);
-    TND_TRY(app_write_rgb_exr(path, rgb, w, h));
+    TND_TRY(rn_write_rgb_exr(path, rgb, w, h));
     TND_TRY(tnd_image_download(&v->vk, &v->shown, shown, n * 4)); /* as shown */
     for (size_t q = 0; q < n; q++)
         memcpy(rgb8 + 3 * q, shown + 4 * q, 3);
     snprintf(path, sizeof path, "%s/shot_%04u.view.png", v->out, v->shots);
-    TND_TRY(app_write_png(path, rgb8, w, h));
+    TND_TRY(rn_write_png(path, rgb8, w, h));
     snprintf(path, sizeof path, "%s/shot_%04u.json", v->out, v->shots);
-    TND_TRY(app_view_state_write(path, &v->st));
+    TND_TRY(rn_view_state_write(path, &v->st));
     snprintf(path, sizeof path, "%s/shot_%04u.path.json", v->out, v->shots);
     TND_TRY(write_camera_path(v, path));
     if (!app_quiet())
@@ -965,7 +966,7 @@ static tnd_result play(viewer *v, const script_event *ev, uint32_t n, uint32_t *
 static tnd_result frame(viewer *v)
 {
     tnd_result res = TND_OK;
-    app_view_state *s = &v->st;
+    rn_view_state *s = &v->st;
     uint32_t w = s->size[0], h = s->size[1];
     float aspect = (float)w / (float)h;
     uint32_t f = v->frame;
@@ -973,15 +974,15 @@ static tnd_result frame(viewer *v)
     tnd_scene_state *cur = &v->ss[f & 1], *prev = &v->ss[(f + 1) & 1];
     TND_TRY(tnd_scene_evaluate(v->scene, f / s->fps, s->camera, aspect, cur));
     if (v->on_path) /* --camera-path: the path's camera until the camera is flown */
-        app_view_camera_from_state(cur, f, &v->cam), v->ref_spp = 0;
+        rn_view_camera_from_state(cur, f, &v->cam), v->ref_spp = 0;
     v->cam.frame = f;
-    app_view_camera_apply(&v->cam, cur);
+    rn_view_camera_apply(&v->cam, cur);
     if (first) { /* as render --view: the previous frame at the same camera */
         TND_TRY(tnd_scene_evaluate(v->scene, f > 0 ? (f - 1) / s->fps : 0.0, s->camera, aspect,
                                    prev));
-        app_view_camera_apply(&v->cam, prev);
+        rn_view_camera_apply(&v->cam, prev);
     }
-    TND_TRY(app_view_state_push(s, &v->cam));
+    TND_TRY(rn_view_state_push(s, &v->cam));
     char cap[2200];
     snprintf(cap, sizeof cap, "%s/capture_%04u.exr", v->out, v->captures);
     for (int i = 0; i < (split(s) ? 2 : 1); i++) {
@@ -1031,8 +1032,8 @@ int cmd_view(int argc, char **argv)
                *denoiser = pl_denoiser_default(), *state = NULL, *script = NULL, *out = ".";
     unsigned size[2] = {640, 360}, frames = 0;
     bool soak = false, json = false;
-    app_soak_rec *rec = NULL;
-    app_env env = APP_ENV_INIT;
+    rn_soak_rec *rec = NULL;
+    rn_env env = RN_ENV_INIT;
     char fe_help[200], dn_help[300];
     snprintf(fe_help, sizeof fe_help, "the front-end: %s (default vk)", pl_frontend_live_names());
     snprintf(dn_help, sizeof dn_help,
@@ -1071,8 +1072,8 @@ int cmd_view(int argc, char **argv)
     tnd_result res = TND_OK;
     script_event *events = NULL;
     uint32_t n_events = 0, next_event = 0;
-    app_view_state *s = &v->st;
-    *s = (app_view_state){.bounces = 1, .fps = 30.0, .env_intensity = env.intensity,
+    rn_view_state *s = &v->st;
+    *s = (rn_view_state){.bounces = 1, .fps = 30.0, .env_intensity = env.intensity,
                           .env_rotation = env.rotation, .size = {size[0], size[1]}};
     snprintf(s->scene, sizeof s->scene, "%s", scene);
     snprintf(s->frontend, sizeof s->frontend, "%s", frontend);
@@ -1088,7 +1089,7 @@ int cmd_view(int argc, char **argv)
     snprintf(s->split_mode, sizeof s->split_mode, "off");
     bool from_state = false;
     if (state) { /* its settings, and its last camera */
-        TND_TRY(app_view_state_read(state, s));
+        TND_TRY(rn_view_state_read(state, s));
         from_state = s->path_len > 0;
         if (from_state)
             v->cam = s->path[s->path_len - 1];
@@ -1124,14 +1125,14 @@ int cmd_view(int argc, char **argv)
         goto fail;
     }
     v->scene_opts = env;
-    app_env scene_env = scene_options(v);
-    TND_TRY(app_scene_load(s->scene, &scene_env, &v->scene));
+    rn_env scene_env = scene_options(v);
+    TND_TRY(rn_scene_load(s->scene, &scene_env, &v->scene));
     v->on_path = v->scene->camera_path[0] && s->camera == 0 && !from_state;
     if (!from_state) { /* the scene's camera at the first frame */
         tnd_scene_state st0 = {0};
         res = tnd_scene_evaluate(v->scene, 0.0, s->camera, (float)s->size[0] / s->size[1], &st0);
         if (res == TND_OK)
-            app_view_camera_from_state(&st0, 0, &v->cam);
+            rn_view_camera_from_state(&st0, 0, &v->cam);
         tnd_scene_state_free(&st0);
         TND_TRY(res);
     } else {
@@ -1140,7 +1141,7 @@ int cmd_view(int argc, char **argv)
     TND_TRY(open_pipeline(v));
     char device[300];
     snprintf(device, sizeof device, "%s", v->vk.info.name);
-    if (soak && !(rec = app_soak_rec_begin(frames))) {
+    if (soak && !(rec = rn_soak_rec_begin(frames))) {
         res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
         goto fail;
     }
@@ -1162,8 +1163,8 @@ int cmd_view(int argc, char **argv)
             close_pipeline(v);
             tnd_scene_destroy(v->scene);
             v->scene = NULL;
-            app_env e = scene_options(v);
-            TND_TRY(app_scene_load(s->scene, &e, &v->scene));
+            rn_env e = scene_options(v);
+            TND_TRY(rn_scene_load(s->scene, &e, &v->scene));
             v->reload = false;
             v->rebuild = true;
         }
@@ -1194,7 +1195,7 @@ int cmd_view(int argc, char **argv)
             memset(v->overlay_px, 0, (size_t)OVERLAY_W * OVERLAY_H * 4);
         TND_TRY(frame(v));
         v->steps++;
-        app_soak_rec_frame(rec, v->steps - 1, frames && v->steps >= frames, &v->vk);
+        rn_soak_rec_frame(rec, v->steps - 1, frames && v->steps >= frames, &v->vk);
         if (v->want_shot) {
             v->want_shot = false;
             TND_TRY(screenshot(v));
@@ -1215,14 +1216,14 @@ int cmd_view(int argc, char **argv)
                 v->steps / fmax(1e-9, tnd_now() - t_start), s->size[0], s->size[1], device,
                 v->shots, v->shots == 1 ? "" : "s");
     if (rec) { /* (the front-end and denoiser the loop ended with) */
-        app_soak_rec_end(rec, v->steps, s->frontend, s->denoiser);
+        rn_soak_rec_end(rec, v->steps, s->frontend, s->denoiser);
         if (json) {
             cJSON *root = cJSON_CreateObject(), *runs = cJSON_AddArrayToObject(root, "runs");
             cJSON_AddStringToObject(root, "scene", s->scene);
             cJSON_AddNumberToObject(root, "frames", v->steps);
             cJSON_AddNumberToObject(root, "width", s->size[0]);
             cJSON_AddNumberToObject(root, "height", s->size[1]);
-            cJSON *row = app_soak_rec_json(rec);
+            cJSON *row = rn_soak_rec_json(rec);
             cJSON_AddBoolToObject(root, "flat", cJSON_IsTrue(cJSON_GetObjectItem(row, "flat")));
             cJSON_AddItemToArray(runs, row);
             char *t = cJSON_Print(root);
@@ -1230,12 +1231,12 @@ int cmd_view(int argc, char **argv)
             free(t);
             cJSON_Delete(root);
         } else {
-            app_soak_rec_print(rec, "in the viewer's loop", s->scene, s->size);
+            app_soak_print(rec, "in the viewer's loop", s->scene, s->size);
         }
     }
     status = APP_EXIT_OK;
     if (app_interrupted()) { /* (the window closed as by its close button: screenshots kept) */
-        fprintf(stderr, "tandem: view: interrupted (%s)\n", app_signal_name(app_interrupted()));
+        fprintf(stderr, "tandem: view: interrupted (%s)\n", rn_signal_name(app_interrupted()));
         status = app_interrupt_status();
     }
 fail:
@@ -1253,10 +1254,10 @@ fail:
     tnd_scene_destroy(v->scene);
     if (v->vk.device || v->vk.instance)
         tnd_vk_destroy(&v->vk);
-    app_view_state_free(s);
+    rn_view_state_free(s);
     free(v->overlay_px);
     free(events);
-    app_soak_rec_free(rec);
+    rn_soak_rec_free(rec);
     free(v);
     return status;
 }

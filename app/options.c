@@ -37,54 +37,9 @@ int app_interrupted(void)
     return interrupt_signal;
 }
 
-const char *app_signal_name(int sig)
-{
-    return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal";
-}
-
 int app_interrupt_status(void)
 {
     return 128 + interrupt_signal;
-}
-
-/* ---- one writer per output directory --------------------------------------------------------- */
-#define LOCK_NAME ".tandem.lock"
-
-tnd_result app_lock_dir(const char *dir, int *fd)
-{
-    char path[2200];
-    snprintf(path, sizeof path, "%s/" LOCK_NAME, dir);
-    *fd = open(path, O_RDWR | O_CREAT, 0644);
-    if (*fd < 0)
-        return tnd_fail(TND_ERR_IO, "%s: cannot create its lock %s: %s", dir, LOCK_NAME,
-                        strerror(errno));
-    struct flock fl = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
-    if (fcntl(*fd, F_SETLK, &fl) != 0) { /* (held by another process: released when it ends) */
-        struct flock who = {.l_type = F_WRLCK, .l_whence = SEEK_SET};
-        long pid = fcntl(*fd, F_GETLK, &who) == 0 && who.l_type != F_UNLCK ? (long)who.l_pid : 0;
-        close(*fd);
-        *fd = -1;
-        return tnd_fail(TND_ERR_IO,
-                        "%s: another tandem is writing there (process %ld holds %s/" LOCK_NAME
-                        "): one run per output directory",
-                        dir, pid, dir);
-    }
-    char text[32];
-    int len = snprintf(text, sizeof text, "%ld\n", (long)getpid());
-    if (ftruncate(*fd, 0) != 0 || write(*fd, text, (size_t)len) != len) {
-        /* (the pid is for people; the lock is the fcntl lock) */
-    }
-    return TND_OK;
-}
-
-void app_unlock_dir(const char *dir, int fd)
-{
-    if (fd < 0)
-        return;
-    char path[2200];
-    snprintf(path, sizeof path, "%s/" LOCK_NAME, dir);
-    unlink(path);
-    close(fd);
 }
 
 bool app_quiet(void)
@@ -147,7 +102,7 @@ static int parse_value(const app_cmd *cmd, const app_opt *o, const char *v)
         return 0;
     }
     case APP_OPT_BOUNCES: /* a count, or half */
-        if (!app_bounces_parse(v, APP_BOUNCES_HALF - 1, (unsigned *)o->dest))
+        if (!rn_bounces_parse(v, RN_BOUNCES_HALF - 1, (unsigned *)o->dest))
             break;
         return 0;
     case APP_OPT_UINT: {
@@ -253,12 +208,9 @@ int app_parse(const app_cmd *cmd, const app_opt *opts, int argc, char **argv, co
 
 int app_report(const char *what, tnd_result r)
 {
-    const char *d = tnd_error_detail();
-    size_t n = strlen(what);
-    if (strncmp(d, what, n) == 0 && d[n] == ':') /* (a message that names the command itself) */
-        fprintf(stderr, "tandem: %s\n", d);
-    else
-        fprintf(stderr, "tandem: %s: %s\n", what, *d ? d : tnd_result_message(r));
+    char line[4200];
+    rn_failure_line(what, r, line, sizeof line);
+    fprintf(stderr, "%s\n", line);
     return APP_EXIT_FAIL;
 }
 
@@ -299,41 +251,6 @@ void app_progress_end(app_progress *p)
     fputc('\n', stderr);
 }
 
-tnd_result app_scene_load(const char *path, const app_env *env, tnd_scene **scene)
-{
-    if (env && env->up && strcmp(env->up, "y") != 0 && strcmp(env->up, "z") != 0)
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--up %s: y or z", env->up);
-    tnd_scene_options o = {.env = env ? env->path : NULL,
-                           .env_intensity = env ? (float)env->intensity : 1.0f,
-                           .env_rotation = env ? (float)env->rotation : 0.0f,
-                           .opaque = env && env->opaque,
-                           .no_default_light = env && env->no_default_light,
-                           .up_z = env && env->up && strcmp(env->up, "z") == 0,
-                           .camera_path = env ? env->camera_path : NULL,
-                           .path_duration = env ? env->path_duration : 0.0,
-                           .path_radius = env ? env->path_radius : 0.0,
-                           .path_height = env && isfinite(env->path_height) ? env->path_height : 0,
-                           .path_height_given = env && isfinite(env->path_height)};
-    return tnd_scene_load_with(path, &o, scene);
-}
-
-bool app_remove_flat_dir(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return false;
-    bool ok = true;
-    for (struct dirent *e; (e = readdir(d));) {
-        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0)
-            continue;
-        char path[2400];
-        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-        ok &= remove(path) == 0;
-    }
-    closedir(d);
-    return ok && rmdir(dir) == 0;
-}
-
 /* ---- the registries' tables as options and outputs --------------------------------------------- */
 bool app_opts_with_params(const app_opt *base, app_opt *out, size_t cap, double *vals)
 {
@@ -360,57 +277,4 @@ tnd_result app_params_collect(const double *vals, pl_param_set *set)
         if (!isnan(vals[i]))
             TND_TRY_RETURN(pl_param_set_put(set, pl_param_at(i)->name, vals[i]));
     return TND_OK;
-}
-
-const pl_denoiser_info *app_denoiser_other(const pl_denoiser_info *d)
-{
-    const pl_denoiser_info *fb = NULL;
-    if (d->fallback && pl_denoiser_find(d->fallback, &fb) == TND_OK)
-        return fb;
-    for (uint32_t i = 0; i < pl_denoiser_count(); i++) {
-        const pl_denoiser_info *e = pl_denoiser_at(i);
-        if (e->fallback && strcmp(e->fallback, d->name) == 0)
-            return e;
-    }
-    for (uint32_t i = 0; i < pl_denoiser_count(); i++) {
-        const pl_denoiser_info *e = pl_denoiser_at(i);
-        if ((e->caps & PL_DN_FILTERS) && !(e->caps & PL_DN_GRADIENTS) && e != d)
-            return e;
-    }
-    return d;
-}
-
-void app_timings_members(FILE *f, const pl_chain *chain, const pl_step_result *r)
-{
-    const pl_pass *p[64];
-    double ms[64];
-    uint32_t n = pl_chain_passes(chain, p, 64);
-    pl_step_times(chain, r, ms);
-    for (uint32_t i = 0; i < n; i++) {
-        fprintf(f, ", \"%s\": %.4f", p[i]->key, ms[i]);
-        if (p[i]->beside) /* e.g. "denoise_lf_beside_atrous" */
-            fprintf(f, ", \"%.*s_beside_%s\": %s", (int)(strlen(p[i]->key) - 3), p[i]->key,
-                    p[i]->beside, r->beside ? "true" : "false");
-    }
-}
-
-bool app_bounces_parse(const char *v, unsigned max, unsigned *value)
-{
-    if (strcmp(v, "half") == 0) {
-        *value = APP_BOUNCES_HALF;
-        return true;
-    }
-    char *end;
-    errno = 0;
-    unsigned long x = strtoul(v, &end, 10);
-    if (errno || *v == '-' || !*v || *end || x > max)
-        return false;
-    *value = (unsigned)x;
-    return true;
-}
-
-unsigned app_bounces_split(unsigned value, bool *half)
-{
-    *half = value == APP_BOUNCES_HALF;
-    return *half ? 1 : value;
 }

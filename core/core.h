@@ -39,7 +39,8 @@
     X(TND_ERR_UNSUPPORTED,      "unsupported feature") \
     X(TND_ERR_NO_DEVICE,        "no suitable Vulkan device") \
     X(TND_ERR_VULKAN,           "Vulkan call failed") \
-    X(TND_ERR_LIMIT,            "beyond a device or format limit")
+    X(TND_ERR_LIMIT,            "beyond a device or format limit") \
+    X(TND_ERR_INTERRUPTED,      "interrupted")
 // clang-format on
 
 typedef enum tnd_result {

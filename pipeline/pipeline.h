@@ -282,6 +282,9 @@ void pl_python_set(const struct tandem_plugin *d);
 /* What runs behind a front-end with capabilities fe_caps: d, or its fallback where d needs
  * re-shaded gradient samples the front-end cannot give. */
 const pl_denoiser_info *pl_denoiser_for(const pl_denoiser_info *d, uint32_t fe_caps);
+/* "The other denoiser" of a comparison (the viewer's split): a denoiser's fallback, or the one
+ * whose fallback it is, or the first that filters without gradient samples. */
+const pl_denoiser_info *pl_denoiser_other(const pl_denoiser_info *d);
 /* Every pass any frame may time, each key once, in frame order: the front-end's, every
  * registered denoiser's (and the plugin adapter's), the post chain's (readers of timings.json). */
 uint32_t pl_pass_all(const pl_pass **passes, uint32_t max);

@@ -6,8 +6,8 @@
  * passes it times. A new built-in denoiser is its adapter pipeline/pl_dn_NAME.c and one more line
  * in pl_denoisers.h (docs/extending.md).
  * Entry points: pl_denoiser_names, pl_denoiser_default, pl_denoiser_with, pl_denoiser_count,
- * pl_denoiser_at, pl_denoiser_cap_name, pl_denoiser_find, pl_denoiser_has_param, pl_denoiser_for, pl_pass_all,
- * pl_pass_owner_of, pl_pass_group_name, pl_param_count, pl_param_at, pl_param_find,
+ * pl_denoiser_at, pl_denoiser_cap_name, pl_denoiser_find, pl_denoiser_has_param, pl_denoiser_for,
+ * pl_denoiser_other, pl_pass_all, pl_pass_owner_of, pl_pass_group_name, pl_param_count, pl_param_at, pl_param_find,
  * pl_param_set_put, pl_param_set_get, pl_param_key, pl_denoiser_ops_find. */
 #include "pipeline/pl_internal.h"
 
@@ -107,6 +107,24 @@ const pl_denoiser_info *pl_denoiser_for(const pl_denoiser_info *d, uint32_t fe_c
     if ((d->caps & PL_DN_GRADIENTS) && !(fe_caps & PL_CAP_RESHADE) && d->fallback &&
         (fb = pl_denoiser_ops_find(d->fallback)))
         return &fb->info;
+    return d;
+}
+
+const pl_denoiser_info *pl_denoiser_other(const pl_denoiser_info *d)
+{
+    const pl_denoiser_info *fb = NULL;
+    if (d->fallback && pl_denoiser_find(d->fallback, &fb) == TND_OK)
+        return fb;
+    for (uint32_t i = 0; i < pl_denoiser_count(); i++) {
+        const pl_denoiser_info *e = pl_denoiser_at(i);
+        if (e->fallback && strcmp(e->fallback, d->name) == 0)
+            return e;
+    }
+    for (uint32_t i = 0; i < pl_denoiser_count(); i++) {
+        const pl_denoiser_info *e = pl_denoiser_at(i);
+        if ((e->caps & PL_DN_FILTERS) && !(e->caps & PL_DN_GRADIENTS) && e != d)
+            return e;
+    }
     return d;
 }
 

@@ -1,15 +1,14 @@
-/* python/capi.c: the flat C API (include/tandem/tandem_api.h) over libtandem's modules, eval and
- * the command line's frame loop (app/session.c), for the Python package. Options arrive as JSON
- * objects keyed by the command line's option names; every failure leaves its message in
- * tnd_error_detail (tandem_error).
+/* python/capi.c: the flat C API (include/tandem/tandem_api.h) over libtandem's modules and its
+ * run layer (run/run.h: the frame session, sequence evaluation, datasets), for the Python
+ * package. Options arrive as JSON objects keyed by the command line's option names; every
+ * failure leaves its message in tnd_error_detail (tandem_error). The run layer's lines go to
+ * stderr, its information lines only while not quiet (tandem_set_quiet).
  * Entry points: tandem_* (tandem_api.h). */
-#include "app/app.h"
+#include "run/run.h"
 #include "include/tandem/tandem_api.h"
 #include "include/tandem/tandem_plugin.h"
 
 #include <cjson/cJSON.h>
-#include <fcntl.h>
-#include <unistd.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -34,9 +33,43 @@ API void tandem_free(void *p)
     free(p);
 }
 
+/* ---- the run layer's host: lines on stderr ------------------------------------------------ */
+static bool quiet_flag;
+static tnd_log_level loud_level = TND_LOG_INFO; /* the core's log level before quiet */
+
+static void on_line(void *user, const char *line)
+{
+    (void)user;
+    fprintf(stderr, "%s\n", line);
+}
+
+static rn_host host(bool quiet)
+{
+    return (rn_host){.message = on_line, .warning = on_line, .quiet = quiet || quiet_flag};
+}
+
+/* Quiet (the core's log at WARN too) or not; the previous setting. */
+static bool set_quiet(bool quiet)
+{
+    bool was = quiet_flag;
+    if (quiet && !was)
+        loud_level = tnd_log_get_level();
+    quiet_flag = quiet;
+    tnd_log_set_level(quiet ? TND_LOG_WARN : loud_level);
+    return was;
+}
+
 API int tandem_set_quiet(int quiet)
 {
-    return app_set_quiet(quiet != 0);
+    return set_quiet(quiet != 0);
+}
+
+/* A run layer's failure as `NAME: DETAIL` (the detail alone where it names NAME already). */
+static void fail_as(const char *name, tnd_result r)
+{
+    char line[4200];
+    rn_failure_line(name, r, line, sizeof line); /* ("tandem: NAME: DETAIL") */
+    tnd_fail(r, "%s", line + strlen("tandem: "));
 }
 
 API const char *tandem_version(void)
@@ -52,7 +85,7 @@ static char *oom(void)
 
 API char *tandem_pipeline_json(void)
 {
-    char *t = app_pipeline_json();
+    char *t = rn_pipeline_json();
     return t ? t : oom();
 }
 
@@ -90,8 +123,8 @@ typedef struct key {
     size_t offset;
 } key;
 
-#define O(field) offsetof(app_render_opts, field)
-#define E(field) (offsetof(app_render_opts, env) + offsetof(app_env, field))
+#define O(field) offsetof(rn_render_opts, field)
+#define E(field) (offsetof(rn_render_opts, env) + offsetof(rn_env, field))
 static const key scene_keys[] = {
     {"env", K_STR, E(path)},
     {"env_intensity", K_DOUBLE, E(intensity)},
@@ -161,7 +194,7 @@ static tnd_result put(const key *k, const cJSON *v, void *base, const char *what
         return TND_OK;
     case K_BOUNCES: /* (render --bounces: a count, or "half") */
         if (cJSON_IsString(v) && strcmp(v->valuestring, "half") == 0) {
-            *(unsigned *)at = APP_BOUNCES_HALF;
+            *(unsigned *)at = RN_BOUNCES_HALF;
             return TND_OK;
         }
         if (cJSON_IsString(v))
@@ -192,10 +225,10 @@ static tnd_result put(const key *k, const cJSON *v, void *base, const char *what
 
 /* reference's --bounces (a key of its own: a compound literal in the loop would not outlive
  * the statement that made it) */
-static const key ref_bounces_key = {"bounces", K_BOUNCES, offsetof(app_render_opts, ref_bounces)};
+static const key ref_bounces_key = {"bounces", K_BOUNCES, offsetof(rn_render_opts, ref_bounces)};
 
 /* The options object onto render's options (the denoiser's parameters from "params"). */
-static tnd_result parse_opts(const cJSON *root, bool render, bool reference, app_render_opts *o,
+static tnd_result parse_opts(const cJSON *root, bool render, bool reference, rn_render_opts *o,
                              const char *what)
 {
     tnd_result res = TND_OK;
@@ -256,8 +289,8 @@ API tandem_scene *tandem_scene_load(const char *path, const char *options_json)
 {
     cJSON *root = NULL;
     tandem_scene *ts = NULL;
-    app_render_opts o;
-    app_render_defaults(&o);
+    rn_render_opts o;
+    rn_render_defaults(&o);
     if (!path) {
         tnd_fail(TND_ERR_INVALID_ARGUMENT, "scene: no path");
         return NULL;
@@ -269,7 +302,7 @@ API tandem_scene *tandem_scene_load(const char *path, const char *options_json)
         oom();
         goto fail;
     }
-    if (app_scene_load(path, &o.env, &ts->s) != TND_OK)
+    if (rn_scene_load(path, &o.env, &ts->s) != TND_OK)
         goto fail;
     cJSON_Delete(root);
     return ts;
@@ -281,7 +314,7 @@ fail:
 
 API char *tandem_scene_info(const tandem_scene *s)
 {
-    char *t = app_scene_info_json(s->path, s->s);
+    char *t = rn_scene_info_json(s->path, s->s);
     return t ? t : oom();
 }
 
@@ -426,7 +459,7 @@ API char *tandem_capture_list(const char *dir, const char *map_path)
 /* ---- rendering ---------------------------------------------------------------------------- */
 struct tandem_renderer {
     cJSON *options; /* (the strings the options point into) */
-    app_session *s;
+    rn_session *s;
 };
 
 API tandem_renderer *tandem_renderer_open(const char *options_json, int reference)
@@ -441,17 +474,17 @@ API tandem_renderer *tandem_renderer_open_scene(const tandem_scene *scene,
     tandem_renderer *r = calloc(1, sizeof *r);
     if (!r)
         return (void *)oom();
-    app_render_opts o;
-    app_render_defaults(&o);
+    rn_render_opts o;
+    rn_render_defaults(&o);
     o.quiet = true;
     if (parse_json(options_json, &r->options, what) != TND_OK ||
         parse_opts(r->options, true, reference != 0, &o, what) != TND_OK)
         goto fail;
     /* bounces "half": render's 1 at half resolution; a reference's as the command line's
-     * (app_reference_bounces, through app_session_open) */
+     * (rn_reference_bounces, through rn_session_open) */
     if (!reference)
-        o.bounces = app_bounces_split(o.bounces, &o.half_indirect);
-    bool was = app_set_quiet(true);
+        o.bounces = rn_bounces_split(o.bounces, &o.half_indirect);
+    bool was = set_quiet(true);
     if (scene) { /* (the scene's own path and options: run.json's record of them) */
         o.scene = scene->path;
         for (const cJSON *v = r->options ? r->options->child : NULL; v; v = v->next)
@@ -462,8 +495,9 @@ API tandem_renderer *tandem_renderer_open_scene(const tandem_scene *scene,
                 goto fail;
             }
     }
-    tnd_result res = app_session_open(&o, reference != 0, scene ? scene->s : NULL, &r->s);
-    app_set_quiet(was);
+    rn_host h = host(true);
+    tnd_result res = rn_session_open(&o, reference != 0, scene ? scene->s : NULL, &h, &r->s);
+    set_quiet(was);
     if (res != TND_OK)
         goto fail;
     return r;
@@ -476,35 +510,35 @@ API void tandem_renderer_free(tandem_renderer *r)
 {
     if (!r)
         return;
-    app_session_close(r->s);
+    rn_session_close(r->s);
     cJSON_Delete(r->options);
     free(r);
 }
 
 API void tandem_renderer_size(const tandem_renderer *r, uint32_t *width, uint32_t *height)
 {
-    const app_render_opts *o = app_session_opts(r->s);
+    const rn_render_opts *o = rn_session_opts(r->s);
     *width = o->size[0];
     *height = o->size[1];
 }
 
 API const char *tandem_renderer_denoiser(const tandem_renderer *r)
 {
-    const char *d = app_session_denoiser(r->s);
+    const char *d = rn_session_denoiser(r->s);
     return d ? d : "";
 }
 
 API int tandem_renderer_frame(tandem_renderer *r, uint32_t f, float *rgb, uint8_t *display,
                               tandem_capture *contract)
 {
-    return app_session_frame(r->s, f, rgb, display, contract ? &contract->f : NULL) != TND_OK;
+    return rn_session_frame(r->s, f, rgb, display, contract ? &contract->f : NULL) != TND_OK;
 }
 
 API int tandem_renderer_reference(tandem_renderer *r, uint32_t f, float *rgb, float *variance,
                                   uint32_t *spp, double *rel_error)
 {
     tnd_ref_stats rs = {0};
-    if (app_session_reference(r->s, f, rgb, variance, &rs) != TND_OK)
+    if (rn_session_reference(r->s, f, rgb, variance, &rs) != TND_OK)
         return 1;
     if (spp)
         *spp = rs.spp;
@@ -601,67 +635,6 @@ API void tandem_sequence_summary(const tandem_sequence *s, tandem_summary *out)
                             s->nonfinite};
 }
 
-/* Call a command's function with arguments (as `tandem NAME ARGS...` without a process), quiet:
- * its standard output discarded (the caller returns what it wrote to files), its standard error
- * kept: on failure it is the message (tnd_error_detail), on success it goes on to the process's
- * (warnings). */
-static int run_command(int (*cmd)(int, char **), const char *name, char **argv, int argc)
-{
-    tnd_error_clear();
-    bool was = app_set_quiet(true);
-    fflush(stdout);
-    fflush(stderr);
-    FILE *err = tmpfile();
-    int saved_out = dup(STDOUT_FILENO), saved_err = dup(STDERR_FILENO);
-    int null = open("/dev/null", O_WRONLY);
-    bool redirected = err && saved_out >= 0 && saved_err >= 0 && null >= 0;
-    if (redirected) {
-        dup2(null, STDOUT_FILENO);
-        dup2(fileno(err), STDERR_FILENO);
-    }
-    int rc = cmd(argc, argv);
-    fflush(stdout);
-    fflush(stderr);
-    if (redirected) {
-        dup2(saved_out, STDOUT_FILENO);
-        dup2(saved_err, STDERR_FILENO);
-    }
-    char text[4096] = "";
-    if (err) {
-        rewind(err);
-        size_t n = fread(text, 1, sizeof text - 1, err);
-        text[n] = 0;
-        fclose(err);
-    }
-    if (saved_out >= 0)
-        close(saved_out);
-    if (saved_err >= 0)
-        close(saved_err);
-    if (null >= 0)
-        close(null);
-    app_set_quiet(was);
-    if (rc == 0) {
-        fputs(text, stderr);
-        return 0;
-    }
-    /* the message without the command's "tandem: NAME: " prefix, its last line first */
-    size_t n = strlen(text);
-    while (n && text[n - 1] == '\n')
-        text[--n] = 0;
-    char prefix[64];
-    snprintf(prefix, sizeof prefix, "tandem: %s: ", name);
-    char *last = strrchr(text, '\n'), *msg = last ? last + 1 : text;
-    if (strncmp(msg, prefix, strlen(prefix)) == 0)
-        msg += strlen(prefix);
-    else if (strncmp(msg, "tandem ", 7) == 0 && strchr(msg, ':'))
-        msg = strchr(msg, ':') + 2;
-    if (*msg)
-        tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s: %s", name, msg);
-    else
-        tnd_fail(TND_ERR_INVALID_ARGUMENT, "%s failed (exit status %d)", name, rc);
-    return rc;
-}
-
 static char *read_text(const char *path)
 {
     void *t = NULL;
@@ -674,40 +647,51 @@ API char *tandem_eval(const char *options_json)
     static const char *const keys[] = {"out",      "reference", "matched_reference", "report",
                                        "exposure", "ppd",       "metrics_on"};
     cJSON *root = NULL;
-    char *argv[3 + 2 * 7], bufs[7][64], nums[7][32], *out = NULL, *result = NULL;
-    int argc = 0;
-    argv[argc++] = "eval";
-    argv[argc++] = "--quiet";
+    const char *str[7] = {0};
+    char exposure[32];
+    double ppd = 0;
+    char *result = NULL;
+    tnd_error_clear();
     if (parse_json(options_json, &root, "eval") != TND_OK)
         return NULL;
     for (const cJSON *v = root ? root->child : NULL; v; v = v->next) {
         size_t k = 0;
         while (k < 7 && strcmp(keys[k], v->string) != 0)
             k++;
-        if (k == 7 || !(cJSON_IsString(v) || (cJSON_IsNumber(v) && k >= 4))) {
+        if (k == 7 || !(cJSON_IsString(v) || (cJSON_IsNumber(v) && k >= 4 && k <= 5))) {
             tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: option '%s': %s", v->string,
                      k == 7 ? "unknown" : "expected a string");
             goto done;
         }
-        snprintf(bufs[k], sizeof bufs[k], "--%s", keys[k]);
-        for (char *c = bufs[k]; *c; c++)
-            *c = *c == '_' ? '-' : *c;
-        argv[argc++] = bufs[k];
-        if (cJSON_IsNumber(v)) {
-            snprintf(nums[k], sizeof nums[k], "%.17g", v->valuedouble);
-            argv[argc++] = nums[k];
+        if (k == 4 && cJSON_IsNumber(v)) { /* (an EV100 as a number) */
+            snprintf(exposure, sizeof exposure, "%.17g", v->valuedouble);
+            str[k] = exposure;
+        } else if (k == 5) {
+            char *end = NULL;
+            ppd = cJSON_IsNumber(v) ? v->valuedouble : strtod(v->valuestring, &end);
+            if (!(ppd > 0) || (end && *end)) {
+                tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: --ppd %s: expected a positive number "
+                                                   "of pixels per degree",
+                         cJSON_IsNumber(v) ? "(not positive)" : v->valuestring);
+                goto done;
+            }
         } else {
-            argv[argc++] = v->valuestring;
+            str[k] = v->valuestring;
         }
-        if (k == 0)
-            out = v->valuestring;
     }
-    argv[argc] = NULL;
-    if (run_command(cmd_eval, "eval", argv, argc) == 0 && out) {
-        char path[2100];
-        snprintf(path, sizeof path, "%s/metrics.json", out);
-        result = read_text(path);
+    rn_eval_opts o = {.out = str[0], .reference = str[1], .matched = str[2], .report = str[3],
+                      .exposure = str[4], .ppd = ppd, .metrics_on = str[6]};
+    rn_eval_result r;
+    rn_host h = host(true);
+    tnd_result res = rn_eval_sequence(&o, &h, &r);
+    if (res != TND_OK) {
+        fail_as("eval", res);
+        goto done;
     }
+    rn_eval_result_free(&r);
+    char path[2100];
+    snprintf(path, sizeof path, "%s/metrics.json", o.out);
+    result = read_text(path);
 done:
     cJSON_Delete(root);
     return result;
@@ -715,23 +699,16 @@ done:
 
 API char *tandem_dataset(const char *spec_path, const char *out, const char *shard)
 {
-    char *argv[9];
-    int argc = 0;
-    argv[argc++] = "dataset";
-    argv[argc++] = "--quiet";
-    argv[argc++] = (char *)spec_path;
-    argv[argc++] = "--out";
-    argv[argc++] = (char *)out;
-    if (shard) {
-        argv[argc++] = "--shard";
-        argv[argc++] = (char *)shard;
-    }
-    argv[argc] = NULL;
-    if (run_command(cmd_dataset, "dataset", argv, argc) != 0)
+    tnd_error_clear();
+    rn_host h = host(true);
+    tnd_result res = rn_dataset(spec_path, out, shard, &h);
+    if (res != TND_OK) {
+        fail_as("dataset", res);
         return NULL;
+    }
     char path[2100];
     uint32_t i = 0, n = 0;
-    if (shard && app_shard_parse(shard, &i, &n) == TND_OK)
+    if (shard && rn_shard_parse(shard, &i, &n) == TND_OK)
         snprintf(path, sizeof path, "%s/manifest-%u-of-%u.json", out, i, n);
     else
         snprintf(path, sizeof path, "%s/manifest.json", out);

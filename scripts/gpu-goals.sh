@@ -12,7 +12,8 @@
 # Optional scenes, skipped when their files are absent (the GPU machine has no Debian packages:
 # carry them): ENGINE (Khronos' 2CylinderEngine.glb) lit by ENV_MAP (blender-data's
 # sunset.exr), LEVEL (a real level of 400k+ triangles, e.g. morse-simulator-data's
-# buildings_2.blend converted to glTF; docs/performance.md says how).
+# buildings_2.blend converted to glTF; docs/performance.md says how) with LEVEL_ARGS (its scene
+# options, e.g. "--up z --camera-path inside.json").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:?usage: scripts/gpu-goals.sh OUT [SIZE]}
@@ -49,7 +50,8 @@ if [ -n "${ENGINE:-}" ] && [ -f "$ENGINE" ] && [ -f "${ENV_MAP:-}" ]; then
     whole engine --scene "$ENGINE" --env "$ENV_MAP" --size "$SIZE"
 fi
 if [ -n "${LEVEL:-}" ] && [ -f "$LEVEL" ]; then
-    whole level --scene "$LEVEL" --size "$SIZE"
+    # shellcheck disable=SC2086 # LEVEL_ARGS is a list of options
+    whole level --scene "$LEVEL" ${LEVEL_ARGS:-} --size "$SIZE"
 fi
 for d in asvgf svgf recurrent; do
     run "backend_$d" --frontend vk --denoiser "$d" --scene $S/cornell.gltf --size "$SIZE"

@@ -20,6 +20,24 @@ for dir in "$@"; do
         echo "run-tests: $dir: ctest printed no summary" >&2
         status=1
     fi
+    # every test's time against its limit, slowest first (ctest's own figures, kept in the CI
+    # log; a test past half its limit is marked: the margin a slower machine needs)
+    (cd "$dir" && ctest --show-only=json-v1) 2>/dev/null | /usr/bin/python3 -c '
+import json, re, sys
+limits = {t["name"]: next((p["value"] for p in t.get("properties", [])
+                          if p["name"] == "TIMEOUT"), 1500)
+          for t in json.load(sys.stdin).get("tests", [])}
+rows = []
+for line in open(sys.argv[1], errors="replace"):
+    m = re.match(r"^ *[0-9]+/[0-9]+ Test +#[0-9]+: (\S+) .*?([0-9.]+) sec$", line)
+    if m:
+        rows.append((float(m.group(2)), m.group(1)))
+print("run-tests: %s: per-test times, slowest first (seconds, limit, share)" % sys.argv[2])
+for t, name in sorted(rows, reverse=True):
+    lim = float(limits.get(name, 1500))
+    print("  %8.1f  %5.0f  %4.0f%%  %s%s" % (t, lim, 100 * t / lim, name,
+                                           "  (over half its limit)" if t > lim / 2 else ""))
+' "$log" "$dir"
     rm -f "$log"
 done
 echo "tests: $pass passed, $fail failed"

@@ -1,26 +1,13 @@
-/* app/bandwidth.c: measurement helpers of `tandem bench`: app_median, and the device's memory
- * bandwidth for the floors (app_bandwidth): a timed
- * vkCmdCopyBuffer (the transfer path) and a STREAM-style compute copy (shaders/
- * bandwidth_copy.comp, the path the back-end's passes take), both between two device-local
- * buffers, medians after a warm-up, counting the bytes read and written. */
-#include "app/app.h"
+/* run/rn_bandwidth.c: the device's memory bandwidth for the floors of `tandem bench`
+ * (rn_bandwidth): a timed vkCmdCopyBuffer (the transfer path) and a STREAM-style compute copy
+ * (shaders/bandwidth_copy.comp, the path the back-end's passes take), both between two
+ * device-local buffers, medians after a warm-up, counting the bytes read and written. */
+#include "run/rn_internal.h"
 #include "shaders/shader_list.h"
 
 #include <stdlib.h>
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-double app_median(double *v, unsigned n)
-{
-    qsort(v, n, sizeof *v, cmp_double);
-    return n ? v[n / 2] : 0.0;
-}
-
-tnd_result app_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double *transfer_gbs,
+tnd_result rn_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double *transfer_gbs,
                          double *compute_gbs)
 {
     tnd_result res = TND_OK;
@@ -116,7 +103,7 @@ tnd_result app_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, doubl
             ms[r - 1] = m[0], ms[repeats + r - 1] = m[1];
     }
     if (repeats) {
-        double a = app_median(ms, repeats), c = app_median(ms + repeats, repeats);
+        double a = rn_median(ms, repeats), c = rn_median(ms + repeats, repeats);
         *transfer_gbs = a > 0 ? 2.0 * (double)bytes / (a * 1e-3) / 1e9 : 0;
         *compute_gbs = c > 0 ? 2.0 * (double)bytes / (c * 1e-3) / 1e9 : 0;
     }

@@ -1,14 +1,14 @@
-/* app/dumps.c: --dump LIST for render and denoise: the back-end's buffers after each frame as
+/* run/rn_dumps.c: --dump LIST for render and denoise: the back-end's buffers after each frame as
  * EXR files DIR/NAME_STEM.exr (4 named float channels; STEM: the frame number or input name).
- * Entry points: app_parse_dump, app_write_dumps, app_dump_after_backend. */
-#include "app/app.h"
+ * Entry points: rn_dump_parse, rn_dumps_write, rn_dump_after_backend. */
+#include "run/rn_internal.h"
 #include "denoise/denoise.h"
 
 #include <stdlib.h>
 #include <string.h>
 
 /* --dump LIST: a bit per dn_dump index */
-tnd_result app_parse_dump(const char *list, uint32_t *mask)
+tnd_result rn_dump_parse(const char *list, uint32_t *mask)
 {
     *mask = 0;
     if (!list)
@@ -38,7 +38,7 @@ tnd_result app_parse_dump(const char *list, uint32_t *mask)
     return TND_OK;
 }
 
-tnd_result app_write_dumps(dn_context *dn, uint32_t mask, const char *dir, const char *stem)
+tnd_result rn_dumps_write(dn_context *dn, uint32_t mask, const char *dir, const char *stem)
 {
     tnd_result res = TND_OK;
     float *px = NULL;
@@ -69,8 +69,8 @@ fail:
     return res;
 }
 
-tnd_result app_dump_after_backend(dn_context *dn, void *user)
+tnd_result rn_dump_after_backend(dn_context *dn, void *user)
 {
-    const app_dump_ctx *d = user;
-    return app_write_dumps(dn, d->mask, d->dir, d->stem);
+    const rn_dump_ctx *d = user;
+    return rn_dumps_write(dn, d->mask, d->dir, d->stem);
 }

@@ -1,11 +1,11 @@
-/* app/view_state.c: the viewer's repro state: the settings `tandem view` ran with and the camera
+/* run/rn_view_state.c: the viewer's repro state: the settings `tandem view` ran with and the camera
  * of every frame since its history last restarted (the flight), as a small JSON file that
  * `tandem render --view FILE` reproduces frame for frame. The camera of a frame is a position,
  * a yaw about +Y and a pitch (no roll), turned into the view matrix the same way by both.
- * Entry points: app_view_state_read, app_view_state_write, app_view_state_free,
- * app_view_state_push, app_view_camera_apply, app_view_camera_from_state, app_view_state_options
+ * Entry points: rn_view_state_read, rn_view_state_write, rn_view_state_free,
+ * rn_view_state_push, rn_view_camera_apply, rn_view_camera_from_state, rn_view_state_options
  * (its settings as render's options). */
-#include "app/app.h"
+#include "run/rn_internal.h"
 
 #include <cjson/cJSON.h>
 #include <math.h>
@@ -13,30 +13,30 @@
 #include <stdlib.h>
 #include <string.h>
 
-void app_view_state_free(app_view_state *s)
+void rn_view_state_free(rn_view_state *s)
 {
     free(s->path);
     s->path = NULL;
     s->path_len = s->path_cap = s->path_frames = 0;
 }
 
-void app_view_state_restart(app_view_state *s)
+void rn_view_state_restart(rn_view_state *s)
 {
     s->path_len = s->path_frames = 0;
 }
 
-static bool same_pose(const app_view_cam *a, const app_view_cam *b)
+static bool same_pose(const rn_view_cam *a, const rn_view_cam *b)
 {
     return !memcmp(a->position, b->position, sizeof a->position) && a->yaw == b->yaw &&
            a->pitch == b->pitch;
 }
 
 /* An entry as it is (its frames included). */
-static tnd_result append(app_view_state *s, const app_view_cam *c)
+static tnd_result append(rn_view_state *s, const rn_view_cam *c)
 {
     if (s->path_len == s->path_cap) {
         uint32_t cap = s->path_cap ? 2 * s->path_cap : 64;
-        app_view_cam *p = realloc(s->path, cap * sizeof *p);
+        rn_view_cam *p = realloc(s->path, cap * sizeof *p);
         if (!p)
             return tnd_fail(TND_ERR_OUT_OF_MEMORY, "view: out of memory");
         s->path = p;
@@ -47,21 +47,21 @@ static tnd_result append(app_view_state *s, const app_view_cam *c)
     return TND_OK;
 }
 
-tnd_result app_view_state_push(app_view_state *s, const app_view_cam *c)
+tnd_result rn_view_state_push(rn_view_state *s, const rn_view_cam *c)
 {
-    app_view_cam *last = s->path_len ? &s->path[s->path_len - 1] : NULL;
+    rn_view_cam *last = s->path_len ? &s->path[s->path_len - 1] : NULL;
     if (last && same_pose(last, c) && last->frames < UINT32_MAX / 2 &&
         c->frame == last->frame + last->frames) {
         last->frames++;
         s->path_frames++;
         return TND_OK;
     }
-    app_view_cam e = *c;
+    rn_view_cam e = *c;
     e.frames = 1;
     return append(s, &e);
 }
 
-const app_view_cam *app_view_state_at(const app_view_state *s, uint32_t i)
+const rn_view_cam *rn_view_state_at(const rn_view_state *s, uint32_t i)
 {
     uint32_t f = s->path[0].frame + i, lo = 0, hi = s->path_len - 1;
     while (lo < hi) { /* the last entry starting at or before f */
@@ -74,7 +74,7 @@ const app_view_cam *app_view_state_at(const app_view_state *s, uint32_t i)
     return &s->path[lo];
 }
 
-void app_view_camera_apply(const app_view_cam *c, tnd_scene_state *st)
+void rn_view_camera_apply(const rn_view_cam *c, tnd_scene_state *st)
 {
     double cy = cos(c->yaw), sy = sin(c->yaw), cp = cos(c->pitch), sp = sin(c->pitch);
     double f[3] = {sy * cp, sp, -cy * cp}; /* forward */
@@ -96,14 +96,14 @@ void app_view_camera_apply(const app_view_cam *c, tnd_scene_state *st)
         st->camera_position[k] = (float)p[k];
 }
 
-void app_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, app_view_cam *c)
+void rn_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, rn_view_cam *c)
 {
     const float *m = st->camera.view;
     double f[3] = {-m[2], -m[6], -m[10]};
     double l = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
     for (int k = 0; k < 3; k++)
         f[k] = l > 0 ? f[k] / l : (k == 2 ? -1.0 : 0.0);
-    *c = (app_view_cam){.frame = frame, .yaw = atan2(f[0], -f[2]),
+    *c = (rn_view_cam){.frame = frame, .yaw = atan2(f[0], -f[2]),
                         .pitch = asin(fmax(-1.0, fmin(1.0, f[1])))};
     for (int k = 0; k < 3; k++)
         c->position[k] = st->camera_position[k];
@@ -113,7 +113,7 @@ static const struct {
     const char *key;
     size_t offset, cap; /* a string field */
 } text_fields[] = {
-#define F(k, field) {k, offsetof(app_view_state, field), sizeof(((app_view_state *)0)->field)}
+#define F(k, field) {k, offsetof(rn_view_state, field), sizeof(((rn_view_state *)0)->field)}
     F("scene", scene),         F("frontend", frontend), F("denoiser", denoiser),
     F("precision", precision), F("taa", taa),           F("tonemap", tonemap),
     F("exposure", exposure),   F("env", env),           F("view", view),
@@ -125,7 +125,7 @@ static const struct {
     const char *key;
     size_t offset;
 } number_fields[] = {
-#define F(k, field) {k, offsetof(app_view_state, field)}
+#define F(k, field) {k, offsetof(rn_view_state, field)}
     F("bloom", bloom), F("fps", fps), F("env_intensity", env_intensity),
     F("env_rotation", env_rotation), F("exposure_bias", exposure_bias),
 #undef F
@@ -134,13 +134,13 @@ static const struct {
     const char *key;
     size_t offset;
 } uint_fields[] = {
-#define F(k, field) {k, offsetof(app_view_state, field)}
+#define F(k, field) {k, offsetof(rn_view_state, field)}
     F("bounces", bounces), F("camera", camera), F("no_default_light", no_default_light),
     F("half_indirect", half_indirect),
 #undef F
 };
 
-void app_view_state_options(const app_view_state *v, app_render_opts *o)
+void rn_view_state_options(const rn_view_state *v, rn_render_opts *o)
 {
     o->scene = v->scene;
     o->frontend = v->frontend;
@@ -149,7 +149,7 @@ void app_view_state_options(const app_view_state *v, app_render_opts *o)
     o->taa = v->taa;
     o->tonemap = v->tonemap;
     o->exposure = v->exposure;
-    o->env = (app_env)APP_ENV_INIT;
+    o->env = (rn_env)RN_ENV_INIT;
     o->env.path = v->env[0] ? v->env : NULL;
     o->env.intensity = v->env_intensity;
     o->env.rotation = v->env_rotation;
@@ -166,7 +166,7 @@ void app_view_state_options(const app_view_state *v, app_render_opts *o)
     o->size[1] = v->size[1];
 }
 
-tnd_result app_view_state_write(const char *path, const app_view_state *s)
+tnd_result rn_view_state_write(const char *path, const rn_view_state *s)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddNumberToObject(j, "tandem_view_state", 1);
@@ -190,7 +190,7 @@ tnd_result app_view_state_write(const char *path, const app_view_state *s)
     cJSON_AddItemToArray(size, cJSON_CreateNumber(s->size[1]));
     cJSON *p = cJSON_AddArrayToObject(j, "path");
     for (uint32_t i = 0; i < s->path_len; i++) {
-        const app_view_cam *c = &s->path[i];
+        const rn_view_cam *c = &s->path[i];
         cJSON *e = cJSON_CreateObject();
         cJSON_AddNumberToObject(e, "frame", c->frame);
         if (c->frames > 1)
@@ -202,7 +202,7 @@ tnd_result app_view_state_write(const char *path, const app_view_state *s)
         cJSON_AddNumberToObject(e, "pitch", c->pitch);
         cJSON_AddItemToArray(p, e);
     }
-    tnd_result res = app_json_write(path, j);
+    tnd_result res = rn_json_write(path, j);
     cJSON_Delete(j);
     return res;
 }
@@ -212,7 +212,7 @@ static tnd_result bad(const char *path, const char *what)
     return tnd_fail(TND_ERR_BAD_INPUT, "view state %s: %s", path, what);
 }
 
-tnd_result app_view_state_read(const char *path, app_view_state *s)
+tnd_result rn_view_state_read(const char *path, rn_view_state *s)
 {
     tnd_result res = TND_OK;
     void *buf = NULL;
@@ -220,7 +220,7 @@ tnd_result app_view_state_read(const char *path, app_view_state *s)
     TND_TRY_RETURN(tnd_file_read(path, &buf, &n));
     cJSON *j = cJSON_ParseWithLength(buf, n);
     free(buf);
-    app_view_state_free(s);
+    rn_view_state_free(s);
     if (!j)
         return bad(path, "not JSON");
     if (!cJSON_IsNumber(cJSON_GetObjectItem(j, "tandem_view_state"))) {
@@ -291,7 +291,7 @@ tnd_result app_view_state_read(const char *path, app_view_state *s)
     }
     cJSON_ArrayForEach(e, p)
     {
-        app_view_cam c = {0};
+        rn_view_cam c = {0};
         const cJSON *f = cJSON_GetObjectItem(e, "frame"), *pos = cJSON_GetObjectItem(e, "position");
         const cJSON *yaw = cJSON_GetObjectItem(e, "yaw"), *pitch = cJSON_GetObjectItem(e, "pitch");
         const cJSON *nf = cJSON_GetObjectItem(e, "frames"); /* (absent: 1) */
@@ -318,7 +318,7 @@ tnd_result app_view_state_read(const char *path, app_view_state *s)
         c.frames = nf ? (uint32_t)nf->valuedouble : 1;
         c.yaw = yaw->valuedouble;
         c.pitch = pitch->valuedouble;
-        const app_view_cam *last = s->path_len ? &s->path[s->path_len - 1] : NULL;
+        const rn_view_cam *last = s->path_len ? &s->path[s->path_len - 1] : NULL;
         if (last && (uint64_t)c.frame != (uint64_t)last->frame + last->frames) {
             res = tnd_fail(TND_ERR_BAD_INPUT,
                            "view state %s: path entry %u: frame %u after %u frame%s from %u "
@@ -335,6 +335,6 @@ tnd_result app_view_state_read(const char *path, app_view_state *s)
 fail:
     cJSON_Delete(j);
     if (res != TND_OK)
-        app_view_state_free(s);
+        rn_view_state_free(s);
     return res;
 }

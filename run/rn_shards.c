@@ -1,9 +1,8 @@
-/* app/reference.c: what `tandem reference` writes besides its frames (reference.json, the noise
- * a reference adds), its shards (--shard I/N: part of the work as per-pixel sums, with
- * shard.json saying what they belong to) and `tandem merge`, which adds the shards' sums into
- * the frames one run of all the samples writes (docs/cluster.md). */
-#include "app/app.h"
-#include "shaders/brdf.h"
+/* run/rn_shards.c: a reference in parts (--shard I/N: part of the work as per-pixel sums, with
+ * shard.json saying what they belong to) and the merge that adds the shards' sums into the
+ * frames one run of all the samples writes (docs/cluster.md). Entry points: rn_shard_parse,
+ * rn_shard_plan, rn_shard_sums_write, rn_shard_sums_read, rn_shard_json_write, rn_merge. */
+#include "run/rn_internal.h"
 #include "shaders/specular.h"
 
 #include <cjson/cJSON.h>
@@ -13,159 +12,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
-/* ---- what a single run and a merge both write --------------------------------------------- */
-static bool access_ok(const char *dir)
-{
-    char path[1700];
-    struct stat st;
-    snprintf(path, sizeof path, "%s/reference.json", dir);
-    return stat(path, &st) == 0;
-}
-
-double app_ref_noise_relmse(const float *rgb, const float *lum_se, size_t n)
-{
-    double s = 0;
-    for (size_t q = 0; q < n; q++) {
-        double l = tnd_luminance(rgb[3 * q], rgb[3 * q + 1], rgb[3 * q + 2]);
-        s += (double)lum_se[q] * lum_se[q] / (l * l + EV_RELMSE_EPS);
-    }
-    return n ? s / (double)n : 0.0;
-}
-
-double app_ref_paths_per_s(const app_render_opts *o, const tnd_ref_stats *rs)
-{
-    return rs->seconds > 0 ? (double)o->size[0] * o->size[1] * rs->spp / rs->seconds : 0.0;
-}
-
-tnd_result app_ref_json_write(const app_render_opts *o, const char *device,
-                              const tnd_ref_stats *rs, const double *noise)
-{
-    char path[1600];
-    snprintf(path, sizeof path, "%s/reference.json", o->out);
-    FILE *fp = fopen(path, "w");
-    if (!fp)
-        return tnd_fail(TND_ERR_IO, "%s: cannot create", path);
-    bool rt = strcmp(o->estimator, "realtime") == 0;
-    fprintf(fp, "{\n  \"estimator\": \"%s\",\n  \"frontend\": \"%s\",\n  \"device\": \"%s\",\n",
-            o->estimator, o->frontend, device);
-    if (rt)
-        fprintf(fp, "  \"bounces\": %u,\n  \"reflect_depth\": %u,\n", o->bounces,
-                o->reflect_depth ? o->reflect_depth : 4);
-    else
-        fprintf(fp, "  \"max_bounces\": %u,\n", o->ref_bounces);
-    /* (sampling time and paths per second: 0 where not measured, as in a merge) */
-    double secs = 0, paths = 0;
-    for (unsigned i = 0; i < o->frames; i++)
-        secs += rs[i].seconds, paths += (double)o->size[0] * o->size[1] * rs[i].spp;
-    fprintf(fp, "  \"sampler\": \"owen-scrambled sobol\",\n");
-    fprintf(fp, "  \"spp_max\": %u,\n  \"until_noise\": %g,\n  \"seconds\": %.6g,\n"
-                "  \"paths_per_s\": %.6g,\n  \"frames\": [", o->spp, o->until_noise, secs,
-            secs > 0 ? paths / secs : 0.0);
-    for (unsigned i = 0; i < o->frames; i++)
-        fprintf(fp,
-                "%s\n    {\"frame\": %u, \"spp\": %u, \"rel_error\": %.6g, "
-                "\"noise_relmse\": %.6g, \"seconds\": %.6g, \"paths_per_s\": %.6g}",
-                i ? "," : "", o->start + i, rs[i].spp, rs[i].rel_error, noise[i], rs[i].seconds,
-                app_ref_paths_per_s(o, &rs[i]));
-    fprintf(fp, "\n  ]\n}\n");
-    if (fclose(fp) != 0)
-        return tnd_fail(TND_ERR_IO, "%s: write failed", path);
-    return TND_OK;
-}
-
-tnd_result app_ref_frame_finish(const app_render_opts *o, unsigned i, const double *sum_rgb,
-                                const double *sum_lum2, float *rgb, float *lum_se,
-                                tnd_ref_stats *rs, double *noise)
-{
-    size_t n = (size_t)o->size[0] * o->size[1];
-    char path[1700];
-    rs->rel_error = tnd_ref_finish(sum_rgb, sum_lum2, n, rs->spp, rgb, lum_se);
-    *noise = app_ref_noise_relmse(rgb, lum_se, n);
-    /* beside the mean, the variance of one sample's luminance (eval's "worth N samples"): the
-     * standard error squared times the samples, written over lum_se (it is not used after) */
-    for (size_t q = 0; q < n; q++)
-        lum_se[q] = lum_se[q] * lum_se[q] * (float)rs->spp;
-    snprintf(path, sizeof path, "%s/frame_%04u.exr", o->out, o->start + i);
-    const tnd_exr_channel_desc ch[4] = {{"R", TND_EXR_FLOAT, rgb, 3},
-                                        {"G", TND_EXR_FLOAT, rgb + 1, 3},
-                                        {"B", TND_EXR_FLOAT, rgb + 2, 3},
-                                        {"variance.Y", TND_EXR_FLOAT, lum_se, 1}};
-    tnd_result res = tnd_exr_write(path, o->size[0], o->size[1], ch, 4, NULL, 0, TND_EXR_ZIP);
-    snprintf(path, sizeof path, "%s/frame_%04u.png", o->out, o->start + i);
-    return res == TND_OK ? app_write_preview(path, rgb, o->size[0], o->size[1]) : res;
-}
-
-/* ---- an interrupted reference: its state, to resume ------------------------------------------ */
-tnd_result app_ref_partial_write(const app_render_opts *o, const bool *done,
-                                 const tnd_ref_stats *rs, const double *noise, int at,
-                                 double at_seconds, int signal)
-{
-    tnd_result res = TND_OK;
-    app_render_opts own = *o; /* (its command line: every option but where it goes) */
-    own.out = NULL;
-    own.quiet = false;
-    own.resume = NULL;
-    app_args a;
-    TND_TRY(app_render_args(&own, true, &a));
-    cJSON *j = cJSON_CreateObject(), *args = cJSON_AddArrayToObject(j, "args");
-    for (int k = 1; k < a.n; k++) /* (after "reference") */
-        cJSON_AddItemToArray(args, cJSON_CreateString(a.v[k]));
-    cJSON *d = cJSON_AddArrayToObject(j, "done");
-    for (unsigned i = 0; i < o->frames; i++) {
-        if (!done[i])
-            continue;
-        cJSON *e = cJSON_CreateObject();
-        cJSON_AddNumberToObject(e, "index", i);
-        cJSON_AddNumberToObject(e, "frame", o->start + i);
-        cJSON_AddNumberToObject(e, "spp", rs[i].spp);
-        cJSON_AddNumberToObject(e, "rel_error", rs[i].rel_error);
-        cJSON_AddNumberToObject(e, "noise_relmse", noise[i]);
-        cJSON_AddNumberToObject(e, "seconds", rs[i].seconds);
-        cJSON_AddItemToArray(d, e);
-    }
-    if (at >= 0) { /* (its samples: the checkpoint's, DIR/frame_NNNN.sums) */
-        cJSON *e = cJSON_AddObjectToObject(j, "at");
-        cJSON_AddNumberToObject(e, "index", at);
-        cJSON_AddNumberToObject(e, "frame", o->start + (unsigned)at);
-        cJSON_AddNumberToObject(e, "seconds", at_seconds);
-    }
-    if (signal)
-        cJSON_AddStringToObject(j, "interrupted", app_signal_name(signal));
-    char path[1700];
-    snprintf(path, sizeof path, "%s/reference.partial.json", o->out);
-    res = app_json_write(path, j);
-    cJSON_Delete(j);
-fail:
-    return res;
-}
-
-tnd_result app_ref_partial_read(const char *dir, cJSON **out)
-{
-    char path[1700];
-    snprintf(path, sizeof path, "%s/reference.partial.json", dir);
-    *out = NULL;
-    void *text = NULL;
-    size_t len = 0;
-    if (tnd_file_read(path, &text, &len) != TND_OK)
-        return tnd_fail(TND_ERR_IO, "--resume %s: no %s (not an interrupted reference%s)", dir,
-                        path, access_ok(dir) ? "; a finished one has reference.json" : "");
-    cJSON *j = cJSON_Parse(text);
-    free(text);
-    const cJSON *args = cJSON_GetObjectItemCaseSensitive(j, "args");
-    bool ok = cJSON_IsArray(args) && cJSON_IsArray(cJSON_GetObjectItemCaseSensitive(j, "done"));
-    for (const cJSON *a = ok ? args->child : NULL; a; a = a->next)
-        ok = ok && cJSON_IsString(a);
-    if (!ok) {
-        cJSON_Delete(j);
-        return tnd_fail(TND_ERR_BAD_INPUT, "--resume: %s: not a reference's state (args, done)",
-                        path);
-    }
-    *out = j;
-    return TND_OK;
-}
-
 /* ---- shards --------------------------------------------------------------------------------- */
-tnd_result app_shard_parse(const char *text, uint32_t *shard, uint32_t *shards)
+tnd_result rn_shard_parse(const char *text, uint32_t *shard, uint32_t *shards)
 {
     char *end;
     errno = 0;
@@ -185,14 +33,14 @@ tnd_result app_shard_parse(const char *text, uint32_t *shard, uint32_t *shards)
     return TND_OK;
 }
 
-tnd_result app_shard_plan(uint32_t frames, uint32_t spp, uint32_t shard, uint32_t shards,
-                          app_shard_part *parts, uint32_t *count)
+tnd_result rn_shard_plan(uint32_t frames, uint32_t spp, uint32_t shard, uint32_t shards,
+                          rn_shard_part *parts, uint32_t *count)
 {
     *count = 0;
     if (shards <= frames) { /* whole frames: shard i takes frames [i F / N, (i + 1) F / N) */
         uint64_t f0 = (uint64_t)shard * frames / shards, f1 = (uint64_t)(shard + 1) * frames / shards;
         for (uint64_t f = f0; f < f1; f++)
-            parts[(*count)++] = (app_shard_part){(uint32_t)f, 0, spp};
+            parts[(*count)++] = (rn_shard_part){(uint32_t)f, 0, spp};
         return TND_OK;
     }
     /* fewer frames than shards: the work is frames x batches of TND_REF_CHECK_EVERY samples
@@ -209,7 +57,7 @@ tnd_result app_shard_plan(uint32_t frames, uint32_t spp, uint32_t shard, uint32_
         uint64_t s0 = a * TND_REF_CHECK_EVERY, s1 = e * TND_REF_CHECK_EVERY;
         if (s1 > spp)
             s1 = spp;
-        parts[(*count)++] = (app_shard_part){(uint32_t)f, (uint32_t)s0, (uint32_t)(s1 - s0)};
+        parts[(*count)++] = (rn_shard_part){(uint32_t)f, (uint32_t)s0, (uint32_t)(s1 - s0)};
     }
     return TND_OK;
 }
@@ -228,7 +76,7 @@ static void sums_name(char *buf, size_t cap, const char *dir, uint32_t frame)
     snprintf(buf, cap, "%s/frame_%04u.sums", dir, frame);
 }
 
-tnd_result app_shard_sums_write(const char *dir, uint32_t w, uint32_t h, uint32_t frame,
+tnd_result rn_shard_sums_write(const char *dir, uint32_t w, uint32_t h, uint32_t frame,
                                 uint32_t first, uint32_t samples, const double *sum_rgb,
                                 const double *sum_lum2)
 {
@@ -252,8 +100,8 @@ tnd_result app_shard_sums_write(const char *dir, uint32_t w, uint32_t h, uint32_
 }
 
 /* shard.json: what the shard belongs to (every setting that changes a pixel), then its parts. */
-tnd_result app_shard_json_write(const app_render_opts *o, const char *device, uint64_t digest,
-                                uint32_t shard, uint32_t shards, const app_shard_part *parts,
+tnd_result rn_shard_json_write(const rn_render_opts *o, const char *device, uint64_t digest,
+                                uint32_t shard, uint32_t shards, const rn_shard_part *parts,
                                 const uint32_t *taken, uint32_t count)
 {
     char path[1600];
@@ -291,21 +139,12 @@ tnd_result app_shard_json_write(const app_render_opts *o, const char *device, ui
         cJSON_AddNumberToObject(p, "samples", taken[k]);
         cJSON_AddItemToArray(arr, p);
     }
-    tnd_result res = app_json_write(path, j);
+    tnd_result res = rn_json_write(path, j);
     cJSON_Delete(j);
     return res;
 }
 
-/* ---- tandem merge ------------------------------------------------------------------------- */
-static const app_cmd merge_cmd = {
-    "merge",
-    "Merge the shards of a reference (tandem reference --shard I/N, on as many machines as you\n"
-    "like) into the frames and reference.json one run of all the samples writes: the shards'\n"
-    "per-pixel sums are added in the order of their samples. The shards must belong together\n"
-    "(same scene, camera, size, path, estimator and samples) and cover every frame's samples\n"
-    "exactly once; gaps and overlaps are refused by name.",
-    "SHARD_DIR... --out DIR", NULL};
-
+/* ---- merging shards ------------------------------------------------------------------------- */
 #define MERGE_MAX 4096
 typedef struct merge_part {
     uint32_t frame, first, count, samples, shard; /* shard: index into the given dirs */
@@ -369,7 +208,7 @@ static int part_order(const void *a, const void *b)
     return x->first < y->first ? -1 : x->first > y->first;
 }
 
-tnd_result app_shard_sums_read(const char *dir, uint32_t w, uint32_t h, uint32_t frame,
+tnd_result rn_shard_sums_read(const char *dir, uint32_t w, uint32_t h, uint32_t frame,
                                uint32_t *first, uint32_t *samples, double *sums)
 {
     char path[1700];
@@ -400,7 +239,7 @@ static tnd_result add_sums(const char *dir, const merge_part *p, uint32_t w, uin
 {
     size_t n = (size_t)w * h;
     uint32_t first = 0, samples = 0;
-    tnd_result res = app_shard_sums_read(dir, w, h, p->frame, &first, &samples, buf);
+    tnd_result res = rn_shard_sums_read(dir, w, h, p->frame, &first, &samples, buf);
     if (res == TND_ERR_IO) {
         char msg[2000];
         snprintf(msg, sizeof msg, "%s", tnd_error_detail());
@@ -527,23 +366,12 @@ static tnd_result merge_check(merge_shard *sh, uint32_t ns, merge_part **parts_o
     return TND_OK;
 }
 
-int cmd_merge(int argc, char **argv)
+tnd_result rn_merge(const char *const *pos, int npos, const char *out, const rn_host *h)
 {
-    const char *out = NULL;
-    const app_opt opts[] = {{"out", APP_OPT_STRING, &out, "DIR", "output directory (created)"},
-                            {0}};
-    const char *pos[MERGE_MAX];
-    int npos;
-    int rc = app_parse(&merge_cmd, opts, argc, argv, pos, MERGE_MAX, &npos);
-    if (rc >= 0)
-        return rc;
-    if (!out || npos < 1) {
-        fprintf(stderr, "tandem merge: give the shard directories and --out DIR (see tandem merge "
-                        "--help)\n");
-        return APP_EXIT_USAGE;
-    }
     if (strlen(out) > 1500)
-        return app_report("merge", tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long"));
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--out: path too long");
+    if (npos < 1 || npos > MERGE_MAX)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "merge: 1 to %d shard directories", MERGE_MAX);
     merge_shard *sh = calloc((size_t)npos, sizeof *sh);
     merge_part *parts = NULL;
     uint32_t np = 0;
@@ -551,17 +379,16 @@ int cmd_merge(int argc, char **argv)
     float *rgb = NULL, *lum_se = NULL;
     tnd_ref_stats *rs = NULL;
     tnd_result res = TND_OK;
-    int status = APP_EXIT_FAIL;
     bool begun = false, out_existed = false;
     struct stat st;
-    app_render_opts o = {0};
+    rn_render_opts o = {0};
     if (!sh)
-        return app_report("merge", tnd_fail(TND_ERR_OUT_OF_MEMORY, "merge: out of memory"));
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "merge: out of memory");
     for (int i = 0; i < npos; i++)
         TND_TRY(read_shard(pos[i], &sh[i]));
     TND_TRY(merge_check(sh, (uint32_t)npos, &parts, &np));
     const cJSON *a = sh[0].json;
-    o = (app_render_opts){.out = out,
+    o = (rn_render_opts){.out = out,
                          .estimator = str(a, "estimator"),
                          .frontend = str(a, "frontend"),
                          .frames = (unsigned)num(a, "frames"),
@@ -600,8 +427,8 @@ int cmd_merge(int argc, char **argv)
     out_existed = stat(out, &st) == 0;
     begun = true;
     TND_TRY(tnd_mkdirs(out));
-    app_progress bar;
-    app_progress_begin(&bar, "merge", o.frames);
+    rn_progress bar;
+    rn_progress_begin(&bar, h, "merge", o.frames);
     uint32_t k = 0;
     for (uint32_t i = 0; i < o.frames; i++) {
         uint32_t f = o.start + i;
@@ -617,18 +444,15 @@ int cmd_merge(int argc, char **argv)
                 TND_TRY(copy_file(from, to));
             }
         }
-        TND_TRY(app_ref_frame_finish(&o, i, sum, sum + 3 * n, rgb, lum_se, &rs[i], &noise[i]));
-        app_progress_step(&bar, i + 1);
+        TND_TRY(rn_ref_frame_finish(&o, i, sum, sum + 3 * n, rgb, lum_se, &rs[i], &noise[i]));
+        rn_progress_step(&bar, i + 1);
     }
-    app_progress_end(&bar);
-    TND_TRY(app_ref_json_write(&o, device, rs, noise));
-    if (!app_quiet())
-        fprintf(stderr, "tandem: merge: %d shard%s, %u frame%s of %u samples -> %s/\n", npos,
-                npos == 1 ? "" : "s", o.frames, o.frames == 1 ? "" : "s", o.spp, out);
-    status = APP_EXIT_OK;
+    rn_progress_end(&bar);
+    TND_TRY(rn_ref_json_write(&o, device, rs, noise));
+    rn_say(h, "tandem: merge: %d shard%s, %u frame%s of %u samples -> %s/", npos,
+           npos == 1 ? "" : "s", o.frames, o.frames == 1 ? "" : "s", o.spp, out);
 fail:
-    if (status != APP_EXIT_OK) {
-        app_report("merge", res);
+    if (res != TND_OK) {
         if (begun) { /* no partial output */
             char path[1700];
             for (uint32_t i = 0; i < o.frames; i++)
@@ -641,7 +465,7 @@ fail:
             snprintf(path, sizeof path, "%s/reference.json", out);
             remove(path);
             if (!out_existed)
-                app_remove_flat_dir(out);
+                rn_remove_flat_dir(out);
         }
     }
     for (int i = 0; i < npos; i++)
@@ -654,5 +478,6 @@ fail:
     free(lum_se);
     free(rs);
     free(noise);
-    return status;
+    return res;
 }
+

@@ -1,11 +1,11 @@
-/* app/soak.c: `tandem bench --soak N`: N frames through render's frame loop (app/session.c) for
+/* run/rn_soak.c: `tandem bench --soak N`: N frames through render's frame loop (run/rn_session.c) for
  * each front-end and denoiser, sampling the process's resident memory (/proc/self/statm), its
  * open file descriptors (/proc/self/fd) and the device memory in use (VK_EXT_memory_budget) as
  * it goes; after a warm-up each must stay flat: what a run of hours would leak shows in a few
- * hundred frames as a slope (docs/reliability.md). The recorder (app_soak_rec_*) is what
+ * hundred frames as a slope (docs/reliability.md). The recorder (rn_soak_rec_*) is what
  * `tandem view --soak` samples the viewer's own loop with.
- * Entry points: app_soak, app_soak_rec_*. */
-#include "app/app.h"
+ * Entry points: rn_soak, rn_soak_rec_*. */
+#include "run/rn_internal.h"
 
 #include <cjson/cJSON.h>
 #include <dirent.h>
@@ -65,30 +65,20 @@ static double slope(const double *x, const double *y, uint32_t n)
     return sxx > 0 ? sxy / sxx : 0.0;
 }
 
-typedef struct soak_row {
-    char frontend[64], denoiser[64];
-    uint32_t frames, warmup;
-    double seconds;
-    double rss_base, rss_end, rss_max, rss_kb_per_frame;
-    double dev_base, dev_end;
-    double heap_base, heap_end, heap_kb_per_frame;
-    uint32_t fds_base, fds_end;
-    uint64_t allocs_base, allocs_end;
-    bool flat;
-} soak_row;
+
 
 enum { SOAK_CAP = 200 }; /* samples kept per run (every frames/CAP-th frame) */
 
-struct app_soak_rec {
+struct rn_soak_rec {
     soak_sample sm[SOAK_CAP];
     uint32_t k, every;
     double t0;
-    soak_row row;
+    rn_soak_row row;
 };
 
-app_soak_rec *app_soak_rec_begin(uint32_t frames)
+rn_soak_rec *rn_soak_rec_begin(uint32_t frames)
 {
-    app_soak_rec *r = calloc(1, sizeof *r);
+    rn_soak_rec *r = calloc(1, sizeof *r);
     if (!r)
         return NULL;
     r->every = frames / SOAK_CAP + 1;
@@ -97,7 +87,7 @@ app_soak_rec *app_soak_rec_begin(uint32_t frames)
     return r;
 }
 
-void app_soak_rec_frame(app_soak_rec *r, uint32_t f, bool last, const tnd_vk *vk)
+void rn_soak_rec_frame(rn_soak_rec *r, uint32_t f, bool last, const tnd_vk *vk)
 {
     if (!r || (f % r->every != 0 && !last) || r->k == SOAK_CAP)
         return;
@@ -110,7 +100,7 @@ void app_soak_rec_frame(app_soak_rec *r, uint32_t f, bool last, const tnd_vk *vk
 }
 
 /* The figures of a run's samples after the warm-up. */
-static void judge(const soak_sample *sm, uint32_t k, soak_row *r)
+static void judge(const soak_sample *sm, uint32_t k, rn_soak_row *r)
 {
     uint32_t b = 0;
     while (b + 1 < k && sm[b].frame < r->warmup)
@@ -139,8 +129,8 @@ static void judge(const soak_sample *sm, uint32_t k, soak_row *r)
               r->dev_end == r->dev_base;
 }
 
-bool app_soak_rec_end(app_soak_rec *r, uint32_t frames, const char *frontend,
-                      const char *denoiser)
+bool rn_soak_rec_end(rn_soak_rec *r, uint32_t frames, const char *frontend,
+                     const char *denoiser)
 {
     r->row.seconds = tnd_now() - r->t0;
     r->row.frames = frames;
@@ -152,9 +142,9 @@ bool app_soak_rec_end(app_soak_rec *r, uint32_t frames, const char *frontend,
     return r->row.flat;
 }
 
-void *app_soak_rec_json(const app_soak_rec *rec)
+void *rn_soak_rec_json(const rn_soak_rec *rec)
 {
-    const soak_row *r = &rec->row;
+    const rn_soak_row *r = &rec->row;
     cJSON *e = cJSON_CreateObject();
     cJSON_AddStringToObject(e, "frontend", r->frontend);
     cJSON_AddStringToObject(e, "denoiser", r->denoiser);
@@ -193,110 +183,80 @@ void *app_soak_rec_json(const app_soak_rec *rec)
     return e;
 }
 
-void app_soak_rec_print(const app_soak_rec *rec, const char *title, const char *scene,
-                        const unsigned size[2])
+const rn_soak_row *rn_soak_rec_row(const rn_soak_rec *r)
 {
-    const soak_row *r = &rec->row;
-    if (title)
-        printf("soak: %u frames of %s at %ux%u %s; after a warm-up of %u frames:\n%-8s %-10s "
-               "%8s %8s %8s %10s %9s %7s %9s %14s %6s\n",
-               r->frames, scene, size[0], size[1], title, r->warmup, "frontend", "denoiser", "fps",
-               "RSS MB", "+MB", "KB/frame", "heap +KB", "fds", "vk allocs", "device MB", "");
-    char dev[40] = "-";
-    if (r->dev_base >= 0)
-        snprintf(dev, sizeof dev, "%.1f -> %.1f", r->dev_base, r->dev_end);
-    printf("%-8s %-10s %8.1f %8.1f %+8.2f %10.3f %+9.1f %3u->%-3u %4llu->%-4llu %14s %6s\n",
-           r->frontend, r->denoiser, r->frames / r->seconds, r->rss_end, r->rss_end - r->rss_base,
-           r->rss_kb_per_frame, 1024.0 * (r->heap_end - r->heap_base), r->fds_base, r->fds_end, (unsigned long long)r->allocs_base,
-           (unsigned long long)r->allocs_end, dev, r->flat ? "flat" : "GROWS");
+    return &r->row;
 }
 
-void app_soak_rec_free(app_soak_rec *r)
+void rn_soak_rec_free(rn_soak_rec *r)
 {
     free(r);
 }
 
 /* One front-end and denoiser: n frames of render's loop into `rec`. */
-static tnd_result soak_one(const app_render_opts *o, uint32_t n, app_soak_rec *rec)
+static tnd_result soak_one(const rn_render_opts *o, uint32_t n, rn_soak_rec *rec,
+                           const rn_host *h)
 {
     tnd_result res = TND_OK;
-    app_session *s = NULL;
+    rn_session *s = NULL;
     float *rgb = malloc((size_t)o->size[0] * o->size[1] * 3 * sizeof *rgb);
     if (!rgb)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "soak: out of memory");
-    TND_TRY(app_session_open(o, false, NULL, &s));
+    TND_TRY(rn_session_open(o, false, NULL, h, &s));
     uint32_t f = 0;
-    for (; f < n && !app_interrupted(); f++) {
-        TND_TRY(app_session_frame(s, f, rgb, NULL, NULL));
-        app_soak_rec_frame(rec, f, f + 1 == n, app_session_vk(s));
+    for (; f < n && !rn_interrupted(h); f++) {
+        TND_TRY(rn_session_frame(s, f, rgb, NULL, NULL));
+        rn_soak_rec_frame(rec, f, f + 1 == n, rn_session_vk(s));
     }
-    app_soak_rec_end(rec, f, o->frontend, app_session_denoiser(s));
+    rn_soak_rec_end(rec, f, o->frontend, rn_session_denoiser(s));
 fail:
-    app_session_close(s);
+    rn_session_close(s);
     free(rgb);
     return res;
 }
 
-int app_soak(const char *scene, const app_env *env, const unsigned size[2], unsigned frames,
-             const char *frontend, const char *denoiser, bool json)
+tnd_result rn_soak(const rn_soak_opts *so, const rn_host *h, bool *flat)
 {
     tnd_result res = TND_OK;
     const char *fes[2] = {"embree", "vk"};
     uint32_t nfe = 2, ndn = pl_denoiser_count();
-    if (frontend)
-        fes[0] = frontend, nfe = 1;
-    if (denoiser)
+    if (so->frontend)
+        fes[0] = so->frontend, nfe = 1;
+    if (so->denoiser)
         ndn = 1;
-    cJSON *root = json ? cJSON_CreateObject() : NULL, *arr = NULL;
-    if (root) {
-        cJSON_AddStringToObject(root, "scene", scene);
-        cJSON_AddNumberToObject(root, "frames", frames);
-        cJSON_AddNumberToObject(root, "width", size[0]);
-        cJSON_AddNumberToObject(root, "height", size[1]);
-        arr = cJSON_AddArrayToObject(root, "runs");
-    }
-    bool all_flat = true, first = true;
-    for (uint32_t a = 0; a < nfe && res == TND_OK && !app_interrupted(); a++)
-        for (uint32_t d = 0; d < ndn && res == TND_OK && !app_interrupted(); d++) {
-            app_render_opts o;
-            app_render_defaults(&o);
-            o.scene = scene;
-            o.env = *env;
-            o.size[0] = size[0], o.size[1] = size[1];
+    bool all_flat = true;
+    rn_host quiet = rn_host_quiet(h);
+    for (uint32_t a = 0; a < nfe && res == TND_OK && !rn_interrupted(h); a++)
+        for (uint32_t d = 0; d < ndn && res == TND_OK && !rn_interrupted(h); d++) {
+            rn_render_opts o;
+            rn_render_defaults(&o);
+            o.scene = so->scene;
+            o.env = so->env;
+            o.size[0] = so->size[0], o.size[1] = so->size[1];
             o.frontend = fes[a];
-            o.denoiser = denoiser ? denoiser : pl_denoiser_at(d)->name;
+            o.denoiser = so->denoiser ? so->denoiser : pl_denoiser_at(d)->name;
             o.quiet = true;
-            app_soak_rec *rec = app_soak_rec_begin(frames);
+            rn_soak_rec *rec = rn_soak_rec_begin(so->frames);
             if (!rec) {
                 res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "soak: out of memory");
                 break;
             }
-            bool was = app_set_quiet(true);
-            res = soak_one(&o, frames, rec);
-            app_set_quiet(was);
+            tnd_log_level was = rn_quiet_begin(true);
+            res = soak_one(&o, so->frames, rec, &quiet);
+            rn_quiet_end(was);
             if (res == TND_OK && rec->k > 0) {
                 all_flat = all_flat && rec->row.flat;
-                if (json)
-                    cJSON_AddItemToArray(arr, app_soak_rec_json(rec));
-                else
-                    app_soak_rec_print(rec, first ? "per front-end and denoiser" : NULL, scene,
-                                       size);
-                first = false;
+                if (so->on_run)
+                    so->on_run(rec, so->user);
             }
-            app_soak_rec_free(rec);
+            rn_soak_rec_free(rec);
         }
-    if (json && res == TND_OK) {
-        cJSON_AddBoolToObject(root, "flat", all_flat);
-        char *t = cJSON_Print(root);
-        printf("%s\n", t ? t : "{}");
-        free(t);
+    if (flat)
+        *flat = all_flat;
+    int sig = rn_interrupted(h);
+    if (res == TND_OK && sig) {
+        rn_warn(h, "tandem: bench: soak interrupted (%s)", rn_signal_name(sig));
+        res = tnd_fail(TND_ERR_INTERRUPTED, "bench: soak interrupted (%s)", rn_signal_name(sig));
     }
-    cJSON_Delete(root);
-    if (res != TND_OK)
-        return app_report("bench", res);
-    if (app_interrupted()) {
-        fprintf(stderr, "tandem: bench: soak interrupted (%s)\n", app_signal_name(app_interrupted()));
-        return app_interrupt_status();
-    }
-    return APP_EXIT_OK;
+    return res;
 }

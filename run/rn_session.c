@@ -1,17 +1,17 @@
-/* app/session.c: render's and reference's pipeline held open between calls, frame by frame, for
+/* run/rn_session.c: render's and reference's pipeline held open between calls, frame by frame, for
  * callers that take the pixels instead of files: the Python binding (python/) and the dataset
- * (app/cmd_dataset.c). It builds what render builds (app_scene_load, app_pipeline_open) and runs
- * each frame as render's loop does (app_frame_begin, app_frame_step, pl_chain_run), so that a
+ * (run/rn_dataset.c). It builds what render builds (rn_scene_load, rn_pipeline_open) and runs
+ * each frame as render's loop does (rn_frame_begin, rn_frame_step, pl_chain_run), so that a
  * frame here is the frame render writes, bit for bit.
- * Entry points: app_session_open, app_session_close, app_session_frame, app_session_reference,
- * app_session_scene, app_session_opts, app_session_denoiser, app_session_vk. */
-#include "app/app.h"
+ * Entry points: rn_session_open, rn_session_close, rn_session_frame, rn_session_reference,
+ * rn_session_scene, rn_session_opts, rn_session_denoiser, rn_session_vk. */
+#include "run/rn_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-struct app_session {
-    app_render_opts o;
+struct rn_session {
+    rn_render_opts o;
     bool reference;
     tnd_scene *own;          /* the scene it loaded (NULL: the caller's) */
     const tnd_scene *scene;
@@ -28,7 +28,7 @@ struct app_session {
     double *sums;      /* (references: RGB and luminance^2 per pixel) */
 };
 
-void app_session_close(app_session *s)
+void rn_session_close(rn_session *s)
 {
     if (!s)
         return;
@@ -47,14 +47,14 @@ void app_session_close(app_session *s)
     free(s);
 }
 
-tnd_result app_session_open(const app_render_opts *o, bool reference, const tnd_scene *scene,
-                            app_session **out)
+tnd_result rn_session_open(const rn_render_opts *o, bool reference, const tnd_scene *scene,
+                           const rn_host *h, rn_session **out)
 {
     *out = NULL;
-    tnd_result res = app_render_check(o, reference);
+    tnd_result res = rn_render_check(o, reference);
     if (res != TND_OK)
         return res;
-    app_session *s = calloc(1, sizeof *s);
+    rn_session *s = calloc(1, sizeof *s);
     if (!s)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "out of memory");
     s->o = *o;
@@ -62,7 +62,7 @@ tnd_result app_session_open(const app_render_opts *o, bool reference, const tnd_
     s->o.view = NULL;
     s->reference = reference;
     if (reference) /* --bounces as reference takes it (run_opts) */
-        app_reference_bounces(&s->o);
+        rn_reference_bounces(&s->o);
     tnd_precision prec;
     if ((res = tnd_precision_parse(s->o.precision, &prec)) != TND_OK)
         goto fail;
@@ -74,15 +74,15 @@ tnd_result app_session_open(const app_render_opts *o, bool reference, const tnd_
     if (scene) {
         s->scene = scene;
     } else {
-        TND_TRY(app_scene_load(s->o.scene, &s->o.env, &s->own));
+        TND_TRY(rn_scene_load(s->o.scene, &s->o.env, &s->own));
         s->scene = s->own;
     }
     if (use_vk || s->use_dn) {
         TND_TRY(tnd_vk_create(&(tnd_vk_desc){.no_ray_tracing = !use_vk}, &s->vk));
         s->have_vk = true;
     }
-    TND_TRY(app_pipeline_open(&s->o, s->scene, &s->vk, use_vk, s->use_dn, prec, &s->dn, reference,
-                              &s->fr, &s->chain, &s->pd));
+    TND_TRY(rn_pipeline_open(&s->o, s->scene, &s->vk, use_vk, s->use_dn, prec, &s->dn, reference,
+                             &s->fr, &s->chain, &s->pd, h));
     if (reference && strcmp(s->o.estimator, "realtime") != 0 &&
         !(pl_frontend_caps(s->fr) & PL_CAP_REFERENCE)) {
         res = tnd_fail(TND_ERR_UNSUPPORTED,
@@ -94,50 +94,50 @@ tnd_result app_session_open(const app_render_opts *o, bool reference, const tnd_
     *out = s;
     return TND_OK;
 fail:
-    app_session_close(s);
+    rn_session_close(s);
     return res;
 }
 
-const tnd_scene *app_session_scene(const app_session *s)
+const tnd_scene *rn_session_scene(const rn_session *s)
 {
     return s->scene;
 }
 
-const app_render_opts *app_session_opts(const app_session *s)
+const rn_render_opts *rn_session_opts(const rn_session *s)
 {
     return &s->o;
 }
 
-const tnd_vk *app_session_vk(const app_session *s)
+const tnd_vk *rn_session_vk(const rn_session *s)
 {
     return s->have_vk ? &s->vk : NULL;
 }
 
-const char *app_session_denoiser(const app_session *s)
+const char *rn_session_denoiser(const rn_session *s)
 {
     return s->dn ? s->dn->name : NULL;
 }
 
 /* Frame f's states and the front-end's frame: the history goes on from the frame before when f
  * follows it, else restarts (the first frame of a render). */
-static tnd_result begin(app_session *s, unsigned f, bool *first)
+static tnd_result begin(rn_session *s, unsigned f, bool *first)
 {
     *first = !s->started || f != s->last + 1;
-    tnd_result res = app_frame_begin(&s->o, s->scene, s->fr, s->st, f, *first);
+    tnd_result res = rn_frame_begin(&s->o, s->scene, s->fr, s->st, f, *first);
     s->started = res == TND_OK;
     s->last = f;
     return res;
 }
 
-tnd_result app_session_frame(app_session *s, unsigned f, float *rgb, uint8_t *display,
-                             tnd_frame *contract)
+tnd_result rn_session_frame(rn_session *s, unsigned f, float *rgb, uint8_t *display,
+                            tnd_frame *contract)
 {
     tnd_result res = TND_OK;
     if (s->reference)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "a reference session renders references");
     bool first;
     TND_TRY(begin(s, f, &first));
-    pl_step step = app_frame_step(&s->o, &s->st[f & 1], f, first);
+    pl_step step = rn_frame_step(&s->o, &s->st[f & 1], f, first);
     step.host_out = contract;
     TND_TRY(pl_chain_run(s->chain, s->fr, &step, rgb, s->use_dn ? display : NULL, NULL));
     if (display && !s->use_dn) { /* (the CPU composite has no display image: render's preview) */
@@ -148,8 +148,8 @@ fail:
     return res;
 }
 
-tnd_result app_session_reference(app_session *s, unsigned f, float *rgb, float *variance,
-                                 tnd_ref_stats *stats)
+tnd_result rn_session_reference(rn_session *s, unsigned f, float *rgb, float *variance,
+                                tnd_ref_stats *stats)
 {
     tnd_result res = TND_OK;
     float *se = NULL;
@@ -166,10 +166,10 @@ tnd_result app_session_reference(app_session *s, unsigned f, float *rgb, float *
     TND_TRY(begin(s, f, &first));
     memset(s->sums, 0, 4 * n * sizeof *s->sums);
     tnd_ref_stats rs = {.until_noise = s->o.until_noise};
-    TND_TRY(app_reference_add(s->fr, &s->o, f, &s->scratch, 0, s->o.spp, s->sums, s->sums + 3 * n,
-                              &rs, NULL, NULL));
+    TND_TRY(rn_reference_add(s->fr, &s->o, f, &s->scratch, 0, s->o.spp, s->sums, s->sums + 3 * n,
+                             &rs, NULL, NULL));
     /* the mean and the variance of one sample's luminance, as reference's EXR holds them
-     * (app_ref_frame_finish) */
+     * (rn_ref_frame_finish) */
     rs.rel_error = tnd_ref_finish(s->sums, s->sums + 3 * n, n, rs.spp, rgb, se);
     for (size_t q = 0; variance && q < n; q++)
         variance[q] = se[q] * se[q] * (float)rs.spp;

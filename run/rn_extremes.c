@@ -1,12 +1,12 @@
-/* app/cmd_extremes.c: `tandem bench --extremes --out DIR`: the numerical stability report. The
+/* run/rn_extremes.c: `tandem bench --extremes --out DIR`: the numerical stability report. The
  * `extremes` scene (or --scene) through every mode (every live front-end and every denoiser of
  * the registries, contract float32 / packed); per run and per buffer (the contract's entries from the
  * captures, the back-end's buffers from --dump all, the output): NaN/Inf counts, values the
  * packed formats clamp (half above 65504, RGBE 9-9-9-5 above 130816) and flush (non-zero below
  * half's 2^-24 or RGBE's 2^-24 step), and the largest magnitude; then the error of the packed
  * contract against float32 (entries and final frames). DIR/extremes.json, DIR/report/index.html;
- * exit 1 when any output or buffer holds a NaN or an Inf. */
-#include "app/app.h"
+ * the count of NaN and Inf found (the command line's exit 1 when any). Entry point: rn_extremes. */
+#include "run/rn_internal.h"
 #include "shaders/encoding.h"
 
 #include <cjson/cJSON.h>
@@ -134,7 +134,7 @@ static tnd_result packed_error(const char *f32, const char *packed, cJSON *out, 
     uint32_t *frames = NULL, n = 0;
     char a[1200], b[1200];
     snprintf(a, sizeof a, "%s/capture", f32);
-    TND_TRY(app_list_frames(a, &frames, &n));
+    TND_TRY(rn_list_frames(a, &frames, &n));
     double max_rel[TND_CT_COUNT] = {0}, sum_rel[TND_CT_COUNT] = {0};
     uint64_t cnt[TND_CT_COUNT] = {0};
     double relmse = 0;
@@ -198,7 +198,8 @@ fail:
     return res;
 }
 
-int app_extremes(const char *scene, const char *out, const unsigned size[2], unsigned frames)
+tnd_result rn_extremes(const char *scene, const char *out, const unsigned size[2],
+                       unsigned frames, const rn_host *h, ev_text *summary, uint64_t *nonfinite)
 {
     /* every live front-end of the registry, every registered denoiser, both precisions */
     static const char *const precs[2] = {"float32", "packed"};
@@ -215,14 +216,14 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
     cJSON *root = cJSON_CreateObject();
     ev_text html = {0};
     uint64_t total_bad = 0;
+    *nonfinite = 0;
     if (!out || strlen(out) > 900) {
-        fprintf(stderr, "tandem bench: --extremes needs --out DIR (a short path)\n");
         cJSON_Delete(root);
-        return APP_EXIT_USAGE;
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--extremes needs --out DIR (a short path)");
     }
     TND_TRY(tnd_mkdirs(out));
-    app_progress bar;
-    app_progress_begin(&bar, "extremes", nruns);
+    rn_progress bar;
+    rn_progress_begin(&bar, h, "extremes", (uint64_t)nruns);
     for (int i = 0; i < nruns; i++) {
         run_stats *r = &runs[i];
         const pl_denoiser_info *dn = pl_denoiser_at((uint32_t)(i / 2) % ndn);
@@ -235,8 +236,8 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
          * does not filter composites on the CPU) */
         bool gpu_backend = ((pl_frontend_caps_of(r->frontend) & PL_CAP_GPU_CONTRACT) ||
                             (dn->caps & PL_DN_FILTERS)) && (dn->caps & PL_DN_DUMPS);
-        app_render_opts ro;
-        app_render_defaults(&ro);
+        rn_render_opts ro;
+        rn_render_defaults(&ro);
         ro.scene = scene;
         ro.frames = frames;
         ro.size[0] = size[0];
@@ -248,9 +249,9 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
         ro.quiet = true;
         ro.out = r->dir;
         ro.dump = gpu_backend ? "all" : NULL;
-        if (app_render(&ro, false) != APP_EXIT_OK) {
+        if (rn_render_nested(&ro, false, h) != TND_OK) {
             res = tnd_fail(TND_ERR_IO, "bench: extremes run %s failed", r->dir);
-            app_progress_end(&bar);
+            rn_progress_end(&bar);
             goto fail;
         }
         char d[1300];
@@ -262,7 +263,7 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
         }
         /* the frames: linear output after TAA */
         uint32_t *list = NULL, nl = 0;
-        TND_TRY(app_list_frames(r->dir, &list, &nl));
+        TND_TRY(rn_list_frames(r->dir, &list, &nl));
         for (uint32_t k = 0; k < nl && res == TND_OK; k++) {
             snprintf(d, sizeof d, "%s/frame_%04u.exr", r->dir, list[k]);
             res = scan_exr(r, d, "");
@@ -270,9 +271,9 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
         free(list);
         if (res != TND_OK)
             goto fail;
-        app_progress_step(&bar, (unsigned)i + 1);
+        rn_progress_step(&bar, (uint64_t)i + 1);
     }
-    app_progress_end(&bar);
+    rn_progress_end(&bar);
     /* report */
     cJSON_AddStringToObject(root, "scene", scene);
     cJSON_AddNumberToObject(root, "width", size[0]);
@@ -346,28 +347,29 @@ int app_extremes(const char *scene, const char *out, const unsigned size[2], uns
     }
     free(txt);
     if (res == TND_OK) {
-        printf("extremes: %s at %ux%u, %u frames, 12 modes: %llu NaN/Inf%s\n", scene, size[0],
-               size[1], frames, (unsigned long long)total_bad,
-               total_bad ? " (see the report)" : "");
+        ev_text_add(summary, "extremes: %s at %ux%u, %u frames, 12 modes: %llu NaN/Inf%s\n",
+                    scene, size[0], size[1], frames, (unsigned long long)total_bad,
+                    total_bad ? " (see the report)" : "");
         for (int i = 0; i < nruns; i++) {
             uint64_t oh = 0, orgbe = 0;
             for (uint32_t b = 0; b < runs[i].nbufs; b++) {
                 oh += runs[i].bufs[b].over_half;
                 orgbe += runs[i].bufs[b].over_rgbe;
             }
-            printf("  %-6s %-5s %-7s NaN/Inf %llu, above half max %llu, above RGBE max %llu\n",
-                   runs[i].frontend, runs[i].denoiser, runs[i].precision,
-                   (unsigned long long)runs[i].nonfinite, (unsigned long long)oh,
-                   (unsigned long long)orgbe);
+            ev_text_add(summary,
+                        "  %-6s %-5s %-7s NaN/Inf %llu, above half max %llu, above RGBE max "
+                        "%llu\n",
+                        runs[i].frontend, runs[i].denoiser, runs[i].precision,
+                        (unsigned long long)runs[i].nonfinite, (unsigned long long)oh,
+                        (unsigned long long)orgbe);
         }
-        printf("  -> %s, %s/index.html\n", path, rdir);
+        ev_text_add(summary, "  -> %s, %s/index.html\n", path, rdir);
+        *nonfinite = total_bad;
     }
 fail:
     for (int i = 0; i < nruns; i++)
         free(runs[i].bufs);
     cJSON_Delete(root);
     ev_text_free(&html);
-    if (res != TND_OK)
-        return app_report("bench", res);
-    return total_bad ? APP_EXIT_FAIL : APP_EXIT_OK;
+    return res;
 }

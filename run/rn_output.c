@@ -1,6 +1,6 @@
-/* app/output.c: the files every command writes: linear HDR EXR (RGB float), a preview PNG, the
+/* run/rn_output.c: the files every command writes: linear HDR EXR (RGB float), a preview PNG, the
  * MP4 of a run's PNGs (ffmpeg), and JSON documents. */
-#include "app/app.h"
+#include "run/rn_internal.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -14,7 +14,7 @@
 
 /* Preview PNG: exposure from the frame's log-average luminance (key 0.18), Reinhard, sRGB. Real
  * tone mapping is the composite stage's. */
-tnd_result app_write_preview(const char *path, const float *rgb, uint32_t w, uint32_t h)
+tnd_result rn_write_preview(const char *path, const float *rgb, uint32_t w, uint32_t h)
 {
     size_t n = (size_t)w * h;
     double logsum = 0;
@@ -32,12 +32,12 @@ tnd_result app_write_preview(const char *path, const float *rgb, uint32_t w, uin
         v = v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
         px[q] = (uint8_t)fmin(255.0, floor(v * 255.0 + 0.5));
     }
-    tnd_result res = app_write_png(path, px, w, h);
+    tnd_result res = rn_write_png(path, px, w, h);
     free(px);
     return res;
 }
 
-tnd_result app_write_png(const char *path, const uint8_t *rgb8, uint32_t w, uint32_t h)
+tnd_result rn_write_png(const char *path, const uint8_t *rgb8, uint32_t w, uint32_t h)
 {
     char tmp[2200];
     snprintf(tmp, sizeof tmp, "%s.tmp", path);
@@ -49,7 +49,7 @@ tnd_result app_write_png(const char *path, const uint8_t *rgb8, uint32_t w, uint
     return TND_OK;
 }
 
-tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uint32_t h)
+tnd_result rn_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uint32_t h)
 {
     const tnd_exr_channel_desc ch[3] = {{"R", TND_EXR_FLOAT, rgb, 3},
                                         {"G", TND_EXR_FLOAT, rgb + 1, 3},
@@ -59,7 +59,7 @@ tnd_result app_write_rgb_exr(const char *path, const float *rgb, uint32_t w, uin
 
 
 /* Is `prog` an executable on PATH? */
-bool app_have_program(const char *prog)
+bool rn_have_program(const char *prog)
 {
     const char *path = getenv("PATH");
     char buf[4096];
@@ -80,7 +80,7 @@ bool app_have_program(const char *prog)
 /* DIR/video.mp4 from DIR/frame_NNNN.png (first, first+1, ...) with ffmpeg: H.264, yuv420p (what
  * players expect; odd sizes padded by one black row or column), constant quality CRF 18. Written
  * under a temporary name and renamed, so a failed encode leaves no file. */
-tnd_result app_write_video(const char *dir, unsigned first, unsigned count, double fps)
+tnd_result rn_write_video(const char *dir, unsigned first, unsigned count, double fps)
 {
     char pattern[2100], out[2100], tmp[2200], rate[32], start[32], frames[32];
     snprintf(pattern, sizeof pattern, "%s/frame_%%04d.png", dir);
@@ -115,7 +115,7 @@ tnd_result app_write_video(const char *dir, unsigned first, unsigned count, doub
     return TND_OK;
 }
 
-tnd_result app_json_write(const char *path, const void *json)
+tnd_result rn_json_write(const char *path, const void *json)
 {
     char *txt = cJSON_Print(json);
     size_t n = txt ? strlen(txt) : 0;

@@ -1,10 +1,10 @@
-/* app/evaluate.c: sequences of frames on disk against a reference directory, and the report
+/* run/rn_eval.c: sequences of frames on disk against a reference directory, and the report
  * (shared by `tandem eval`, `tandem compare --reference` and `tandem bench --sweep`).
  * A series is a directory's frame_NNNN.exr (a run's linear output) or its capture/frame_NNNN.exr
  * composited without denoising (the noisy input), or those composites' running mean while
- * nothing moves (accumulation alone). Entry points: app_eval_add, app_eval_run,
- * app_eval_report, app_eval_free, app_list_frames. */
-#include "app/app.h"
+ * nothing moves (accumulation alone). Entry points: rn_eval_add, rn_eval_run,
+ * rn_eval_report, rn_eval_free, rn_list_frames. */
+#include "run/rn_internal.h"
 
 #include <cjson/cJSON.h>
 #include <dirent.h>
@@ -20,47 +20,14 @@ static int cmp_u32(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-tnd_result app_list_frames(const char *dir, uint32_t **frames, uint32_t *count)
+tnd_result rn_eval_add(rn_eval *e, const char *name, const char *dir, rn_series_kind kind)
 {
-    *frames = NULL;
-    *count = 0;
-    DIR *d = opendir(dir);
-    if (!d)
-        return tnd_fail(TND_ERR_IO, "%s: cannot open directory", dir);
-    uint32_t cap = 0;
-    for (struct dirent *e; (e = readdir(d));) {
-        unsigned f;
-        int end = 0;
-        if (sscanf(e->d_name, "frame_%u.exr%n", &f, &end) != 1 || end == 0 ||
-            e->d_name[end] != 0)
-            continue;
-        if (*count == cap) {
-            cap = cap ? 2 * cap : 64;
-            uint32_t *p = realloc(*frames, cap * sizeof *p);
-            if (!p) {
-                closedir(d);
-                free(*frames);
-                *frames = NULL;
-                return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
-            }
-            *frames = p;
-        }
-        (*frames)[(*count)++] = f;
-    }
-    closedir(d);
-    if (*count)
-        qsort(*frames, *count, sizeof **frames, cmp_u32);
-    return TND_OK;
-}
-
-tnd_result app_eval_add(app_eval *e, const char *name, const char *dir, app_series_kind kind)
-{
-    if (e->nseries >= APP_EVAL_MAX_SERIES)
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: at most %d series", APP_EVAL_MAX_SERIES);
-    app_eval_series *s = &e->series[e->nseries++];
+    if (e->nseries >= RN_EVAL_MAX_SERIES)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "eval: at most %d series", RN_EVAL_MAX_SERIES);
+    rn_eval_series *s = &e->series[e->nseries++];
     memset(s, 0, sizeof *s);
     snprintf(s->name, sizeof s->name, "%s", name);
-    if (kind != APP_SERIES_OUTPUT)
+    if (kind != RN_SERIES_OUTPUT)
         snprintf(s->dir, sizeof s->dir, "%s/capture", dir);
     else
         snprintf(s->dir, sizeof s->dir, "%s", dir);
@@ -82,7 +49,7 @@ static bool capture_moves(const tnd_frame *f)
 
 /* The accumulated series: frame `frame`'s composite (img) added to the running mean, which
  * restarts where the frames are not consecutive or the capture moves; img becomes the mean. */
-static tnd_result accumulate(app_eval_series *s, uint32_t frame, const tnd_frame *f, ev_image *img)
+static tnd_result accumulate(rn_eval_series *s, uint32_t frame, const tnd_frame *f, ev_image *img)
 {
     size_t n = (size_t)img->width * img->height * 3;
     if (n != s->acc_len) { /* (a capture of another size: eval refuses it after the load) */
@@ -110,7 +77,7 @@ static tnd_result accumulate(app_eval_series *s, uint32_t frame, const tnd_frame
 
 /* Frame `frame` of a capture series: the capture composited (cap: that frame's capture, already
  * read, or NULL), and for the accumulated series added to its running mean, which img becomes. */
-static tnd_result composite(app_eval_series *s, uint32_t frame, const char *path, ev_image *img,
+static tnd_result composite(rn_eval_series *s, uint32_t frame, const char *path, ev_image *img,
                             const tnd_frame *cap)
 {
     tnd_frame own = {0};
@@ -121,7 +88,7 @@ static tnd_result composite(app_eval_series *s, uint32_t frame, const char *path
     if (res == TND_OK) {
         tnd_frame_composite(f, img->rgb);
         tnd_frame_interleave(f, img->rgb);
-        if (s->kind == APP_SERIES_ACCUMULATED) {
+        if (s->kind == RN_SERIES_ACCUMULATED) {
             ev_image_sanitize(img); /* (a NaN would stay in the sum) */
             res = accumulate(s, frame, f, img);
         }
@@ -135,13 +102,13 @@ static tnd_result composite(app_eval_series *s, uint32_t frame, const char *path
  * for the region masks; NULL: none) instead of reading it again. The accumulated series asked
  * for a frame out of order (the report's images) replays its running mean up to it: from where
  * it stands when the frame lies ahead, else from the first frame. */
-static tnd_result load(const app_eval *e, app_eval_series *s, uint32_t frame, ev_image *img,
+static tnd_result load(const rn_eval *e, rn_eval_series *s, uint32_t frame, ev_image *img,
                        uint64_t *nonfinite, const tnd_frame *cap)
 {
     char path[1300];
     snprintf(path, sizeof path, "%s/frame_%04u.exr", s ? s->dir : e->ref, frame);
     tnd_result res = TND_OK;
-    if (s && s->kind == APP_SERIES_ACCUMULATED && s->acc_n > 0 && frame != s->acc_frame + 1) {
+    if (s && s->kind == RN_SERIES_ACCUMULATED && s->acc_n > 0 && frame != s->acc_frame + 1) {
         bool ahead = frame > s->acc_frame;
         if (!ahead)
             s->acc_n = 0;
@@ -157,7 +124,7 @@ static tnd_result load(const app_eval *e, app_eval_series *s, uint32_t frame, ev
     }
     if (res != TND_OK)
         return res;
-    if (s && s->kind != APP_SERIES_OUTPUT)
+    if (s && s->kind != RN_SERIES_OUTPUT)
         res = composite(s, frame, path, img,
                         cap && strcmp(s->dir, e->regions_from) == 0 ? cap : NULL);
     else
@@ -177,7 +144,7 @@ static tnd_result load(const app_eval *e, app_eval_series *s, uint32_t frame, ev
     return res;
 }
 
-void app_eval_free(app_eval *e)
+void rn_eval_free(rn_eval *e)
 {
     for (uint32_t i = 0; i < e->nseries; i++) {
         free(e->series[i].m);
@@ -191,10 +158,10 @@ void app_eval_free(app_eval *e)
 }
 
 /* The frames the reference and every series have. */
-static tnd_result common_frames(app_eval *e)
+static tnd_result common_frames(rn_eval *e)
 {
     uint32_t *ref = NULL, nref = 0;
-    tnd_result res = app_list_frames(e->ref, &ref, &nref);
+    tnd_result res = rn_list_frames(e->ref, &ref, &nref);
     if (res != TND_OK)
         return res;
     e->count = 0;
@@ -203,9 +170,9 @@ static tnd_result common_frames(app_eval *e)
         free(ref);
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
     }
-    uint32_t *have[APP_EVAL_MAX_SERIES] = {0}, nhave[APP_EVAL_MAX_SERIES] = {0};
+    uint32_t *have[RN_EVAL_MAX_SERIES] = {0}, nhave[RN_EVAL_MAX_SERIES] = {0};
     for (uint32_t i = 0; i < e->nseries && res == TND_OK; i++)
-        res = app_list_frames(e->series[i].dir, &have[i], &nhave[i]);
+        res = rn_list_frames(e->series[i].dir, &have[i], &nhave[i]);
     for (uint32_t k = 0; res == TND_OK && k < nref; k++) {
         bool all = true;
         for (uint32_t i = 0; i < e->nseries && all; i++)
@@ -226,7 +193,7 @@ static tnd_result common_frames(app_eval *e)
 
 /* The region masks of frame `frame` from the run's capture (path flags), or false; the capture
  * stays in *cap for the noisy series (caller destroys it). */
-static bool region_masks(const app_eval *e, uint32_t frame, uint32_t w, uint32_t h, uint8_t *mask,
+static bool region_masks(const rn_eval *e, uint32_t frame, uint32_t w, uint32_t h, uint8_t *mask,
                          tnd_frame *cap)
 {
     if (!e->regions_from[0])
@@ -238,8 +205,8 @@ static bool region_masks(const app_eval *e, uint32_t frame, uint32_t w, uint32_t
     if (ok) {
         const uint32_t *p = tnd_frame_u(cap, TND_CT_PATH);
         for (size_t q = 0; q < (size_t)w * h; q++)
-            mask[q] = (uint8_t)(((p[q] & TND_PATH_MIRROR) ? 1u << APP_REGION_MIRROR : 0u) |
-                                ((p[q] & (TND_PATH_GLASS | TND_PATH_SPLIT)) ? 1u << APP_REGION_GLASS
+            mask[q] = (uint8_t)(((p[q] & TND_PATH_MIRROR) ? 1u << RN_REGION_MIRROR : 0u) |
+                                ((p[q] & (TND_PATH_GLASS | TND_PATH_SPLIT)) ? 1u << RN_REGION_GLASS
                                                                              : 0u));
     } else {
         tnd_frame_destroy(cap);
@@ -249,7 +216,7 @@ static bool region_masks(const app_eval *e, uint32_t frame, uint32_t w, uint32_t
 }
 
 /* to, tr: the frame's tone-mapped output and reference (what the sequence just measured) */
-static void region_add(app_region *r, int bit, const uint8_t *mask, const ev_image *out,
+static void region_add(rn_region *r, int bit, const uint8_t *mask, const ev_image *out,
                        const ev_image *ref, const float *flip, const float *to, const float *tr)
 {
     uint32_t w = ref->width, h = ref->height;
@@ -284,7 +251,7 @@ static void region_add(app_region *r, int bit, const uint8_t *mask, const ev_ima
 
 /* The reference's motion and depth of a frame (REF/frame_NNNN.motion.exr, written by `tandem
  * reference`), for the motion-compensated metrics; false when absent or unusable. */
-static bool load_motion(const app_eval *e, uint32_t frame, float *motion, float *depth)
+static bool load_motion(const rn_eval *e, uint32_t frame, float *motion, float *depth)
 {
     char path[1300];
     snprintf(path, sizeof path, "%s/frame_%04u.motion.exr", e->ref, frame);
@@ -318,8 +285,8 @@ static bool load_motion(const app_eval *e, uint32_t frame, float *motion, float 
     return ok;
 }
 
-/* The per-image metrics' device (app_eval.metrics_on): NULL for the CPU. */
-static tnd_result open_metrics_device(const app_eval *e, tnd_vk *vk, ev_gpu **g)
+/* The per-image metrics' device (rn_eval.metrics_on): NULL for the CPU. */
+static tnd_result open_metrics_device(const rn_eval *e, tnd_vk *vk, ev_gpu **g)
 {
     *g = NULL;
     const char *on = e->metrics_on ? e->metrics_on : "auto";
@@ -338,11 +305,11 @@ static tnd_result open_metrics_device(const app_eval *e, tnd_vk *vk, ev_gpu **g)
     return res;
 }
 
-tnd_result app_eval_run(app_eval *e)
+tnd_result rn_eval_run(rn_eval *e)
 {
     tnd_result res = common_frames(e);
     ev_image img = {0}, ref = {0};
-    ev_sequence *seq[APP_EVAL_MAX_SERIES] = {0};
+    ev_sequence *seq[RN_EVAL_MAX_SERIES] = {0};
     tnd_vk vk = {0};
     ev_gpu *gpu = NULL;
     uint8_t *mask = NULL;
@@ -419,13 +386,13 @@ tnd_result app_eval_run(app_eval *e)
             }
             /* worth N by FLIP (a search of FLIP evaluations) on the last frame of each eighth
              * of the sequence; by relMSE on every frame */
-            uint32_t eighth = (e->count + APP_WORTH_FLIP_FRAMES - 1) / APP_WORTH_FLIP_FRAMES;
+            uint32_t eighth = (e->count + RN_WORTH_FLIP_FRAMES - 1) / RN_WORTH_FLIP_FRAMES;
             ev_sequence_worth_flip(seq[i], (k + 1) % eighth == 0 || k + 1 == e->count);
             TND_TRY(ev_sequence_add(seq[i], e->frames[k], &img, &ref, &e->series[i].m[k],
                                     regions ? flip : NULL));
             const float *to, *tr;
             ev_sequence_display(seq[i], &to, &tr);
-            for (int b = 0; regions && b < APP_REGIONS; b++)
+            for (int b = 0; regions && b < RN_REGIONS; b++)
                 region_add(&e->series[i].regions[b], b, mask, &img, &ref, flip, to, tr);
             e->series[i].m[k].nonfinite = bad;
             e->series[i].summary.nonfinite += bad;
@@ -433,7 +400,7 @@ tnd_result app_eval_run(app_eval *e)
         }
         ev_image_free(&ref);
         if (e->progress)
-            app_progress_step(e->progress, k + 1);
+            rn_progress_step(e->progress, k + 1);
     }
     for (uint32_t i = 0; i < e->nseries; i++) {
         uint64_t bad = e->series[i].summary.nonfinite;
@@ -457,14 +424,14 @@ fail:
     return res;
 }
 
-app_convergence app_eval_convergence(const app_eval *e)
+rn_convergence rn_eval_convergence(const rn_eval *e)
 {
-    app_convergence c = {0};
+    rn_convergence c = {0};
     bool out = false, acc = false;
     for (uint32_t i = 0; i < e->nseries; i++) {
-        if (!out && e->series[i].kind == APP_SERIES_OUTPUT)
+        if (!out && e->series[i].kind == RN_SERIES_OUTPUT)
             c.output = i, out = true;
-        if (!acc && e->series[i].kind == APP_SERIES_ACCUMULATED)
+        if (!acc && e->series[i].kind == RN_SERIES_ACCUMULATED)
             c.accumulated = i, acc = true;
     }
     c.have = out && acc && e->count > 0;
@@ -481,9 +448,9 @@ app_convergence app_eval_convergence(const app_eval *e)
     return c;
 }
 
-void app_eval_convergence_text(const app_eval *e, const char *indent, ev_text *t)
+void rn_eval_convergence_text(const rn_eval *e, const char *indent, ev_text *t)
 {
-    app_convergence c = app_eval_convergence(e);
+    rn_convergence c = rn_eval_convergence(e);
     if (!c.have)
         return;
     const ev_frame_metrics *o = e->series[c.output].m, *a = e->series[c.accumulated].m;
@@ -510,14 +477,14 @@ void app_eval_convergence_text(const app_eval *e, const char *indent, ev_text *t
                     indent, c.restarts);
 }
 
-const char *app_region_name(int region)
+const char *rn_region_name(int region)
 {
-    return region == APP_REGION_MIRROR ? "mirror" : "glass";
+    return region == RN_REGION_MIRROR ? "mirror" : "glass";
 }
 
-app_region_stats app_region_summary(const app_region *r)
+rn_region_stats rn_region_summary(const rn_region *r)
 {
-    return (app_region_stats){
+    return (rn_region_stats){
         .relmse = r->values ? r->rel_sq / (double)r->values : 0.0,
         .flip = r->pixels ? r->flip / (double)r->pixels : 0.0,
         .sharpness = r->grad_ref > 0 ? r->grad_out / r->grad_ref : 0.0,
@@ -525,19 +492,19 @@ app_region_stats app_region_summary(const app_region *r)
     };
 }
 
-char *app_eval_regions_json(const app_eval *e, uint32_t i)
+char *rn_eval_regions_json(const rn_eval *e, uint32_t i)
 {
     ev_text t = {0};
     int any = 0;
     ev_text_add(&t, "{");
-    for (int b = 0; b < APP_REGIONS; b++) {
-        const app_region *r = &e->series[i].regions[b];
+    for (int b = 0; b < RN_REGIONS; b++) {
+        const rn_region *r = &e->series[i].regions[b];
         if (!r->pixels)
             continue;
-        app_region_stats st = app_region_summary(r);
+        rn_region_stats st = rn_region_summary(r);
         ev_text_add(&t, "%s\"%s\": {\"pixels\": %llu, \"relmse\": %.9g, \"flip\": %.9g, "
                         "\"sharpness\": %.9g, \"bias\": %.9g}",
-                    any++ ? ", " : "", app_region_name(b), (unsigned long long)r->pixels,
+                    any++ ? ", " : "", rn_region_name(b), (unsigned long long)r->pixels,
                     st.relmse, st.flip, st.sharpness, st.bias);
     }
     ev_text_add(&t, "}");
@@ -548,11 +515,11 @@ char *app_eval_regions_json(const app_eval *e, uint32_t i)
     return t.s;
 }
 
-void app_eval_regions_html(const app_eval *e, ev_text *t)
+void rn_eval_regions_html(const rn_eval *e, ev_text *t)
 {
     bool any = false;
     for (uint32_t i = 0; i < e->nseries; i++)
-        for (int b = 0; b < APP_REGIONS; b++)
+        for (int b = 0; b < RN_REGIONS; b++)
             any |= e->series[i].regions[b].pixels > 0;
     if (!any)
         return;
@@ -562,16 +529,16 @@ void app_eval_regions_html(const app_eval *e, ev_text *t)
                    "than the reference; noise raises it).</p>\n<table><tr><th>series</th><th>region"
                    "</th><th>pixels</th><th>relMSE</th><th>FLIP</th><th>sharpness</th><th>bias</th></tr>\n");
     for (uint32_t i = 0; i < e->nseries; i++)
-        for (int b = 0; b < APP_REGIONS; b++) {
-            const app_region *r = &e->series[i].regions[b];
+        for (int b = 0; b < RN_REGIONS; b++) {
+            const rn_region *r = &e->series[i].regions[b];
             if (!r->pixels)
                 continue;
-            app_region_stats st = app_region_summary(r);
+            rn_region_stats st = rn_region_summary(r);
             ev_text_add(t, "<tr><td>");
             ev_text_escaped(t, e->series[i].name);
             ev_text_add(t, "</td><td>%s</td><td>%llu</td><td>%.4g</td><td>%.4f</td><td>%.3f</td>"
                            "<td>%+.1f%%</td></tr>\n",
-                        app_region_name(b), (unsigned long long)r->pixels, st.relmse, st.flip,
+                        rn_region_name(b), (unsigned long long)r->pixels, st.relmse, st.flip,
                         st.sharpness, 100.0 * st.bias);
         }
     ev_text_add(t, "</table>\n");
@@ -600,7 +567,7 @@ static void crop(const float *rgb, uint32_t w, uint32_t x0, uint32_t y0, uint32_
  * of every series (frames/fNNNN.js, linear HDR at most EV_VIEWER_MAX_SIZE a side), each series'
  * FLIP map per frame (frames/fNNNN_sI_flip.png) and report.js (the frames, the per-frame
  * metrics the plots draw, the settings, the run's frame rate). */
-static tnd_result write_viewer(app_eval *e, const char *dir, const char *title,
+static tnd_result write_viewer(rn_eval *e, const char *dir, const char *title,
                                const char *settings)
 {
     tnd_result res = TND_OK;
@@ -608,7 +575,7 @@ static tnd_result write_viewer(app_eval *e, const char *dir, const char *title,
     uint32_t vw = w / f, vh = h / f;
     size_t n = (size_t)w * h;
     char fdir[1300], path[1500];
-    ev_image ref = {0}, img[APP_EVAL_MAX_SERIES] = {{0}};
+    ev_image ref = {0}, img[RN_EVAL_MAX_SERIES] = {{0}};
     float *tr = malloc(n * 3 * sizeof(float)), *tm = malloc(n * 3 * sizeof(float));
     float *map = malloc(n * sizeof(float)), *col = malloc(n * 3 * sizeof(float));
     float *small = malloc((size_t)vw * vh * 3 * sizeof(float));
@@ -623,7 +590,7 @@ static tnd_result write_viewer(app_eval *e, const char *dir, const char *title,
     TND_TRY(ev_viewer_assets(dir));
     for (uint32_t k = 0; k < e->count; k++) {
         uint32_t fr = e->frames[k];
-        const float *hdr[APP_EVAL_MAX_SERIES + 1];
+        const float *hdr[RN_EVAL_MAX_SERIES + 1];
         TND_TRY(load(e, NULL, fr, &ref, NULL, NULL));
         hdr[0] = ref.rgb;
         ev_tonemap(&ref, e->exposure, tr);
@@ -712,39 +679,24 @@ fail:
     return res;
 }
 
-void app_metrics_json(cJSON *o, const ev_summary *s)
+void rn_metrics_json(cJSON *o, const ev_summary *s)
 {
     for (uint32_t k = 0; k < ev_metric_count(); k++)
         if (ev_metric_at(k)->summarised)
             cJSON_AddNumberToObject(o, ev_metric_at(k)->name, ev_metric_summary(ev_metric_at(k), s));
 }
 
-void app_metrics_text(FILE *f, const ev_summary *s)
-{
-    for (uint32_t k = 0; k < ev_metric_count(); k++)
-        if (ev_metric_at(k)->summarised) {
-            fputc(' ', f);
-            fprintf(f, ev_metric_at(k)->fmt, ev_metric_summary(ev_metric_at(k), s));
-        }
-}
 
-void app_metrics_header(FILE *f)
-{
-    for (uint32_t k = 0; k < ev_metric_count(); k++)
-        if (ev_metric_at(k)->summarised) /* (as wide as its values) */
-            fprintf(f, " %*s", atoi(ev_metric_at(k)->fmt + 1), ev_metric_at(k)->head);
-}
-
-tnd_result app_eval_report(app_eval *e, const char *dir, const char *title, const char *settings,
+tnd_result rn_eval_report(rn_eval *e, const char *dir, const char *title, const char *settings,
                            const char *html)
 {
     tnd_result res = TND_OK;
     uint32_t w = e->width, h = e->height, ns = e->nseries;
     size_t n = (size_t)w * h;
-    ev_series series[APP_EVAL_MAX_SERIES];
-    char *regions[APP_EVAL_MAX_SERIES] = {0};
+    ev_series series[RN_EVAL_MAX_SERIES];
+    char *regions[RN_EVAL_MAX_SERIES] = {0};
     for (uint32_t i = 0; i < ns; i++) {
-        regions[i] = app_eval_regions_json(e, i);
+        regions[i] = rn_eval_regions_json(e, i);
         series[i] = (ev_series){e->series[i].name, e->series[i].m, e->series[i].summary, regions[i]};
     }
     float *tm = NULL, *tr = NULL, *tmp = NULL, *map = NULL, *cr = NULL;
