@@ -355,6 +355,12 @@ tnd_result pl_chain_finish(pl_chain *chain, pl_step_result *result);
 /* The denoiser that runs (after pl_denoiser_for) and the built-in back-end's context when it is
  * the built-in's (PL_DN_DUMPS: dumps, traffic, per-dispatch times; NULL otherwise). */
 const pl_denoiser_info *pl_chain_denoiser_info(const pl_chain *chain);
+/* Whether the chain's denoiser takes re-shaded gradient samples behind this front-end (it asks
+ * for them, or takes them where the front-end can re-shade), and whether the re-shading can be
+ * folded into the front-end's shading pass (the front-end shades slots; a frame that goes to the
+ * host as rendered, or pl_chain_desc.separate_reshade, keeps the separate re-shading). */
+bool pl_chain_takes_gradients(const pl_chain *chain, const pl_frontend *fe);
+bool pl_chain_can_fold(const pl_chain *chain, const pl_frontend *fe);
 dn_context *pl_chain_denoiser(pl_chain *chain);
 /* The frame's passes in order (the front-end's, the denoiser's, the post chain's; the post
  * chain's only with it) and a step's times in the same order: what every timings writer prints. */

@@ -219,6 +219,20 @@ fail:
     return res;
 }
 
+bool pl_chain_takes_gradients(const pl_chain *c, const pl_frontend *fe)
+{
+    /* a denoiser that asks for re-shaded gradient samples (A-SVGF), or takes them where the
+     * front-end can give them (recurrent) */
+    uint32_t dn = c->ops->info.caps, caps = pl_frontend_caps(fe);
+    return c->d.backend &&
+           ((dn & PL_DN_GRADIENTS) || ((dn & PL_DN_CONFIDENCE) && (caps & PL_CAP_RESHADE)));
+}
+
+bool pl_chain_can_fold(const pl_chain *c, const pl_frontend *fe)
+{
+    return pl_chain_takes_gradients(c, fe) && (pl_frontend_caps(fe) & PL_CAP_SHADE_SLOTS);
+}
+
 tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *hdr,
                         uint8_t *display, pl_step_result *r)
 {
@@ -233,16 +247,12 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
      * queue): their times come once the frame is waited for, or lagged with the back-end's */
     pl_timings *ft = (caps & PL_CAP_QUEUED) ? NULL : &r->fe;
     c->fe = fe;
-    /* a denoiser that asks for re-shaded gradient samples (A-SVGF), or takes them where the
-     * front-end can give them (recurrent) */
-    bool gradients = c->d.backend && ((c->ops->info.caps & PL_DN_GRADIENTS) ||
-                                      ((c->ops->info.caps & PL_DN_CONFIDENCE) &&
-                                       (caps & PL_CAP_RESHADE)));
+    bool gradients = pl_chain_takes_gradients(c, fe);
     bool need_host = !gpu || s->capture || s->host_out || !c->d.backend || c->d.host_contract;
     /* the selection between the front-end's primary and shading passes, which re-shades the
      * samples in place: no re-shading launch (it cost `cornell` 0.17 ms of 2.18 at 1080p on the
      * H200, docs/performance.md); where the frame goes to the host, it goes as rendered */
-    bool fold = gradients && !need_host && !s->frame_from_host && (caps & PL_CAP_SHADE_SLOTS) &&
+    bool fold = pl_chain_can_fold(c, fe) && !need_host && !s->frame_from_host &&
                 !c->d.separate_reshade;
     if (recorded)
         tnd_frame_destroy(&c->host); /* (a recorded front-end reads into a fresh frame) */

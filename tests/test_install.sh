@@ -16,7 +16,8 @@ ok() { echo "ok   $1"; pass=$((pass + 1)); }
 bad() { echo "FAIL $1"; failn=$((failn + 1)); }
 
 cmake --install "$BUILD" --prefix "$TMP/prefix" > "$TMP/install.log"
-for f in include/tandem/tandem.h include/tandem/tandem_plugin.h lib/libtandem.a \
+for f in include/tandem/tandem.h include/tandem/tandem_plugin.h include/tandem/run/run.h \
+         include/tandem/eval/eval.h lib/libtandem.a \
          lib/libtandem.so lib/pkgconfig/tandem.pc lib/cmake/Tandem/TandemConfig.cmake bin/tandem; do
     [ -e "$TMP/prefix/$f" ] && ok "installed $f" || bad "installed $f"
 done
@@ -27,7 +28,8 @@ done
 "$TANDEM" denoise --captures "$TMP/run" --denoiser svgf --out "$TMP/expected" --quiet
 
 mkdir "$TMP/consumer"
-cp "$SRC/tests/install/denoise_capture.c" "$SRC/tests/install/CMakeLists.txt" "$TMP/consumer/"
+cp "$SRC/tests/install/denoise_capture.c" "$SRC/tests/install/sequence.c" \
+    "$SRC/tests/install/CMakeLists.txt" "$TMP/consumer/"
 cd "$TMP/consumer"
 
 # 1. pkg-config, the shared library
@@ -47,6 +49,7 @@ cmake -S . -B build -DCMAKE_PREFIX_PATH="$TMP/prefix" -DCMAKE_BUILD_TYPE=Release
     -DCMAKE_C_FLAGS="$SAN" -DCMAKE_EXE_LINKER_FLAGS="$SAN" > cmake.log
 cmake --build build > build.log
 ./build/denoise_capture "$TMP/run" "$TMP/out_cmake"
+[ -x ./build/sequence ] && ok "CMake: docs/library.md's program built" || bad "CMake: sequence"
 libs_cmake=$(ldd ./build/denoise_capture)
 if grep -q libtandem <<<"$libs_cmake"; then bad "CMake: static (no libtandem.so)"
 else ok "CMake: Tandem::tandem_static linked in"; fi
@@ -62,6 +65,36 @@ for i in 0 1 2 3; do
         fi
     done
 done
+# docs/library.md's program through the run layer (pkg-config, the shared library): a sequence,
+# its matched reference and the evaluation, against what the command line makes of the same
+cc -std=c11 -Wall -Werror $SAN sequence.c $(pkg-config --cflags --libs tandem) -o sequence_pc
+LD_LIBRARY_PATH="$TMP/prefix/lib" ./sequence_pc "$SRC/data/scenes/dynamic.gltf" "$TMP/seq" \
+    > "$TMP/seq.out"
+"$TANDEM" render --scene "$SRC/data/scenes/dynamic.gltf" --frontend embree --denoiser svgf \
+    --frames 4 --size 64x40 --out "$TMP/seq_cli/run" --quiet
+"$TANDEM" reference --scene "$SRC/data/scenes/dynamic.gltf" --frontend embree \
+    --estimator realtime --spp 32 --frames 4 --size 64x40 --out "$TMP/seq_cli/matched" --quiet
+"$TANDEM" eval --out "$TMP/seq_cli/run" --matched-reference "$TMP/seq_cli/matched" \
+    --metrics-on cpu --json > "$TMP/seq_cli.json"
+same=1
+for i in 0 1 2 3; do
+    for d in run matched; do
+        idiff -q -fail 0 -failpercent 0 -warn 0 -warnpercent 0 "$TMP/seq_cli/$d/frame_000$i.exr" \
+            "$TMP/seq/$d/frame_000$i.exr" > /dev/null || same=0
+    done
+done
+[ $same -eq 1 ] && ok "sequence: the run and its matched reference equal the command line's" ||
+    bad "sequence: frames differ from the command line's"
+if /usr/bin/python3 - "$TMP/seq.out" "$TMP/seq_cli.json" <<'PYEOF'
+import json, sys
+line = open(sys.argv[1]).read().split()  # "4 frames: relMSE X, FLIP Y"
+d = json.load(open(sys.argv[2]))[0]
+assert line[0] == "4" and float(line[3].rstrip(",")) == float("%.6g" % d["relmse"]), (line, d)
+assert float(line[5]) == float("%.6g" % d["flip"]), (line, d)
+PYEOF
+then ok "sequence: its evaluation is tandem eval's to the digits it prints"
+else bad "sequence: its evaluation differs from tandem eval's"; fi
+
 # 3. the Python package where make install puts it (not under the sanitizers: Debian's Python
 # is not built with them), and the installed command finding its Python bridge there
 if [ -z "$SAN" ]; then

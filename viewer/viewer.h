@@ -1,12 +1,15 @@
-/* viewer: a window on the pipeline (tandem view). vw_window is a GLFW window with a Vulkan
- * swapchain that shows one RGBA8 image per frame (blitted, so any size and format conversion is
- * the blit's); vw_compose draws that image from the pipeline's outputs (one view, or two split
- * by a divider) with the overlay on top. Input arrives through a callback, the same one a
- * scripted session feeds. Prefix vw_; depends on core/ and shaders/. */
+/* viewer: a window on the pipeline (tandem view). vw_view_run is the viewer: the pipeline live,
+ * the camera flown, the knobs on keys, screenshots with repro states, scripted sessions
+ * (vw_session.c, vw_views.c, vw_script.c). vw_window is a GLFW window with a Vulkan swapchain
+ * that shows one RGBA8 image per frame (blitted, so any size and format conversion is the
+ * blit's); vw_compose draws that image from the pipeline's outputs (one view, or two split by a
+ * divider) with the overlay on top. Input arrives through a callback, the same one a scripted
+ * session feeds. Prefix vw_; over the run layer (run/), like app/. */
 #ifndef VW_VIEWER_H
 #define VW_VIEWER_H
 
 #include "core/core.h"
+#include "run/run.h"
 
 typedef struct vw_window vw_window;
 
@@ -53,5 +56,25 @@ tnd_result vw_compose_create(tnd_vk *vk, vw_compose **out);
 void vw_compose_destroy(vw_compose *c);
 tnd_result vw_compose_run(vw_compose *c, const tnd_image *a, const tnd_image *b, int split,
                           const tnd_image *overlay, const tnd_image *out);
+
+/* `tandem view` with these settings (the state's over them where given): until the window
+ * closes, `frames` frames have run (0: no limit) or the script ends; h says its lines and asks
+ * whether to stop (TND_ERR_INTERRUPTED: screenshots kept). With `soak` a soak record of the
+ * viewer's loop comes back in result->soak (the caller frees it, rn_soak_rec_free). */
+typedef struct vw_view_opts {
+    const char *scene, *frontend, *denoiser;
+    const char *state;  /* a repro state to start from (a screenshot's .json), or NULL */
+    const char *script; /* timed events to play, then exit (docs/viewer.md), or NULL */
+    const char *out;    /* screenshots and captures (NULL: .) */
+    unsigned size[2], frames;
+    bool soak;
+    rn_env env;
+} vw_view_opts;
+typedef struct vw_view_result {
+    rn_soak_rec *soak;
+    char scene[1024]; /* the scene it ended with, its frames and window size */
+    uint32_t steps, size[2];
+} vw_view_result;
+tnd_result vw_view_run(const vw_view_opts *o, const rn_host *h, vw_view_result *result);
 
 #endif
