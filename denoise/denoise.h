@@ -130,9 +130,11 @@ tnd_result dn_select_gradients(dn_context *ctx, const tnd_contract_gpu *contract
                                const dn_frame *frame, uint32_t *samples, uint32_t *count);
 /* Debug dumps of the back-end's buffers after the last dn_run (tandem render --dump): dump i
  * (0 .. dn_dump_count() - 1) has a name such as "temporal.hf" and 4 channel names; dn_dump
- * writes its 4 floats per texel (dn_dump_size: full or, for "gradients" and "lf.*", 1/3 resolution). The
- * a-trous dumps hold the last iteration, "lf.*" the 1/3-res lf filter's result; "gradients" (the filtered hf / spec / lf gradients) is
- * only meaningful on asvgf frames with history. */
+ * writes its 4 floats per texel (dn_dump_size: full or, for "gradients" and "lf.*", 1/3
+ * resolution). The a-trous dumps hold the last iteration, "lf.*" the 1/3-res lf filter's result;
+ * "gradients" (the filtered hf / spec / lf gradients) is only meaningful on asvgf frames with
+ * history. A buffer the last frame did not write is zeros (every one but "output" in off mode;
+ * "gradients" without gradient samples). */
 uint32_t dn_dump_count(void);
 const char *dn_dump_name(uint32_t i, const char **channels);
 tnd_result dn_dump_size(const dn_context *ctx, uint32_t i, uint32_t *w, uint32_t *h);

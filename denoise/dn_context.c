@@ -1051,6 +1051,13 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "denoise: dump %s before the first frame",
                         dumps[i].name);
     uint32_t slot = (c->frame - 1) & 1u;
+    /* what the mode does not write holds nothing of this run: zeros, not the memory's leftovers
+     * (off composites the noisy signals alone; gradients only where they were taken) */
+    if ((c->desc.mode == DN_MODE_OFF && dumps[i].kind != DUMP_OUT) ||
+        (dumps[i].kind == DUMP_GRAD && !c->last_gradients)) {
+        memset(rgba, 0, (size_t)w * h * 16);
+        return TND_OK;
+    }
     bool hist = dumps[i].kind == DUMP_HIST || dumps[i].kind == DUMP_HIST_COCG ||
                 dumps[i].kind == DUMP_HIST_MOM;
     const tnd_image *img = hist                           ? &c->paired[dumps[i].index][slot]

@@ -26,7 +26,7 @@ void rn_render_defaults(rn_render_opts *o)
                        .rt_api = "auto",
                        .pipeline = "scene",
                        .denoiser = pl_denoiser_default(),
-                       .taa = "on",
+                       .taa = NULL, /* (on; given: said where it cannot run) */
                        .tonemap = "aces",
                        .exposure = "auto",
                        .frames = 8,
@@ -120,7 +120,7 @@ tnd_result rn_render_args(const rn_render_opts *o, bool reference, rn_args *a)
         ok = ok && args_str(a, "--precision", o->precision, d.precision) &&
              args_str(a, "--rt-api", o->rt_api, d.rt_api) &&
              args_str(a, "--pipeline", o->pipeline, d.pipeline) &&
-             args_str(a, "--taa", o->taa, d.taa) &&
+             args_str(a, "--taa", o->taa, "on") &&
              args_str(a, "--tonemap", o->tonemap, d.tonemap) &&
              args_str(a, "--exposure", o->exposure, d.exposure) &&
              (o->bloom == d.bloom || argn(a, "--bloom", o->bloom)) &&
@@ -232,7 +232,7 @@ pl_step rn_frame_step(const rn_render_opts *o, const tnd_scene_state *cur, unsig
 tnd_result rn_taa_parse(const char *taa, struct cmp_desc *d)
 {
     char *end;
-    if (strcmp(taa, "on") == 0) {
+    if (!taa || strcmp(taa, "on") == 0) {
         d->taa = true;
     } else if (strcmp(taa, "off") == 0) {
         d->taa = false;

@@ -275,6 +275,16 @@ static tnd_result run_opts(const render_opts *opts, bool reference, const rn_hos
     /* the back-end runs on Vulkan; only a host front-end with a denoiser that does not filter
      * ("off") stays on the CPU (a viewer's state: its back-end, always on the GPU) */
     bool use_dn = !reference && ((dn->caps & PL_DN_FILTERS) || use_vk || o.view);
+    bool taa_asked = o.taa && strcmp(o.taa, "off") != 0;
+    if (!reference && !use_dn && (taa_asked || o.bloom > 0)) { /* (asked for, not run) */
+        char asked[160];
+        snprintf(asked, sizeof asked, "%s%.60s%s%s", taa_asked ? "--taa " : "",
+                 taa_asked ? o.taa : "", taa_asked && o.bloom > 0 ? " and " : "",
+                 o.bloom > 0 ? "--bloom" : "");
+        rn_warn(h, "tandem: render: %s not run: --frontend %s with --denoiser %s composites on "
+                   "the CPU (no post chain; its PNGs are previews)", asked, o.frontend,
+                o.denoiser);
+    }
     if (o.dump && dn && !(dn->caps & PL_DN_DUMPS))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT,
                         "--dump shows the back-end's buffers: with a denoiser plugin they are not "

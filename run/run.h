@@ -173,7 +173,7 @@ void rn_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, rn_vie
  * rn_render_defaults. */
 typedef struct rn_render_opts {
     const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump, *pipeline;
-    const char *taa, *tonemap, *exposure;
+    const char *taa, *tonemap, *exposure; /* taa NULL: on, not asked for */
     double bloom, exposure_bias;
     pl_param_set params; /* the denoiser's parameters given (pl_param) */
     unsigned frames, start, threads, bounces, spp, camera, reflect_depth;
@@ -258,7 +258,7 @@ tnd_result rn_reference_add(pl_frontend *fr, const rn_render_opts *o, unsigned f
  * takes it: the realtime estimator's count in o->bounces (default 1), the unbiased path's cap in
  * o->ref_bounces (0: none). Once, after rn_render_check. */
 void rn_reference_bounces(rn_render_opts *o);
-/* --taa on|off|W (a new-frame weight in (0, 1]) into the post chain's description. */
+/* --taa on|off|W (a new-frame weight in (0, 1]; NULL: on) into the post chain's description. */
 tnd_result rn_taa_parse(const char *taa, struct cmp_desc *d);
 /* One frame's times as timings.json entry members (", \"KEY\": MS" for each of the chain's
  * passes, and the `beside` flag after the pass that has it). */

@@ -631,5 +631,38 @@ assert json.load(open(sys.argv[1]))["antilag"] == 2
 PY
 check "a local sweep keeps its own messages (no --quiet left behind); a parameter is a knob" $?
 
+# mended with the run layer: eval --quiet writes its files and prints nothing; a one-frame
+# report has its player; the CPU composite says what it does not run; off's dumps are zeros
+"$T" render --frames 1 --size 24x16 --out "$tmp/one" --quiet &&
+    "$T" reference --frames 1 --size 24x16 --spp 8 --out "$tmp/one_ref" --quiet &&
+    "$T" eval --out "$tmp/one" --reference "$tmp/one_ref" --report "$tmp/one_rep" --quiet \
+        >"$tmp/one_out" 2>/dev/null; rc=$?
+[ $rc -eq 0 ] && [ ! -s "$tmp/one_out" ] && [ -s "$tmp/one/metrics.json" ] &&
+    grep -q 'href="viewer.html"' "$tmp/one_rep/index.html" && [ -s "$tmp/one_rep/viewer.html" ] &&
+    [ -s "$tmp/one_rep/frames/f0000.js" ]
+check "eval --quiet prints nothing; a one-frame report writes the player it links to (got $rc)" $?
+"$T" render --frontend embree --denoiser off --taa on --frames 1 --size 24x16 --out "$tmp/cpu_taa" \
+    --quiet 2>"$tmp/err"; rc=$?
+"$T" render --frontend embree --denoiser off --frames 1 --size 24x16 --out "$tmp/cpu_none" \
+    --quiet 2>"$tmp/err2"
+[ $rc -eq 0 ] && grep -q -- "--taa on not run: --frontend embree with --denoiser off composites on the CPU" \
+    "$tmp/err" && [ ! -s "$tmp/err2" ]
+check "embree with --denoiser off: --taa on said not to run (and nothing said without it)" $?
+"$T" render --frontend vk --denoiser off --dump all --frames 2 --size 24x16 --out "$tmp/off_dump" \
+    --quiet && $PY - "$tmp/off_dump/dump" <<'PY'
+import glob, sys
+import OpenImageIO as oiio
+import numpy as np
+files = sorted(glob.glob(sys.argv[1] + "/*_0001.exr"))
+assert len(files) > 10, files
+for f in files:
+    px = oiio.ImageBuf(f).get_pixels(oiio.FLOAT)
+    if "/output_" in f:
+        assert np.isfinite(px).all() and px.max() > 0, f
+    else:  # (nothing of off's: zeros, not the memory's leftovers)
+        assert not px.any(), (f, float(np.nanmax(np.abs(px))))
+PY
+check "--denoiser off: every dump but the output is zeros" $?
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]
