@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# tests/test_cli_sweep.sh TANDEM: `tandem bench --sweep` (cells against matched references, Pareto
+# fronts) and `bench --extremes` (the numerical stability report) from outside.
+source "$(dirname "$0")/cli_common.sh" "$1"
+
+# speed/accuracy sweep: 3 knobs, 8 runs, Pareto fronts; each cell against the matched reference
+# of its estimator (two: bounces 1 and 2), and against the unbiased one; the report opens in
+# Chromium
+"$T" bench --scene "$SRC/data/scenes/cornell.gltf" --size 40x24 --frames 5 --warmup 2 --spp 32 \
+    --sweep bounces=1,2 --sweep atrous=1,4 --sweep gradient=on,off --out "$tmp/sweep" --quiet \
+    >"$tmp/sw_out" 2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && $PY - "$tmp/sweep/sweep.json" "$tmp/sweep/sweep.csv" <<'PY'
+import json, math, sys
+d = json.load(open(sys.argv[1]))
+runs = d["runs"]
+assert d["knobs"] == ["bounces", "atrous", "gradient"] and len(runs) == 8
+assert len({tuple(sorted(r["knobs"].items())) for r in runs}) == 8
+# each cell timed on 24 frames back to back after its 5 (render --timed-frames)
+assert d["timed_frames"] == 24, d["timed_frames"]
+t = json.load(open(sys.argv[1].replace("sweep.json", "runs/000/timings.json")))
+assert len(t["frames"]) == 5 and len(t["back_to_back"]["frames"]) == 24, t.keys()
+assert [f["frame"] for f in t["back_to_back"]["frames"]] == list(range(5 + 4, 5 + 4 + 24))
+for r in runs:
+    assert r["total_ms"] > 0 and r["pass_ms"]["denoise_atrous_ms"] > 0, r
+    assert r["wall_ms"] > 0, r
+    assert math.isfinite(r["relmse"]) and 0 < r["flip"] < 1, r
+    assert math.isfinite(r["relmse_unbiased"]) and r["estimator_bias_relmse"] > 0, r
+    assert (r["pass_ms"]["denoise_gradient_ms"] > 0) == (r["knobs"]["gradient"] == "on"), r
+    assert r["matched_reference"].endswith("bounces%s_40x24" % r["knobs"]["bounces"]), r
+matched = {r["knobs"]["bounces"]: r["matched_reference"] for r in runs}
+assert len(set(matched.values())) == 2  # one per estimator, shared by its 4 cells
+bias = {r["knobs"]["bounces"]: r["estimator_bias_relmse"] for r in runs}
+assert bias["2"] < bias["1"], bias  # a second bounce brings the expectation nearer the truth
+assert any(r["pareto_relmse"] for r in runs) and any(r["pareto_flip"] for r in runs)
+assert len(open(sys.argv[2]).read().strip().split("\n")) == 9
+PY
+check "bench --sweep over 3 knobs: 8 runs, each against its estimator's matched reference" $?
+chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom \
+    "file://$tmp/sweep/report/index.html" >"$tmp/dom" 2>/dev/null
+grep -q 'data-images="2" data-broken="" data-status="ok"' "$tmp/dom"
+check "the sweep report (Pareto plots and table) loads in Chromium" $?
+"$T" bench --sweep spp=1,4 --out "$tmp/sw2" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "one sample per pixel" "$tmp/err" && [ ! -e "$tmp/sw2" ]
+check "bench --sweep spp explains why it is not a real-time knob (usage error, no output)" $?
+"$T" bench --sweep colour=red --out "$tmp/sw3" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q "atrous" "$tmp/err" && [ ! -e "$tmp/sw3" ]
+check "bench --sweep with an unknown key lists the keys" $?
+
+# numerical stability report: extremes through every mode
+"$T" bench --extremes --size 64x36 --frames 4 --out "$tmp/ext" --quiet >"$tmp/ext_out" 2>"$tmp/err"; rc=$?
+"$T" info --pipeline --json >"$tmp/ext_info.json"
+$PY - "$tmp/ext/extremes.json" $rc "$tmp/ext_info.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+rc = int(sys.argv[2])
+info = json.load(open(sys.argv[3]))
+runs = d["runs"]
+# every live front-end (those render takes) x every registered denoiser x both precisions
+live = [f for f in info["frontends"] if "recorded" not in f["capabilities"]]
+want = len(live) * len(info["denoisers"]) * 2
+assert want == 16, want  # embree, vk x asvgf, svgf, off, recurrent x float32, packed
+assert len(runs) == want and len({(r["frontend"], r["denoiser"], r["precision"]) for r in runs}) == want
+assert rc == (1 if d["nonfinite"] else 0), (rc, d["nonfinite"])   # exit status says it
+for r in runs:
+    b = r["buffers"]
+    # what users get is finite in every mode: the frames, and every contract entry
+    assert b["output"]["nonfinite"] == 0, r
+    assert all(v["nonfinite"] == 0 for k, v in b.items() if k.startswith("contract.")), r
+    # the scene's 1e5 emitter is above half's range: the report sees the packed clamp coming
+    if r["precision"] == "float32":
+        assert b["contract.emission"]["over_half_max"] > 0 and b["contract.emission"]["max_abs"] >= 1e5
+    if r["denoiser"] != "off" or r["frontend"] == "vk":
+        assert any(k.startswith("denoise.") for k in b), r
+for p in d["packed_vs_float32"]:
+    e = p["entries"]
+    assert e["albedo"]["max_relative"] < 1e-3 and e["normal"]["max_relative"] < 1e-3, p  # half: 2^-11
+    assert e["emission"]["max_relative"] > 0.3, p   # 1e5 clamped to 65504: the cost, measured
+print("     extremes: %d NaN/Inf inside the back-end's buffers" % d["nonfinite"])
+PY
+check "bench --extremes: every mode (16), finite frames and contracts, packed clamps found and measured" $?
+chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --dump-dom \
+    "file://$tmp/ext/report/index.html" >"$tmp/dom" 2>/dev/null
+grep -q 'data-status="ok"' "$tmp/dom" && grep -q "Packed against float32" "$tmp/ext/report/index.html"
+check "the stability report loads in Chromium" $?
+
+echo "$pass passed, $fail failed"
+[ $fail -eq 0 ]
