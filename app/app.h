@@ -138,6 +138,7 @@ int cmd_convert(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_merge(int argc, char **argv);
 int cmd_dataset(int argc, char **argv);
+int cmd_rank(int argc, char **argv);
 /* `tandem bench --sweep` (app/cmd_sweep.c): usage errors said as bench's, then run; the exit
  * status. */
 int app_sweep(const rn_sweep_opts *o);

@@ -26,6 +26,8 @@ static const app_cmd commands[] = {
      "A B [options]", cmd_compare},
     {"dataset", "Render training data for learned denoisers: contract, noisy, matched reference.",
      "SPEC.json --out DIR [--shard I/N]", cmd_dataset},
+    {"rank", "Rank denoisers over a suite of sequences: the leaderboard with 95% intervals.",
+     "SUITE --denoisers A,B,... --out DIR", cmd_rank},
     {"eval", "Evaluate a run against converged references: metrics, JSON/CSV, HTML report.",
      "--out DIR --reference REFDIR [--report REPORTDIR]", cmd_eval},
     {"contract", "Print the buffer contract: every entry, its EXR channels, formats and meaning.",

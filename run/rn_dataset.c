@@ -142,40 +142,6 @@ static tnd_result spec_fail(const char *path, const char *what)
     return tnd_fail(TND_ERR_BAD_INPUT, "%s: %s", path, what);
 }
 
-static bool get_uint(const cJSON *o, const char *k, unsigned *v, unsigned lo, unsigned hi)
-{
-    const cJSON *x = cJSON_GetObjectItemCaseSensitive(o, k);
-    if (!x)
-        return true;
-    if (!cJSON_IsNumber(x) || x->valuedouble < lo || x->valuedouble > hi ||
-        x->valuedouble != (double)(unsigned)x->valuedouble)
-        return false;
-    *v = (unsigned)x->valuedouble;
-    return true;
-}
-
-static bool get_str(const cJSON *o, const char *k, const char **v)
-{
-    const cJSON *x = cJSON_GetObjectItemCaseSensitive(o, k);
-    if (!x)
-        return true;
-    if (!cJSON_IsString(x))
-        return false;
-    *v = x->valuestring;
-    return true;
-}
-
-static bool get_num(const cJSON *o, const char *k, double *v)
-{
-    const cJSON *x = cJSON_GetObjectItemCaseSensitive(o, k);
-    if (!x)
-        return true;
-    if (!cJSON_IsNumber(x))
-        return false;
-    *v = x->valuedouble;
-    return true;
-}
-
 static void spec_free(spec *s)
 {
     cJSON_Delete(s->root);
@@ -189,10 +155,7 @@ static tnd_result spec_read(const char *path, spec *s)
     static const char *const top_keys[] = {"size",      "frames",   "fps",          "frontend",
                                            "bounces",   "spp",      "unbiased_spp", "format",
                                            "sequences", "precision"};
-    static const char *const seq_keys[] = {
-        "name",         "scene",       "camera_path", "path_duration",
-        "path_radius",  "path_height", "env",         "env_intensity",
-        "env_rotation", "up",          "camera",      "no_default_light"};
+    static const char *const seq_keys[] = {"name", RN_SPEC_SCENE_KEYS};
     tnd_result res = TND_OK;
     memset(s, 0, sizeof *s);
     void *text = NULL;
@@ -239,13 +202,13 @@ static tnd_result spec_read(const char *path, spec *s)
     base.half_indirect = cJSON_IsString(half) && strcmp(half->valuestring, "half") == 0;
     if (base.half_indirect)
         base.bounces = 1;
-    if (!get_uint(s->root, "frames", &base.frames, 1, 100000) ||
-        (!base.half_indirect && !get_uint(s->root, "bounces", &base.bounces, 0, 64)) ||
-        !get_uint(s->root, "spp", &base.spp, 1, 1u << 20) ||
-        !get_uint(s->root, "unbiased_spp", &unbiased, 0, 1u << 20) ||
-        !get_num(s->root, "fps", &base.fps) || !(base.fps > 0) ||
-        !get_str(s->root, "frontend", &base.frontend) ||
-        !get_str(s->root, "precision", &base.precision) || !get_str(s->root, "format", &format)) {
+    if (!rn_json_uint(s->root, "frames", &base.frames, 1, 100000) ||
+        (!base.half_indirect && !rn_json_uint(s->root, "bounces", &base.bounces, 0, 64)) ||
+        !rn_json_uint(s->root, "spp", &base.spp, 1, 1u << 20) ||
+        !rn_json_uint(s->root, "unbiased_spp", &unbiased, 0, 1u << 20) ||
+        !rn_json_num(s->root, "fps", &base.fps) || !(base.fps > 0) ||
+        !rn_json_str(s->root, "frontend", &base.frontend) ||
+        !rn_json_str(s->root, "precision", &base.precision) || !rn_json_str(s->root, "format", &format)) {
         res = spec_fail(path, "frames (1..100000), bounces (or \"half\"), spp, unbiased_spp: "
                               "whole numbers; fps > 0; frontend, precision, format: strings");
         goto fail;
@@ -283,17 +246,9 @@ static tnd_result spec_read(const char *path, spec *s)
                 goto fail;
             }
         }
-        const cJSON *ndl = ok ? cJSON_GetObjectItemCaseSensitive(q, "no_default_light") : NULL;
         sq->o.scene = NULL;
-        ok = ok && get_str(q, "name", &name) && get_str(q, "scene", &sq->o.scene) && sq->o.scene &&
-             get_str(q, "camera_path", &sq->o.env.camera_path) &&
-             get_num(q, "path_duration", &sq->o.env.path_duration) &&
-             get_num(q, "path_radius", &sq->o.env.path_radius) &&
-             get_num(q, "path_height", &sq->o.env.path_height) &&
-             get_str(q, "env", &sq->o.env.path) &&
-             get_num(q, "env_intensity", &sq->o.env.intensity) &&
-             get_num(q, "env_rotation", &sq->o.env.rotation) && get_str(q, "up", &sq->o.env.up) &&
-             get_uint(q, "camera", &sq->o.camera, 0, 1u << 20) && (!ndl || cJSON_IsBool(ndl));
+        ok = ok && rn_json_str(q, "name", &name) && rn_spec_scene_options(q, &sq->o) &&
+             sq->o.scene;
         if (!ok) {
             res = tnd_fail(TND_ERR_BAD_INPUT,
                            "%s: sequence %u: expected an object with \"scene\": PATH and "
@@ -303,7 +258,6 @@ static tnd_result spec_read(const char *path, spec *s)
                            path, s->nseq);
             goto fail;
         }
-        sq->o.env.no_default_light = ndl && cJSON_IsTrue(ndl);
         if (name)
             snprintf(sq->name, sizeof sq->name, "%s", name);
         else

@@ -687,6 +687,54 @@ void rn_metrics_json(cJSON *o, const ev_summary *s)
 }
 
 
+/* The spread of FLIP between the series at frame index k (the largest minus the smallest). */
+static double flip_spread(const rn_eval *e, uint32_t k)
+{
+    double lo = INFINITY, hi = -INFINITY;
+    for (uint32_t i = 0; i < e->nseries; i++) {
+        lo = fmin(lo, e->series[i].m[k].flip);
+        hi = fmax(hi, e->series[i].m[k].flip);
+    }
+    return e->nseries ? hi - lo : 0;
+}
+
+/* The c x c box (on a grid of c/4) where the series' FLIP box sums differ most (the largest
+ * minus the smallest), frame f; tr: the reference tone-mapped. */
+static tnd_result spread_centre(rn_eval *e, uint32_t f, const float *tr, uint32_t c, uint32_t *cx,
+                                uint32_t *cy)
+{
+    uint32_t w = e->width, h = e->height, ns = e->nseries, step = c / 4 ? c / 4 : 1;
+    size_t n = (size_t)w * h;
+    float *maps = malloc(n * ns * sizeof(float)), *tm = malloc(n * 3 * sizeof(float));
+    ev_image img = {0};
+    tnd_result res = maps && tm ? TND_OK : tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
+    for (uint32_t i = 0; i < ns && res == TND_OK; i++) {
+        double mean;
+        if ((res = load(e, &e->series[i], f, &img, NULL, NULL)) != TND_OK)
+            break;
+        ev_tonemap(&img, e->exposure, tm);
+        res = ev_flip(tr, tm, w, h, e->ppd, maps + i * n, &mean);
+        ev_image_free(&img);
+    }
+    double best = -1;
+    for (uint32_t y = 0; res == TND_OK && y + c <= h; y += step)
+        for (uint32_t x = 0; x + c <= w; x += step) {
+            double lo = INFINITY, hi = -INFINITY;
+            for (uint32_t i = 0; i < ns; i++) {
+                double sum = 0;
+                for (uint32_t yy = y; yy < y + c; yy++)
+                    for (uint32_t xx = x; xx < x + c; xx++)
+                        sum += maps[i * n + (size_t)yy * w + xx];
+                lo = fmin(lo, sum), hi = fmax(hi, sum);
+            }
+            if (hi - lo > best)
+                best = hi - lo, *cx = x, *cy = y;
+        }
+    free(maps);
+    free(tm);
+    return res;
+}
+
 tnd_result rn_eval_report(rn_eval *e, const char *dir, const char *title, const char *settings,
                            const char *html)
 {
@@ -719,10 +767,12 @@ tnd_result rn_eval_report(rn_eval *e, const char *dir, const char *title, const 
         TND_TRY(ev_plot_metric(path, em->name, series, ns, e->count));
         nplots++;
     }
-    /* frames shown: the first, the one with the worst FLIP of the first series, the last */
+    /* frames shown: the first, the one with the worst FLIP of the first series (crop_spread:
+     * the largest spread of FLIP between the series), the last */
     uint32_t pick[3], npick = 0, worst = 0;
     for (uint32_t k = 0; k < e->count; k++)
-        if (ns && e->series[0].m[k].flip > e->series[0].m[worst].flip)
+        if (e->crop_spread ? flip_spread(e, k) > flip_spread(e, worst)
+                           : ns && e->series[0].m[k].flip > e->series[0].m[worst].flip)
             worst = k;
     const uint32_t cand[3] = {0, worst, e->count - 1};
     for (int c = 0; c < 3; c++) {
@@ -751,15 +801,20 @@ tnd_result rn_eval_report(rn_eval *e, const char *dir, const char *title, const 
         uint32_t k = pick[p], f = e->frames[k];
         ev_row *row = &rows[nrows++], *crow = &rows[nrows++];
         snprintf(row->title, sizeof row->title, "Frame %u%s", f,
-                 k == worst && ns ? " (the worst FLIP of the first series)" : "");
+                 k != worst || !ns       ? ""
+                 : e->crop_spread ? " (where the series differ most in FLIP)"
+                                  : " (the worst FLIP of the first series)");
         TND_TRY(load(e, NULL, f, &ref, NULL, NULL));
         ev_tonemap(&ref, e->exposure, tr);
         snprintf(row->panels[row->count].file, sizeof row->panels[0].file, "f%04u_reference.png", f);
         row->panels[row->count].caption = "reference";
         row->panels[row->count].display_width = shown;
         TND_TRY(png(dir, row->panels[row->count++].file, tr, w, h));
-        /* crop centre: the largest 16x16 box sum of the first series' FLIP */
+        /* crop centre: the largest 16x16 box sum of the first series' FLIP (crop_spread: the
+         * largest spread of the series' box sums) */
         uint32_t cx = 0, cy = 0;
+        if (e->crop_spread && ns > 1)
+            TND_TRY(spread_centre(e, f, tr, c, &cx, &cy));
         for (uint32_t i = 0; i < ns; i++) {
             TND_TRY(load(e, &e->series[i], f, &img, NULL, NULL));
             ev_tonemap(&img, e->exposure, tm);
@@ -783,7 +838,7 @@ tnd_result rn_eval_report(rn_eval *e, const char *dir, const char *title, const 
             pn->caption = "FLIP error";
             pn->display_width = shown;
             TND_TRY(png(dir, pn->file, tmp, w, h));
-            if (i == 0) {
+            if (i == 0 && !(e->crop_spread && ns > 1)) {
                 double best = -1;
                 for (uint32_t y = 0; y + c <= h; y += c / 4 ? c / 4 : 1)
                     for (uint32_t x = 0; x + c <= w; x += c / 4 ? c / 4 : 1) {

@@ -46,4 +46,31 @@ tnd_result rn_ref_sample_frame(pl_frontend *fr, const rn_render_opts *o, unsigne
 tnd_result rn_ref_write_motion(pl_frontend *fr, const rn_render_opts *o, unsigned f,
                                tnd_frame *frame);
 
+/* ---- JSON files that list sequences (run/rn_spec.c): the dataset's spec, the rank's suite ---- */
+struct cJSON;
+/* A member of o as a whole number in [lo, hi], a string, a number: true when absent (v kept) or
+ * of that kind, false otherwise. */
+bool rn_json_uint(const struct cJSON *o, const char *k, unsigned *v, unsigned lo, unsigned hi);
+bool rn_json_str(const struct cJSON *o, const char *k, const char **v);
+bool rn_json_num(const struct cJSON *o, const char *k, double *v);
+/* A sequence's scene options (RN_SPEC_SCENE_KEYS: strings scene, camera_path, env, up; numbers
+ * path_duration, path_radius, path_height, env_intensity, env_rotation, camera; no_default_light
+ * true or false) from q into o (strings point into q); false when one is of another kind. */
+#define RN_SPEC_SCENE_KEYS                                                                         \
+    "scene", "camera_path", "path_duration", "path_radius", "path_height", "env",                 \
+        "env_intensity", "env_rotation", "up", "camera", "no_default_light"
+bool rn_spec_scene_options(const struct cJSON *q, rn_render_opts *o);
+
+/* ---- Slurm jobs (run/rn_slurm.c): the sweep's and the rank's ---------------------------------- */
+/* One shell word: 'text' with each ' written as '\'' */
+void rn_sh_word(FILE *f, const char *s);
+/* TANDEM and the words of a, each a shell word, then `extra` as it is */
+void rn_sh_command(FILE *f, const char *tandem, const rn_args *a, const char *extra);
+/* The environment every task starts with (`by`: "tandem bench", "tandem rank"): its GPU (the
+ * first Slurm gave it, by index: Vulkan does not read CUDA_VISIBLE_DEVICES; docs/cluster.md)
+ * and its CPUs. */
+void rn_sh_preamble(FILE *f, const char *by, const char *what, const char *name, int array);
+/* the running tandem's path (/proc/self/exe) */
+tnd_result rn_tandem_binary(char *out, size_t cap);
+
 #endif

@@ -657,44 +657,6 @@ static tnd_result run_local(const sweep_plan *P, bool resume, int *stopped, cons
     return res;
 }
 
-/* One shell word: 'text' with each ' written as '\'' */
-static void sh_word(FILE *f, const char *s)
-{
-    fputc('\'', f);
-    for (; *s; s++)
-        if (*s == '\'')
-            fputs("'\\''", f);
-        else
-            fputc(*s, f);
-    fputc('\'', f);
-}
-
-static void sh_command(FILE *f, const char *tandem, const rn_args *a, const char *extra)
-{
-    sh_word(f, tandem);
-    for (int k = 0; k < a->n; k++) {
-        fputc(' ', f);
-        sh_word(f, a->v[k]);
-    }
-    if (extra)
-        fprintf(f, " %s", extra);
-}
-
-/* The environment every task starts with: its GPU (the first Slurm gave it, by index: Vulkan
- * does not read CUDA_VISIBLE_DEVICES; docs/cluster.md) and its CPUs. */
-static void sh_preamble(FILE *f, const char *what, const char *name, int array)
-{
-    fprintf(f, "#!/bin/bash\n# %s (written by tandem bench --emit slurm; submit.sh submits it)\n",
-            what);
-    fprintf(f, "#SBATCH --job-name=tandem-%s\n", name);
-    if (array > 0)
-        fprintf(f, "#SBATCH --array=0-%d\n", array - 1);
-    fprintf(f, "set -u\n"
-               "gpu=${CUDA_VISIBLE_DEVICES:-}\n"
-               "[ -n \"${TANDEM_DEVICE:-}\" ] || [ -z \"$gpu\" ] || export TANDEM_DEVICE=${gpu%%%%,*}\n"
-               "threads=${SLURM_CPUS_PER_TASK:-0}\n");
-}
-
 static tnd_result emit_slurm(const sweep_plan *P, unsigned shards, const rn_host *h,
                              char *submit, size_t cap)
 {
@@ -714,31 +676,31 @@ static tnd_result emit_slurm(const sweep_plan *P, unsigned shards, const rn_host
         snprintf(path, sizeof path, "%s/reference.sbatch", sdir);
         if (!(f = fopen(path, "w")))
             return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
-        sh_preamble(f, "the unbiased reference, one shard per task", "reference", (int)shards);
+        rn_sh_preamble(f, "tandem bench", "the unbiased reference, one shard per task", "reference", (int)shards);
         job_reference(P, &j);
         j.o.out = NULL; /* (its --out and --quiet are the shard's) */
         j.o.quiet = false;
         TND_TRY_RETURN(rn_render_args(&j.o, true, &a));
-        sh_command(f, tandem, &a, "--threads \"$threads\" --quiet \\\n    --shard "
+        rn_sh_command(f, tandem, &a, "--threads \"$threads\" --quiet \\\n    --shard "
                                   "\"$SLURM_ARRAY_TASK_ID/");
         fprintf(f, "%u\" --out ", shards);
-        sh_word(f, sdir);
+        rn_sh_word(f, sdir);
         fprintf(f, "/shards/reference_$SLURM_ARRAY_TASK_ID\n");
         if (fclose(f) != 0)
             return tnd_fail(TND_ERR_IO, "bench: %s: write failed", path);
         snprintf(path, sizeof path, "%s/merge.sbatch", sdir);
         if (!(f = fopen(path, "w")))
             return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
-        sh_preamble(f, "the reference's shards merged", "merge", 0);
-        sh_word(f, tandem);
+        rn_sh_preamble(f, "tandem bench", "the reference's shards merged", "merge", 0);
+        rn_sh_word(f, tandem);
         fprintf(f, " merge --quiet");
         for (unsigned s = 0; s < shards; s++) {
             fprintf(f, " \\\n    ");
-            sh_word(f, sdir);
+            rn_sh_word(f, sdir);
             fprintf(f, "/shards/reference_%u", s);
         }
         fprintf(f, " \\\n    --out ");
-        sh_word(f, P->refdir);
+        rn_sh_word(f, P->refdir);
         fprintf(f, "\n");
         if (fclose(f) != 0)
             return tnd_fail(TND_ERR_IO, "bench: %s: write failed", path);
@@ -749,7 +711,7 @@ static tnd_result emit_slurm(const sweep_plan *P, unsigned shards, const rn_host
         snprintf(path, sizeof path, "%s/%s.sbatch", sdir, w ? "cells" : "matched");
         if (!(f = fopen(path, "w")))
             return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
-        sh_preamble(f, w ? "the sweep's cells, one per task"
+        rn_sh_preamble(f, "tandem bench", w ? "the sweep's cells, one per task"
                          : "the matched references, one estimator per task",
                     w ? "cells" : "matched", w ? P->total : P->nests);
         fprintf(f, "case $SLURM_ARRAY_TASK_ID in\n");
@@ -759,16 +721,16 @@ static tnd_result emit_slurm(const sweep_plan *P, unsigned shards, const rn_host
                 TND_TRY_RETURN(job_cell(P, i, &j));
                 TND_TRY_RETURN(rn_render_args(&j.o, false, &a));
                 fprintf(f, "rm -f ");
-                sh_word(f, j.dir);
+                rn_sh_word(f, j.dir);
                 fprintf(f, ".failed\n    ");
-                sh_command(f, tandem, &a, "--threads \"$threads\"");
+                rn_sh_command(f, tandem, &a, "--threads \"$threads\"");
                 fprintf(f, "\n    rc=$?\n    [ $rc -eq 0 ] || echo \"exit $rc\" > ");
-                sh_word(f, j.dir);
+                rn_sh_word(f, j.dir);
                 fprintf(f, ".failed\n    exit $rc ;;\n");
             } else {
                 TND_TRY_RETURN(job_matched(P, i, &j));
                 TND_TRY_RETURN(rn_render_args(&j.o, true, &a));
-                sh_command(f, tandem, &a, "--threads \"$threads\"");
+                rn_sh_command(f, tandem, &a, "--threads \"$threads\"");
                 fprintf(f, " ;;\n");
             }
         }
@@ -779,11 +741,11 @@ static tnd_result emit_slurm(const sweep_plan *P, unsigned shards, const rn_host
     snprintf(path, sizeof path, "%s/collect.sbatch", sdir);
     if (!(f = fopen(path, "w")))
         return tnd_fail(TND_ERR_IO, "bench: %s: cannot create", path);
-    sh_preamble(f, "the finished cells gathered into sweep.json, sweep.csv and the report",
+    rn_sh_preamble(f, "tandem bench", "the finished cells gathered into sweep.json, sweep.csv and the report",
                 "collect", 0);
-    sh_word(f, tandem);
+    rn_sh_word(f, tandem);
     fprintf(f, " sweep collect --quiet ");
-    sh_word(f, P->out);
+    rn_sh_word(f, P->out);
     fprintf(f, "\n");
     if (fclose(f) != 0)
         return tnd_fail(TND_ERR_IO, "bench: %s: write failed", path);

@@ -352,7 +352,7 @@ tnd_result rn_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double
                         double *compute_gbs);
 
 /* ---- sequence evaluation (run/rn_eval.c) ------------------------------------------------------- */
-#define RN_EVAL_MAX_SERIES 5
+#define RN_EVAL_MAX_SERIES 8
 /* Error inside a region of the image (pixels the run's path flags mark: seen in a mirror, at
  * glass), over all frames: relMSE, mean FLIP, and sharpness = the sum of the tone-mapped image's
  * absolute forward differences inside the region over the reference's (below 1: blurrier than
@@ -406,6 +406,9 @@ typedef struct rn_eval {
     bool resample;           /* series of another size are resampled to the reference's */
     const char *metrics_on;  /* "cpu", "device" (a Vulkan device), or NULL / "auto": the device
                                 where one that is not a CPU implementation is present */
+    bool crop_spread;        /* the report's frames and crops where the series differ most (the
+                                largest spread of FLIP between them: the rank's), not where the
+                                first series is worst */
     /* filled by rn_eval_run */
     bool auto_exposure;
     uint32_t *frames, count, width, height;
@@ -518,6 +521,35 @@ tnd_result rn_sweep_resume(const char *dir, const rn_host *h, rn_sweep_result *r
  * are named in the outputs and in the error. */
 tnd_result rn_sweep_collect(const char *dir, const rn_host *h, rn_sweep_result *r);
 void rn_sweep_result_free(rn_sweep_result *r);
+
+/* ---- the denoiser leaderboard (run/rn_rank.c) ---------------------------------------------------- */
+/* `tandem rank SUITE --denoisers A,B,... --out DIR`: per sequence of the suite (a JSON file,
+ * docs/rank.md; or a name of the shipped suites: quick, standard) its matched reference, made
+ * once into the cache under a key of everything that determines it; per sequence and denoiser a
+ * render (each in its own process: one that fails or crashes loses its row with the reason, the
+ * rest are ranked); their evaluation against the reference (tandem eval's figures), intervals by
+ * a paired moving-block bootstrap over frames, ties, and the overall rank (the geometric mean of
+ * FLIP over the baseline's: svgf where named). DIR/rank.json, rank.csv, report/. The same
+ * command again goes on where an interrupted one stopped; another rank in DIR is refused. */
+#define RN_RANK_MAX_DENOISERS 8
+typedef struct rn_rank_opts {
+    const char *suite;     /* a JSON file, or a shipped suite's name */
+    const char *denoisers; /* comma-separated: registered names, plugin:PATH, python:MODULE:FN */
+    const char *out;
+    const char *cache;     /* the references' cache (NULL: $TANDEM_CACHE/references, else
+                              $XDG_CACHE_HOME/tandem/references, else ~/.cache/tandem/...) */
+    const char *emit;      /* NULL (run here) or "slurm" (DIR/slurm/submit.sh) */
+    unsigned bootstrap;    /* replicates (0: 1000) */
+    bool no_report;        /* no DIR/report (rank.json and rank.csv only) */
+} rn_rank_opts;
+typedef struct rn_rank_result {
+    ev_text table;      /* the leaderboard as text */
+    char submit[1200];  /* emit: the script that submits the jobs */
+} rn_rank_result;
+/* The options and the suite checked (every file it names, every denoiser), nothing run. */
+tnd_result rn_rank_check(const rn_rank_opts *o);
+tnd_result rn_rank(const rn_rank_opts *o, const rn_host *h, rn_rank_result *r);
+void rn_rank_result_free(rn_rank_result *r);
 
 /* ---- the numerical stability report (run/rn_extremes.c) -------------------------------------- */
 /* `bench --extremes`: the scene through every live front-end, denoiser and contract precision;

@@ -2,9 +2,13 @@
  * the noisy radiance it is given, so that a render through it equals `--denoiser off` bit for
  * bit (tests/test_plugins.py): the contract and the radiance come to the host and the output goes
  * back up unchanged. TANDEM_TEST_HOST=fail: frame 1 fails with a message; =noradiance: it
- * checks that the entries it reads arrive (albedo and depth) and the others do not. */
+ * checks that the entries it reads arrive (albedo and depth) and the others do not; =crash:
+ * frame 2 dies of SIGSEGV (as a plugin's bad pointer would); =nan: its output holds NaN from
+ * frame 1 on (tests/test_rank.sh: the rank goes on without its row). */
 #include <tandem/tandem_plugin.h>
 
+#include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,7 +48,14 @@ static int h_run(void *state, const tandem_frame_settings *s, const tandem_host_
         snprintf(err, cap, "the buffers it reads, and only those, should have come");
         return 1;
     }
+    if (strcmp(mode(), "crash") == 0 && s->frame_index == 2) {
+        signal(SIGSEGV, SIG_DFL); /* (a sanitizer's handler would make it an exit) */
+        raise(SIGSEGV);
+    }
     memcpy(io->output, io->radiance, (size_t)io->width * io->height * 4 * sizeof(float));
+    if (strcmp(mode(), "nan") == 0 && s->frame_index >= 1)
+        for (size_t q = 0; q < (size_t)io->width * io->height; q += 7)
+            io->output[4 * q] = NAN;
     return 0;
 }
 
