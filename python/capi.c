@@ -715,6 +715,25 @@ API char *tandem_dataset(const char *spec_path, const char *out, const char *sha
     return read_text(path);
 }
 
+API char *tandem_rank(const char *suite, const char *denoisers, const char *out, const char *cache,
+                      unsigned bootstrap, int report)
+{
+    tnd_error_clear();
+    rn_rank_opts o = {.suite = suite, .denoisers = denoisers, .out = out, .cache = cache,
+                      .bootstrap = bootstrap, .no_report = !report};
+    rn_host h = host(true);
+    rn_rank_result r;
+    tnd_result res = rn_rank(&o, &h, &r);
+    rn_rank_result_free(&r);
+    if (res != TND_OK) {
+        fail_as("rank", res);
+        return NULL;
+    }
+    char path[2100];
+    snprintf(path, sizeof path, "%s/rank.json", out);
+    return read_text(path);
+}
+
 API void tandem_set_python_denoiser(const void *desc)
 {
     pl_python_set(desc);

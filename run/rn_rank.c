@@ -94,6 +94,15 @@ static void plan_free(rank_plan *P)
     memset(P, 0, sizeof *P);
 }
 
+/* The failure just reported again as "WHAT: ITS MESSAGE" (the message copied first: it lives in
+ * the buffer the new one is written to). */
+static tnd_result refail(tnd_result code, const char *what)
+{
+    char msg[1024];
+    snprintf(msg, sizeof msg, "%s", tnd_error_detail());
+    return tnd_fail(code, "%s: %s", what, msg);
+}
+
 /* ---- the suite ----------------------------------------------------------------------------- */
 static bool file_exists(const char *p)
 {
@@ -189,8 +198,7 @@ static tnd_result suite_read(const char *given, rank_plan *P)
     size_t len = 0;
     tnd_result res = tnd_file_read(path, &text, &len);
     if (res != TND_OK)
-        return tnd_fail(TND_ERR_IO, "%s: cannot read the suite (%s)", path,
-                        tnd_error_detail());
+        return refail(TND_ERR_IO, path);
     P->root = cJSON_ParseWithLength(text, len);
     free(text);
     if (!cJSON_IsObject(P->root))
@@ -289,10 +297,11 @@ static tnd_result suite_read(const char *given, rank_plan *P)
                 return tnd_fail(TND_ERR_IO, "%s: sequence %s: camera_path %s: no such file",
                                 path, sq->name, sq->camera_path);
         }
-        tnd_result r = rn_render_check(&sq->o, false);
-        if (r != TND_OK)
-            return tnd_fail(TND_ERR_BAD_INPUT, "%s: sequence %s: %s", path, sq->name,
-                            tnd_error_detail());
+        if (rn_render_check(&sq->o, false) != TND_OK) {
+            char what[1400];
+            snprintf(what, sizeof what, "%s: sequence %s", path, sq->name);
+            return refail(TND_ERR_BAD_INPUT, what);
+        }
         P->nseq++;
     }
     return TND_OK;
@@ -322,7 +331,7 @@ static tnd_result denoisers_read(const char *list, rank_plan *P)
         d->spec[n] = 0;
         const pl_denoiser_info *info;
         if (pl_denoiser_find(d->spec, &info) != TND_OK)
-            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers: %s", tnd_error_detail());
+            return refail(TND_ERR_INVALID_ARGUMENT, "--denoisers");
         if (strncmp(d->spec, "plugin:", 7) == 0) {
             if (!file_exists(d->spec + 7))
                 return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers: %s: no such file",
@@ -1088,8 +1097,11 @@ static tnd_result evaluate(rank_plan *P, unsigned s, const rn_host *h)
                 res = rn_eval_report(&e, dir, title, settings, NULL);
             }
         }
-        if (res != TND_OK)
-            res = tnd_fail(res, "rank: %s: evaluation: %s", sq->name, tnd_error_detail());
+        if (res != TND_OK) {
+            char what[300];
+            snprintf(what, sizeof what, "rank: %s: evaluation", sq->name);
+            res = refail(res, what);
+        }
         rn_eval_free(&e);
         if (res != TND_OK || !again)
             break;
@@ -1617,7 +1629,7 @@ tnd_result rn_rank(const rn_rank_opts *o, const rn_host *h, rn_rank_result *resu
                              : tnd_file_write_atomic(path, csv.s, csv.len);
         ev_text_free(&csv);
     }
-    if (res == TND_OK)
+    if (res == TND_OK && P.report)
         res = rank_html(&P, ov);
     if (res == TND_OK)
         rank_text(&P, ov, &result->table);

@@ -17,7 +17,7 @@ from ._host import DenoiserFrame
 
 __all__ = ["TandemError", "version", "set_quiet", "pipeline", "denoisers", "entries", "Scene", "Capture",
            "read_capture", "list_captures", "Renderer", "render", "reference", "metrics",
-           "Sequence", "auto_exposure", "evaluate", "dataset", "load_dataset", "DenoiserFrame"]
+           "Sequence", "auto_exposure", "evaluate", "dataset", "load_dataset", "DenoiserFrame", "rank"]
 
 
 class TandemError(RuntimeError):
@@ -462,6 +462,31 @@ def dataset(spec, out, shard=None):
     ffi = _lib()[0]
     return json.loads(_take_string(lib.tandem_dataset(_str(spec), _str(out),
                                                       _str(shard) if shard else ffi.NULL)))
+
+
+# ---- the denoiser leaderboard ----------------------------------------------------------------
+def rank(suite, denoisers, out, cache=None, bootstrap=None, report=True):
+    """``tandem rank``: denoisers (a list, or "a,b,c") over a suite (a JSON file, a shipped
+    suite's name: "quick", "standard", or a dict: written as out/suite.json, its relative paths
+    taken from the current directory) into out; returns rank.json (docs/rank.md)."""
+    if isinstance(suite, dict):
+        os.makedirs(out, exist_ok=True)
+        suite = json.loads(json.dumps(suite))
+        for seq in suite.get("sequences", []):
+            for k in ("scene", "env", "camera_path"):
+                v = seq.get(k) if isinstance(seq, dict) else None
+                if isinstance(v, str) and v not in ("orbit", "dolly", "flythrough"):
+                    seq[k] = os.path.abspath(v)
+        path = os.path.join(out, "suite.json")
+        with open(path, "w") as f:
+            json.dump(suite, f, indent=1)
+        suite = path
+    if not isinstance(denoisers, str):
+        denoisers = ",".join(denoisers)
+    ffi, lib = _lib()
+    return json.loads(_take_string(lib.tandem_rank(
+        _str(suite), _str(denoisers), _str(out), _str(cache) if cache else ffi.NULL,
+        int(bootstrap or 0), 1 if report else 0)))
 
 
 def load_dataset(directory):

@@ -293,3 +293,19 @@ def test_dataset(tmp_path):
             assert np.array_equal(a[k], b[k]), k
     with pytest.raises(tandem.TandemError, match="unknown key 'fames'"):
         tandem.dataset({"fames": 2, "sequences": [{"scene": CORNELL}]}, str(tmp_path / "x"))
+
+
+def test_rank(tmp_path, monkeypatch):
+    """tandem.rank: a suite given as a dict (its relative paths from here), the leaderboard
+    back as rank.json; a row per denoiser, the noisy input (off) behind svgf on this still box."""
+    monkeypatch.chdir(os.path.dirname(CORNELL))
+    suite = {"size": [32, 18], "frames": 4, "spp": 8, "frontend": "embree",
+             "sequences": [{"name": "box", "scene": os.path.basename(CORNELL)}]}
+    r = tandem.rank(suite, ["svgf", "off"], str(tmp_path / "r"), cache=str(tmp_path / "c"),
+                    report=False)
+    cells = r["sequences"][0]["cells"]
+    assert [c["status"] for c in cells] == ["ok", "ok"]
+    assert r["overall"][0]["denoiser"] == "svgf" and r["overall"][1]["flip_vs_baseline"] > 1
+    with pytest.raises(tandem.TandemError, match="unknown key 'sise'"):
+        tandem.rank({"sequences": [{"name": "a", "scene": CORNELL, "sise": 1}]}, "svgf",
+                    str(tmp_path / "bad"), cache=str(tmp_path / "c"))
