@@ -75,7 +75,7 @@ static char *settings_json(const rn_eval *e, const char *out, const char *exposu
 
 /* The reference's own noise over the evaluated frames: the mean of reference.json's
  * noise_relmse (what its noise adds to a relMSE measured against it); < 0 when unknown. */
-static double reference_noise(const char *refdir, const rn_eval *e)
+double rn_reference_noise(const char *refdir, const rn_eval *e)
 {
     char path[1200];
     snprintf(path, sizeof path, "%s/reference.json", refdir);
@@ -106,7 +106,7 @@ static double reference_noise(const char *refdir, const rn_eval *e)
 /* The rule for a reference good enough to judge by: its own noise (the relMSE it adds) below a
  * tenth of the relMSE measured against it. A warning with both figures otherwise. */
 #define EVAL_NOISE_RULE 0.1
-static void warn_noise(const char *refdir, double noise, double measured, const char *what,
+void rn_warn_noise(const char *refdir, double noise, double measured, const char *what,
                        const rn_host *h)
 {
     if (noise >= 0 && measured > 0 && noise > EVAL_NOISE_RULE * measured)
@@ -228,7 +228,7 @@ tnd_result rn_eval_sequence(const rn_eval_opts *o, const rn_host *h, rn_eval_res
                                 matched ? matched : "(no matched reference)");
         cJSON_AddStringToObject(sj, "estimator_bias_against",
                                 both ? unbiased : "(needs both references)");
-        double nm = reference_noise(primary, e), nu = both ? reference_noise(unbiased, b) : -1;
+        double nm = rn_reference_noise(primary, e), nu = both ? rn_reference_noise(unbiased, b) : -1;
         cJSON_AddNumberToObject(sj, "reference_noise_relmse", nm);
         if (both)
             cJSON_AddNumberToObject(sj, "unbiased_reference_noise_relmse", nu);
@@ -237,10 +237,10 @@ tnd_result rn_eval_sequence(const rn_eval_opts *o, const rn_host *h, rn_eval_res
         cJSON_Delete(sj);
         free(settings);
         settings = txt;
-        warn_noise(primary, nm, e->series[0].summary.relmse, matched ? "denoiser error" : "error",
+        rn_warn_noise(primary, nm, e->series[0].summary.relmse, matched ? "denoiser error" : "error",
                    h);
         if (both)
-            warn_noise(unbiased, nu, b->series[0].summary.relmse, "estimator bias", h);
+            rn_warn_noise(unbiased, nu, b->series[0].summary.relmse, "estimator bias", h);
     }
     ev_series series[RN_EVAL_MAX_SERIES + 1];
     char **regions = r->regions;

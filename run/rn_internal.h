@@ -73,4 +73,13 @@ void rn_sh_preamble(FILE *f, const char *by, const char *what, const char *name,
 /* the running tandem's path (/proc/self/exe) */
 tnd_result rn_tandem_binary(char *out, size_t cap);
 
+/* ---- a reference's own noise (run/rn_evaluate.c) ------------------------------------------------ */
+/* The mean over e's frames of REFDIR/reference.json's noise_relmse (the relMSE its noise adds to
+ * one measured against it); < 0 when unknown. */
+double rn_reference_noise(const char *refdir, const rn_eval *e);
+/* The rule for a reference good enough to judge by: its noise under a tenth of the relMSE
+ * measured against it; a warning (through h) with both figures otherwise. */
+void rn_warn_noise(const char *refdir, double noise, double measured, const char *what,
+                   const rn_host *h);
+
 #endif

@@ -15,6 +15,16 @@ if [ "$(id -u)" -ne 0 ]; then
         log "not root and no sudo: cannot install packages"; exit 1; fi
 fi
 export DEBIAN_FRONTEND=noninteractive
+# --standard-suite: also the content `tandem rank standard` names (data/suites/standard.json's
+# "package" members: real models, HDRIs and places from Debian; stellarium-data is a 246 MB
+# download, so the test suite, which ranks the quick suite, does not need it).
+STANDARD_SUITE=0
+for a in "$@"; do
+    case "$a" in
+    --standard-suite) STANDARD_SUITE=1 ;;
+    *) log "unknown option $a (expected --standard-suite)"; exit 2 ;;
+    esac
+done
 
 # Build, Vulkan, libraries, and the independent tools the tests check our files with (blender:
 # Cycles, the independent renderer tests/test_cycles.py compares the reference with;
@@ -94,5 +104,16 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 if [ ! -d "$here/tests/browser/node_modules/puppeteer-core" ]; then
     log "npm ci (tests/browser: puppeteer-core)"
     (cd "$here/tests/browser" && PUPPETEER_SKIP_DOWNLOAD=1 npm ci --no-audit --no-fund --silent)
+fi
+if [ "$STANDARD_SUITE" -eq 1 ]; then
+    suite_pkgs=()
+    for p in $(grep -o '"package": *"[^"]*"' "$here/data/suites/standard.json" | sed 's/.*"\([^"]*\)"$/\1/' | sort -u); do
+        dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || suite_pkgs+=("$p")
+    done
+    if [ "${#suite_pkgs[@]}" -gt 0 ]; then
+        apt_update
+        log "installing the standard suite's content: ${suite_pkgs[*]}"
+        $SUDO apt-get install -y -qq --no-install-recommends "${suite_pkgs[@]}"
+    fi
 fi
 log "all dependencies present"
