@@ -517,7 +517,6 @@ static void reference_key(rank_plan *P, rank_seq *sq)
              TND_VERSION_STRING);
     h = fnv_str(h, v);
     rn_render_opts r;
-    snprintf(sq->refdir, sizeof sq->refdir, "%s", "");
     reference_opts(sq, &r);
     r.out = NULL;
     r.quiet = false;
@@ -960,7 +959,7 @@ static tnd_result sequence_stats(rank_plan *P, unsigned s, const rn_eval *e, con
     return fail ? tnd_fail(TND_ERR_OUT_OF_MEMORY, "rank: out of memory") : TND_OK;
 }
 
-/* The paired FLIP difference a - b on sequence s: its mean and interval; *tie. */
+/* The paired FLIP difference a - b on sequence s: its mean and interval. */
 static void flip_pair(const rank_plan *P, const rank_seq *sq, unsigned a, unsigned b, double *mean,
                       double *lo, double *hi, double *tmp, double *diff)
 {
