@@ -1,13 +1,17 @@
 #!/usr/bin/env bash
 # Run ctest in each build directory given, then print one closing line for all of them:
 # "tests: N passed, N failed" (counting ctest tests; each test executable prints its own cases).
+# Each build's tests run TEST_JOBS at a time (default: the cores).
 set -u
 pass=0
 fail=0
 status=0
+# as many tests at once as there are cores (TEST_JOBS=1: one at a time); tests/CMakeLists.txt
+# says why and in what order
+jobs=${TEST_JOBS:-$(nproc 2>/dev/null || echo 2)}
 for dir in "$@"; do
     log=$(mktemp)
-    (cd "$dir" && ctest --output-on-failure) 2>&1 | tee "$log"
+    (cd "$dir" && ctest --output-on-failure -j "$jobs") 2>&1 | tee "$log"
     rc=${PIPESTATUS[0]}
     [ "$rc" -ne 0 ] && status=1
     line=$(grep -E '[0-9]+% tests passed, [0-9]+ tests failed out of [0-9]+' "$log" | tail -1)
