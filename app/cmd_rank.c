@@ -16,7 +16,7 @@ static const app_cmd rank_cmd = {
 int cmd_rank(int argc, char **argv)
 {
     rn_rank_opts o = {0};
-    bool no_report = false;
+    bool no_report = false, regions = false;
     const app_opt opts[] = {
         {"denoisers", APP_OPT_STRING, &o.denoisers, "A,B,...",
          "the denoisers: registered names, plugin:PATH.so, python:MODULE:CALLABLE"},
@@ -29,6 +29,9 @@ int cmd_rank(int argc, char **argv)
         {"bootstrap", APP_OPT_UINT, &o.bootstrap, "N",
          "bootstrap replicates for the intervals (default 1000)"},
         {"no-report", APP_OPT_FLAG, &no_report, NULL, "rank.json and rank.csv only"},
+        {"regions", APP_OPT_FLAG, &regions, NULL,
+         "the error per region (emitters and their edges, glossy, newly visible, moving, thin, "
+         "mirror, glass) from the first denoiser's captures"},
         {0},
     };
     const char *pos[1];
@@ -38,6 +41,7 @@ int cmd_rank(int argc, char **argv)
         return rc;
     o.suite = npos == 1 ? pos[0] : NULL;
     o.no_report = no_report;
+    o.regions = regions;
     tnd_result res = rn_rank_check(&o);
     if (res != TND_OK) { /* (before anything runs: the options, the suite, its files) */
         fprintf(stderr, "tandem rank: %s\n", tnd_error_detail());

@@ -716,11 +716,11 @@ API char *tandem_dataset(const char *spec_path, const char *out, const char *sha
 }
 
 API char *tandem_rank(const char *suite, const char *denoisers, const char *out, const char *cache,
-                      unsigned bootstrap, int report)
+                      unsigned bootstrap, int report, int regions)
 {
     tnd_error_clear();
     rn_rank_opts o = {.suite = suite, .denoisers = denoisers, .out = out, .cache = cache,
-                      .bootstrap = bootstrap, .no_report = !report};
+                      .bootstrap = bootstrap, .no_report = !report, .regions = regions != 0};
     rn_host h = host(true);
     rn_rank_result r;
     tnd_result res = rn_rank(&o, &h, &r);

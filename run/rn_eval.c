@@ -191,10 +191,63 @@ static tnd_result common_frames(rn_eval *e)
     return res;
 }
 
-/* The region masks of frame `frame` from the run's capture (path flags), or false; the capture
- * stays in *cap for the noisy series (caller destroys it). */
+/* What the region masks carry from frame to frame: the previous capture's instance and depth per
+ * pixel, and how many frames each pixel's surface has been visible (for `disoccluded`). */
+typedef struct region_state {
+    uint32_t *inst;
+    float *depth;
+    uint8_t *age;
+    uint32_t frame; /* the frame they are of */
+    bool have;      /* false: no previous frame (the first, or after a gap) */
+} region_state;
+
+enum { REGION_DISOCCLUDED_FRAMES = 4 }; /* newly visible: the frame it appears and 3 more */
+
+static bool is_hit(float depth)
+{
+    return depth < 0.5 * TND_DEPTH_MISS;
+}
+
+/* Was the surface at pixel q (instance, depth, motion) visible at its previous position? The
+ * pixels within one of where the motion leads that show the same instance span the depth the
+ * motion says, give or take 5% plus 1.5 times what it changes over a pixel on the surface
+ * (`slope`): neighbours count because the sub-pixel jitter moves edges by a pixel, and their
+ * span because a face seen edge-on crosses a range of depths within one pixel. */
+static bool was_visible(const region_state *st, uint32_t w, uint32_t h, uint32_t inst, float depth,
+                        double slope, const float *m, uint32_t x, uint32_t y)
+{
+    double px = x + m[0], py = y + m[1], want = (double)depth + m[2];
+    double tol = 0.05 * fabs(want) + 1.5 * slope;
+    long cx = lround(px), cy = lround(py);
+    double lo = INFINITY, hi = -INFINITY;
+    for (long dy = -1; dy <= 1; dy++)
+        for (long dx = -1; dx <= 1; dx++) {
+            long xx = cx + dx, yy = cy + dy;
+            if (xx < 0 || yy < 0 || xx >= (long)w || yy >= (long)h)
+                continue;
+            size_t o = (size_t)yy * w + (size_t)xx;
+            if (st->inst[o] == inst)
+                lo = fmin(lo, st->depth[o]), hi = fmax(hi, st->depth[o]);
+        }
+    return want >= lo - tol && want <= hi + tol;
+}
+
+/* The region masks of frame `frame` from the run's capture, or false; the capture stays in *cap
+ * for the noisy series (caller destroys it). Bits of mask[q]:
+ *   mirror, glass: the path flags (docs/specular.md);
+ *   emitter: a surface that emits towards the camera (the sky is no emitter);
+ *   emitter_edge: any other pixel within 2 pixels of an emitter's (where a filter that reaches
+ *     across the boundary spreads the light, and TAA's history ghosts it);
+ *   glossy: a surface of roughness under 0.4 (GGX alpha under 0.16) not already mirror or glass;
+ *   disoccluded: a surface that was not visible where its motion leads in the previous frame
+ *     (was_visible), in the frame it appears and the 3 after while it stays visible: what
+ *     motion uncovers, and faces seen edge-on that the sub-pixel jitter shows in one frame and
+ *     not the one before (pixels without a history either way);
+ *   moving: motion over a quarter pixel (camera or object);
+ *   thin: a surface at most 3 pixels wide along x or y: on both sides within 2 pixels, one at
+ *     least 10% farther away, and the two behind it alike (both sky, or within 20%). */
 static bool region_masks(const rn_eval *e, uint32_t frame, uint32_t w, uint32_t h, uint8_t *mask,
-                         tnd_frame *cap)
+                         tnd_frame *cap, region_state *st)
 {
     if (!e->regions_from[0])
         return false;
@@ -202,17 +255,114 @@ static bool region_masks(const rn_eval *e, uint32_t frame, uint32_t w, uint32_t 
     snprintf(path, sizeof path, "%s/frame_%04u.exr", e->regions_from, frame);
     bool ok = tnd_capture_read(path, cap) == TND_OK && cap->width == w && cap->height == h &&
               cap->present[TND_CT_PATH];
-    if (ok) {
-        const uint32_t *p = tnd_frame_u(cap, TND_CT_PATH);
-        for (size_t q = 0; q < (size_t)w * h; q++)
-            mask[q] = (uint8_t)(((p[q] & TND_PATH_MIRROR) ? 1u << RN_REGION_MIRROR : 0u) |
-                                ((p[q] & (TND_PATH_GLASS | TND_PATH_SPLIT)) ? 1u << RN_REGION_GLASS
-                                                                             : 0u));
-    } else {
-        tnd_frame_destroy(cap);
-    }
     tnd_error_clear();
-    return ok;
+    if (!ok) {
+        tnd_frame_destroy(cap);
+        st->have = false;
+        return false;
+    }
+    const uint32_t *p = tnd_frame_u(cap, TND_CT_PATH), *vis = tnd_frame_u(cap, TND_CT_VIS_ID);
+    const float *depth = tnd_frame_f(cap, TND_CT_DEPTH), *em = tnd_frame_f(cap, TND_CT_EMISSION);
+    const float *rough = tnd_frame_f(cap, TND_CT_ROUGHNESS), *mo = tnd_frame_f(cap, TND_CT_MOTION);
+    const float *gn = tnd_frame_f(cap, TND_CT_GEO_NORMAL);
+    size_t n = (size_t)w * h;
+    bool prev = st->have && frame == st->frame + 1;
+    for (size_t q = 0; q < n; q++) {
+        uint32_t b = 0;
+        bool hit = is_hit(depth[q]);
+        if (p[q] & TND_PATH_MIRROR)
+            b |= 1u << RN_REGION_MIRROR;
+        if (p[q] & (TND_PATH_GLASS | TND_PATH_SPLIT))
+            b |= 1u << RN_REGION_GLASS;
+        if (hit && em[3 * q] + em[3 * q + 1] + em[3 * q + 2] > 0.0f)
+            b |= 1u << RN_REGION_EMITTER;
+        if (hit && rough[q] < 0.4f && !(b & (1u << RN_REGION_MIRROR | 1u << RN_REGION_GLASS)))
+            b |= 1u << RN_REGION_GLOSSY;
+        const float *m = mo + 3 * q;
+        if (m[0] * m[0] + m[1] * m[1] > 0.0625f)
+            b |= 1u << RN_REGION_MOVING;
+        mask[q] = (uint8_t)b;
+    }
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t q = (size_t)y * w + x;
+            bool near = false, thin = false;
+            for (long dy = -2; dy <= 2 && !near; dy++)
+                for (long dx = -2; dx <= 2 && !near; dx++) {
+                    long xx = (long)x + dx, yy = (long)y + dy;
+                    near = xx >= 0 && yy >= 0 && xx < (long)w && yy < (long)h &&
+                           (mask[(size_t)yy * w + (size_t)xx] & 1u << RN_REGION_EMITTER);
+                }
+            if (near && !(mask[q] & 1u << RN_REGION_EMITTER))
+                mask[q] |= 1u << RN_REGION_EMITTER_EDGE;
+            if (is_hit(depth[q]))
+                for (int axis = 0; axis < 2 && !thin; axis++) {
+                    bool side[2] = {false, false};
+                    float behind[2] = {0, 0};
+                    for (int sgn = 0; sgn < 2; sgn++)
+                        for (long d = 1; d <= 2 && !side[sgn]; d++) {
+                            long xx = (long)x + (axis == 0 ? (sgn ? d : -d) : 0);
+                            long yy = (long)y + (axis == 1 ? (sgn ? d : -d) : 0);
+                            if (xx < 0 || yy < 0 || xx >= (long)w || yy >= (long)h)
+                                continue;
+                            float o = depth[(size_t)yy * w + (size_t)xx];
+                            side[sgn] = !is_hit(o) || o > 1.1f * depth[q];
+                            behind[sgn] = o;
+                        }
+                    /* (the same background on both sides, both sky or within 20% of each
+                     * other: not the edge of a wall seen edge-on, sky on one side and the room
+                     * on the other) */
+                    float b0 = behind[0], b1 = behind[1];
+                    bool same = is_hit(b0) == is_hit(b1) &&
+                                (!is_hit(b0) || fabsf(b0 - b1) <= 0.2f * fminf(b0, b1));
+                    thin = side[0] && side[1] && same;
+                }
+            if (thin)
+                mask[q] |= 1u << RN_REGION_THIN;
+        }
+    /* newly visible surfaces: each pixel's age follows it along the motion */
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t q = (size_t)y * w + x;
+            uint8_t age = UINT8_MAX;
+            if (prev && is_hit(depth[q])) {
+                const float *m = mo + 3 * q;
+                /* the depth's change over a pixel on this surface: to the 4 neighbours
+                 * that face the same way (geometric normals within 25 degrees) */
+                double slope = 0;
+                const long nb[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
+                for (int k = 0; k < 4; k++) {
+                    long xx = (long)x + nb[k][0], yy = (long)y + nb[k][1];
+                    if (xx < 0 || yy < 0 || xx >= (long)w || yy >= (long)h)
+                        continue;
+                    size_t o = (size_t)yy * w + (size_t)xx;
+                    const float *a = gn + 3 * q, *b = gn + 3 * o;
+                    if (is_hit(depth[o]) && a[0] * b[0] + a[1] * b[1] + a[2] * b[2] > 0.9f)
+                        slope = fmax(slope, fabs((double)depth[o] - depth[q]));
+                }
+                if (!was_visible(st, w, h, vis[2 * q], depth[q], slope, m, x, y)) {
+                    age = 0;
+                } else {
+                    long px = lround(x + m[0]), py = lround(y + m[1]);
+                    if (px >= 0 && py >= 0 && px < (long)w && py < (long)h) {
+                        uint8_t a = st->age[(size_t)py * w + (size_t)px];
+                        age = a < UINT8_MAX ? (uint8_t)(a + 1) : a;
+                    }
+                }
+            }
+            if (age < REGION_DISOCCLUDED_FRAMES)
+                mask[q] |= 1u << RN_REGION_DISOCCLUDED;
+            /* (written after every pixel has read the previous ages: a second array) */
+            st->age[n + q] = age;
+        }
+    memcpy(st->age, st->age + n, n);
+    for (size_t q = 0; q < n; q++) {
+        st->inst[q] = is_hit(depth[q]) ? vis[2 * q] : TND_VIS_NONE;
+        st->depth[q] = depth[q];
+    }
+    st->frame = frame;
+    st->have = true;
+    return true;
 }
 
 /* to, tr: the frame's tone-mapped output and reference (what the sequence just measured) */
@@ -315,6 +465,7 @@ tnd_result rn_eval_run(rn_eval *e)
     uint8_t *mask = NULL;
     float *flip = NULL, *motion = NULL, *depth = NULL;
     tnd_frame cap = {0};
+    region_state rs = {0};
     if (res != TND_OK)
         return res;
     if (!(e->ppd > 0))
@@ -352,7 +503,10 @@ tnd_result rn_eval_run(rn_eval *e)
             flip = malloc(n * sizeof(float));
             motion = malloc(n * 3 * sizeof(float));
             depth = malloc(n * sizeof(float));
-            if (!mask || !flip || !motion || !depth) {
+            rs.inst = malloc(n * sizeof *rs.inst);
+            rs.depth = malloc(n * sizeof *rs.depth);
+            rs.age = malloc(2 * n);
+            if (!mask || !flip || !motion || !depth || !rs.inst || !rs.depth || !rs.age) {
                 res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "eval: out of memory");
                 goto fail;
             }
@@ -368,7 +522,7 @@ tnd_result rn_eval_run(rn_eval *e)
             goto fail;
         }
         tnd_frame_destroy(&cap);
-        bool regions = region_masks(e, e->frames[k], ref.width, ref.height, mask, &cap);
+        bool regions = region_masks(e, e->frames[k], ref.width, ref.height, mask, &cap, &rs);
         /* the reference's motion, frame after frame (a gap: the next frame starts afresh) */
         bool consecutive = k == 0 || e->frames[k] == e->frames[k - 1] + 1;
         if (consecutive && load_motion(e, e->frames[k], motion, depth))
@@ -420,6 +574,9 @@ fail:
     free(flip);
     free(motion);
     free(depth);
+    free(rs.inst);
+    free(rs.depth);
+    free(rs.age);
     tnd_frame_destroy(&cap);
     return res;
 }
@@ -479,7 +636,12 @@ void rn_eval_convergence_text(const rn_eval *e, const char *indent, ev_text *t)
 
 const char *rn_region_name(int region)
 {
-    return region == RN_REGION_MIRROR ? "mirror" : "glass";
+    static const char *const names[RN_REGIONS] = {
+        [RN_REGION_MIRROR] = "mirror",           [RN_REGION_GLASS] = "glass",
+        [RN_REGION_EMITTER] = "emitter",         [RN_REGION_EMITTER_EDGE] = "emitter_edge",
+        [RN_REGION_GLOSSY] = "glossy",           [RN_REGION_DISOCCLUDED] = "disoccluded",
+        [RN_REGION_MOVING] = "moving",           [RN_REGION_THIN] = "thin"};
+    return region >= 0 && region < RN_REGIONS ? names[region] : "?";
 }
 
 rn_region_stats rn_region_summary(const rn_region *r)
@@ -523,8 +685,11 @@ void rn_eval_regions_html(const rn_eval *e, ev_text *t)
             any |= e->series[i].regions[b].pixels > 0;
     if (!any)
         return;
-    ev_text_add(t, "<h2>Regions (from the run's path flags)</h2>\n<p>Pixels seen in a mirror or at "
-                   "glass, over all frames. Sharpness: the tone-mapped image's summed absolute "
+    ev_text_add(t, "<h2>Regions (from the run's capture)</h2>\n<p>Over all frames: pixels seen "
+                   "in a mirror, at glass, an emitter, within 2 pixels of one, glossy surfaces "
+                   "(roughness under 0.4), surfaces in their first 4 frames after they appeared, "
+                   "moving pixels (over a quarter pixel), thin parts (at most 3 pixels wide); a "
+                   "pixel may be in several. Sharpness: the tone-mapped image's summed absolute "
                    "pixel differences inside the region over the reference's (below 1: blurrier "
                    "than the reference; noise raises it).</p>\n<table><tr><th>series</th><th>region"
                    "</th><th>pixels</th><th>relMSE</th><th>FLIP</th><th>sharpness</th><th>bias</th></tr>\n");

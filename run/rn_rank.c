@@ -56,6 +56,7 @@ typedef struct rank_cell {
     double backend_ms; /* median over the frames after the first; < 0: not timed */
     double mean[RANK_FIGURES], lo[RANK_FIGURES], hi[RANK_FIGURES];
     bool tie[RANK_FIGURES]; /* within the noise of the sequence's best */
+    rn_region region[RN_REGIONS]; /* --regions: its error per region (pixels 0: none there) */
 } rank_cell;
 
 typedef struct rank_seq {
@@ -83,7 +84,7 @@ typedef struct rank_plan {
     unsigned nden, base; /* base: the baseline's index */
     char out[1000], cache[1000];
     unsigned bootstrap;
-    bool report;
+    bool report, regions;
 } rank_plan;
 
 static void plan_free(rank_plan *P)
@@ -400,6 +401,7 @@ static tnd_result plan_make(const rn_rank_opts *o, rank_plan *P)
     cache_dir(o->cache, P->cache, sizeof P->cache);
     P->bootstrap = o->bootstrap ? o->bootstrap : RANK_DEFAULT_BOOTSTRAP;
     P->report = !o->no_report;
+    P->regions = o->regions;
     TND_TRY_RETURN(denoisers_read(o->denoisers, P));
     return suite_read(o->suite, P);
 }
@@ -708,6 +710,15 @@ static void cell_opts(const rank_plan *P, unsigned s, unsigned d, char *dir, siz
     o->out = dir;
     o->denoiser = P->den[d].spec;
     o->quiet = true;
+    o->capture = P->regions && d == 0; /* (the masks of every row: the noisy input is theirs) */
+}
+
+/* A cell rendered whole, with its capture where the plan wants one. */
+static bool cell_complete(const rn_render_opts *o, const char *dir)
+{
+    char cap[1500];
+    snprintf(cap, sizeof cap, "%s/capture/frame_0000.exr", dir);
+    return cell_done(dir) && (!o->capture || file_exists(cap));
 }
 
 /* The references, then the cells, here (each in its own process). */
@@ -758,7 +769,7 @@ static tnd_result run_local(rank_plan *P, const rn_host *h, bool *stopped)
             char dir[1400];
             rn_render_opts o;
             cell_opts(P, s, d, dir, sizeof dir, &o);
-            if (cell_done(dir)) {
+            if (cell_complete(&o, dir)) {
                 c->ok = true;
             } else if ((*stopped = rn_interrupted(h) != 0)) {
                 break;
@@ -1068,6 +1079,11 @@ static tnd_result evaluate(rank_plan *P, unsigned s, const rn_host *h)
             series[d] = (int)e.nseries;
             res = rn_eval_add(&e, P->den[d].id, dir, RN_SERIES_OUTPUT);
         }
+        if (P->regions && sq->cell[0].ok) { /* the masks: the first row's capture */
+            char dir[1400];
+            cell_dir(P, s, 0, dir, sizeof dir);
+            snprintf(e.regions_from, sizeof e.regions_from, "%.1000s/capture", dir);
+        }
         if (res == TND_OK && e.nseries)
             res = rn_eval_run(&e);
         for (unsigned d = 0; d < P->nden && res == TND_OK; d++) {
@@ -1075,6 +1091,7 @@ static tnd_result evaluate(rank_plan *P, unsigned s, const rn_host *h)
             if (series[d] < 0)
                 continue;
             c->sum = e.series[series[d]].summary;
+            memcpy(c->region, e.series[series[d]].regions, sizeof c->region);
             if (c->sum.nonfinite) {
                 c->ok = false;
                 snprintf(c->reason, sizeof c->reason, "NaN or Inf in its output (%llu values)",
@@ -1123,6 +1140,27 @@ static cJSON *num_or_null(double v)
     return v < 0 || !isfinite(v) ? cJSON_CreateNull() : cJSON_CreateNumber(v);
 }
 
+/* --regions: denoiser d's mean FLIP inside region g over the baseline's, the geometric mean over
+ * the sequences where both rows have pixels there (*n of them; < 0: none). The same pixels for
+ * both: the masks are the sequence's, not the row's. */
+static double region_ratio(const rank_plan *P, unsigned d, int g, unsigned *n)
+{
+    double logsum = 0;
+    *n = 0;
+    for (unsigned s = 0; s < P->nseq; s++) {
+        const rank_cell *c = &P->seq[s].cell[d], *b = &P->seq[s].cell[P->base];
+        if (!c->ok || !b->ok || !c->region[g].pixels || !b->region[g].pixels)
+            continue;
+        double fc = rn_region_summary(&c->region[g]).flip;
+        double fb = rn_region_summary(&b->region[g]).flip;
+        if (!(fc > 0) || !(fb > 0))
+            continue;
+        logsum += log(fc / fb);
+        (*n)++;
+    }
+    return *n ? exp(logsum / *n) : -1.0;
+}
+
 static cJSON *rank_json(const rank_plan *P, const rank_overall *ov)
 {
     cJSON *j = cJSON_CreateObject();
@@ -1153,6 +1191,23 @@ static cJSON *rank_json(const rank_plan *P, const rank_overall *ov)
         cJSON_AddNumberToObject(o, "sequences", ov[k].sequences);
         cJSON_AddBoolToObject(o, "tie_with_next", ov[k].tie_next);
         cJSON_AddItemToArray(oa, o);
+    }
+    if (P->regions) {
+        cJSON *ra = cJSON_AddObjectToObject(j, "regions");
+        for (int g = 0; g < RN_REGIONS; g++) {
+            cJSON *gj = NULL;
+            for (unsigned d = 0; d < P->nden; d++) {
+                unsigned n;
+                double r = region_ratio(P, d, g, &n);
+                if (r < 0)
+                    continue;
+                if (!gj)
+                    gj = cJSON_AddObjectToObject(ra, rn_region_name(g));
+                cJSON *dj = cJSON_AddObjectToObject(gj, P->den[d].id);
+                cJSON_AddNumberToObject(dj, "flip_vs_baseline", r);
+                cJSON_AddNumberToObject(dj, "sequences", n);
+            }
+        }
     }
     cJSON *sa = cJSON_AddArrayToObject(j, "sequences");
     double *tmp = malloc(P->bootstrap * sizeof *tmp), *diff = malloc(P->bootstrap * sizeof *diff);
@@ -1203,6 +1258,20 @@ static cJSON *rank_json(const rank_plan *P, const rank_overall *ov)
             cJSON_AddItemToObject(cj, "backend_ms", num_or_null(c->backend_ms));
             cJSON *sum = cJSON_AddObjectToObject(cj, "summary"); /* = tandem eval's */
             rn_metrics_json(sum, &c->sum);
+            if (P->regions) { /* (as tandem eval's metrics.json has them) */
+                cJSON *rj = cJSON_AddObjectToObject(cj, "regions");
+                for (int g = 0; g < RN_REGIONS; g++) {
+                    if (!c->region[g].pixels)
+                        continue;
+                    rn_region_stats st = rn_region_summary(&c->region[g]);
+                    cJSON *gj = cJSON_AddObjectToObject(rj, rn_region_name(g));
+                    cJSON_AddNumberToObject(gj, "pixels", (double)c->region[g].pixels);
+                    cJSON_AddNumberToObject(gj, "relmse", st.relmse);
+                    cJSON_AddNumberToObject(gj, "flip", st.flip);
+                    cJSON_AddNumberToObject(gj, "sharpness", st.sharpness);
+                    cJSON_AddNumberToObject(gj, "bias", st.bias);
+                }
+            }
             cJSON_AddItemToArray(cells, cj);
         }
         cJSON *pairs = cJSON_AddArrayToObject(q, "flip_pairs");
@@ -1278,6 +1347,76 @@ static void fmt_ci(char *buf, size_t cap, double mean, double lo, double hi)
         snprintf(buf, cap, "%.4g [%.4g, %.4g]", mean, lo, hi);
 }
 
+/* --regions: per region, each denoiser's FLIP there over the baseline's (geometric mean over
+ * the sequences that have the region), as text or as an HTML table. */
+static void region_text(const rank_plan *P, ev_text *t)
+{
+    bool head = false;
+    for (int g = 0; P->regions && g < RN_REGIONS; g++) {
+        bool any = false;
+        for (unsigned d = 0; d < P->nden; d++) {
+            unsigned n;
+            double r = region_ratio(P, d, g, &n);
+            if (r < 0)
+                continue;
+            if (!head)
+                ev_text_add(t, "per region, FLIP over %s's (geometric mean over the sequences "
+                               "that have it):\n",
+                            P->den[P->base].id);
+            if (!any)
+                ev_text_add(t, "  %-13s", rn_region_name(g));
+            head = any = true;
+            ev_text_add(t, "  %s %.4f (%u)", P->den[d].id, r, n);
+        }
+        if (any)
+            ev_text_add(t, "\n");
+    }
+}
+
+static void region_html(const rank_plan *P, ev_text *t)
+{
+    bool any = false;
+    for (int g = 0; P->regions && g < RN_REGIONS && !any; g++)
+        for (unsigned d = 0; d < P->nden && !any; d++) {
+            unsigned n;
+            any = region_ratio(P, d, g, &n) >= 0;
+        }
+    if (!any)
+        return;
+    ev_text_add(t, "<h2>Per region</h2>\n<p>Each denoiser's mean FLIP inside a region over the "
+                   "baseline's, the geometric mean over the sequences that have the region "
+                   "(their number in brackets). The masks come from the first row's capture "
+                   "(docs/metrics.md, \"Regions\"): mirror, glass, emitters, pixels within 2 of "
+                   "an emitter, glossy surfaces, surfaces in their first 4 frames, moving pixels, "
+                   "thin parts.</p>\n<table id=\"regions\"><tr><th>region</th>");
+    for (unsigned d = 0; d < P->nden; d++) {
+        ev_text_add(t, "<th>");
+        ev_text_escaped(t, P->den[d].spec);
+        ev_text_add(t, "</th>");
+    }
+    ev_text_add(t, "</tr>\n");
+    for (int g = 0; g < RN_REGIONS; g++) {
+        ev_text row = {0};
+        bool have = false;
+        ev_text_add(&row, "<tr><td>%s</td>", rn_region_name(g));
+        for (unsigned d = 0; d < P->nden; d++) {
+            unsigned n;
+            double r = region_ratio(P, d, g, &n);
+            if (r < 0) {
+                ev_text_add(&row, "<td>-</td>");
+                continue;
+            }
+            have = true;
+            ev_text_add(&row, "<td>%.4f (%u)</td>", r, n);
+        }
+        ev_text_add(&row, "</tr>\n");
+        if (have && row.s)
+            ev_text_add(t, "%s", row.s);
+        ev_text_free(&row);
+    }
+    ev_text_add(t, "</table>\n");
+}
+
 /* The table as text (stdout) and the report's index.html. */
 static void rank_text(const rank_plan *P, const rank_overall *ov, ev_text *t)
 {
@@ -1306,6 +1445,7 @@ static void rank_text(const rank_plan *P, const rank_overall *ov, ev_text *t)
         }
         ev_text_add(t, "\n");
     }
+    region_text(P, t);
 }
 
 static void html_cell(ev_text *t, const rank_cell *c, int f, bool best)
@@ -1354,6 +1494,7 @@ static tnd_result rank_html(const rank_plan *P, const rank_overall *ov)
                         ov[k].tie_next ? "tie" : "");
     }
     ev_text_add(&t, "</table>\n");
+    region_html(P, &t);
     for (unsigned s = 0; s < P->nseq; s++) {
         const rank_seq *sq = &P->seq[s];
         ev_text_add(&t, "<h2 id=\"seq-");
@@ -1525,7 +1666,7 @@ static tnd_result emit_slurm(const rank_plan *P, const rn_rank_opts *o, const rn
             char dir[1400];
             rn_render_opts c;
             cell_opts(P, s, d, dir, sizeof dir, &c);
-            if (cell_done(dir))
+            if (cell_complete(&c, dir))
                 continue;
             c.quiet = false;
             TND_TRY_RETURN(rn_render_args(&c, false, &a));
@@ -1549,7 +1690,8 @@ static tnd_result emit_slurm(const rank_plan *P, const rn_rank_opts *o, const rn
     rn_sh_word(f, P->out);
     fprintf(f, " --cache ");
     rn_sh_word(f, P->cache);
-    fprintf(f, " --bootstrap %u%s --quiet\n", P->bootstrap, P->report ? "" : " --no-report");
+    fprintf(f, " --bootstrap %u%s%s --quiet\n", P->bootstrap, P->report ? "" : " --no-report",
+            P->regions ? " --regions" : "");
     TND_TRY_RETURN(sbatch_close(f, path));
     /* submit.sh: the arrays sized to their tasks, each after the one before */
     snprintf(path, sizeof path, "%s/submit.sh", sdir);

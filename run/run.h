@@ -353,18 +353,31 @@ tnd_result rn_bandwidth(tnd_vk *vk, VkDeviceSize bytes, unsigned repeats, double
 
 /* ---- sequence evaluation (run/rn_eval.c) ------------------------------------------------------- */
 #define RN_EVAL_MAX_SERIES 8
-/* Error inside a region of the image (pixels the run's path flags mark: seen in a mirror, at
- * glass), over all frames: relMSE, mean FLIP, and sharpness = the sum of the tone-mapped image's
- * absolute forward differences inside the region over the reference's (below 1: blurrier than
- * the reference; noise makes it larger than 1), and bias = the region's mean linear luminance
- * over the reference's, minus 1 (what the estimator leaves out or adds). */
-enum { RN_REGION_MIRROR, RN_REGION_GLASS, RN_REGIONS };
+/* Error inside a region of the image (pixels the run's capture marks: seen in a mirror, at
+ * glass, an emitter, beside one, glossy, newly visible, moving, thin: rn_eval.c's region_masks and
+ * docs/metrics.md say how each is found), over all frames: relMSE, mean FLIP, and sharpness = the
+ * sum of the tone-mapped image's absolute forward differences inside the region over the
+ * reference's (below 1: blurrier than the reference; noise makes it larger than 1), and bias =
+ * the region's mean linear luminance over the reference's, minus 1 (what the estimator leaves
+ * out or adds). A pixel may lie in several regions. */
+enum {
+    RN_REGION_MIRROR,
+    RN_REGION_GLASS,
+    RN_REGION_EMITTER,
+    RN_REGION_EMITTER_EDGE,
+    RN_REGION_GLOSSY,
+    RN_REGION_DISOCCLUDED,
+    RN_REGION_MOVING,
+    RN_REGION_THIN,
+    RN_REGIONS /* (at most 8: a pixel's regions are the bits of a byte) */
+};
 typedef struct rn_region {
     uint64_t pixels, values, pairs;
     double rel_sq, flip, grad_out, grad_ref;
     double lum_out, lum_ref; /* bias = lum_out / lum_ref - 1 (linear luminance) */
 } rn_region;
-/* A region's figures from its sums, and its name ("mirror", "glass"). */
+/* A region's figures from its sums, and its name ("mirror", "glass", "emitter", "emitter_edge",
+ * "glossy", "disoccluded", "moving", "thin"). */
 typedef struct rn_region_stats {
     double relmse, flip, sharpness, bias;
 } rn_region_stats;
@@ -541,6 +554,9 @@ typedef struct rn_rank_opts {
     const char *emit;      /* NULL (run here) or "slurm" (DIR/slurm/submit.sh) */
     unsigned bootstrap;    /* replicates (0: 1000) */
     bool no_report;        /* no DIR/report (rank.json and rank.csv only) */
+    bool regions;          /* the first denoiser's cells keep their captures, from which every
+                              row's error is measured per region (rn_region): per cell and, over
+                              the sequences, against the baseline's */
 } rn_rank_opts;
 typedef struct rn_rank_result {
     ev_text table;      /* the leaderboard as text */

@@ -148,10 +148,10 @@ char *tandem_eval(const char *options_json);
 /* `tandem dataset SPEC --out DIR [--shard I/N]` (docs/python.md): the training set's manifest
  * (DIR/manifest.json's text, or the shard's). */
 char *tandem_dataset(const char *spec_path, const char *out, const char *shard);
-/* `tandem rank SUITE --denoisers LIST --out DIR [--cache DIR] [--bootstrap N] [--no-report]`
- * (docs/rank.md): DIR/rank.json's text. cache NULL: the default; bootstrap 0: 1000. */
+/* `tandem rank SUITE --denoisers LIST --out DIR [--cache DIR] [--bootstrap N] [--no-report]
+ * [--regions]` (docs/rank.md): DIR/rank.json's text. cache NULL: the default; bootstrap 0: 1000. */
 char *tandem_rank(const char *suite, const char *denoisers, const char *out, const char *cache,
-                  unsigned bootstrap, int report);
+                  unsigned bootstrap, int report, int regions);
 
 /* ---- Python denoisers in this process (the package's own host denoiser plugin) ---- */
 /* desc: a `const tandem_plugin *` of kind HOST_DENOISER (tandem_plugin.h) that runs

@@ -465,10 +465,11 @@ def dataset(spec, out, shard=None):
 
 
 # ---- the denoiser leaderboard ----------------------------------------------------------------
-def rank(suite, denoisers, out, cache=None, bootstrap=None, report=True):
+def rank(suite, denoisers, out, cache=None, bootstrap=None, report=True, regions=False):
     """``tandem rank``: denoisers (a list, or "a,b,c") over a suite (a JSON file, a shipped
     suite's name: "quick", "standard", or a dict: written as out/suite.json, its relative paths
-    taken from the current directory) into out; returns rank.json (docs/rank.md)."""
+    taken from the current directory) into out; returns rank.json (docs/rank.md). regions: the
+    error per region too (``--regions``)."""
     if isinstance(suite, dict):
         os.makedirs(out, exist_ok=True)
         suite = json.loads(json.dumps(suite))
@@ -486,7 +487,7 @@ def rank(suite, denoisers, out, cache=None, bootstrap=None, report=True):
     ffi, lib = _lib()
     return json.loads(_take_string(lib.tandem_rank(
         _str(suite), _str(denoisers), _str(out), _str(cache) if cache else ffi.NULL,
-        int(bootstrap or 0), 1 if report else 0)))
+        int(bootstrap or 0), 1 if report else 0, 1 if regions else 0)))
 
 
 def load_dataset(directory):

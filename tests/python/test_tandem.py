@@ -302,10 +302,12 @@ def test_rank(tmp_path, monkeypatch):
     suite = {"size": [32, 18], "frames": 4, "spp": 8, "frontend": "embree",
              "sequences": [{"name": "box", "scene": os.path.basename(CORNELL)}]}
     r = tandem.rank(suite, ["svgf", "off"], str(tmp_path / "r"), cache=str(tmp_path / "c"),
-                    report=False)
+                    report=False, regions=True)
     cells = r["sequences"][0]["cells"]
     assert [c["status"] for c in cells] == ["ok", "ok"]
     assert r["overall"][0]["denoiser"] == "svgf" and r["overall"][1]["flip_vs_baseline"] > 1
+    # regions=True: the box's lamp and the pixels round it, measured for both rows
+    assert {"emitter", "emitter_edge"} <= set(cells[1]["regions"]) and "emitter" in r["regions"]
     with pytest.raises(tandem.TandemError, match="unknown key 'sise'"):
         tandem.rank({"sequences": [{"name": "a", "scene": CORNELL, "sise": 1}]}, "svgf",
                     str(tmp_path / "bad"), cache=str(tmp_path / "c"))
