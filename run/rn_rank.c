@@ -85,6 +85,11 @@ typedef struct rank_plan {
     char out[1000], cache[1000];
     unsigned bootstrap;
     bool report, regions;
+    /* --regions: denoiser d's FLIP in region g over the baseline's, the geometric mean over the
+     * sequences that have it (region_n of them; region_r < 0: none); region_ratios() fills it */
+    double region_r[RN_REGIONS][RN_RANK_MAX_DENOISERS];
+    unsigned region_n[RN_REGIONS][RN_RANK_MAX_DENOISERS];
+    bool any_region;
 } rank_plan;
 
 static void plan_free(rank_plan *P)
@@ -1140,25 +1145,31 @@ static cJSON *num_or_null(double v)
     return v < 0 || !isfinite(v) ? cJSON_CreateNull() : cJSON_CreateNumber(v);
 }
 
-/* --regions: denoiser d's mean FLIP inside region g over the baseline's, the geometric mean over
- * the sequences where both rows have pixels there (*n of them; < 0: none). The same pixels for
- * both: the masks are the sequence's, not the row's. */
-static double region_ratio(const rank_plan *P, unsigned d, int g, unsigned *n)
+/* --regions: each denoiser's mean FLIP inside each region over the baseline's, the geometric
+ * mean over the sequences where both rows have pixels there (the same pixels for both: the
+ * masks are the sequence's, not the row's), into P->region_r and region_n. */
+static void region_ratios(rank_plan *P)
 {
-    double logsum = 0;
-    *n = 0;
-    for (unsigned s = 0; s < P->nseq; s++) {
-        const rank_cell *c = &P->seq[s].cell[d], *b = &P->seq[s].cell[P->base];
-        if (!c->ok || !b->ok || !c->region[g].pixels || !b->region[g].pixels)
-            continue;
-        double fc = rn_region_summary(&c->region[g]).flip;
-        double fb = rn_region_summary(&b->region[g]).flip;
-        if (!(fc > 0) || !(fb > 0))
-            continue;
-        logsum += log(fc / fb);
-        (*n)++;
-    }
-    return *n ? exp(logsum / *n) : -1.0;
+    P->any_region = false;
+    for (int g = 0; g < RN_REGIONS; g++)
+        for (unsigned d = 0; d < P->nden; d++) {
+            double logsum = 0;
+            unsigned n = 0;
+            for (unsigned s = 0; P->regions && s < P->nseq; s++) {
+                const rank_cell *c = &P->seq[s].cell[d], *b = &P->seq[s].cell[P->base];
+                if (!c->ok || !b->ok || !c->region[g].pixels || !b->region[g].pixels)
+                    continue;
+                double fc = rn_region_summary(&c->region[g]).flip;
+                double fb = rn_region_summary(&b->region[g]).flip;
+                if (!(fc > 0) || !(fb > 0))
+                    continue;
+                logsum += log(fc / fb);
+                n++;
+            }
+            P->region_n[g][d] = n;
+            P->region_r[g][d] = n ? exp(logsum / n) : -1.0;
+            P->any_region |= n > 0;
+        }
 }
 
 static cJSON *rank_json(const rank_plan *P, const rank_overall *ov)
@@ -1197,15 +1208,13 @@ static cJSON *rank_json(const rank_plan *P, const rank_overall *ov)
         for (int g = 0; g < RN_REGIONS; g++) {
             cJSON *gj = NULL;
             for (unsigned d = 0; d < P->nden; d++) {
-                unsigned n;
-                double r = region_ratio(P, d, g, &n);
-                if (r < 0)
+                if (P->region_r[g][d] < 0)
                     continue;
                 if (!gj)
                     gj = cJSON_AddObjectToObject(ra, rn_region_name(g));
                 cJSON *dj = cJSON_AddObjectToObject(gj, P->den[d].id);
-                cJSON_AddNumberToObject(dj, "flip_vs_baseline", r);
-                cJSON_AddNumberToObject(dj, "sequences", n);
+                cJSON_AddNumberToObject(dj, "flip_vs_baseline", P->region_r[g][d]);
+                cJSON_AddNumberToObject(dj, "sequences", P->region_n[g][d]);
             }
         }
     }
@@ -1355,8 +1364,8 @@ static void region_text(const rank_plan *P, ev_text *t)
     for (int g = 0; P->regions && g < RN_REGIONS; g++) {
         bool any = false;
         for (unsigned d = 0; d < P->nden; d++) {
-            unsigned n;
-            double r = region_ratio(P, d, g, &n);
+            double r = P->region_r[g][d];
+            unsigned n = P->region_n[g][d];
             if (r < 0)
                 continue;
             if (!head)
@@ -1375,13 +1384,7 @@ static void region_text(const rank_plan *P, ev_text *t)
 
 static void region_html(const rank_plan *P, ev_text *t)
 {
-    bool any = false;
-    for (int g = 0; P->regions && g < RN_REGIONS && !any; g++)
-        for (unsigned d = 0; d < P->nden && !any; d++) {
-            unsigned n;
-            any = region_ratio(P, d, g, &n) >= 0;
-        }
-    if (!any)
+    if (!P->regions || !P->any_region)
         return;
     ev_text_add(t, "<h2>Per region</h2>\n<p>Each denoiser's mean FLIP inside a region over the "
                    "baseline's, the geometric mean over the sequences that have the region "
@@ -1400,14 +1403,12 @@ static void region_html(const rank_plan *P, ev_text *t)
         bool have = false;
         ev_text_add(&row, "<tr><td>%s</td>", rn_region_name(g));
         for (unsigned d = 0; d < P->nden; d++) {
-            unsigned n;
-            double r = region_ratio(P, d, g, &n);
-            if (r < 0) {
+            if (P->region_r[g][d] < 0) {
                 ev_text_add(&row, "<td>-</td>");
                 continue;
             }
             have = true;
-            ev_text_add(&row, "<td>%.4f (%u)</td>", r, n);
+            ev_text_add(&row, "<td>%.4f (%u)</td>", P->region_r[g][d], P->region_n[g][d]);
         }
         ev_text_add(&row, "</tr>\n");
         if (have && row.s)
@@ -1767,6 +1768,8 @@ tnd_result rn_rank(const rn_rank_opts *o, const rn_host *h, rn_rank_result *resu
     }
     if (res == TND_OK)
         res = overall(&P, ov);
+    if (res == TND_OK)
+        region_ratios(&P);
     if (res == TND_OK) {
         cJSON *j = rank_json(&P, ov);
         char path[1200];
