@@ -37,14 +37,25 @@ def same_files(a, b):
     return names, diff + extra
 
 
+def wait_for(p, path):
+    """Waits until PATH exists or the process P has ended; returns the time then."""
+    while p.poll() is None and not os.path.exists(path):
+        time.sleep(0.005)
+    return time.time()
+
+
 def killed_and_resumed(c, tmp, name, args, rng, quick):
     """Returns the waits for the device the uninterrupted run made (TANDEM_FAULT counting them,
     never firing), for lost_and_resumed."""
     whole, cut = os.path.join(tmp, name + "_whole"), os.path.join(tmp, name + "_cut")
-    t0 = time.time()
     env = dict(os.environ, TANDEM_FAULT="device-lost=1000000000")  # (counts, never fires)
-    r = subprocess.run([c.tandem, "reference", *args, "--out", whole, "--quiet"], env=env,
-                       capture_output=True, text=True)
+    # The run's time is measured from its first checkpoint (reference.partial.json), so that the
+    # shaders' compile (cold in a fresh cache, warm for the runs after it) is not counted in it.
+    p = subprocess.Popen([c.tandem, "reference", *args, "--out", whole, "--quiet"], env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = wait_for(p, os.path.join(whole, "reference.partial.json"))
+    out, err = p.communicate()
+    r = subprocess.CompletedProcess(p.args, p.returncode, out, err)
     if r.returncode != 0:
         sys.exit(f"tandem reference {' '.join(args)}: exit {r.returncode}\n{r.stderr}")
     took = time.time() - t0
@@ -53,6 +64,7 @@ def killed_and_resumed(c, tmp, name, args, rng, quick):
     stops = []
     for k, sig in enumerate(kills):
         p = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
+        wait_for(p, os.path.join(cut, "reference.partial.json"))
         # somewhere in the middle of what is left (the run's own time, measured above)
         time.sleep(rng.uniform(0.15, 0.3) * took)
         p.send_signal(sig)
@@ -205,12 +217,13 @@ def main():
         sw_args = ["bench", "--scene", CORNELL, "--sweep", "atrous=1,3", "--size", "40x24",
                    "--frames", "5", "--warmup", "2", "--spp", "128" if quick else "384"]
         whole, cut = os.path.join(tmp, "sweep_whole"), os.path.join(tmp, "sweep_cut")
-        t0 = time.time()
         c.run(*sw_args, "--out", whole, "--quiet")
-        took = time.time() - t0
         p = subprocess.Popen([tandem, *sw_args, "--out", cut, "--quiet"], stderr=subprocess.PIPE,
                              text=True)
-        time.sleep(0.3 * took)
+        # the signal goes once the reference has started (its checkpoint exists), not after a
+        # share of the uninterrupted run's time: that one may have compiled the shaders cold,
+        # and a sleep of 30% of it outlasted the whole second sweep on a fast machine
+        wait_for(p, os.path.join(cut, "reference", "reference.partial.json"))
         p.send_signal(signal.SIGINT)
         err = p.communicate()[1]
         c.check("sweep: SIGINT: exit 130, says how to go on",
