@@ -267,13 +267,15 @@ static tnd_result plan_make(const char *const *sweeps, int nkeys, const char *sc
         tnd_fail(TND_ERR_INVALID_ARGUMENT, "more than %d combinations", MAX_RUNS);
         goto done;
     }
-    snprintf(P->scene, sizeof P->scene, "%s", scene);
-    snprintf(P->out, sizeof P->out, "%s", out);
+    if ((size_t)snprintf(P->scene, sizeof P->scene, "%s", scene) >= sizeof P->scene ||
+        (size_t)snprintf(P->out, sizeof P->out, "%s", out) >= sizeof P->out ||
+        (size_t)snprintf(P->refdir, sizeof P->refdir, reference ? "%s" : "%s/reference",
+                         reference ? reference : out) >= sizeof P->refdir) {
+        tnd_fail(TND_ERR_INVALID_ARGUMENT, "sweep: %s: path too long",
+                 strlen(scene) >= sizeof P->scene ? scene : reference ? reference : out);
+        goto done;
+    }
     P->own_reference = !reference;
-    if (reference)
-        snprintf(P->refdir, sizeof P->refdir, "%s", reference);
-    else
-        snprintf(P->refdir, sizeof P->refdir, "%s/reference", out);
     P->size[0] = size[0];
     P->size[1] = size[1];
     P->frames = frames;
@@ -309,8 +311,10 @@ static tnd_result plan_make(const char *const *sweeps, int nkeys, const char *sc
                 P->cell_est[i] = e;
         if (P->cell_est[i] < 0) {
             sweep_estimator *es = &P->ests[P->nests];
-            snprintf(es->bounces, sizeof es->bounces, "%s", P->cell_bounces[i]);
-            snprintf(es->size, sizeof es->size, "%s", P->cell_size[i]);
+            _Static_assert(sizeof es->bounces == sizeof P->cell_bounces[0] &&
+                               sizeof es->size == sizeof P->cell_size[0], "the same strings");
+            memcpy(es->bounces, P->cell_bounces[i], sizeof es->bounces);
+            memcpy(es->size, P->cell_size[i], sizeof es->size);
             char b[16], sz[32]; /* (copies: es->dir is in *P as well) */
             memcpy(b, es->bounces, sizeof b);
             memcpy(sz, es->size, sizeof sz);

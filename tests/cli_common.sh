@@ -8,8 +8,9 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
 check() { # check NAME CONDITION-EXIT-STATUS
-    if [ "$2" -eq 0 ]; then pass=$((pass + 1)); echo "ok   $1"; else
-        fail=$((fail + 1)); echo "FAIL $1"; fi
+    # (the seconds since the script began: where a test's minutes go, in CI's log)
+    if [ "$2" -eq 0 ]; then pass=$((pass + 1)); echo "ok   $1  [${SECONDS} s]"; else
+        fail=$((fail + 1)); echo "FAIL $1  [${SECONDS} s]"; fi
 }
 
 SRC=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
