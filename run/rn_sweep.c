@@ -267,12 +267,16 @@ static tnd_result plan_make(const char *const *sweeps, int nkeys, const char *sc
         tnd_fail(TND_ERR_INVALID_ARGUMENT, "more than %d combinations", MAX_RUNS);
         goto done;
     }
-    if ((size_t)snprintf(P->scene, sizeof P->scene, "%s", scene) >= sizeof P->scene ||
-        (size_t)snprintf(P->out, sizeof P->out, "%s", out) >= sizeof P->out ||
-        (size_t)snprintf(P->refdir, sizeof P->refdir, reference ? "%s" : "%s/reference",
-                         reference ? reference : out) >= sizeof P->refdir) {
-        tnd_fail(TND_ERR_INVALID_ARGUMENT, "sweep: %s: path too long",
-                 strlen(scene) >= sizeof P->scene ? scene : reference ? reference : out);
+    const char *too_long = NULL; /* (refused by name rather than cut short) */
+    if ((size_t)snprintf(P->scene, sizeof P->scene, "%s", scene) >= sizeof P->scene)
+        too_long = scene;
+    else if ((size_t)snprintf(P->out, sizeof P->out, "%s", out) >= sizeof P->out)
+        too_long = out;
+    else if ((size_t)snprintf(P->refdir, sizeof P->refdir, reference ? "%s" : "%s/reference",
+                              reference ? reference : out) >= sizeof P->refdir)
+        too_long = reference ? reference : out;
+    if (too_long) {
+        tnd_fail(TND_ERR_INVALID_ARGUMENT, "sweep: %s: path too long", too_long);
         goto done;
     }
     P->own_reference = !reference;
