@@ -228,9 +228,12 @@ typedef struct ev_panel {
     uint32_t display_width; /* CSS pixels (small images are shown enlarged); 0: natural */
 } ev_panel;
 
+/* A report row's panels at most: the reference and three per series (the image, its difference
+ * and its FLIP map) for up to 10 series. */
+#define EV_ROW_PANELS 31
 typedef struct ev_row {
     char title[160];
-    ev_panel panels[16];
+    ev_panel panels[EV_ROW_PANELS];
     uint32_t count;
 } ev_row;
 

@@ -14,6 +14,10 @@
 #include <string.h>
 #include <sys/stat.h>
 
+/* (rn_eval_report's frame rows: the reference and three panels per series; with 16 panels a
+ * row, six series or more wrote past the row: `tandem rank` of 8 denoisers crashed) */
+_Static_assert(1 + 3 * RN_EVAL_MAX_SERIES <= EV_ROW_PANELS, "a report row's panels");
+
 static int cmp_u32(const void *a, const void *b)
 {
     uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;

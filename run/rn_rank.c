@@ -45,8 +45,11 @@ static double figure_of(const ev_frame_metrics *m, int f)
 }
 
 typedef struct rank_den {
-    char spec[1100]; /* as given: asvgf, plugin:PATH, python:MODULE:FN */
+    char spec[1100]; /* as given: asvgf, plugin:PATH, python:MODULE:FN, each with @KEY=VALUE */
+    char name[1100]; /* the denoiser: spec up to its first '@' */
     char id[80];     /* its directory and column name */
+    char taa[24];    /* @taa=: the post chain's TAA (empty: the suite's) */
+    pl_param_set params; /* @PARAM=: the denoiser's parameters (pl_param) */
 } rank_den;
 
 typedef struct rank_cell {
@@ -314,6 +317,64 @@ static tnd_result suite_read(const char *given, rank_plan *P)
     return TND_OK;
 }
 
+/* A row's settings after its name: @taa=on|off|W (the post chain's TAA, as render's --taa) and
+ * @PARAM=X (a parameter of that denoiser, as render's --PARAM), so that one rank measures a
+ * change against the denoiser without it. Each is checked here, by name, before anything runs;
+ * the row's id (its folder and column) gets the settings as given. */
+static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
+{
+    const char *v = d->spec + strlen(d->name);
+    while (*v == '@') {
+        v++;
+        size_t n = strcspn(v, "@");
+        char kv[128], *eq;
+        if (n == 0 || n >= sizeof kv)
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: an empty or overlong "
+                                                      "setting (NAME@KEY=VALUE@...)", d->spec);
+        memcpy(kv, v, n);
+        kv[n] = 0;
+        v += n;
+        if (!(eq = strchr(kv, '=')) || eq == kv || !eq[1])
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: '%s': expected KEY=VALUE",
+                            d->spec, kv);
+        *eq = 0;
+        const char *key = kv, *val = eq + 1;
+        if (strcmp(key, "taa") == 0) {
+            struct cmp_desc cd = {0};
+            if (strlen(val) >= sizeof d->taa || rn_taa_parse(val, &cd) != TND_OK) {
+                tnd_error_clear();
+                return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: taa=%s: on, off or "
+                                                          "a new-frame weight in (0, 1]",
+                                d->spec, val);
+            }
+            snprintf(d->taa, sizeof d->taa, "%s", val);
+            continue;
+        }
+        if (!pl_param_find(key) || !pl_denoiser_has_param(info, key))
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: %s has no parameter %s "
+                                                      "(taa, or one that tandem info --pipeline "
+                                                      "lists for it)", d->spec, d->name, key);
+        char *end;
+        double x = strtod(val, &end);
+        if (*end || end == val)
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: %s=%s: a number",
+                            d->spec, key, val);
+        if (pl_param_set_put(&d->params, key, x) != TND_OK) {
+            char what[1300];
+            snprintf(what, sizeof what, "--denoisers %s", d->spec);
+            return refail(TND_ERR_INVALID_ARGUMENT, what);
+        }
+    }
+    if (*v) /* (unreachable: the name ends at the first '@') */
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: malformed", d->spec);
+    size_t l = strlen(d->id);
+    if (strlen(d->spec + strlen(d->name)) + l >= sizeof d->id)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: its settings are too long "
+                                                  "for a folder name", d->spec);
+    snprintf(d->id + l, sizeof d->id - l, "%s", d->spec + strlen(d->name));
+    return TND_OK;
+}
+
 /* --denoisers: each a registered name, plugin:PATH or python:MODULE:CALLABLE (at most
  * RN_RANK_MAX_DENOISERS, no two alike); the baseline: svgf where named, else the first. */
 static tnd_result denoisers_read(const char *list, rank_plan *P)
@@ -336,28 +397,32 @@ static tnd_result denoisers_read(const char *list, rank_plan *P)
                             list);
         memcpy(d->spec, p, n);
         d->spec[n] = 0;
+        size_t nl = strcspn(d->spec, "@");
+        memcpy(d->name, d->spec, nl);
+        d->name[nl] = 0;
         const pl_denoiser_info *info;
-        if (pl_denoiser_find(d->spec, &info) != TND_OK)
+        if (pl_denoiser_find(d->name, &info) != TND_OK)
             return refail(TND_ERR_INVALID_ARGUMENT, "--denoisers");
-        if (strncmp(d->spec, "plugin:", 7) == 0) {
-            if (!file_exists(d->spec + 7))
+        if (strncmp(d->name, "plugin:", 7) == 0) {
+            if (!file_exists(d->name + 7))
                 return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers: %s: no such file",
-                                d->spec + 7);
-            const char *b = strrchr(d->spec + 7, '/');
-            b = b ? b + 1 : d->spec + 7;
+                                d->name + 7);
+            const char *b = strrchr(d->name + 7, '/');
+            b = b ? b + 1 : d->name + 7;
             snprintf(d->id, sizeof d->id, "plugin-%.*s", (int)strcspn(b, "."), b);
-        } else if (strncmp(d->spec, "python:", 7) == 0) {
+        } else if (strncmp(d->name, "python:", 7) == 0) {
             char tmp[72];
-            snprintf(tmp, sizeof tmp, "%.70s", d->spec + 7);
+            snprintf(tmp, sizeof tmp, "%.70s", d->name + 7);
             snprintf(d->id, sizeof d->id, "python-%s", tmp);
             for (char *c = d->id; *c; c++)
                 if (*c == ':' || *c == '/')
                     *c = '-';
         } else {
-            size_t l = strlen(d->spec) < sizeof d->id - 1 ? strlen(d->spec) : sizeof d->id - 1;
-            memcpy(d->id, d->spec, l);
+            size_t l = nl < sizeof d->id - 1 ? nl : sizeof d->id - 1;
+            memcpy(d->id, d->name, l);
             d->id[l] = 0;
         }
+        TND_TRY_RETURN(variant_read(d, info));
         for (unsigned k = 0; k < P->nden; k++)
             if (strcmp(P->den[k].id, d->id) == 0)
                 return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers: %s named twice", d->id);
@@ -713,7 +778,12 @@ static void cell_opts(const rank_plan *P, unsigned s, unsigned d, char *dir, siz
     *o = P->seq[s].o;
     cell_dir(P, s, d, dir, cap);
     o->out = dir;
-    o->denoiser = P->den[d].spec;
+    const rank_den *dn = &P->den[d];
+    o->denoiser = dn->name;
+    if (dn->taa[0])
+        o->taa = dn->taa;
+    for (uint32_t i = 0; i < dn->params.n; i++) /* (over the suite's, where it gives any) */
+        (void)pl_param_set_put(&o->params, dn->params.param[i]->name, dn->params.value[i]);
     o->quiet = true;
     o->capture = P->regions && d == 0; /* (the masks of every row: the noisy input is theirs) */
 }

@@ -151,9 +151,41 @@ check "a suite with an unknown option: refused by name" $?
 "$T" rank quick --denoisers svgf,nosuch --out "$tmp/r5" --cache "$C" 2> "$tmp/e3"
 [ $? -eq 2 ] && grep -q "denoiser 'nosuch'" "$tmp/e3" && [ ! -e "$tmp/r5" ]
 check "an unknown denoiser: a usage error" $?
+"$T" rank quick --denoisers svgf,svgf@history-fix=2 --out "$tmp/r5" --cache "$C" 2> "$tmp/e6"
+[ $? -eq 2 ] && grep -q "svgf@history-fix=2: svgf has no parameter history-fix" "$tmp/e6" &&
+    "$T" rank quick --denoisers svgf,recurrent@taa=2 --out "$tmp/r5" --cache "$C" 2> "$tmp/e7"
+[ $? -eq 2 ] && grep -q "recurrent@taa=2: taa=2: on, off or a new-frame weight" "$tmp/e7" &&
+    "$T" rank quick --denoisers svgf,recurrent@atrous=9 --out "$tmp/r5" --cache "$C" 2> "$tmp/e8"
+[ $? -eq 2 ] && grep -q "recurrent@atrous=9: --atrous 9: expected a whole number" "$tmp/e8" &&
+    [ ! -e "$tmp/r5" ]
+check "a row's settings the denoiser has not, or out of range: a usage error naming them" $?
 "$T" rank quick --denoisers svgf,off --out "$tmp/r1" --cache "$C" 2> "$tmp/e4"
 [ $? -eq 1 ] && grep -q "holds a rank of another suite or other denoisers" "$tmp/e4"
 check "a folder holding another rank: refused" $?
+
+# 6b. rows with settings (NAME@KEY=VALUE): the same denoiser with TAA off and at other weights
+# beside it, all ranked; six rows and more once overflowed the report's rows (a crash)
+R8=off,off@taa=off,off@taa=0.05,off@taa=0.2,off@taa=0.5,off@taa=1
+"$T" rank quick --denoisers $R8 --out "$tmp/r8" --cache "$C" > /dev/null 2> "$tmp/e9"
+[ $? -eq 0 ] && [ "$(ls "$tmp/r8/report/dynamic"/f*_s5_flip.png | wc -l)" -ge 2 ]
+check "rank quick --denoisers $R8: exit 0, the report's rows with all six" $?
+"$PY" - "$tmp/r8" <<'PY'
+import json, sys
+d = sys.argv[1]
+r = json.load(open(d + "/rank.json"))
+assert r["denoisers"][:2] == ["off", "off@taa=off"] and len(r["denoisers"]) == 6, r["denoisers"]
+for s in r["sequences"]:
+    post = json.load(open(f"{d}/runs/{s['name']}/off@taa=off/run.json"))["post"]
+    assert post["taa"] is False and s["cells"][1]["denoiser"] == "off@taa=off", post
+    on = json.load(open(f"{d}/runs/{s['name']}/off/run.json"))["post"]
+    assert on["taa"] is True, on
+    w = json.load(open(f"{d}/runs/{s['name']}/off@taa=0.2/run.json"))["post"]
+    assert w["taa"] is True and abs(w["taa_weight"] - 0.2) < 1e-6, w
+    a, b = (c["flip"]["mean"] for c in s["cells"][:2])
+    # TAA is the only filter of `off`: without it the frames differ everywhere
+    assert abs(a - b) > 0.05 * a, (s["name"], a, b)
+PY
+check "the row with @taa=off rendered without TAA, its FLIP apart from the row with it" $?
 
 # 7. two ranks in one folder at once: the second refused (the lock), naming the first's process
 "$T" rank quick --denoisers recurrent --out "$tmp/r6" --cache "$C" > /dev/null 2>&1 &
@@ -167,14 +199,16 @@ rc1=$?
 check "a second rank in the same folder at once: refused, naming the first's process" $?
 
 # 8. --emit slurm: the references, the cells and the rank as jobs
-"$T" rank quick --denoisers svgf,off --out "$tmp/r7" --cache "$tmp/cache2" --emit slurm > "$tmp/s.txt" 2>/dev/null
+"$T" rank quick --denoisers svgf,recurrent@taa=0.2@atrous=5 --out "$tmp/r7" --cache "$tmp/cache2" --emit slurm > "$tmp/s.txt" 2>/dev/null
 rc=$?
 s="$tmp/r7/slurm"
 [ $rc -eq 0 ] && grep -q "$s/submit.sh" "$tmp/s.txt" && bash -n "$s/submit.sh" &&
     bash -n "$s/references.sbatch" && bash -n "$s/cells.sbatch" && bash -n "$s/collect.sbatch" &&
     [ "$(grep -c "'reference'" "$s/references.sbatch")" -eq 2 ] &&
-    [ "$(grep -c "'render'" "$s/cells.sbatch")" -eq 4 ] && grep -q " rank " "$s/collect.sbatch"
-check "--emit slurm: 2 references, 4 renders and the rank as jobs (shell syntax checked)" $?
+    [ "$(grep -c "'render'" "$s/cells.sbatch")" -eq 4 ] && grep -q " rank " "$s/collect.sbatch" &&
+    [ "$(grep -c "'--denoiser' 'recurrent' '--atrous' '5' '--taa' '0.2'" "$s/cells.sbatch")" -eq 2 ] &&
+    grep -q "svgf,recurrent@taa=0.2@atrous=5" "$s/collect.sbatch"
+check "--emit slurm: 2 references, 4 renders (a row's settings as render's options) and the rank as jobs (shell syntax checked)" $?
 
 # 9. the report's player in the browser (as the eval report's)
 if [ -d "$SRC/tests/browser/node_modules/puppeteer-core" ]; then
