@@ -466,7 +466,8 @@ def dataset(spec, out, shard=None):
 
 # ---- the denoiser leaderboard ----------------------------------------------------------------
 def rank(suite, denoisers, out, cache=None, bootstrap=None, report=True, regions=False):
-    """``tandem rank``: denoisers (a list, or "a,b,c") over a suite (a JSON file, a shipped
+    """``tandem rank``: denoisers (a list, or "a,b,c"; each may carry settings,
+    "recurrent@taa=0.2@atrous=5") over a suite (a JSON file, a shipped
     suite's name: "quick", "standard", or a dict: written as out/suite.json, its relative paths
     taken from the current directory) into out; returns rank.json (docs/rank.md). regions: the
     error per region too (``--regions``)."""
