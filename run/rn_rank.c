@@ -365,8 +365,6 @@ static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
             return refail(TND_ERR_INVALID_ARGUMENT, what);
         }
     }
-    if (*v) /* (unreachable: the name ends at the first '@') */
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: malformed", d->spec);
     size_t l = strlen(d->id);
     if (strlen(d->spec + strlen(d->name)) + l >= sizeof d->id)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: its settings are too long "
