@@ -323,7 +323,7 @@ static tnd_result suite_read(const char *given, rank_plan *P)
  * the row's id (its folder and column) gets the settings as given. */
 static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
 {
-    const char *v = d->spec + strlen(d->name);
+    const char *settings = d->spec + strlen(d->name), *v = settings;
     while (*v == '@') {
         v++;
         size_t n = strcspn(v, "@");
@@ -366,10 +366,10 @@ static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
         }
     }
     size_t l = strlen(d->id);
-    if (strlen(d->spec + strlen(d->name)) + l >= sizeof d->id)
+    if (strlen(settings) + l >= sizeof d->id)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: its settings are too long "
                                                   "for a folder name", d->spec);
-    snprintf(d->id + l, sizeof d->id - l, "%s", d->spec + strlen(d->name));
+    snprintf(d->id + l, sizeof d->id - l, "%s", settings);
     return TND_OK;
 }
 
