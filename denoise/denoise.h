@@ -115,7 +115,8 @@ tnd_result dn_wait(dn_context *ctx, dn_timings *t);
  * 3x3 stratum (dn_gradient_capacity), as DN_GRADIENT_WORDS words each: pixel, previous rng frame,
  * previous rng pixel, previous instance, previous primitive, u and v bits (the layout of
  * femb_gradient_sample and fvk_shade_gradients). Call after the front-end rendered the frame
- * and before dn_run; the front-end re-shades the samples into the contract in between. */
+ * and before dn_run; the front-end re-shades the samples in between, and their values reach the
+ * back-end through dn_set_gradient_values. */
 enum { DN_GRADIENT_WORDS = 7 };
 uint32_t dn_gradient_capacity(const dn_context *ctx);
 /* The same selection handed over on the GPU: `buffer` (owned by the back-end, valid until the
@@ -128,6 +129,14 @@ tnd_result dn_select_gradients_gpu(dn_context *ctx, const tnd_contract_gpu *cont
                                    uint32_t *row);
 tnd_result dn_select_gradients(dn_context *ctx, const tnd_contract_gpu *contract,
                                const dn_frame *frame, uint32_t *samples, uint32_t *count);
+/* The host's re-shading of dn_select_gradients' samples (`samples`, `count` of them as it gave
+ * them): `reshaded` is the frame with those pixels re-shaded (femb_shade_gradients,
+ * fvk_shade_gradients then a download, a replay's stored samples); its hf, spec and lf L0 there
+ * go to the gradient pass beside the contract, which dn_run then reads as rendered (every
+ * pixel's fresh sample). On the GPU the front-end writes them into the list itself
+ * (fvk_shade_gradient_slots, fvk_render_shade). A sample without its value gives no gradient. */
+tnd_result dn_set_gradient_values(dn_context *ctx, const uint32_t *samples, uint32_t count,
+                                  const tnd_frame *reshaded);
 /* Debug dumps of the back-end's buffers after the last dn_run (tandem render --dump): dump i
  * (0 .. dn_dump_count() - 1) has a name such as "temporal.hf" and 4 channel names; dn_dump
  * writes its 4 floats per texel (dn_dump_size: full or, for "gradients" and "lf.*", 1/3

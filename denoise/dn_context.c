@@ -45,6 +45,8 @@ struct dn_context {
     tnd_image prev_lum, prev_key, grad[2]; /* A-SVGF */
     tnd_image lf_geo; /* 1/3-res lf anchors: position, depth */
     tnd_buffer params, samples, samples_host; /* samples: device-local; _host: its read-back */
+    tnd_buffer samples_up;  /* the host's re-shaded values (dn_set_gradient_values), made once */
+    bool samples_up_due;    /* copied into `samples` before the next frame's gradients */
     /* the parameters of the pass recorded next: each command buffer carries its copy
      * (record_params), so that the host never writes `params` under a queued pass */
     dn_params host_params;
@@ -189,6 +191,7 @@ void dn_destroy(dn_context *c)
     tnd_buffer_destroy(vk, &c->params);
     tnd_buffer_destroy(vk, &c->samples);
     tnd_buffer_destroy(vk, &c->samples_host);
+    tnd_buffer_destroy(vk, &c->samples_up);
     free(c);
 }
 
@@ -722,6 +725,50 @@ fail:
     return res;
 }
 
+tnd_result dn_set_gradient_values(dn_context *c, const uint32_t *samples, uint32_t count,
+                                  const tnd_frame *reshaded)
+{
+    tnd_result res = TND_OK;
+    if (count == 0)
+        return TND_OK;
+    if (!uses_gradients(&c->desc) || c->selected_frame != c->frame + 1)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "denoise: gradient values without this frame's selection");
+    if (reshaded->width != c->width || reshaded->height != c->height ||
+        !reshaded->present[TND_CT_HF] || !reshaded->present[TND_CT_SPEC] ||
+        !reshaded->present[TND_CT_LF_SH])
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "denoise: gradient values from a %ux%u frame without hf, spec or lf "
+                        "(the back-end is %ux%u)",
+                        reshaded->width, reshaded->height, c->width, c->height);
+    TND_TRY(settle(c)); /* (the frame before may still copy from samples_up) */
+    if (!c->samples_up.buffer)
+        TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = c->samples.size,
+                                                            .mem = TND_MEM_UPLOAD,
+                                                            .name = "denoise.samples_up"},
+                                  &c->samples_up));
+    tnd_gpu_gradient *up = c->samples_up.mapped;
+    memcpy(up, c->samples_host.mapped, c->samples.size); /* (the selection, as read back) */
+    const float *hf = tnd_frame_f(reshaded, TND_CT_HF), *sp = tnd_frame_f(reshaded, TND_CT_SPEC);
+    const float *sh = tnd_frame_f(reshaded, TND_CT_LF_SH);
+    for (uint32_t k = 0; k < count; k++) {
+        uint32_t q = samples[(size_t)k * DN_GRADIENT_WORDS], x = q % c->width, y = q / c->width;
+        uint32_t i = y / DN_STRATUM * c->grad_w + x / DN_STRATUM;
+        if (q >= c->width * c->height || up[i].pixel != q)
+            return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                            "denoise: gradient value %u at pixel %u, which the selection did not "
+                            "pick",
+                            k, q);
+        memcpy(up[i].hf, hf + 3 * (size_t)q, sizeof up[i].hf);
+        memcpy(up[i].spec, sp + 3 * (size_t)q, sizeof up[i].spec);
+        up[i].l0 = sh[4 * (size_t)q + 3];
+        up[i].reshaded = 1.0f;
+    }
+    c->samples_up_due = true;
+fail:
+    return res;
+}
+
 uint32_t dn_gradient_capacity(const dn_context *c)
 {
     return c->grad_w * c->grad_h;
@@ -764,6 +811,14 @@ tnd_result dn_submit(dn_context *c, const tnd_contract_gpu *ct, const dn_frame *
     tnd_cmd_barrier(cmd);
     record_params(c, cmd, ct);
     int s_g = -1, s_t = -1, s_h = -1, s_l = -1, s_a = -1;
+    if (c->samples_up_due) { /* the host's re-shaded values (dn_set_gradient_values) */
+        if (gradients) {
+            vkCmdCopyBuffer(cmd, c->samples_up.buffer, c->samples.buffer, 1,
+                            &(VkBufferCopy){0, 0, c->samples.size});
+            tnd_cmd_barrier(cmd);
+        }
+        c->samples_up_due = false;
+    }
     if (gradients) {
         s_g = tnd_timer_begin(cmd, &c->timer, "denoise.gradients");
         /* the gradients and their blur along rows (grad[0] and the samples -> grad[1]), then

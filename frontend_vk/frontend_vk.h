@@ -140,10 +140,11 @@ tnd_result fvk_set_frame(fvk_context *ctx, const tnd_scene_state *cur, const tnd
 tnd_result fvk_render(fvk_context *ctx, const fvk_params *p, fvk_timings *t);
 /* fvk_render in two submissions, for a denoiser whose gradient selection reads this frame's
  * G-buffer between them: the primary pass, then the shading pass. With the back-end's
- * per-stratum list (dn_select_gradients_gpu's buffer, rows of `row`), the shading pass re-shades
- * the listed pixels in place, as fvk_shade_gradient_slots would after it, without a launch of
- * their own: the contract afterwards is the same (shaders/pt_shade.glsl, mode 2). Without a list
- * (VK_NULL_HANDLE) it is fvk_render's. A render or set_frame between the two is refused. */
+ * per-stratum list (dn_select_gradients_gpu's buffer, rows of `row`), the shading pass also
+ * re-shades the listed samples into the list, as fvk_shade_gradient_slots would after it,
+ * without a launch of their own: the contract and the list afterwards are the same
+ * (shaders/pt_shade.glsl, mode 2). Without a list (VK_NULL_HANDLE) it is fvk_render's. A render
+ * or set_frame between the two is refused. */
 tnd_result fvk_render_primary(fvk_context *ctx, const fvk_params *p);
 tnd_result fvk_render_shade(fvk_context *ctx, const fvk_params *p, VkBuffer slots_buffer,
                             uint32_t row, fvk_timings *t);
@@ -152,13 +153,17 @@ tnd_result fvk_render_shade(fvk_context *ctx, const fvk_params *p, VkBuffer slot
  * (the frame before), without waiting. */
 tnd_result fvk_last_timings(fvk_context *ctx, bool wait, fvk_timings *t);
 /* Shade gradient samples (layout of femb_gradient_sample: pixel, rng frame, rng pixel,
- * instance, primitive, u, v) after fvk_render, patching the G-buffer at their pixels. */
+ * instance, primitive, u, v) after fvk_render into the contract, patching the G-buffer at their
+ * pixels (the re-shaded contract, for captures and tests; the back-end takes the values through
+ * dn_set_gradient_values and the frame as rendered). */
 tnd_result fvk_shade_gradients(fvk_context *ctx, const fvk_params *p, const uint32_t *samples,
                                uint32_t count, fvk_timings *t);
-/* The same, reading the back-end's per-stratum list where it lies on the GPU
+/* The same samples, reading the back-end's per-stratum list where it lies on the GPU
  * (dn_select_gradients_gpu: `slots` tnd_gpu_gradient entries in rows of `row`, the strata's
- * grid; TND_GRADIENT_NONE skipped): no read-back and no upload. The entries come from the
- * back-end's own pass over the contract, so they are trusted (no range check). */
+ * grid; TND_GRADIENT_NONE skipped): no read-back and no upload; the re-shaded values go into
+ * the list's entries (tnd_gpu_gradient c, d), the contract keeps the frame as rendered. The
+ * entries come from the back-end's own pass over the contract, so they are trusted (no range
+ * check). */
 tnd_result fvk_shade_gradient_slots(fvk_context *ctx, const fvk_params *p, VkBuffer slots_buffer,
                                     uint32_t slots, uint32_t row, fvk_timings *t);
 /* Reference: unbiased progressive path tracing on the GPU, as femb_reference (same paths for

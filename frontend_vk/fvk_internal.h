@@ -24,6 +24,7 @@ struct fvk_context {
     tnd_buffer alpha;
     uint32_t *alpha_at;
     uint32_t gradient_capacity;
+    uint32_t shade_slot_rows; /* the next shading pass's launch rows for mode 2's slots */
     fvk_texture *textures;
     uint32_t texture_count;
     VkSampler sampler;

@@ -591,8 +591,11 @@ static tnd_result end_render(fvk_context *c, VkCommandBuffer cmd, fvk_timings *t
 {
     tnd_result res = TND_OK;
     int s1 = tnd_timer_begin(cmd, &c->timer[0], "frontend_vk.shade");
-    /* (half resolution: pt_shade.glsl's shade_pixel takes rows in pairs) */
-    launch(c, cmd, 1, c->width, c->height + (c->ubo.indirect.x ? c->height & 1 : 0), false);
+    /* (half resolution: pt_shade.glsl's shade_pixel takes rows in pairs; mode 2: the slots' rows
+     * below the pixels') */
+    launch(c, cmd, 1, c->width,
+           c->height + (c->ubo.indirect.x ? c->height & 1 : 0) + c->shade_slot_rows, false);
+    c->shade_slot_rows = 0;
     tnd_timer_end(cmd, &c->timer[0], s1);
     tnd_cmd_barrier(cmd); /* (whatever the queue runs next reads the contract) */
     TND_TRY(tnd_cmd_submit_pending(c->vk, cmd, &c->run[0]));
@@ -668,7 +671,8 @@ static tnd_result launch_gradients(fvk_context *c, const fvk_params *p, uint32_t
     set_params(c, p);
     c->ubo.params.z = count;
     VkCommandBuffer cmd;
-    TND_TRY(begin_passes(c, 1, 1, slots, false, &cmd));
+    /* (mode 1: a host list, into the contract; 3: the back-end's slots, into the slots) */
+    TND_TRY(begin_passes(c, 1, slots ? 3u : 1u, slots, false, &cmd));
     int s0 = tnd_timer_begin(cmd, &c->timer[1], "frontend_vk.gradients");
     if (slots && row && count % row == 0 && c->api != FVK_RT_QUERY)
         launch(c, cmd, 1, row, count / row, false); /* (pt_shade.rgen: y x width + x) */
@@ -716,7 +720,9 @@ tnd_result fvk_shade_gradients(fvk_context *c, const fvk_params *p, const uint32
     tnd_gpu_gradient *g = c->gradients.mapped;
     for (uint32_t i = 0; i < count; i++) {
         const uint32_t *s = samples + 7 * i;
-        g[i] = (tnd_gpu_gradient){s[0], s[1], s[2], s[3], s[4], s[5], s[6], 0};
+        g[i] = (tnd_gpu_gradient){.pixel = s[0], .rng_frame = s[1], .rng_pixel = s[2],
+                                  .instance = s[3], .primitive = s[4], .u_bits = s[5],
+                                  .v_bits = s[6]};
     }
     return launch_gradients(c, p, count, 0, false, t);
 fail:
@@ -745,6 +751,10 @@ tnd_result fvk_render_shade(fvk_context *c, const fvk_params *p, VkBuffer slots_
         TND_TRY(bind_slot_buffer(c, slots_buffer));
     set_params(c, p); /* (as the primary pass had them) */
     c->ubo.params.z = slots ? row : 0u;
+    /* the slots (row x the strata's rows of them) re-shaded in launch rows of their own, W
+     * slots a row (pt_shade.glsl, mode 2) */
+    uint32_t strata_rows = (c->height + TND_GRADIENT_STRATUM - 1) / TND_GRADIENT_STRATUM;
+    c->shade_slot_rows = slots ? (row * strata_rows + c->width - 1) / c->width : 0u;
     VkCommandBuffer cmd;
     TND_TRY(begin_passes(c, -1, slots ? 2u : 0u, slots, false, &cmd));
     c->slot_set_queued |= slots; /* (end_render submits it) */

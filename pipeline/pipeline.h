@@ -105,19 +105,20 @@ tnd_result pl_frontend_timings(pl_frontend *fe, bool wait, pl_timings *t);
 /* The GPU contract of the last render (NULL for host front-ends). */
 const tnd_contract_gpu *pl_frontend_contract(const pl_frontend *fe);
 /* Re-shade gradient samples (DN_GRADIENT_WORDS words each, the back-end's host list): on the GPU
- * contract for GPU front-ends (host untouched), else into `host` (then quantised). */
+ * contract for GPU front-ends (host untouched), else into `host` (then quantised), in place
+ * (pl_chain_run takes the values to the back-end and gives it the frame as rendered). */
 tnd_result pl_frontend_reshade(pl_frontend *fe, const pl_params *p, const uint32_t *words,
                                uint32_t count, tnd_frame *host, pl_timings *t);
 /* The same from the back-end's GPU slot buffer (GPU front-ends only): `count` slots in rows of
- * `row` (the strata's grid). */
+ * `row` (the strata's grid), into the slots themselves (the contract stays as rendered). */
 tnd_result pl_frontend_reshade_slots(pl_frontend *fe, const pl_params *p, VkBuffer slots,
                                      uint32_t count, uint32_t row, pl_timings *t);
 /* pl_frontend_render in two steps (PL_CAP_SHADE_SLOTS, GPU front-ends), so that the back-end's
  * gradient selection, which reads the primary pass's G-buffer, runs between them: the primary
- * pass, then the shading pass, which shades the pixels the slots name (`row` per row of the
- * strata's grid; VK_NULL_HANDLE: none) as pl_frontend_reshade_slots would re-shade them after
- * it, without a launch of their own. No host copy: a caller that wants the frame as rendered
- * before re-shading (a capture) renders in one step. */
+ * pass, then the shading pass, which also re-shades the samples the slots name (`row` per row
+ * of the strata's grid; VK_NULL_HANDLE: none) as pl_frontend_reshade_slots would after it,
+ * without a launch of their own. No host copy: a caller that wants the frame on the host (a
+ * capture) renders in one step. */
 tnd_result pl_frontend_render_primary(pl_frontend *fe, const pl_params *p);
 tnd_result pl_frontend_render_shade(pl_frontend *fe, const pl_params *p, VkBuffer slots,
                                     uint32_t row, pl_timings *t);

@@ -304,7 +304,8 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     }
     if (gradients && !fold) {
         /* A-SVGF: the denoiser picks pixels, the front-end re-shades them with the previous
-         * frame's random numbers on the surface seen there */
+         * frame's random numbers on the surface seen there; the re-shaded values go beside the
+         * contract (the gradients read them), the contract keeps every pixel's fresh sample */
         uint32_t n = 0;
         if (gpu && s->capture) { /* the list comes to the host, for the capture */
             TND_TRY(c->ops->select(c->dn, ct, &df, c->grads, NULL, &n, NULL));
@@ -314,22 +315,46 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
                     TND_TRY(tnd_frame_create(c->d.width, c->d.height, &c->reshaded));
                 TND_TRY(tnd_contract_download(c->d.vk, ct, &c->reshaded));
                 TND_TRY(write_gradients(s->capture, &c->reshaded, c->grads, n));
+                TND_TRY(c->ops->gradient_values(c->dn, c->grads, n, &c->reshaded));
+                /* the front-end re-shaded its contract in place: the back-end reads the frame
+                 * as rendered, the host's copy */
+                if (!c->upload.images[0].image)
+                    TND_TRY(tnd_contract_gpu_create(c->d.vk, c->d.width, c->d.height,
+                                                    c->d.precision, &c->upload));
+                TND_TRY(tnd_contract_upload(c->d.vk, &c->upload, &c->host));
+                ct = c->last_ct = &c->upload;
             }
-        } else if (gpu) { /* the sample list stays on the GPU */
+        } else if (gpu) { /* the sample list stays on the GPU, the values go into it */
             VkBuffer slots;
             uint32_t row = 0;
             TND_TRY(c->ops->select(c->dn, ct, &df, NULL, &slots, &n, &row));
             TND_TRY(pl_frontend_reshade_slots(fe, &s->params, slots, n, row, ft));
         } else {
             TND_TRY(c->ops->select(c->dn, ct, &df, c->grads, NULL, &n, NULL));
+            /* the host frame as rendered (uploaded above) at the samples, to put back after the
+             * front-end re-shaded them in place */
+            tnd_gradient_samples kept = {0};
+            if (n) {
+                uint32_t *pixels = malloc((size_t)n * sizeof *pixels);
+                if (!pixels)
+                    return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
+                for (uint32_t k = 0; k < n; k++)
+                    pixels[k] = c->grads[(size_t)k * PL_GRADIENT_WORDS];
+                res = tnd_gradient_samples_gather(&c->host, pixels, n, &kept);
+                free(pixels);
+                TND_TRY(res);
+            }
             /* (a recorded front-end checks the selection even when it is empty) */
             if (n || recorded)
-                TND_TRY(pl_frontend_reshade(fe, &s->params, c->grads, n, &c->host, ft));
-            if (n) { /* re-shaded into the host frame, which goes up again */
-                TND_TRY(tnd_contract_upload(c->d.vk, &c->upload, &c->host));
-                if (s->capture)
-                    TND_TRY(write_gradients(s->capture, &c->host, c->grads, n));
+                res = pl_frontend_reshade(fe, &s->params, c->grads, n, &c->host, ft);
+            if (res == TND_OK && n) {
+                res = c->ops->gradient_values(c->dn, c->grads, n, &c->host);
+                if (res == TND_OK && s->capture)
+                    res = write_gradients(s->capture, &c->host, c->grads, n);
+                tnd_gradient_samples_apply(&kept, &c->host);
             }
+            tnd_gradient_samples_free(&kept);
+            TND_TRY(res);
         }
     }
     /* the times of the frame in flight before this one, when it was not waited for */

@@ -151,6 +151,12 @@ static tnd_result backend_select(void *ctx, const tnd_contract_gpu *ct, const dn
                  : dn_select_gradients_gpu(dn, ct, f, slots, n, row);
 }
 
+static tnd_result backend_gradient_values(void *ctx, const uint32_t *words, uint32_t n,
+                                          const tnd_frame *reshaded)
+{
+    return dn_set_gradient_values(((backend *)ctx)->dn, words, n, reshaded);
+}
+
 static tnd_result backend_submit(void *ctx, const pl_dn_input *in)
 {
     dn_frame f = *in->frame;
@@ -196,7 +202,8 @@ static void backend_traffic(const void *ctx, double *bytes)
 
 #define BACKEND_OPS(mode_var)                                                                      \
     .data = &mode_var, .create = backend_create, .destroy = backend_destroy,                       \
-    .capacity = backend_capacity, .select = backend_select, .submit = backend_submit,              \
+    .capacity = backend_capacity, .select = backend_select,                                        \
+    .gradient_values = backend_gradient_values, .submit = backend_submit,                          \
     .wait = backend_wait, .output = backend_output, .backend = backend_context,                    \
     .traffic = backend_traffic
 

@@ -113,6 +113,10 @@ typedef struct pl_denoiser_ops {
     uint32_t (*capacity)(const void *ctx);
     tnd_result (*select)(void *ctx, const tnd_contract_gpu *ct, const dn_frame *f,
                          uint32_t *words, VkBuffer *slots, uint32_t *n, uint32_t *row);
+    /* the host's re-shaded samples of the host list: `reshaded` at those pixels (the frame
+     * submitted next stays as rendered) */
+    tnd_result (*gradient_values)(void *ctx, const uint32_t *words, uint32_t n,
+                                  const tnd_frame *reshaded);
     /* record and submit the frame (not waited for); wait for it: its passes' times */
     tnd_result (*submit)(void *ctx, const pl_dn_input *in);
     tnd_result (*wait)(void *ctx, double *ms, bool *beside);

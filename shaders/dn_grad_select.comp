@@ -80,6 +80,8 @@ void main()
             tnd_gpu_gradient smp;
             smp.a = uvec4(TND_GRADIENT_NONE, 0u, 0u, 0u);
             smp.b = uvec4(0u);
+            smp.c = vec4(0.0); /* (the front-end's re-shading writes c and d) */
+            smp.d = vec4(0.0);
             vec4 gout = vec4(0.0);
             if (best_k != ~0u) {
                 ivec2 best_p = tile_pixel(best_k);

@@ -1,10 +1,12 @@
 /* dn_gradients.comp: the temporal gradient per stratum and its blur at 1/3 resolution, as Q2RTX
  * does. hf and spec are normalised before filtering: g = (|l_now - l_prev| / max(l_now,
- * l_prev))^2 at the re-shaded sample pixel (0 without a sample or when both are 0). lf is too
- * sparse for per-sample ratios: the stratum's sums of the raw L0 now (summed here, after the
- * re-shading: the sample pixel's re-shaded L0, this frame's light on the previous frame's random
- * numbers) and of the accumulated L0 history at the reprojected pixels (dn_grad_select.comp's,
- * grad[0].y) go into zw, normalised after the blur: z = (|now - prev| / max(now, prev))^2. The
+ * l_prev))^2, l_now the re-shaded sample's luminance (the stratum's slot, c and d, as the
+ * front-end wrote it; the contract holds the pixel's fresh sample), l_prev the pixel's raw
+ * luminance last frame (0 without a sample or when both are 0). lf is too sparse for per-sample
+ * ratios: the stratum's sums of the raw L0 now (summed here; at the sample pixel the re-shaded
+ * L0, this frame's light on the previous frame's random numbers) and of the accumulated L0
+ * history at the reprojected pixels (dn_grad_select.comp's, grad[0].y) go into zw, normalised
+ * after the blur: z = (|now - prev| / max(now, prev))^2. The
  * blur: a-trous, step 2^i, 3x3 weights 1 / 0.5 / 0.25, no edge stopping, taps outside count as
  * zero (Q2RTX); hf and spec (xy) for iterations 0..2 (steps 1..4), lf (zw) for all 7 (steps
  * 1..64).
@@ -42,19 +44,21 @@ float grad_of(float now, float prev)
 vec4 gradient(ivec2 s)
 {
     vec4 g0 = imageLoad(grad[0], s); /* y: the lf history's sum, zw: the sample's previous lums */
+    tnd_gpu_gradient smp = samples[uint(s.y * grad_size().x + s.x)];
+    bool reshaded = smp.b.w != 0u && smp.d.w != 0.0;
     float now = 0.0; /* the raw lf L0 of the stratum's visible pixels, in row order */
     for (int j = 0; j < DN_STRATUM; j++)
         for (int i = 0; i < DN_STRATUM; i++) {
             ivec2 p = s * DN_STRATUM + ivec2(i, j);
             if (inside(p) && imageLoad(img_vis_id, p).x != TND_VIS_NONE)
-                now += finite4(imageLoad(img_lf_sh, p)).w;
+                now += reshaded && uint(p.y) * P.size.x + uint(p.x) == smp.a.x
+                           ? (tnd_nonfinite(smp.c.w) ? 0.0 : smp.c.w)
+                           : finite4(imageLoad(img_lf_sh, p)).w;
         }
-    tnd_gpu_gradient smp = samples[uint(s.y * grad_size().x + s.x)];
     vec2 g = vec2(0.0);
-    if (smp.b.w != 0u) {
-        ivec2 q = ivec2(int(smp.a.x % P.size.x), int(smp.a.x / P.size.x));
-        float hf = lum_rounded(luma(finite3(load_hf(q))));
-        float spec = lum_rounded(luma(finite3(load_spec(q))));
+    if (reshaded) {
+        float hf = lum_rounded(luma(finite3(smp.c.rgb)));
+        float spec = lum_rounded(luma(finite3(smp.d.rgb)));
         g = vec2(grad_of(hf, g0.z), grad_of(spec, g0.w));
     }
     return vec4(g, max(vec2(now, g0.y), vec2(0.0)));

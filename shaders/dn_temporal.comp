@@ -8,8 +8,8 @@
  * 0)^s with the shading normals and s = clamp(2 / r^4 - 2, 0, 32) (r the roughness; Q2RTX's lobe-
  * width proxy), so that a glossy reflection does not take history from a texel whose normal, hence
  * whose reflected direction, differs; with no such tap the spec history restarts. A-SVGF: the
- * filtered gradients shorten the histories (antilag), and the stratum's gradient sample counts as
- * a tenth of a sample. Writes this frame's history slot (the temporal means themselves: nothing
+ * filtered gradients shorten the histories (antilag); the contract holds every pixel's fresh sample
+ * (the re-shaded gradient samples go to the gradient pass beside it), so each counts as one. Writes this frame's history slot (the temporal means themselves: nothing
  * spatially filtered is fed back, unlike SVGF) and the first a-trous input: colours and the
  * variance of the hf history's mean (from the moments, or from a 3x3 spatial estimate where the
  * history is shorter than 4 frames), and the filter geometry (DN_B_AT, DN_B_FGEO, DN_B_CENTRE). */
@@ -298,13 +298,6 @@ void main()
         float len_hf = min(h_hf.a + 1.0, cap), len_lf = min(h_mom.z + 1.0, cap);
         float len_spec = min(h_mom.w + 1.0, cap);
         float anti_hf = 0.0, anti_lf = 0.0, anti_spec = 0.0;
-        /* A-SVGF's gradient sample of this stratum repeats a sample of the previous frame (its
-         * surface, its random numbers), chosen for being the brightest: blended in as a new
-         * sample it would count twice, and bias the history upwards wherever nothing changes
-         * (measured: 2.2% on `dynamic`'s lit frames). Where nothing changed it counts as a
-         * tenth of a sample (its bias a tenth), as a whole one as far as the antilag says the
-         * light changed (it is a sample of the new light then, the best the pixel has). */
-        vec3 fresh = vec3(1.0); /* hf, lf, spec */
         bool recurrent = P.size.w == DN_RUN_RECURRENT;
         if ((P.size.w == DN_RUN_ASVGF || recurrent) && P.misc.w != 0.0) {
             /* A-SVGF: the filtered gradients (slot 0 after the blur) shorten the history */
@@ -315,32 +308,29 @@ void main()
             anti_spec = clamp(P.antilag.y * g.y + (recurrent ? 0.0 : P.antilag.z * length(motion.xy)),
                               0.0, 1.0);
             anti_lf = clamp(P.antilag.w * g.z, 0.0, 1.0);
-            ivec2 st = p / DN_STRATUM;
-            if (samples[uint(st.y * grad_size().x + st.x)].a.x == uint(p.y) * P.size.x + uint(p.x))
-                fresh = mix(vec3(0.1), vec3(1.0), vec3(anti_hf, anti_lf, anti_spec));
             /* (recurrent: the gradients are its confidence input, used as A-SVGF uses them) */
-            len_hf = min(h_hf.a * pow(1.0 - anti_hf, 10.0) + fresh.x, cap);
-            len_lf = min(h_mom.z * pow(1.0 - anti_lf, 10.0) + fresh.y, cap);
-            len_spec = min(h_mom.w * pow(1.0 - anti_spec, 10.0) + fresh.z, cap);
+            len_hf = min(h_hf.a * pow(1.0 - anti_hf, 10.0) + 1.0, cap);
+            len_lf = min(h_mom.z * pow(1.0 - anti_lf, 10.0) + 1.0, cap);
+            len_spec = min(h_mom.w * pow(1.0 - anti_spec, 10.0) + 1.0, cap);
         }
         if (recurrent) {
             /* The gradients are its history's confidence input (NRD's recipe computes that
              * input from A-SVGF-style gradients), applied as A-SVGF applies them above and
              * below: they shorten the slow and the fast histories alike. The fast histories:
              * the same samples, at most P.rc.x frames long. */
-            float af_hf = mix(min(fresh.x / min(len_hf, P.rc.x), 1.0), 1.0, anti_hf);
-            float af_spec = mix(min(fresh.z / min(len_spec, P.rc.x), 1.0), 1.0, anti_spec);
-            float af_lf = mix(min(fresh.y / min(len_lf, P.rc.x), 1.0), 1.0, anti_lf);
+            float af_hf = mix(min(1.0 / min(len_hf, P.rc.x), 1.0), 1.0, anti_hf);
+            float af_spec = mix(min(1.0 / min(len_spec, P.rc.x), 1.0), 1.0, anti_spec);
+            float af_lf = mix(min(1.0 / min(len_lf, P.rc.x), 1.0), 1.0, anti_lf);
             h_fast_hf /= wsum;
             fast_l0 = mix(h_fast_l0 / wsum, sh.w, af_lf);
             h_fast_spec = spec_ok ? h_fast_spec / wsum_spec : spec;
             fast_hf = mix(h_fast_hf, hf, af_hf);
             fast_spec = mix(h_fast_spec, spec, af_spec);
         }
-        float a_hf = min(fresh.x * max(P.alpha.x, 1.0 / len_hf), 1.0);
-        float a_m = min(fresh.x * max(P.alpha.w, 1.0 / len_hf), 1.0);
-        float a_lf = min(fresh.y * max(P.alpha.y, 1.0 / len_lf), 1.0);
-        float a_spec = min(fresh.z * max(P.alpha.z, 1.0 / len_spec), 1.0);
+        float a_hf = min(max(P.alpha.x, 1.0 / len_hf), 1.0);
+        float a_m = min(max(P.alpha.w, 1.0 / len_hf), 1.0);
+        float a_lf = min(max(P.alpha.y, 1.0 / len_lf), 1.0);
+        float a_spec = min(max(P.alpha.z, 1.0 / len_spec), 1.0);
         a_hf = mix(a_hf, 1.0, anti_hf);
         a_m = mix(a_m, 1.0, anti_hf);
         a_spec = mix(a_spec, 1.0, anti_spec);

@@ -21,7 +21,7 @@ layout(set = 0, binding = 7, std430) readonly buffer Meshes { tnd_gpu_mesh meshe
 layout(set = 0, binding = 8, std430) readonly buffer Materials { tnd_gpu_material materials[]; };
 layout(set = 0, binding = 9, std430) readonly buffer Instances { tnd_gpu_instance instances[]; };
 layout(set = 0, binding = 10, std430) readonly buffer Lights { tnd_light_gpu lights[]; };
-layout(set = 0, binding = 11, std430) readonly buffer Gradients { tnd_gpu_gradient gradients[]; };
+layout(set = 0, binding = 11, std430) buffer Gradients { tnd_gpu_gradient gradients[]; };
 layout(set = 0, binding = 12) uniform usampler2D textures[]; /* RGBA8 as stored */
 layout(set = 0, binding = 14, std430) readonly buffer Env { float env_data[]; };
 /* TEXCOORD_1 (the scene's TEXCOORD_0 again when no mesh has a second set) */

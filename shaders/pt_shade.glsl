@@ -1,11 +1,14 @@
 /* pt_shade (body): the shading pass of the Vulkan front-end (mirror of femb_render.c shade_pixel):
  * direct light, one indirect bounce (or more), outputs hf, lf (SH + CoCg), spec. Mode 0 shades
- * every pixel from the G-buffer; mode 1 shades the gradient samples (one launch each): it patches
- * the G-buffer at the sample's pixel with the previous surface re-evaluated on this frame's
- * geometry and shades it with the previous frame's key. Mode 2 is mode 0 with mode 1 folded in:
- * the back-end's per-stratum list (selected from this frame's primary pass) names at most one
- * pixel per 3x3 stratum, which is shaded as mode 1 shades it instead of with its own sample (the
- * contract afterwards is that of mode 0 then mode 1, without the second launch). */
+ * every pixel from the G-buffer. The gradient samples (the previous frame's surface, re-evaluated
+ * on this frame's geometry, shaded with the previous frame's key): mode 1 shades a host list of
+ * them (one launch each) into the contract, patching the G-buffer at the sample's pixel (for
+ * captures and tests, which read the re-shaded contract); mode 3 shades the back-end's
+ * per-stratum slots (one launch each) into the slots themselves (tnd_gpu_gradient.c, .d),
+ * leaving the G-buffer and the contract with the pixel's own sample; mode 2 is mode 0 with mode
+ * 3 folded in: the launch has rows past the pixels' own, one slot per launch, so that a warp
+ * shades pixels or slots, never both (a slot shaded beside its pixel would hold its warp for a
+ * second shading). */
 #include "pt_common.glsl"
 
 
@@ -55,122 +58,178 @@ bool shade_pixel(uvec2 l, out ivec2 ip)
     return l.x < W && pair < half_rows && y < H;
 }
 
-/* Gradient sample g at its pixel ip: the G-buffer there patched with the previous frame's
- * surface re-evaluated on this frame's geometry; the previous frame's key. */
-uvec3 patch_gradient(tnd_gpu_gradient g, ivec2 ip)
+/* What a pixel's shading gives: the contract's noisy signals. */
+struct shaded {
+    vec3 hf, spec;
+    float spec_hit; /* 0: no specular-lobe sample */
+    vec4 sh;
+    vec2 cocg;
+};
+
+/* The G-buffer's surface at ip as the shading reads it (as femb's surface_from_gbuffer): the
+ * position, both normals and the material's values; wo and the instance come in shade(). */
+surface gbuffer_surface(ivec2 ip)
 {
-    vec2 bary = vec2(uintBitsToFloat(g.b.y), uintBitsToFloat(g.b.z));
-    uint inst = g.a.w, prim = g.b.x;
-    vec3 dv = surface_from_camera(inst, prim, bary);
-    surface s = surface_eval(inst, prim, bary, safe_normalize(dv), length(dv) * fr.jitter.z);
-    imageStore(img_vis_id, ip, uvec4(inst, prim, 0u, 0u));
-    imageStore(img_vis_bary, ip, vec4(bary, 0.0, 0.0));
-    imageStore(img_rng, ip, uvec4(g.a.y, g.a.z, 0u, 0u));
-    imageStore(img_albedo, ip, vec4(s.base, 0.0));
-    imageStore(img_normal, ip, vec4(s.ns, 0.0));
-    imageStore(img_geo_normal, ip, vec4(s.ng, 0.0));
-    imageStore(img_position, ip, vec4(s.p, 0.0));
-    imageStore(img_roughness, ip, vec4(s.roughness));
-    imageStore(img_metallic, ip, vec4(s.metallic));
-    imageStore(img_emission, ip, vec4(s.emission, 0.0));
-    return uvec3(g.a.z, g.a.y, TND_SAMPLE_REALTIME);
+    surface s;
+    s.p = imageLoad(img_position, ip).xyz;
+    s.ns = imageLoad(img_normal, ip).xyz;
+    s.ng = imageLoad(img_geo_normal, ip).xyz;
+    s.base = imageLoad(img_albedo, ip).rgb;
+    s.roughness = imageLoad(img_roughness, ip).x;
+    s.metallic = imageLoad(img_metallic, ip).x;
+    return s;
 }
 
+/* Shade surface s (instance inst, primitive prim) seen at pixel ip with key `key`. */
+shaded shade(ivec2 ip, surface s, uint inst, uint prim, uvec3 key)
+{
+    shaded o;
+    o.hf = vec3(0.0);
+    o.spec = vec3(0.0);
+    o.spec_hit = 0.0;
+    o.sh = vec4(0.0);
+    o.cocg = vec2(0.0);
+    uint W = fr.frame.y;
+    vec3 d = fr.cam_pos.xyz - s.p;
+    float depth = sqrt(dot(d, d));
+    s.wo = depth > 0.0 ? d * (1.0 / depth) : s.ns;
+    if (USES(TND_USES_SPECULAR) && imageLoad(img_path, ip).x != 0u) {
+        /* seen in a mirror or through glass (the path flags say the primary chain met one):
+         * lit towards the chain's last segment (the primary pass's chain again: same
+         * jitter, same geometry) */
+        chain_result ch = specular_chain(uvec2(ip), true);
+        if (ch.hit && ch.vertices > 0u && ch.inst == inst && ch.prim == prim) {
+            s.wo = -ch.dir;
+            depth = ch.len;
+        }
+    }
+    s.specular = materials[meshes[instances[inst].info.x].info.x].params.y;
+    s.inst = inst;
+    lobe_info L = lobes(s);
+    vec3 demod;
+    for (int k = 0; k < 3; k++)
+        demod[k] = max(0.01, 0.04 * (1.0 - s.metallic) + s.base[k] * s.metallic);
+    vec3 dd, sp;
+    direct_light(key, 0u, s, L, dd, sp);
+    o.hf = dd;
+    o.spec = sp / demod;
+    vec3 wi, w;
+    float pdf;
+    bool is_spec;
+    uint bounces = TND_BOUNCES_PLUS_ONE != 0u ? TND_BOUNCES_PLUS_ONE - 1u : fr.params.x;
+    /* (half resolution: this pixel's choice in the frame its key was drawn for) */
+    bool halved = half_rate();
+    if (bounces > 0u && (!halved || TND_HALF_TRACED(key.x, key.y, W)) &&
+        sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
+        vec3 Li = trace_path(key, s.p, offset_ray(s.p, s.ng), wi, 1u, bounces, 2u, pdf,
+                             depth * fr.jitter.z);
+        vec3 contrib = w * Li;
+        if (halved)
+            contrib *= 2.0;
+        for (int k = 0; k < 3; k++)
+            if (tnd_nonfinite(contrib[k]) || contrib[k] < 0.0)
+                contrib[k] = 0.0;
+        if (is_spec) {
+            o.spec += contrib / demod;
+            o.spec_hit = g_first_t;
+        } else {
+            float co = contrib.r - contrib.b, t = contrib.b + 0.5 * co, cg = contrib.g - t;
+            float Y = t + 0.5 * cg;
+            float kk = 4.0 * PI / (1.0 + 2.0 * max(dot(wi, s.ns), 0.0));
+            o.sh = vec4(kk * Y * SH_C1 * wi, kk * Y * SH_C0);
+            o.cocg = vec2(kk * co, kk * cg);
+        }
+    }
+    return o;
+}
+
+/* The launch rows of mode 0's pixels (with half-rate indirect paths, pt_shade_main's pairs) */
+uint pixel_rows()
+{
+    uint H = fr.frame.z;
+    return half_rate() ? 2u * ((H + 1u) / 2u) : H;
+}
+
+/* One call of shade() and of surface_eval() in the whole pass: each is inlined where it is
+ * called, and a second copy of the shading doubled the pass's code (lavapipe's compile of the
+ * ray-tracing pipelines took 2.5x as long). */
 void pt_shade_main(uvec2 launch)
 {
+    uint W = fr.frame.y;
+    /* what to shade: a pixel of the G-buffer, or a gradient sample (the list's entry `entry`),
+     * into the contract (mode 1, patching the G-buffer) or into its slot (modes 2 and 3) */
+    int entry = -1;
+    bool into_slot = false;
+    if (pc.mode == 3u) { /* the slots re-shaded after the shading pass (launch.x: the slot) */
+        if (launch.x >= fr.params.z)
+            return;
+        entry = int(launch.x), into_slot = true;
+    } else if (pc.mode == 2u && launch.y >= pixel_rows()) {
+        /* mode 2's rows past the pixels' own: one slot each, a row of W slots per launch row
+         * (slots in rows of fr.params.z, the strata's grid: H / 3 rows of them) */
+        uint k = (launch.y - pixel_rows()) * W + launch.x;
+        uint strata_rows = (fr.frame.z + TND_GRADIENT_STRATUM - 1u) / TND_GRADIENT_STRATUM;
+        if (launch.x >= W || k >= fr.params.z * strata_rows)
+            return;
+        entry = int(k), into_slot = true;
+    } else if (pc.mode == 1u) {
+        entry = int(launch.x);
+    }
     ivec2 ip;
     uvec3 key;
-    uint W = fr.frame.y;
-    if (pc.mode == 1u) {
-        tnd_gpu_gradient g = gradients[launch.x];
+    surface s;
+    uint inst, prim;
+    if (entry >= 0) {
+        /* the previous frame's surface re-evaluated on this frame's geometry, the previous
+         * frame's key */
+        tnd_gpu_gradient g = gradients[entry];
         if (g.a.x == TND_GRADIENT_NONE) /* a stratum without a sample */
             return;
         ip = ivec2(int(g.a.x % W), int(g.a.x / W));
-        key = patch_gradient(g, ip);
+        vec2 bary = vec2(uintBitsToFloat(g.b.y), uintBitsToFloat(g.b.z));
+        inst = g.a.w, prim = g.b.x;
+        vec3 dv = surface_from_camera(inst, prim, bary);
+        s = surface_eval(inst, prim, bary, safe_normalize(dv), length(dv) * fr.jitter.z);
+        key = uvec3(g.a.z, g.a.y, TND_SAMPLE_REALTIME);
+        if (!into_slot) { /* mode 1: the G-buffer patched at the sample's pixel */
+            imageStore(img_vis_id, ip, uvec4(inst, prim, 0u, 0u));
+            imageStore(img_vis_bary, ip, vec4(bary, 0.0, 0.0));
+            imageStore(img_rng, ip, uvec4(g.a.y, g.a.z, 0u, 0u));
+            imageStore(img_albedo, ip, vec4(s.base, 0.0));
+            imageStore(img_normal, ip, vec4(s.ns, 0.0));
+            imageStore(img_geo_normal, ip, vec4(s.ng, 0.0));
+            imageStore(img_position, ip, vec4(s.p, 0.0));
+            imageStore(img_roughness, ip, vec4(s.roughness));
+            imageStore(img_metallic, ip, vec4(s.metallic));
+            imageStore(img_emission, ip, vec4(s.emission, 0.0));
+        }
     } else {
         if (!shade_pixel(launch, ip))
             return;
-        /* mode 2: this pixel's stratum's slot, in rows of fr.params.z (the strata's grid) */
-        uvec2 st = uvec2(ip) / TND_GRADIENT_STRATUM;
-        uint pixel = uint(ip.y) * W + uint(ip.x);
-        tnd_gpu_gradient g;
-        if (pc.mode == 2u && (g = gradients[st.y * fr.params.z + st.x]).a.x == pixel) {
-            key = patch_gradient(g, ip);
-        } else {
-            uvec2 r = imageLoad(img_rng, ip).xy;
-            key = uvec3(r.y, r.x, fr.params.y); /* (TND_SAMPLE_REALTIME but in a matched
-                                                    reference) */
-        }
+        uvec2 r = imageLoad(img_rng, ip).xy;
+        key = uvec3(r.y, r.x, fr.params.y); /* (TND_SAMPLE_REALTIME but in a matched
+                                                reference) */
+        uvec2 vis = imageLoad(img_vis_id, ip).xy;
+        inst = vis.x, prim = vis.y;
+        if (inst != TND_VIS_NONE)
+            s = gbuffer_surface(ip);
     }
-    vec3 hf = vec3(0.0), spec = vec3(0.0);
-    float spec_hit = 0.0; /* (no specular-lobe sample) */
-    vec4 sh = vec4(0.0);
-    vec2 cocg = vec2(0.0);
-    uint inst = imageLoad(img_vis_id, ip).x;
-    if (inst != TND_VIS_NONE) {
-        /* the surface from the G-buffer (as femb's surface_from_gbuffer) */
-        surface s;
-        s.p = imageLoad(img_position, ip).xyz;
-        s.ns = imageLoad(img_normal, ip).xyz;
-        s.ng = imageLoad(img_geo_normal, ip).xyz;
-        vec3 d = fr.cam_pos.xyz - s.p;
-        float depth = sqrt(dot(d, d));
-        s.wo = depth > 0.0 ? d * (1.0 / depth) : s.ns;
-        if (USES(TND_USES_SPECULAR) && imageLoad(img_path, ip).x != 0u) {
-            /* seen in a mirror or through glass (the path flags say the primary chain met one):
-             * lit towards the chain's last segment (the primary pass's chain again: same
-             * jitter, same geometry) */
-            chain_result ch = specular_chain(uvec2(ip), true);
-            if (ch.hit && ch.vertices > 0u && ch.inst == inst &&
-                ch.prim == imageLoad(img_vis_id, ip).y) {
-                s.wo = -ch.dir;
-                depth = ch.len;
-            }
-        }
-        s.base = imageLoad(img_albedo, ip).rgb;
-        s.roughness = imageLoad(img_roughness, ip).x;
-        s.metallic = imageLoad(img_metallic, ip).x;
-        s.specular = materials[meshes[instances[inst].info.x].info.x].params.y;
-        s.inst = inst;
-        lobe_info L = lobes(s);
-        vec3 demod;
-        for (int k = 0; k < 3; k++)
-            demod[k] = max(0.01, 0.04 * (1.0 - s.metallic) + s.base[k] * s.metallic);
-        vec3 dd, sp;
-        direct_light(key, 0u, s, L, dd, sp);
-        hf = dd;
-        spec = sp / demod;
-        vec3 wi, w;
-        float pdf;
-        bool is_spec;
-        uint bounces = TND_BOUNCES_PLUS_ONE != 0u ? TND_BOUNCES_PLUS_ONE - 1u : fr.params.x;
-        /* (half resolution: this pixel's choice in the frame its key was drawn for) */
-        bool halved = half_rate();
-        if (bounces > 0u && (!halved || TND_HALF_TRACED(key.x, key.y, W)) &&
-            sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
-            vec3 Li = trace_path(key, s.p, offset_ray(s.p, s.ng), wi, 1u, bounces, 2u, pdf,
-                                 depth * fr.jitter.z);
-            vec3 contrib = w * Li;
-            if (halved)
-                contrib *= 2.0;
-            for (int k = 0; k < 3; k++)
-                if (tnd_nonfinite(contrib[k]) || contrib[k] < 0.0)
-                    contrib[k] = 0.0;
-            if (is_spec) {
-                spec += contrib / demod;
-                spec_hit = g_first_t;
-            } else {
-                float co = contrib.r - contrib.b, t = contrib.b + 0.5 * co, cg = contrib.g - t;
-                float Y = t + 0.5 * cg;
-                float kk = 4.0 * PI / (1.0 + 2.0 * max(dot(wi, s.ns), 0.0));
-                sh = vec4(kk * Y * SH_C1 * wi, kk * Y * SH_C0);
-                cocg = vec2(kk * co, kk * cg);
-            }
-        }
+    shaded o;
+    o.hf = vec3(0.0);
+    o.spec = vec3(0.0);
+    o.spec_hit = 0.0;
+    o.sh = vec4(0.0);
+    o.cocg = vec2(0.0);
+    if (inst != TND_VIS_NONE)
+        o = shade(ip, s, inst, prim, key);
+    if (into_slot) {
+        gradients[entry].c = vec4(o.hf, o.sh.w);
+        gradients[entry].d = vec4(o.spec, 1.0);
+        return;
     }
-    STORE_RGBE(img_hf, ip, hf);
-    STORE_RGBE(img_spec, ip, spec);
-    imageStore(img_spec_hit, ip, vec4(spec_hit));
-    imageStore(img_lf_sh, ip, sh);
-    imageStore(img_lf_cocg, ip, vec4(cocg, 0.0, 0.0));
+    STORE_RGBE(img_hf, ip, o.hf);
+    STORE_RGBE(img_spec, ip, o.spec);
+    imageStore(img_spec_hit, ip, vec4(o.spec_hit));
+    imageStore(img_lf_sh, ip, o.sh);
+    imageStore(img_lf_cocg, ip, vec4(o.cocg, 0.0, 0.0));
 }

@@ -1,6 +1,7 @@
 /* pt_shade_rq.comp: the ray-query twin of pt_shade.rgen (same body, inline ray queries), for
- * devices with VK_KHR_ray_query (--rt-api query). 8x8 groups over the image (modes 0 and 2);
- * gradient samples (shade mode 1) are numbered linearly over groups of 64. */
+ * devices with VK_KHR_ray_query (--rt-api query). 8x8 groups over the image (modes 0 and 2;
+ * mode 2's slot rows below it); gradient samples (shade modes 1 and 3) are numbered linearly
+ * over groups of 64. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define TND_RAY_QUERY 1
@@ -12,7 +13,7 @@ void main()
 {
     uvec2 launch = gl_GlobalInvocationID.xy;
 #ifdef TND_SHADE_PASS
-    if (pc.mode == 1u) {
+    if (pc.mode == 1u || pc.mode == 3u) {
         uint i = gl_WorkGroupID.x * 64u + gl_LocalInvocationIndex;
         if (i >= fr.params.z)
             return;

@@ -98,19 +98,26 @@ _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 8 * 16, "frame layout");
 #define TND_USES_REFERENCE 1024u
 #define TND_USES_ALL 2047u
 
-/* Gradient sample for the shading pass (matches femb_gradient_sample). In the back-end's
- * per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a sample has
- * pixel TND_GRADIENT_NONE and is skipped; the list is the grid of TND_GRADIENT_STRATUM^2-pixel
- * strata in rows (pixel (x, y)'s stratum: (y / 3) x row + x / 3), at most one sample each. */
+/* Gradient sample for the shading pass (its first 7 words match femb_gradient_sample). In the
+ * back-end's per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a
+ * sample has pixel TND_GRADIENT_NONE and is skipped; the list is the grid of
+ * TND_GRADIENT_STRATUM^2-pixel strata in rows (pixel (x, y)'s stratum: (y / 3) x row + x / 3),
+ * at most one sample each. The re-shaded sample (the previous surface and key in this frame's
+ * scene) goes into c and d, not into the contract: the contract keeps the pixel's own fresh
+ * sample, so that a history gets one new sample a frame everywhere (dn_gradients.comp reads c
+ * and d; the host's re-shading reaches them through dn_set_gradient_values). */
 #define TND_GRADIENT_NONE 0xFFFFFFFFu
 #define TND_GRADIENT_STRATUM 3u
 struct tnd_gpu_gradient {
 #ifdef TND_GLSL
     uvec4 a; /* pixel, rng frame, rng pixel, instance */
     uvec4 b; /* primitive, u bits, v bits, 0 */
+    vec4 c;  /* the re-shaded sample: hf rgb, lf L0 */
+    vec4 d;  /* spec rgb, 1 once the front-end wrote c and d (0 from the selection) */
 #else
     uint32_t pixel, rng_frame, rng_pixel, instance;
     uint32_t primitive, u_bits, v_bits, pad; /* pad: 1 = valid in the back-end's selection */
+    float hf[3], l0, spec[3], reshaded;
 #endif
 };
 #ifndef TND_GLSL

@@ -766,7 +766,7 @@ static void test_gradient_samples_reproduce_static(void)
     REQUIRE(vk, "no context");
     rig r;
     dn_context *dn = NULL;
-    tnd_frame f0 = {0}, f1 = {0};
+    tnd_frame f0 = {0}, f1 = {0}, f1r = {0};
     uint32_t *grads = NULL;
     femb_gradient_sample *fg = NULL;
     uint8_t *was = NULL, *now = NULL; /* last frame's and this frame's sample pixels */
@@ -865,14 +865,19 @@ static void test_gradient_samples_reproduce_static(void)
         } else
             for (uint32_t k = 0; k < n; k++)
                 was[fg[k].pixel] = 1;
-        REQUIRE_OK(femb_shade_gradients(r.fe, &(femb_params){.bounces = 2}, fg, n, &f1));
-        for (int q = 0; q < W * H; q++) /* the lf L0 the gradient pass sums: re-shaded */
-            l0_now[q] = tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + 3];
+        /* re-shaded on a copy (f1r): the back-end takes their values beside the frame as
+         * rendered (f1, every pixel's own sample) */
+        REQUIRE_OK(tnd_frame_copy(&f1, &f1r));
+        REQUIRE_OK(femb_shade_gradients(r.fe, &(femb_params){.bounces = 2}, fg, n, &f1r));
+        for (int q = 0; q < W * H; q++) /* the lf L0 the gradient pass sums: at the samples, */
+            l0_now[q] = tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + 3]; /* the re-shaded one */
+        for (uint32_t k = 0; k < n; k++)
+            l0_now[fg[k].pixel] = tnd_frame_f(&f1r, TND_CT_LF_SH)[4 * fg[k].pixel + 3];
         for (uint32_t k = 0; k < n; k++) {
             uint32_t q = fg[k].pixel, pq = fg[k].rng_pixel;
             const tnd_ct ch[2] = {TND_CT_HF, TND_CT_SPEC};
             for (int c = 0; c < 2; c++) {
-                const float *a = tnd_frame_f(&f1, ch[c]) + 3 * q,
+                const float *a = tnd_frame_f(&f1r, ch[c]) + 3 * q,
                             *b = tnd_frame_f(&f0, ch[c]) + 3 * pq;
                 for (int j = 0; j < 3; j++)
                     bad += fabsf(a[j] - b[j]) > 1e-3f * fabsf(b[j]) + 1e-6f;
@@ -888,7 +893,7 @@ static void test_gradient_samples_reproduce_static(void)
             ref[k] = 0.0f;
         for (uint32_t k = 0; k < n; k++) {
             uint32_t q = fg[k].pixel, pq = fg[k].rng_pixel;
-            float *hf = tnd_frame_f(&f1, TND_CT_HF) + 3 * q, *sp = tnd_frame_f(&f1, TND_CT_SPEC) + 3 * q;
+            float *hf = tnd_frame_f(&f1r, TND_CT_HF) + 3 * q, *sp = tnd_frame_f(&f1r, TND_CT_SPEC) + 3 * q;
             float fh = 0.7f + 0.15f * (float)(k % 5), fs = 1.3f - 0.15f * (float)(k % 5);
             for (int j = 0; j < 3; j++)
                 hf[j] *= fh, sp[j] *= fs;
@@ -908,6 +913,7 @@ static void test_gradient_samples_reproduce_static(void)
                 o[3] += hist_l0[q];
             }
         blur_gradients(ref, tmp, GW, GH);
+        REQUIRE_OK(dn_set_gradient_values(dn, grads, n, &f1r));
         REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f1));
         REQUIRE_OK(dn_run(dn, &r.ct, &df, NULL));
         if (i > 0) {
@@ -949,6 +955,7 @@ cleanup:
     free(fg);
     tnd_frame_destroy(&f0);
     tnd_frame_destroy(&f1);
+    tnd_frame_destroy(&f1r);
     dn_destroy(dn);
     rig_close(vk, &r);
     gpu_end();
@@ -977,8 +984,8 @@ static void test_asvgf_follows_light_switch(void)
     fvk_context *gv = NULL;
     dn_context *da = NULL, *db = NULL, *dc = NULL, *dd = NULL;
     tnd_scene_state cur = {0}, prev = {0};
-    tnd_contract_gpu up = {0};
-    tnd_frame f = {0};
+    tnd_contract_gpu up = {0}, up_vk = {0};
+    tnd_frame f = {0}, fr_re = {0}, fv = {0}, fv_re = {0};
     uint32_t *grads = NULL;
     femb_gradient_sample *fg = NULL;
     static float oa[WH * 3], ob[WH * 3], oc[WH * 3], oh[WH * 3], noisy[WH * 3];
@@ -992,6 +999,9 @@ static void test_asvgf_follows_light_switch(void)
     REQUIRE_OK(dn_create(vk, WD, HD, &(dn_desc){.mode = DN_MODE_SVGF}, &dc));
     REQUIRE_OK(dn_create(vk, WD, HD, &(dn_desc){.mode = DN_MODE_ASVGF}, &dd));
     REQUIRE_OK(tnd_contract_gpu_create(vk, WD, HD, TND_PRECISION_F32, &up));
+    REQUIRE_OK(tnd_contract_gpu_create(vk, WD, HD, TND_PRECISION_F32, &up_vk));
+    REQUIRE_OK(tnd_frame_create(WD, HD, &fv));
+    REQUIRE_OK(tnd_frame_create(WD, HD, &fv_re));
     uint32_t cap = dn_gradient_capacity(da);
     CHECK(cap == 32 * 18, "one sample per 3x3 stratum: capacity %u", cap);
     grads = malloc((size_t)cap * DN_GRADIENT_WORDS * sizeof *grads);
@@ -1012,16 +1022,24 @@ static void test_asvgf_follows_light_switch(void)
         if (fr > first && n < min_samples)
             min_samples = n;
         femb_gradient_unpack(grads, n, fg);
-        REQUIRE_OK(femb_shade_gradients(fe, &(femb_params){.bounces = 1}, fg, n, &f));
-        REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
+        /* re-shaded on a copy: their values beside the frame as rendered (`up`) */
+        REQUIRE_OK(tnd_frame_copy(&f, &fr_re));
+        REQUIRE_OK(femb_shade_gradients(fe, &(femb_params){.bounces = 1}, fg, n, &fr_re));
+        REQUIRE_OK(dn_set_gradient_values(da, grads, n, &fr_re));
         REQUIRE_OK(dn_run(da, &up, &df, NULL));
         REQUIRE_OK(fvk_set_frame(gv, &cur, &prev, fr, WD, HD));
         REQUIRE_OK(fvk_render(gv, &(fvk_params){.bounces = 1}, NULL));
         uint32_t nb = 0;
         REQUIRE_OK(dn_select_gradients(db, fvk_contract(gv), &df, grads, &nb));
         CHECK(nb == n, "frame %u: the two front-ends' frames give %u and %u samples", fr, n, nb);
+        /* the host's way (a capture's): the frame as rendered, then re-shaded in place, the
+         * values read back; the back-end reads the frame as rendered, uploaded */
+        REQUIRE_OK(tnd_contract_download(vk, fvk_contract(gv), &fv));
         REQUIRE_OK(fvk_shade_gradients(gv, &(fvk_params){.bounces = 1}, grads, nb, NULL));
-        REQUIRE_OK(dn_run(db, fvk_contract(gv), &df, NULL));
+        REQUIRE_OK(tnd_contract_download(vk, fvk_contract(gv), &fv_re));
+        REQUIRE_OK(dn_set_gradient_values(db, grads, nb, &fv_re));
+        REQUIRE_OK(tnd_contract_upload(vk, &up_vk, &fv));
+        REQUIRE_OK(dn_run(db, &up_vk, &df, NULL));
         /* the same frame again, with the sample list handed over on the GPU: same image
          * (the first 8 frames: the extra render is slow on lavapipe) */
         if (fr < first + 8) {
@@ -1124,7 +1142,11 @@ cleanup:
     free(grads);
     free(fg);
     tnd_frame_destroy(&f);
+    tnd_frame_destroy(&fr_re);
+    tnd_frame_destroy(&fv);
+    tnd_frame_destroy(&fv_re);
     tnd_contract_gpu_destroy(vk, &up);
+    tnd_contract_gpu_destroy(vk, &up_vk);
     dn_destroy(da);
     dn_destroy(db);
     dn_destroy(dc);
@@ -1151,7 +1173,7 @@ static void blur_segments_case(tnd_vk *vk, tnd_scene *s, uint32_t wd, uint32_t h
     dn_context *da = NULL, *db = NULL;
     tnd_scene_state cur = {0}, prev = {0};
     tnd_contract_gpu up = {0};
-    tnd_frame f = {0};
+    tnd_frame f = {0}, fre = {0};
     uint32_t *ga = NULL, *gb = NULL;
     femb_gradient_sample *fg = NULL;
     float *g1 = malloc((size_t)wd * hd * 16), *g2 = malloc((size_t)wd * hd * 16);
@@ -1181,8 +1203,10 @@ static void blur_segments_case(tnd_vk *vk, tnd_scene *s, uint32_t wd, uint32_t h
         REQUIRE(na == nb && memcmp(ga, gb, (size_t)na * DN_GRADIENT_WORDS * sizeof *ga) == 0,
                 "frame %u: the two contexts select different samples", fr);
         femb_gradient_unpack(ga, na, fg);
-        REQUIRE_OK(femb_shade_gradients(fe, &(femb_params){.bounces = 1}, fg, na, &f));
-        REQUIRE_OK(tnd_contract_upload(vk, &up, &f));
+        REQUIRE_OK(tnd_frame_copy(&f, &fre));
+        REQUIRE_OK(femb_shade_gradients(fe, &(femb_params){.bounces = 1}, fg, na, &fre));
+        REQUIRE_OK(dn_set_gradient_values(da, ga, na, &fre));
+        REQUIRE_OK(dn_set_gradient_values(db, gb, nb, &fre));
         REQUIRE_OK(dn_run(da, &up, &df, NULL));
         REQUIRE_OK(dn_run(db, &up, &df, NULL));
         if (fr == first) /* no gradients without a history */
@@ -1201,6 +1225,7 @@ cleanup:
     free(gb);
     free(fg);
     tnd_frame_destroy(&f);
+    tnd_frame_destroy(&fre);
     tnd_contract_gpu_destroy(vk, &up);
     dn_destroy(da);
     dn_destroy(db);
