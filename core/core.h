@@ -1107,6 +1107,23 @@ tnd_result tnd_contract_download(tnd_vk *vk, const tnd_contract_gpu *c, tnd_fram
  * Light list for next-event estimation (layout in shaders/lights.h), per frame
  * ------------------------------------------------------------------------------------------- */
 #include "shaders/lights.h"
+#include "shaders/light_tree.h"
+
+/* How next-event estimation picks its light: from the power table (`plain`), or by descending
+ * the light tree (shaders/light_tree.h) by importance for the shading point. */
+typedef enum tnd_light_sampling {
+    TND_LIGHTS_AUTO = 0, /* the scene decides: the tree from TND_LIGHTS_TREE_FROM local lights */
+    TND_LIGHTS_PLAIN,
+    TND_LIGHTS_TREE,
+} tnd_light_sampling;
+/* The local lights (emissive triangles, point and spot lights) from which `auto` takes the
+ * tree: with a few, the power table picks as well and costs less (docs/lights.md). */
+enum { TND_LIGHTS_TREE_FROM = 16 };
+const char *tnd_light_sampling_name(tnd_light_sampling m);
+/* "auto", "plain", "tree" -> the mode; false for anything else */
+bool tnd_light_sampling_parse(const char *name, tnd_light_sampling *m);
+/* What `m` comes to for a scene (auto resolved; never TND_LIGHTS_AUTO). */
+tnd_light_sampling tnd_light_sampling_for(const tnd_scene *s, tnd_light_sampling m);
 
 typedef struct tnd_light_list {
     tnd_light_gpu *lights;
@@ -1118,10 +1135,17 @@ typedef struct tnd_light_list {
      * kept from the first build while no instance moves, walked again each build otherwise */
     double radius;
     bool radius_known;
+    /* set before building: also build the light tree (nodes; each light's path from the root
+     * in its record's p2.w), which the front-ends then sample instead of the power table */
+    bool want_tree;
+    tnd_light_node *nodes;
+    uint32_t node_count; /* 0: no tree (plain sampling, or no light) */
+    uint32_t node_capacity;
 } tnd_light_list;
 
 /* Build the list for a scene state (world-space emitters, schedule scales applied). Lights of
- * zero power are left out; count 0 means no light to sample. Reuses the arrays of `list`. */
+ * zero power are left out; count 0 means no light to sample. Reuses the arrays of `list`.
+ * With list->want_tree, also the light tree over them (at most 2 count + 1 nodes). */
 tnd_result tnd_lights_build(const tnd_scene *s, const tnd_scene_state *st, tnd_light_list *list);
 void tnd_lights_free(tnd_light_list *list);
 /* Index of the light picked by u in [0,1): the first light whose cdf exceeds u (the last one if

@@ -138,13 +138,19 @@ brdf_lane(const fb_surf *S, const fb_lobes *L, uint32_t i, v3 wi, float diff[3],
  * from the surface point the ray left, not from its offset origin (which may be 16 u (1 + m)
  * nearer: at 1e4 from the origin, 1 cm, and MIS weights that no longer sum to one). */
 static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t primitive, float d,
-                         v3 wi, v3 ng_light)
+                         v3 wi, v3 ng_light, v3 from)
 {
     if (!c->lights.count || c->lights.instance_first[instance] == ~0u)
         return 0.0f;
     const tnd_light_gpu *l = &c->lights.lights[c->lights.instance_first[instance] + primitive];
     float cosl = fabsf(dot(ng_light, wi));
-    return cosl > 0 ? l->radiance.w * d * d / (l->cdf.w * cosl) : 0.0f;
+    float pick = l->radiance.w;
+    if (c->lights.node_count) { /* the tree's probability of it, from the point the ray left */
+        uint32_t trail;
+        memcpy(&trail, &l->p2.w, sizeof trail);
+        pick = tnd_lt_pmf(c->lights.nodes, trail, from.x, from.y, from.z);
+    }
+    return cosl > 0 ? pick * d * d / (l->cdf.w * cosl) : 0.0f;
 }
 
 /* Radiance a path finds where its ray in direction dir leaves the scene: the uniform sky, or the
@@ -177,11 +183,15 @@ void femb_miss_radiance(const femb_context *c, v3 dir, float out[3])
 /* One NEE sample per active lane with the dimensions of path vertex `bounce`, the shadow ray
  * from `org` (the surface point offset along the geometric normal: femb_offset_ray): diffuse
  * (demodulated) and specular contributions, 0 where inactive (direct_light; `triangles_only`:
- * every light is an emissive triangle). */
+ * every light is an emissive triangle). MIS-weighted against the BRDF sample that continues the
+ * path where mis[i] (NULL: every lane); where the path ends at this vertex no BRDF sample can
+ * find the emitter, so NEE takes its whole share (weight 1): the estimator's expectation is
+ * then the capped path tracer's whatever the light pick (plain, tree). */
 static inline __attribute__((always_inline)) void
 direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, const fb_surf *S,
-                   const fb_lobes *L, const float org[3][NL], const uint8_t *active, uint32_t n,
-                   float diff[3][NL], float spec[3][NL], bool triangles_only)
+                   const fb_lobes *L, const float org[3][NL], const uint8_t *active,
+                   const uint8_t *mis_on, uint32_t n, float diff[3][NL], float spec[3][NL],
+                   bool triangles_only)
 {
     /* the picked lights' records */
     float lp0[3][NL], lp1[3][NL], lp2[3][NL], lrad[4][NL], lcdf[NL], ltwo[NL];
@@ -189,7 +199,17 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
     float upick[NL];
     LANES (i, n)
         upick[i] = rnd(P, i, bounce, TND_DIM_LIGHT_PICK);
-    tnd_lights_pick_n(&c->lights, n, upick, pick);
+    float tree_pmf[NL];
+    if (c->lights.node_count) { /* the light tree, by importance for each lane's point */
+        for (uint32_t i = 0; i < n; i++) {
+            pick[i] = tnd_lt_sample(c->lights.nodes, S->p[0][i], S->p[1][i], S->p[2][i],
+                                    upick[i], &tree_pmf[i]);
+            if (pick[i] == TND_LT_NONE) /* no light reaches the point */
+                pick[i] = 0, tree_pmf[i] = 0.0f;
+        }
+    } else {
+        tnd_lights_pick_n(&c->lights, n, upick, pick);
+    }
     if (c->select_lights) {
         /* few lights: each one's record selected into the lanes that picked it, in lane loops
          * (cheaper than a copy lane by lane up to about 8 lights) */
@@ -222,7 +242,7 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
             ST3(lp1, i, ((v3){l->p1.x, l->p1.y, l->p1.z}));
             ST3(lp2, i, ((v3){l->p2.x, l->p2.y, l->p2.z}));
             lrad[0][i] = l->radiance.x, lrad[1][i] = l->radiance.y, lrad[2][i] = l->radiance.z;
-            lrad[3][i] = l->radiance.w;
+            lrad[3][i] = c->lights.node_count ? tree_pmf[i] : l->radiance.w;
             lcdf[i] = l->cdf.w;
             ltwo[i] = l->p1.w;
         }
@@ -291,7 +311,8 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
         float sl = sqrtf(dot(sd, sd));
         cast[i] = far | (dot(sd, d) > 0.0f);
         tmax[i] = far ? 1e30f : sl;
-        float mis = tri | envl ? tnd_mis_power(pdf, pdf_brdf) : 1.0f;
+        bool weigh = (tri | envl) & (!mis_on || mis_on[i] != 0);
+        float mis = weigh ? tnd_mis_power(pdf, pdf_brdf) : 1.0f;
         for (int k = 0; k < 3; k++) {
             float Li = envl ? erad[k][i] : lrad[k][i] * fall;
             dc[k][i] = Li * d3[k] * mis / pdf;
@@ -322,17 +343,17 @@ direct_light_kinds(const femb_context *c, const femb_paths *P, uint32_t bounce, 
  * any list) */
 LANE_FN static void direct_light(const femb_context *c, const femb_paths *P, uint32_t bounce,
                                  const fb_surf *S, const fb_lobes *L, const float org[3][NL],
-                                 const uint8_t *active, uint32_t n, float diff[3][NL],
-                                 float spec[3][NL])
+                                 const uint8_t *active, const uint8_t *mis_on, uint32_t n,
+                                 float diff[3][NL], float spec[3][NL])
 {
     if (!c->lights.count) {
         LANES (i, n)
             for (int k = 0; k < 3; k++)
                 diff[k][i] = spec[k][i] = 0.0f;
     } else if (c->triangle_lights_only) {
-        direct_light_kinds(c, P, bounce, S, L, org, active, n, diff, spec, true);
+        direct_light_kinds(c, P, bounce, S, L, org, active, mis_on, n, diff, spec, true);
     } else {
-        direct_light_kinds(c, P, bounce, S, L, org, active, n, diff, spec, false);
+        direct_light_kinds(c, P, bounce, S, L, org, active, mis_on, n, diff, spec, false);
     }
 }
 #pragma GCC diagnostic pop
@@ -493,7 +514,7 @@ static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, 
                 v3 dd = sub(LD3(S->p, i), LD3(st->from, i));
                 w = tnd_mis_power(st->pdf_prev[i], emitter_pdf(c, inst[i], prim[i],
                                                                sqrtf(dot(dd, dd)), dir,
-                                                               LD3(S->ng, i)));
+                                                               LD3(S->ng, i), LD3(st->from, i)));
             }
             for (int k = 0; k < 3; k++)
                 L_out[k][i] += st->beta[k][i] * w * S->emission[k][i];
@@ -555,12 +576,13 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
             alive |= st.alive[i];
         if (!alive)
             return;
-        uint8_t shade[NL];
+        uint8_t shade[NL], goes_on[NL];
         bool any = false, more = false; /* any lane to shade; any to continue after it */
         path_vertex(c, P, b, n, &st, &S, shade, L_out, b == bounce ? first_t : NULL);
         for (uint32_t i = 0; i < n; i++) {
             any |= shade[i];
-            more |= shade[i] && b - st.specular[i] < max_bounce;
+            goes_on[i] = shade[i] && b - st.specular[i] < max_bounce;
+            more |= goes_on[i];
         }
         if (!any)
             continue;
@@ -568,7 +590,7 @@ LANE_FN void femb_trace_paths(const femb_context *c, const femb_paths *P, uint32
         lobes(&S, n, &L);
         LANES (i, n) /* the next rays' origin */
             ST3(org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
-        direct_light(c, P, b, &S, &L, org, shade, n, d, sp);
+        direct_light(c, P, b, &S, &L, org, shade, goes_on, n, d, sp);
         LANES (i, n)
             for (int k = 0; k < 3; k++) {
                 float add =
@@ -653,7 +675,7 @@ LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float
                 v3 dd = sub(LD3(S.p, i), LD3(P->from, i));
                 w = tnd_mis_power(P->pdf_prev[i], emitter_pdf(c, inst[i], prim[i],
                                                               sqrtf(dot(dd, dd)), LD3(P->dir, i),
-                                                              LD3(S.ng, i)));
+                                                              LD3(S.ng, i), LD3(P->from, i)));
             }
             for (int k = 0; k < 3; k++)
                 L_out[k][i] += w * S.emission[k][i];
@@ -662,7 +684,8 @@ LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float
     lobes(&S, n, &L);
     LANES (i, n)
         ST3(org, i, femb_offset_ray(LD3(S.p, i), LD3(S.ng, i)));
-    direct_light(c, P, 1, &S, &L, org, hit, n, d, sp);
+    uint8_t none[NL] = {0}; /* (max_bounce 1: the paths end here) */
+    direct_light(c, P, 1, &S, &L, org, hit, none, n, d, sp);
     LANES (i, n)
         for (int k = 0; k < 3; k++) {
             float add = d[k][i] * S.base[k][i] * (1.0f - S.metallic[i]) + sp[k][i];
@@ -798,7 +821,10 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         ST3(P.from, i, LD3(S->p, i));
         ST3(P.org, i, femb_offset_ray(LD3(S->p, i), LD3(S->ng, i)));
     }
-    direct_light(c, &P, 0, S, &L, P.org, P.active, n, d, sp);
+    uint8_t goes_on[NL]; /* an indirect path follows (--bounces half: in expectation) */
+    LANES (i, n)
+        goes_on[i] = p->bounces > 0;
+    direct_light(c, &P, 0, S, &L, P.org, P.active, goes_on, n, d, sp);
     LANES (i, n) {
         for (int k = 0; k < 3; k++) {
             float m = S->metallic[i];

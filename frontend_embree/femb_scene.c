@@ -115,6 +115,8 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
     long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
     c->threads = d && d->threads ? d->threads : (uint32_t)(ncpu > 0 ? ncpu : 1);
     c->reflect_depth = d && d->reflect_depth ? d->reflect_depth : TND_REFLECT_DEPTH;
+    c->lights.want_tree =
+        tnd_light_sampling_for(s, d ? d->lights : TND_LIGHTS_AUTO) == TND_LIGHTS_TREE;
     if (c->reflect_depth > TND_MAX_SPECULAR_DEPTH)
         c->reflect_depth = TND_MAX_SPECULAR_DEPTH;
     char cfg[64];
@@ -265,7 +267,7 @@ tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
     double tan_half = 1.0 / fabs((double)cur->camera.proj[5]);
     c->pixel_spread = (float)(2.0 * tan_half / height);
     tnd_result res = tnd_lights_build(s, cur, &c->lights);
-    c->select_lights = c->lights.count <= FEMB_SELECT_LIGHTS;
+    c->select_lights = c->lights.count <= FEMB_SELECT_LIGHTS && !c->lights.node_count;
     c->triangle_lights_only = true;
     for (uint32_t i = 0; i < c->lights.count; i++)
         c->triangle_lights_only &= (uint32_t)c->lights.lights[i].p0.w == TND_LIGHT_KIND_TRIANGLE;

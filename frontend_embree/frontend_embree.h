@@ -15,6 +15,7 @@ typedef struct femb_desc {
     uint32_t threads;       /* 0: one per core */
     uint32_t reflect_depth; /* specular vertices the primary pass follows (0: TND_REFLECT_DEPTH,
                                4; at most TND_MAX_SPECULAR_DEPTH) */
+    tnd_light_sampling lights; /* how NEE picks its light (auto: tnd_light_sampling_for) */
 } femb_desc;
 
 typedef struct femb_params {

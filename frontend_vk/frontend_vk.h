@@ -99,6 +99,7 @@ typedef struct fvk_desc {
                                 frame asks, and built again when a frame asks another */
     bool half_indirect;      /* the real-time passes are first built for --bounces half */
     fvk_specialise specialise; /* the passes' own specialisation (above) */
+    tnd_light_sampling lights; /* as femb_desc */
 } fvk_desc;
 
 typedef struct fvk_params {

@@ -22,6 +22,7 @@ struct fvk_context {
      * alpha_pass): per alpha-tested mesh a record and its triangles' UVs; alpha_at[mesh]: the
      * record's vec4 index + 1 (0: none), which each instance carries in info.z */
     tnd_buffer alpha;
+    tnd_buffer light_nodes; /* the light tree (shaders/light_tree.h; binding 18) */
     uint32_t *alpha_at;
     uint32_t gradient_capacity;
     uint32_t shade_slot_rows; /* the next shading pass's launch rows for mode 2's slots */

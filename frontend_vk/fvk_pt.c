@@ -15,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { SCENE_BINDINGS = 18 };
+enum { SCENE_BINDINGS = 19 };
 
 static tnd_result create_layouts(fvk_context *c)
 {
@@ -181,7 +181,8 @@ static void write_scene_set_to(fvk_context *c, VkDescriptorSet set)
                                               &c->indices,   &c->meshes,    &c->materials,
                                               &c->instances, &c->lights,    &c->gradients,
                                               NULL,          NULL,          &c->env,
-                                              &c->uvs1,      &c->texel_lut, &c->alpha};
+                                              &c->uvs1,      &c->texel_lut, &c->alpha,
+                                              &c->light_nodes};
     VkDescriptorImageInfo acc = {VK_NULL_HANDLE, c->accum.view, VK_IMAGE_LAYOUT_GENERAL};
     VkDescriptorBufferInfo bi[SCENE_BINDINGS];
     VkWriteDescriptorSet w[SCENE_BINDINGS];
@@ -356,6 +357,11 @@ static void choose_variant(fvk_context *c, bool full)
         n += (size_t)snprintf(c->variant + n, sizeof c->variant - n, "%s%s", n ? ", " : "",
                               map[i].name);
     }
+    if (c->light_list.want_tree) { /* the light tree's descent (shaders/light_tree.h) */
+        c->uses |= TND_USES_LIGHT_TREE;
+        n += (size_t)snprintf(c->variant + n, sizeof c->variant - n, "%slight tree",
+                              n ? ", " : "");
+    }
     if (full)
         snprintf(c->variant + n, sizeof c->variant - n, " (--pipeline full)");
     else if (!n)
@@ -395,6 +401,8 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
                        vk->info.name);
         goto fail;
     }
+    c->light_list.want_tree =
+        tnd_light_sampling_for(scene, desc ? desc->lights : TND_LIGHTS_AUTO) == TND_LIGHTS_TREE;
     choose_variant(c, desc && desc->full_pipeline);
     c->reflect_depth = desc && desc->reflect_depth ? desc->reflect_depth : TND_REFLECT_DEPTH;
     if (c->reflect_depth > TND_MAX_SPECULAR_DEPTH)
@@ -487,6 +495,7 @@ tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_s
                         c->light_list.env_pick};
     f.env = (tnd_gvec4){env->cos_rot, env->sin_rot, (float)env->width, (float)env->height};
     f.frame = (tnd_guvec4){frame, width, height, c->light_list.count};
+    f.indirect.y = c->light_list.node_count; /* (every pass of the frame: references too) */
     c->ubo = f;
     write_scene_set(c); /* the TLAS handle may be new */
     c->frame = frame;

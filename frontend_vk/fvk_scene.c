@@ -118,7 +118,7 @@ void fvk_scene_free(fvk_context *c)
     tnd_buffer *bufs[] = {&c->positions, &c->normals, &c->uvs,      &c->tangents,
                           &c->indices,   &c->meshes,  &c->materials, &c->instances,
                           &c->lights,    &c->frame_ubo, &c->gradients, &c->env, &c->uvs1,
-                          &c->texel_lut, &c->alpha};
+                          &c->texel_lut, &c->alpha, &c->light_nodes};
     for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
         tnd_buffer_destroy(vk, bufs[i]);
     for (uint32_t i = 0; c->textures && i < c->texture_count; i++)
@@ -305,6 +305,14 @@ tnd_result fvk_scene_upload(fvk_context *c)
                                .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                .mem = TND_MEM_UPLOAD, .name = "scene.lights"},
         &c->lights));
+    /* the light tree's nodes (at most 2 lights + 1; one unused where there is no tree) */
+    TND_TRY(tnd_buffer_create(
+        vk, &(tnd_buffer_desc){.size = (c->light_list.want_tree
+                                            ? 2 * (s->emitter_count + s->light_count + 1) + 1
+                                            : 1) * sizeof(tnd_light_node),
+                               .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                               .mem = TND_MEM_UPLOAD, .name = "scene.light_nodes"},
+        &c->light_nodes));
     /* the environment map's texels and distributions as one float array (shaders/env.h); a
      * vec4 when there is none (the binding is never empty) */
     size_t env_bytes = s->env.width ? TND_ENV_FLOATS((size_t)s->env.width, s->env.height) * 4 : 16;
@@ -482,6 +490,9 @@ tnd_result fvk_scene_frame(fvk_context *c, const tnd_scene_state *cur, const tnd
     if (c->light_list.count)
         memcpy(c->lights.mapped, c->light_list.lights,
                c->light_list.count * sizeof(tnd_light_gpu));
+    if (c->light_list.node_count)
+        memcpy(c->light_nodes.mapped, c->light_list.nodes,
+               c->light_list.node_count * sizeof(tnd_light_node));
     if (!c->merge_tried) {
         c->merge_tried = true;
         TND_TRY(merge_static(c, cur));

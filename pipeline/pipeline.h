@@ -55,6 +55,7 @@ typedef struct pl_frontend_desc {
     const char *rt_api;      /* vk: "pipeline", "query" or "auto" (NULL: auto) */
     bool full_pipeline;      /* vk: every shader variant */
     uint32_t reflect_depth;  /* mirrors/glass the primary pass follows (0: 4) */
+    tnd_light_sampling lights; /* embree, vk: how NEE picks its light (auto: by the scene) */
     bool references;         /* vk: for references (their shader variant made at creation) */
     uint32_t bounces;        /* vk: the bounces its real-time shaders are first built for (0: 1) */
     bool half_indirect;      /* vk: ... and for --bounces half */

@@ -68,7 +68,8 @@ static tnd_result vk_create(const tnd_scene *scene, const pl_frontend_desc *d, v
                                  .reflect_depth = d->reflect_depth,
                                  .references = d->references,
                                  .bounces = d->bounces,
-                                 .half_indirect = d->half_indirect},
+                                 .half_indirect = d->half_indirect,
+                                 .lights = d->lights},
                      &v->gv);
     if (res != TND_OK) {
         free(v);
@@ -244,7 +245,9 @@ static tnd_result emb_create(const tnd_scene *scene, const pl_frontend_desc *d, 
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "pipeline: out of memory");
     e->precision = d->precision;
     tnd_result res = femb_create(
-        scene, &(femb_desc){.threads = d->threads, .reflect_depth = d->reflect_depth}, &e->fe);
+        scene,
+        &(femb_desc){.threads = d->threads, .reflect_depth = d->reflect_depth, .lights = d->lights},
+        &e->fe);
     if (res != TND_OK) {
         free(e);
         return res;

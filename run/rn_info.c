@@ -65,6 +65,8 @@ char *rn_scene_info_json(const char *path, const tnd_scene *s)
     cJSON *lk = cJSON_AddObjectToObject(o, "lights");
     for (int k = 0; k < TND_LIGHT_TYPE_COUNT; k++)
         cJSON_AddNumberToObject(lk, tnd_light_type_name((tnd_light_type)k), lights[k]);
+    cJSON_AddStringToObject(o, "light_pick",
+                            tnd_light_sampling_name(tnd_light_sampling_for(s, TND_LIGHTS_AUTO)));
     cJSON_AddNumberToObject(o, "cameras", s->camera_count);
     cJSON_AddNumberToObject(o, "animation_seconds", s->duration);
     cJSON *sky = cJSON_AddArrayToObject(o, "sky");

@@ -25,6 +25,7 @@ void rn_render_defaults(rn_render_opts *o)
                        .precision = "float32",
                        .rt_api = "auto",
                        .pipeline = "scene",
+                       .lights = "auto",
                        .denoiser = pl_denoiser_default(),
                        .taa = NULL, /* (on; given: said where it cannot run) */
                        .tonemap = "aces",
@@ -99,7 +100,8 @@ tnd_result rn_render_args(const rn_render_opts *o, bool reference, rn_args *a)
          (o->camera == d.camera || argf(a, "--camera", "%u", o->camera)) &&
          (o->threads == d.threads || argf(a, "--threads", "%u", o->threads)) &&
          (o->reflect_depth == d.reflect_depth ||
-          argf(a, "--reflect-depth", "%u", o->reflect_depth));
+          argf(a, "--reflect-depth", "%u", o->reflect_depth)) &&
+         args_str(a, "--lights", o->lights, d.lights);
     if (reference)
         ok = ok && (o->ref_bounces == RN_BOUNCES_HALF ? args_str(a, "--bounces", "half", NULL)
                     : o->ref_bounces == d.ref_bounces ||
@@ -166,6 +168,15 @@ void rn_reference_bounces(rn_render_opts *o)
 
 /* The options' values checked (render's and reference's, parsed or filled by a caller): an error
  * names the option. */
+/* --lights as given (checked by rn_render_check; auto where not given) */
+static tnd_light_sampling lights_mode(const rn_render_opts *o)
+{
+    tnd_light_sampling m = TND_LIGHTS_AUTO;
+    if (o->lights)
+        tnd_light_sampling_parse(o->lights, &m);
+    return m;
+}
+
 tnd_result rn_render_check(const rn_render_opts *o, bool reference)
 {
     if (strcmp(o->pipeline, "scene") != 0 && strcmp(o->pipeline, "full") != 0)
@@ -176,6 +187,10 @@ tnd_result rn_render_check(const rn_render_opts *o, bool reference)
                         pl_frontend_live_names());
     if (o->reflect_depth > 16)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--reflect-depth is 1 to 16");
+    tnd_light_sampling ls;
+    if (!tnd_light_sampling_parse(o->lights ? o->lights : "auto", &ls))
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--lights %s: expected auto, plain or tree",
+                        o->lights);
     if (o->timed_frames && o->view) /* (its camera path ends with the frames written) */
         return tnd_fail(TND_ERR_INVALID_ARGUMENT,
                         "--timed-frames runs the scene's path on after the frames; "
@@ -288,6 +303,7 @@ tnd_result rn_pipeline_open(const rn_render_opts *o, const tnd_scene *scene, tnd
                                                    .full_pipeline =
                                                        strcmp(o->pipeline, "full") == 0,
                                                    .reflect_depth = o->reflect_depth,
+                                                   .lights = lights_mode(o),
                                                    .references = reference,
                                                    .bounces = o->bounces,
                                                    .half_indirect = o->half_indirect,

@@ -30,7 +30,7 @@
 
 /* Bump when the matched estimator's expectation changes (a new light sampler, a BRDF fix): the
  * cached references of the versions before are then not reused. */
-#define RANK_REFERENCE_VERSION 1
+#define RANK_REFERENCE_VERSION 2
 #define RANK_DEFAULT_BOOTSTRAP 1000
 #define RANK_CONFIDENCE 0.95
 

@@ -690,12 +690,93 @@ def extremes(out):
     g.write(out)
 
 
+def many_lights(out):
+    """A level of rooms off a corridor lit only by its own small emitters (issue 62): 12 rooms of
+    3 x 4 m, each with 8 to 14 ceiling lamps (0.25 m squares) of varied colour and power (1 to
+    40 nits over a range of 40x), a row of 24 strip lights down the corridor and 4 small glowing
+    cubes that move: 450 emissive triangles, no sky. From any point most of them are behind
+    walls or across the level, which is what a power table cannot know. The camera walks down
+    the corridor looking into the rooms."""
+    g = Gltf("many_lights")
+    rnd = random.Random(62)
+    wall = g.material("wall", (0.7, 0.68, 0.64), roughness=0.9)
+    floor_m = g.material("floor", (0.45, 0.42, 0.4), roughness=0.6)
+    H, RW, RD, CW = 3.0, 3.0, 4.0, 2.0  # height, room width (x), room depth (z), corridor width
+    L = 6 * RW  # the corridor's length: 6 rooms on each side
+    # floor and ceiling over the whole level; the ceiling faces down
+    g.node("floor", g.mesh("floor", quad(L, 2 * RD + CW), floor_m))
+    g.node("ceiling", g.mesh("ceiling", quad(L, 2 * RD + CW), wall), t=(0, H, 0),
+           r=quat_axis((1, 0, 0), 180))
+    # outer walls, facing in
+    g.node("end_w", g.mesh("end_w", quad(2 * RD + CW, H), wall), t=(-L / 2, H / 2, 0),
+           r=quat_mul(quat_axis((0, 0, 1), -90), quat_axis((0, 1, 0), 90)))
+    g.node("end_e", g.mesh("end_e", quad(2 * RD + CW, H), wall), t=(L / 2, H / 2, 0),
+           r=quat_mul(quat_axis((0, 0, 1), 90), quat_axis((0, 1, 0), 90)))
+    for side in ("n", "s"):
+        sg = -1 if side == "n" else 1
+        zo = sg * (CW / 2 + RD)  # the outer wall
+        zw = sg * CW / 2  # the rooms' front wall, along the corridor
+        g.node("outer_" + side, g.mesh("outer_" + side, box(L, H, 0.1), wall),
+               t=(0, H / 2, zo + sg * 0.05))
+        for r in range(6):  # each room's front wall has a doorway of 1 m; walls between rooms
+            x0 = -L / 2 + r * RW
+            seg = (RW - 1.0) / 2
+            for k, xc in enumerate((x0 + seg / 2, x0 + RW - seg / 2)):
+                g.node("front_%s%d_%d" % (side, r, k),
+                       g.mesh("front_%s%d_%d" % (side, r, k), box(seg, H, 0.1), wall),
+                       t=(xc, H / 2, zw))
+            g.node("lintel_%s%d" % (side, r), g.mesh("lintel_%s%d" % (side, r),
+                                                      box(1.0, 0.8, 0.1), wall),
+                   t=(x0 + RW / 2, H - 0.4, zw))
+            if r:
+                g.node("party_%s%d" % (side, r), g.mesh("party_%s%d" % (side, r),
+                                                        box(0.1, H, RD), wall),
+                       t=(x0, H / 2, (zw + zo) / 2))
+    # lamps: a few materials of varied colour and strength, instanced
+    lamp_geo = quad(0.25, 0.25)
+    mats = []
+    for k in range(8):
+        col = [(1.0, 0.95, 0.85), (0.85, 0.9, 1.0), (1.0, 0.8, 0.6), (0.9, 1.0, 0.9)][k % 4]
+        strength = [1.0, 2.5, 5.0, 10.0, 20.0, 40.0, 3.0, 8.0][k]
+        mats.append(g.mesh("lamp_%d" % k, lamp_geo,
+                           g.material("lamp_%d" % k, (0.8, 0.8, 0.8), emission=col,
+                                      strength=strength)))
+    down = quat_axis((1, 0, 0), 180)
+    for side, zc in (("n", -(CW / 2 + RD / 2)), ("s", CW / 2 + RD / 2)):
+        for r in range(6):
+            x0 = -L / 2 + r * RW
+            for j in range(rnd.randint(8, 14)):
+                x = x0 + 0.3 + rnd.random() * (RW - 0.6)
+                z = zc + (rnd.random() - 0.5) * (RD - 0.6)
+                g.node("lamp_%s%d_%d" % (side, r, j), mats[rnd.randrange(8)],
+                       t=(x, H - 0.002, z), r=down)
+    strip = g.mesh("strip", quad(0.6, 0.1), g.material("strip", (0.8, 0.8, 0.8),
+                                                        emission=(1.0, 1.0, 1.0), strength=6.0))
+    for k in range(24):
+        g.node("strip_%d" % k, strip, t=(-L / 2 + (k + 0.5) * L / 24, H - 0.002, 0), r=down)
+    glow = g.material("glow", (0.8, 0.8, 0.8), emission=(1.0, 0.5, 0.2), strength=15.0)
+    cube = g.mesh("glow_cube", box(0.15, 0.15, 0.15), glow)
+    for k in range(4):  # moving emitters: back and forth in the corridor and two rooms
+        x = -L / 2 + (k + 1) * L / 5
+        n = g.node("glow_%d" % k, cube, t=(x, 0.5, 0))
+        g.animate(n, "translation", [0.0, 2.0, 4.0],
+                  [(x, 0.5, -0.6), (x + 1.5, 0.9, 0.6), (x, 0.5, -0.6)])
+    camera_path(g, "camera", [(0.0, (-L / 2 + 1.0, 1.6, 0.3), -80, -6),
+                              (2.0, (-L / 2 + 5.0, 1.6, -0.3), -60, -4),
+                              (4.0, (-L / 2 + 9.0, 1.6, 0.3), -100, -6)], yfov=60.0)
+    g.doc["scenes"][0]["extras"] = {"tandem_sky": [0, 0, 0]}  # closed: no default light
+    g.write(out)
+
+
 def main():
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "..", "data", "scenes")
     os.makedirs(out, exist_ok=True)
-    for f in (cornell, materials, dynamic, sun, extremes, cutout, atrium, closed_box):
-        f(out)
+    only = sys.argv[2:]  # [OUTDIR NAME...]: those scenes alone
+    for f in (cornell, materials, dynamic, sun, extremes, cutout, atrium, closed_box,
+              many_lights):
+        if not only or f.__name__ in only:
+            f(out)
 
 
 if __name__ == "__main__":

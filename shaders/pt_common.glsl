@@ -394,14 +394,19 @@ uint pick_light(float u)
     return lo;
 }
 
-float emitter_pdf(uint inst, uint prim, float d, vec3 wi, vec3 ng_light)
+/* NEE's density of reaching emitter triangle (inst, prim) at distance d along wi from surface
+ * point `from` (femb's emitter_pdf) */
+float emitter_pdf(uint inst, uint prim, float d, vec3 wi, vec3 ng_light, vec3 from)
 {
     uint first = instances[inst].info.y;
     if (!USES(TND_USES_AREA) || fr.frame.w == 0u || first == 0xffffffffu)
         return 0.0;
     tnd_light_gpu l = lights[first + prim];
     float cosl = abs(dot(ng_light, wi));
-    return cosl > 0.0 ? l.radiance.w * d * d / (l.cdf.w * cosl) : 0.0;
+    float pick = l.radiance.w;
+    if (USES(TND_USES_LIGHT_TREE) && fr.indirect.y != 0u) /* the tree's, from that point */
+        pick = tnd_lt_pmf(floatBitsToUint(l.p2.w), from.x, from.y, from.z);
+    return cosl > 0.0 ? pick * d * d / (l.cdf.w * cosl) : 0.0;
 }
 
 /* ---- the environment map (shaders/env.h; core/env.c's tnd_env_lookup and tnd_env_sample) -- */
@@ -458,17 +463,31 @@ vec3 miss_radiance(vec3 dir, float pdf_prev)
     return USES(TND_USES_SKY) ? fr.sky.rgb : vec3(0.0);
 }
 
-void direct_light(uvec3 key, uint bounce, surface s, lobe_info L, out vec3 diff, out vec3 spec)
+/* MIS-weighted against the BRDF sample that continues the path where `mis`; where the path ends
+ * at this vertex no BRDF sample can find the emitter, and NEE takes its whole share (femb's
+ * direct_light_kinds) */
+void direct_light(uvec3 key, uint bounce, surface s, lobe_info L, bool mis, out vec3 diff,
+                  out vec3 spec)
 {
     diff = vec3(0.0);
     spec = vec3(0.0);
     if (fr.frame.w == 0u)
         return;
-    tnd_light_gpu l = lights[pick_light(rnd(key, bounce, TND_DIM_LIGHT_PICK))];
+    float u_pick = rnd(key, bounce, TND_DIM_LIGHT_PICK), pick;
+    uint li;
+    if (USES(TND_USES_LIGHT_TREE) && fr.indirect.y != 0u) { /* by importance for this point */
+        li = tnd_lt_sample(s.p.x, s.p.y, s.p.z, u_pick, pick);
+        if (li == TND_LT_NONE) /* no light reaches it */
+            return;
+    } else {
+        li = pick_light(u_pick);
+        pick = lights[li].radiance.w;
+    }
+    tnd_light_gpu l = lights[li];
     uint kind = uint(l.p0.w);
     float u1 = rnd(key, bounce, TND_DIM_LIGHT_U), u2 = rnd(key, bounce, TND_DIM_LIGHT_V);
     vec3 wi, pos = l.p0.xyz;
-    float dist = 1e30, pdf = l.radiance.w;
+    float dist = 1e30, pdf = pick;
     vec3 Li = l.radiance.rgb;
     bool area = false, env = false;
     vec3 end = pos; /* where the shadow ray ends: a point light's position */
@@ -535,7 +554,7 @@ void direct_light(uvec3 key, uint bounce, surface s, lobe_info L, out vec3 diff,
     } else if (trace_occluded(org, wi, 1e30)) {
         return;
     }
-    float w = area || env ? tnd_mis_power(pdf, pdf_brdf) : 1.0;
+    float w = (area || env) && mis ? tnd_mis_power(pdf, pdf_brdf) : 1.0;
     diff = Li * dd * w / pdf;
     spec = Li * sp * w / pdf;
 }
@@ -627,7 +646,7 @@ vec3 trace_path(uvec3 key, vec3 from, vec3 org, vec3 dir, uint bounce, uint max_
             float w = 1.0;
             if (pdf_prev > 0.0)
                 w = tnd_mis_power(pdf_prev, emitter_pdf(h.inst, h.prim, length(s.p - from), dir,
-                                                        s.ng));
+                                                        s.ng, from));
             L_out += beta * w * s.emission;
         }
         if (USES(TND_USES_SPECULAR) && s.kind != TND_KIND_OPAQUE) {
@@ -651,7 +670,7 @@ vec3 trace_path(uvec3 key, vec3 from, vec3 org, vec3 dir, uint bounce, uint max_
         uint nb = b - specular; /* bounces that count */
         lobe_info L = lobes(s);
         vec3 d, sp;
-        direct_light(key, b, s, L, d, sp);
+        direct_light(key, b, s, L, nb < max_bounce, d, sp);
         L_out += beta * (d * s.base * (1.0 - s.metallic) + sp);
         if (nb >= max_bounce)
             return L_out;

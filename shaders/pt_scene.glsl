@@ -30,6 +30,10 @@ layout(set = 0, binding = 15, std430) readonly buffer Uvs1 { float uvs1[]; };
 layout(set = 0, binding = 16, std430) readonly buffer TexelLut { float texel_lut[]; };
 /* the alpha test's records and UVs (alpha_pass) */
 layout(set = 0, binding = 17, std430) readonly buffer Alpha { vec4 alpha_data[]; };
+/* the light tree (fr.indirect.y nodes), declared by the header with its functions */
+#define TND_LT_SET 0
+#define TND_LT_BINDING 18
+#include "light_tree.h"
 #include "env.h"
 
 

@@ -110,13 +110,14 @@ shaded shade(ivec2 ip, surface s, uint inst, uint prim, uvec3 key)
     for (int k = 0; k < 3; k++)
         demod[k] = max(0.01, 0.04 * (1.0 - s.metallic) + s.base[k] * s.metallic);
     vec3 dd, sp;
-    direct_light(key, 0u, s, L, dd, sp);
+    uint bounces = TND_BOUNCES_PLUS_ONE != 0u ? TND_BOUNCES_PLUS_ONE - 1u : fr.params.x;
+    /* (an indirect path follows; with half of them traced, in expectation) */
+    direct_light(key, 0u, s, L, bounces > 0u, dd, sp);
     o.hf = dd;
     o.spec = sp / demod;
     vec3 wi, w;
     float pdf;
     bool is_spec;
-    uint bounces = TND_BOUNCES_PLUS_ONE != 0u ? TND_BOUNCES_PLUS_ONE - 1u : fr.params.x;
     /* (half resolution: this pixel's choice in the frame its key was drawn for) */
     bool halved = half_rate();
     if (bounces > 0u && (!halved || TND_HALF_TRACED(key.x, key.y, W)) &&

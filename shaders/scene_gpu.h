@@ -58,7 +58,8 @@ struct tnd_gpu_frame {
                             reference's samples: s + 1), z: gradient count, w: specular
                             vertices the primary chain follows */
     uvec4 indirect;      /* x: 1: the indirect paths of half the pixels (TND_HALF_TRACED,
-                            shaders/sampling.h), 0: of every pixel */
+                            shaders/sampling.h), 0: of every pixel; y: the light tree's nodes
+                            (0: NEE picks from the power table) */
 };
 
 #ifndef TND_GLSL
@@ -96,7 +97,10 @@ _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 8 * 16, "frame layout");
  * tnd_rand's Sobol' branch folds away from them (it cost `materials`' shading pass 7% on the
  * H200, docs/performance.md); references and matched references run passes built with it. */
 #define TND_USES_REFERENCE 1024u
-#define TND_USES_ALL 2047u
+/* The light tree's descent for NEE's pick (--lights tree: shaders/light_tree.h), not the power
+ * table's search. */
+#define TND_USES_LIGHT_TREE 2048u
+#define TND_USES_ALL 4095u
 
 /* Gradient sample for the shading pass (its first 7 words match femb_gradient_sample). In the
  * back-end's per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a

@@ -545,6 +545,124 @@ cleanup:;
     CHECK(system(cmd) == 0, "cleanup");
 }
 
+/* The light tree (shaders/light_tree.h) on shipped scenes: hundreds of emitters (many_lights,
+ * animated), area and punctual lights (materials), a sun and an environment map beside local
+ * lights (atrium: the root's two groups). At random points in the scene's box: the probabilities
+ * of all lights sum to at most 1 (the rest: descents that end at a node whose children both weigh
+ * 0 where the parent's looser bounds did not: no light there can light the point); a descent's
+ * probability is the one tnd_lt_pmf recomputes from the light's path; every light that can light
+ * the point has a probability above 0 (the bounds are conservative: the estimator stays
+ * unbiased); and at one point the picks' frequencies over 200,000 descents, and the descents
+ * without a light, match their probabilities within 5 standard deviations. */
+static void test_light_tree(void)
+{
+    static const char *const names[] = {"many_lights.gltf", "materials.gltf", "atrium.gltf"};
+    uint32_t state = 62u;
+    for (int sc = 0; sc < 3; sc++) {
+        char path[512];
+        snprintf(path, sizeof path, SCENES "%s", names[sc]);
+        tnd_scene *s = NULL;
+        tnd_scene_state st = {0};
+        tnd_light_list l = {.want_tree = true};
+        double *pm = NULL;
+        uint32_t *hits = NULL;
+        REQUIRE_OK(tnd_scene_load(path, &s));
+        REQUIRE_OK(tnd_scene_evaluate(s, 1.0, 0, 16.0f / 9.0f, &st));
+        REQUIRE_OK(tnd_lights_build(s, &st, &l));
+        CHECK(l.count > 0 && l.node_count >= l.count && l.node_count <= 2 * l.count + 1,
+              "%s: %u lights, %u nodes", names[sc], l.count, l.node_count);
+        double lo[3], hi[3];
+        tnd_scene_bounds(s, &st, lo, hi);
+        pm = malloc(l.count * sizeof *pm);
+        hits = calloc(l.count, sizeof *hits);
+        REQUIRE(pm && hits, "out of memory");
+        uint32_t bad_sum = 0, bad_pmf = 0, culled = 0, points = 0;
+        double worst_sum = 0;
+        for (int k = 0; k < 200; k++) {
+            float p[3];
+            for (int j = 0; j < 3; j++) {
+                state = state * 1664525u + 1013904223u;
+                p[j] = (float)(lo[j] + (hi[j] - lo[j]) * ((state >> 8) / 16777216.0));
+            }
+            double sum = 0;
+            for (uint32_t i = 0; i < l.count; i++) {
+                uint32_t trail;
+                memcpy(&trail, &l.lights[i].p2.w, sizeof trail);
+                pm[i] = tnd_lt_pmf(l.nodes, trail, p[0], p[1], p[2]);
+                sum += pm[i];
+                /* can light i light p? a point or an environment always; a one-sided triangle
+                 * where p is in front of its plane (a margin for the float bounds), a two-sided
+                 * one off its plane, a spot inside its outer cone, a sun always */
+                const tnd_light_gpu *g = &l.lights[i];
+                uint32_t kind = (uint32_t)g->p0.w;
+                bool can = true;
+                if (kind == TND_LIGHT_KIND_TRIANGLE) {
+                    double e1[3] = {g->p1.x - g->p0.x, g->p1.y - g->p0.y, g->p1.z - g->p0.z};
+                    double e2[3] = {g->p2.x - g->p0.x, g->p2.y - g->p0.y, g->p2.z - g->p0.z};
+                    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                                   e1[0] * e2[1] - e1[1] * e2[0]};
+                    double nl = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+                    double side = (n[0] * (p[0] - g->p0.x) + n[1] * (p[1] - g->p0.y) +
+                                   n[2] * (p[2] - g->p0.z)) / nl;
+                    can = g->p1.w != 0.0f ? fabs(side) > 1e-4 : side > 1e-4;
+                } else if (kind == TND_LIGHT_KIND_SPOT) {
+                    double d[3] = {p[0] - g->p0.x, p[1] - g->p0.y, p[2] - g->p0.z};
+                    double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                    can = dl > 0 && (d[0] * g->p1.x + d[1] * g->p1.y + d[2] * g->p1.z) / dl >
+                                        g->p2.y + 1e-4;
+                }
+                culled += can && !(pm[i] > 0);
+            }
+            worst_sum = fmax(worst_sum, 1 - sum);
+            bad_sum += sum > 1 + 1e-5 || !(sum > 0.5);
+            for (int t = 0; t < 64; t++) {
+                state = state * 1664525u + 1013904223u;
+                float u = (state >> 8) / 16777216.0f, pmf = 0;
+                uint32_t i = tnd_lt_sample(l.nodes, p[0], p[1], p[2], u, &pmf);
+                bad_pmf += i == TND_LT_NONE
+                               ? pmf != 0
+                               : i >= l.count || fabs(pmf - pm[i]) > 1e-5 * pm[i];
+            }
+            if (k == 0) { /* the frequencies at the first point */
+                const uint32_t N = 200000;
+                uint32_t none = 0;
+                for (uint32_t t = 0; t < N; t++) {
+                    float pmf;
+                    uint32_t i = tnd_lt_sample(l.nodes, p[0], p[1], p[2],
+                                               ((float)t + 0.5f) / (float)N, &pmf);
+                    if (i < l.count)
+                        hits[i]++;
+                    else
+                        none++;
+                }
+                uint32_t off = 0;
+                for (uint32_t i = 0; i <= l.count; i++) {
+                    double q = i < l.count ? pm[i] : fmax(0.0, 1 - sum);
+                    double got = i < l.count ? hits[i] : none;
+                    off += fabs(got - N * q) > 5 * (sqrt(N * q * (1 - q)) + 1);
+                }
+                CHECK(off == 0, "%s: %u lights picked off their probability", names[sc], off);
+            }
+            points++;
+        }
+        printf("     %s: %u lights, %u nodes; over %u points the probabilities sum to at least "
+               "%.3g (the rest: no light); %u lights that can light a point culled\n",
+               names[sc], l.count, l.node_count, points, 1 - worst_sum, culled);
+        CHECK(bad_sum == 0, "%s: %u points whose probabilities sum over 1 or under 1/2",
+              names[sc], bad_sum);
+        CHECK(bad_pmf == 0, "%s: %u descents whose probability is not the light's", names[sc],
+              bad_pmf);
+        CHECK(culled == 0, "%s: %u (point, light) pairs culled that the light can reach",
+              names[sc], culled);
+    cleanup:
+        free(pm);
+        free(hits);
+        tnd_lights_free(&l);
+        tnd_scene_state_free(&st);
+        tnd_scene_destroy(s);
+    }
+}
+
 /* tnd_lights_pick against a linear scan (the first light whose cdf exceeds u, the last when none
  * does): lists of 1 to 40 lights with random steps and runs of equal cdf values (float sums do
  * repeat), u random, on every cdf value and the floats beside it, 0, 1, negative and NaN. */
@@ -1234,7 +1352,7 @@ cleanup:
 }
 
 TND_TEST_MAIN(T(test_shipped_scenes), T(test_values), T(test_animation), T(test_stress),
-              T(test_light_pick), T(test_bad_input), T(test_defaults),
+              T(test_light_pick), T(test_light_tree), T(test_bad_input), T(test_defaults),
               T(test_unsupported_named), T(test_other_formats), T(test_obj_mtl),
               T(test_texture_coordinates), T(test_default_light_levels), T(test_camera_paths),
               T(test_cubicspline), T(test_missing_images), T(test_up_z))
