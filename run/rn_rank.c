@@ -49,6 +49,7 @@ typedef struct rank_den {
     char name[1100]; /* the denoiser: spec up to its first '@' */
     char id[80];     /* its directory and column name */
     char taa[24];    /* @taa=: the post chain's TAA (empty: the suite's) */
+    char lights[8];  /* @lights=: NEE's light pick, auto|plain|tree (empty: the suite's) */
     pl_param_set params; /* @PARAM=: the denoiser's parameters (pl_param) */
 } rank_den;
 
@@ -317,9 +318,10 @@ static tnd_result suite_read(const char *given, rank_plan *P)
     return TND_OK;
 }
 
-/* A row's settings after its name: @taa=on|off|W (the post chain's TAA, as render's --taa) and
- * @PARAM=X (a parameter of that denoiser, as render's --PARAM), so that one rank measures a
- * change against the denoiser without it. Each is checked here, by name, before anything runs;
+/* A row's settings after its name: @taa=on|off|W (the post chain's TAA, as render's --taa),
+ * @lights=auto|plain|tree (the front-end's light pick, as render's --lights: every pick has the
+ * same matched reference, docs/lights.md) and @PARAM=X (a parameter of that denoiser, as
+ * render's --PARAM), so that one rank measures a change against the denoiser without it. Each is checked here, by name, before anything runs;
  * the row's id (its folder and column) gets the settings as given. */
 static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
 {
@@ -350,10 +352,19 @@ static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
             snprintf(d->taa, sizeof d->taa, "%s", val);
             continue;
         }
+        if (strcmp(key, "lights") == 0) {
+            tnd_light_sampling ls;
+            if (!tnd_light_sampling_parse(val, &ls))
+                return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: lights=%s: auto, "
+                                                          "plain or tree", d->spec, val);
+            snprintf(d->lights, sizeof d->lights, "%s", val);
+            continue;
+        }
         if (!pl_param_find(key) || !pl_denoiser_has_param(info, key))
             return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: %s has no parameter %s "
-                                                      "(taa, or one that tandem info --pipeline "
-                                                      "lists for it)", d->spec, d->name, key);
+                                                      "(taa, lights, or one that tandem info "
+                                                      "--pipeline lists for it)",
+                            d->spec, d->name, key);
         char *end;
         double x = strtod(val, &end);
         if (*end || end == val)
@@ -780,6 +791,8 @@ static void cell_opts(const rank_plan *P, unsigned s, unsigned d, char *dir, siz
     o->denoiser = dn->name;
     if (dn->taa[0])
         o->taa = dn->taa;
+    if (dn->lights[0])
+        o->lights = dn->lights;
     for (uint32_t i = 0; i < dn->params.n; i++) /* (over the suite's, where it gives any) */
         (void)pl_param_set_put(&o->params, dn->params.param[i]->name, dn->params.value[i]);
     o->quiet = true;

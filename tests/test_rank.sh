@@ -164,6 +164,8 @@ check "an unknown denoiser: a usage error" $?
 [ $? -eq 2 ] && grep -q "recurrent@taa=2: taa=2: on, off or a new-frame weight" "$tmp/e7" &&
     "$T" rank quick --denoisers svgf,recurrent@atrous=9 --out "$tmp/r5" --cache "$C" 2> "$tmp/e8"
 [ $? -eq 2 ] && grep -q "recurrent@atrous=9: --atrous 9: expected a whole number" "$tmp/e8" &&
+    "$T" rank quick --denoisers svgf,asvgf@lights=fancy --out "$tmp/r5" --cache "$C" 2> "$tmp/e9"
+[ $? -eq 2 ] && grep -q "asvgf@lights=fancy: lights=fancy: auto, plain or tree" "$tmp/e9" &&
     [ ! -e "$tmp/r5" ]
 check "a row's settings the denoiser has not, or out of range: a usage error naming them" $?
 "$T" rank quick --denoisers svgf,off --out "$tmp/r1" --cache "$C" 2> "$tmp/e4"
@@ -206,16 +208,17 @@ rc1=$?
 check "a second rank in the same folder at once: refused, naming the first's process" $?
 
 # 8. --emit slurm: the references, the cells and the rank as jobs
-"$T" rank quick --denoisers svgf,recurrent@taa=0.2@atrous=5 --out "$tmp/r7" --cache "$tmp/cache2" --emit slurm > "$tmp/s.txt" 2>/dev/null
+"$T" rank quick --denoisers svgf,recurrent@taa=0.2@atrous=5,asvgf@lights=tree --out "$tmp/r7" --cache "$tmp/cache2" --emit slurm > "$tmp/s.txt" 2>/dev/null
 rc=$?
 s="$tmp/r7/slurm"
 [ $rc -eq 0 ] && grep -q "$s/submit.sh" "$tmp/s.txt" && bash -n "$s/submit.sh" &&
     bash -n "$s/references.sbatch" && bash -n "$s/cells.sbatch" && bash -n "$s/collect.sbatch" &&
     [ "$(grep -c "'reference'" "$s/references.sbatch")" -eq 2 ] &&
-    [ "$(grep -c "'render'" "$s/cells.sbatch")" -eq 4 ] && grep -q " rank " "$s/collect.sbatch" &&
+    [ "$(grep -c "'render'" "$s/cells.sbatch")" -eq 6 ] && grep -q " rank " "$s/collect.sbatch" &&
     [ "$(grep -c "'--denoiser' 'recurrent' '--atrous' '5' '--taa' '0.2'" "$s/cells.sbatch")" -eq 2 ] &&
-    grep -q "svgf,recurrent@taa=0.2@atrous=5" "$s/collect.sbatch"
-check "--emit slurm: 2 references, 4 renders (a row's settings as render's options) and the rank as jobs (shell syntax checked)" $?
+    [ "$(grep "asvgf@lights=tree'" "$s/cells.sbatch" | grep -c "'--lights' 'tree'")" -eq 2 ] &&
+    grep -q "svgf,recurrent@taa=0.2@atrous=5,asvgf@lights=tree" "$s/collect.sbatch"
+check "--emit slurm: 2 references, 6 renders (a row's settings as render's options) and the rank as jobs (shell syntax checked)" $?
 
 # 9. the report's player in the browser (as the eval report's)
 if [ -d "$SRC/tests/browser/node_modules/puppeteer-core" ]; then
