@@ -103,8 +103,6 @@ TND_LT_FN float tnd_lt_importance(TND_LT_ARG TND_LT_U32 i, float px, float py, f
     float dx = px - cx, dy = py - cy, dz = pz - cz;
     float dd = dx * dx + dy * dy + dz * dz;
     float d2 = TND_LT_MAX(dd, r2);
-    /* the angle the box subtends from p: all directions where p is inside its sphere */
-    float cos_b = dd > r2 ? TND_LT_SQRT(TND_LT_MAX(0.0f, 1.0f - r2 / dd)) : -1.0f;
     /* the angle between the cone's axis and the direction from the box's centre to p */
     float inv = dd > 0.0f ? 1.0f / TND_LT_SQRT(dd) : 0.0f;
     float cos_w = (light_nodes[i].axis.x * dx + light_nodes[i].axis.y * dy +
@@ -114,9 +112,15 @@ TND_LT_FN float tnd_lt_importance(TND_LT_ARG TND_LT_U32 i, float px, float py, f
     if (!(dd > 0.0f))
         cos_w = 1.0f; /* p at the centre: any direction */
     cos_w = TND_LT_MIN(TND_LT_MAX(cos_w, -1.0f), 1.0f);
-    /* theta' = max(0, theta_w - theta_o - theta_b) */
-    float cos_x = tnd_lt_cos_sub_clamped(cos_w, light_nodes[i].hi.w);
-    float cos_p = cos_b <= -1.0f ? 1.0f : tnd_lt_cos_sub_clamped(cos_x, cos_b);
+    /* theta' = max(0, theta_w - theta_o - theta_b): 0 where the cone holds the direction (the
+     * box's own angle need not be known then) */
+    float cos_p = 1.0f;
+    if (cos_w < light_nodes[i].hi.w) {
+        float cos_x = tnd_lt_cos_sub_clamped(cos_w, light_nodes[i].hi.w);
+        /* the angle the box subtends from p: all directions where p is inside its sphere */
+        if (dd > r2)
+            cos_p = tnd_lt_cos_sub_clamped(cos_x, TND_LT_SQRT(TND_LT_MAX(0.0f, 1.0f - r2 / dd)));
+    }
     if (cos_p <= light_nodes[i].axis.w)
         return 0.0f;
     return power * cos_p / d2;
