@@ -150,6 +150,7 @@ static const key render_keys[] = {
     {"rt_api", K_STR, O(rt_api)},
     {"pipeline", K_STR, O(pipeline)},
     {"reflect_depth", K_UINT, O(reflect_depth)},
+    {"lights", K_STR, O(lights)},
     {"taa", K_STR, O(taa)},
     {"tonemap", K_STR, O(tonemap)},
     {"exposure", K_STR, O(exposure)},

@@ -87,7 +87,7 @@ char *tandem_capture_list(const char *dir, const char *map_path);
 typedef struct tandem_renderer tandem_renderer;
 /* options_json: render's options (reference's with `reference`) by their command-line names
  * with '_' for '-': scene, frontend, denoiser, size [W, H], precision, bounces (a count or
- * "half"), fps, camera, threads, rt_api, pipeline, reflect_depth, taa, tonemap, exposure,
+ * "half"), fps, camera, threads, rt_api, pipeline, reflect_depth, lights, taa, tonemap, exposure,
  * exposure_bias, bloom, spp, estimator, until_noise, composite_on, the scene options
  * (tandem_scene_load's) and params (an object: the denoiser's parameters by name). */
 tandem_renderer *tandem_renderer_open(const char *options_json, int reference);

@@ -214,6 +214,21 @@ def test_python_identity_is_off(tmp_path):
         assert np.array_equal(px[..., :3], r.frame(f, contract=False)["radiance"]), f
 
 
+def test_lights_option_equals_command(tmp_path):
+    """lights="tree" is render's --lights tree, bit for bit (the light tree on many_lights)."""
+    scene = os.path.join(os.path.dirname(CORNELL), "many_lights.gltf")
+    out = tmp_path / "run"
+    run("render", "--scene", scene, "--frontend", "embree", "--denoiser", "off", "--size",
+        "32x18", "--frames", "1", "--lights", "tree", "--out", str(out))
+    fr = tandem.Renderer(scene, frontend="embree", denoiser="off", size=(32, 18),
+                         lights="tree").frame(0)
+    px, _ = read_rgb(str(out / "frame_0000.exr"))
+    assert np.array_equal(px[..., :3], fr["radiance"])
+    plain = tandem.Renderer(scene, frontend="embree", denoiser="off", size=(32, 18),
+                            lights="plain").frame(0)
+    assert not np.array_equal(plain["radiance"], fr["radiance"])
+
+
 def test_errors_raise_with_message(tmp_path):
     with pytest.raises(tandem.TandemError, match="nope.gltf: cannot open"):
         tandem.Scene(str(tmp_path / "nope.gltf"))
@@ -229,6 +244,8 @@ def test_errors_raise_with_message(tmp_path):
         tandem.Renderer(CORNELL, frontend="rays")
     with pytest.raises(tandem.TandemError, match="denoiser 'bm3d'"):
         tandem.Renderer(CORNELL, frontend="embree", denoiser="bm3d")
+    with pytest.raises(tandem.TandemError, match="--lights x: expected auto, plain or tree"):
+        tandem.Renderer(CORNELL, frontend="embree", lights="x")
     bad = tmp_path / "bad.exr"
     bad.write_bytes(b"not an exr")
     with pytest.raises(tandem.TandemError, match="bad.exr"):
