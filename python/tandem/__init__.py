@@ -292,8 +292,8 @@ class Renderer:
 
     Options are render's by their command-line names ('_' for '-'): frontend, denoiser (a name,
     "python:MODULE:CALLABLE", or a factory such as a class: run in this process), size,
-    precision, bounces, fps, camera, threads, lights, taa, tonemap, exposure, bloom, spp, estimator, the
-    scene options (env, camera_path, ...), params (the denoiser's parameters). A frame that
+    precision, bounces, fps, camera, threads, lights, taa, tonemap, exposure, bloom, spp,
+    estimator, the scene options (env, camera_path, ...), params (the denoiser's parameters). A frame that
     follows the one before continues the history; any other restarts it.
     """
 
