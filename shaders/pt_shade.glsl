@@ -80,15 +80,16 @@ surface gbuffer_surface(ivec2 ip)
     return s;
 }
 
+/* no light: what a pixel that sees nothing holds */
+shaded shaded_none()
+{
+    return shaded(vec3(0.0), vec3(0.0), 0.0, vec4(0.0), vec2(0.0));
+}
+
 /* Shade surface s (instance inst, primitive prim) seen at pixel ip with key `key`. */
 shaded shade(ivec2 ip, surface s, uint inst, uint prim, uvec3 key)
 {
-    shaded o;
-    o.hf = vec3(0.0);
-    o.spec = vec3(0.0);
-    o.spec_hit = 0.0;
-    o.sh = vec4(0.0);
-    o.cocg = vec2(0.0);
+    shaded o = shaded_none();
     uint W = fr.frame.y;
     vec3 d = fr.cam_pos.xyz - s.p;
     float depth = sqrt(dot(d, d));
@@ -215,12 +216,7 @@ void pt_shade_main(uvec2 launch)
         if (inst != TND_VIS_NONE)
             s = gbuffer_surface(ip);
     }
-    shaded o;
-    o.hf = vec3(0.0);
-    o.spec = vec3(0.0);
-    o.spec_hit = 0.0;
-    o.sh = vec4(0.0);
-    o.cocg = vec2(0.0);
+    shaded o = shaded_none();
     if (inst != TND_VIS_NONE)
         o = shade(ip, s, inst, prim, key);
     if (into_slot) {
