@@ -168,8 +168,7 @@ void rn_reference_bounces(rn_render_opts *o)
 
 /* The options' values checked (render's and reference's, parsed or filled by a caller): an error
  * names the option. */
-/* --lights as given (checked by rn_render_check; auto where not given) */
-static tnd_light_sampling lights_mode(const rn_render_opts *o)
+tnd_light_sampling rn_lights_mode(const rn_render_opts *o)
 {
     tnd_light_sampling m = TND_LIGHTS_AUTO;
     if (o->lights)
@@ -303,7 +302,7 @@ tnd_result rn_pipeline_open(const rn_render_opts *o, const tnd_scene *scene, tnd
                                                    .full_pipeline =
                                                        strcmp(o->pipeline, "full") == 0,
                                                    .reflect_depth = o->reflect_depth,
-                                                   .lights = lights_mode(o),
+                                                   .lights = rn_lights_mode(o),
                                                    .references = reference,
                                                    .bounces = o->bounces,
                                                    .half_indirect = o->half_indirect,

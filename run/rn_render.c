@@ -127,12 +127,8 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     else
         cJSON_AddNumberToObject(j, "bounces", o->bounces);
     cJSON_AddNumberToObject(j, "reflect_depth", o->reflect_depth ? o->reflect_depth : TND_REFLECT_DEPTH);
-    {
-        tnd_light_sampling ls = TND_LIGHTS_AUTO;
-        if (o->lights)
-            tnd_light_sampling_parse(o->lights, &ls);
-        cJSON_AddStringToObject(j, "lights", tnd_light_sampling_name(tnd_light_sampling_for(scene, ls)));
-    }
+    cJSON_AddStringToObject(j, "lights",
+                            tnd_light_sampling_name(tnd_light_sampling_for(scene, rn_lights_mode(o))));
     cJSON_AddStringToObject(j, "precision", o->precision);
     cJSON_AddStringToObject(j, "denoiser", dn_name);
     /* the parameters given that the denoiser has, in its table's order */

@@ -203,6 +203,8 @@ void rn_render_defaults(rn_render_opts *o);
 /* render's or reference's options checked (no out needed): an error names the option (the
  * command line's usage errors). */
 tnd_result rn_render_check(const rn_render_opts *o, bool reference);
+/* --lights as given (checked by rn_render_check; auto where not given) */
+tnd_light_sampling rn_lights_mode(const rn_render_opts *o);
 /* A reference's work checked: its --shard I/N planned over the frames and samples, and
  * --until-noise kept to whole frames (the command line's usage errors). */
 tnd_result rn_reference_check(const rn_render_opts *o);
