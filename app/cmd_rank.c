@@ -20,7 +20,7 @@ int cmd_rank(int argc, char **argv)
     const app_opt opts[] = {
         {"denoisers", APP_OPT_STRING, &o.denoisers, "A,B,...",
          "the denoisers: registered names, plugin:PATH.so, python:MODULE:CALLABLE; each may "
-         "carry settings, NAME@KEY=VALUE@... (taa=on|off|W, lights=auto|plain|tree, or a "
+         "carry settings, NAME@KEY=VALUE@... (taa=on|off|W, lights=auto|plain|tree|restir, or a "
          "parameter of that denoiser: recurrent@taa=0.2@atrous=5, asvgf@lights=plain)"},
         {"out", APP_OPT_STRING, &o.out, "DIR", "where the runs, rank.json, rank.csv, report go"},
         {"cache", APP_OPT_STRING, &o.cache, "DIR",

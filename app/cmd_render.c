@@ -48,9 +48,10 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     {"out", APP_OPT_STRING, &o->out, "DIR", "output directory (created)"}, \
     {"scene", APP_OPT_STRING, &o->scene, "PATH", "glTF scene or stress:N (default: cornell)"}, \
     {"frontend", APP_OPT_STRING, &o->frontend, "NAME", fe_help}, \
-    {"lights", APP_OPT_STRING, &o->lights, "auto|plain|tree", \
-     "how next-event estimation picks a light: from the power table (plain) or by the light " \
-     "tree's importance for the shading point (tree); auto: the tree from 16 emitters, point " \
+    {"lights", APP_OPT_STRING, &o->lights, "auto|plain|tree|restir", \
+     "how next-event estimation picks a light: from the power table (plain), by the light " \
+     "tree's importance for the shading point (tree), or by reservoirs reused over pixels and " \
+     "frames (restir: ReSTIR DI, Embree front-end); auto: the tree from 16 emitters, point " \
      "and spot lights (docs/lights.md)"}
 #define PATH_OPTS \
     {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"}, \

@@ -1115,12 +1115,15 @@ typedef enum tnd_light_sampling {
     TND_LIGHTS_AUTO = 0, /* the scene decides: the tree from TND_LIGHTS_TREE_FROM local lights */
     TND_LIGHTS_PLAIN,
     TND_LIGHTS_TREE,
+    /* ReSTIR DI at the primary surface (candidates from the tree; docs/lights.md): the Embree
+     * front-end only so far, never chosen by `auto` */
+    TND_LIGHTS_RESTIR,
 } tnd_light_sampling;
 /* The local lights (emissive triangles, point and spot lights) from which `auto` takes the
  * tree: with a few, the power table picks as well and costs less (docs/lights.md). */
 enum { TND_LIGHTS_TREE_FROM = 16 };
 const char *tnd_light_sampling_name(tnd_light_sampling m);
-/* "auto", "plain", "tree" -> the mode; false for anything else */
+/* "auto", "plain", "tree", "restir" -> the mode; false for anything else */
 bool tnd_light_sampling_parse(const char *name, tnd_light_sampling *m);
 /* What `m` comes to for a scene (auto resolved; never TND_LIGHTS_AUTO). */
 tnd_light_sampling tnd_light_sampling_for(const tnd_scene *s, tnd_light_sampling m);

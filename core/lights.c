@@ -19,16 +19,17 @@ void tnd_lights_free(tnd_light_list *l)
     memset(l, 0, sizeof *l);
 }
 
-static const char *const sampling_names[] = {"auto", "plain", "tree"};
+static const char *const sampling_names[] = {"auto", "plain", "tree", "restir"};
+enum { SAMPLING_NAMES = sizeof sampling_names / sizeof sampling_names[0] };
 
 const char *tnd_light_sampling_name(tnd_light_sampling m)
 {
-    return (unsigned)m < 3 ? sampling_names[m] : "?";
+    return (unsigned)m < SAMPLING_NAMES ? sampling_names[m] : "?";
 }
 
 bool tnd_light_sampling_parse(const char *name, tnd_light_sampling *m)
 {
-    for (int i = 0; i < 3; i++)
+    for (int i = 0; i < SAMPLING_NAMES; i++)
         if (strcmp(name, sampling_names[i]) == 0) {
             *m = (tnd_light_sampling)i;
             return true;

@@ -153,6 +153,22 @@ static float emitter_pdf(const femb_context *c, uint32_t instance, uint32_t prim
     return cosl > 0 ? pick * d * d / (l->cdf.w * cosl) : 0.0f;
 }
 
+/* The weight of emission found by a path whose previous vertex left `from` with a BRDF sample of
+ * density pdf_prev: MIS against the light list's pick, 0 where a reservoir took the list's whole
+ * share at that vertex (FEMB_PDF_RESERVOIR) and the emitter is in the list, 1 after a delta lobe
+ * or the camera (pdf_prev 0). */
+static inline float emission_weight(const femb_context *c, float pdf_prev, uint32_t instance,
+                                    uint32_t primitive, v3 p, v3 from, v3 dir, v3 ng)
+{
+    if (pdf_prev == FEMB_PDF_RESERVOIR)
+        return c->lights.count && c->lights.instance_first[instance] != ~0u ? 0.0f : 1.0f;
+    if (!(pdf_prev > 0))
+        return 1.0f;
+    v3 dd = sub(p, from);
+    return tnd_mis_power(pdf_prev,
+                         emitter_pdf(c, instance, primitive, sqrtf(dot(dd, dd)), dir, ng, from));
+}
+
 /* Radiance a path finds where its ray in direction dir leaves the scene: the uniform sky, or the
  * environment map MIS-weighted against its own sampling when the ray is a BRDF sample (pdf_prev
  * > 0; a camera ray or a delta lobe's gets it whole). */
@@ -166,6 +182,7 @@ static inline void miss_radiance(const femb_context *c, v3 dir, float pdf_prev, 
     float d[3] = {dir.x, dir.y, dir.z};
     float pdf = tnd_env_lookup(&s->env, d, out);
     float w = pdf_prev > 0 ? tnd_mis_power(pdf_prev, c->lights.env_pick * pdf) : 1.0f;
+    w = pdf_prev == FEMB_PDF_RESERVOIR && c->lights.env_pick > 0 ? 0.0f : w;
     for (int k = 0; k < 3; k++)
         out[k] *= w;
 }
@@ -509,13 +526,8 @@ static void path_vertex(const femb_context *c, const femb_paths *P, uint32_t b, 
             continue;
         v3 dir = LD3(st->dir, i);
         if (S->emission[0][i] > 0 || S->emission[1][i] > 0 || S->emission[2][i] > 0) {
-            float w = 1.0f;
-            if (st->pdf_prev[i] > 0) {
-                v3 dd = sub(LD3(S->p, i), LD3(st->from, i));
-                w = tnd_mis_power(st->pdf_prev[i], emitter_pdf(c, inst[i], prim[i],
-                                                               sqrtf(dot(dd, dd)), dir,
-                                                               LD3(S->ng, i), LD3(st->from, i)));
-            }
+            float w = emission_weight(c, st->pdf_prev[i], inst[i], prim[i], LD3(S->p, i),
+                                      LD3(st->from, i), dir, LD3(S->ng, i));
             for (int k = 0; k < 3; k++)
                 L_out[k][i] += st->beta[k][i] * w * S->emission[k][i];
         }
@@ -670,13 +682,8 @@ LANE_FN static void one_bounce(const femb_context *c, const femb_paths *P, float
     femb_surface_eval_batch(c, n, hit, inst, prim, hu, hv, P->dir, cone, &S);
     for (uint32_t i = 0; i < n; i++) /* emitters hit, MIS-weighted when a BRDF sample found them */
         if (hit[i] && (S.emission[0][i] > 0 || S.emission[1][i] > 0 || S.emission[2][i] > 0)) {
-            float w = 1.0f;
-            if (P->pdf_prev[i] > 0) {
-                v3 dd = sub(LD3(S.p, i), LD3(P->from, i));
-                w = tnd_mis_power(P->pdf_prev[i], emitter_pdf(c, inst[i], prim[i],
-                                                              sqrtf(dot(dd, dd)), LD3(P->dir, i),
-                                                              LD3(S.ng, i), LD3(P->from, i)));
-            }
+            float w = emission_weight(c, P->pdf_prev[i], inst[i], prim[i], LD3(S.p, i),
+                                      LD3(P->from, i), LD3(P->dir, i), LD3(S.ng, i));
             for (int k = 0; k < 3; k++)
                 L_out[k][i] += w * S.emission[k][i];
         }
@@ -824,7 +831,35 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
     uint8_t goes_on[NL]; /* an indirect path follows (--bounces half: in expectation) */
     LANES (i, n)
         goes_on[i] = p->bounces > 0;
-    direct_light(c, &P, 0, S, &L, P.org, P.active, goes_on, n, d, sp);
+    /* the lanes whose direct light is a reservoir's (--lights restir; femb_restir.c): the rest
+     * take next-event estimation */
+    const femb_reservoir *res[NL] = {NULL};
+    uint8_t nee[NL];
+    bool any_res = false;
+    if (c->restir && P.key_sample == TND_SAMPLE_REALTIME) {
+        memcpy(nee, P.active, sizeof nee);
+        for (uint32_t i = 0; i < n; i++)
+            if (live[i] && (res[i] = femb_restir_lookup(c, P.key_frame[i], P.key_pixel[i]))) {
+                nee[i] = 0;
+                any_res = true;
+            }
+    }
+    direct_light(c, &P, 0, S, &L, P.org, any_res ? nee : P.active, goes_on, n, d, sp);
+    for (uint32_t i = 0; any_res && i < n; i++) {
+        if (!res[i])
+            continue;
+        femb_rsurf rsf;
+        for (int k = 0; k < 3; k++) {
+            rsf.p[k] = S->p[k][i], rsf.ns[k] = S->ns[k][i], rsf.ng[k] = S->ng[k][i];
+            rsf.wo[k] = S->wo[k][i], rsf.base[k] = S->base[k][i];
+        }
+        rsf.metallic = S->metallic[i], rsf.roughness = S->roughness[i];
+        rsf.specular = S->specular[i], rsf.depth = depth[i];
+        float dr[3], sr[3];
+        femb_restir_shade(c, res[i], &rsf, LD3(P.org, i), dr, sr);
+        for (int k = 0; k < 3; k++)
+            d[k][i] = dr[k], sp[k][i] = sr[k];
+    }
     LANES (i, n) {
         for (int k = 0; k < 3; k++) {
             float m = S->metallic[i];
@@ -848,7 +883,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
                            TND_HALF_TRACED(P.key_pixel[i], P.key_frame[i], c->width));
             for (int k = 0; k < 3; k++)
                 P.dir[k][i] = wi[k][i];
-            P.pdf_prev[i] = pdf[i];
+            P.pdf_prev[i] = res[i] ? FEMB_PDF_RESERVOIR : pdf[i];
             P.cone[i] = depth[i] * c->pixel_spread;
         }
         if (p->bounces == 1 && !c->specular)

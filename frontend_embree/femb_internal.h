@@ -78,6 +78,28 @@ typedef struct femb_mat {
 
 typedef struct femb_pool femb_pool;
 
+/* ReSTIR DI's per-pixel state (femb_restir.c). A reservoir holds one light sample: the light's
+ * index in the list and the two numbers that place the point on it, its unbiased contribution
+ * weight W for the pixel's target, and M, the candidates it stands for (0: the pixel does not use
+ * reservoirs, and shades with next-event estimation). */
+typedef struct femb_reservoir {
+    uint32_t light;
+    float u, v, W, M;
+} femb_reservoir;
+/* What a target is evaluated on: the primary surface of a pixel (depth: from the camera). */
+typedef struct femb_rsurf {
+    float p[3], ns[3], ng[3], wo[3], base[3];
+    float metallic, roughness, specular, depth;
+} femb_rsurf;
+typedef struct femb_restir {
+    uint32_t width, height;
+    uint32_t frame, prev_frame; /* the frames of cur and prev */
+    bool have_cur, have_prev;
+    femb_reservoir *prev, *mid, *cur; /* the previous frame's final, this one's after the
+                                       * temporal merge, this one's final */
+    femb_rsurf *sprev, *scur;
+} femb_restir;
+
 struct femb_context {
     const tnd_scene *scene;
     femb_inst *inst; /* per instance */
@@ -112,6 +134,8 @@ struct femb_context {
                          * lanes instead of copying them lane by lane (femb_estimator.c) */
     bool any_moved;            /* some instance's transform differs from the previous frame's */
     femb_ray_log *log; /* NULL except while recording */
+    bool restir;       /* --lights restir: reservoirs at the primary surface (femb_restir.c) */
+    femb_restir rs;
 };
 
 /* A surface point, reconstructed from (instance, primitive, barycentrics). */
@@ -277,6 +301,10 @@ typedef struct femb_paths {
     uint8_t active[FEMB_LANES];
     uint32_t n;
 } femb_paths;
+/* pdf_prev of a path whose previous vertex took every light of the list's share by itself (a
+ * reservoir's sample, femb_restir.c): an emitter of the list or the environment map it finds gets
+ * weight 0; emitters outside the list and the uniform sky keep theirs */
+#define FEMB_PDF_RESERVOIR (-1.0f)
 
 /* Radiance arriving along each path from path vertex `bounce` on: emission (MIS-weighted against
  * the light list where pdf_prev > 0), NEE at each hit, more vertices up to max_bounce with
@@ -326,5 +354,18 @@ typedef struct femb_chain {
 void femb_miss_radiance(const femb_context *c, v3 dir, float out[3]);
 void femb_specular_chain(const femb_context *c, uint32_t x, uint32_t y, bool follow,
                          femb_chain *r);
+
+/* ReSTIR DI (femb_restir.c). femb_restir_frame: the reservoirs of frame f's pixels from its
+ * G-buffer (candidates, the merge with the previous frame's along the motion vectors, the merge
+ * with neighbours), before the shading pass. femb_restir_lookup: the reservoir the pixel with
+ * random-number key (key_frame, key_pixel) shades with (this frame's, or the previous frame's for
+ * a gradient sample), NULL where it has none. femb_restir_shade: its sample's light at surface s
+ * (one shadow ray from org), diffuse (demodulated) and specular, times W. */
+tnd_result femb_restir_frame(femb_context *c, const tnd_frame *f);
+const femb_reservoir *femb_restir_lookup(const femb_context *c, uint32_t key_frame,
+                                         uint32_t key_pixel);
+void femb_restir_shade(const femb_context *c, const femb_reservoir *r, const femb_rsurf *s,
+                       v3 org, float diff[3], float spec[3]);
+void femb_restir_free(femb_restir *rs);
 
 #endif

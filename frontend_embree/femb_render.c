@@ -553,23 +553,36 @@ static void params_jitter(femb_context *c, const femb_params *p)
         tnd_jitter(c->frame, c->jitter);
 }
 
-tnd_result femb_render(femb_context *c, const femb_params *p, tnd_frame *f, float *radiance)
+/* Whether this frame's shading takes reservoirs (--lights restir, the frame's own numbers: a
+ * matched reference's samples keep next-event estimation, whose expectation is the same). */
+static bool uses_reservoirs(const femb_context *c, const femb_params *p)
 {
-    params_jitter(c, p);
-    tnd_result res = primary_frame(c, f, &(primary_job){f, p ? p : &default_params, radiance});
-    if (res == TND_OK)
-        mark_shading(f);
-    return res;
+    return c->restir && (p ? p->sample : TND_SAMPLE_REALTIME) == TND_SAMPLE_REALTIME;
 }
 
 tnd_result femb_shade(femb_context *c, const femb_params *p, tnd_frame *f, float *radiance)
 {
     if (f->width != c->width || f->height != c->height || !f->present[TND_CT_VIS_ID])
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "embree: shade needs the primary pass's frame");
+    if (uses_reservoirs(c, p))
+        TND_TRY_RETURN(femb_restir_frame(c, f));
     shade_job j = {p ? p : &default_params, f, radiance};
     femb_parallel_tiles(c, shade_tile, &j);
     mark_shading(f);
     return TND_OK;
+}
+
+tnd_result femb_render(femb_context *c, const femb_params *p, tnd_frame *f, float *radiance)
+{
+    params_jitter(c, p);
+    if (uses_reservoirs(c, p)) { /* the reservoirs need the whole G-buffer before shading */
+        tnd_result res = primary_frame(c, f, &(primary_job){f, NULL, NULL});
+        return res == TND_OK ? femb_shade(c, p, f, radiance) : res;
+    }
+    tnd_result res = primary_frame(c, f, &(primary_job){f, p ? p : &default_params, radiance});
+    if (res == TND_OK)
+        mark_shading(f);
+    return res;
 }
 
 _Static_assert(sizeof(femb_gradient_sample) == 7 * sizeof(uint32_t), "7 words per sample");

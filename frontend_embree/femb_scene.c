@@ -67,6 +67,7 @@ void femb_destroy(femb_context *c)
     if (!c)
         return;
     femb_pool_stop(c);
+    femb_restir_free(&c->rs);
     if (c->top)
         rtcReleaseScene(c->top);
     for (uint32_t m = 0; c->meshes && m < c->scene->mesh_count; m++)
@@ -115,8 +116,9 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
     long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
     c->threads = d && d->threads ? d->threads : (uint32_t)(ncpu > 0 ? ncpu : 1);
     c->reflect_depth = d && d->reflect_depth ? d->reflect_depth : TND_REFLECT_DEPTH;
-    c->lights.want_tree =
-        tnd_light_sampling_for(s, d ? d->lights : TND_LIGHTS_AUTO) == TND_LIGHTS_TREE;
+    tnd_light_sampling pick = tnd_light_sampling_for(s, d ? d->lights : TND_LIGHTS_AUTO);
+    c->restir = pick == TND_LIGHTS_RESTIR; /* (its candidates by the tree) */
+    c->lights.want_tree = pick == TND_LIGHTS_TREE || pick == TND_LIGHTS_RESTIR;
     if (c->reflect_depth > TND_MAX_SPECULAR_DEPTH)
         c->reflect_depth = TND_MAX_SPECULAR_DEPTH;
     char cfg[64];

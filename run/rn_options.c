@@ -188,7 +188,7 @@ tnd_result rn_render_check(const rn_render_opts *o, bool reference)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--reflect-depth is 1 to 16");
     tnd_light_sampling ls;
     if (!tnd_light_sampling_parse(o->lights ? o->lights : "auto", &ls))
-        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--lights %s: expected auto, plain or tree",
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--lights %s: expected auto, plain, tree or restir",
                         o->lights);
     if (o->timed_frames && o->view) /* (its camera path ends with the frames written) */
         return tnd_fail(TND_ERR_INVALID_ARGUMENT,

@@ -49,7 +49,7 @@ typedef struct rank_den {
     char name[1100]; /* the denoiser: spec up to its first '@' */
     char id[80];     /* its directory and column name */
     char taa[24];    /* @taa=: the post chain's TAA (empty: the suite's) */
-    char lights[8];  /* @lights=: NEE's light pick, auto|plain|tree (empty: the suite's) */
+    char lights[8];  /* @lights=: NEE's light pick, auto|plain|tree|restir (empty: the suite's) */
     pl_param_set params; /* @PARAM=: the denoiser's parameters (pl_param) */
 } rank_den;
 
@@ -319,7 +319,7 @@ static tnd_result suite_read(const char *given, rank_plan *P)
 }
 
 /* A row's settings after its name: @taa=on|off|W (the post chain's TAA, as render's --taa),
- * @lights=auto|plain|tree (the front-end's light pick, as render's --lights: every pick has the
+ * @lights=auto|plain|tree|restir (the front-end's light pick, as render's --lights: every pick has the
  * same matched reference, docs/lights.md) and @PARAM=X (a parameter of that denoiser, as
  * render's --PARAM), so that one rank measures a change against the denoiser without it. Each is checked here, by name, before anything runs;
  * the row's id (its folder and column) gets the settings as given. */
@@ -356,7 +356,7 @@ static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
             tnd_light_sampling ls;
             if (!tnd_light_sampling_parse(val, &ls))
                 return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: lights=%s: auto, "
-                                                          "plain or tree", d->spec, val);
+                                                          "plain, tree or restir", d->spec, val);
             snprintf(d->lights, sizeof d->lights, "%s", val);
             continue;
         }

@@ -173,7 +173,7 @@ void rn_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, rn_vie
  * rn_render_defaults. */
 typedef struct rn_render_opts {
     const char *scene, *frontend, *out, *precision, *rt_api, *denoiser, *dump, *pipeline;
-    const char *lights; /* next-event estimation's light pick: auto, plain or tree */
+    const char *lights; /* next-event estimation's light pick: auto, plain, tree or restir */
     const char *taa, *tonemap, *exposure; /* taa NULL: on, not asked for */
     double bloom, exposure_bias;
     pl_param_set params; /* the denoiser's parameters given (pl_param) */

@@ -43,6 +43,15 @@
     X(RR,         6, "Russian roulette") \
     X(SPLIT,      7, "reflect or refract at a dielectric")
 // clang-format on
+/* ReSTIR DI's numbers (`--lights restir`, the real-time sample word only, whose hash makes any
+ * 32-bit dimension a stream of its own): candidate j of the primary surface draws
+ * TND_DIM_RESTIR_CANDIDATE + 4 j + (0 the light, 1 and 2 the point on it, 3 keep or not); the
+ * temporal merge's choice TND_DIM_RESTIR_TEMPORAL; spatial neighbour s TND_DIM_RESTIR_SPATIAL
+ * + 2 s + (0 the angle, 1 the radius) and the spatial merge's choice TND_DIM_RESTIR_SPATIAL_KEEP. */
+#define TND_DIM_RESTIR_CANDIDATE 0x52000000u
+#define TND_DIM_RESTIR_TEMPORAL 0x52001000u
+#define TND_DIM_RESTIR_SPATIAL 0x52002000u
+#define TND_DIM_RESTIR_SPATIAL_KEEP 0x52002fffu
 #define TND_DIM_JITTER_X 0u
 #define TND_DIM_JITTER_Y 1u
 #define TND_DIMS_BASE 2u

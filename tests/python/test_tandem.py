@@ -244,7 +244,7 @@ def test_errors_raise_with_message(tmp_path):
         tandem.Renderer(CORNELL, frontend="rays")
     with pytest.raises(tandem.TandemError, match="denoiser 'bm3d'"):
         tandem.Renderer(CORNELL, frontend="embree", denoiser="bm3d")
-    with pytest.raises(tandem.TandemError, match="--lights x: expected auto, plain or tree"):
+    with pytest.raises(tandem.TandemError, match="--lights x: expected auto, plain, tree or restir"):
         tandem.Renderer(CORNELL, frontend="embree", lights="x")
     bad = tmp_path / "bad.exr"
     bad.write_bytes(b"not an exr")
