@@ -422,9 +422,11 @@ void femb_restir_shade(const femb_context *c, const femb_reservoir *r, const fem
     if (!y.ok || !contribution(&y, s, d, sp, &wi, &dist))
         return;
     /* the shadow ray as next-event estimation casts it: to the emitter's point offset off its
-     * plane towards the receiver (shaders/offset.h), none where the two offset points crossed */
+     * plane towards the receiver (shaders/offset.h); none where the two offset points crossed
+     * (the receiver nearer the emitter than the coordinates resolve: no occluder fits) */
     float tmax = 1e30f;
     v3 dir = wi;
+    bool cast = true;
     if (!y.far) {
         v3 p = {s->p[0], s->p[1], s->p[2]}, end = y.x;
         if (y.kind == TND_LIGHT_KIND_TRIANGLE) {
@@ -434,12 +436,11 @@ void femb_restir_shade(const femb_context *c, const femb_reservoir *r, const fem
             end = add(y.x, mul(nt, eq));
         }
         v3 sd = sub(end, org);
-        if (!(dot(sd, sub(y.x, p)) > 0.0f))
-            return;
+        cast = dot(sd, sub(y.x, p)) > 0.0f;
         tmax = sqrtf(dot(sd, sd));
         dir = mul(sd, 1.0f / tmax);
     }
-    if (femb_occluded(c, org, dir, tmax))
+    if (cast && femb_occluded(c, org, dir, tmax))
         return;
     for (int k = 0; k < 3; k++) {
         diff[k] = d[k] * r->W;

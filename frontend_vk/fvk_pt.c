@@ -401,8 +401,14 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
                        vk->info.name);
         goto fail;
     }
-    c->light_list.want_tree =
-        tnd_light_sampling_for(scene, desc ? desc->lights : TND_LIGHTS_AUTO) == TND_LIGHTS_TREE;
+    tnd_light_sampling pick = tnd_light_sampling_for(scene, desc ? desc->lights : TND_LIGHTS_AUTO);
+    if (pick == TND_LIGHTS_RESTIR) {
+        res = tnd_fail(TND_ERR_UNSUPPORTED, "frontend_vk: --lights restir: the Vulkan front-end "
+                                            "has no reservoirs yet (the Embree front-end has; "
+                                            "docs/lights.md)");
+        goto fail;
+    }
+    c->light_list.want_tree = pick == TND_LIGHTS_TREE;
     choose_variant(c, desc && desc->full_pipeline);
     c->reflect_depth = desc && desc->reflect_depth ? desc->reflect_depth : TND_REFLECT_DEPTH;
     if (c->reflect_depth > TND_MAX_SPECULAR_DEPTH)

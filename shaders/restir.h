@@ -15,7 +15,7 @@
 #define TND_RESTIR_CANDIDATES 8u
 /* the previous frame's reservoir counts at most this many times the candidates (its history
  * fades; Bitterli et al.'s 20) */
-#define TND_RESTIR_HISTORY 20u
+#define TND_RESTIR_HISTORY 1u
 /* spatial neighbours merged per pixel */
 #define TND_RESTIR_NEIGHBOURS 3u
 /* a neighbour or a previous pixel is merged only where its surface is like the pixel's: normals

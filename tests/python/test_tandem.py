@@ -229,6 +229,22 @@ def test_lights_option_equals_command(tmp_path):
     assert not np.array_equal(plain["radiance"], fr["radiance"])
 
 
+def test_restir_option_equals_command(tmp_path):
+    """lights="restir" is render's --lights restir, bit for bit over frames that reuse the last
+    frame's reservoirs; the Vulkan front-end refuses it by name."""
+    scene = os.path.join(os.path.dirname(CORNELL), "many_lights.gltf")
+    out = tmp_path / "run"
+    run("render", "--scene", scene, "--frontend", "embree", "--denoiser", "off", "--size",
+        "32x18", "--frames", "3", "--lights", "restir", "--out", str(out))
+    r = tandem.Renderer(scene, frontend="embree", denoiser="off", size=(32, 18), lights="restir")
+    for f in range(3):
+        px, _ = read_rgb(str(out / ("frame_%04d.exr" % f)))
+        assert np.array_equal(px[..., :3], r.frame(f)["radiance"]), f
+    with pytest.raises(tandem.TandemError, match="--lights restir: the Vulkan front-end has no "
+                                                 "reservoirs yet"):
+        tandem.Renderer(scene, frontend="vk", size=(32, 18), lights="restir").frame(0)
+
+
 def test_errors_raise_with_message(tmp_path):
     with pytest.raises(tandem.TandemError, match="nope.gltf: cannot open"):
         tandem.Scene(str(tmp_path / "nope.gltf"))
