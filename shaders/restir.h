@@ -12,7 +12,7 @@
 #define TND_RESTIR_H
 
 /* candidates per pixel and frame, drawn by the light tree (or the power table) */
-#define TND_RESTIR_CANDIDATES 8u
+#define TND_RESTIR_CANDIDATES 4u
 /* the previous frame's reservoir counts at most this many times the candidates (its history
  * fades; Bitterli et al.'s 20) */
 #define TND_RESTIR_HISTORY 1u

@@ -610,8 +610,8 @@ static void test_gradient_samples_reproduce(void)
  * BRDF samples: heavy tails), as much as the reservoirs' mean does from either. And it is what it is
  * for: the frames' relMSE against a 512-sample reference, after the reservoirs' first 8 frames,
  * with one bounce, under 0.7x next-event estimation's with the tree and 0.3x with the table
- * (measured 1.32, 2.80 and 8.49: the bounce's own noise, alike for all three, dominates; direct
- * light alone at 160x90 gains 7x and 48x, docs/lights.md). */
+ * (measured 1.38, 2.80 and 8.49: the bounce's own noise, alike for all three, dominates; direct
+ * light alone at 160x90 gains 8x and 41x, docs/lights.md). */
 enum { RS_W = 48, RS_H = 27, RS_FRAMES = 256 / TND_TEST_SAMPLES_DIV };
 typedef struct rs_series {
     double lum[RS_FRAMES][5]; /* per frame: the image's mean luminance and its quarters' */
