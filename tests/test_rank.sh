@@ -165,7 +165,7 @@ check "an unknown denoiser: a usage error" $?
     "$T" rank quick --denoisers svgf,recurrent@atrous=9 --out "$tmp/r5" --cache "$C" 2> "$tmp/e8"
 [ $? -eq 2 ] && grep -q "recurrent@atrous=9: --atrous 9: expected a whole number" "$tmp/e8" &&
     "$T" rank quick --denoisers svgf,asvgf@lights=fancy --out "$tmp/r5" --cache "$C" 2> "$tmp/e9"
-[ $? -eq 2 ] && grep -q "asvgf@lights=fancy: lights=fancy: auto, plain or tree" "$tmp/e9" &&
+[ $? -eq 2 ] && grep -q "asvgf@lights=fancy: lights=fancy: auto, plain, tree or restir" "$tmp/e9" &&
     [ ! -e "$tmp/r5" ]
 check "a row's settings the denoiser has not, or out of range: a usage error naming them" $?
 "$T" rank quick --denoisers svgf,off --out "$tmp/r1" --cache "$C" 2> "$tmp/e4"
