@@ -23,6 +23,15 @@ struct fvk_context {
      * record's vec4 index + 1 (0: none), which each instance carries in info.z */
     tnd_buffer alpha;
     tnd_buffer light_nodes; /* the light tree (shaders/light_tree.h; binding 18) */
+    /* ReSTIR DI (--lights restir; shaders/pt_restir.glsl): the reservoirs (binding 19: two
+     * frames' final ones and this frame's after the temporal merge, W x H each) and the surfaces
+     * (binding 20: two frames'), made at the frame's size (a record each without reservoirs);
+     * the slot this frame writes (the previous frame's is the other), whether the previous
+     * frame's are there, the frames they belong to */
+    tnd_buffer rs_reservoirs, rs_surfaces;
+    bool restir;
+    uint32_t rs_width, rs_height, rs_slot, rs_frame, rs_prev_frame;
+    bool rs_have_cur, rs_have_prev;
     uint32_t *alpha_at;
     uint32_t gradient_capacity;
     uint32_t shade_slot_rows; /* the next shading pass's launch rows for mode 2's slots */

@@ -4,6 +4,7 @@
  * Entry points: fvk_create, fvk_destroy, fvk_set_frame, fvk_render, fvk_shade_gradients,
  * fvk_shade_gradient_slots, fvk_contract. */
 #include "frontend_vk/fvk_internal.h"
+#include "shaders/restir.h"
 #include "shaders/sampling.h"
 #include "shaders/specular.h"
 #include "shaders/shader_list.h"
@@ -15,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { SCENE_BINDINGS = 19 };
+enum { SCENE_BINDINGS = 21 };
 
 static tnd_result create_layouts(fvk_context *c)
 {
@@ -182,7 +183,8 @@ static void write_scene_set_to(fvk_context *c, VkDescriptorSet set)
                                               &c->instances, &c->lights,    &c->gradients,
                                               NULL,          NULL,          &c->env,
                                               &c->uvs1,      &c->texel_lut, &c->alpha,
-                                              &c->light_nodes};
+                                              &c->light_nodes, &c->rs_reservoirs,
+                                              &c->rs_surfaces};
     VkDescriptorImageInfo acc = {VK_NULL_HANDLE, c->accum.view, VK_IMAGE_LAYOUT_GENERAL};
     VkDescriptorBufferInfo bi[SCENE_BINDINGS];
     VkWriteDescriptorSet w[SCENE_BINDINGS];
@@ -362,6 +364,11 @@ static void choose_variant(fvk_context *c, bool full)
         n += (size_t)snprintf(c->variant + n, sizeof c->variant - n, "%slight tree",
                               n ? ", " : "");
     }
+    if (c->restir) { /* ReSTIR DI's passes and shading (shaders/pt_restir.glsl) */
+        c->uses |= TND_USES_RESTIR;
+        n += (size_t)snprintf(c->variant + n, sizeof c->variant - n, "%sreservoirs",
+                              n ? ", " : "");
+    }
     if (full)
         snprintf(c->variant + n, sizeof c->variant - n, " (--pipeline full)");
     else if (!n)
@@ -402,13 +409,8 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
         goto fail;
     }
     tnd_light_sampling pick = tnd_light_sampling_for(scene, desc ? desc->lights : TND_LIGHTS_AUTO);
-    if (pick == TND_LIGHTS_RESTIR) {
-        res = tnd_fail(TND_ERR_UNSUPPORTED, "frontend_vk: --lights restir: the Vulkan front-end "
-                                            "has no reservoirs yet (the Embree front-end has; "
-                                            "docs/lights.md)");
-        goto fail;
-    }
-    c->light_list.want_tree = pick == TND_LIGHTS_TREE;
+    c->restir = pick == TND_LIGHTS_RESTIR; /* (its candidates by the tree) */
+    c->light_list.want_tree = pick == TND_LIGHTS_TREE || pick == TND_LIGHTS_RESTIR;
     choose_variant(c, desc && desc->full_pipeline);
     c->reflect_depth = desc && desc->reflect_depth ? desc->reflect_depth : TND_REFLECT_DEPTH;
     if (c->reflect_depth > TND_MAX_SPECULAR_DEPTH)
@@ -478,6 +480,25 @@ tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_s
         c->height = height;
         tnd_contract_write_set(c->vk, c->sets[1], &c->contract);
     }
+    if (c->restir && (c->rs_width != width || c->rs_height != height)) {
+        /* ReSTIR DI's records at the frame's size (nothing of the previous size carries over) */
+        vkDeviceWaitIdle(c->vk->device);
+        size_t n = (size_t)width * height;
+        tnd_buffer_destroy(c->vk, &c->rs_reservoirs);
+        tnd_buffer_destroy(c->vk, &c->rs_surfaces);
+        TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = 3 * n * TND_GPU_RESERVOIR_BYTES,
+                                                            .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                            .mem = TND_MEM_DEVICE,
+                                                            .name = "restir.reservoirs"},
+                                  &c->rs_reservoirs));
+        TND_TRY(tnd_buffer_create(c->vk, &(tnd_buffer_desc){.size = 2 * n * TND_GPU_RSURF_BYTES,
+                                                            .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                            .mem = TND_MEM_DEVICE,
+                                                            .name = "restir.surfaces"},
+                                  &c->rs_surfaces));
+        c->rs_width = width, c->rs_height = height;
+        c->rs_have_cur = c->rs_have_prev = false;
+    }
     TND_TRY(fvk_scene_frame(c, cur, prev, first));
     tnd_gpu_frame f;
     memset(&f, 0, sizeof f);
@@ -517,6 +538,25 @@ static void set_params(fvk_context *c, const fvk_params *p)
     f->params.y = p ? p->sample : TND_SAMPLE_REALTIME;
     f->params.w = c->reflect_depth;
     f->indirect.x = p && p->half_indirect && f->params.x > 0 ? 1u : 0u;
+    /* ReSTIR DI: the frame's own numbers only (a matched reference's samples keep next-event
+     * estimation, whose expectation is the same); a new frame takes the other slot, the last
+     * frame's final reservoirs becoming the previous ones */
+    f->restir = (tnd_guvec4){0, 0, 0, 0};
+    if (c->restir && f->params.y == TND_SAMPLE_REALTIME) {
+        if (c->rs_have_cur && c->rs_frame != c->frame) {
+            c->rs_slot ^= 1u;
+            c->rs_prev_frame = c->rs_frame;
+            c->rs_have_prev = true;
+        }
+        c->rs_frame = c->frame;
+        c->rs_have_cur = true;
+        float radius = (float)c->width / 40.0f;
+        radius = radius < 3.0f ? 3.0f : radius > 30.0f ? 30.0f : radius;
+        uint32_t rbits;
+        memcpy(&rbits, &radius, sizeof rbits);
+        f->restir = (tnd_guvec4){1u, c->rs_slot | (c->rs_have_prev ? 2u : 0u), c->rs_prev_frame,
+                                 rbits};
+    }
     float jit[2];
     if (p && p->set_jitter)
         memcpy(jit, p->jitter, sizeof jit);
@@ -602,10 +642,20 @@ fail:
 }
 
 /* A render's last command buffer: the shading pass, submitted as run[0]. */
-static tnd_result end_render(fvk_context *c, VkCommandBuffer cmd, fvk_timings *t)
+static tnd_result end_render(fvk_context *c, VkCommandBuffer cmd, uint32_t mode, fvk_timings *t)
 {
     tnd_result res = TND_OK;
     int s1 = tnd_timer_begin(cmd, &c->timer[0], "frontend_vk.shade");
+    if (c->ubo.restir.x) {
+        /* ReSTIR DI's passes (pt_shade.glsl modes 4 and 5), then the shading pass's own mode */
+        const VkShaderStageFlags st = VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_COMPUTE_BIT;
+        for (uint32_t m = 4; m <= 5; m++) {
+            vkCmdPushConstants(cmd, c->layout, st, 0, 4, &m);
+            launch(c, cmd, 1, c->width, c->height, false);
+            tnd_cmd_barrier(cmd);
+        }
+        vkCmdPushConstants(cmd, c->layout, st, 0, 4, &mode);
+    }
     /* (half resolution: pt_shade.glsl's shade_pixel takes rows in pairs; mode 2: the slots' rows
      * below the pixels') */
     launch(c, cmd, 1, c->width,
@@ -629,7 +679,7 @@ tnd_result fvk_render(fvk_context *c, const fvk_params *p, fvk_timings *t)
     tnd_result res = TND_OK;
     VkCommandBuffer cmd;
     TND_TRY(begin_render(c, p, &cmd));
-    TND_TRY(end_render(c, cmd, t));
+    TND_TRY(end_render(c, cmd, 0u, t));
 fail:
     return res;
 }
@@ -773,7 +823,7 @@ tnd_result fvk_render_shade(fvk_context *c, const fvk_params *p, VkBuffer slots_
     VkCommandBuffer cmd;
     TND_TRY(begin_passes(c, -1, slots ? 2u : 0u, slots, false, &cmd));
     c->slot_set_queued |= slots; /* (end_render submits it) */
-    TND_TRY(end_render(c, cmd, t));
+    TND_TRY(end_render(c, cmd, slots ? 2u : 0u, t));
 fail:
     return res;
 }

@@ -4,6 +4,7 @@
  * custom indices are Tandem's instance indices, refitted when instances move).
  * Entry points (internal): fvk_scene_upload, fvk_scene_free, fvk_scene_frame. */
 #include "frontend_vk/fvk_internal.h"
+#include "shaders/restir.h"
 #include "shaders/texel_lut.h"
 
 #include <stdio.h>
@@ -118,7 +119,8 @@ void fvk_scene_free(fvk_context *c)
     tnd_buffer *bufs[] = {&c->positions, &c->normals, &c->uvs,      &c->tangents,
                           &c->indices,   &c->meshes,  &c->materials, &c->instances,
                           &c->lights,    &c->frame_ubo, &c->gradients, &c->env, &c->uvs1,
-                          &c->texel_lut, &c->alpha, &c->light_nodes};
+                          &c->texel_lut, &c->alpha, &c->light_nodes, &c->rs_reservoirs,
+                          &c->rs_surfaces};
     for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++)
         tnd_buffer_destroy(vk, bufs[i]);
     for (uint32_t i = 0; c->textures && i < c->texture_count; i++)
@@ -313,6 +315,18 @@ tnd_result fvk_scene_upload(fvk_context *c)
                                .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                .mem = TND_MEM_UPLOAD, .name = "scene.light_nodes"},
         &c->light_nodes));
+    /* ReSTIR DI's reservoirs and surfaces: a record each until fvk_set_frame makes them at the
+     * frame's size (the bindings are never empty) */
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = TND_GPU_RESERVOIR_BYTES,
+                                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                     .mem = TND_MEM_DEVICE,
+                                                     .name = "restir.reservoirs"},
+                              &c->rs_reservoirs));
+    TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = TND_GPU_RSURF_BYTES,
+                                                     .usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                                     .mem = TND_MEM_DEVICE,
+                                                     .name = "restir.surfaces"},
+                              &c->rs_surfaces));
     /* the environment map's texels and distributions as one float array (shaders/env.h); a
      * vec4 when there is none (the binding is never empty) */
     size_t env_bytes = s->env.width ? TND_ENV_FLOATS((size_t)s->env.width, s->env.height) * 4 : 16;

@@ -458,6 +458,8 @@ vec3 miss_radiance(vec3 dir, float pdf_prev)
         vec3 rgb;
         float pdf = env_lookup(dir, rgb);
         float w = pdf_prev > 0.0 ? tnd_mis_power(pdf_prev, fr.sky.w * pdf) : 1.0;
+        if (USES(TND_USES_RESTIR) && pdf_prev == TND_PDF_RESERVOIR && fr.sky.w > 0.0)
+            w = 0.0; /* (a reservoir took the environment's share) */
         return rgb * w;
     }
     return USES(TND_USES_SKY) ? fr.sky.rgb : vec3(0.0);
@@ -647,6 +649,9 @@ vec3 trace_path(uvec3 key, vec3 from, vec3 org, vec3 dir, uint bounce, uint max_
             if (pdf_prev > 0.0)
                 w = tnd_mis_power(pdf_prev, emitter_pdf(h.inst, h.prim, length(s.p - from), dir,
                                                         s.ng, from));
+            else if (USES(TND_USES_RESTIR) && pdf_prev == TND_PDF_RESERVOIR &&
+                     fr.frame.w != 0u && instances[h.inst].info.y != 0xffffffffu)
+                w = 0.0; /* an emitter of the list: the reservoir took its share */
             L_out += beta * w * s.emission;
         }
         if (USES(TND_USES_SPECULAR) && s.kind != TND_KIND_OPAQUE) {

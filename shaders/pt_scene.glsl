@@ -34,6 +34,10 @@ layout(set = 0, binding = 17, std430) readonly buffer Alpha { vec4 alpha_data[];
 #define TND_LT_SET 0
 #define TND_LT_BINDING 18
 #include "light_tree.h"
+/* ReSTIR DI's reservoirs and surfaces (shaders/restir.h; pt_restir.glsl) */
+#include "restir.h"
+layout(set = 0, binding = 19, std430) buffer Reservoirs { tnd_gpu_reservoir reservoirs[]; };
+layout(set = 0, binding = 20, std430) buffer RSurfaces { tnd_gpu_rsurf rsurfs[]; };
 #include "env.h"
 
 

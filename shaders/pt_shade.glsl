@@ -8,7 +8,8 @@
  * leaving the G-buffer and the contract with the pixel's own sample; mode 2 is mode 0 with mode
  * 3 folded in: the launch has rows past the pixels' own, one slot per launch, so that a warp
  * shades pixels or slots, never both (a slot shaded beside its pixel would hold its warp for a
- * second shading). */
+ * second shading). Modes 4 and 5 run before mode 0 where the frame takes reservoirs (ReSTIR DI,
+ * pt_restir.glsl): the candidates and the temporal merge, then the spatial merge. */
 #include "pt_common.glsl"
 
 
@@ -80,6 +81,8 @@ surface gbuffer_surface(ivec2 ip)
     return s;
 }
 
+#include "pt_restir.glsl"
+
 /* no light: what a pixel that sees nothing holds */
 shaded shaded_none()
 {
@@ -113,7 +116,13 @@ shaded shade(ivec2 ip, surface s, uint inst, uint prim, uvec3 key)
     vec3 dd, sp;
     uint bounces = TND_BOUNCES_PLUS_ONE != 0u ? TND_BOUNCES_PLUS_ONE - 1u : fr.params.x;
     /* (an indirect path follows; with half of them traced, in expectation) */
-    direct_light(key, 0u, s, L, bounces > 0u, dd, sp);
+    /* the direct light of a reservoir (--lights restir: pt_restir.glsl), or next-event
+     * estimation's */
+    int ri = USES(TND_USES_RESTIR) && key.z == TND_SAMPLE_REALTIME ? rs_lookup(key.x, key.y) : -1;
+    if (ri >= 0)
+        restir_shade(rs_load(uint(ri)), s, dd, sp);
+    else
+        direct_light(key, 0u, s, L, bounces > 0u, dd, sp);
     o.hf = dd;
     o.spec = sp / demod;
     vec3 wi, w;
@@ -123,8 +132,8 @@ shaded shade(ivec2 ip, surface s, uint inst, uint prim, uvec3 key)
     bool halved = half_rate();
     if (bounces > 0u && (!halved || TND_HALF_TRACED(key.x, key.y, W)) &&
         sample_brdf(s, L, key, 0u, true, wi, w, pdf, is_spec)) {
-        vec3 Li = trace_path(key, s.p, offset_ray(s.p, s.ng), wi, 1u, bounces, 2u, pdf,
-                             depth * fr.jitter.z);
+        vec3 Li = trace_path(key, s.p, offset_ray(s.p, s.ng), wi, 1u, bounces, 2u,
+                             ri >= 0 ? TND_PDF_RESERVOIR : pdf, depth * fr.jitter.z);
         vec3 contrib = w * Li;
         if (halved)
             contrib *= 2.0;
@@ -162,6 +171,15 @@ void pt_shade_main(uvec2 launch)
      * into the contract (mode 1, patching the G-buffer) or into its slot (modes 2 and 3) */
     int entry = -1;
     bool into_slot = false;
+    if (USES(TND_USES_RESTIR) && pc.mode >= 4u) { /* the reservoirs' passes, before mode 0 */
+        if (launch.x < W && launch.y < fr.frame.z) {
+            if (pc.mode == 4u)
+                restir_candidates(ivec2(launch));
+            else
+                restir_spatial(ivec2(launch));
+        }
+        return;
+    }
     if (pc.mode == 3u) { /* the slots re-shaded after the shading pass (launch.x: the slot) */
         if (launch.x >= fr.params.z)
             return;

@@ -26,4 +26,27 @@
  * cannot find a sharp highlight that a BRDF sample finds) */
 #define TND_RESTIR_MIN_ROUGHNESS 0.2f
 
+/* pdf_prev of a path whose previous vertex took the light list's whole share by a reservoir: an
+ * emitter of the list, or the environment map, that its BRDF sample finds gets weight 0 */
+#define TND_PDF_RESERVOIR (-1.0f)
+
+/* The Vulkan front-end's reservoir and surface records (binding 19: the two frames' final
+ * reservoirs, W x H each, then this frame's after the temporal merge; binding 20: the two frames'
+ * surfaces). */
+#ifdef TND_GLSL
+struct tnd_gpu_reservoir {
+    uvec4 a; /* light, u bits, v bits, W bits */
+    vec4 b;  /* M, 0, 0, 0 */
+};
+struct tnd_gpu_rsurf {
+    vec4 p;    /* xyz, w: distance from the camera */
+    vec4 ns;   /* xyz, w: perceptual roughness */
+    vec4 ng;   /* xyz, w: metallic */
+    vec4 wo;   /* xyz, w: the material's specular factor */
+    vec4 base; /* rgb */
+};
+#else
+enum { TND_GPU_RESERVOIR_BYTES = 32, TND_GPU_RSURF_BYTES = 80 };
+#endif
+
 #endif

@@ -60,6 +60,11 @@ struct tnd_gpu_frame {
     uvec4 indirect;      /* x: 1: the indirect paths of half the pixels (TND_HALF_TRACED,
                             shaders/sampling.h), 0: of every pixel; y: the light tree's nodes
                             (0: NEE picks from the power table) */
+    uvec4 restir;        /* ReSTIR DI (shaders/restir.h, pt_restir.glsl): x: 1 where this
+                            frame's shading takes reservoirs; y: bit 0 this frame's slot of the
+                            final reservoirs and surfaces (the previous frame's is the other),
+                            bit 1 the previous frame's are there; z: the previous frame's index;
+                            w: the spatial disc's radius in pixels (float bits) */
 };
 
 #ifndef TND_GLSL
@@ -74,7 +79,7 @@ typedef struct tnd_gpu_frame tnd_gpu_frame;
 _Static_assert(sizeof(tnd_gpu_mesh) == 32, "mesh layout");
 _Static_assert(sizeof(tnd_gpu_material) == 224, "material layout");
 _Static_assert(sizeof(tnd_gpu_instance) == 112, "instance layout");
-_Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 8 * 16, "frame layout");
+_Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 9 * 16, "frame layout");
 #endif
 
 /* What the front-end's shaders model (specialization constant 0 of every pass, a bit mask):
@@ -100,7 +105,9 @@ _Static_assert(sizeof(tnd_gpu_frame) == 6 * 64 + 8 * 16, "frame layout");
 /* The light tree's descent for NEE's pick (--lights tree: shaders/light_tree.h), not the power
  * table's search. */
 #define TND_USES_LIGHT_TREE 2048u
-#define TND_USES_ALL 4095u
+/* ReSTIR DI at the primary surface (--lights restir: shaders/restir.h, pt_restir.glsl) */
+#define TND_USES_RESTIR 4096u
+#define TND_USES_ALL 8191u
 
 /* Gradient sample for the shading pass (its first 7 words match femb_gradient_sample). In the
  * back-end's per-stratum list (handed to the Vulkan front-end on the GPU), a stratum without a
