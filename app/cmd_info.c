@@ -49,9 +49,9 @@ static int scene_info(const char *path, const rn_env *env, bool json)
             printf(" %u %s%s", lights[k], tnd_light_type_name((tnd_light_type)k),
                    k == TND_LIGHT_AREA ? " (emissive triangles)" : ",");
         printf("\n  light pick  %s (--lights auto: the light tree from %d emitters, point and spot "
-               "lights; docs/lights.md)",
+               "lights, reservoirs from %d; docs/lights.md)",
                tnd_light_sampling_name(tnd_light_sampling_for(s, TND_LIGHTS_AUTO)),
-               TND_LIGHTS_TREE_FROM);
+               TND_LIGHTS_TREE_FROM, TND_LIGHTS_RESTIR_FROM);
         printf("\n  cameras     %u\n  animation   %.3f s (%u frames at 30 fps)\n", s->camera_count,
                (double)s->duration, (unsigned)floor(s->duration * 30.0 + 1e-6) + 1);
         if (s->features & TND_FEATURE(SKY))

@@ -51,8 +51,8 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
     {"lights", APP_OPT_STRING, &o->lights, "auto|plain|tree|restir", \
      "how next-event estimation picks a light: from the power table (plain), by the light " \
      "tree's importance for the shading point (tree), or by reservoirs reused over pixels and " \
-     "frames (restir: ReSTIR DI, Embree front-end); auto: the tree from 16 emitters, point " \
-     "and spot lights (docs/lights.md)"}
+     "frames (restir: ReSTIR DI); auto: the tree from 16 emitters, point and spot lights, " \
+     "reservoirs from 64 (docs/lights.md)"}
 #define PATH_OPTS \
     {"frames", APP_OPT_UINT, &o->frames, "N", "frames of the camera path (default 8)"}, \
     {"start", APP_OPT_UINT, &o->start, "F", "first frame (default 0)"}, \

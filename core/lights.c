@@ -44,7 +44,9 @@ tnd_light_sampling tnd_light_sampling_for(const tnd_scene *s, tnd_light_sampling
     uint32_t local = s->emitter_count;
     for (uint32_t i = 0; i < s->light_count; i++)
         local += s->lights[i].type == TND_LIGHT_POINT || s->lights[i].type == TND_LIGHT_SPOT;
-    return local >= TND_LIGHTS_TREE_FROM ? TND_LIGHTS_TREE : TND_LIGHTS_PLAIN;
+    return local >= TND_LIGHTS_RESTIR_FROM ? TND_LIGHTS_RESTIR
+           : local >= TND_LIGHTS_TREE_FROM ? TND_LIGHTS_TREE
+                                           : TND_LIGHTS_PLAIN;
 }
 
 /* ---- the light tree (shaders/light_tree.h) ---------------------------------------------------- */

@@ -4,6 +4,7 @@
 
 #include "frontend_embree/frontend_embree.h"
 #include "shaders/offset.h"
+#include "shaders/restir.h"
 
 #include <embree3/rtcore.h>
 #include <math.h>
@@ -304,7 +305,7 @@ typedef struct femb_paths {
 /* pdf_prev of a path whose previous vertex took every light of the list's share by itself (a
  * reservoir's sample, femb_restir.c): an emitter of the list or the environment map it finds gets
  * weight 0; emitters outside the list and the uniform sky keep theirs */
-#define FEMB_PDF_RESERVOIR (-1.0f)
+#define FEMB_PDF_RESERVOIR TND_PDF_RESERVOIR
 
 /* Radiance arriving along each path from path vertex `bounce` on: emission (MIS-weighted against
  * the light list where pdf_prev > 0), NEE at each hit, more vertices up to max_bounce with

@@ -1,7 +1,7 @@
 /* ReSTIR DI (`--lights restir`; Bitterli et al. 2020, with the generalized balance heuristic of
- * Lin et al. 2022 for unbiased reuse): the constants both front-ends are to share. The Embree
- * front-end runs it today (frontend_embree/femb_restir.c, which describes the algorithm); the
- * Vulkan front-end refuses the mode until it has the same passes.
+ * Lin et al. 2022 for unbiased reuse): the constants and records both front-ends share. The
+ * Embree front-end's frontend_embree/femb_restir.c describes the algorithm; the Vulkan
+ * front-end's shaders/pt_restir.glsl mirrors it on the same random numbers.
  *
  * A sample is (light index, u, v): the light of the list and the two numbers that place a point
  * on it (a triangle's uniform point, the environment map's direction), so that the same sample
