@@ -88,6 +88,12 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"exposure-bias", APP_OPT_FLOAT, &o->exposure_bias, "STOPS",
          "added to the exposure, auto or fixed (default 0)"},
         {"video", APP_OPT_FLAG, &o->video, NULL, "also write DIR/video.mp4 from the PNGs (needs ffmpeg)"},
+        {"render-scale", APP_OPT_FLOAT, &o->render_scale, "S",
+         "trace and denoise at --size x S (0.25 to 1, default 1) and upscale to --size in the "
+         "post chain (docs/upscaling.md)"},
+        {"upscaler", APP_OPT_STRING, &o->upscaler, "temporal|bilinear|bicubic",
+         "--render-scale below 1: the temporal upscaler (jittered samples accumulated at the "
+         "output size; the default; bilinear with --taa off) or a spatial baseline"},
         {"timed-frames", APP_OPT_UINT, &o->timed_frames, "N",
          "after the frames written, N more of the path back to back (nothing waited for, nothing "
          "written, after 4 of warm-up): their GPU times per pass and wall clock per frame into "

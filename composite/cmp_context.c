@@ -13,13 +13,14 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { P_TAA, P_HIST, P_EXPOSURE, P_BLOOM, P_TONEMAP, P_INTERLEAVE, P_COUNT };
+enum { P_TAA, P_HIST, P_EXPOSURE, P_BLOOM, P_TONEMAP, P_INTERLEAVE, P_TAAU, P_COUNT };
 
 struct cmp_context {
     tnd_vk *vk;
     cmp_desc desc;
     uint32_t width, height, frame;
-    tnd_image taa[2], bloom[2], display, flat; /* flat: the interleave's output */
+    uint32_t in_width, in_height; /* the input's size (smaller: the TAA pass upscales) */
+    tnd_image taa[2], bloom[2], display, flat; /* flat: the interleave's output (input size) */
     tnd_buffer params, hist, hist_host; /* hist: device-local (atomics); _host: its read-back */
     VkDescriptorSetLayout layouts[2];
     VkPipelineLayout layout;
@@ -53,6 +54,34 @@ tnd_result cmp_curve_parse(const char *s, cmp_curve *c)
 const char *cmp_curve_name(cmp_curve c)
 {
     return (unsigned)c < 4 ? curve_names[c] : "?";
+}
+
+static const char *const upscaler_names[] = {"temporal", "bilinear", "bicubic"};
+
+tnd_result cmp_upscaler_parse(const char *s, cmp_upscaler *u)
+{
+    for (int i = 0; i < 3; i++)
+        if (strcmp(s, upscaler_names[i]) == 0) {
+            *u = (cmp_upscaler)i;
+            return TND_OK;
+        }
+    return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                    "composite: upscaler '%s' (expected temporal, bilinear or bicubic)", s);
+}
+
+const char *cmp_upscaler_name(cmp_upscaler u)
+{
+    return (unsigned)u < 3 ? upscaler_names[u] : "?";
+}
+
+/* Whether the TAA pass upscales, and whether from this frame alone. */
+static bool upscales(const cmp_context *c)
+{
+    return c->in_width != c->width || c->in_height != c->height;
+}
+static bool spatial(const cmp_context *c)
+{
+    return upscales(c) && (c->desc.upscaler != CMP_UPSCALE_TEMPORAL || !c->desc.taa);
 }
 
 void cmp_destroy(cmp_context *c)
@@ -136,10 +165,15 @@ static tnd_result create_pipelines(cmp_context *c, tnd_precision prec)
         TND_SHADER_post_histogram, TND_SHADER_post_exposure, TND_SHADER_post_bloom,
         TND_SHADER_post_tonemap,
         prec == TND_PRECISION_PACKED ? TND_SHADER_post_interleave_packed
-                                     : TND_SHADER_post_interleave_f32};
-    const char *names[P_COUNT] = {"composite.taa", "composite.histogram", "composite.exposure",
-                                  "composite.bloom", "composite.tonemap", "composite.interleave"};
+                                     : TND_SHADER_post_interleave_f32,
+        prec == TND_PRECISION_PACKED ? TND_SHADER_post_taau_packed : TND_SHADER_post_taau_f32};
+    const char *names[P_COUNT] = {"composite.taa",      "composite.histogram",
+                                  "composite.exposure", "composite.bloom",
+                                  "composite.tonemap",  "composite.interleave",
+                                  "composite.taau"};
     for (int i = 0; i < P_COUNT; i++) {
+        if (i == P_TAAU && !upscales(c))
+            continue; /* (only where the input is smaller) */
         size_t bytes;
         const uint32_t *code = tnd_spirv_code(ids[i], &bytes, NULL);
         TND_TRY(tnd_compute_pipeline_create(vk,
@@ -210,22 +244,41 @@ static void write_inputs(cmp_context *c, const tnd_image *in, const tnd_contract
 static void describe_passes(cmp_context *c)
 {
     const cmp_desc *d = &c->desc;
+    char taa[32];
+    snprintf(taa, sizeof taa, "%s", !upscales(c) ? (d->taa ? "taa," : "")
+                                    : spatial(c) ? (d->upscaler == CMP_UPSCALE_BICUBIC
+                                                        ? "upscale-bicubic,"
+                                                        : "upscale-bilinear,")
+                                                 : "taau,");
     snprintf(c->passes, sizeof c->passes, "%s%s%s%sexposure,tonemap",
-             d->interleave ? "interleave," : "", d->taa ? "taa," : "", d->bloom > 0 ? "bloom," : "",
+             d->interleave ? "interleave," : "", taa, d->bloom > 0 ? "bloom," : "",
              d->fixed_exposure ? "" : "histogram,");
 }
 
 tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision prec,
                       const cmp_desc *desc, cmp_context **out)
 {
+    return cmp_create_scaled(vk, width, height, width, height, prec, desc, out);
+}
+
+tnd_result cmp_create_scaled(tnd_vk *vk, uint32_t in_width, uint32_t in_height, uint32_t width,
+                             uint32_t height, tnd_precision prec, const cmp_desc *desc,
+                             cmp_context **out)
+{
     tnd_result res = TND_OK;
     *out = NULL;
+    if (!in_width || !in_height || in_width > width || in_height > height)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "composite: input %ux%u for an output of %ux%u (at most the output's)",
+                        in_width, in_height, width, height);
     cmp_context *c = calloc(1, sizeof *c);
     if (!c)
         return tnd_fail(TND_ERR_OUT_OF_MEMORY, "composite: out of memory");
     c->vk = vk;
     c->width = width;
     c->height = height;
+    c->in_width = in_width;
+    c->in_height = in_height;
     if (desc)
         c->desc = *desc;
     cmp_desc *d = &c->desc;
@@ -252,7 +305,7 @@ tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision
                                                    .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                    .name = "composite.display"},
                              &c->display));
-    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = width, .height = height,
+    TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = in_width, .height = in_height,
                                                    .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                    .name = "composite.flat"},
                              &c->flat));
@@ -340,24 +393,30 @@ tnd_result cmp_submit(cmp_context *c, const tnd_image *hdr, const tnd_contract_g
 {
     tnd_result res = TND_OK;
     TND_TRY(settle(c));
-    if (hdr->width != c->width || hdr->height != c->height || ct->width != c->width ||
-        ct->height != c->height)
+    if (hdr->width != c->in_width || hdr->height != c->in_height || ct->width != c->in_width ||
+        ct->height != c->in_height)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "composite: input %ux%u, expected %ux%u",
-                        hdr->width, hdr->height, c->width, c->height);
+                        hdr->width, hdr->height, c->in_width, c->in_height);
     write_inputs(c, hdr, ct);
     const cmp_desc *d = &c->desc;
     bool history = c->have_history && !f->reset;
     bool bloom = d->bloom > 0;
     float sigma = fminf(100.0f, fmaxf(1.0f, 0.25f * d->bloom_sigma * (float)c->height));
-    uint32_t flags = (d->taa ? CP_F_TAA : 0u) | (history ? CP_F_HISTORY : 0u) |
+    /* (upscaling: the TAA pass writes the output size, whichever upscaler; the later passes
+     * read it as TAA's) */
+    bool up = upscales(c);
+    uint32_t flags = (d->taa || up ? CP_F_TAA : 0u) | (history ? CP_F_HISTORY : 0u) |
+                     (up ? CP_F_UPSCALE : 0u) | (spatial(c) ? CP_F_SPATIAL : 0u) |
                      (bloom ? CP_F_BLOOM : 0u) | (d->fixed_exposure ? 0u : CP_F_AUTO) |
                      (d->no_dither ? 0u : CP_F_DITHER);
     *(cp_params *)c->params.mapped = (cp_params){
         .size = {c->width, c->height, c->frame, flags},
-        .taa = {d->taa_weight, d->taa_clip, d->taa_sparkle, 0},
+        .taa = {d->taa_weight, d->taa_clip, d->taa_sparkle,
+                d->upscaler == CMP_UPSCALE_BICUBIC ? 1.0f : 0.0f},
         .bloom = {d->bloom, sigma, ceilf(3.0f * sigma), 0},
         .tm = {(float)d->curve, d->ev100, d->low, d->high},
         .adapt = {f->dt > 0 ? f->dt : 1.0f / 30.0f, d->speed_up, d->speed_down, d->bias},
+        .up = {(float)c->in_width, (float)c->in_height, f->jitter[0], f->jitter[1]},
     };
     VkCommandBuffer cmd;
     TND_TRY(tnd_cmd_begin(c->vk, &cmd));
@@ -367,15 +426,15 @@ tnd_result cmp_submit(cmp_context *c, const tnd_image *hdr, const tnd_contract_g
     int s[5] = {-1, -1, -1, -1, -1};
     if (d->interleave) {
         s[4] = tnd_timer_begin(cmd, &c->timer, "composite.interleave");
-        dispatch(c, cmd, P_INTERLEAVE, c->width, c->height, 0);
+        dispatch(c, cmd, P_INTERLEAVE, c->in_width, c->in_height, 0);
         tnd_timer_end(cmd, &c->timer, s[4]);
         /* the later passes read the interleaved image */
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 1, &c->sets[2],
                                 0, NULL);
     }
-    if (d->taa) {
+    if (d->taa || up) {
         s[0] = tnd_timer_begin(cmd, &c->timer, "composite.taa");
-        dispatch(c, cmd, P_TAA, c->width, c->height, 0);
+        dispatch(c, cmd, up ? P_TAAU : P_TAA, c->width, c->height, 0);
         tnd_timer_end(cmd, &c->timer, s[0]);
     }
     if (bloom) {
@@ -435,7 +494,7 @@ tnd_result cmp_download_hdr(cmp_context *c, float *rgb)
 {
     if (c->frame == 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "composite: no frame yet");
-    if (!c->desc.taa) /* the input itself (interleaved when the fields were merged) */
+    if (!c->desc.taa && !upscales(c)) /* the input itself (interleaved when the fields were merged) */
         return download_rgb(c, c->desc.interleave ? &c->flat : c->last_in, rgb, NULL);
     return download_rgb(c, &c->taa[(c->frame - 1) & 1u], rgb, NULL);
 }

@@ -11,6 +11,14 @@ typedef enum cmp_curve { CMP_ACES = 0, CMP_AGX, CMP_REINHARD, CMP_LINEAR } cmp_c
 tnd_result cmp_curve_parse(const char *s, cmp_curve *c);
 const char *cmp_curve_name(cmp_curve c);
 
+typedef enum cmp_upscaler {
+    CMP_UPSCALE_TEMPORAL = 0, /* post_taau.comp: jittered samples accumulated at the output size */
+    CMP_UPSCALE_BILINEAR,     /* spatial baselines: this frame alone */
+    CMP_UPSCALE_BICUBIC,
+} cmp_upscaler;
+tnd_result cmp_upscaler_parse(const char *s, cmp_upscaler *u);
+const char *cmp_upscaler_name(cmp_upscaler u);
+
 typedef struct cmp_desc {
     bool interleave;      /* merge the checkerboard fields (the scene has split surfaces) */
     bool taa;             /* temporal anti-aliasing */
@@ -26,11 +34,15 @@ typedef struct cmp_desc {
     float speed_up, speed_down; /* adaptation rates, 1/s (0 means 3 and 1) */
     float bias;           /* exposure bias in stops */
     bool no_dither;
+    /* upscaling, where the input is smaller than the output (cmp_create_scaled): temporal (the
+     * default; with TAA off: bilinear) or one of the spatial baselines */
+    cmp_upscaler upscaler;
 } cmp_desc;
 
 typedef struct cmp_frame {
     float dt;   /* seconds since the previous frame (adaptation) */
     bool reset; /* drop the TAA history and adapt at once */
+    float jitter[2]; /* the frame's jitter in input pixels (upscaling places the samples by it) */
 } cmp_frame;
 
 typedef struct cmp_timings {
@@ -41,8 +53,14 @@ typedef struct cmp_context cmp_context;
 
 tnd_result cmp_create(tnd_vk *vk, uint32_t width, uint32_t height, tnd_precision contract_precision,
                       const cmp_desc *desc, cmp_context **ctx);
+/* The same for an input (the back-end's image and the contract) of in_width x in_height, at most
+ * the output's: the TAA pass upscales it (desc->upscaler); the later passes run at the output
+ * size. */
+tnd_result cmp_create_scaled(tnd_vk *vk, uint32_t in_width, uint32_t in_height, uint32_t width,
+                             uint32_t height, tnd_precision contract_precision,
+                             const cmp_desc *desc, cmp_context **ctx);
 void cmp_destroy(cmp_context *ctx);
-/* One frame (blocks): `hdr` is the back-end's output (RGBA32F, width x height). */
+/* One frame (blocks): `hdr` is the back-end's output (RGBA32F, the input size). */
 tnd_result cmp_run(cmp_context *ctx, const tnd_image *hdr, const tnd_contract_gpu *contract,
                    const cmp_frame *frame, cmp_timings *t);
 /* cmp_run in two halves: record and submit without waiting (the next call into the context

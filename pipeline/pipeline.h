@@ -297,7 +297,10 @@ pl_pass_owner pl_pass_owner_of(const pl_pass *p);
 /* ---- the frame after the front-end (pl_chain.c) -------------------------------------------- */
 typedef struct pl_chain_desc {
     tnd_vk *vk;              /* the back-end's and post chain's context (backend) */
-    uint32_t width, height;
+    uint32_t width, height;  /* what the front-end traces and the back-end denoises */
+    /* the post chain's output, larger where the frames are rendered at a smaller scale and
+     * upscaled (post.upscaler; 0: width x height) */
+    uint32_t out_width, out_height;
     tnd_precision precision; /* of the contract */
     bool backend;            /* the Vulkan back-end (false: the CPU composite, no Vulkan) */
     /* the denoiser by its registered name or "plugin:PATH" (NULL: the built-in back-end's

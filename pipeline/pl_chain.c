@@ -83,7 +83,10 @@ tnd_result pl_chain_create(const pl_chain_desc *d, pl_chain **out)
                                              .npasses = info->npasses},
                                &c->dn));
         if (!d->no_post)
-            TND_TRY(cmp_create(d->vk, d->width, d->height, d->precision, &d->post, &c->post));
+            TND_TRY(cmp_create_scaled(d->vk, d->width, d->height,
+                                      d->out_width ? d->out_width : d->width,
+                                      d->out_height ? d->out_height : d->height, d->precision,
+                                      &d->post, &c->post));
         if ((info->caps & (PL_DN_GRADIENTS | PL_DN_CONFIDENCE)) &&
             !(c->grads = malloc((size_t)c->ops->capacity(c->dn) * PL_GRADIENT_WORDS *
                                 sizeof *c->grads))) {
@@ -379,7 +382,8 @@ tnd_result pl_chain_run(pl_chain *c, pl_frontend *fe, const pl_step *s, float *h
     if (c->post) {
         const tnd_image *out = c->ops->output(c->dn);
         TND_TRY(cmp_submit(c->post, out, ct,
-                           &(cmp_frame){.dt = s->dt, .reset = df.reset}));
+                           &(cmp_frame){.dt = s->dt, .reset = df.reset,
+                                        .jitter = {df.jitter[0], df.jitter[1]}}));
         if (wait)
             TND_TRY(cmp_wait(c->post, &r->post));
         if (hdr)

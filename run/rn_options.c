@@ -38,6 +38,8 @@ void rn_render_defaults(rn_render_opts *o)
                        .composite_on = "device",
                        .checkpoint_s = 60.0,
                        .size = {320, 180},
+                       .render_scale = 1.0,
+                       .upscaler = "temporal",
                        .fps = 30.0};
 }
 
@@ -131,7 +133,10 @@ tnd_result rn_render_args(const rn_render_opts *o, bool reference, rn_args *a)
              args_str(a, "--dump", o->dump, NULL) && (!o->capture || arg(a, "--capture")) &&
              (!o->video || arg(a, "--video")) &&
              (o->timed_frames == d.timed_frames ||
-              argf(a, "--timed-frames", "%u", o->timed_frames));
+              argf(a, "--timed-frames", "%u", o->timed_frames)) &&
+             (o->render_scale == d.render_scale ||
+              argn(a, "--render-scale", o->render_scale)) &&
+             args_str(a, "--upscaler", o->upscaler, d.upscaler);
     }
     ok = ok && args_str(a, "--env", o->env.path, NULL) &&
          (!o->env.path || o->env.intensity == d.env.intensity ||
@@ -168,6 +173,15 @@ void rn_reference_bounces(rn_render_opts *o)
 
 /* The options' values checked (render's and reference's, parsed or filled by a caller): an error
  * names the option. */
+void rn_render_size(const rn_render_opts *o, uint32_t out[2])
+{
+    double sc = o->render_scale > 0 && o->render_scale < 1 ? o->render_scale : 1.0;
+    for (int k = 0; k < 2; k++) {
+        double v = floor(o->size[k] * sc + 0.5);
+        out[k] = v < 1 ? 1u : (uint32_t)v;
+    }
+}
+
 tnd_light_sampling rn_lights_mode(const rn_render_opts *o)
 {
     tnd_light_sampling m = TND_LIGHTS_AUTO;
@@ -190,6 +204,19 @@ tnd_result rn_render_check(const rn_render_opts *o, bool reference)
     if (!tnd_light_sampling_parse(o->lights ? o->lights : "auto", &ls))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--lights %s: expected auto, plain, tree or restir",
                         o->lights);
+    if (!(o->render_scale >= 0.25 && o->render_scale <= 1))
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--render-scale %g: expected 0.25 to 1",
+                        o->render_scale);
+    cmp_upscaler up;
+    if (o->upscaler && cmp_upscaler_parse(o->upscaler, &up) != TND_OK) {
+        tnd_error_clear();
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "--upscaler %s: expected temporal, bilinear or bicubic", o->upscaler);
+    }
+    if (reference && o->render_scale != 1)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--render-scale: render only (the matched "
+                                                  "reference of a scaled run is the full "
+                                                  "size's: docs/upscaling.md)");
     if (o->timed_frames && o->view) /* (its camera path ends with the frames written) */
         return tnd_fail(TND_ERR_INVALID_ARGUMENT,
                         "--timed-frames runs the scene's path on after the frames; "
@@ -228,7 +255,9 @@ tnd_result rn_frame_begin(const rn_render_opts *o, const tnd_scene *scene, pl_fr
         if (first)
             rn_view_camera_apply(rn_view_state_at(o->view, i > 0 ? i - 1 : 0), prev);
     }
-    TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o->size[0], o->size[1]));
+    uint32_t rs[2];
+    rn_render_size(o, rs);
+    TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, rs[0], rs[1]));
 fail:
     return res;
 }
@@ -236,8 +265,10 @@ fail:
 pl_step rn_frame_step(const rn_render_opts *o, const tnd_scene_state *cur, unsigned i,
                        bool reset)
 {
+    uint32_t rs[2];
+    rn_render_size(o, rs);
     return (pl_step){.params = {.bounces = o->bounces, .half_indirect = o->half_indirect},
-                     .frame = dn_frame_for_camera(cur->camera.proj, o->size[1], o->start + i,
+                     .frame = dn_frame_for_camera(cur->camera.proj, rs[1], o->start + i,
                                                   reset),
                      .dt = (float)(1.0 / o->fps)};
 }
@@ -318,7 +349,12 @@ tnd_result rn_pipeline_open(const rn_render_opts *o, const tnd_scene *scene, tnd
     if (*dn != asked)
         rn_say(h, "tandem: render: --frontend %s cannot re-shade gradient samples: running %s "
                   "instead of %s", o->frontend, (*dn)->name, asked->name);
-    pl_chain_desc cd = {.vk = vk, .width = o->size[0], .height = o->size[1], .precision = prec,
+    uint32_t rs[2];
+    rn_render_size(o, rs);
+    if (o->upscaler)
+        TND_TRY(cmp_upscaler_parse(o->upscaler, &pd->upscaler));
+    pl_chain_desc cd = {.vk = vk, .width = rs[0], .height = rs[1], .out_width = o->size[0],
+                        .out_height = o->size[1], .precision = prec,
                         .backend = use_dn,
                         .denoiser = (*dn)->caps & PL_DN_PLUGIN ? o->denoiser : (*dn)->name,
                         .post = *pd};

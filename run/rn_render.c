@@ -51,7 +51,9 @@ static tnd_result time_back_to_back(const rn_render_opts *o, const tnd_scene *sc
         if (k < total) {
             tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
             TND_TRY(tnd_scene_evaluate(scene, f / o->fps, o->camera, aspect, cur));
-            TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, o->size[0], o->size[1]));
+            uint32_t rs[2];
+            rn_render_size(o, rs);
+            TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, rs[0], rs[1]));
             pl_step step = rn_frame_step(o, cur, i, false);
             step.no_wait = true;
             /* (without the GPU chain the CPU composite has to go somewhere) */
@@ -118,6 +120,13 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     cJSON_AddStringToObject(j, "frontend_models", pl_frontend_models(fr));
     cJSON_AddNumberToObject(j, "width", o->size[0]);
     cJSON_AddNumberToObject(j, "height", o->size[1]);
+    uint32_t rs[2];
+    rn_render_size(o, rs);
+    cJSON_AddNumberToObject(j, "render_scale", o->render_scale);
+    cJSON_AddNumberToObject(j, "render_width", rs[0]);
+    cJSON_AddNumberToObject(j, "render_height", rs[1]);
+    if (o->render_scale != 1)
+        cJSON_AddStringToObject(j, "upscaler", o->upscaler ? o->upscaler : "temporal");
     cJSON_AddNumberToObject(j, "frames", o->frames);
     cJSON_AddNumberToObject(j, "start", o->start);
     cJSON_AddNumberToObject(j, "fps", o->fps);
@@ -287,6 +296,11 @@ static tnd_result run_opts(const render_opts *opts, bool reference, const rn_hos
                    "the CPU (no post chain; its PNGs are previews)", asked, o.frontend,
                 o.denoiser);
     }
+    if (!reference && !use_dn && o.render_scale != 1)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "--render-scale: the post chain upscales on the GPU; --frontend %s with "
+                        "--denoiser %s composites on the CPU (take --frontend vk or a denoiser)",
+                        o.frontend, o.denoiser);
     if (o.dump && dn && !(dn->caps & PL_DN_DUMPS))
         return tnd_fail(TND_ERR_INVALID_ARGUMENT,
                         "--dump shows the back-end's buffers: with a denoiser plugin they are not "

@@ -196,6 +196,10 @@ typedef struct rn_render_opts {
     const char *resume;         /* reference: go on with the interrupted run in this directory
                                    (its state: DIR/reference.partial.json) */
     unsigned timed_frames;      /* render: frames after the written ones, back to back, timed */
+    /* render: the front-end traces and the back-end denoises at size x render_scale (0.25..1),
+     * the post chain upscales to size by `upscaler` (temporal, bilinear, bicubic) */
+    double render_scale;
+    const char *upscaler;
     bool quiet;                 /* no progress or information lines (for this call only) */
 } rn_render_opts;
 /* render's defaults (the command line's starting point). */
@@ -203,6 +207,9 @@ void rn_render_defaults(rn_render_opts *o);
 /* render's or reference's options checked (no out needed): an error names the option (the
  * command line's usage errors). */
 tnd_result rn_render_check(const rn_render_opts *o, bool reference);
+/* The size the front-end traces and the back-end denoises: size x render_scale, rounded, at
+ * least 1 (the output is size). */
+void rn_render_size(const rn_render_opts *o, uint32_t out[2]);
 /* --lights as given (checked by rn_render_check; auto where not given) */
 tnd_light_sampling rn_lights_mode(const rn_render_opts *o);
 /* A reference's work checked: its --shard I/N planned over the frames and samples, and

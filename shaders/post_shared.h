@@ -21,6 +21,8 @@ struct cp_params {
     vec4 bloom;   /* x: intensity, y: sigma (quarter-res pixels), z: tap radius, w: unused */
     vec4 tm;      /* x: curve (CP_CURVE_*), y: fixed EV100, z: low percentile, w: high percentile */
     vec4 adapt;   /* x: frame time (s), y: speed up, z: speed down (1/s), w: exposure bias (stops) */
+    vec4 up;      /* upscaling (CP_F_UPSCALE): x, y: the input's size (smaller than size.xy), z, w:
+                     this frame's jitter (input pixels: pixel j's sample lies at j + 0.5 + jitter) */
 };
 
 #define CP_F_TAA 1u         /* TAA on */
@@ -28,6 +30,9 @@ struct cp_params {
 #define CP_F_BLOOM 4u       /* bloom on */
 #define CP_F_AUTO 8u        /* auto exposure (else fixed EV100) */
 #define CP_F_DITHER 16u     /* dither the display output */
+#define CP_F_UPSCALE 32u    /* the input is smaller than the output: post_taau.comp upscales it */
+#define CP_F_SPATIAL 64u    /* ... from this frame alone (the spatial baselines; taa.w: 0 bilinear,
+                               1 Catmull-Rom bicubic) */
 
 #define CP_CURVE_ACES 0u
 #define CP_CURVE_AGX 1u
@@ -56,7 +61,7 @@ struct cp_histogram {
 #undef uvec4
 typedef struct cp_params cp_params;
 typedef struct cp_histogram cp_histogram;
-_Static_assert(sizeof(cp_params) == 80, "cp_params layout");
+_Static_assert(sizeof(cp_params) == 96, "cp_params layout");
 #endif
 
 /* Bindings of set 0 (set 1 is the contract). */

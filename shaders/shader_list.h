@@ -46,6 +46,8 @@
     X(bandwidth_copy,      "bandwidth_copy.comp", "") \
     X(post_taa_f32,        "post_taa.comp",       "TND_PACKED=0") \
     X(post_taa_packed,     "post_taa.comp",       "TND_PACKED=1") \
+    X(post_taau_f32,       "post_taau.comp",      "TND_PACKED=0") \
+    X(post_taau_packed,    "post_taau.comp",      "TND_PACKED=1") \
     X(post_histogram,      "post_histogram.comp", "TND_PACKED=0") \
     X(post_exposure,       "post_exposure.comp",  "TND_PACKED=0") \
     X(post_bloom,          "post_bloom.comp",     "TND_PACKED=0") \

@@ -7,6 +7,7 @@
 #include "frontend_embree/frontend_embree.h"
 #include "tests/embree_frame.h"
 #include "tests/gpu_common.h"
+#include "shaders/sampling.h"
 
 enum { W = 64, H = 36, N = W * H };
 
@@ -376,10 +377,119 @@ cleanup:
     gpu_end();
 }
 
+/* Temporal upscaling (post_taau.comp): cornell's albedo traced at half the size (32x18, jittered
+ * by the frame index), upscaled to 64x36 over 48 frames, against the full size's 256-frame
+ * supersampled albedo: the edge pixels' error under half of the spatial baselines' (bilinear and
+ * bicubic of the last half-size frame), and the flat pixels' summed error within 1% of their
+ * sum (nothing but the edges may differ). */
+static double upscale_error(tnd_vk *vk, rig *half, cmp_upscaler up, bool taa, const float *ref,
+                            const uint8_t *edge, double *flat)
+{
+    enum { HW = W / 2, HH = H / 2 };
+    cmp_context *c = NULL;
+    tnd_frame f = {0};
+    static float alb[HW * HH * 4], out[N * 3];
+    double e = 0, fr = 0;
+    int n = 0;
+    *flat = 0;
+    REQUIRE_OK(cmp_create_scaled(vk, HW, HH, W, H, TND_PRECISION_F32,
+                                 &(cmp_desc){.taa = taa, .upscaler = up}, &c));
+    for (int i = 0; i < 48; i++) {
+        tnd_frame_destroy(&f);
+        REQUIRE_OK(test_embree_frame(half->fe, &half->st, &half->st, (uint32_t)i, HW, HH,
+                                     &(femb_params){.bounces = 1}, &f));
+        const float *a = tnd_frame_f(&f, TND_CT_ALBEDO);
+        for (int q = 0; q < HW * HH; q++) {
+            for (int k = 0; k < 3; k++)
+                alb[4 * q + k] = a[3 * q + k];
+            alb[4 * q + 3] = 1.0f;
+        }
+        REQUIRE_OK(tnd_contract_upload(vk, &half->ct, &f));
+        REQUIRE_OK(tnd_image_upload(vk, &half->in, alb, sizeof alb));
+        float jit[2];
+        tnd_jitter((uint32_t)i, jit);
+        REQUIRE_OK(cmp_run(c, &half->in, &half->ct,
+                           &(cmp_frame){.reset = i == 0, .jitter = {jit[0], jit[1]}}, NULL));
+    }
+    REQUIRE_OK(cmp_download_hdr(c, out));
+    for (int q = 0; q < N; q++) {
+        double d = 0, r = 0;
+        for (int k = 0; k < 3; k++)
+            d += fabs(out[3 * q + k] - ref[3 * q + k]), r += ref[3 * q + k];
+        if (edge[q])
+            e += d, n++;
+        else
+            *flat += d, fr += r;
+    }
+    *flat /= fr > 0 ? fr : 1;
+cleanup:
+    cmp_destroy(c);
+    tnd_frame_destroy(&f);
+    return n ? e / n : 1e9;
+}
+
+static void test_taau_converges_at_edges(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    rig full, half = {0};
+    tnd_frame f = {0};
+    static float ref[N * 3];
+    static uint8_t edge[N];
+    REQUIRE_OK(rig_open(vk, &full));
+    memset(ref, 0, sizeof ref);
+    for (int i = 0; i < 256; i++) { /* the supersampled albedo at the full size */
+        tnd_frame_destroy(&f);
+        REQUIRE_OK(render_frame(full.fe, &full.st, (uint32_t)i, &f));
+        const float *a = tnd_frame_f(&f, TND_CT_ALBEDO);
+        for (int q = 0; q < N * 3; q++)
+            ref[q] += a[q] / 256;
+    }
+    int edges = 0;
+    for (int y = 0; y < H; y++) /* edge pixels: where the supersampled albedo varies */
+        for (int x = 0; x < W; x++) {
+            float lo = 1e9f, hi = -1e9f;
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    int xx = x + dx < 0 ? 0 : x + dx >= W ? W - 1 : x + dx;
+                    int yy = y + dy < 0 ? 0 : y + dy >= H ? H - 1 : y + dy;
+                    float v = ref[3 * (yy * W + xx) + 1];
+                    lo = fminf(lo, v), hi = fmaxf(hi, v);
+                }
+            edge[y * W + x] = hi - lo > 0.05f;
+            edges += edge[y * W + x];
+        }
+    /* the half size's rig: its own contract and input image */
+    REQUIRE_OK(tnd_scene_load(TND_SOURCE_DIR "/data/scenes/cornell.gltf", &half.s));
+    REQUIRE_OK(femb_create(half.s, &(femb_desc){.threads = 2}, &half.fe));
+    REQUIRE_OK(tnd_scene_evaluate(half.s, 0.0, 0, (float)W / H, &half.st));
+    REQUIRE_OK(tnd_contract_gpu_create(vk, W / 2, H / 2, TND_PRECISION_F32, &half.ct));
+    REQUIRE_OK(tnd_image_create(vk, &(tnd_image_desc){.width = W / 2, .height = H / 2,
+                                                      .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                      .name = "test.hdr_half"},
+                                &half.in));
+    double flat_t, flat_l, flat_c;
+    double et = upscale_error(vk, &half, CMP_UPSCALE_TEMPORAL, true, ref, edge, &flat_t);
+    double el = upscale_error(vk, &half, CMP_UPSCALE_BILINEAR, true, ref, edge, &flat_l);
+    double ec = upscale_error(vk, &half, CMP_UPSCALE_BICUBIC, true, ref, edge, &flat_c);
+    printf("     %d edge pixels of 64x36 from 32x18, mean abs error against the supersampled "
+           "full size: temporal %.4f, bilinear %.4f, bicubic %.4f; flat pixels' relative error "
+           "%.4f / %.4f / %.4f\n", edges, et, el, ec, flat_t, flat_l, flat_c);
+    CHECK(edges > 50, "only %d edge pixels", edges);
+    CHECK(et < 0.65 * el && et < 0.65 * ec, "the temporal upscaler's edge error %.4f is not "
+          "under 0.65x bilinear's %.4f and bicubic's %.4f", et, el, ec);
+    CHECK(flat_t < 0.01, "flat pixels off by %.4f", flat_t);
+cleanup:
+    tnd_frame_destroy(&f);
+    rig_close(vk, &full);
+    rig_close(vk, &half);
+    gpu_end();
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
 }
 
-TND_TEST_MAIN(T(test_tonemap_exposure), T(test_taa_converges_at_edges),
+TND_TEST_MAIN(T(test_tonemap_exposure), T(test_taa_converges_at_edges), T(test_taau_converges_at_edges),
               T(test_taa_no_ghosting_under_motion), T(test_interleave), T(test_shutdown))
