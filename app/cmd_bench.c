@@ -457,7 +457,7 @@ int cmd_bench(int argc, char **argv)
         {"sweep", APP_OPT_LIST, &sweeps, "KEY=V1,V2,...",
          "run the pipeline over every combination of knob values (repeatable; keys: bounces, "
          "every denoiser parameter (atrous, min-alpha or alpha, antilag, lf-sigma: tandem info "
-         "--pipeline), gradient, denoiser, precision, taa, scale, frontend); needs --out"},
+         "--pipeline), gradient, denoiser, precision, taa, scale, render-scale, upscaler, frontend); needs --out"},
         {"out", APP_OPT_STRING, &out, "DIR",
          "--sweep, --extremes: where runs, tables and the report go"},
         {"reference", APP_OPT_STRING, &reference, "REFDIR",

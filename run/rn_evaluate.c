@@ -73,6 +73,25 @@ static char *settings_json(const rn_eval *e, const char *out, const char *exposu
     return txt;
 }
 
+/* Whether run.json says the run traced at a smaller size than its output (--render-scale). */
+static bool scaled_run(const char *out)
+{
+    char path[1200];
+    snprintf(path, sizeof path, "%s/run.json", out);
+    void *buf = NULL;
+    size_t n = 0;
+    bool scaled = false;
+    if (tnd_file_read(path, &buf, &n) == TND_OK) {
+        cJSON *run = cJSON_ParseWithLength(buf, n);
+        const cJSON *sc = cJSON_GetObjectItemCaseSensitive(run, "render_scale");
+        scaled = cJSON_IsNumber(sc) && sc->valuedouble != 1.0;
+        cJSON_Delete(run);
+    }
+    free(buf);
+    tnd_error_clear();
+    return scaled;
+}
+
 /* The reference's own noise over the evaluated frames: the mean of reference.json's
  * noise_relmse (what its noise adds to a relMSE measured against it); < 0 when unknown. */
 double rn_reference_noise(const char *refdir, const rn_eval *e)
@@ -196,7 +215,10 @@ tnd_result rn_eval_sequence(const rn_eval_opts *o, const rn_host *h, rn_eval_res
     tnd_result res = rn_eval_add(e, "denoised", out, RN_SERIES_OUTPUT);
     char cap[1200];
     snprintf(cap, sizeof cap, "%s/capture", out);
-    if (res == TND_OK && is_dir(cap)) {
+    if (res == TND_OK && is_dir(cap) && scaled_run(out)) /* (captures at the render size) */
+        rn_say(h, "eval: %s was rendered at a smaller scale (--render-scale): its captures "
+                  "(the render size) are left out, the output alone is evaluated", out);
+    else if (res == TND_OK && is_dir(cap)) {
         res = rn_eval_add(e, "noisy (1 spp)", out, RN_SERIES_NOISY);
         if (res == TND_OK)
             res = rn_eval_add(e, "accumulation alone", out, RN_SERIES_ACCUMULATED);

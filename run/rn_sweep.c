@@ -34,6 +34,9 @@ static const knob fixed_knobs[] = {
     {"precision", "--precision", "contract precision: float32 or packed"},
     {"taa", "--taa", "on, off or the new-frame weight"},
     {"scale", "--size", "resolution scale (the output is resampled to the reference's size)"},
+    {"render-scale", "--render-scale", "traced and denoised at this scale of the size (0.25 to "
+                                       "1), upscaled to it by the post chain (--upscaler)"},
+    {"upscaler", "--upscaler", "temporal, bilinear or bicubic (with render-scale below 1)"},
     {"frontend", "--frontend", "vk or embree (embree's front-end time is CPU wall clock)"},
 };
 enum { FIXED = sizeof fixed_knobs / sizeof fixed_knobs[0], MAX_KNOBS = FIXED + PL_PARAMS_MAX };
@@ -421,6 +424,14 @@ static tnd_result job_cell(const sweep_plan *P, int i, sweep_job *j)
             j->o.precision = val;
         } else if (strcmp(key, "taa") == 0) {
             j->o.taa = val;
+        } else if (strcmp(key, "render-scale") == 0) {
+            double x = strtod(val, &end);
+            if (*end || !(x >= 0.25 && x <= 1))
+                return tnd_fail(TND_ERR_BAD_INPUT, "bench: --sweep render-scale=%s: 0.25 to 1",
+                                val);
+            j->o.render_scale = x;
+        } else if (strcmp(key, "upscaler") == 0) {
+            j->o.upscaler = val;
         } else if (strcmp(key, "frontend") == 0) {
             j->o.frontend = val;
         } else { /* a denoiser parameter (pl_param) */
