@@ -282,7 +282,11 @@ tnd_result cmp_create_scaled(tnd_vk *vk, uint32_t in_width, uint32_t in_height, 
     if (desc)
         c->desc = *desc;
     cmp_desc *d = &c->desc;
-    d->taa_weight = d->taa_weight > 0 ? d->taa_weight : 0.1f;
+    /* (the temporal upscaler takes 0.2: each output pixel's samples come sparser, and on
+     * cornell at half the size 0.2 beat 0.1 still and in motion; docs/upscaling.md) */
+    d->taa_weight = d->taa_weight > 0 ? d->taa_weight
+                    : in_width != width || in_height != height ? 0.2f
+                                                                : 0.1f;
     d->taa_clip = d->taa_clip > 0 ? d->taa_clip : 1.0f;
     d->taa_sparkle = d->taa_sparkle > 0 ? d->taa_sparkle : 4.0f;
     d->bloom_sigma = d->bloom_sigma > 0 ? d->bloom_sigma : 0.037f;

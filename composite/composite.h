@@ -22,7 +22,7 @@ const char *cmp_upscaler_name(cmp_upscaler u);
 typedef struct cmp_desc {
     bool interleave;      /* merge the checkerboard fields (the scene has split surfaces) */
     bool taa;             /* temporal anti-aliasing */
-    float taa_weight;     /* weight of the new frame (0 means 0.1) */
+    float taa_weight;     /* weight of the new frame (0 means 0.1; upscaling: 0.2) */
     float taa_clip;       /* clip box half-width in standard deviations (0 means 1) */
     float taa_sparkle;    /* anti-sparkle: centre luma at most this x the neighbours' (0 means 4) */
     float bloom;          /* bloom intensity, 0 = off (the default: evaluation runs want none) */
