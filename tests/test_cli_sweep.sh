@@ -83,5 +83,43 @@ chromium --headless=new --no-sandbox --disable-gpu --virtual-time-budget=5000 --
 grep -q 'data-status="ok"' "$tmp/dom" && grep -q "Packed against float32" "$tmp/ext/report/index.html"
 check "the stability report loads in Chromium" $?
 
+# render at a smaller scale, upscaled (docs/upscaling.md): the output at --size, run.json says
+# the render size and the upscaler; captures at the render size, which eval leaves out; a
+# sweep over render-scale and upscaler; the CPU composite and references refuse it by name
+"$T" render --frontend vk --denoiser asvgf --size 40x24 --render-scale 0.5 --frames 3 --capture \
+    --out "$tmp/up" --quiet 2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && $PY - "$tmp/up" <<'PY'
+import json, sys, OpenImageIO as oiio
+d = sys.argv[1]
+r = json.load(open(d + "/run.json"))
+assert (r["width"], r["height"], r["render_width"], r["render_height"]) == (40, 24, 20, 12), r
+assert r["render_scale"] == 0.5 and r["upscaler"] == "temporal", r
+assert "taau" in r["post"]["passes"], r["post"]
+assert oiio.ImageInput.open(d + "/frame_0002.exr").spec().width == 40
+assert oiio.ImageInput.open(d + "/capture/frame_0002.exr").spec().width == 20
+PY
+check "render --render-scale 0.5: output at --size, traced at half, run.json says so" $?
+"$T" reference --size 40x24 --frames 3 --spp 16 --estimator realtime --out "$tmp/upref" --quiet &&
+    "$T" eval --out "$tmp/up" --matched-reference "$tmp/upref" --quiet >/dev/null 2>"$tmp/err"
+check "eval of a scaled run: the output against the full size's matched reference" $?
+"$T" bench --scene "$SRC/data/scenes/cornell.gltf" --size 40x24 --frames 4 --warmup 2 --spp 16 \
+    --sweep render-scale=0.5,1 --sweep upscaler=temporal,bilinear --out "$tmp/upsw" --quiet \
+    >/dev/null 2>"$tmp/err" && $PY - "$tmp/upsw/sweep.json" <<'PY'
+import json, math, sys
+d = json.load(open(sys.argv[1]))
+assert d["knobs"] == ["render-scale", "upscaler"] and len(d["runs"]) == 4, d["knobs"]
+for r in d["runs"]:
+    assert math.isfinite(r["relmse"]) and 0 < r["flip"] < 1, r
+PY
+check "bench --sweep render-scale=0.5,1 --sweep upscaler=...: 4 cells" $?
+"$T" render --frontend embree --denoiser off --render-scale 0.5 --frames 1 --out "$tmp/upbad" \
+    2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] || [ $rc -eq 1 ]; [ $? -eq 0 ] && grep -q -- "--render-scale: the post chain upscales on the GPU" "$tmp/err" &&
+    [ ! -e "$tmp/upbad" ] &&
+    ! "$T" render --render-scale 0.1 --out "$tmp/upbad" 2>"$tmp/err" &&
+    grep -q -- "--render-scale 0.1: expected 0.25 to 1" "$tmp/err" &&
+    ! "$T" reference --render-scale 0.5 --out "$tmp/upbad" 2>"$tmp/err"
+check "--render-scale refused by name: the CPU composite, out of range, references" $?
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]
