@@ -50,6 +50,8 @@ typedef struct rank_den {
     char id[80];     /* its directory and column name */
     char taa[24];    /* @taa=: the post chain's TAA (empty: the suite's) */
     char lights[8];  /* @lights=: NEE's light pick, auto|plain|tree|restir (empty: the suite's) */
+    double render_scale; /* @render-scale=: traced at the size times this (0: the suite's) */
+    char upscaler[12];   /* @upscaler=: temporal|bilinear|bicubic (empty: the suite's) */
     pl_param_set params; /* @PARAM=: the denoiser's parameters (pl_param) */
 } rank_den;
 
@@ -320,8 +322,10 @@ static tnd_result suite_read(const char *given, rank_plan *P)
 
 /* A row's settings after its name: @taa=on|off|W (the post chain's TAA, as render's --taa),
  * @lights=auto|plain|tree|restir (the front-end's light pick, as render's --lights: every pick has the
- * same matched reference, docs/lights.md) and @PARAM=X (a parameter of that denoiser, as
- * render's --PARAM), so that one rank measures a change against the denoiser without it. Each is checked here, by name, before anything runs;
+ * same matched reference, docs/lights.md), @render-scale=S and @upscaler=temporal|bilinear|bicubic
+ * (traced and denoised at the size times S, upscaled to it: the matched reference is the full
+ * size's, so the upscaler's loss counts; docs/upscaling.md) and @PARAM=X (a parameter of that
+ * denoiser, as render's --PARAM), so that one rank measures a change against the denoiser without it. Each is checked here, by name, before anything runs;
  * the row's id (its folder and column) gets the settings as given. */
 static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
 {
@@ -360,10 +364,31 @@ static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
             snprintf(d->lights, sizeof d->lights, "%s", val);
             continue;
         }
+        if (strcmp(key, "render-scale") == 0) {
+            char *end;
+            double x = strtod(val, &end);
+            if (*end || end == val || !(x >= 0.25 && x <= 1))
+                return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: render-scale=%s: a "
+                                                          "number from 0.25 to 1", d->spec, val);
+            d->render_scale = x;
+            continue;
+        }
+        if (strcmp(key, "upscaler") == 0) {
+            cmp_upscaler up;
+            if (strlen(val) >= sizeof d->upscaler || cmp_upscaler_parse(val, &up) != TND_OK) {
+                tnd_error_clear();
+                return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: upscaler=%s: "
+                                                          "temporal, bilinear or bicubic",
+                                d->spec, val);
+            }
+            snprintf(d->upscaler, sizeof d->upscaler, "%s", val);
+            continue;
+        }
         if (!pl_param_find(key) || !pl_denoiser_has_param(info, key))
             return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: %s has no parameter %s "
-                                                      "(taa, lights, or one that tandem info "
-                                                      "--pipeline lists for it)",
+                                                      "(taa, lights, render-scale, upscaler, or "
+                                                      "one that tandem info --pipeline lists "
+                                                      "for it)",
                             d->spec, d->name, key);
         char *end;
         double x = strtod(val, &end);
@@ -793,6 +818,10 @@ static void cell_opts(const rank_plan *P, unsigned s, unsigned d, char *dir, siz
         o->taa = dn->taa;
     if (dn->lights[0])
         o->lights = dn->lights;
+    if (dn->render_scale > 0)
+        o->render_scale = dn->render_scale;
+    if (dn->upscaler[0])
+        o->upscaler = dn->upscaler;
     for (uint32_t i = 0; i < dn->params.n; i++) /* (over the suite's, where it gives any) */
         (void)pl_param_set_put(&o->params, dn->params.param[i]->name, dn->params.value[i]);
     o->quiet = true;

@@ -4,18 +4,18 @@
  * Per output pixel p (centre u in input pixels: (p + 0.5) x input / output):
  * - the current frame reconstructed at u from the 3x3 input pixels around it, each sample at its
  *   jittered position (pixel j's at j + 0.5 + jitter), weighted by a Gaussian of its distance in
- *   output pixels (sigma 0.42; 0.35 to 0.6 within 5% on test_taau_converges_at_edges); the largest weight is the frame's confidence at p: a sample that
- *   lands on p counts fully, one between pixels little;
+ *   output pixels (sigma 0.42; 0.35 to 0.6 within 5% on test_taau_converges_at_edges), and
+ *   the samples that fell inside p;
  * - the history (output size) found through the longest motion vector of the 3x3 input pixels
  *   (scaled to output pixels), sampled with a 4x4 Catmull-Rom kernel, clipped towards the 3x3
  *   input neighbourhood's mean onto the box mean +- k sigma in YCoCg (k: TAA's clip, P.taa.y,
  *   times the output's pixels per input pixel: the input's coarser neighbourhood mixes that many
- *   more edges; at 2x, k 1 held the edges' error at 0.65x bilinear's, k 2 at 0.54x), so a
- *   disocclusion or a change cannot leave a ghost;
- * - blended with the new frame's weight P.taa.x x confidence / its mean over the jitter
- *   sequence (2 pi sigma^2 x (input / output)^2 for a Gaussian of sigma output pixels), so that
- *   over the frames a pixel takes new samples at TAA's rate; no history (first frame, off
- *   screen, non-finite): the reconstruction alone.
+ *   more edges; at 2x, k 1 held the edges' error at 0.65x bilinear's, k 2 at 0.54x), as far
+ *   as this frame has a sample in the pixel, so a disocclusion or a change cannot leave a ghost;
+ * - blended by the sample weight the pixel holds (kept in the history's alpha): where the image
+ *   is still, the samples inside the output pixel, weight 1 each, up to 1 / TAA's weight
+ *   (P.taa.x) samples; where it moves, the reconstruction with its weights' sum, up to
+ *   HELD_MOVING; no history (first frame, off screen, non-finite): the reconstruction alone.
  * With CP_F_SPATIAL it is the spatial baseline instead: the input resampled at u - jitter
  * (bilinear, or Catmull-Rom bicubic: P.taa.w), no history.
  * Not yet: a sharpening pass, lock and reactivity masks for thin and emissive pixels. */
@@ -48,22 +48,23 @@ vec4 catmull_rom(float t)
                 0.5 * t3 - 0.5 * t2);
 }
 
-/* the history (output size) at continuous output position x */
-vec3 sample_history(vec2 x, out bool ok)
+/* the history (output size) at continuous output position x: colour, and in w the sample weight
+ * it holds */
+vec4 sample_history(vec2 x, out bool ok)
 {
     uint prev = 1u - pc.slot;
     vec2 c = x - 0.5;
     ivec2 b = ivec2(floor(c));
     vec2 f = c - vec2(b);
     vec4 wx = catmull_rom(f.x), wy = catmull_rom(f.y);
-    vec3 sum = vec3(0.0);
+    vec4 sum = vec4(0.0);
     for (int j = 0; j < 4; j++)
         for (int i = 0; i < 4; i++) {
             ivec2 q = clamp(b + ivec2(i - 1, j - 1), ivec2(0), img_size() - 1);
-            sum += wx[i] * wy[j] * imageLoad(taa[prev], q).rgb;
+            sum += wx[i] * wy[j] * imageLoad(taa[prev], q);
         }
-    ok = !(tnd_nonfinite(sum.x) || tnd_nonfinite(sum.y) || tnd_nonfinite(sum.z));
-    return max(sum, vec3(0.0));
+    ok = !(tnd_nonfinite(sum.x) || tnd_nonfinite(sum.y) || tnd_nonfinite(sum.z) || tnd_nonfinite(sum.w));
+    return max(sum, vec4(0.0));
 }
 
 /* the input at continuous input position x (pixel centres at + 0.5): bilinear or Catmull-Rom */
@@ -83,15 +84,23 @@ vec3 resample_in(vec2 x, bool cubic)
     return max(sum, vec3(0.0));
 }
 
-vec3 clip_box(vec3 h, vec3 m, vec3 e)
+/* h clipped onto the box m +- e; k: how far outside it was (1: inside) */
+vec3 clip_box(vec3 h, vec3 m, vec3 e, out float k)
 {
     vec3 d = h - m;
     vec3 r = abs(d) / max(e, vec3(1e-7));
-    float k = max(r.x, max(r.y, r.z));
-    return k > 1.0 ? m + d / k : h;
+    k = max(1.0, max(r.x, max(r.y, r.z)));
+    return m + d / k;
 }
 
 const float SIGMA = 0.42; /* the reconstruction's Gaussian, output pixels */
+/* The sample weight a history holds at most where the image moves (where it is still: 1 / TAA's
+ * new-frame weight, 5 at the upscaler's 0.2), and what a frame's reconstruction counts for where
+ * there is no history: cornell at half size, the still camera's frame 47 and the dolly's 16
+ * frames, FLIP 0.0663 / 0.1183 against 0.0689 / 0.1187 (1.0) and 0.0641 / 0.1174 with temporal
+ * error +2% (0.25) (docs/upscaling.md). */
+const float HELD_MOVING = 1.5;
+const float HELD_FIRST = 0.5;
 
 /* The reconstruction, the box and the blend work on c / (1 + luma c) (Karis's reversible tone
  * map): an emitter 100x brighter than its surround would otherwise spread over it through the
@@ -115,42 +124,71 @@ void main()
     }
     /* the 3x3 input pixels around the one whose sample is nearest u */
     ivec2 c0 = ivec2(floor(u - jit));
-    vec3 m1 = vec3(0.0), m2 = vec3(0.0), sum = vec3(0.0);
-    float wsum = 0.0, conf = 0.0, longest = -1.0;
+    vec3 m1 = vec3(0.0), m2 = vec3(0.0), sum = vec3(0.0), own = vec3(0.0);
+    float wsum = 0.0, n_own = 0.0, longest = -1.0;
     vec2 motion = vec2(0.0);
     ivec2 last = in_size() - 1;
     for (int j = -1; j <= 1; j++)
         for (int i = -1; i <= 1; i++) {
-            ivec2 q = clamp(c0 + ivec2(i, j), ivec2(0), last);
+            ivec2 q0 = c0 + ivec2(i, j), q = clamp(q0, ivec2(0), last);
             vec3 c = tm(fetch_in(q));
             vec3 y = rgb_to_ycocg(c);
             m1 += y, m2 += y * y;
-            vec2 d = (vec2(q) + 0.5 + jit - u) / scale; /* output pixels */
-            float w = exp(-0.5 * dot(d, d) / (SIGMA * SIGMA));
-            sum += w * c, wsum += w, conf = max(conf, w);
             vec2 mv = imageLoad(img_motion, q).xy;
             if (!(tnd_nonfinite(mv.x) || tnd_nonfinite(mv.y)) && dot(mv, mv) > longest) {
                 longest = dot(mv, mv);
                 motion = mv;
             }
+            if (q != q0) /* (a pixel beyond the border: its sample is not there) */
+                continue;
+            vec2 d = (vec2(q) + 0.5 + jit - u) / scale; /* output pixels */
+            float w = exp(-0.5 * dot(d, d) / (SIGMA * SIGMA));
+            sum += w * c, wsum += w;
+            if (all(lessThan(abs(d), vec2(0.5))))
+                own += c, n_own += 1.0;
         }
     m1 /= 9.0;
     vec3 sigma = sqrt(max(m2 / 9.0 - m1 * m1, vec3(0.0)));
-    /* the reconstruction; far from every sample (wsum tiny) the nearest's neighbourhood mean */
+    /* the frame's own estimate: the reconstruction; far from every sample (wsum tiny) the
+     * neighbourhood's mean */
     vec3 current = wsum > 1e-6 ? sum / wsum : ycocg_to_rgb(m1);
+    /* What this frame adds to the pixel's history, and with what weight. Where the image is
+     * still (no motion over a thousandth of an output pixel), the samples inside the output
+     * pixel, each with weight 1: over the jitter sequence they cover the pixel evenly, so the
+     * history converges to the pixel's mean, the full size's and its matched reference's (a
+     * Gaussian's wider footprint converges to a blur of it: cornell's still camera at half
+     * size, frame 47, FLIP 0.0753 with sigma 0.3, 0.0617 inside the pixel). Where it moves, the
+     * history is resampled every frame anyway: the reconstruction, with the sum of its weights. */
+    bool moving = length(motion / scale) >= 1e-3;
+    vec3 mine = moving || n_own == 0.0 ? current : own / n_own;
+    float w_new = moving ? wsum : n_own;
     vec3 result = current;
+    float held = max(w_new, HELD_FIRST); /* the sample weight the pixel holds after this frame */
     if ((P.size.w & CP_F_HISTORY) != 0u) {
         vec2 x = vec2(p) + 0.5 + motion / scale;
         bool ok = all(greaterThanEqual(x, vec2(0.0))) && all(lessThan(x, vec2(img_size())));
-        vec3 h = ok ? tm(sample_history(x, ok)) : vec3(0.0);
+        vec4 hw = ok ? sample_history(x, ok) : vec4(0.0);
         if (ok) {
-            /* (the box from input pixels: wider by the output's pixels per input pixel, as
-             * each holds that many more of the edges an output pixel resolves) */
-            vec3 hy = clip_box(rgb_to_ycocg(h), m1, P.taa.y / min(scale.x, scale.y) * sigma);
-            float mean_conf = min(1.0, 2.0 * 3.14159265 * SIGMA * SIGMA * scale.x * scale.y);
-            float a = clamp(P.taa.x * conf / mean_conf, 0.0, 1.0);
-            result = mix(max(ycocg_to_rgb(hy), vec3(0.0)), current, a);
+            /* The history clipped towards the 3x3 input neighbourhood's mean, onto mean +- k
+             * sigma in YCoCg (the box from input pixels: wider by the output's pixels per input
+             * pixel, as each holds that many more of the edges an output pixel resolves), as
+             * far as this frame has a sample in the pixel: a pixel whose samples all fell
+             * elsewhere this frame (a thin part, the image's border row) is not in that
+             * neighbourhood, and clipping it there would pull it to its neighbours (the still
+             * camera's frame 47: FLIP 0.091 clipped every frame, 0.0617 so). A clipped history
+             * holds less: its weight is divided by how far it was outside the box. */
+            float k;
+            vec3 h0 = rgb_to_ycocg(tm(hw.rgb));
+            vec3 hy = clip_box(h0, m1, P.taa.y / min(scale.x, scale.y) * sigma, k);
+            float s_clip = clamp(w_new, 0.0, 1.0);
+            hy = mix(h0, hy, s_clip);
+            k = mix(1.0, k, s_clip);
+            float w_max = moving ? HELD_MOVING : 1.0 / max(P.taa.x, 1e-3);
+            held = min(min(hw.w, w_max) / k + w_new, w_max);
+            if (held > 1e-6)
+                result = mix(max(ycocg_to_rgb(hy), vec3(0.0)), mine, clamp(w_new / held, 0.0, 1.0));
         }
     }
-    imageStore(taa[pc.slot], p, vec4(max(finite_or_zero(tm_inv(result)), vec3(0.0)), 1.0));
+    /* (w: the sample weight held, for the next frame) */
+    imageStore(taa[pc.slot], p, vec4(max(finite_or_zero(tm_inv(result)), vec3(0.0)), held));
 }

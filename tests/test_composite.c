@@ -478,8 +478,10 @@ static void test_taau_converges_at_edges(void)
            "full size: temporal %.4f, bilinear %.4f, bicubic %.4f; flat pixels' relative error "
            "%.4f / %.4f / %.4f\n", edges, et, el, ec, flat_t, flat_l, flat_c);
     CHECK(edges > 50, "only %d edge pixels", edges);
-    CHECK(et < 0.65 * el && et < 0.65 * ec, "the temporal upscaler's edge error %.4f is not "
-          "under 0.65x bilinear's %.4f and bicubic's %.4f", et, el, ec);
+    /* (measured 0.46x: the samples inside each output pixel accumulated where nothing moves;
+     * 0.55x before that, with the reconstruction's Gaussian accumulated) */
+    CHECK(et < 0.55 * el && et < 0.55 * ec, "the temporal upscaler's edge error %.4f is not "
+          "under 0.55x bilinear's %.4f and bicubic's %.4f", et, el, ec);
     CHECK(flat_t < 0.01, "flat pixels off by %.4f", flat_t);
 cleanup:
     tnd_frame_destroy(&f);

@@ -166,6 +166,10 @@ check "an unknown denoiser: a usage error" $?
 [ $? -eq 2 ] && grep -q "recurrent@atrous=9: --atrous 9: expected a whole number" "$tmp/e8" &&
     "$T" rank quick --denoisers svgf,asvgf@lights=fancy --out "$tmp/r5" --cache "$C" 2> "$tmp/e9"
 [ $? -eq 2 ] && grep -q "asvgf@lights=fancy: lights=fancy: auto, plain, tree or restir" "$tmp/e9" &&
+    "$T" rank quick --denoisers svgf,svgf@render-scale=0.2 --out "$tmp/r5" --cache "$C" 2> "$tmp/e10"
+[ $? -eq 2 ] && grep -q "svgf@render-scale=0.2: render-scale=0.2: a number from 0.25 to 1" "$tmp/e10" &&
+    "$T" rank quick --denoisers svgf,svgf@render-scale=0.5@upscaler=fsr --out "$tmp/r5" --cache "$C" 2> "$tmp/e11"
+[ $? -eq 2 ] && grep -q "upscaler=fsr: temporal, bilinear or bicubic" "$tmp/e11" &&
     [ ! -e "$tmp/r5" ]
 check "a row's settings the denoiser has not, or out of range: a usage error naming them" $?
 "$T" rank quick --denoisers svgf,off --out "$tmp/r1" --cache "$C" 2> "$tmp/e4"
@@ -173,16 +177,17 @@ check "a row's settings the denoiser has not, or out of range: a usage error nam
 check "a folder holding another rank: refused" $?
 
 # 6b. rows with settings (NAME@KEY=VALUE): the same denoiser with TAA off and at other weights
-# beside it, all ranked; six rows and more once overflowed the report's rows (a crash)
-R8=off,off@taa=off,off@taa=0.05,off@taa=0.2,off@taa=0.5,off@taa=1
+# beside it, and traced at half size, all ranked; six rows and more once overflowed the report's
+# rows (a crash)
+R8=off,off@taa=off,off@taa=0.05,off@taa=0.2,off@taa=0.5,off@taa=1,off@render-scale=0.5
 "$T" rank quick --denoisers $R8 --out "$tmp/r8" --cache "$C" > /dev/null 2> "$tmp/e9"
 [ $? -eq 0 ] && [ "$(ls "$tmp/r8/report/dynamic"/f*_s5_flip.png | wc -l)" -ge 2 ]
-check "rank quick --denoisers $R8: exit 0, the report's rows with all six" $?
+check "rank quick --denoisers $R8: exit 0, the report's rows with all seven" $?
 "$PY" - "$tmp/r8" <<'PY'
 import json, sys
 d = sys.argv[1]
 r = json.load(open(d + "/rank.json"))
-assert r["denoisers"][:2] == ["off", "off@taa=off"] and len(r["denoisers"]) == 6, r["denoisers"]
+assert r["denoisers"][:2] == ["off", "off@taa=off"] and len(r["denoisers"]) == 7, r["denoisers"]
 for s in r["sequences"]:
     post = json.load(open(f"{d}/runs/{s['name']}/off@taa=off/run.json"))["post"]
     assert post["taa"] is False and s["cells"][1]["denoiser"] == "off@taa=off", post
@@ -193,8 +198,12 @@ for s in r["sequences"]:
     a, b = (c["flip"]["mean"] for c in s["cells"][:2])
     # TAA is the only filter of `off`: without it the frames differ everywhere
     assert abs(a - b) > 0.05 * a, (s["name"], a, b)
+    # traced at half size, upscaled to the suite's, measured against the same reference
+    h = json.load(open(f"{d}/runs/{s['name']}/off@render-scale=0.5/run.json"))
+    assert h["render_scale"] == 0.5 and h["render_width"] * 2 == h["width"], h
+    assert s["cells"][6]["status"] == "ok" and s["cells"][6]["flip"]["mean"] != a, s["cells"][6]
 PY
-check "the row with @taa=off rendered without TAA, its FLIP apart from the row with it" $?
+check "the row with @taa=off rendered without TAA, its FLIP apart from the row with it; the half-size row traced at half size" $?
 
 # 7. two ranks in one folder at once: the second refused (the lock), naming the first's process
 "$T" rank quick --denoisers recurrent --out "$tmp/r6" --cache "$C" > /dev/null 2>&1 &
