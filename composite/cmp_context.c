@@ -38,17 +38,25 @@ struct cmp_context {
     cmp_timings last;
 };
 
+/* The index of s in names[0..n), or -1. */
+static int name_index(const char *const *names, int n, const char *s)
+{
+    for (int i = 0; i < n; i++)
+        if (strcmp(s, names[i]) == 0)
+            return i;
+    return -1;
+}
+
 static const char *const curve_names[] = {"aces", "agx", "reinhard", "linear"};
 
 tnd_result cmp_curve_parse(const char *s, cmp_curve *c)
 {
-    for (int i = 0; i < 4; i++)
-        if (strcmp(s, curve_names[i]) == 0) {
-            *c = (cmp_curve)i;
-            return TND_OK;
-        }
-    return tnd_fail(TND_ERR_INVALID_ARGUMENT,
-                    "composite: tone curve '%s' (expected aces, agx, reinhard or linear)", s);
+    int i = name_index(curve_names, 4, s);
+    if (i < 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "composite: tone curve '%s' (expected aces, agx, reinhard or linear)", s);
+    *c = (cmp_curve)i;
+    return TND_OK;
 }
 
 const char *cmp_curve_name(cmp_curve c)
@@ -60,13 +68,12 @@ static const char *const upscaler_names[] = {"temporal", "bilinear", "bicubic"};
 
 tnd_result cmp_upscaler_parse(const char *s, cmp_upscaler *u)
 {
-    for (int i = 0; i < 3; i++)
-        if (strcmp(s, upscaler_names[i]) == 0) {
-            *u = (cmp_upscaler)i;
-            return TND_OK;
-        }
-    return tnd_fail(TND_ERR_INVALID_ARGUMENT,
-                    "composite: upscaler '%s' (expected temporal, bilinear or bicubic)", s);
+    int i = name_index(upscaler_names, 3, s);
+    if (i < 0)
+        return tnd_fail(TND_ERR_INVALID_ARGUMENT,
+                        "composite: upscaler '%s' (expected temporal, bilinear or bicubic)", s);
+    *u = (cmp_upscaler)i;
+    return TND_OK;
 }
 
 const char *cmp_upscaler_name(cmp_upscaler u)
