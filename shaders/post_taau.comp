@@ -96,10 +96,12 @@ vec3 clip_box(vec3 h, vec3 m, vec3 e, out float k)
 const float SIGMA = 0.42; /* the reconstruction's Gaussian, output pixels */
 /* The sample weight a history holds at most where the image moves (where it is still: 1 / TAA's
  * new-frame weight, 5 at the upscaler's 0.2), and what a frame's reconstruction counts for where
- * there is no history: cornell at half size, the still camera's frame 47 and the dolly's 16
- * frames, FLIP 0.0663 / 0.1183 against 0.0689 / 0.1187 (1.0) and 0.0641 / 0.1174 with temporal
- * error +2% (0.25) (docs/upscaling.md). */
-const float HELD_MOVING = 1.5;
+ * there is no history. Where the image moves, the history is resampled every frame and lags:
+ * on the standard suite's moving sequences at half size (docs/upscaling.md) 1.5 held FLIP at
+ * 1.33x bilinear's on materials-orbit, 0.6 at 1.21x (0.25: 1.03x, with temporal error 1.25x
+ * bilinear's; cut-outs, the engine and the walk lose 5-12% at 0.25). HELD_FIRST: cornell's still
+ * camera's frame 47 and dolly at half size, FLIP 0.0663 / 0.1183 against 0.0689 / 0.1187 (1.0). */
+const float HELD_MOVING = 0.6;
 const float HELD_FIRST = 0.5;
 
 /* The reconstruction, the box and the blend work on c / (1 + luma c) (Karis's reversible tone
@@ -172,15 +174,17 @@ void main()
             /* The history clipped towards the 3x3 input neighbourhood's mean, onto mean +- k
              * sigma in YCoCg (the box from input pixels: wider by the output's pixels per input
              * pixel, as each holds that many more of the edges an output pixel resolves), as
-             * far as this frame has a sample in the pixel: a pixel whose samples all fell
-             * elsewhere this frame (a thin part, the image's border row) is not in that
-             * neighbourhood, and clipping it there would pull it to its neighbours (the still
-             * camera's frame 47: FLIP 0.091 clipped every frame, 0.0617 so). A clipped history
-             * holds less: its weight is divided by how far it was outside the box. */
+             * far as this frame has a sample in the pixel where the image is still (fully where
+             * it moves): a still pixel whose samples all fell elsewhere this frame (a thin part,
+             * the image's border row) is not in that neighbourhood, and clipping it there would
+             * pull it to its neighbours (the still camera's frame 47: FLIP 0.091 clipped every
+             * frame, 0.0617 so); where the image moves, the full clip (the standard suite's
+             * dynamic: 0.0777 against 0.0899 gated). A clipped history holds less: its weight
+             * is divided by how far it was outside the box. */
             float k;
             vec3 h0 = rgb_to_ycocg(tm(hw.rgb));
             vec3 hy = clip_box(h0, m1, P.taa.y / min(scale.x, scale.y) * sigma, k);
-            float s_clip = clamp(w_new, 0.0, 1.0);
+            float s_clip = moving ? 1.0 : clamp(w_new, 0.0, 1.0);
             hy = mix(h0, hy, s_clip);
             k = mix(1.0, k, s_clip);
             float w_max = moving ? HELD_MOVING : 1.0 / max(P.taa.x, 1e-3);
