@@ -22,6 +22,7 @@
 #include <math.h>
 #include <poll.h>
 #include <signal.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -320,6 +321,41 @@ static tnd_result suite_read(const char *given, rank_plan *P)
     return TND_OK;
 }
 
+/* A row's settings kept as strings, each checked by its own parser. */
+static bool taa_ok(const char *v)
+{
+    struct cmp_desc cd = {0};
+    bool ok = rn_taa_parse(v, &cd) == TND_OK;
+    tnd_error_clear();
+    return ok;
+}
+static bool lights_ok(const char *v)
+{
+    tnd_light_sampling ls;
+    return tnd_light_sampling_parse(v, &ls);
+}
+static bool upscaler_ok(const char *v)
+{
+    cmp_upscaler u;
+    bool ok = cmp_upscaler_parse(v, &u) == TND_OK;
+    tnd_error_clear();
+    return ok;
+}
+typedef struct string_setting {
+    const char *key;
+    size_t offset, cap; /* its field in rank_den */
+    bool (*ok)(const char *value);
+    const char *expect; /* what the message says is expected */
+} string_setting;
+static const string_setting string_settings[] = {
+    {"taa", offsetof(rank_den, taa), sizeof ((rank_den *)0)->taa, taa_ok,
+     "on, off or a new-frame weight in (0, 1]"},
+    {"lights", offsetof(rank_den, lights), sizeof ((rank_den *)0)->lights, lights_ok,
+     "auto, plain, tree or restir"},
+    {"upscaler", offsetof(rank_den, upscaler), sizeof ((rank_den *)0)->upscaler, upscaler_ok,
+     "temporal, bilinear or bicubic"},
+};
+
 /* A row's settings after its name: @taa=on|off|W (the post chain's TAA, as render's --taa),
  * @lights=auto|plain|tree|restir (the front-end's light pick, as render's --lights: every pick has the
  * same matched reference, docs/lights.md), @render-scale=S and @upscaler=temporal|bilinear|bicubic
@@ -345,25 +381,19 @@ static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
                             d->spec, kv);
         *eq = 0;
         const char *key = kv, *val = eq + 1;
-        if (strcmp(key, "taa") == 0) {
-            struct cmp_desc cd = {0};
-            if (strlen(val) >= sizeof d->taa || rn_taa_parse(val, &cd) != TND_OK) {
-                tnd_error_clear();
-                return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: taa=%s: on, off or "
-                                                          "a new-frame weight in (0, 1]",
-                                d->spec, val);
-            }
-            snprintf(d->taa, sizeof d->taa, "%s", val);
-            continue;
+        bool taken = false;
+        for (size_t k = 0; k < sizeof string_settings / sizeof *string_settings && !taken; k++) {
+            const string_setting *ss = &string_settings[k];
+            if (strcmp(key, ss->key) != 0)
+                continue;
+            if (strlen(val) >= ss->cap || !ss->ok(val))
+                return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: %s=%s: %s", d->spec,
+                                key, val, ss->expect);
+            snprintf((char *)d + ss->offset, ss->cap, "%s", val);
+            taken = true;
         }
-        if (strcmp(key, "lights") == 0) {
-            tnd_light_sampling ls;
-            if (!tnd_light_sampling_parse(val, &ls))
-                return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: lights=%s: auto, "
-                                                          "plain, tree or restir", d->spec, val);
-            snprintf(d->lights, sizeof d->lights, "%s", val);
+        if (taken)
             continue;
-        }
         if (strcmp(key, "render-scale") == 0) {
             char *end;
             double x = strtod(val, &end);
@@ -371,17 +401,6 @@ static tnd_result variant_read(rank_den *d, const pl_denoiser_info *info)
                 return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: render-scale=%s: a "
                                                           "number from 0.25 to 1", d->spec, val);
             d->render_scale = x;
-            continue;
-        }
-        if (strcmp(key, "upscaler") == 0) {
-            cmp_upscaler up;
-            if (strlen(val) >= sizeof d->upscaler || cmp_upscaler_parse(val, &up) != TND_OK) {
-                tnd_error_clear();
-                return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--denoisers %s: upscaler=%s: "
-                                                          "temporal, bilinear or bicubic",
-                                d->spec, val);
-            }
-            snprintf(d->upscaler, sizeof d->upscaler, "%s", val);
             continue;
         }
         if (!pl_param_find(key) || !pl_denoiser_has_param(info, key))
