@@ -4,7 +4,7 @@
  * a yaw about +Y and a pitch (no roll), turned into the view matrix the same way by both.
  * Entry points: rn_view_state_read, rn_view_state_write, rn_view_state_free,
  * rn_view_state_push, rn_view_camera_apply, rn_view_camera_from_state, rn_view_state_options
- * (its settings as render's options). */
+ * (its settings as render's options), rn_view_render_size. */
 #include "run/rn_internal.h"
 
 #include <cjson/cJSON.h>
@@ -128,6 +128,7 @@ static const struct {
 #define F(k, field) {k, offsetof(rn_view_state, field)}
     F("bloom", bloom), F("fps", fps), F("env_intensity", env_intensity),
     F("env_rotation", env_rotation), F("exposure_bias", exposure_bias),
+    F("render_scale", render_scale),
 #undef F
 };
 static const struct {
@@ -158,6 +159,7 @@ void rn_view_state_options(const rn_view_state *v, rn_render_opts *o)
     o->params = v->params;
     o->exposure_bias = v->exposure_bias;
     o->bloom = v->bloom;
+    o->render_scale = v->render_scale > 0 ? v->render_scale : 1.0;
     o->fps = v->fps;
     o->bounces = v->bounces;
     o->half_indirect = v->half_indirect != 0 && v->bounces == 1;
@@ -337,4 +339,12 @@ fail:
     if (res != TND_OK)
         rn_view_state_free(s);
     return res;
+}
+
+void rn_view_render_size(const rn_view_state *s, uint32_t out[2])
+{
+    rn_render_opts o;
+    rn_render_defaults(&o);
+    rn_view_state_options(s, &o);
+    rn_render_size(&o, out);
 }

@@ -143,6 +143,7 @@ typedef struct rn_view_state {
     char scene[1024], frontend[1100], denoiser[1100], precision[16], taa[16], tonemap[16];
     char exposure[32], env[1024], view[64], up[4]; /* up: the scene's up axis (--up), "" = y */
     double bloom, fps, env_intensity, env_rotation, exposure_bias;
+    double render_scale; /* traced at the size times this, upscaled (0 or 1: the size) */
     pl_param_set params; /* the denoisers' parameters (pl_param) */
     char split_mode[16];                  /* off, noisy, denoiser, frontend */
     char split_denoiser[1100], split_frontend[1100]; /* the right half's, when split */
@@ -166,6 +167,8 @@ void rn_view_state_restart(rn_view_state *s);
 /* The frame's camera into a scene state (its view matrix and position; the projection stays). */
 void rn_view_camera_apply(const rn_view_cam *c, tnd_scene_state *st);
 void rn_view_camera_from_state(const tnd_scene_state *st, uint32_t frame, rn_view_cam *c);
+/* The size its front-end traces (render's rn_render_size for its options). */
+void rn_view_render_size(const rn_view_state *s, uint32_t out[2]);
 
 /* ---- render and reference (run/rn_render.c, run/rn_reference.c) ---------------------------------- */
 /* A render's or a reference's options: what `tandem render` and `tandem reference` take, and

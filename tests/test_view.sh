@@ -120,6 +120,30 @@ for k in ("position", "yaw", "pitch"):
 PYEOF
 check "the repro state round-trips (settings equal, camera kept)" "[ $? -eq 0 ]"
 
+# U: the render scale (1, 0.67, 0.5): traced at 80x45 and upscaled to the window's 160x90; the
+# views refuse (they read the contract at the window's size); the state keeps the scale and
+# render --view takes it back, pixel for pixel
+cat > "$TMP/scaled.json" <<'JSON'
+{"events": [{"frame": 0, "key": "U"}, {"frame": 0, "key": "U"}, {"frame": 1, "key": "V"},
+  {"frame": 5, "screenshot": true}, {"frame": 6, "exit": true}]}
+JSON
+"${XVFB[@]}" "$T" view --scene "$SRC/data/scenes/cornell.gltf" --size 160x90 \
+    --script "$TMP/scaled.json" --out "$TMP/scaled" > "$TMP/scaled.log" 2>&1
+check "U: exit 0" "[ $? -eq 0 ]" || cat "$TMP/scaled.log"
+$PY - "$TMP/scaled/shot_0000.json" <<'PYEOF'
+import json, sys
+j = json.load(open(sys.argv[1]))
+assert j["render_scale"] == 0.5 and j["view"] == "final" and j["size"] == [160, 90], j
+PYEOF
+check "U twice: the state holds render scale 0.5, the final view (V refused while scaled)" "[ $? -eq 0 ]"
+last=$(last_frame "$TMP/scaled/shot_0000.json")
+"$T" render --view "$TMP/scaled/shot_0000.json" --out "$TMP/rscaled" --quiet \
+    > "$TMP/rscaled.log" 2>&1 || cat "$TMP/rscaled.log"
+f=$(printf 'frame_%04d' "$last")
+check "the scaled shot: render --view traces 80x45 and gives the same PNG, byte for byte" \
+    "grep -q '\"render_width\":[[:space:]]*80' '$TMP/rscaled/run.json' &&
+     cmp -s '$TMP/rscaled/$f.png' '$TMP/scaled/shot_0000.png'"
+
 # X: the error views against the progressive reference (relative error, then FLIP from the
 # device metrics), the overlay off so that the window shows the view itself; a screenshot in
 # each: what the window shows is no longer the final image, and the two views differ

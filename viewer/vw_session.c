@@ -29,6 +29,12 @@ static void set_note(viewer *v, const char *fmt, const char *arg)
     snprintf(v->note, sizeof v->note, fmt, a);
 }
 
+/* Whether the front-end traces fewer pixels than the window shows (U). */
+static bool scaled(const rn_view_state *s)
+{
+    return s->render_scale > 0 && s->render_scale < 1;
+}
+
 /* The live front-end registered after `name` (NULL: the first; NULL after the last). */
 static const char *next_frontend(const char *name)
 {
@@ -105,10 +111,18 @@ void vw_on_key(viewer *v, int key, bool down)
         v->reload = true;
         break;
     case 'R':
+        if (scaled(s)) {
+            set_note(v, "%s", "the reference needs render scale 1 (U)");
+            break;
+        }
         v->ref_on = !v->ref_on;
         v->ref_spp = 0;
         break;
     case 'X':
+        if (scaled(s)) {
+            set_note(v, "%s", "the error views need render scale 1 (U)");
+            break;
+        }
         v->err_view = (v->err_view + 1) % 3;
         v->ref_spp = 0;
         break;
@@ -137,6 +151,17 @@ void vw_on_key(viewer *v, int key, bool down)
         snprintf(s->taa, sizeof s->taa, "%s", strcmp(s->taa, "off") == 0 ? "on" : "off");
         v->rebuild = true;
         break;
+    case 'U': { /* the render scale: 1, 2/3, 1/2 (traced smaller, upscaled to the window) */
+        double sc = s->render_scale > 0 ? s->render_scale : 1.0;
+        s->render_scale = sc > 0.9 ? 0.67 : sc > 0.6 ? 0.5 : 1.0;
+        if (s->render_scale < 1) /* (the views read the contract and the dumps at the window's size) */
+            v->view = 0, v->ref_on = false, v->err_view = 0, snprintf(s->view, sizeof s->view, "final");
+        v->rebuild = true;
+        char sc_text[16];
+        snprintf(sc_text, sizeof sc_text, "%.2f", s->render_scale);
+        set_note(v, "render scale %s", sc_text);
+        break;
+    }
     case 'K': {
         int k = 0;
         while (k < 4 && strcmp(curves[k], s->tonemap) != 0)
@@ -150,6 +175,10 @@ void vw_on_key(viewer *v, int key, bool down)
         v->rebuild = true;
         break;
     case 'V': {
+        if (scaled(s)) {
+            set_note(v, "%s", "the views need render scale 1 (U)");
+            break;
+        }
         v->view = (v->view + 1) % vw_view_count();
         char nm[64];
         vw_view_name(v->view, nm, sizeof nm);
@@ -410,10 +439,12 @@ static tnd_result frame(viewer *v)
     TND_TRY(rn_view_state_push(s, &v->cam));
     char cap[2200];
     snprintf(cap, sizeof cap, "%s/capture_%04u.exr", v->out, v->captures);
+    uint32_t rs[2]; /* (the size traced: the window's, or less with a render scale) */
+    rn_view_render_size(s, rs);
     for (int i = 0; i < (vw_split(s) ? 2 : 1); i++) {
-        TND_TRY(pl_frontend_set_frame(v->fe[i], cur, prev, f, w, h));
+        TND_TRY(pl_frontend_set_frame(v->fe[i], cur, prev, f, rs[0], rs[1]));
         pl_step step = {.params = {.bounces = s->bounces, .half_indirect = s->half_indirect != 0},
-                        .frame = dn_frame_for_camera(cur->camera.proj, h, f, first),
+                        .frame = dn_frame_for_camera(cur->camera.proj, rs[1], f, first),
                         .dt = (float)(1.0 / s->fps),
                         .capture = i == 0 && v->want_capture ? cap : NULL,
                         .no_wait = true};

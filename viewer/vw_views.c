@@ -284,9 +284,12 @@ void vw_draw_overlay(viewer *v, const char *device, double fps)
     y += 10;
     char nb[16];
     snprintf(nb, sizeof nb, s->half_indirect ? "half" : "%u", s->bounces);
-    snprintf(line, sizeof line, "denoiser %.60s  bounces %s  %s  TAA %s  %s  bloom %.2f",
+    char sc[32] = "";
+    if (s->render_scale > 0 && s->render_scale < 1)
+        snprintf(sc, sizeof sc, "  scale %.2f", s->render_scale);
+    snprintf(line, sizeof line, "denoiser %.60s  bounces %s  %s  TAA %s  %s  bloom %.2f%s",
              v->chain[0] && pl_chain_plugin_name(v->chain[0]) ? s->denoiser : v->dn->name, nb,
-             s->precision, s->taa, s->tonemap, s->bloom);
+             s->precision, s->taa, s->tonemap, s->bloom, sc);
     text(px, 4, y, line, fg);
     y += 10;
     char sp[200] = "";
