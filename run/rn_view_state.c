@@ -250,6 +250,11 @@ tnd_result rn_view_state_read(const char *path, rn_view_state *s)
         if (v)
             *(double *)((char *)s + number_fields[i].offset) = v->valuedouble;
     }
+    if (s->render_scale != 0 && !(s->render_scale >= 0.25 && s->render_scale <= 1)) {
+        res = tnd_fail(TND_ERR_BAD_INPUT, "view state %s: \"render_scale\": %g: 0.25 to 1",
+                       path, s->render_scale);
+        goto fail;
+    }
     for (size_t i = 0; i < sizeof uint_fields / sizeof uint_fields[0]; i++) {
         const cJSON *v = cJSON_GetObjectItem(j, uint_fields[i].key);
         if (v && (!cJSON_IsNumber(v) || v->valuedouble < 0 || v->valuedouble > 1e6)) {

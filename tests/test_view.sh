@@ -143,6 +143,12 @@ f=$(printf 'frame_%04d' "$last")
 check "the scaled shot: render --view traces 80x45 and gives the same PNG, byte for byte" \
     "grep -q '\"render_width\":[[:space:]]*80' '$TMP/rscaled/run.json' &&
      cmp -s '$TMP/rscaled/$f.png' '$TMP/scaled/shot_0000.png'"
+$PY -c "import json, sys; j = json.load(open(sys.argv[1])); j['render_scale'] = 5; json.dump(j, open(sys.argv[2], 'w'))" \
+    "$TMP/scaled/shot_0000.json" "$TMP/scale_bad.json"
+"$T" render --view "$TMP/scale_bad.json" --out "$TMP/scale_bad" > "$TMP/scale_bad.log" 2>&1
+check "a state with render_scale 5: exit 1, named, nothing written" \
+    "[ $? -eq 1 ] && grep -q 'scale_bad.json: \"render_scale\": 5: 0.25 to 1' '$TMP/scale_bad.log' &&
+     [ ! -e '$TMP/scale_bad' ]"
 
 # X: the error views against the progressive reference (relative error, then FLIP from the
 # device metrics), the overlay off so that the window shows the view itself; a screenshot in
