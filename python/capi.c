@@ -151,6 +151,8 @@ static const key render_keys[] = {
     {"pipeline", K_STR, O(pipeline)},
     {"reflect_depth", K_UINT, O(reflect_depth)},
     {"lights", K_STR, O(lights)},
+    {"render_scale", K_DOUBLE, O(render_scale)},
+    {"upscaler", K_STR, O(upscaler)},
     {"taa", K_STR, O(taa)},
     {"tonemap", K_STR, O(tonemap)},
     {"exposure", K_STR, O(exposure)},
@@ -521,6 +523,14 @@ API void tandem_renderer_size(const tandem_renderer *r, uint32_t *width, uint32_
     const rn_render_opts *o = rn_session_opts(r->s);
     *width = o->size[0];
     *height = o->size[1];
+}
+
+API void tandem_renderer_render_size(const tandem_renderer *r, uint32_t *width, uint32_t *height)
+{
+    uint32_t rs[2];
+    rn_render_size(rn_session_opts(r->s), rs);
+    *width = rs[0];
+    *height = rs[1];
 }
 
 API const char *tandem_renderer_denoiser(const tandem_renderer *r)

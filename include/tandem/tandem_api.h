@@ -97,6 +97,8 @@ tandem_renderer *tandem_renderer_open_scene(const tandem_scene *scene, const cha
                                             int reference);
 void tandem_renderer_free(tandem_renderer *r);
 void tandem_renderer_size(const tandem_renderer *r, uint32_t *width, uint32_t *height);
+/* The size its front-end traces and its contract has: the size times render_scale (rounded). */
+void tandem_renderer_render_size(const tandem_renderer *r, uint32_t *width, uint32_t *height);
 /* the denoiser that runs (after a fallback); "" for a reference renderer */
 const char *tandem_renderer_denoiser(const tandem_renderer *r);
 /* Frame f: rgb (render's frame_NNNN.exr: linear HDR after the post chain), display (its PNG's

@@ -293,6 +293,8 @@ class Renderer:
     Options are render's by their command-line names ('_' for '-'): frontend, denoiser (a name,
     "python:MODULE:CALLABLE", or a factory such as a class: run in this process), size,
     precision, bounces, fps, camera, threads, lights, taa, tonemap, exposure, bloom, spp,
+    render_scale and upscaler (traced at size x render_scale and upscaled: ``radiance`` and
+    ``display`` at size, the contract at ``render_width`` x ``render_height``),
     estimator, the scene options (env, camera_path, ...), params (the denoiser's parameters). A frame that
     follows the one before continues the history; any other restarts it.
     """
@@ -317,6 +319,8 @@ class Renderer:
         w, h = ffi.new("uint32_t *"), ffi.new("uint32_t *")
         lib.tandem_renderer_size(self._h, w, h)
         self.width, self.height = w[0], h[0]
+        lib.tandem_renderer_render_size(self._h, w, h)  # (the contract's: render_scale < 1)
+        self.render_width, self.render_height = w[0], h[0]
         self.denoiser = ffi.string(lib.tandem_renderer_denoiser(self._h)).decode() or None
 
     def frame(self, f, contract=True, display=True):
@@ -325,7 +329,7 @@ class Renderer:
         ffi, lib = _lib()
         rgb = np.empty((self.height, self.width, 3), np.float32)
         disp = np.empty((self.height, self.width, 3), np.uint8) if display else None
-        cap = Capture(self.width, self.height) if contract else None
+        cap = Capture(self.render_width, self.render_height) if contract else None
         _check(lib.tandem_renderer_frame(self._h, f, _ptr(rgb, "float *"),
                                          _ptr(disp, "uint8_t *"),
                                          cap._h if cap is not None else ffi.NULL))

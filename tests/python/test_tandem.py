@@ -243,6 +243,25 @@ def test_restir_option_equals_command(tmp_path):
             assert np.array_equal(px[..., :3], r.frame(f)["radiance"]), (fe, f)
 
 
+def test_render_scale_equals_command(tmp_path):
+    """render_scale=0.5 is render's --render-scale 0.5, bit for bit: radiance at the size, the
+    contract at the render size (what render --capture writes)."""
+    out = tmp_path / "half"
+    run("render", "--scene", CORNELL, "--frontend", "vk", "--denoiser", "asvgf", "--size",
+        "64x36", "--frames", "3", "--render-scale", "0.5", "--capture", "--out", str(out))
+    r = tandem.Renderer(CORNELL, frontend="vk", denoiser="asvgf", size=(64, 36), render_scale=0.5)
+    assert (r.width, r.height, r.render_width, r.render_height) == (64, 36, 32, 18)
+    for f in range(3):
+        got = r.frame(f)
+        px, _ = read_rgb(str(out / ("frame_%04d.exr" % f)))
+        assert np.array_equal(px[..., :3], got["radiance"]), f
+        cap = tandem.read_capture(str(out / "capture" / ("frame_%04d.exr" % f)))
+        assert got["contract"].width == cap.width == 32 and got["contract"].height == 18
+        assert np.array_equal(got["contract"]["albedo"], cap["albedo"]), f
+    with pytest.raises(tandem.TandemError, match="--render-scale 2: expected 0.25 to 1"):
+        tandem.Renderer(CORNELL, frontend="vk", size=(64, 36), render_scale=2)
+
+
 def test_errors_raise_with_message(tmp_path):
     with pytest.raises(tandem.TandemError, match="nope.gltf: cannot open"):
         tandem.Scene(str(tmp_path / "nope.gltf"))
