@@ -14,6 +14,7 @@
  * DIR/rank.json, DIR/rank.csv and DIR/report (the table, per sequence the eval report with its
  * per-frame curves, player and the crops where the denoisers differ most). Entry points:
  * rn_rank_check, rn_rank, rn_rank_result_free. */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include "run/rn_internal.h"
 
 #include <cjson/cJSON.h>
@@ -646,9 +647,17 @@ static void reference_key(rank_plan *P, rank_seq *sq)
     r.out = NULL;
     r.quiet = false;
     rn_args a;
+    /* a file's path by its canonical name: the same suite ranked from its absolute path and
+     * from a relative one makes its references once (a scene such as stress:N is no file) */
     if (rn_render_args(&r, true, &a) == TND_OK)
-        for (int k = 0; k < a.n; k++)
-            h = fnv_str(h, a.v[k]);
+        for (int k = 0; k < a.n; k++) {
+            char *canon = NULL;
+            if (k > 0 && (strcmp(a.v[k - 1], "--scene") == 0 || strcmp(a.v[k - 1], "--env") == 0 ||
+                          strcmp(a.v[k - 1], "--camera-path") == 0))
+                canon = realpath(a.v[k], NULL);
+            h = fnv_str(h, canon ? canon : a.v[k]);
+            free(canon);
+        }
     tnd_error_clear();
     h = fnv_scene_dir(h, sq->scene);
     if (sq->o.env.path)

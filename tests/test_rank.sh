@@ -65,11 +65,15 @@ sys.exit(0 if same else 1)
 PY
 check "a rank cell equals tandem eval of its render against its reference, to the last digit" $?
 
-# 3. the references come from the cache the second time; --regions: the error per region
-"$T" rank quick --denoisers svgf,off --out "$tmp/r2" --cache "$C" --no-report --regions \
-    2> "$tmp/r2.err" > "$tmp/r2.txt"
+# 3. the references come from the cache the second time, the suite named this time by a relative
+# path from its own folder (the key holds the files' canonical paths); --regions: the error per
+# region
+quick=$("$PY" -c "import json,sys; print(json.load(open(sys.argv[1]))['suite'])" "$tmp/r1/rank.json")
+Tabs=$(cd "$(dirname "$T")" && pwd)/$(basename "$T")
+(cd "$(dirname "$quick")" && "$Tabs" rank "./$(basename "$quick")" --denoisers svgf,off \
+    --out "$tmp/r2" --cache "$C" --no-report --regions 2> "$tmp/r2.err" > "$tmp/r2.txt")
 [ $? -eq 0 ] && [ "$(grep -c 'from the cache' "$tmp/r2.err")" -eq 2 ] && [ ! -d "$tmp/r2/report" ]
-check "a second rank reuses both references from the cache (--no-report: no report)" $?
+check "a second rank, the suite by a relative path, reuses both references from the cache (--no-report: no report)" $?
 ref=$("$PY" -c "import json,sys; print(json.load(open(sys.argv[1]))['sequences'][1]['reference']['dir'])" "$tmp/r2/rank.json")
 "$T" eval --out "$tmp/r2/runs/dynamic/svgf" --matched-reference "$ref" --quiet 2>/dev/null
 "$PY" - "$tmp/r2" <<'PY'
