@@ -91,7 +91,7 @@ static int parse_common(const app_cmd *cmd, render_opts *o, bool reference, int 
         {"render-scale", APP_OPT_FLOAT, &o->render_scale, "S",
          "trace and denoise at --size x S (0.25 to 1, default 1) and upscale to --size in the "
          "post chain (docs/upscaling.md)"},
-        {"upscaler", APP_OPT_STRING, &o->upscaler, "temporal|bilinear|bicubic",
+        {"upscaler", APP_OPT_STRING, &o->upscaler, CMP_UPSCALER_LIST,
          "--render-scale below 1: the temporal upscaler (jittered samples accumulated at the "
          "output size; the default; bilinear with --taa off) or a spatial baseline"},
         {"timed-frames", APP_OPT_UINT, &o->timed_frames, "N",

@@ -64,21 +64,27 @@ const char *cmp_curve_name(cmp_curve c)
     return (unsigned)c < 4 ? curve_names[c] : "?";
 }
 
-static const char *const upscaler_names[] = {"temporal", "bilinear", "bicubic"};
+static const char *const upscaler_names[CMP_UPSCALE_COUNT] = {"temporal", "bilinear", "bicubic",
+                                                               "lanczos"};
 
 tnd_result cmp_upscaler_parse(const char *s, cmp_upscaler *u)
 {
-    int i = name_index(upscaler_names, 3, s);
+    int i = name_index(upscaler_names, CMP_UPSCALE_COUNT, s);
     if (i < 0)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT,
-                        "composite: upscaler '%s' (expected temporal, bilinear or bicubic)", s);
+                        "composite: upscaler '%s' (expected " CMP_UPSCALER_NAMES ")", s);
     *u = (cmp_upscaler)i;
     return TND_OK;
 }
 
+cmp_upscaler cmp_upscaler_used(cmp_upscaler u, bool taa)
+{
+    return u == CMP_UPSCALE_TEMPORAL && !taa ? CMP_UPSCALE_BILINEAR : u;
+}
+
 const char *cmp_upscaler_name(cmp_upscaler u)
 {
-    return (unsigned)u < 3 ? upscaler_names[u] : "?";
+    return (unsigned)u < CMP_UPSCALE_COUNT ? upscaler_names[u] : "?";
 }
 
 /* Whether the TAA pass upscales, and whether from this frame alone. */
@@ -252,11 +258,13 @@ static void describe_passes(cmp_context *c)
 {
     const cmp_desc *d = &c->desc;
     char taa[32];
-    snprintf(taa, sizeof taa, "%s", !upscales(c) ? (d->taa ? "taa," : "")
-                                    : spatial(c) ? (d->upscaler == CMP_UPSCALE_BICUBIC
-                                                        ? "upscale-bicubic,"
-                                                        : "upscale-bilinear,")
-                                                 : "taau,");
+    if (!upscales(c))
+        snprintf(taa, sizeof taa, "%s", d->taa ? "taa," : "");
+    else if (spatial(c))
+        snprintf(taa, sizeof taa, "upscale-%s,",
+                 cmp_upscaler_name(cmp_upscaler_used(d->upscaler, d->taa)));
+    else
+        snprintf(taa, sizeof taa, "taau,");
     snprintf(c->passes, sizeof c->passes, "%s%s%s%sexposure,tonemap",
              d->interleave ? "interleave," : "", taa, d->bloom > 0 ? "bloom," : "",
              d->fixed_exposure ? "" : "histogram,");
@@ -423,7 +431,8 @@ tnd_result cmp_submit(cmp_context *c, const tnd_image *hdr, const tnd_contract_g
     *(cp_params *)c->params.mapped = (cp_params){
         .size = {c->width, c->height, c->frame, flags},
         .taa = {d->taa_weight, d->taa_clip, d->taa_sparkle,
-                d->upscaler == CMP_UPSCALE_BICUBIC ? 1.0f : 0.0f},
+                spatial(c) ? (float)(cmp_upscaler_used(d->upscaler, d->taa) - CMP_UPSCALE_BILINEAR)
+                           : 0.0f},
         .bloom = {d->bloom, sigma, ceilf(3.0f * sigma), 0},
         .tm = {(float)d->curve, d->ev100, d->low, d->high},
         .adapt = {f->dt > 0 ? f->dt : 1.0f / 30.0f, d->speed_up, d->speed_down, d->bias},

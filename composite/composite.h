@@ -15,9 +15,16 @@ typedef enum cmp_upscaler {
     CMP_UPSCALE_TEMPORAL = 0, /* post_taau.comp: jittered samples accumulated at the output size */
     CMP_UPSCALE_BILINEAR,     /* spatial baselines: this frame alone */
     CMP_UPSCALE_BICUBIC,
+    CMP_UPSCALE_LANCZOS,      /* edge-adaptive Lanczos-2 (FSR 1's EASU's idea) */
+    CMP_UPSCALE_COUNT
 } cmp_upscaler;
+/* the names, for messages: what cmp_upscaler_parse takes */
+#define CMP_UPSCALER_NAMES "temporal, bilinear, bicubic or lanczos"
+#define CMP_UPSCALER_LIST "temporal|bilinear|bicubic|lanczos"
 tnd_result cmp_upscaler_parse(const char *s, cmp_upscaler *u);
 const char *cmp_upscaler_name(cmp_upscaler u);
+/* the upscaler that runs: the temporal one needs TAA's history (without it: bilinear) */
+cmp_upscaler cmp_upscaler_used(cmp_upscaler u, bool taa);
 
 typedef struct cmp_desc {
     bool interleave;      /* merge the checkerboard fields (the scene has split surfaces) */

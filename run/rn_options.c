@@ -211,7 +211,7 @@ tnd_result rn_render_check(const rn_render_opts *o, bool reference)
     if (o->upscaler && cmp_upscaler_parse(o->upscaler, &up) != TND_OK) {
         tnd_error_clear();
         return tnd_fail(TND_ERR_INVALID_ARGUMENT,
-                        "--upscaler %s: expected temporal, bilinear or bicubic", o->upscaler);
+                        "--upscaler %s: expected " CMP_UPSCALER_NAMES, o->upscaler);
     }
     if (reference && o->render_scale != 1)
         return tnd_fail(TND_ERR_INVALID_ARGUMENT, "--render-scale: render only (the matched "

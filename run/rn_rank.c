@@ -354,12 +354,12 @@ static const string_setting string_settings[] = {
     {"lights", offsetof(rank_den, lights), sizeof ((rank_den *)0)->lights, lights_ok,
      "auto, plain, tree or restir"},
     {"upscaler", offsetof(rank_den, upscaler), sizeof ((rank_den *)0)->upscaler, upscaler_ok,
-     "temporal, bilinear or bicubic"},
+     CMP_UPSCALER_NAMES},
 };
 
 /* A row's settings after its name: @taa=on|off|W (the post chain's TAA, as render's --taa),
  * @lights=auto|plain|tree|restir (the front-end's light pick, as render's --lights: every pick has the
- * same matched reference, docs/lights.md), @render-scale=S and @upscaler=temporal|bilinear|bicubic
+ * same matched reference, docs/lights.md), @render-scale=S and @upscaler=temporal|bilinear|bicubic|lanczos
  * (traced and denoised at the size times S, upscaled to it: the matched reference is the full
  * size's, so the upscaler's loss counts; docs/upscaling.md) and @PARAM=X (a parameter of that
  * denoiser, as render's --PARAM), so that one rank measures a change against the denoiser without it. Each is checked here, by name, before anything runs;

@@ -127,7 +127,7 @@ static tnd_result write_run_json(const render_opts *o, const char *device, const
     cJSON_AddNumberToObject(j, "render_height", rs[1]);
     if (o->render_scale != 1) /* (without TAA the temporal one has no history: bilinear) */
         cJSON_AddStringToObject(j, "upscaler",
-                                cmp_upscaler_name(pd->taa ? pd->upscaler : CMP_UPSCALE_BILINEAR));
+                                cmp_upscaler_name(cmp_upscaler_used(pd->upscaler, pd->taa)));
     cJSON_AddNumberToObject(j, "frames", o->frames);
     cJSON_AddNumberToObject(j, "start", o->start);
     cJSON_AddNumberToObject(j, "fps", o->fps);

@@ -36,7 +36,7 @@ static const knob fixed_knobs[] = {
     {"scale", "--size", "resolution scale (the output is resampled to the reference's size)"},
     {"render-scale", "--render-scale", "traced and denoised at this scale of the size (0.25 to "
                                        "1), upscaled to it by the post chain (--upscaler)"},
-    {"upscaler", "--upscaler", "temporal, bilinear or bicubic (with render-scale below 1)"},
+    {"upscaler", "--upscaler", CMP_UPSCALER_NAMES " (with render-scale below 1)"},
     {"frontend", "--frontend", "vk or embree (embree's front-end time is CPU wall clock)"},
 };
 enum { FIXED = sizeof fixed_knobs / sizeof fixed_knobs[0], MAX_KNOBS = FIXED + PL_PARAMS_MAX };

@@ -32,7 +32,7 @@ struct cp_params {
 #define CP_F_DITHER 16u     /* dither the display output */
 #define CP_F_UPSCALE 32u    /* the input is smaller than the output: post_taau.comp upscales it */
 #define CP_F_SPATIAL 64u    /* ... from this frame alone (the spatial baselines; taa.w: 0 bilinear,
-                               1 Catmull-Rom bicubic) */
+                               1 Catmull-Rom bicubic, 2 edge-adaptive Lanczos) */
 
 #define CP_CURVE_ACES 0u
 #define CP_CURVE_AGX 1u

@@ -17,7 +17,7 @@
  *   (P.taa.x) samples; where it moves, the reconstruction with its weights' sum, up to
  *   HELD_MOVING; no history (first frame, off screen, non-finite): the reconstruction alone.
  * With CP_F_SPATIAL it is the spatial baseline instead: the input resampled at u - jitter
- * (bilinear, or Catmull-Rom bicubic: P.taa.w), no history.
+ * (bilinear, Catmull-Rom bicubic or the edge-adaptive Lanczos: P.taa.w 0, 1, 2), no history.
  * Not yet: a sharpening pass, lock and reactivity masks for thin and emissive pixels. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -35,6 +35,14 @@ vec3 ycocg_to_rgb(vec3 y)
 }
 
 ivec2 in_size() { return ivec2(P.up.xy); }
+
+/* The reconstruction, the box and the blend work on c / (1 + luma c) (Karis's reversible tone
+ * map): an emitter 100x brighter than its surround would otherwise spread over it through the
+ * Gaussian, the history's cubic and the blend (cornell at 0.67: relMSE 2.2 in linear, where the
+ * panel's edge bled into the ceiling). */
+vec3 tm(vec3 c) { return c / (1.0 + luma(c)); }
+vec3 tm_inv(vec3 c) { return c / max(1.0 - luma(c), 1e-4); }
+
 
 vec3 fetch_in(ivec2 q)
 {
@@ -84,6 +92,70 @@ vec3 resample_in(vec2 x, bool cubic)
     return max(sum, vec3(0.0));
 }
 
+/* Lanczos-2 of a distance in input pixels (0 from 2 on) */
+float lanczos2(float r)
+{
+    if (r < 1e-4)
+        return 1.0;
+    if (r >= 2.0)
+        return 0.0;
+    float a = 3.14159265 * r;
+    return 2.0 * sin(a) * sin(0.5 * a) / (a * a);
+}
+
+/* The edge-adaptive Lanczos baseline (`--upscaler lanczos`), in the spirit of FSR 1's EASU as
+ * its public description gives it: the input's 4x4 pixels around x (continuous input position)
+ * weighted by a radial Lanczos-2 whose footprint is stretched along the local edge, so that an
+ * edge is interpolated along itself and kept sharp across; then clamped to the nearest 2x2
+ * pixels' range (no ringing). The edge: the luma gradients of the 2x2 nearest pixels (central
+ * differences over the 12 pixels of the 4x4 without its corners), weighted bilinearly by x's
+ * position among them; its strength is the gradient's length over the 2x2's local contrast
+ * (1 for a clean step), and the footprint along it is (1 + strength) pixels wide per pixel.
+ * Works on c / (1 + luma c), as the temporal upscaler does, so that an emitter's edge does not
+ * spread its light. */
+vec3 lanczos_in(vec2 x)
+{
+    vec2 c = x - 0.5;
+    ivec2 b = ivec2(floor(c));
+    vec2 f = c - vec2(b);
+    vec3 t[16];
+    float l[16];
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++) {
+            t[j * 4 + i] = tm(fetch_in(b + ivec2(i - 1, j - 1)));
+            l[j * 4 + i] = luma(t[j * 4 + i]);
+        }
+    /* the gradients of the inner 2x2 (indices 5, 6, 9, 10), bilinearly weighted */
+    vec2 g = vec2(0.0);
+    float lo = 1e30, hi = -1e30;
+    for (int j = 1; j <= 2; j++)
+        for (int i = 1; i <= 2; i++) {
+            int k = j * 4 + i;
+            float w = (i == 1 ? 1.0 - f.x : f.x) * (j == 1 ? 1.0 - f.y : f.y);
+            g += w * vec2(l[k + 1] - l[k - 1], l[k + 4] - l[k - 4]);
+            lo = min(lo, min(min(l[k - 1], l[k + 1]), min(l[k - 4], l[k + 4])));
+            hi = max(hi, max(max(l[k - 1], l[k + 1]), max(l[k - 4], l[k + 4])));
+        }
+    float glen = length(g);
+    float strength = hi - lo > 1e-6 ? clamp(glen / (hi - lo), 0.0, 1.0) : 0.0;
+    vec2 across = glen > 1e-8 ? g / glen : vec2(1.0, 0.0);
+    vec2 along = vec2(-across.y, across.x);
+    float stretch = 1.0 / (1.0 + strength);
+    vec3 sum = vec3(0.0), mn = vec3(1e30), mx = vec3(-1e30);
+    float wsum = 0.0;
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++) {
+            vec2 d = vec2(i - 1, j - 1) - f; /* the tap from x, input pixels */
+            float r = length(vec2(dot(d, across), dot(d, along) * stretch));
+            float w = lanczos2(r);
+            sum += w * t[j * 4 + i], wsum += w;
+            if (i >= 1 && i <= 2 && j >= 1 && j <= 2)
+                mn = min(mn, t[j * 4 + i]), mx = max(mx, t[j * 4 + i]);
+        }
+    vec3 r = wsum > 1e-6 ? sum / wsum : t[5];
+    return tm_inv(clamp(r, mn, mx));
+}
+
 /* h clipped onto the box m +- e; k: how far outside it was (1: inside) */
 vec3 clip_box(vec3 h, vec3 m, vec3 e, out float k)
 {
@@ -104,12 +176,6 @@ const float SIGMA = 0.42; /* the reconstruction's Gaussian, output pixels */
 const float HELD_MOVING = 0.6;
 const float HELD_FIRST = 0.5;
 
-/* The reconstruction, the box and the blend work on c / (1 + luma c) (Karis's reversible tone
- * map): an emitter 100x brighter than its surround would otherwise spread over it through the
- * Gaussian, the history's cubic and the blend (cornell at 0.67: relMSE 2.2 in linear, where the
- * panel's edge bled into the ceiling). */
-vec3 tm(vec3 c) { return c / (1.0 + luma(c)); }
-vec3 tm_inv(vec3 c) { return c / max(1.0 - luma(c), 1e-4); }
 
 void main()
 {
@@ -120,7 +186,7 @@ void main()
     vec2 u = (vec2(p) + 0.5) * scale;
     vec2 jit = P.up.zw;
     if ((P.size.w & CP_F_SPATIAL) != 0u) {
-        vec3 c = resample_in(u - jit, P.taa.w != 0.0);
+        vec3 c = P.taa.w == 2.0 ? lanczos_in(u - jit) : resample_in(u - jit, P.taa.w != 0.0);
         imageStore(taa[pc.slot], p, vec4(max(finite_or_zero(c), vec3(0.0)), 1.0));
         return;
     }

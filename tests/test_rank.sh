@@ -173,7 +173,7 @@ check "an unknown denoiser: a usage error" $?
     "$T" rank quick --denoisers svgf,svgf@render-scale=0.2 --out "$tmp/r5" --cache "$C" 2> "$tmp/e10"
 [ $? -eq 2 ] && grep -q "svgf@render-scale=0.2: render-scale=0.2: a number from 0.25 to 1" "$tmp/e10" &&
     "$T" rank quick --denoisers svgf,svgf@render-scale=0.5@upscaler=fsr --out "$tmp/r5" --cache "$C" 2> "$tmp/e11"
-[ $? -eq 2 ] && grep -q "upscaler=fsr: temporal, bilinear or bicubic" "$tmp/e11" &&
+[ $? -eq 2 ] && grep -q "upscaler=fsr: temporal, bilinear, bicubic or lanczos" "$tmp/e11" &&
     [ ! -e "$tmp/r5" ]
 check "a row's settings the denoiser has not, or out of range: a usage error naming them" $?
 "$T" rank quick --denoisers svgf,off --out "$tmp/r1" --cache "$C" 2> "$tmp/e4"
