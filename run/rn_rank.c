@@ -359,8 +359,8 @@ static const string_setting string_settings[] = {
 
 /* A row's settings after its name: @taa=on|off|W (the post chain's TAA, as render's --taa),
  * @lights=auto|plain|tree|restir (the front-end's light pick, as render's --lights: every pick has the
- * same matched reference, docs/lights.md), @render-scale=S and @upscaler=temporal|bilinear|bicubic|lanczos
- * (traced and denoised at the size times S, upscaled to it: the matched reference is the full
+ * same matched reference, docs/lights.md), @render-scale=S and
+ * @upscaler=temporal|bilinear|bicubic|lanczos (traced and denoised at the size times S, upscaled to it: the matched reference is the full
  * size's, so the upscaler's loss counts; docs/upscaling.md) and @PARAM=X (a parameter of that
  * denoiser, as render's --PARAM), so that one rank measures a change against the denoiser without it. Each is checked here, by name, before anything runs;
  * the row's id (its folder and column) gets the settings as given. */

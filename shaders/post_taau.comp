@@ -43,7 +43,6 @@ ivec2 in_size() { return ivec2(P.up.xy); }
 vec3 tm(vec3 c) { return c / (1.0 + luma(c)); }
 vec3 tm_inv(vec3 c) { return c / max(1.0 - luma(c), 1e-4); }
 
-
 vec3 fetch_in(ivec2 q)
 {
     return max(finite_or_zero(imageLoad(in_hdr, clamp(q, ivec2(0), in_size() - 1)).rgb), vec3(0.0));
@@ -175,7 +174,6 @@ const float SIGMA = 0.42; /* the reconstruction's Gaussian, output pixels */
  * camera's frame 47 and dolly at half size, FLIP 0.0663 / 0.1183 against 0.0689 / 0.1187 (1.0). */
 const float HELD_MOVING = 0.6;
 const float HELD_FIRST = 0.5;
-
 
 void main()
 {
