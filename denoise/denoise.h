@@ -18,6 +18,9 @@
 
 #include "core/core.h"
 
+/* the recurrent denoiser's resampling of its slow histories by default (dn_desc.cubic) */
+#define DN_CUBIC_DEFAULT 1u
+
 typedef enum dn_mode {
     DN_MODE_SVGF = 0, /* temporal + a-trous, fixed minimum alpha */
     DN_MODE_OFF,      /* composite of the noisy signals */
@@ -50,6 +53,10 @@ typedef struct dn_desc {
      * this many frames rebuilt by the history fix (0 means 3; negative: none) and its base
      * stride in pixels (0 means 14: 7, 5, 4 pixels at 1, 2, 3 frames) */
     float fast_frames, clamp_sigma, history_fix, fix_stride;
+    /* recurrent: how the slow colour histories are resampled where the whole 4x4 footprint saw
+     * the pixel's surface: 0 the default (DN_CUBIC_DEFAULT), 1 Catmull-Rom (NRD's), 2 the
+     * tested bilinear taps as everywhere else */
+    uint32_t cubic;
     /* profiling: a timestamp around every dispatch as well (dn_dispatch_times) */
     bool dispatch_timing;
     /* the gradient blur's segment of a row or column per work group, in strata: 0 means (and

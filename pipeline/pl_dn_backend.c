@@ -47,12 +47,16 @@ static const pl_param p_history_fix = {
     .name = "history-fix", .kind = PL_PARAM_UINT, .min = 1, .max = 8, .arg = "N",
     .help = "recurrent: histories of at most N frames are rebuilt from their neighbours' "
             "(default 3)"};
+static const pl_param p_resample = {
+    .name = "resample", .kind = PL_PARAM_UINT, .min = 1, .max = 2, .arg = "1|2",
+    .help = "recurrent: the slow histories' resampling where the 4x4 footprint saw the "
+            "surface: 1 Catmull-Rom, 2 the tested bilinear taps (default 1)"};
 /* clang-format on */
 
 static const pl_param *const svgf_params[] = {&p_atrous, &p_min_alpha, &p_lf_sigma};
 static const pl_param *const recurrent_params[] = {&p_atrous,      &p_min_alpha, &p_antilag,
                                                    &p_fast,        &p_clamp_sigma,
-                                                   &p_history_fix, &p_lf_sigma};
+                                                   &p_history_fix, &p_lf_sigma, &p_resample};
 static const pl_param *const asvgf_params[] = {&p_atrous, &p_min_alpha, &p_antilag, &p_lf_sigma};
 
 /* The back-end's passes (timings.json's keys as they always were) and, for each, its field of
@@ -107,6 +111,8 @@ static void backend_param(dn_desc *d, const char *name, double v)
         d->clamp_sigma = (float)v;
     else if (strcmp(name, "history-fix") == 0)
         d->history_fix = (float)v;
+    else if (strcmp(name, "resample") == 0)
+        d->cubic = (uint32_t)v;
 }
 
 static void backend_destroy(void *ctx)

@@ -35,7 +35,8 @@ struct dn_params {
      * instead of loading two image texels per thread */
     vec4 origin_position;
     uvec4 origin_vis;
-    uvec4 frame; /* x: frames run so far (seeds the histories' stochastic rounding) */
+    uvec4 frame; /* x: frames run so far (seeds the histories' stochastic rounding); y:
+                    recurrent: 1 where the slow histories are resampled by the cubic */
     vec4 rc;     /* recurrent: x the fast history's length in frames, y the clamp's width in
                     standard deviations, z the history fix's reach (histories of at most this
                     many frames are rebuilt from neighbours; 0: none), w its base stride (px) */

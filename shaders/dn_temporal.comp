@@ -275,7 +275,7 @@ void main()
     bool cubic = false;
     vec3 cr_hf, cr_spec;
     bool cr_with_spec = v_wsum <= 1e-4 && wsum_spec > 0.999;
-    if (P.size.w == DN_RUN_RECURRENT && wsum > 0.999 && vis.x != TND_VIS_NONE)
+    if (P.size.w == DN_RUN_RECURRENT && P.frame.y != 0u && wsum > 0.999 && vis.x != TND_VIS_NONE)
         cubic = resample_cubic(vec2(p) + motion.xy, cr_with_spec, passed, cr_hf, cr_spec);
     float l = luma(hf);
     vec4 out_hf, out_mom, out_sh, out_spec;
