@@ -149,7 +149,8 @@ tnd_result app_bench_metrics(const unsigned size[2], unsigned repeats, unsigned 
  * back to back, its ways taking turns in blocks; a table or JSON on stdout. */
 tnd_result app_bench_overlap(const tnd_scene *s, const char *fe_name, const unsigned size[2],
                              unsigned bounces, unsigned blocks, const char *denoiser,
-                             tnd_precision prec, bool json, bool with_host);
+                             tnd_precision prec, tnd_light_sampling lights, bool json,
+                             bool with_host);
 /* A soak run's figures as a table row on stdout (with its header when `title`). */
 void app_soak_print(const rn_soak_rec *rec, const char *title, const char *scene,
                     const unsigned size[2]);

@@ -17,7 +17,8 @@ enum { OV_HOST, OV_GPU, OV_NO_WAIT, OV_SEPARATE, OV_COUNT };
 enum { WF_MAX = 32 }; /* the whole frame's passes (pl_chain_passes), in their groups */
 tnd_result app_bench_overlap(const tnd_scene *s, const char *fe_name, const unsigned size[2],
                                 unsigned bounces, unsigned blocks, const char *denoiser,
-                                tnd_precision prec, bool json, bool with_host)
+                                tnd_precision prec, tnd_light_sampling lights, bool json,
+                                bool with_host)
 {
     static const char *const ov_name[OV_COUNT] = {"host_contract_blocking", "gpu_contract_blocking",
                                                   "gpu_contract_no_wait",
@@ -56,8 +57,9 @@ tnd_result app_bench_overlap(const tnd_scene *s, const char *fe_name, const unsi
         if (m == OV_SEPARATE && !pl_chain_can_fold(chain[OV_GPU], fe[OV_GPU]))
             break; /* (a separate re-shading is another way only where it can be folded in) */
         way[m] = true;
-        TND_TRY(pl_frontend_create(fe_name, s, &(pl_frontend_desc){.vk = &vk, .precision = prec},
-                                   &fe[m]));
+        TND_TRY(pl_frontend_create(
+            fe_name, s, &(pl_frontend_desc){.vk = &vk, .precision = prec, .lights = lights},
+            &fe[m]));
         TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = size[0], .height = size[1],
                                                  .precision = prec, .backend = true,
                                                  .denoiser = denoiser, .post = pd,
@@ -125,6 +127,8 @@ tnd_result app_bench_overlap(const tnd_scene *s, const char *fe_name, const unsi
         cJSON_AddStringToObject(o, "frontend", fe_name);
         cJSON_AddStringToObject(o, "device", who);
         cJSON_AddStringToObject(o, "denoiser", pl_chain_denoiser_info(chain[OV_GPU])->name);
+        cJSON_AddStringToObject(o, "lights",
+                                tnd_light_sampling_name(tnd_light_sampling_for(s, lights)));
         cJSON_AddNumberToObject(o, "width", size[0]);
         cJSON_AddNumberToObject(o, "height", size[1]);
         cJSON_AddNumberToObject(o, "frames_per_block", BLOCK);
@@ -151,10 +155,11 @@ tnd_result app_bench_overlap(const tnd_scene *s, const char *fe_name, const unsi
         free(txt);
         cJSON_Delete(o);
     } else {
-        printf("bench %s: %s, %ux%u, %s, %s (wall ms per frame, medians of %u blocks of "
-               "%d frames taking turns)\n",
-               with_host ? "--overlap" : "--whole-frame", who, size[0], size[1], pl_chain_denoiser_info(chain[OV_GPU])->name,
-               tnd_precision_name(prec), blocks, BLOCK);
+        printf("bench %s: %s, %ux%u, %s, %s, lights %s (wall ms per frame, medians of %u "
+               "blocks of %d frames taking turns)\n",
+               with_host ? "--overlap" : "--whole-frame", who, size[0], size[1],
+               pl_chain_denoiser_info(chain[OV_GPU])->name, tnd_precision_name(prec),
+               tnd_light_sampling_name(tnd_light_sampling_for(s, lights)), blocks, BLOCK);
         for (int m = m0; m < OV_COUNT && way[m]; m++)
             printf("  %-37s %9.3f ms  %5.3fx\n", ov_name[m], med[m], med[m] / med[m0]);
         printf("  GPU ms per pass (medians of %u frames, contract on the GPU, each frame waited "

@@ -415,7 +415,7 @@ int cmd_bench(int argc, char **argv)
     bool json = false, extremes = false, scene_given = false, per_dispatch = false;
     bool overlap = false, whole_frame = false, metrics = false;
     const char *rt_api = "auto", *denoiser = NULL, *precision = "float32", *pipeline = "scene";
-    const char *out = NULL, *reference = NULL;
+    const char *out = NULL, *reference = NULL, *lights = "auto";
     app_list sweeps = {0};
     unsigned frames = 12, warmup = 4, spp = 64, ref_shards = 0, timed = 24;
     const char *emit = NULL;
@@ -441,6 +441,9 @@ int cmd_bench(int argc, char **argv)
         {"per-dispatch", APP_OPT_FLAG, &per_dispatch, NULL,
          "with --denoiser: also time every back-end dispatch (each a-trous iteration, ...)"},
         {"rt-api", APP_OPT_STRING, &rt_api, "API", "vk: pipeline, query or auto"},
+        {"lights", APP_OPT_STRING, &lights, "auto|plain|tree|restir",
+         "--whole-frame, --overlap: how next-event estimation picks its light (as render's; "
+         "default auto: by the scene)"},
         {"pipeline", APP_OPT_STRING, &pipeline, "scene|full",
          "vk: shaders model only what the scene requires (default) or everything"},
         {"scene", APP_OPT_STRING, &scene_path, "PATH", "glTF scene or stress:N (default: cornell)"},
@@ -547,16 +550,22 @@ int cmd_bench(int argc, char **argv)
     const pl_denoiser_info *dn = NULL;
     if (overlap || whole_frame) {
         tnd_precision prec;
+        tnd_light_sampling pick;
         if ((res = pl_denoiser_find(denoiser ? denoiser : "svgf", &dn)) != TND_OK ||
             (res = tnd_precision_parse(precision, &prec)) != TND_OK) {
             app_report("bench", res);
+            return APP_EXIT_USAGE;
+        }
+        if (!tnd_light_sampling_parse(lights, &pick)) {
+            fprintf(stderr, "tandem bench: --lights %s: expected auto, plain, tree or restir\n",
+                    lights);
             return APP_EXIT_USAGE;
         }
         tnd_scene *sc = NULL;
         res = rn_scene_load(scene_path, &env, &sc);
         if (res == TND_OK)
             res = app_bench_overlap(sc, frontend, size, bounces, repeats,
-                                    denoiser ? denoiser : "svgf", prec, json, overlap);
+                                    denoiser ? denoiser : "svgf", prec, pick, json, overlap);
         tnd_scene_destroy(sc);
         if (res != TND_OK) {
             app_report("bench", res);
