@@ -173,10 +173,19 @@ typedef struct lt_builder {
 
 static void lt_store(tnd_light_node *n, const lt_item *b, uint32_t flags)
 {
-    n->lo = (tnd_ltvec4){(float)b->lo[0], (float)b->lo[1], (float)b->lo[2], (float)b->power};
-    n->hi = (tnd_ltvec4){(float)b->hi[0], (float)b->hi[1], (float)b->hi[2], (float)b->cos_o};
+    double c[3], r2 = 0;
+    for (int k = 0; k < 3; k++) {
+        c[k] = 0.5 * (b->lo[k] + b->hi[k]);
+        r2 += (b->hi[k] - c[k]) * (b->hi[k] - c[k]);
+    }
+    /* (the float radius rounded up: the box's angle from p must not come out smaller) */
+    float r = (float)sqrt(r2);
+    r = nextafterf(r, INFINITY);
+    double cos_o = clampd(b->cos_o, -1, 1);
+    n->centre = (tnd_ltvec4){(float)c[0], (float)c[1], (float)c[2], (float)b->power};
     n->axis = (tnd_ltvec4){(float)b->axis[0], (float)b->axis[1], (float)b->axis[2],
-                           (float)b->cos_e};
+                           (float)cos_o};
+    n->cone = (tnd_ltvec4){(float)sqrt(1.0 - cos_o * cos_o), (float)b->cos_e, r * r, r};
     n->link.z = flags | (b->two_sided ? TND_LT_TWO_SIDED : 0u);
 }
 
@@ -260,7 +269,7 @@ static tnd_result lt_build_tree(tnd_light_list *l)
         double p = 0;
         for (uint32_t i = 0; i < l->count; i++)
             p += items[i].power;
-        l->nodes[0].lo.w = (float)p;
+        l->nodes[0].centre.w = (float)p;
         l->nodes[0].link = (tnd_ltuvec4){a, b, TND_LT_POWER_ONLY, 0};
     } else {
         B.power_only = nl == 0;

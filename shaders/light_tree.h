@@ -16,6 +16,12 @@
  * and the direction to p, less theta_e (the spread of emission about a normal: pi/2 for a
  * Lambertian emitter); 0 where theta' >= theta_e (no emitter of the node faces p). The bound is
  * conservative: a node that can light p never weighs 0, so the estimator stays unbiased.
+ * A node holds what the importance needs, made once on the host (in double, rounded once): the
+ * box's centre and half-diagonal r (the box's angle from p: sin theta_b = r / d), and the
+ * cone's cos and sin theta_o, so that theta' is found by the angle-difference identities
+ * (cos(a - b) = cos a cos b + sin a sin b, sin(a - b) = sin a cos b - cos a sin b) with two
+ * square roots and no division: the descent's arithmetic is most of the tree's cost on the GPU
+ * (docs/lights.md).
  * A descent picks a child in proportion to the two children's importances, remapping the one
  * uniform into the chosen interval, down to a leaf (one light each); the pick's probability is
  * the product of the choices'. A light's path from the root (one bit per level, 0 = link.x) is
@@ -40,10 +46,10 @@ typedef struct { uint32_t x, y, z, w; } tnd_ltuvec4;
 #endif
 
 struct tnd_light_node {
-    vec4 lo;    /* bounding box min; w: power (the list's flux, summed) */
-    vec4 hi;    /* bounding box max; w: cos theta_o (the normals within theta_o of the axis) */
-    vec4 axis;  /* the normal cone's unit axis; w: cos theta_e */
-    uvec4 link; /* x, y: the children (a leaf: x its light's index in the list); z: flags */
+    vec4 centre; /* the bounding box's centre; w: power (the list's flux, summed) */
+    vec4 axis;   /* the normal cone's unit axis; w: cos theta_o (the normals within theta_o) */
+    vec4 cone;   /* x: sin theta_o, y: cos theta_e, z: r^2 and w: r, r half the box's diagonal */
+    uvec4 link;  /* x, y: the children (a leaf: x its light's index in the list); z: flags */
 };
 
 #if defined(TND_GLSL) && defined(TND_LT_BINDING) /* the shader's buffer of them */
@@ -76,32 +82,17 @@ _Static_assert(sizeof(tnd_light_node) == 64, "tnd_light_node is 4 vec4");
 #define TND_LT_ABS abs
 #endif
 
-/* cos(max(0, a - b)) from the cosines of a and b in [0, pi] */
-TND_LT_FN float tnd_lt_cos_sub_clamped(float cos_a, float cos_b)
-{
-    if (cos_a >= cos_b)
-        return 1.0f;
-    float sin_a = TND_LT_SQRT(TND_LT_MAX(0.0f, 1.0f - cos_a * cos_a));
-    float sin_b = TND_LT_SQRT(TND_LT_MAX(0.0f, 1.0f - cos_b * cos_b));
-    return cos_a * cos_b + sin_a * sin_b;
-}
-
 /* Node i's importance for shading point (px, py, pz). */
 TND_LT_FN float tnd_lt_importance(TND_LT_ARG TND_LT_U32 i, float px, float py, float pz)
 {
-    float power = light_nodes[i].lo.w;
+    float power = light_nodes[i].centre.w;
     if (!(power > 0.0f))
         return 0.0f;
     if ((light_nodes[i].link.z & TND_LT_POWER_ONLY) != 0u)
         return power;
-    float cx = 0.5f * (light_nodes[i].lo.x + light_nodes[i].hi.x);
-    float cy = 0.5f * (light_nodes[i].lo.y + light_nodes[i].hi.y);
-    float cz = 0.5f * (light_nodes[i].lo.z + light_nodes[i].hi.z);
-    float ex = light_nodes[i].hi.x - cx, ey = light_nodes[i].hi.y - cy;
-    float ez = light_nodes[i].hi.z - cz;
-    float r2 = ex * ex + ey * ey + ez * ez; /* (half the diagonal)^2 */
-    float dx = px - cx, dy = py - cy, dz = pz - cz;
-    float dd = dx * dx + dy * dy + dz * dz;
+    float dx = px - light_nodes[i].centre.x, dy = py - light_nodes[i].centre.y;
+    float dz = pz - light_nodes[i].centre.z;
+    float dd = dx * dx + dy * dy + dz * dz, r2 = light_nodes[i].cone.z;
     float d2 = TND_LT_MAX(dd, r2);
     /* the angle between the cone's axis and the direction from the box's centre to p */
     float inv = dd > 0.0f ? 1.0f / TND_LT_SQRT(dd) : 0.0f;
@@ -113,15 +104,19 @@ TND_LT_FN float tnd_lt_importance(TND_LT_ARG TND_LT_U32 i, float px, float py, f
         cos_w = 1.0f; /* p at the centre: any direction */
     cos_w = TND_LT_MIN(TND_LT_MAX(cos_w, -1.0f), 1.0f);
     /* theta' = max(0, theta_w - theta_o - theta_b): 0 where the cone holds the direction (the
-     * box's own angle need not be known then) */
-    float cos_p = 1.0f;
-    if (cos_w < light_nodes[i].hi.w) {
-        float cos_x = tnd_lt_cos_sub_clamped(cos_w, light_nodes[i].hi.w);
-        /* the angle the box subtends from p: all directions where p is inside its sphere */
-        if (dd > r2)
-            cos_p = tnd_lt_cos_sub_clamped(cos_x, TND_LT_SQRT(TND_LT_MAX(0.0f, 1.0f - r2 / dd)));
+     * box's own angle need not be known then), and where p is inside the box's sphere */
+    float cos_p = 1.0f, cos_o = light_nodes[i].axis.w;
+    if (cos_w < cos_o && dd > r2) {
+        float sin_o = light_nodes[i].cone.x;
+        float sin_w = TND_LT_SQRT(TND_LT_MAX(0.0f, 1.0f - cos_w * cos_w));
+        float cos_x = cos_w * cos_o + sin_w * sin_o; /* theta_x = theta_w - theta_o > 0 */
+        float sin_x = TND_LT_MAX(0.0f, sin_w * cos_o - cos_w * sin_o);
+        float sin_b = light_nodes[i].cone.w * inv; /* r / d < 1 */
+        float cos_b = TND_LT_SQRT(TND_LT_MAX(0.0f, 1.0f - sin_b * sin_b));
+        if (cos_x < cos_b)
+            cos_p = cos_x * cos_b + sin_x * sin_b;
     }
-    if (cos_p <= light_nodes[i].axis.w)
+    if (cos_p <= light_nodes[i].cone.y)
         return 0.0f;
     return power * cos_p / d2;
 }
