@@ -50,7 +50,7 @@ static const pl_param p_history_fix = {
 static const pl_param p_resample = {
     .name = "resample", .kind = PL_PARAM_UINT, .min = 1, .max = 2, .arg = "1|2",
     .help = "recurrent: the slow histories' resampling where the 4x4 footprint saw the "
-            "surface: 1 Catmull-Rom, 2 the tested bilinear taps (default 1)"};
+            "surface: 1 Catmull-Rom, 2 the tested bilinear taps (default 2)"};
 /* clang-format on */
 
 static const pl_param *const svgf_params[] = {&p_atrous, &p_min_alpha, &p_lf_sigma};
