@@ -20,8 +20,8 @@
  * box's centre and half-diagonal r (the box's angle from p: sin theta_b = r / d), and the
  * cone's cos and sin theta_o, so that theta' is found by the angle-difference identities
  * (cos(a - b) = cos a cos b + sin a sin b, sin(a - b) = sin a cos b - cos a sin b) with two
- * square roots and no division: the descent's arithmetic is most of the tree's cost on the GPU
- * (docs/lights.md).
+ * square roots beside the 1 / d the direction needs, and no other division: the descent's
+ * arithmetic was half or more of the tree's cost on the GPU (docs/lights.md).
  * A descent picks a child in proportion to the two children's importances, remapping the one
  * uniform into the chosen interval, down to a leaf (one light each); the pick's probability is
  * the product of the choices'. A light's path from the root (one bit per level, 0 = link.x) is
