@@ -10,8 +10,9 @@
  *   the a-trous from its neighbours' histories on a 5x5 grid of stride P.rc.w / (1 + N) pixels
  *   (wide for a new pixel, narrowing as the history grows), each weighted by 1 + its history
  *   length (long histories are the better estimates), plane distance and normals (spec:
- *   normals by the roughness's lobe, and similar roughness). Not fed back: the histories stay
- *   means of the pixel's own samples.
+ *   normals by the roughness's lobe, and similar roughness); not on a geometric edge (a 3x3
+ *   neighbour on another plane or field), where the jitter, not a disocclusion, keeps the
+ *   history young. Not fed back: the histories stay means of the pixel's own samples.
  * Reads this frame's histories (hist_hf, hist_spec, hist_fast: slot pc.slot), the filter
  * geometry and the temporal pass's a-trous input (its variance); writes DN_B_HIST_RC and the
  * a-trous input (DN_B_AT slot 0). A pixel writes only its own texels and reads none that this
@@ -121,12 +122,31 @@ void main()
     imageStore(hist_rc[cur], p, uvec4(at_pack_scaled(out_hf * UF16_SCALE, out_spec * UF16_SCALE,
                                                      0.0, dither).xyz, hit));
 
-    /* history fix: young histories rebuilt from their neighbours' */
+    /* history fix: young histories rebuilt from their neighbours', where the surface goes on
+     * around the pixel: a disocclusion's. A pixel on a geometric edge (a 3x3 neighbour on
+     * another plane or field, or none) is young because the jitter moves its sample from one
+     * surface to the other, not because its surface was hidden; the neighbours' histories
+     * there are not its own (on a still camera the fix took 2% of the pixels, every one on an
+     * edge, and cost 2% of FLIP: docs/denoise.md). */
     vec3 fix_hf = out_hf, fix_spec = out_spec;
     bool fix_hf_on = len_hf <= P.rc.z, fix_spec_on = len_spec <= P.rc.z;
+    vec4 ce = vec4(0.0);
+    vec3 nrm = vec3(0.0);
     if (fix_hf_on || fix_spec_on) {
-        vec4 ce = imageLoad(centre, p); /* position (relative to the origin), depth */
-        vec3 nrm = fgeo_normal(g.y);
+        ce = imageLoad(centre, p); /* position (relative to the origin), depth */
+        nrm = fgeo_normal(g.y);
+        bool edge = false;
+        for (int j = -1; j <= 1; j++)
+            for (int i = -1; i <= 1; i++) {
+                uvec2 gq = imageLoad(fgeo, clamp(p + ivec2(i, j), ivec2(0), last)).xy;
+                vec4 cq = imageLoad(centre, clamp(p + ivec2(i, j), ivec2(0), last));
+                edge = edge || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field ||
+                       abs(dot(nrm, cq.xyz - ce.xyz)) > 0.01 * ce.w ||
+                       dot(nrm, fgeo_normal(gq.y)) < 0.9;
+            }
+        fix_hf_on = fix_hf_on && !edge, fix_spec_on = fix_spec_on && !edge;
+    }
+    if (fix_hf_on || fix_spec_on) {
         float rough = fgeo_roughness(g.y);
         float a2 = max(rough * rough, 1e-3);
         a2 *= a2;
