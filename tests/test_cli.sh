@@ -404,6 +404,21 @@ check "recurrent: its parameters and history pass; gradients as its confidence w
 "$T" render --denoiser recurrent --fast 0.5 --out "$tmp/bad_param" 2>"$tmp/err"; rc=$?
 [ $rc -eq 2 ] && grep -q -- "--fast" "$tmp/err" && [ ! -e "$tmp/bad_param" ]
 check "recurrent: --fast out of its range refused (got $rc)" $?
+# --resample: the cubic (1) and the tested bilinear taps (2, the default) differ where the
+# camera moves and agree bit for bit where nothing does (the cubic's weights are the pixel's own)
+for m in 1 2; do
+    "$T" render --frames 4 --size 48x27 --denoiser recurrent --resample $m \
+        --scene "$SRC/data/scenes/materials.gltf" --camera-path orbit --out "$tmp/rs_o$m" --quiet &&
+        "$T" render --frames 4 --size 48x27 --denoiser recurrent --resample $m \
+            --scene "$SRC/data/scenes/cornell.gltf" \
+            --camera-path "$SRC/data/suites/cornell_still.json" --out "$tmp/rs_s$m" --quiet || break
+done
+rc=$?
+[ $rc -eq 0 ] && ! cmp -s "$tmp/rs_o1/frame_0003.exr" "$tmp/rs_o2/frame_0003.exr" &&
+    cmp -s "$tmp/rs_s1/frame_0003.exr" "$tmp/rs_s2/frame_0003.exr" &&
+    python3 -c 'import json, sys; assert json.load(open(sys.argv[1]))["resample"] == 1' \
+        "$tmp/rs_o1/run.json"
+check "recurrent --resample: 1 and 2 differ under motion, agree on a still camera (got $rc)" $?
 # the contract's spec_hit: a capture carries it; one without it (an older capture, another
 # renderer's) is denoised with surface motion for reflections, and recurrent says so
 exrheader "$tmp/rc/capture/frame_0001.exr" 2>/dev/null | grep -q "spec.hitT"
