@@ -18,10 +18,10 @@
 
 #include "core/core.h"
 
-/* the recurrent denoiser's resampling of its slow histories by default (dn_desc.cubic): the
+/* the recurrent denoiser's resampling of its slow histories by default (dn_desc.resample): the
  * tested bilinear taps (the Catmull-Rom filter measured 0.3% worse over the standard suite and
  * 0.09 ms slower at 1080p on the H100: docs/denoise.md) */
-#define DN_CUBIC_DEFAULT 2u
+#define DN_RESAMPLE_DEFAULT 2u
 
 typedef enum dn_mode {
     DN_MODE_SVGF = 0, /* temporal + a-trous, fixed minimum alpha */
@@ -56,9 +56,9 @@ typedef struct dn_desc {
      * stride in pixels (0 means 14: 7, 5, 4 pixels at 1, 2, 3 frames) */
     float fast_frames, clamp_sigma, history_fix, fix_stride;
     /* recurrent: how the slow colour histories are resampled where the whole 4x4 footprint saw
-     * the pixel's surface: 0 the default (DN_CUBIC_DEFAULT), 1 Catmull-Rom (NRD's), 2 the
+     * the pixel's surface: 0 the default (DN_RESAMPLE_DEFAULT), 1 Catmull-Rom (NRD's), 2 the
      * tested bilinear taps as everywhere else */
-    uint32_t cubic;
+    uint32_t resample;
     /* profiling: a timestamp around every dispatch as well (dn_dispatch_times) */
     bool dispatch_timing;
     /* the gradient blur's segment of a row or column per work group, in strata: 0 means (and

@@ -328,7 +328,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     d->clamp_sigma = d->clamp_sigma > 0 ? d->clamp_sigma : 2.0f;
     d->history_fix = d->history_fix == 0 ? 3.0f : d->history_fix < 0 ? 0.0f : d->history_fix;
     d->fix_stride = d->fix_stride > 0 ? d->fix_stride : 14.0f;
-    d->cubic = d->cubic == 0 ? DN_CUBIC_DEFAULT : d->cubic;
+    d->resample = d->resample == 0 ? DN_RESAMPLE_DEFAULT : d->resample;
     if (d->grad_segment == 0 || d->grad_segment > DN_GRAD_SEGMENT)
         d->grad_segment = DN_GRAD_SEGMENT;
     c->grad_w = (width + DN_STRATUM - 1) / DN_STRATUM;
@@ -509,7 +509,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
         .misc = {f->pixel_spread, 256.0f, 1024.0f, gradients ? 1.0f : 0.0f},
         .antilag = {d->antilag_hf, d->antilag_spec, d->antilag_motion, d->antilag_lf},
         .lf = {d->lf_deflicker, d->no_leak_guard ? 0.0f : 1.0f, d->lf_sigma, 0.0f},
-        .frame = {c->frame, d->cubic == 1 ? 1u : 0u, 0, 0},
+        .frame = {c->frame, d->resample == 1 ? 1u : 0u, 0, 0},
         .rc = {d->fast_frames, d->clamp_sigma, d->history_fix, d->fix_stride},
     };
     dn_params *P = &c->host_params;

@@ -112,7 +112,7 @@ static void backend_param(dn_desc *d, const char *name, double v)
     else if (strcmp(name, "history-fix") == 0)
         d->history_fix = (float)v;
     else if (strcmp(name, "resample") == 0)
-        d->cubic = (uint32_t)v;
+        d->resample = (uint32_t)v;
 }
 
 static void backend_destroy(void *ctx)

@@ -138,8 +138,11 @@ void main()
         bool edge = false;
         for (int j = -1; j <= 1; j++)
             for (int i = -1; i <= 1; i++) {
-                uvec2 gq = imageLoad(fgeo, clamp(p + ivec2(i, j), ivec2(0), last)).xy;
-                vec4 cq = imageLoad(centre, clamp(p + ivec2(i, j), ivec2(0), last));
+                if (i == 0 && j == 0)
+                    continue;
+                ivec2 q = clamp(p + ivec2(i, j), ivec2(0), last);
+                uvec2 gq = imageLoad(fgeo, q).xy;
+                vec4 cq = imageLoad(centre, q);
                 edge = edge || gq.x == DN_FGEO_NONE || fgeo_field(gq.y) != field ||
                        abs(dot(nrm, cq.xyz - ce.xyz)) > 0.01 * ce.w ||
                        dot(nrm, fgeo_normal(gq.y)) < 0.9;
