@@ -145,12 +145,9 @@ int app_sweep(const rn_sweep_opts *o);
 int cmd_sweep(int argc, char **argv);
 /* tandem bench --metrics (app/bench_metrics.c) */
 tnd_result app_bench_metrics(const unsigned size[2], unsigned repeats, unsigned threads, bool json);
-/* tandem bench --overlap (with_host) and --whole-frame (app/bench_overlap.c): the whole frame
- * back to back, its ways taking turns in blocks; a table or JSON on stdout. */
-tnd_result app_bench_overlap(const tnd_scene *s, const char *fe_name, const unsigned size[2],
-                             unsigned bounces, unsigned blocks, const char *denoiser,
-                             tnd_precision prec, tnd_light_sampling lights, bool json,
-                             bool with_host);
+/* tandem bench --whole-frame and --overlap (o->with_host; app/bench_whole_frame.c): the run
+ * layer's rn_whole_frame as a table or JSON on stdout. */
+tnd_result app_bench_whole_frame(const rn_whole_frame_opts *o, bool json);
 /* A soak run's figures as a table row on stdout (with its header when `title`). */
 void app_soak_print(const rn_soak_rec *rec, const char *title, const char *scene,
                     const unsigned size[2]);

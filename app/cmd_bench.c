@@ -564,8 +564,12 @@ int cmd_bench(int argc, char **argv)
         tnd_scene *sc = NULL;
         res = rn_scene_load(scene_path, &env, &sc);
         if (res == TND_OK)
-            res = app_bench_overlap(sc, frontend, size, bounces, repeats,
-                                    denoiser ? denoiser : "svgf", prec, pick, json, overlap);
+            res = app_bench_whole_frame(
+                &(rn_whole_frame_opts){.scene = sc, .frontend = frontend,
+                                       .size = {size[0], size[1]}, .bounces = bounces,
+                                       .blocks = repeats, .denoiser = denoiser ? denoiser : "svgf",
+                                       .precision = prec, .lights = pick, .with_host = overlap},
+                json);
         tnd_scene_destroy(sc);
         if (res != TND_OK) {
             app_report("bench", res);

@@ -329,7 +329,7 @@ static tnd_result frame_write(const spec *sp, const sequence *sq, pl_frontend *f
     const rn_render_opts *o = &sq->o;
     uint32_t W = o->size[0], H = o->size[1];
     char path[2400];
-    TND_TRY(rn_frame_begin(o, scene, fr, st, f, true));
+    TND_TRY(rn_frame_begin(o, scene, fr, st, f, true, NULL));
     /* the contract as render --capture writes it, and its composite */
     TND_TRY(pl_frontend_render(fr,
                                &(pl_params){.bounces = o->bounces,

@@ -241,9 +241,10 @@ tnd_result rn_render_check(const rn_render_opts *o, bool reference)
 }
 
 tnd_result rn_frame_begin(const rn_render_opts *o, const tnd_scene *scene, pl_frontend *fr,
-                           tnd_scene_state st[2], unsigned i, bool first)
+                           tnd_scene_state st[2], unsigned i, bool first, rn_frame_host *host)
 {
     tnd_result res = TND_OK;
+    double t0 = host ? tnd_now() : 0;
     unsigned f = o->start + i;
     float aspect = (float)o->size[0] / (float)o->size[1];
     tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
@@ -257,7 +258,10 @@ tnd_result rn_frame_begin(const rn_render_opts *o, const tnd_scene *scene, pl_fr
     }
     uint32_t rs[2];
     rn_render_size(o, rs);
+    double t1 = host ? tnd_now() : 0;
     TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, rs[0], rs[1]));
+    if (host)
+        *host = (rn_frame_host){1e3 * (t1 - t0), 1e3 * (tnd_now() - t1)};
 fail:
     return res;
 }

@@ -26,9 +26,11 @@ static void timings_entry(FILE *f, const char *sep, unsigned frame, const pl_cha
     fputc('}', f);
 }
 
-/* --timed-frames: the path's next frames after `done`, back to back as bench runs them (each
- * frame submitted without waiting for the one before; the GPU's times come a frame late), into
- * timings.json's back_to_back: per frame after the warm-up, and the wall clock per frame. */
+/* --timed-frames: the path's next frames after `done`, back to back as bench --whole-frame runs
+ * them (each frame submitted without waiting for the one before; the GPU's times come a frame
+ * late), into timings.json's back_to_back: per frame after the warm-up, with its host work
+ * (host_ms: the scene evaluated, the front-end's frame set, pl_chain_run's recording and
+ * submission and any wait for the frame before), their medians, and the wall clock per frame. */
 static tnd_result time_back_to_back(const rn_render_opts *o, const tnd_scene *scene,
                                     pl_frontend *fr, pl_chain *chain, tnd_scene_state st[2],
                                     unsigned done, bool lags, float *rgb, FILE *timings)
@@ -36,8 +38,14 @@ static tnd_result time_back_to_back(const rn_render_opts *o, const tnd_scene *sc
     enum { WARM = 4 };
     tnd_result res = TND_OK;
     unsigned total = WARM + o->timed_frames, recorded = 0;
-    float aspect = (float)o->size[0] / (float)o->size[1];
     double t0 = tnd_now();
+    /* the host's parts per frame (evaluate, set_frame, chain_run), and the timed frames' */
+    double(*host)[3] = calloc(total, sizeof *host);
+    double *part = calloc((size_t)3 * o->timed_frames, sizeof *part);
+    if (!host || !part) {
+        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "render: out of memory");
+        goto fail;
+    }
     /* a front-end that is not queued gives its own frame's times at once: kept a frame, so that
      * each entry is one frame's */
     bool queued = (pl_frontend_caps(fr) & PL_CAP_QUEUED) != 0;
@@ -45,19 +53,22 @@ static tnd_result time_back_to_back(const rn_render_opts *o, const tnd_scene *sc
     fprintf(timings, "\n  ],\n  \"back_to_back\": {\"warmup\": %u, \"frames\": [", WARM);
     for (unsigned k = 0; k <= total; k++) {
         pl_step_result pr = {0};
-        unsigned i = done + k, f = o->start + i;
+        unsigned i = done + k;
         if (k == WARM)
             t0 = tnd_now();
         if (k < total) {
-            tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
-            TND_TRY(tnd_scene_evaluate(scene, f / o->fps, o->camera, aspect, cur));
-            uint32_t rs[2];
-            rn_render_size(o, rs);
-            TND_TRY(pl_frontend_set_frame(fr, cur, prev, f, rs[0], rs[1]));
-            pl_step step = rn_frame_step(o, cur, i, false);
+            rn_frame_host fh;
+            TND_TRY(rn_frame_begin(o, scene, fr, st, i, false, &fh));
+            pl_step step = rn_frame_step(o, &st[i & 1], i, false);
             step.no_wait = true;
+            double c0 = tnd_now();
             /* (without the GPU chain the CPU composite has to go somewhere) */
             TND_TRY(pl_chain_run(chain, fr, &step, lags ? NULL : rgb, NULL, &pr));
+            host[k][0] = fh.evaluate_ms, host[k][1] = fh.set_frame_ms;
+            host[k][2] = 1e3 * (tnd_now() - c0);
+            if (k >= WARM)
+                for (int q = 0; q < 3; q++)
+                    part[(size_t)q * o->timed_frames + (k - WARM)] = host[k][q];
         } else {
             TND_TRY(pl_chain_finish(chain, &pr));
         }
@@ -68,12 +79,22 @@ static tnd_result time_back_to_back(const rn_render_opts *o, const tnd_scene *sc
         /* the frame these times are of: the one before (lagged), or this one (no GPU chain) */
         unsigned of = lags ? k - 1 : k;
         if ((lags ? k > WARM : k >= WARM && k < total) && (pr.lagged || !lags)) {
-            timings_entry(timings, recorded ? "," : "", o->start + done + of, chain, &pr);
+            fprintf(timings, "%s\n    {\"frame\": %u", recorded ? "," : "", o->start + done + of);
+            rn_timings_members(timings, chain, &pr);
+            fprintf(timings, ", \"host_ms\": {\"evaluate\": %.4f, \"set_frame\": %.4f, "
+                             "\"chain_run\": %.4f}}",
+                    host[of][0], host[of][1], host[of][2]);
             recorded++;
         }
     }
-    fprintf(timings, "\n  ], \"wall_ms\": %.4f}", 1e3 * (tnd_now() - t0) / o->timed_frames);
+    fprintf(timings, "\n  ], \"wall_ms\": %.4f", 1e3 * (tnd_now() - t0) / o->timed_frames);
+    fprintf(timings, ", \"host_ms_median\": {\"evaluate\": %.4f, \"set_frame\": %.4f, "
+                     "\"chain_run\": %.4f}}",
+            rn_median(part, o->timed_frames), rn_median(part + o->timed_frames, o->timed_frames),
+            rn_median(part + 2 * (size_t)o->timed_frames, o->timed_frames));
 fail:
+    free(host);
+    free(part);
     return res;
 }
 
@@ -456,7 +477,7 @@ static tnd_result run_opts(const render_opts *opts, bool reference, const rn_hos
         any_begun = true;
         frames_begun = i + 1;
         tnd_scene_state *cur = &st[i & 1];
-        TND_TRY(rn_frame_begin(&o, scene, fr, st, i, first_frame));
+        TND_TRY(rn_frame_begin(&o, scene, fr, st, i, first_frame, NULL));
         if (reference) {
             const rn_shard_part *pp = &parts[part];
             size_t n = (size_t)o.size[0] * o.size[1];

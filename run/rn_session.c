@@ -123,7 +123,7 @@ const char *rn_session_denoiser(const rn_session *s)
 static tnd_result begin(rn_session *s, unsigned f, bool *first)
 {
     *first = !s->started || f != s->last + 1;
-    tnd_result res = rn_frame_begin(&s->o, s->scene, s->fr, s->st, f, *first);
+    tnd_result res = rn_frame_begin(&s->o, s->scene, s->fr, s->st, f, *first, NULL);
     s->started = res == TND_OK;
     s->last = f;
     return res;

@@ -251,11 +251,17 @@ tnd_result rn_pipeline_open(const rn_render_opts *o, const tnd_scene *scene, tnd
                             bool use_vk, bool use_dn, tnd_precision prec,
                             const pl_denoiser_info **dn, bool reference, pl_frontend **fr,
                             pl_chain **chain, struct cmp_desc *pd, const rn_host *h);
-/* The frame loop's one frame, as render runs it (and the session, the dataset): frame i of the
- * run (o->start + i): the scene's states (st[i & 1] the current; the previous evaluated too when
- * `first`), the viewer's camera, the front-end's frame. */
+/* A frame's host work before the chain runs, ms (rn_frame_begin): the scene's states evaluated,
+ * and the front-end's frame set (instances, the light tree's refit, uploads). */
+typedef struct rn_frame_host {
+    double evaluate_ms, set_frame_ms;
+} rn_frame_host;
+/* The frame loop's one frame, as render runs it (and the session, the dataset, the timed frames,
+ * bench --whole-frame): frame i of the run (o->start + i): the scene's states (st[i & 1] the
+ * current; the previous evaluated too when `first`), the viewer's camera, the front-end's frame;
+ * its host time into *host where not NULL. */
 tnd_result rn_frame_begin(const rn_render_opts *o, const tnd_scene *scene, pl_frontend *fr,
-                          tnd_scene_state st[2], unsigned i, bool first);
+                          tnd_scene_state st[2], unsigned i, bool first, rn_frame_host *host);
 /* Its step through the chain (the front-end's bounces, the camera's jitter and spread, the
  * frame time; `reset`: the history restarts). */
 pl_step rn_frame_step(const rn_render_opts *o, const tnd_scene_state *cur, unsigned i,
@@ -478,6 +484,49 @@ void rn_metrics_json(struct cJSON *o, const ev_summary *s);
 char *rn_eval_regions_json(const rn_eval *e, uint32_t i);
 void rn_eval_regions_html(const rn_eval *e, ev_text *t);
 
+
+/* ---- the whole frame timed back to back (run/rn_whole_frame.c): bench --whole-frame, --overlap -- */
+enum {
+    RN_WF_HOST = 0,   /* the contract brought to the host, every pass waited for (with_host) */
+    RN_WF_GPU,        /* the contract on the GPU, every frame waited for: the per-pass times */
+    RN_WF_NO_WAIT,    /* frames recorded without waiting for the one before: the host's share */
+    RN_WF_SEPARATE,   /* as RN_WF_NO_WAIT, the gradient re-shading in a launch of its own (only
+                         where the front-end can fold it into its shading pass) */
+    RN_WF_WAYS,
+    RN_WF_MAX_PASSES = 32
+};
+typedef struct rn_whole_frame_opts {
+    const tnd_scene *scene;
+    const char *frontend;         /* a front-end's registry name */
+    uint32_t size[2];
+    unsigned bounces;             /* a count, or RN_BOUNCES_HALF */
+    unsigned blocks;              /* blocks of 8 frames per way, after 2 of warm-up */
+    const char *denoiser;         /* a denoiser's registry name (or plugin:PATH.so) */
+    tnd_precision precision;
+    tnd_light_sampling lights;
+    bool with_host;               /* the host-contract way too */
+} rn_whole_frame_opts;
+typedef struct rn_whole_frame_result {
+    char device[300], denoiser[64];
+    tnd_light_sampling lights;    /* the pick the scene's auto resolved to */
+    unsigned frames_per_block, blocks;
+    bool ran[RN_WF_WAYS];
+    double wall_ms[RN_WF_WAYS];   /* per frame, medians over the blocks */
+    uint32_t npasses;             /* the chain's passes (pl_chain_passes), in RN_WF_GPU: */
+    struct {
+        char name[32];
+        pl_pass_group group;
+        double ms;                /* the GPU's (Embree's: CPU wall clock), median over frames */
+    } pass[RN_WF_MAX_PASSES];
+    double group_ms[PL_GROUPS], gpu_ms;
+    double host_ms[3];            /* in RN_WF_NO_WAIT, medians: rn_whole_frame_host_name's parts */
+} rn_whole_frame_result;
+/* The way's name in the table and JSON ("gpu_contract_no_wait") */
+const char *rn_whole_frame_way_name(int way);
+/* the host's parts of a frame: "evaluate", "set_frame" (rn_frame_host), "chain_run" (recording,
+ * submission, any wait for the frame before) */
+const char *rn_whole_frame_host_name(int part);
+tnd_result rn_whole_frame(const rn_whole_frame_opts *o, rn_whole_frame_result *r);
 
 /* ---- soak: memory, descriptors and device allocations over long runs (run/rn_soak.c) ---------- */
 /* The soak recorder, for any frame loop (render's, the viewer's): begin with the frames planned,

@@ -20,6 +20,14 @@ assert d["timed_frames"] == 24, d["timed_frames"]
 t = json.load(open(sys.argv[1].replace("sweep.json", "runs/000/timings.json")))
 assert len(t["frames"]) == 5 and len(t["back_to_back"]["frames"]) == 24, t.keys()
 assert [f["frame"] for f in t["back_to_back"]["frames"]] == list(range(5 + 4, 5 + 4 + 24))
+# each timed frame's host work (the same parts as bench --whole-frame's), and their medians: a
+# frame's host parts are inside its wall clock (recording and submission wait for the frame
+# before, so they take most of it on lavapipe; 1.5x for the clock's jitter between frames)
+parts = ("evaluate", "set_frame", "chain_run")
+b2b = t["back_to_back"]
+for f in b2b["frames"]:
+    assert all(f["host_ms"][k] >= 0 for k in parts), f
+assert 0 < sum(b2b["host_ms_median"][k] for k in parts) < 1.5 * b2b["wall_ms"], b2b
 for r in runs:
     assert r["total_ms"] > 0 and r["pass_ms"]["denoise_atrous_ms"] > 0, r
     assert r["wall_ms"] > 0, r
@@ -120,6 +128,30 @@ check "bench --sweep render-scale=0.5,1 --sweep upscaler=...: 4 cells" $?
     grep -q -- "--render-scale 0.1: expected 0.25 to 1" "$tmp/err" &&
     ! "$T" reference --render-scale 0.5 --out "$tmp/upbad" 2>"$tmp/err"
 check "--render-scale refused by name: the CPU composite, out of range, references" $?
+
+# bench --whole-frame: the whole frame back to back through render's frame (rn_frame_begin and
+# rn_frame_step in the run layer); its passes sum to their groups and the frame, and the host's
+# parts of a frame not waited for lie inside that way's wall clock
+"$T" bench --whole-frame --frontend vk --denoiser recurrent --lights tree \
+    --scene "$SRC/data/scenes/many_lights.gltf" --size 32x18 --repeats 1 --json \
+    >"$tmp/wf.json" 2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && $PY - "$tmp/wf.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+assert d["denoiser"] == "recurrent" and d["lights"] == "tree" and d["blocks"] == 1, d
+g = d["gpu_ms"]
+groups = ("front-end", "gradients", "back-end", "post")
+assert g["shade"] > 0 and g["history"] > 0 and g["taa"] > 0, g
+assert abs(sum(g[k] for k in groups) - g["frame"]) < 1e-6 * max(1, g["frame"]), g
+passes = [k for k in g if k not in groups and k != "frame"]
+assert abs(sum(g[k] for k in passes) - g["frame"]) < 1e-6 * max(1, g["frame"]), g
+h = d["host_ms_not_waited"]
+assert set(h) == {"evaluate", "set_frame", "chain_run"} and min(h.values()) >= 0, h
+assert 0 < sum(h.values()) < 1.5 * d["gpu_contract_no_wait"], (h, d)
+assert d["gpu_contract_blocking"] > 0, d
+PY
+check "bench --whole-frame: the passes sum to the frame; the host's parts inside the wall clock" $?
+
 
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]
