@@ -70,7 +70,9 @@ tnd_result rn_whole_frame(const rn_whole_frame_opts *w, rn_whole_frame_result *r
         r->ran[m] = true;
         TND_TRY(pl_frontend_create(w->frontend, w->scene,
                                    &(pl_frontend_desc){.vk = &vk, .precision = w->precision,
-                                                       .lights = w->lights},
+                                                       .lights = w->lights,
+                                                       .bounces = o.bounces,
+                                                       .half_indirect = o.half_indirect},
                                    &fe[m]));
         TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = o.size[0],
                                                  .height = o.size[1], .precision = w->precision,
