@@ -95,231 +95,112 @@ fail:
     return res;
 }
 
-/* The real-time frame back to back: no file is written between frames, so the GPU stays busy
- * (and its clocks up) as in an application. Every pass of the chain (pl_chain_passes: the
- * front-end's and the denoiser's) and the wall clock per frame; the denoiser's passes against
- * their bandwidth floor. */
-static tnd_result bench_pipeline(const tnd_scene *s, const char *scene_path, const char *fe_name,
-                                 unsigned frame,
-                                 const unsigned size[2], unsigned bounces, unsigned repeats,
-                                 const char *rt_api, bool full, const char *denoiser,
-                                 tnd_precision prec, bool json, bool per_dispatch)
+/* `bench --denoiser`: the run layer's rn_bench_backend (the real-time frame back to back, each
+ * pass against its bandwidth floor) as a table or JSON on stdout. */
+static tnd_result bench_pipeline(const rn_bench_backend_opts *o, const char *scene_path, bool json)
 {
-    tnd_result res = TND_OK;
-    tnd_vk vk = {0};
-    pl_frontend *gv = NULL;
-    pl_chain *chain = NULL;
-    dn_context *dn = NULL; /* (the chain's, for the built-in back-end's per-dispatch times) */
-    tnd_scene_state st[2] = {{0}};
-    enum { WARM = 3, MAXP = 32 };
-    const pl_pass *pass[MAXP];
-    uint32_t np = 0, nfe = 0; /* passes; the front-end's come first */
-    double *v[MAXP + 1] = {0}, *dv = NULL; /* v[np]: the wall clock; dv: per dispatch */
-    bool beside = false; /* the denoiser ran a pass beside another (timed with it) */
-    TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
-    TND_TRY(pl_frontend_create(fe_name, s,
-                               &(pl_frontend_desc){.vk = &vk, .precision = prec, .rt_api = rt_api,
-                                                   .full_pipeline = full},
-                               &gv));
-    TND_TRY(pl_chain_create(&(pl_chain_desc){.vk = &vk, .width = size[0], .height = size[1],
-                                             .precision = prec, .backend = true,
-                                             .denoiser = denoiser,
-                                             .denoise = {.dispatch_timing = per_dispatch},
-                                             .no_post = true},
-                            &chain));
-    dn = pl_chain_denoiser(chain);
-    np = pl_chain_passes(chain, pass, MAXP); /* (no post chain: the denoiser's come last) */
-    nfe = np - pl_chain_denoiser_info(chain)->npasses;
-    for (uint32_t k = 0; k <= np; k++)
-        if (!(v[k] = calloc(repeats, sizeof(double)))) {
-            res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
-            goto fail;
-        }
-    /* per dispatch (--per-dispatch): times of each dispatch over the timed frames, when the
-     * sequence of dispatches is the same every frame (it is after the first) */
-    enum { MAXD = TND_TIMER_MAX_PASSES };
-    const char *dnames[MAXD] = {0};
-    uint32_t nd = 0;
-    bool d_same = true;
-    per_dispatch = per_dispatch && dn;
-    if (per_dispatch && !(dv = calloc((size_t)MAXD * repeats, sizeof(double)))) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
-        goto fail;
+    rn_bench_backend_result *r = malloc(sizeof *r);
+    if (!r)
+        return tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
+    tnd_result res = rn_bench_backend(o, r);
+    if (res != TND_OK) {
+        free(r);
+        return res;
     }
-    float aspect = (float)size[0] / size[1];
-    pl_params fp = bench_params(bounces);
-    for (unsigned i = 0; i < WARM + repeats; i++) {
-        unsigned f = frame + i;
-        tnd_scene_state *cur = &st[i & 1], *prev = &st[(i + 1) & 1];
-        TND_TRY(tnd_scene_evaluate(s, f / 30.0, 0, aspect, cur));
-        if (i == 0)
-            TND_TRY(tnd_scene_evaluate(s, f ? (f - 1) / 30.0 : 0.0, 0, aspect, prev));
-        double t0 = tnd_now();
-        TND_TRY(pl_frontend_set_frame(gv, cur, prev, f, size[0], size[1]));
-        pl_step step = {.params = fp,
-                        .frame = dn_frame_for_camera(cur->camera.proj, size[1], f, i == 0)};
-        pl_step_result pr;
-        TND_TRY(pl_chain_run(chain, gv, &step, NULL, NULL, &pr));
-        double wall = 1e3 * (tnd_now() - t0), ms[MAXP];
-        beside = pr.beside;
-        if (i < WARM)
-            continue;
-        pl_step_times(chain, &pr, ms);
-        for (uint32_t k = 0; k < np; k++)
-            v[k][i - WARM] = ms[k];
-        v[np][i - WARM] = wall;
-        if (per_dispatch) {
-            const char *nm[MAXD];
-            double dms[MAXD];
-            uint32_t n_now = dn_dispatch_times(dn, nm, dms, MAXD);
-            if (i == WARM) {
-                nd = n_now;
-                memcpy(dnames, nm, n_now * sizeof *nm);
-            }
-            d_same = d_same && n_now == nd && memcmp(nm, dnames, nd * sizeof *nm) == 0;
-            for (uint32_t k = 0; k < nd && d_same; k++)
-                dv[(size_t)k * repeats + (i - WARM)] = dms[k];
-        }
-    }
-    /* the bytes the denoiser's passes move at the least; a pass run beside another is timed
-     * with it, and its bytes go there */
-    double bytes[MAXP] = {0}, dbytes[PL_DN_MAX_PASSES];
-    pl_chain_traffic(chain, dbytes);
-    char name[MAXP][64], label[MAXP][96]; /* timings.json's key without _ms; the table's */
-    for (uint32_t k = 0; k < np; k++) {
-        snprintf(name[k], sizeof name[k], "%.*s", (int)strlen(pass[k]->key) - 3, pass[k]->key);
-        snprintf(label[k], sizeof label[k], "%s", name[k]);
-        if (k >= nfe)
-            bytes[k] = dbytes[k - nfe];
-    }
-    for (uint32_t k = nfe; beside && k < np; k++)
-        for (uint32_t j = nfe; pass[k]->beside && j < np; j++)
-            if (strcmp(pass[j]->name, pass[k]->beside) == 0) {
-                bytes[j] += bytes[k];
-                bytes[k] = 0;
-                snprintf(label[j] + strlen(label[j]), sizeof label[j] - strlen(label[j]), "+%s",
-                         pass[k]->name);
-            }
-    double traffic = 0;
-    for (uint32_t k = nfe; k < np; k++)
-        traffic += bytes[k];
-    /* the copy bandwidth, measured now that the GPU is warm: 8x the back-end's traffic per
-     * frame, between 64 MiB and 1 GiB (larger than any cache) */
-    double copy_mib = fmin(1024.0, fmax(64.0, 8.0 * traffic / (1 << 20)));
-    double transfer_bw = 0, compute_bw = 0;
-    TND_TRY(rn_bandwidth(&vk, (VkDeviceSize)copy_mib << 20, 9, &transfer_bw, &compute_bw));
-    double bandwidth = fmax(transfer_bw, compute_bw); /* the floor: the faster of the two */
-    double med[MAXP + 1];
-    for (uint32_t k = 0; k <= np; k++)
-        med[k] = rn_median(v[k], repeats);
-    double backend = 0, backend_bytes = 0;
-    for (uint32_t k = nfe; k < np; k++)
-        backend += med[k], backend_bytes += bytes[k];
-    /* beside: the pass ran beside another and is timed with it */
-#define IS_BESIDE(k) (beside && pass[k]->beside && (k) >= nfe)
-    /* floor: bytes / bandwidth, in ms */
-#define FLOOR(b) (bandwidth > 0 ? (b) / (bandwidth * 1e9) * 1e3 : 0.0)
-    const char *dn_name = pl_chain_denoiser_info(chain)->name;
+    const uint32_t np = r->npasses, nfe = r->nfrontend;
     if (json) {
-        cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "frontend", fe_name);
-        cJSON_AddStringToObject(o, "denoiser", dn_name);
-        cJSON_AddStringToObject(o, "precision", tnd_precision_name(prec));
-        cJSON_AddStringToObject(o, "scene", scene_path);
-        cJSON_AddStringToObject(o, "frontend_models", pl_frontend_models(gv));
-        cJSON_AddStringToObject(o, "device", vk.info.name);
-        cJSON_AddNumberToObject(o, "width", size[0]);
-        cJSON_AddNumberToObject(o, "height", size[1]);
-        bench_bounces_json(o, bounces);
-        cJSON_AddNumberToObject(o, "frames", repeats);
-        cJSON_AddNumberToObject(o, "copy_bandwidth_gb_per_s", bandwidth);
-        cJSON_AddNumberToObject(o, "transfer_copy_gb_per_s", transfer_bw);
-        cJSON_AddNumberToObject(o, "compute_copy_gb_per_s", compute_bw);
-        cJSON_AddNumberToObject(o, "copy_mib", copy_mib);
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddStringToObject(j, "frontend", o->frontend);
+        cJSON_AddStringToObject(j, "denoiser", r->denoiser);
+        cJSON_AddStringToObject(j, "precision", tnd_precision_name(o->precision));
+        cJSON_AddStringToObject(j, "scene", scene_path);
+        cJSON_AddStringToObject(j, "frontend_models", r->models);
+        cJSON_AddStringToObject(j, "device", r->device);
+        cJSON_AddNumberToObject(j, "width", o->size[0]);
+        cJSON_AddNumberToObject(j, "height", o->size[1]);
+        bench_bounces_json(j, o->bounces);
+        cJSON_AddNumberToObject(j, "frames", r->frames);
+        cJSON_AddNumberToObject(j, "copy_bandwidth_gb_per_s", r->bandwidth_gb_s);
+        cJSON_AddNumberToObject(j, "transfer_copy_gb_per_s", r->transfer_gb_s);
+        cJSON_AddNumberToObject(j, "compute_copy_gb_per_s", r->compute_gb_s);
+        cJSON_AddNumberToObject(j, "copy_mib", r->copy_mib);
         for (uint32_t k = nfe; k < np; k++)
-            if (pass[k]->beside) { /* e.g. "lf_beside_atrous" */
+            if (r->pass[k].beside[0]) { /* e.g. "lf_beside_atrous" */
                 char key[128];
-                snprintf(key, sizeof key, "%s_beside_%s", pass[k]->name, pass[k]->beside);
-                cJSON_AddBoolToObject(o, key, beside);
+                snprintf(key, sizeof key, "%s_beside_%s", r->pass[k].id, r->pass[k].beside);
+                cJSON_AddBoolToObject(j, key, r->beside);
             }
-        cJSON *passes = cJSON_AddObjectToObject(o, "passes");
-        for (uint32_t k = 0; k <= np; k++) {
-            if (k < np && IS_BESIDE(k))
+        cJSON *passes = cJSON_AddObjectToObject(j, "passes");
+        for (uint32_t k = 0; k < np; k++) {
+            const rn_bench_pass *q = &r->pass[k];
+            if (q->timed_beside)
                 continue; /* in the pass it ran beside */
-            cJSON *q = cJSON_AddObjectToObject(passes, k < np ? name[k] : "frame_wall");
-            cJSON_AddNumberToObject(q, "median_ms", med[k]);
-            if (k < np && bytes[k] > 0) {
-                cJSON_AddNumberToObject(q, "bytes", bytes[k]);
-                cJSON_AddNumberToObject(q, "floor_ms", FLOOR(bytes[k]));
+            cJSON *x = cJSON_AddObjectToObject(passes, q->name);
+            cJSON_AddNumberToObject(x, "median_ms", q->ms);
+            if (q->bytes > 0) {
+                cJSON_AddNumberToObject(x, "bytes", q->bytes);
+                cJSON_AddNumberToObject(x, "floor_ms", rn_bench_floor_ms(r, q->bytes));
             }
         }
-        if (per_dispatch && d_same) {
-            cJSON *dd = cJSON_AddArrayToObject(o, "dispatches");
-            for (uint32_t k = 0; k < nd; k++) {
-                cJSON *q = cJSON_CreateObject();
-                cJSON_AddStringToObject(q, "name", dnames[k]);
-                cJSON_AddNumberToObject(q, "median_ms", rn_median(dv + (size_t)k * repeats, repeats));
-                cJSON_AddItemToArray(dd, q);
+        cJSON_AddNumberToObject(cJSON_AddObjectToObject(passes, "frame_wall"), "median_ms",
+                                r->wall_ms);
+        if (r->ndispatches) {
+            cJSON *dd = cJSON_AddArrayToObject(j, "dispatches");
+            for (uint32_t k = 0; k < r->ndispatches; k++) {
+                cJSON *x = cJSON_CreateObject();
+                cJSON_AddStringToObject(x, "name", r->dispatch[k].name);
+                cJSON_AddNumberToObject(x, "median_ms", r->dispatch[k].ms);
+                cJSON_AddItemToArray(dd, x);
             }
         }
-        cJSON_AddNumberToObject(o, "backend_ms", backend);
-        cJSON_AddNumberToObject(o, "backend_bytes", backend_bytes);
-        cJSON_AddNumberToObject(o, "backend_floor_ms", FLOOR(backend_bytes));
-        char *txt = cJSON_Print(o);
+        cJSON_AddNumberToObject(j, "backend_ms", r->backend_ms);
+        cJSON_AddNumberToObject(j, "backend_bytes", r->backend_bytes);
+        cJSON_AddNumberToObject(j, "backend_floor_ms", rn_bench_floor_ms(r, r->backend_bytes));
+        char *txt = cJSON_Print(j);
         printf("%s\n", txt);
         free(txt);
-        cJSON_Delete(o);
-    } else {
-        char bw[48];
-        printf("bench %s + %s (%s contract): %s, %ux%u, 1 spp, %s, %u frames back to "
-               "back\n", fe_name, dn_name, tnd_precision_name(prec), scene_path, size[0],
-               size[1], bounces_words(bounces, bw, sizeof bw), repeats);
-        printf("  device %s; copy bandwidth (%.0f MiB, bytes read + written): compute copy %.0f "
-               "GB/s, vkCmdCopyBuffer %.0f GB/s\n",
-               vk.info.name, copy_mib, compute_bw, transfer_bw);
-        printf("  front-end shaders model: %s\n", pl_frontend_models(gv));
-        printf("  %-18s %9s %10s %9s %8s\n", "pass", "GPU ms", "MB moved", "floor ms",
-               "of floor");
-        for (uint32_t k = 0; k <= np; k++) {
-            if (k == np)
-                printf("  %-18s %9.3f   (wall clock per frame, host work and the gradient "
-                       "round trip included)\n", "frame", med[k]);
-            else if (IS_BESIDE(k))
-                printf("  %-18s %9s   (runs beside the %s, timed with it)\n", name[k], "-",
-                       pass[k]->beside);
-            else if (bytes[k] > 0)
-                printf("  %-18s %9.3f %10.1f %9.3f %7.0f%%\n", label[k], med[k],
-                       bytes[k] / 1e6, FLOOR(bytes[k]),
-                       med[k] > 0 ? 100.0 * FLOOR(bytes[k]) / med[k] : 0.0);
-            else
-                printf("  %-18s %9.3f\n", name[k], med[k]);
-        }
-        printf("  %-18s %9.3f %10.1f %9.3f %7.0f%%\n", "back-end total", backend,
-               backend_bytes / 1e6, FLOOR(backend_bytes),
-               backend > 0 ? 100.0 * FLOOR(backend_bytes) / backend : 0.0);
-        printf("  (GPU timestamps; medians of %u frames after %d warm-up frames; \"of floor\" = "
-               "floor / measured)\n", repeats, WARM);
-        if (per_dispatch && !d_same)
-            printf("  per dispatch: the dispatches differed between frames; not shown\n");
-        else if (per_dispatch) {
-            printf("  per dispatch (back-end, each with its own timestamps; the select pass is "
-                   "above):\n");
-            for (uint32_t k = 0; k < nd; k++)
-                printf("    %-18s %9.3f\n", dnames[k], rn_median(dv + (size_t)k * repeats, repeats));
-        }
+        cJSON_Delete(j);
+        free(r);
+        return TND_OK;
     }
-#undef FLOOR
-#undef IS_BESIDE
-fail:
-    free(dv);
-    for (uint32_t k = 0; k <= MAXP; k++)
-        free(v[k]);
-    tnd_scene_state_free(&st[0]);
-    tnd_scene_state_free(&st[1]);
-    pl_chain_destroy(chain);
-    pl_frontend_destroy(gv);
-    tnd_vk_destroy(&vk);
-    return res;
+    char bw[48];
+    printf("bench %s + %s (%s contract): %s, %ux%u, 1 spp, %s, %u frames back to back\n",
+           o->frontend, r->denoiser, tnd_precision_name(o->precision), scene_path, o->size[0],
+           o->size[1], bounces_words(o->bounces, bw, sizeof bw), r->frames);
+    printf("  device %s; copy bandwidth (%.0f MiB, bytes read + written): compute copy %.0f "
+           "GB/s, vkCmdCopyBuffer %.0f GB/s\n",
+           r->device, r->copy_mib, r->compute_gb_s, r->transfer_gb_s);
+    printf("  front-end shaders model: %s\n", r->models);
+    printf("  %-18s %9s %10s %9s %8s\n", "pass", "GPU ms", "MB moved", "floor ms", "of floor");
+    for (uint32_t k = 0; k < np; k++) {
+        const rn_bench_pass *q = &r->pass[k];
+        double fl = rn_bench_floor_ms(r, q->bytes);
+        if (q->timed_beside)
+            printf("  %-18s %9s   (runs beside the %s, timed with it)\n", q->name, "-",
+                   q->beside);
+        else if (q->bytes > 0)
+            printf("  %-18s %9.3f %10.1f %9.3f %7.0f%%\n", q->label, q->ms, q->bytes / 1e6, fl,
+                   q->ms > 0 ? 100.0 * fl / q->ms : 0.0);
+        else
+            printf("  %-18s %9.3f\n", q->name, q->ms);
+    }
+    printf("  %-18s %9.3f   (wall clock per frame, host work and the gradient round trip "
+           "included)\n", "frame", r->wall_ms);
+    double bfl = rn_bench_floor_ms(r, r->backend_bytes);
+    printf("  %-18s %9.3f %10.1f %9.3f %7.0f%%\n", "back-end total", r->backend_ms,
+           r->backend_bytes / 1e6, bfl, r->backend_ms > 0 ? 100.0 * bfl / r->backend_ms : 0.0);
+    printf("  (GPU timestamps; medians of %u frames after 3 warm-up frames; \"of floor\" = "
+           "floor / measured)\n", r->frames);
+    if (r->dispatches_differed)
+        printf("  per dispatch: the dispatches differed between frames; not shown\n");
+    else if (r->ndispatches) {
+        printf("  per dispatch (back-end, each with its own timestamps; the select pass is "
+               "above):\n");
+        for (uint32_t k = 0; k < r->ndispatches; k++)
+            printf("    %-18s %9.3f\n", r->dispatch[k].name, r->dispatch[k].ms);
+    }
+    free(r);
+    return TND_OK;
 }
 
 /* ---- bench --soak N ---------------------------------------------------------------------- */
@@ -592,8 +473,13 @@ int cmd_bench(int argc, char **argv)
         tnd_scene *sc = NULL;
         res = rn_scene_load(scene_path, &env, &sc);
         if (res == TND_OK)
-            res = bench_pipeline(sc, scene_path, frontend, frame, size, bounces, repeats, rt_api,
-                                 full, denoiser, prec, json, per_dispatch);
+            res = bench_pipeline(
+                &(rn_bench_backend_opts){.scene = sc, .frontend = frontend,
+                                         .size = {size[0], size[1]}, .frame = frame,
+                                         .bounces = bounces, .repeats = repeats, .rt_api = rt_api,
+                                         .full_pipeline = full, .denoiser = denoiser,
+                                         .precision = prec, .per_dispatch = per_dispatch},
+                scene_path, json);
         tnd_scene_destroy(sc);
         if (res != TND_OK) {
             app_report("bench", res);

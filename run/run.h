@@ -528,6 +528,50 @@ const char *rn_whole_frame_way_name(int way);
 const char *rn_whole_frame_host_name(int part);
 tnd_result rn_whole_frame(const rn_whole_frame_opts *o, rn_whole_frame_result *r);
 
+/* ---- the real-time frame back to back against the bandwidth floor (run/rn_bench_backend.c):
+ * bench --denoiser ---------------------------------------------------------------------------- */
+typedef struct rn_bench_backend_opts {
+    const tnd_scene *scene;
+    const char *frontend;   /* a GPU front-end's registry name */
+    uint32_t size[2];
+    unsigned frame;         /* the camera path's first frame */
+    unsigned bounces;       /* a count, or RN_BOUNCES_HALF */
+    unsigned repeats;       /* frames timed, after 3 of warm-up */
+    const char *rt_api;     /* "pipeline", "query", "auto" (NULL: auto) */
+    bool full_pipeline;     /* every shader variant */
+    const char *denoiser;   /* a registry name or plugin:PATH.so */
+    tnd_precision precision;
+    bool per_dispatch;      /* each of the built-in back-end's dispatches timed too */
+} rn_bench_backend_opts;
+typedef struct rn_bench_pass {
+    char id[32];            /* the pass's name in its registry ("temporal") */
+    char name[48];          /* timings.json's key without _ms ("denoise_temporal") */
+    char label[96];         /* the name, "+" what ran beside it */
+    char beside[32];        /* the pass this one runs beside where the step says so ("" none) */
+    bool timed_beside;      /* it ran beside that one, which is timed for both (its ms 0) */
+    double ms;              /* GPU timestamps' median */
+    double bytes;           /* the least it moves (the denoiser's; with what ran beside it) */
+} rn_bench_pass;
+typedef struct rn_bench_backend_result {
+    char device[256], models[512], denoiser[64];
+    unsigned frames;
+    uint32_t npasses, nfrontend; /* the chain's passes, the front-end's first */
+    rn_bench_pass pass[RN_WF_MAX_PASSES];
+    bool beside;                 /* a pass ran beside another */
+    double wall_ms;              /* per frame (host work and the gradient round trip in it) */
+    double backend_ms, backend_bytes;
+    double copy_mib, transfer_gb_s, compute_gb_s, bandwidth_gb_s;
+    uint32_t ndispatches;        /* per dispatch, where asked and the same every frame */
+    bool dispatches_differed;
+    struct {
+        char name[48];
+        double ms;
+    } dispatch[TND_TIMER_MAX_PASSES];
+} rn_bench_backend_result;
+tnd_result rn_bench_backend(const rn_bench_backend_opts *o, rn_bench_backend_result *r);
+/* bytes moved at the measured bandwidth, in ms (0 where none was measured) */
+double rn_bench_floor_ms(const rn_bench_backend_result *r, double bytes);
+
 /* ---- soak: memory, descriptors and device allocations over long runs (run/rn_soak.c) ---------- */
 /* The soak recorder, for any frame loop (render's, the viewer's): begin with the frames planned,
  * call _frame after each (it samples every frames/200-th and the last), _end judges (true: flat
