@@ -50,6 +50,9 @@ typedef struct dn_desc {
     /* lf filter: its luminance weight stops at this many standard deviations of the noise left
      * in the temporal lf histories (0 means 2; docs/denoise.md) */
     float lf_sigma;
+    /* hf a-trous: its luminance weight stops at this many standard deviations of the hf
+     * history's mean (0 means 4, Q2RTX's) */
+    float hf_sigma;
     /* recurrent: the fast history's length in frames (0 means 6), the clamp's width in standard
      * deviations of the fast histories' 5x5 neighbourhood (0 means 2), histories of at most
      * this many frames rebuilt by the history fix (0 means 3; negative: none) and its base

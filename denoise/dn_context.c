@@ -323,6 +323,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     d->antilag_motion = d->antilag_motion > 0 ? d->antilag_motion : 0.004f;
     d->antilag_lf = d->antilag_lf > 0 ? d->antilag_lf : 0.2f;
     d->lf_sigma = d->lf_sigma > 0 ? d->lf_sigma : 2.0f;
+    d->hf_sigma = d->hf_sigma > 0 ? d->hf_sigma : 4.0f;
     d->lf_deflicker = d->lf_deflicker == 0 ? 2.0f : d->lf_deflicker < 0 ? 0.0f : d->lf_deflicker;
     d->fast_frames = d->fast_frames > 0 ? d->fast_frames : 6.0f;
     d->clamp_sigma = d->clamp_sigma > 0 ? d->clamp_sigma : 2.0f;
@@ -505,7 +506,7 @@ static void fill_params(dn_context *c, const dn_frame *f, bool gradients)
         .iters = {d->iters_hf, d->iters_lf, d->iters_spec, d->grad_segment},
         .alpha = {d->min_alpha_hf, d->min_alpha_lf, d->min_alpha_spec, d->min_alpha_moments},
         .jitter = {f->jitter[0], f->jitter[1], f->prev_jitter[0], f->prev_jitter[1]},
-        .weights = {2.0f, 64.0f, 4.0f, 8.0f},
+        .weights = {2.0f, 64.0f, d->hf_sigma, 8.0f},
         .misc = {f->pixel_spread, 256.0f, 1024.0f, gradients ? 1.0f : 0.0f},
         .antilag = {d->antilag_hf, d->antilag_spec, d->antilag_motion, d->antilag_lf},
         .lf = {d->lf_deflicker, d->no_leak_guard ? 0.0f : 1.0f, d->lf_sigma, 0.0f},

@@ -32,6 +32,11 @@ static const pl_param p_lf_sigma = {
     .arg = "S",
     .help = "the lf filter's luminance weight: standard deviations of the noise left in its "
             "histories (default 2; docs/denoise.md)"};
+static const pl_param p_hf_sigma = {
+    .name = "hf-sigma", .kind = PL_PARAM_FLOAT, .min = 0, .max = 100, .min_open = true,
+    .arg = "S",
+    .help = "the hf a-trous luminance weight: standard deviations of the hf history's mean "
+            "(default 4, Q2RTX's; docs/denoise.md)"};
 static const pl_param p_fast = {
     .name = "fast", .kind = PL_PARAM_UINT, .min = 1, .max = 30, .arg = "N",
     .help = "recurrent: the fast history's length in frames, whose statistics clamp the slow "
@@ -53,11 +58,12 @@ static const pl_param p_resample = {
             "surface: 1 Catmull-Rom, 2 the tested bilinear taps (default 2)"};
 /* clang-format on */
 
-static const pl_param *const svgf_params[] = {&p_atrous, &p_min_alpha, &p_lf_sigma};
-static const pl_param *const recurrent_params[] = {&p_atrous,      &p_min_alpha, &p_antilag,
-                                                   &p_fast,        &p_clamp_sigma,
-                                                   &p_history_fix, &p_lf_sigma, &p_resample};
-static const pl_param *const asvgf_params[] = {&p_atrous, &p_min_alpha, &p_antilag, &p_lf_sigma};
+static const pl_param *const svgf_params[] = {&p_atrous, &p_min_alpha, &p_lf_sigma, &p_hf_sigma};
+static const pl_param *const recurrent_params[] = {
+    &p_atrous,      &p_min_alpha, &p_antilag,  &p_fast,    &p_clamp_sigma,
+    &p_history_fix, &p_lf_sigma,  &p_hf_sigma, &p_resample};
+static const pl_param *const asvgf_params[] = {&p_atrous, &p_min_alpha, &p_antilag, &p_lf_sigma,
+                                               &p_hf_sigma};
 
 /* The back-end's passes (timings.json's keys as they always were) and, for each, its field of
  * dn_timings / dn_traffic (0 select, 1 gradient, 2 temporal, 3 lf, 4 atrous, 5 composite): A-SVGF
@@ -105,6 +111,8 @@ static void backend_param(dn_desc *d, const char *name, double v)
         d->antilag_hf = (float)v;
     else if (strcmp(name, "lf-sigma") == 0)
         d->lf_sigma = (float)v;
+    else if (strcmp(name, "hf-sigma") == 0)
+        d->hf_sigma = (float)v;
     else if (strcmp(name, "fast") == 0)
         d->fast_frames = (float)v;
     else if (strcmp(name, "clamp-sigma") == 0)
