@@ -128,6 +128,7 @@ struct femb_context {
     float pixel_spread; /* ray-cone spread angle per pixel (radians) */
     bool specular;      /* the scene has mirrors or glass: the primary pass follows them */
     uint32_t reflect_depth; /* at most this many specular vertices in the primary chain */
+    float footprint_scale;  /* the ray cones' spread over the traced pixel's (femb_desc) */
     uint32_t ref_bounces;   /* femb_set_reference_bounces (0: full paths) */
     tnd_light_list lights;
     bool triangle_lights_only; /* every light of the list is an emissive triangle */

@@ -116,6 +116,7 @@ tnd_result femb_create(const tnd_scene *s, const femb_desc *d, femb_context **ou
     long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
     c->threads = d && d->threads ? d->threads : (uint32_t)(ncpu > 0 ? ncpu : 1);
     c->reflect_depth = d && d->reflect_depth ? d->reflect_depth : TND_REFLECT_DEPTH;
+    c->footprint_scale = d && d->footprint_scale > 0 ? d->footprint_scale : 1.0f;
     tnd_light_sampling pick = tnd_light_sampling_for(s, d ? d->lights : TND_LIGHTS_AUTO);
     c->restir = pick == TND_LIGHTS_RESTIR; /* (its candidates by the tree) */
     c->lights.want_tree = pick == TND_LIGHTS_TREE || pick == TND_LIGHTS_RESTIR;
@@ -267,7 +268,8 @@ tnd_result femb_set_frame(femb_context *c, const tnd_scene_state *cur,
     }
     /* vertical field of view from the projection: proj[5] = -1 / tan(yfov / 2) */
     double tan_half = 1.0 / fabs((double)cur->camera.proj[5]);
-    c->pixel_spread = (float)(2.0 * tan_half / height);
+    /* (the ray cones' spread: the pixel's angle, or the shown pixel's where upscaled) */
+    c->pixel_spread = (float)(2.0 * tan_half / height * c->footprint_scale);
     tnd_result res = tnd_lights_build(s, cur, &c->lights);
     c->select_lights = c->lights.count <= FEMB_SELECT_LIGHTS && !c->lights.node_count;
     c->triangle_lights_only = true;

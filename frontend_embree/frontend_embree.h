@@ -16,6 +16,9 @@ typedef struct femb_desc {
     uint32_t reflect_depth; /* specular vertices the primary pass follows (0: TND_REFLECT_DEPTH,
                                4; at most TND_MAX_SPECULAR_DEPTH) */
     tnd_light_sampling lights; /* how NEE picks its light (auto: tnd_light_sampling_for) */
+    /* the pixel footprint that filters textures (the ray cones' spread) over the traced pixel's
+     * (pl_frontend_desc.footprint_scale; 0: 1) */
+    float footprint_scale;
 } femb_desc;
 
 typedef struct femb_params {

@@ -100,6 +100,7 @@ typedef struct fvk_desc {
     bool half_indirect;      /* the real-time passes are first built for --bounces half */
     fvk_specialise specialise; /* the passes' own specialisation (above) */
     tnd_light_sampling lights; /* as femb_desc */
+    float footprint_scale;     /* as femb_desc */
 } fvk_desc;
 
 typedef struct fvk_params {

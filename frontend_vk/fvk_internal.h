@@ -75,6 +75,7 @@ struct fvk_context {
     fvk_rt_api api;
     uint32_t uses;            /* TND_USES_*: the specialization of every pass */
     uint32_t reflect_depth;   /* specular vertices of the primary chain (frame params.w) */
+    float footprint_scale;    /* the ray cones' spread over the traced pixel's (fvk_desc) */
     uint32_t ref_bounces;     /* fvk_set_reference_bounces (0: full paths; frame params.x) */
     char variant[160];
     VkDescriptorPool pool;

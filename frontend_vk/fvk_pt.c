@@ -413,6 +413,7 @@ tnd_result fvk_create(tnd_vk *vk, const tnd_scene *scene, const fvk_desc *desc, 
     c->light_list.want_tree = pick == TND_LIGHTS_TREE || pick == TND_LIGHTS_RESTIR;
     choose_variant(c, desc && desc->full_pipeline);
     c->reflect_depth = desc && desc->reflect_depth ? desc->reflect_depth : TND_REFLECT_DEPTH;
+    c->footprint_scale = desc && desc->footprint_scale > 0 ? desc->footprint_scale : 1.0f;
     if (c->reflect_depth > TND_MAX_SPECULAR_DEPTH)
         c->reflect_depth = TND_MAX_SPECULAR_DEPTH;
     TND_TRY(fvk_scene_upload(c));
@@ -516,7 +517,9 @@ tnd_result fvk_set_frame(fvk_context *c, const tnd_scene_state *cur, const tnd_s
     f.prev_cam_pos = (tnd_gvec4){ipv[12], ipv[13], ipv[14], 0};
     tnd_jitter(frame, jit);
     double tan_half = 1.0 / (cur->camera.proj[5] < 0 ? -cur->camera.proj[5] : cur->camera.proj[5]);
-    f.jitter = (tnd_gvec4){jit[0], jit[1], (float)(2.0 * tan_half / height), 0};
+    /* (the ray cones' spread: the pixel's angle, or the shown pixel's where upscaled) */
+    f.jitter = (tnd_gvec4){jit[0], jit[1], (float)(2.0 * tan_half / height * c->footprint_scale),
+                           0};
     const tnd_env *env = &c->scene->env;
     f.sky = (tnd_gvec4){c->scene->sky[0], c->scene->sky[1], c->scene->sky[2],
                         c->light_list.env_pick};

@@ -55,6 +55,11 @@ typedef struct pl_frontend_desc {
     const char *rt_api;      /* vk: "pipeline", "query" or "auto" (NULL: auto) */
     bool full_pipeline;      /* vk: every shader variant */
     uint32_t reflect_depth;  /* mirrors/glass the primary pass follows (0: 4) */
+    /* vk, embree: the pixel footprint that filters textures (ray cones), over the traced pixel's:
+     * the traced size over the shown size where the frame is upscaled (--render-scale), so that
+     * textures are filtered for the shown pixels, as the full size's and its matched reference
+     * are (FSR 2's and DLSS's mip bias, log2 of it); 0: 1 */
+    float footprint_scale;
     tnd_light_sampling lights; /* embree, vk: how NEE picks its light (auto: by the scene) */
     bool references;         /* vk: for references (their shader variant made at creation) */
     uint32_t bounces;        /* vk: the bounces its real-time shaders are first built for (0: 1) */

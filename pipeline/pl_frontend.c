@@ -69,7 +69,8 @@ static tnd_result vk_create(const tnd_scene *scene, const pl_frontend_desc *d, v
                                  .references = d->references,
                                  .bounces = d->bounces,
                                  .half_indirect = d->half_indirect,
-                                 .lights = d->lights},
+                                 .lights = d->lights,
+                                 .footprint_scale = d->footprint_scale},
                      &v->gv);
     if (res != TND_OK) {
         free(v);
@@ -246,7 +247,8 @@ static tnd_result emb_create(const tnd_scene *scene, const pl_frontend_desc *d, 
     e->precision = d->precision;
     tnd_result res = femb_create(
         scene,
-        &(femb_desc){.threads = d->threads, .reflect_depth = d->reflect_depth, .lights = d->lights},
+        &(femb_desc){.threads = d->threads, .reflect_depth = d->reflect_depth, .lights = d->lights,
+                     .footprint_scale = d->footprint_scale},
         &e->fe);
     if (res != TND_OK) {
         free(e);

@@ -331,6 +331,8 @@ tnd_result rn_pipeline_open(const rn_render_opts *o, const tnd_scene *scene, tnd
                                  strcmp(o->pipeline, "full") == 0};
     if (use_dn && (res = post_desc(o, pd)) != TND_OK)
         goto fail;
+    uint32_t rs[2];
+    rn_render_size(o, rs);
     TND_TRY(pl_frontend_create(o->frontend, scene,
                                &(pl_frontend_desc){.vk = use_vk ? vk : NULL, .precision = prec,
                                                    .rt_api = o->rt_api,
@@ -342,7 +344,10 @@ tnd_result rn_pipeline_open(const rn_render_opts *o, const tnd_scene *scene, tnd
                                                    .bounces = o->bounces,
                                                    .half_indirect = o->half_indirect,
                                                    .threads = o->threads,
-                                                   .scene_path = o->scene},
+                                                   .scene_path = o->scene,
+                                                   /* (textures filtered for the shown pixels) */
+                                                   .footprint_scale =
+                                                       (float)rs[1] / (float)o->size[1]},
                                fr));
     if (reference)
         return TND_OK; /* (no chain) */
@@ -353,8 +358,6 @@ tnd_result rn_pipeline_open(const rn_render_opts *o, const tnd_scene *scene, tnd
     if (*dn != asked)
         rn_say(h, "tandem: render: --frontend %s cannot re-shade gradient samples: running %s "
                   "instead of %s", o->frontend, (*dn)->name, asked->name);
-    uint32_t rs[2];
-    rn_render_size(o, rs);
     if (o->upscaler)
         TND_TRY(cmp_upscaler_parse(o->upscaler, &pd->upscaler));
     pl_chain_desc cd = {.vk = vk, .width = rs[0], .height = rs[1], .out_width = o->size[0],
