@@ -21,6 +21,7 @@ struct cmp_context {
     uint32_t width, height, frame;
     uint32_t in_width, in_height; /* the input's size (smaller: the TAA pass upscales) */
     tnd_image taa[2], bloom[2], display, flat; /* flat: the interleave's output (input size) */
+    tnd_image depth[2]; /* the input's depth, this frame's and the last's (upscaling only) */
     tnd_buffer params, hist, hist_host; /* hist: device-local (atomics); _host: its read-back */
     VkDescriptorSetLayout layouts[2];
     VkPipelineLayout layout;
@@ -118,6 +119,7 @@ void cmp_destroy(cmp_context *c)
             vkDestroyDescriptorSetLayout(vk->device, c->layouts[i], NULL);
         tnd_image_destroy(vk, &c->taa[i]);
         tnd_image_destroy(vk, &c->bloom[i]);
+        tnd_image_destroy(vk, &c->depth[i]);
     }
     tnd_image_destroy(vk, &c->display);
     tnd_image_destroy(vk, &c->flat);
@@ -139,6 +141,7 @@ static tnd_result create_pipelines(cmp_context *c, tnd_precision prec)
     b0[CP_B_HIST].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     b0[CP_B_TAA].descriptorCount = 2;
     b0[CP_B_BLOOM].descriptorCount = 2;
+    b0[CP_B_DEPTH].descriptorCount = 2;
     TND_VK_TRY(vkCreateDescriptorSetLayout(
         vk->device,
         &(VkDescriptorSetLayoutCreateInfo){.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
@@ -157,7 +160,7 @@ static tnd_result create_pipelines(cmp_context *c, tnd_precision prec)
         NULL, &c->layout));
     VkDescriptorPoolSize ps[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 8 + TND_CT_COUNT}};
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 10 + TND_CT_COUNT}};
     TND_VK_TRY(vkCreateDescriptorPool(
         vk->device,
         &(VkDescriptorPoolCreateInfo){.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
@@ -204,7 +207,7 @@ static void write_own_set(cmp_context *c)
 {
     for (int set = 0; set < 2; set++) {
         VkDescriptorSet ds = c->sets[set ? 2 : 0];
-        VkDescriptorImageInfo ii[6];
+        VkDescriptorImageInfo ii[8];
 #define IMG(i, img) (ii[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, (img)->view, VK_IMAGE_LAYOUT_GENERAL})
         IMG(0, &c->taa[0]);
         IMG(1, &c->taa[1]);
@@ -212,8 +215,12 @@ static void write_own_set(cmp_context *c)
         IMG(3, &c->bloom[1]);
         IMG(4, &c->display);
         IMG(5, &c->flat); /* the interleave's output, and the second set's input */
+        if (upscales(c)) { /* (the only pass that reads them is made only then) */
+            IMG(6, &c->depth[0]);
+            IMG(7, &c->depth[1]);
+        }
 #undef IMG
-        VkWriteDescriptorSet w[7];
+        VkWriteDescriptorSet w[8];
         const uint32_t bind[5] = {CP_B_TAA, CP_B_BLOOM, CP_B_DISPLAY, CP_B_FLAT, CP_B_IN};
         const uint32_t first[5] = {0, 2, 4, 5, 5}, count[5] = {2, 2, 1, 1, 1};
         uint32_t nw = 0;
@@ -235,6 +242,12 @@ static void write_own_set(cmp_context *c)
                                          .descriptorCount = 1,
                                          .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
                                          .pBufferInfo = &bh};
+        if (upscales(c))
+            w[nw++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+                                             .dstSet = ds, .dstBinding = CP_B_DEPTH,
+                                             .descriptorCount = 2,
+                                             .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+                                             .pImageInfo = &ii[6]};
         vkUpdateDescriptorSets(c->vk->device, nw, w, 0, NULL);
     }
 }
@@ -328,6 +341,12 @@ tnd_result cmp_create_scaled(tnd_vk *vk, uint32_t in_width, uint32_t in_height, 
                                                    .format = VK_FORMAT_R32G32B32A32_SFLOAT,
                                                    .name = "composite.flat"},
                              &c->flat));
+    for (int i = 0; i < 2 && upscales(c); i++)
+        TND_TRY(tnd_image_create(vk, &(tnd_image_desc){.width = in_width, .height = in_height,
+                                                       .format = VK_FORMAT_R32_SFLOAT,
+                                                       .name = i ? "composite.depth[1]"
+                                                                 : "composite.depth[0]"},
+                                 &c->depth[i]));
     TND_TRY(tnd_buffer_create(vk, &(tnd_buffer_desc){.size = sizeof(cp_params),
                                                      .usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                                      .mem = TND_MEM_UPLOAD, .name = "composite.params"},

@@ -72,6 +72,8 @@ _Static_assert(sizeof(cp_params) == 96, "cp_params layout");
 #define CP_B_DISPLAY 4  /* display-referred sRGB-encoded [0,1], dithered */
 #define CP_B_HIST 5     /* cp_histogram */
 #define CP_B_FLAT 6     /* the interleave's output: the later passes' input when it runs */
-#define CP_BINDINGS 7
+#define CP_B_DEPTH 7    /* [2] the input's depth, this frame's slot and the last's (the temporal
+                           upscaler's disocclusion test; input size; only where it upscales) */
+#define CP_BINDINGS 8
 
 #endif

@@ -16,9 +16,15 @@
  *   is still, the samples inside the output pixel, weight 1 each, up to 1 / TAA's weight
  *   (P.taa.x) samples; where it moves, the reconstruction with its weights' sum, up to
  *   HELD_MOVING; no history (first frame, off screen, non-finite): the reconstruction alone.
+ * - reset on disocclusion: where the input pixel nearest u saw a surface that no input pixel
+ *   within one of its previous position saw in the last frame (the depth the motion's z gives,
+ *   within 10%: the back-end's tap test, on the input's depths kept from the last frame), the
+ *   history is dropped, as where there is none (FSR 2's depth test; the clip alone keeps a
+ *   ghost whose colour lies inside the new neighbourhood's box);
  * With CP_F_SPATIAL it is the spatial baseline instead: the input resampled at u - jitter
  * (bilinear, Catmull-Rom bicubic or the edge-adaptive Lanczos: P.taa.w 0, 1, 2), no history.
- * Not yet: a sharpening pass, lock and reactivity masks for thin and emissive pixels. */
+ * Not yet: a sharpening pass (measured worse: docs/upscaling.md), lock and reactivity masks
+ * for thin and emissive pixels. */
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define CP_NEEDS_CONTRACT
@@ -34,7 +40,34 @@ vec3 ycocg_to_rgb(vec3 y)
     return vec3(y.x + y.y - y.z, y.x + y.z, y.x - y.y - y.z);
 }
 
+layout(set = 0, binding = CP_B_DEPTH, r32f) uniform image2D in_depth[2]; /* this frame's slot */
+
 ivec2 in_size() { return ivec2(P.up.xy); }
+
+/* Whether the input pixel q's surface is newly visible: no input pixel within one of its previous
+ * position (through its motion) held, in the last frame, the depth its motion says it had there
+ * (within 10%, the back-end's tap test). Off screen there is no history to drop anyway. */
+bool disoccluded(ivec2 q)
+{
+    float d = imageLoad(img_depth, q).x;
+    vec3 mv = imageLoad(img_motion, q).xyz;
+    if (!(d < 0.5 * TND_DEPTH_MISS) || tnd_nonfinite(mv.x) || tnd_nonfinite(mv.y) ||
+        tnd_nonfinite(mv.z))
+        return false; /* (a miss: the sky is never newly visible) */
+    vec2 was = vec2(q) + 0.5 + mv.xy;
+    if (any(lessThan(was, vec2(0.0))) || any(greaterThanEqual(was, vec2(in_size()))))
+        return false;
+    float want = d + mv.z;
+    ivec2 b = ivec2(floor(was));
+    uint prev = 1u - pc.slot;
+    for (int j = -1; j <= 1; j++)
+        for (int i = -1; i <= 1; i++) {
+            float pd = imageLoad(in_depth[prev], clamp(b + ivec2(i, j), ivec2(0), in_size() - 1)).x;
+            if (abs(pd - want) <= 0.1 * want)
+                return false;
+        }
+    return true;
+}
 
 /* The reconstruction, the box and the blend work on c / (1 + luma c) (Karis's reversible tone
  * map): an emitter 100x brighter than its surround would otherwise spread over it through the
@@ -190,6 +223,10 @@ void main()
     }
     /* the 3x3 input pixels around the one whose sample is nearest u */
     ivec2 c0 = ivec2(floor(u - jit));
+    /* the input's depth kept for the next frame's test (every input pixel is some output
+     * pixel's c0, as the output is at least the input's size; the writers of one agree) */
+    ivec2 cq = clamp(c0, ivec2(0), in_size() - 1);
+    imageStore(in_depth[pc.slot], cq, vec4(imageLoad(img_depth, cq).x));
     vec3 m1 = vec3(0.0), m2 = vec3(0.0), sum = vec3(0.0), own = vec3(0.0);
     float wsum = 0.0, n_own = 0.0, longest = -1.0;
     vec2 motion = vec2(0.0);
@@ -230,7 +267,7 @@ void main()
     float w_new = moving ? wsum : n_own;
     vec3 result = current;
     float held = max(w_new, HELD_FIRST); /* the sample weight the pixel holds after this frame */
-    if ((P.size.w & CP_F_HISTORY) != 0u) {
+    if ((P.size.w & CP_F_HISTORY) != 0u && !disoccluded(cq)) {
         vec2 x = vec2(p) + 0.5 + motion / scale;
         bool ok = all(greaterThanEqual(x, vec2(0.0))) && all(lessThan(x, vec2(img_size())));
         vec4 hw = ok ? sample_history(x, ok) : vec4(0.0);

@@ -2,7 +2,9 @@
  * whose light is 1000x brighter look the same; black, white and NaN inputs give defined output.
  * TAA: on a static scene whose primary rays are jittered, the accumulated image is closer to the
  * supersampled image than one frame is (edges converge); under camera and object motion, no
- * ghost trail outlives 2 frames. Label: gpu. */
+ * ghost trail outlives 2 frames. Temporal upscaling: edges converge towards the supersampled full
+ * size better than the spatial upscalers; a newly visible surface (the depth test) takes no
+ * history. Label: gpu. */
 #include "composite/composite.h"
 #include "frontend_embree/frontend_embree.h"
 #include "tests/embree_frame.h"
@@ -501,10 +503,94 @@ cleanup:
     gpu_end();
 }
 
+/* The temporal upscaler drops the history where the depth test says a surface is newly visible
+ * (post_taau.comp's disocclusion reset): a synthetic contract at 32x18 upscaled to 64x36, a still
+ * noisy pattern (depth 1) for 8 frames, then in its right half a new surface (depth 4, no motion:
+ * nothing there was at depth 4) with the pattern shifted by a pixel, whose colours lie inside the
+ * neighbourhood's clip box, so that the clip alone keeps the old history there. The right half's
+ * output away from the edge must equal what a context without history makes of that frame (the
+ * reconstruction alone), and the left half's must not (its history kept). */
+static tnd_result taau_synthetic_frame(tnd_vk *vk, rig *r, tnd_frame *f, int i, float *px)
+{
+    enum { HW = W / 2, HH = H / 2 };
+    float *depth = tnd_frame_f(f, TND_CT_DEPTH), *motion = tnd_frame_f(f, TND_CT_MOTION);
+    for (int y = 0; y < HH; y++)
+        for (int x = 0; x < HW; x++) {
+            int q = y * HW + x;
+            bool changed = i >= 8 && x >= HW / 2;
+            uint32_t h = ((uint32_t)(x + (changed ? 1 : 0)) * 73856093u) ^ ((uint32_t)y * 19349663u);
+            float v = (h % 4u == 0u) ? 0.8f : 0.2f; /* (a pattern whose 3x3 box spans both) */
+            for (int k = 0; k < 3; k++)
+                px[4 * q + k] = v;
+            px[4 * q + 3] = 1.0f;
+            depth[q] = changed ? 4.0f : 1.0f;
+            motion[3 * q] = motion[3 * q + 1] = motion[3 * q + 2] = 0.0f;
+        }
+    tnd_result res = tnd_contract_upload(vk, &r->ct, f);
+    if (res == TND_OK)
+        res = tnd_image_upload(vk, &r->in, px, (size_t)HW * HH * 4 * sizeof(float));
+    return res;
+}
+
+static void test_taau_resets_on_disocclusion(void)
+{
+    enum { HW = W / 2, HH = H / 2 };
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    rig r = {0};
+    tnd_frame f = {0};
+    cmp_context *c = NULL, *fresh = NULL;
+    static float px[HW * HH * 4], out[N * 3], ref[N * 3];
+    REQUIRE_OK(tnd_contract_gpu_create(vk, HW, HH, TND_PRECISION_F32, &r.ct));
+    REQUIRE_OK(tnd_image_create(vk, &(tnd_image_desc){.width = HW, .height = HH,
+                                                      .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                      .name = "test.hdr"},
+                                &r.in));
+    REQUIRE_OK(tnd_frame_create(HW, HH, &f));
+    REQUIRE_OK(cmp_create_scaled(vk, HW, HH, W, H, TND_PRECISION_F32, &(cmp_desc){.taa = true}, &c));
+    REQUIRE_OK(cmp_create_scaled(vk, HW, HH, W, H, TND_PRECISION_F32, &(cmp_desc){.taa = true},
+                                 &fresh));
+    float jit[2];
+    for (int i = 0; i <= 8; i++) {
+        REQUIRE_OK(taau_synthetic_frame(vk, &r, &f, i, px));
+        tnd_jitter((uint32_t)i, jit);
+        REQUIRE_OK(cmp_run(c, &r.in, &r.ct, &(cmp_frame){.reset = i == 0, .jitter = {jit[0], jit[1]}},
+                           NULL));
+    }
+    REQUIRE_OK(cmp_download_hdr(c, out));
+    REQUIRE_OK(cmp_run(fresh, &r.in, &r.ct, &(cmp_frame){.reset = true, .jitter = {jit[0], jit[1]}},
+                       NULL));
+    REQUIRE_OK(cmp_download_hdr(fresh, ref));
+    double right = 0, left = 0;
+    for (int y = 2; y < H - 2; y++)
+        for (int x = 2; x < W - 2; x++) {
+            if (x >= W / 2 - 3 && x <= W / 2 + 3)
+                continue; /* (the new surface's edge: both sides in the box) */
+            double d = 0;
+            for (int k = 0; k < 3; k++)
+                d = fmax(d, fabs(out[3 * (y * W + x) + k] - ref[3 * (y * W + x) + k]));
+            if (x > W / 2)
+                right = fmax(right, d);
+            else
+                left = fmax(left, d);
+        }
+    printf("     disocclusion at half size: newly visible half against no history: largest "
+           "difference %.2e; the unchanged half %.3f (its history kept)\n", right, left);
+    CHECK(right < 1e-5, "the newly visible half keeps %.3g of its old history", right);
+    CHECK(left > 0.05, "the unchanged half equals a frame without history (%.3g)", left);
+cleanup:
+    cmp_destroy(c);
+    cmp_destroy(fresh);
+    tnd_frame_destroy(&f);
+    tnd_image_destroy(vk, &r.in);
+    tnd_contract_gpu_destroy(vk, &r.ct);
+    gpu_end();
+}
+
 static void test_shutdown(void)
 {
     gpu_shutdown();
 }
 
-TND_TEST_MAIN(T(test_tonemap_exposure), T(test_taa_converges_at_edges), T(test_taau_converges_at_edges),
+TND_TEST_MAIN(T(test_tonemap_exposure), T(test_taa_converges_at_edges), T(test_taau_converges_at_edges), T(test_taau_resets_on_disocclusion),
               T(test_taa_no_ghosting_under_motion), T(test_interleave), T(test_shutdown))
