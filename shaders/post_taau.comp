@@ -16,11 +16,12 @@
  *   is still, the samples inside the output pixel, weight 1 each, up to 1 / TAA's weight
  *   (P.taa.x) samples; where it moves, the reconstruction with its weights' sum, up to
  *   HELD_MOVING; no history (first frame, off screen, non-finite): the reconstruction alone.
- * - reset on disocclusion: where the input pixel nearest u saw a surface that no input pixel
- *   within one of its previous position saw in the last frame (the depth the motion's z gives,
- *   within 10%: the back-end's tap test, on the input's depths kept from the last frame), the
- *   history is dropped, as where there is none (FSR 2's depth test; the clip alone keeps a
- *   ghost whose colour lies inside the new neighbourhood's box);
+ * - reset on disocclusion: where the input pixel nearest u and three of its four cross
+ *   neighbours saw a surface that no input pixel within one of its previous position saw in the
+ *   last frame (the depth the motion's z gives, within 10%: the back-end's tap test, on the
+ *   input's depths kept from the last frame), the history is dropped, as where there is none
+ *   (FSR 2's depth test; the clip alone keeps a ghost whose colour lies inside the new
+ *   neighbourhood's box); a thin part newly visible at one pixel keeps its history;
  * With CP_F_SPATIAL it is the spatial baseline instead: the input resampled at u - jitter
  * (bilinear, Catmull-Rom bicubic or the edge-adaptive Lanczos: P.taa.w 0, 1, 2), no history.
  * Not yet: a sharpening pass (measured worse: docs/upscaling.md), lock and reactivity masks
@@ -267,7 +268,21 @@ void main()
     float w_new = moving ? wsum : n_own;
     vec3 result = current;
     float held = max(w_new, HELD_FIRST); /* the sample weight the pixel holds after this frame */
-    if ((P.size.w & CP_F_HISTORY) != 0u && !disoccluded(cq)) {
+    /* A disocclusion is a region: the centre newly visible and at least three of its four
+     * cross neighbours too. A thin part (a railing, a leaf card) whose samples come and go with
+     * the jitter is newly visible at one pixel and not beside it: it keeps its history (on the
+     * standard suite's walk through the planetarium's railings and trees, a test of the centre
+     * alone cost 1.5% of FLIP and temporal error, docs/upscaling.md). */
+    bool fresh = false;
+    if ((P.size.w & CP_F_HISTORY) != 0u && disoccluded(cq)) {
+        int n = 0;
+        for (int k = 0; k < 4; k++) {
+            ivec2 o = k == 0 ? ivec2(1, 0) : k == 1 ? ivec2(-1, 0) : k == 2 ? ivec2(0, 1) : ivec2(0, -1);
+            n += disoccluded(clamp(cq + o, ivec2(0), in_size() - 1)) ? 1 : 0;
+        }
+        fresh = n >= 3;
+    }
+    if ((P.size.w & CP_F_HISTORY) != 0u && !fresh) {
         vec2 x = vec2(p) + 0.5 + motion / scale;
         bool ok = all(greaterThanEqual(x, vec2(0.0))) && all(lessThan(x, vec2(img_size())));
         vec4 hw = ok ? sample_history(x, ok) : vec4(0.0);
