@@ -81,17 +81,20 @@ static tnd_result time_back_to_back(const rn_render_opts *o, const tnd_scene *sc
         if ((lags ? k > WARM : k >= WARM && k < total) && (pr.lagged || !lags)) {
             fprintf(timings, "%s\n    {\"frame\": %u", recorded ? "," : "", o->start + done + of);
             rn_timings_members(timings, chain, &pr);
-            fprintf(timings, ", \"host_ms\": {\"evaluate\": %.4f, \"set_frame\": %.4f, "
-                             "\"chain_run\": %.4f}}",
-                    host[of][0], host[of][1], host[of][2]);
+            fprintf(timings, ", \"host_ms\": {");
+            for (int q = 0; q < 3; q++)
+                fprintf(timings, "%s\"%s\": %.4f", q ? ", " : "", rn_whole_frame_host_name(q),
+                        host[of][q]);
+            fprintf(timings, "}}");
             recorded++;
         }
     }
     fprintf(timings, "\n  ], \"wall_ms\": %.4f", 1e3 * (tnd_now() - t0) / o->timed_frames);
-    fprintf(timings, ", \"host_ms_median\": {\"evaluate\": %.4f, \"set_frame\": %.4f, "
-                     "\"chain_run\": %.4f}}",
-            rn_median(part, o->timed_frames), rn_median(part + o->timed_frames, o->timed_frames),
-            rn_median(part + 2 * (size_t)o->timed_frames, o->timed_frames));
+    fprintf(timings, ", \"host_ms_median\": {");
+    for (int q = 0; q < 3; q++)
+        fprintf(timings, "%s\"%s\": %.4f", q ? ", " : "", rn_whole_frame_host_name(q),
+                rn_median(part + (size_t)q * o->timed_frames, o->timed_frames));
+    fprintf(timings, "}}");
 fail:
     free(host);
     free(part);
