@@ -1,8 +1,9 @@
 /* app/cmd_bench.c: `tandem bench`: front-end throughput on one scene (Mrays/s, ms per frame)
- * beside a raw ray-casting loop over the same rays; with --denoiser, the real-time frame (GPU
- * front-end, gradient round trip, the denoiser) back to back, each of the chain's passes
- * (pl_chain_passes) against the memory-bandwidth floor; --overlap / --whole-frame, the whole
- * frame three ways; --sweep (cmd_sweep.c) and --extremes (cmd_extremes.c). */
+ * beside a raw ray-casting loop over the same rays (pl_frontend_bench); with --denoiser, the
+ * real-time frame back to back, each of the chain's passes against the memory-bandwidth floor
+ * (the run layer's rn_bench_backend, printed here); --overlap / --whole-frame, the whole frame
+ * in up to four ways (rn_whole_frame, printed by bench_whole_frame.c); --sweep (cmd_sweep.c)
+ * and --extremes (the run layer's stability report). */
 #include "app/app.h"
 #include "denoise/denoise.h"
 #include "pipeline/pipeline.h"
