@@ -393,6 +393,10 @@ int cmd_bench(int argc, char **argv)
     }
     if (npos)
         out = pos[0];
+    if (repeats == 0) { /* (a median of nothing is no measurement) */
+        fprintf(stderr, "tandem bench: --repeats 0: expected at least 1\n");
+        return APP_EXIT_USAGE;
+    }
     /* a GPU front-end is timed on the rays the CPU one counts; a CPU one benchmarks itself */
     uint32_t fe_caps = pl_frontend_caps_of(frontend);
     bool use_vk = (fe_caps & PL_CAP_GPU_CONTRACT) != 0;

@@ -81,6 +81,10 @@ check "bench --bounces half traces fewer rays and says half" $?
 # a bounce count no command takes: a usage error naming the value, from the one parse they share
 "$T" bench --size 32x32 --bounces quarter 2>"$tmp/err"; rc=$?
 [ $rc -eq 2 ] && grep -q "'quarter'" "$tmp/err"; check "bench --bounces quarter is a usage error" $?
+# no repetitions: no medians to print (it printed "medians of 0 repetitions" before)
+"$T" bench --size 32x32 --repeats 0 >"$tmp/out" 2>"$tmp/err"; rc=$?
+[ $rc -eq 2 ] && grep -q -- "--repeats 0: expected at least 1" "$tmp/err" && [ ! -s "$tmp/out" ]
+check "bench --repeats 0 is a usage error with nothing on stdout (got $rc)" $?
 "$T" bench --sweep bounces=half,65 --out "$tmp/sweep_bad" 2>"$tmp/err"; rc=$?
 [ $rc -eq 2 ] && grep -q "bounces=65: a count (0 to 64) or half" "$tmp/err" && [ ! -e "$tmp/sweep_bad" ]
 check "bench --sweep bounces=65 is a usage error with no output" $?
