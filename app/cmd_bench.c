@@ -28,15 +28,7 @@ static const app_cmd bench_cmd = {
     "[--repeats N] [--json]",
     NULL};
 
-/* --bounces as the frame parameters (a count, or RN_BOUNCES_HALF: 1 at half resolution), in
- * JSON and in words */
-static pl_params bench_params(unsigned bounces)
-{
-    bool half;
-    unsigned n = rn_bounces_split(bounces, &half);
-    return (pl_params){.bounces = n, .half_indirect = half};
-}
-
+/* --bounces (a count, or RN_BOUNCES_HALF: 1 at half resolution) in JSON and in words */
 static void bench_bounces_json(cJSON *o, unsigned bounces)
 {
     if (bounces == RN_BOUNCES_HALF)
@@ -52,48 +44,6 @@ static const char *bounces_words(unsigned bounces, char *buf, size_t size)
     else
         snprintf(buf, size, "%u bounce%s", bounces, bounces == 1 ? "" : "s");
     return buf;
-}
-
-static tnd_result bench_vk(const tnd_scene *s, const char *fe_name, const tnd_scene_state *st,
-                           unsigned frame,
-                           const unsigned size[2], unsigned bounces, unsigned repeats,
-                           const char *rt_api, bool full, pl_bench *b, double *t_build)
-{
-    tnd_result res = TND_OK;
-    tnd_vk vk = {0};
-    pl_frontend *gv = NULL;
-    double *tp = calloc(repeats + 1, sizeof *tp), *ts = calloc(repeats + 1, sizeof *ts);
-    if (!tp || !ts) {
-        res = tnd_fail(TND_ERR_OUT_OF_MEMORY, "bench: out of memory");
-        goto fail;
-    }
-    TND_TRY(tnd_vk_create(&(tnd_vk_desc){0}, &vk));
-    double t0 = tnd_now();
-    TND_TRY(pl_frontend_create(fe_name, s,
-                               &(pl_frontend_desc){.vk = &vk, .rt_api = rt_api,
-                                                   .full_pipeline = full},
-                               &gv));
-    TND_TRY(pl_frontend_set_frame(gv, st, st, frame, size[0], size[1]));
-    *t_build = tnd_now() - t0;
-    for (int w = 0; w < 3; w++)
-        TND_TRY(pl_frontend_render(gv, (pl_params[]){bench_params(bounces)}, NULL, NULL));
-    for (unsigned r = 0; r < repeats; r++) {
-        pl_timings tm;
-        TND_TRY(pl_frontend_render(gv, (pl_params[]){bench_params(bounces)}, NULL, &tm));
-        tp[r] = tm.primary_ms;
-        ts[r] = tm.shade_ms;
-    }
-    b->primary_ms = rn_median(tp, repeats);
-    b->shade_ms = rn_median(ts, repeats);
-    b->raw_ms = 0;
-    char who[300];
-    printf("device: %s\n", pl_frontend_describe(gv, who, sizeof who));
-fail:
-    free(tp);
-    free(ts);
-    pl_frontend_destroy(gv);
-    tnd_vk_destroy(&vk);
-    return res;
 }
 
 /* `bench --denoiser`: the run layer's rn_bench_backend (the real-time frame back to back, each
@@ -492,45 +442,33 @@ int cmd_bench(int argc, char **argv)
         }
         return APP_EXIT_OK;
     }
-    tnd_scene *s = NULL;
-    pl_frontend *c = NULL;
-    tnd_scene_state st = {0};
-    pl_bench b;
-    uint32_t threads_used = 0;
-    const char *simd = NULL;
-    int status = APP_EXIT_FAIL;
-    double t_load = tnd_now();
-    TND_TRY(tnd_scene_load(scene_path, &s));
-    t_load = tnd_now() - t_load;
-    double t_build = tnd_now();
-    /* the CPU front-end counts the rays (both front-ends trace the same ones) */
-    TND_TRY(pl_frontend_create("embree", s, &(pl_frontend_desc){.threads = threads}, &c));
-    pl_frontend_cpu(c, &threads_used, &simd);
-    TND_TRY(tnd_scene_evaluate(s, frame / 30.0, 0, (float)size[0] / size[1], &st));
-    TND_TRY(pl_frontend_set_frame(c, &st, &st, frame, size[0], size[1]));
-    t_build = tnd_now() - t_build;
-    TND_TRY(pl_frontend_benchmark(c, (pl_params[]){bench_params(bounces)}, use_vk ? 1 : repeats,
-                                  &b));
-    if (use_vk) {
-        /* the GPU traces exactly the rays the Embree front-end counted (same random numbers,
-         * same decisions): time its passes with timestamps, medians after a warm-up */
-        TND_TRY(bench_vk(s, frontend, &st, frame, size, bounces, repeats, rt_api, full, &b, &t_build));
+    rn_bench_frontend_result r;
+    res = rn_bench_frontend(&(rn_bench_frontend_opts){.scene = scene_path, .frontend = frontend,
+                                                      .size = {size[0], size[1]}, .frame = frame,
+                                                      .bounces = bounces, .repeats = repeats,
+                                                      .rt_api = rt_api, .full_pipeline = full,
+                                                      .threads = threads},
+                            &r);
+    if (res != TND_OK) {
+        app_report("bench", res);
+        return APP_EXIT_FAIL;
     }
-    /* Embree: the frame as its render sweeps it (both passes batch by batch); the GPU: its two
-     * passes' timestamps */
-    double frame_ms = use_vk ? b.primary_ms + b.shade_ms : b.frame_ms;
+    const pl_bench b = r.b;
+    double frame_ms = r.frame_ms;
     double fe_rate = b.rays / (frame_ms * 1e3);
     double raw_rate = b.raw_ms > 0 ? b.rays / (b.raw_ms * 1e3) : 0;
     if (json) {
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "frontend", frontend);
         cJSON_AddStringToObject(o, "scene", scene_path);
-        cJSON_AddNumberToObject(o, "triangles", (double)tnd_scene_triangles(s));
+        cJSON_AddNumberToObject(o, "triangles", (double)r.triangles);
+        if (use_vk)
+            cJSON_AddStringToObject(o, "device", r.device);
         cJSON_AddNumberToObject(o, "width", size[0]);
         cJSON_AddNumberToObject(o, "height", size[1]);
-        cJSON_AddNumberToObject(o, "threads", threads_used);
+        cJSON_AddNumberToObject(o, "threads", r.threads);
         if (!use_vk)
-            cJSON_AddStringToObject(o, "simd", simd);
+            cJSON_AddStringToObject(o, "simd", r.simd);
         bench_bounces_json(o, bounces);
         cJSON_AddNumberToObject(o, "rays_per_frame", (double)b.rays);
         cJSON_AddNumberToObject(o, "primary_ms", b.primary_ms);
@@ -545,19 +483,21 @@ int cmd_bench(int argc, char **argv)
         }
         if (raw_rate > 0)
             cJSON_AddNumberToObject(o, "frontend_over_raw", fe_rate / raw_rate);
-        cJSON_AddNumberToObject(o, "build_s", t_build);
+        cJSON_AddNumberToObject(o, "build_s", r.build_s);
         char *txt = cJSON_Print(o);
         printf("%s\n", txt);
         free(txt);
         cJSON_Delete(o);
     } else {
         char bw[48];
+        if (use_vk)
+            printf("device: %s\n", r.device);
         printf("bench %s: %s, %llu triangles, %ux%u, 1 spp, %s%s\n", frontend, scene_path,
-               (unsigned long long)tnd_scene_triangles(s), size[0], size[1],
+               (unsigned long long)r.triangles, size[0], size[1],
                bounces_words(bounces, bw, sizeof bw), use_vk ? " (GPU timestamps)" : "");
-        printf("  scene load %.2f s, BVH build %.2f s\n", t_load, t_build);
+        printf("  scene load %.2f s, BVH build %.2f s\n", r.load_s, r.build_s);
         if (!use_vk)
-            printf("  %u threads, estimator lanes in %s\n", threads_used, simd);
+            printf("  %u threads, estimator lanes in %s\n", r.threads, r.simd);
         printf("  rays per frame    %llu (primary, shadow and bounce rays)\n",
                (unsigned long long)b.rays);
         printf("  primary pass      %8.2f ms%s\n  shading pass      %8.2f ms%s\n", b.primary_ms,
@@ -577,12 +517,5 @@ int cmd_bench(int argc, char **argv)
         }
         printf("  (medians of %u repetitions after a warm-up)\n", repeats);
     }
-    status = APP_EXIT_OK;
-fail:
-    if (status != APP_EXIT_OK)
-        app_report("bench", res);
-    tnd_scene_state_free(&st);
-    pl_frontend_destroy(c);
-    tnd_scene_destroy(s);
-    return status;
+    return APP_EXIT_OK;
 }

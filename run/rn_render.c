@@ -17,12 +17,19 @@
 typedef rn_render_opts render_opts;
 
 /* One frame's times in timings.json: every pass of the chain (pl_chain_passes): front-end GPU
- * timestamps (vk) or CPU wall clock (embree); the denoiser's and the post chain's: GPU. */
+ * timestamps (vk) or CPU wall clock (embree); the denoiser's and the post chain's: GPU; and,
+ * where given, the host's parts of the frame (rn_whole_frame_host_name's three). */
 static void timings_entry(FILE *f, const char *sep, unsigned frame, const pl_chain *chain,
-                          const pl_step_result *pr)
+                          const pl_step_result *pr, const double *host)
 {
     fprintf(f, "%s\n    {\"frame\": %u", sep, frame);
     rn_timings_members(f, chain, pr);
+    if (host) {
+        fprintf(f, ", \"host_ms\": {");
+        for (int q = 0; q < 3; q++)
+            fprintf(f, "%s\"%s\": %.4f", q ? ", " : "", rn_whole_frame_host_name(q), host[q]);
+        fputc('}', f);
+    }
     fputc('}', f);
 }
 
@@ -79,13 +86,7 @@ static tnd_result time_back_to_back(const rn_render_opts *o, const tnd_scene *sc
         /* the frame these times are of: the one before (lagged), or this one (no GPU chain) */
         unsigned of = lags ? k - 1 : k;
         if ((lags ? k > WARM : k >= WARM && k < total) && (pr.lagged || !lags)) {
-            fprintf(timings, "%s\n    {\"frame\": %u", recorded ? "," : "", o->start + done + of);
-            rn_timings_members(timings, chain, &pr);
-            fprintf(timings, ", \"host_ms\": {");
-            for (int q = 0; q < 3; q++)
-                fprintf(timings, "%s\"%s\": %.4f", q ? ", " : "", rn_whole_frame_host_name(q),
-                        host[of][q]);
-            fprintf(timings, "}}");
+            timings_entry(timings, recorded ? "," : "", o->start + done + of, chain, &pr, host[of]);
             recorded++;
         }
     }
@@ -559,7 +560,7 @@ static tnd_result run_opts(const render_opts *opts, bool reference, const rn_hos
         step.after_backend = dump_mask ? rn_dump_after_backend : NULL;
         step.user = &dc;
         TND_TRY(pl_chain_run(chain, fr, &step, rgb, use_dn ? display : NULL, &pr));
-        timings_entry(timings, i ? "," : "", f, chain, &pr);
+        timings_entry(timings, i ? "," : "", f, chain, &pr, NULL);
         snprintf(path, sizeof path, "%s/frame_%04u.exr", o.out, f);
         TND_TRY(rn_write_rgb_exr(path, rgb, o.size[0], o.size[1]));
         snprintf(path, sizeof path, "%s/frame_%04u.png", o.out, f);

@@ -528,6 +528,30 @@ const char *rn_whole_frame_way_name(int way);
 const char *rn_whole_frame_host_name(int part);
 tnd_result rn_whole_frame(const rn_whole_frame_opts *o, rn_whole_frame_result *r);
 
+/* ---- a front-end's throughput on one scene (run/rn_bench_frontend.c): bench ------------------ */
+typedef struct rn_bench_frontend_opts {
+    const char *scene;      /* the scene's path */
+    const char *frontend;   /* a registry name: Embree benchmarks itself, a GPU one its passes */
+    uint32_t size[2];
+    unsigned frame;         /* the camera path's frame */
+    unsigned bounces;       /* a count, or RN_BOUNCES_HALF */
+    unsigned repeats;       /* timed repetitions (medians), after a warm-up */
+    const char *rt_api;     /* GPU: "pipeline", "query", "auto" (NULL: auto) */
+    bool full_pipeline;     /* GPU: every shader variant */
+    uint32_t threads;       /* Embree: CPU threads (0: all) */
+} rn_bench_frontend_opts;
+typedef struct rn_bench_frontend_result {
+    bool gpu;               /* the front-end fills the contract on the GPU */
+    pl_bench b;             /* rays, passes, the raw loop (Embree) */
+    double frame_ms;        /* Embree: its sweep of both passes; GPU: primary + shading */
+    double load_s, build_s; /* scene load; BVH / acceleration structures and the frame set */
+    uint64_t triangles;
+    uint32_t threads;       /* Embree's threads and SIMD width (pl_frontend_cpu) */
+    const char *simd;
+    char device[300];       /* GPU: the front-end's description */
+} rn_bench_frontend_result;
+tnd_result rn_bench_frontend(const rn_bench_frontend_opts *o, rn_bench_frontend_result *r);
+
 /* ---- the real-time frame back to back against the bandwidth floor (run/rn_bench_backend.c):
  * bench --denoiser ---------------------------------------------------------------------------- */
 typedef struct rn_bench_backend_opts {
