@@ -41,7 +41,8 @@ typedef struct dn_desc {
     float min_alpha_hf, min_alpha_lf, min_alpha_spec, min_alpha_moments; /* 0: .02 .01 .01 .01 */
     /* A-SVGF: antilag = gain x filtered gradient (hf, spec, lf) + motion gain x pixels of
      * motion (spec); history length scales by (1 - antilag)^10 and alpha moves towards 1 by
-     * antilag. 0 means Q2RTX's 1 / 2 / 0.004 / 0.2. */
+     * antilag. 0 means 1 / 2 / 0.004 / 1 (Q2RTX's, but lf 1 against its 0.2: the lf gradient
+     * here stops at its noise, docs/denoise.md). */
     float antilag_hf, antilag_spec, antilag_motion, antilag_lf;
     /* lf filter (1/3 res): deflicker ratio (0 means Q2RTX's 2; negative turns it off), and the
      * light-leak guard of the last iteration (on unless no_leak_guard) */

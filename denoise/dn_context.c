@@ -321,7 +321,7 @@ tnd_result dn_create(tnd_vk *vk, uint32_t width, uint32_t height, const dn_desc 
     d->antilag_hf = d->antilag_hf > 0 ? d->antilag_hf : 1.0f;
     d->antilag_spec = d->antilag_spec > 0 ? d->antilag_spec : 2.0f;
     d->antilag_motion = d->antilag_motion > 0 ? d->antilag_motion : 0.004f;
-    d->antilag_lf = d->antilag_lf > 0 ? d->antilag_lf : 0.2f;
+    d->antilag_lf = d->antilag_lf > 0 ? d->antilag_lf : 1.0f;
     d->lf_sigma = d->lf_sigma > 0 ? d->lf_sigma : 2.0f;
     d->hf_sigma = d->hf_sigma > 0 ? d->hf_sigma : 4.0f;
     d->lf_deflicker = d->lf_deflicker == 0 ? 2.0f : d->lf_deflicker < 0 ? 0.0f : d->lf_deflicker;

@@ -27,6 +27,10 @@ static const pl_param p_antilag = {
     .help = "asvgf, recurrent: the hf antilag gain (how fast history drops where the "
             "gradients say the signal changed; default 1)",
     .keys = "G", .steps = {0, 2.0, 0.5}, .nsteps = 3};
+static const pl_param p_antilag_lf = {
+    .name = "antilag-lf", .kind = PL_PARAM_FLOAT, .min = 0, .max = 100, .min_open = true,
+    .arg = "G",
+    .help = "asvgf, recurrent: the lf (indirect light) antilag gain (default 1; docs/denoise.md)"};
 static const pl_param p_lf_sigma = {
     .name = "lf-sigma", .kind = PL_PARAM_FLOAT, .min = 0, .max = 100, .min_open = true,
     .arg = "S",
@@ -60,10 +64,10 @@ static const pl_param p_resample = {
 
 static const pl_param *const svgf_params[] = {&p_atrous, &p_min_alpha, &p_lf_sigma, &p_hf_sigma};
 static const pl_param *const recurrent_params[] = {
-    &p_atrous,      &p_min_alpha, &p_antilag,  &p_fast,    &p_clamp_sigma,
-    &p_history_fix, &p_lf_sigma,  &p_hf_sigma, &p_resample};
-static const pl_param *const asvgf_params[] = {&p_atrous, &p_min_alpha, &p_antilag, &p_lf_sigma,
-                                               &p_hf_sigma};
+    &p_atrous,      &p_min_alpha,   &p_antilag,  &p_antilag_lf, &p_fast,
+    &p_clamp_sigma, &p_history_fix, &p_lf_sigma, &p_hf_sigma,   &p_resample};
+static const pl_param *const asvgf_params[] = {&p_atrous,     &p_min_alpha, &p_antilag,
+                                               &p_antilag_lf, &p_lf_sigma,  &p_hf_sigma};
 
 /* The back-end's passes (timings.json's keys as they always were) and, for each, its field of
  * dn_timings / dn_traffic (0 select, 1 gradient, 2 temporal, 3 lf, 4 atrous, 5 composite): A-SVGF
@@ -109,6 +113,8 @@ static void backend_param(dn_desc *d, const char *name, double v)
         d->min_alpha_hf = d->min_alpha_lf = d->min_alpha_spec = (float)v;
     else if (strcmp(name, "antilag") == 0)
         d->antilag_hf = (float)v;
+    else if (strcmp(name, "antilag-lf") == 0)
+        d->antilag_lf = (float)v;
     else if (strcmp(name, "lf-sigma") == 0)
         d->lf_sigma = (float)v;
     else if (strcmp(name, "hf-sigma") == 0)

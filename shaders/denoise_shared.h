@@ -101,8 +101,9 @@ _Static_assert(sizeof(dn_params) == 352, "dn_params layout");
 #define DN_BINDINGS 19
 #define DN_STRATUM 3
 /* dn_gradients.comp filters rows and columns of strata in segments of at most this many per
- * work group (with its reach of 127 on either side, 16 352 bytes of shared memory) */
-#define DN_GRAD_SEGMENT 768
+ * work group (with its reach of 127 on either side, 20 bytes a stratum: 15 320 bytes of shared
+ * memory) */
+#define DN_GRAD_SEGMENT 512
 #define DN_FGEO_NONE 0xffffffffu
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x
  * DN_TILE_H pixels (8 x 4 strata); the others 8 x 8 threads. */

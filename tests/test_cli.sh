@@ -329,7 +329,7 @@ fi
 # ---- the pipeline describes itself (the registries' tables) ----------------------------------
 # every denoiser parameter of the registry is an option of render and denoise, with its help
 "$T" render --help >"$tmp/rh" 2>&1; "$T" denoise --help >"$tmp/dh" 2>&1
-for o in atrous min-alpha antilag lf-sigma hf-sigma; do
+for o in atrous min-alpha antilag antilag-lf lf-sigma hf-sigma; do
     grep -q -- "--$o " "$tmp/rh" && grep -q -- "--$o " "$tmp/dh" || echo "missing --$o" >>"$tmp/params_missing"
 done
 [ ! -s "$tmp/params_missing" ] && grep -q "asvgf, svgf, off" "$tmp/rh"
@@ -350,7 +350,7 @@ check "render's front-ends are the registry's live ones (replay is not) (got $rc
 "$T" render --frames 2 --size 32x20 --antilag 2 --lf-sigma 0.5 --out "$tmp/p_a" --quiet &&
     "$T" render --frames 2 --size 32x20 --antilag 2 --out "$tmp/p_b" --quiet &&
     "$T" render --frames 2 --size 32x20 --denoiser svgf --antilag 2 --atrous 3 --out "$tmp/p_c" --quiet &&
-    "$T" render --frames 2 --size 32x20 --antilag 2 --hf-sigma 1 --out "$tmp/p_e" --quiet
+    "$T" render --frames 2 --size 32x20 --antilag 2 --hf-sigma 1 --antilag-lf 0.2 --out "$tmp/p_e" --quiet
 rc=$?
 [ $rc -eq 0 ] && python3 - "$tmp" <<'PY'
 import json, sys
@@ -362,7 +362,7 @@ assert a["antilag"] == 2 and a["lf_sigma"] == 0.5 and "atrous" not in a, a
 assert "lf_sigma" not in b, b
 assert c["denoiser"] == "svgf" and c["atrous"] == 3 and "antilag" not in c, c  # svgf has none
 e = json.load(open(t + "/p_e/run.json"))
-assert e["hf_sigma"] == 1 and "lf_sigma" not in e, e
+assert e["hf_sigma"] == 1 and e["antilag_lf"] == 0.2 and "lf_sigma" not in e, e
 PY
 [ $? -eq 0 ] && ! cmp -s "$tmp/p_a/frame_0001.exr" "$tmp/p_b/frame_0001.exr" &&
     ! cmp -s "$tmp/p_e/frame_0001.exr" "$tmp/p_b/frame_0001.exr"

@@ -730,14 +730,17 @@ static float grad_of(float now, float prev)
 /* Q2RTX's gradient blur on the CPU, as the 2D a-trous it is defined as (the GPU runs it
  * separably): 7 iterations of 3x3 taps weighted 1 / 0.5 / 0.25 (sum 4), step 2^i, taps outside
  * the grid count as zero; xy (hf, spec) for the first 3, zw (lf sums now / before) for all 7,
- * then z = (|now - before| / max)^2, w = 0. */
-static void blur_gradients(float *v, float *tmp, int gw, int gh)
+ * and var (the strata's sums of squares of the raw L0 now) through the squared weights; then
+ * z = (max(|now - before| - k sqrt(var), 0) / max)^2 (k: dn_gradients.comp's LF_NOISE_K),
+ * w = 0. */
+static void blur_gradients(float *v, float *var, float *tmp, float *tmp_var, int gw, int gh,
+                           float k_noise)
 {
     for (int it = 0; it < 7; it++) {
         int step = 1 << it;
         for (int y = 0; y < gh; y++)
             for (int x = 0; x < gw; x++) {
-                float sum[4] = {0, 0, 0, 0};
+                float sum[4] = {0, 0, 0, 0}, sum_var = 0.0f;
                 for (int dy = -1; dy <= 1; dy++)
                     for (int dx = -1; dx <= 1; dx++) {
                         int qx = x + dx * step, qy = y + dy * step;
@@ -746,16 +749,20 @@ static void blur_gradients(float *v, float *tmp, int gw, int gh)
                         float w = (dx == 0 ? 1.0f : 0.5f) * (dy == 0 ? 1.0f : 0.5f) / 4.0f;
                         for (int c = 0; c < 4; c++)
                             sum[c] += w * v[4 * (qy * gw + qx) + c];
+                        sum_var += w * w * var[qy * gw + qx];
                     }
                 float *o = tmp + 4 * (y * gw + x);
                 for (int c = 0; c < 4; c++)
                     o[c] = c < 2 && it >= 3 ? v[4 * (y * gw + x) + c] : sum[c];
+                tmp_var[y * gw + x] = sum_var;
             }
         memcpy(v, tmp, (size_t)gw * gh * 16);
+        memcpy(var, tmp_var, (size_t)gw * gh * sizeof *var);
     }
     for (int k = 0; k < gw * gh; k++) {
         float *o = v + 4 * k, m = fmaxf(o[2], o[3]);
-        float r = m > 0.0f ? fabsf(o[2] - o[3]) / m : 0.0f;
+        float d = fmaxf(fabsf(o[2] - o[3]) - k_noise * sqrtf(fmaxf(var[k], 0.0f)), 0.0f);
+        float r = m > 0.0f ? d / m : 0.0f;
         o[2] = r * r, o[3] = 0.0f;
     }
 }
@@ -771,7 +778,8 @@ static void test_gradient_samples_reproduce_static(void)
     femb_gradient_sample *fg = NULL;
     uint8_t *was = NULL, *now = NULL; /* last frame's and this frame's sample pixels */
     enum { GW = (W + 2) / 3, GH = (H + 2) / 3 };
-    static float l0_now[W * H], hist_l0[W * H], dump[W * H * 4], ref[GW * GH * 4], tmp[GW * GH * 4];
+    static float l0_now[W * H], hist_l0[W * H], dump[W * H * 4], ref[GW * GH * 4], tmp[GW * GH * 4],
+        ref_var[GW * GH], tmp_var[GW * GH];
     double worst_grad = 0, largest_grad[3] = {0, 0, 0};
     uint32_t di_lf = UINT32_MAX, di_grad = UINT32_MAX;
     for (uint32_t k = 0; k < dn_dump_count(); k++) {
@@ -869,6 +877,15 @@ static void test_gradient_samples_reproduce_static(void)
          * rendered (f1, every pixel's own sample) */
         REQUIRE_OK(tnd_frame_copy(&f1, &f1r));
         REQUIRE_OK(femb_shade_gradients(r.fe, &(femb_params){.bounces = 2}, fg, n, &f1r));
+        /* the indirect light of the left half halved in frames 1 and 3 (and back in 2): an lf
+         * change beyond the noise term of the lf gradient, so that its whole chain is compared
+         * below, not only its zeros */
+        for (int q = 0; i % 2 == 1 && q < W * H; q++)
+            if (q % W < W / 2)
+                for (int c = 0; c < 4; c++) {
+                    tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + c] *= 0.5f;
+                    tnd_frame_f(&f1r, TND_CT_LF_SH)[4 * q + c] *= 0.5f;
+                }
         for (int q = 0; q < W * H; q++) /* the lf L0 the gradient pass sums: at the samples, */
             l0_now[q] = tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + 3]; /* the re-shaded one */
         for (uint32_t k = 0; k < n; k++)
@@ -891,6 +908,8 @@ static void test_gradient_samples_reproduce_static(void)
          * at the reprojected pixels (a still camera: the pixels themselves), then the blur */
         for (int k = 0; k < GW * GH * 4; k++)
             ref[k] = 0.0f;
+        for (int k = 0; k < GW * GH; k++)
+            ref_var[k] = 0.0f;
         for (uint32_t k = 0; k < n; k++) {
             uint32_t q = fg[k].pixel, pq = fg[k].rng_pixel;
             float *hf = tnd_frame_f(&f1r, TND_CT_HF) + 3 * q, *sp = tnd_frame_f(&f1r, TND_CT_SPEC) + 3 * q;
@@ -910,9 +929,10 @@ static void test_gradient_samples_reproduce_static(void)
                  * history is its pixel's mean (no jitter, as the temporal pass reads it) */
                 float *o = ref + 4 * ((y / 3) * GW + x / 3);
                 o[2] += l0_now[q];
+                ref_var[(y / 3) * GW + x / 3] += l0_now[q] * l0_now[q];
                 o[3] += hist_l0[q];
             }
-        blur_gradients(ref, tmp, GW, GH);
+        blur_gradients(ref, ref_var, tmp, tmp_var, GW, GH, 8.0f);
         REQUIRE_OK(dn_set_gradient_values(dn, grads, n, &f1r));
         REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f1));
         REQUIRE_OK(dn_run(dn, &r.ct, &df, NULL));
