@@ -1139,7 +1139,9 @@ tnd_result dn_dump(dn_context *c, uint32_t i, float *rgba)
         const float gain[3] = {c->desc.antilag_hf, c->desc.antilag_spec, c->desc.antilag_lf};
         for (size_t q = 0; res == TND_OK && q < n; q++)
             for (int k = 0; k < 4; k++) {
-                float g = with && k < 3 ? gain[k] * rgba[4 * q + k] : 0.0f;
+                /* (hf: the relative change, the square root of its gradient: dn_temporal.comp) */
+                float r = k == 0 ? sqrtf(rgba[4 * q] > 0.0f ? rgba[4 * q] : 0.0f) : rgba[4 * q + k];
+                float g = with && k < 3 ? gain[k] * r : 0.0f;
                 g = g < 0.0f ? 0.0f : g > 1.0f ? 1.0f : g;
                 rgba[4 * q + k] = k < 3 ? powf(1.0f - g, 10.0f) : 0.0f;
             }

@@ -302,7 +302,10 @@ void main()
         if ((P.size.w == DN_RUN_ASVGF || recurrent) && P.misc.w != 0.0) {
             /* A-SVGF: the filtered gradients (slot 0 after the blur) shorten the history */
             vec3 g = clamp(imageLoad(grad[0], min(p / DN_STRATUM, grad_size() - 1)).xyz, 0.0, 1.0);
-            anti_hf = clamp(P.antilag.x * g.x, 0.0, 1.0);
+            /* hf by the relative change itself, A-SVGF's lambda (the gradient is its square,
+             * Q2RTX's normalisation: a shadow that moved by half its contrast dropped a quarter
+             * of the history a frame; docs/denoise.md, "The hf antilag") */
+            anti_hf = clamp(P.antilag.x * sqrt(g.x), 0.0, 1.0);
             /* (A-SVGF shortens glossy histories with the motion, a stand-in for following
              * reflections; the recurrent denoiser follows them by virtual motion and the clamp) */
             anti_spec = clamp(P.antilag.y * g.y + (recurrent ? 0.0 : P.antilag.z * length(motion.xy)),
