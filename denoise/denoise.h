@@ -39,8 +39,8 @@ typedef struct dn_desc {
     uint32_t iters_hf, iters_lf, iters_spec; /* a-trous iterations: 0 means 4 / 3 / 3 (lf's at 1/3
                                                 resolution, steps 3, 6, 12 pixels) */
     float min_alpha_hf, min_alpha_lf, min_alpha_spec, min_alpha_moments; /* 0: .02 .01 .01 .01 */
-    /* A-SVGF: antilag = gain x filtered gradient (hf, spec, lf) + motion gain x pixels of
-     * motion (spec); history length scales by (1 - antilag)^10 and alpha moves towards 1 by
+    /* A-SVGF: antilag = gain x filtered gradient (spec, lf; hf: gain x its square root, the
+     * relative change) + motion gain x pixels of motion (spec); history length scales by (1 - antilag)^10 and alpha moves towards 1 by
      * antilag. 0 means 1 / 2 / 0.004 / 1 (Q2RTX's, but lf 1 against its 0.2: the lf gradient
      * here stops at its noise, docs/denoise.md). */
     float antilag_hf, antilag_spec, antilag_motion, antilag_lf;
