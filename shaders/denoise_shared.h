@@ -105,6 +105,10 @@ _Static_assert(sizeof(dn_params) == 352, "dn_params layout");
  * memory) */
 #define DN_GRAD_SEGMENT 512
 #define DN_FGEO_NONE 0xffffffffu
+/* dn_gradients.comp's lf gradient counts only the part of the sums' difference beyond this many
+ * standard deviations of this frame's sum (docs/denoise.md, "The lf antilag"): 8, since one sample
+ * of indirect light a pixel is heavy-tailed and the bound from its squares is loose */
+#define DN_LF_NOISE_K 8.0
 /* The passes that reduce each 3x3 stratum run one thread per pixel in tiles of DN_TILE_W x
  * DN_TILE_H pixels (8 x 4 strata); the others 8 x 8 threads. */
 #define DN_TILE_W 24

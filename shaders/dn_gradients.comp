@@ -7,8 +7,8 @@
  * L0, this frame's light on the previous frame's random numbers) and of the accumulated L0
  * history at the reprojected pixels (dn_grad_select.comp's, grad[0].y) go into zw, with the sum
  * of the raw L0's squares beside them (a bound on the variance of the sum now, blurred through
- * the squared weights), normalised after the blur: z = (max(|now - prev| - LF_NOISE_K sqrt(var),
- * 0) / max(now, prev))^2 (Q2RTX's has no noise term). The
+ * the squared weights), normalised after the blur: z = (max(|now - prev| - k sqrt(var), 0) /
+ * max(now, prev))^2, k = DN_LF_NOISE_K (Q2RTX's has no noise term). The
  * blur: a-trous, step 2^i, 3x3 weights 1 / 0.5 / 0.25, no edge stopping, taps outside count as
  * zero (Q2RTX); hf and spec (xy) for iterations 0..2 (steps 1..4), lf (zw) for all 7 (steps
  * 1..64).
@@ -34,10 +34,6 @@ layout(local_size_x = GROUP) in;
 shared vec4 s_v[WIN_MAX]; /* with s_var: 20 bytes a stratum, 15 320 bytes (512 + 254 strata):
                             within Vulkan's guaranteed 16 KiB */
 shared float s_var[WIN_MAX];
-/* The lf gradient counts only the part of the sums' difference beyond this many standard
- * deviations of this frame's sum (docs/denoise.md, "The lf antilag"): 8, since one sample of
- * indirect light a pixel is heavy-tailed and the bound from its squares is loose */
-#define LF_NOISE_K 8.0
 
 /* Between the row and the column pass the hf and spec gradients (both in [0, 1]) share one
  * channel as two 12-bit fractions, a whole number under 2^24 (exact in a float), so that the
@@ -156,13 +152,13 @@ void main()
             continue;
         vec4 o = s_v[i];
         if (cols) {
-            /* the lf gradient: the difference of the sums beyond LF_NOISE_K standard deviations
+            /* the lf gradient: the difference of the sums beyond DN_LF_NOISE_K standard deviations
              * of this frame's sum (its noise, which a 1-spp indirect signal's bright samples
              * make large: without this the antilag shortens still and thin parts' histories on
              * noise alone, and its gain had to stay low enough that a light switched off took
              * five frames to leave the indirect light), over the larger sum */
             float m = max(o.z, o.w);
-            float d = max(abs(o.z - o.w) - LF_NOISE_K * sqrt(max(s_var[i], 0.0)), 0.0);
+            float d = max(abs(o.z - o.w) - DN_LF_NOISE_K * sqrt(max(s_var[i], 0.0)), 0.0);
             float q = m > 0.0 ? d / m : 0.0;
             o.zw = vec2(q * q, 0.0);
             imageStore(grad[0], ivec2(line, a), o);

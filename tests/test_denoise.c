@@ -7,6 +7,7 @@
 #include "denoise/denoise.h"
 #include "frontend_embree/frontend_embree.h"
 #include "frontend_vk/frontend_vk.h"
+#include "shaders/denoise_shared.h"
 #include "shaders/encoding.h"
 #include "shaders/sampling.h"
 #include "tests/embree_frame.h"
@@ -731,7 +732,7 @@ static float grad_of(float now, float prev)
  * separably): 7 iterations of 3x3 taps weighted 1 / 0.5 / 0.25 (sum 4), step 2^i, taps outside
  * the grid count as zero; xy (hf, spec) for the first 3, zw (lf sums now / before) for all 7,
  * and var (the strata's sums of squares of the raw L0 now) through the squared weights; then
- * z = (max(|now - before| - k sqrt(var), 0) / max)^2 (k: dn_gradients.comp's LF_NOISE_K),
+ * z = (max(|now - before| - k sqrt(var), 0) / max)^2 (k: DN_LF_NOISE_K, the shader's),
  * w = 0. */
 static void blur_gradients(float *v, float *var, float *tmp, float *tmp_var, int gw, int gh,
                            float k_noise)
@@ -932,7 +933,7 @@ static void test_gradient_samples_reproduce_static(void)
                 ref_var[(y / 3) * GW + x / 3] += l0_now[q] * l0_now[q];
                 o[3] += hist_l0[q];
             }
-        blur_gradients(ref, ref_var, tmp, tmp_var, GW, GH, 8.0f);
+        blur_gradients(ref, ref_var, tmp, tmp_var, GW, GH, (float)DN_LF_NOISE_K);
         REQUIRE_OK(dn_set_gradient_values(dn, grads, n, &f1r));
         REQUIRE_OK(tnd_contract_upload(vk, &r.ct, &f1));
         REQUIRE_OK(dn_run(dn, &r.ct, &df, NULL));
