@@ -150,7 +150,7 @@ static int agreement(const char *da, const char *db, double min_gbuffer, double 
             if (!pass)
                 status = APP_EXIT_FAIL;
             if (!json)
-                printf("  %-11s %7.2f%% of %s%s\n", ci->name, 100.0 * frac,
+                printf("  %-12s %7.2f%% of %s%s\n", ci->name, 100.0 * frac,
                        sig ? "same-surface pixels" : "pixels", pass ? "" : "  <- below the floor");
             cJSON_AddNumberToObject(fo, ci->name, frac);
         }

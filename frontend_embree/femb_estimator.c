@@ -824,6 +824,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
     lobes(S, n, &L);
     float d[3][NL], sp[3][NL], hf[3][NL], spec[3][NL], rad[3][NL], sh[4][NL], cocg[2][NL];
     float hit_t[NL]; /* spec_hit: the specular-lobe sample's first segment, else 0 */
+    float dview[NL]; /* diffuse_view: 1 - F(n.v), the luminance of the per-channel factor */
     LANES (i, n) { /* the origin of the next rays */
         ST3(P.from, i, LD3(S->p, i));
         ST3(P.org, i, femb_offset_ray(LD3(S->p, i), LD3(S->ng, i)));
@@ -870,6 +871,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         }
         sh[0][i] = sh[1][i] = sh[2][i] = sh[3][i] = cocg[0][i] = cocg[1][i] = 0.0f;
         hit_t[i] = 0.0f;
+        dview[i] = tnd_luminance(1.0f - L.f_nv[0][i], 1.0f - L.f_nv[1][i], 1.0f - L.f_nv[2][i]);
     }
     if (p->bounces > 0) {
         float wi[3][NL], w[3][NL], pdf[NL], Li[3][NL], first_t[NL] = {0};
@@ -920,9 +922,9 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         }
     }
     /* a run is staged in the order of the contract's planes and streamed to them */
-    FEMB_ALIGN float stage[13 * NL];
+    FEMB_ALIGN float stage[14 * NL];
     float *s_hf = stage, *s_sp = stage + 3 * n, *s_sh = stage + 6 * n, *s_cc = stage + 10 * n;
-    float *s_ht = stage + 12 * n;
+    float *s_ht = stage + 12 * n, *s_dv = stage + 13 * n;
     LANES (i, n) {
         size_t q = lane_entry(pixels, run, i);
         size_t e = run ? i : q; /* the entry written: in the stage or in the frame */
@@ -942,6 +944,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         o_cc[2 * e] = l ? cocg[0][i] : 0.0f;
         o_cc[2 * e + 1] = l ? cocg[1][i] : 0.0f;
         (run ? s_ht : tnd_frame_f(f, TND_CT_SPEC_HIT))[e] = l ? hit_t[i] : 0.0f;
+        (run ? s_dv : tnd_frame_f(f, TND_CT_DIFFUSE_VIEW))[e] = l ? dview[i] : 1.0f;
     }
     if (run) {
         size_t q0 = pixels[0];
@@ -950,6 +953,7 @@ shade_pixels(const femb_context *c, const femb_params *p, tnd_frame *f, const ui
         femb_stream_words(tnd_frame_f(f, TND_CT_LF_SH) + 4 * q0, s_sh, 4 * (size_t)n);
         femb_stream_words(tnd_frame_f(f, TND_CT_LF_COCG) + 2 * q0, s_cc, 2 * (size_t)n);
         femb_stream_words(tnd_frame_f(f, TND_CT_SPEC_HIT) + q0, s_ht, (size_t)n);
+        femb_stream_words(tnd_frame_f(f, TND_CT_DIFFUSE_VIEW) + q0, s_dv, (size_t)n);
     }
 }
 

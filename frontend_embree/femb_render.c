@@ -527,6 +527,7 @@ static void shade_tile(femb_context *c, uint32_t x0, uint32_t y0, uint32_t x1, u
             memset(tnd_frame_f(f, TND_CT_LF_COCG) + 2 * (size_t)q, 0, 2 * sizeof(float));
             memset(tnd_frame_f(f, TND_CT_SPEC) + 3 * (size_t)q, 0, 3 * sizeof(float));
             tnd_frame_f(f, TND_CT_SPEC_HIT)[q] = 0.0f;
+            tnd_frame_f(f, TND_CT_DIFFUSE_VIEW)[q] = 1.0f;
             if (j->radiance)
                 memcpy(j->radiance + 3 * (size_t)q, tnd_frame_f(f, TND_CT_EMISSION) + 3 * (size_t)q,
                        3 * sizeof(float));
@@ -539,7 +540,7 @@ static void mark_shading(tnd_frame *f)
 {
     f->present[TND_CT_HF] = f->present[TND_CT_LF_SH] = true;
     f->present[TND_CT_LF_COCG] = f->present[TND_CT_SPEC] = true;
-    f->present[TND_CT_SPEC_HIT] = true;
+    f->present[TND_CT_SPEC_HIT] = f->present[TND_CT_DIFFUSE_VIEW] = true;
 }
 
 static const femb_params default_params = {.bounces = 1};

@@ -28,10 +28,11 @@ PL_SAME(VIS_BARY) PL_SAME(THROUGHPUT) PL_SAME(RNG) PL_SAME(HF) PL_SAME(LF_SH) PL
 PL_SAME(SPEC) PL_SAME(PATH)
 #undef PL_SAME
 /* ABI 1 carries the contract's first TANDEM_ENTRY_COUNT entries (those of contract version 2):
- * spec_hit, added since, is not exchanged with plugins (a plugin front-end's frames leave it at
- * its default, 0: denoisers reproject reflections by surface motion there) */
+ * spec_hit and diffuse_view, added since, are not exchanged with plugins (a plugin front-end's
+ * frames leave them at their defaults: 0, denoisers reproject reflections by surface motion
+ * there; 1, the histories keep the diffuse lobe's view factor as before version 4) */
 _Static_assert((int)TANDEM_ENTRY_COUNT == (int)TND_CT_SPEC_HIT &&
-                   (int)TND_CT_SPEC_HIT + 1 == (int)TND_CT_COUNT,
+                   (int)TND_CT_DIFFUSE_VIEW + 1 == (int)TND_CT_COUNT,
                "the contract's entries");
 _Static_assert((int)TANDEM_PRECISION_FLOAT32 == (int)TND_PRECISION_F32 &&
                    (int)TANDEM_PRECISION_PACKED == (int)TND_PRECISION_PACKED,

@@ -44,7 +44,8 @@
     X(LF_COCG,   15, lf_cocg,    2, FLOAT, HALF, R32G32_SFLOAT,       R16G16_SFLOAT,       rg32f,   rg16f,   "lf",         ("Co", "Cg"),          DEFAULT,  0.0, "indirect diffuse chroma (YCoCg), albedo demodulated", "radiance", "linear sRGB primaries") \
     X(SPEC,      16, spec,       3, FLOAT, RGBE, R32G32B32A32_SFLOAT, R32_UINT,            rgba32f, r32ui,   "spec",       ("R", "G", "B"),          DEFAULT,  0.0, "specular radiance divided by max(0.01, F0) per channel", "radiance", "linear sRGB primaries") \
     X(PATH,      17, path,       1, UINT,  F32,  R32_UINT,            R32_UINT,            r32ui,   r32ui,   "path",       ("flags"),             DEFAULT,  0.0, "how the primary ray reached the surface: bit 0 a surface that reflects and refracts split the pixels (checkerboard), bit 1 this pixel took the refraction (odd field), bit 2 a mirror reflected it, bit 3 it went through glass", "bits", "-") \
-    X(SPEC_HIT,  18, spec_hit,   1, FLOAT, F32,  R32_SFLOAT,          R32_SFLOAT,          r32f,    r32f,    "spec",       ("hitT"),              DEFAULT,  0.0, "distance from the primary hit to the first hit of this frame's specular-lobe sample (the reflection's depth; denoisers reproject reflections by it); 0 where the sample took the diffuse lobe or none was traced, TND_DEPTH_MISS where it escaped", "scene units", "-")
+    X(SPEC_HIT,  18, spec_hit,   1, FLOAT, F32,  R32_SFLOAT,          R32_SFLOAT,          r32f,    r32f,    "spec",       ("hitT"),              DEFAULT,  0.0, "distance from the primary hit to the first hit of this frame's specular-lobe sample (the reflection's depth; denoisers reproject reflections by it); 0 where the sample took the diffuse lobe or none was traced, TND_DEPTH_MISS where it escaped", "scene units", "-") \
+    X(DIFFUSE_VIEW, 19, diffuse_view, 1, FLOAT, HALF, R32_SFLOAT,       R16_SFLOAT,          r32f,    r16f,    "diffuse",    ("view"),              DEFAULT,  1.0, "the diffuse lobe's view factor at the primary hit, 1 - F(n.v) (the luminance of its per-channel value), which hf and lf carry: the back-end divides it out of its histories and multiplies it back; 1 where no surface", "[0,1]", "-")
 // clang-format on
 
 /* path flags (the PATH entry) */
@@ -56,7 +57,7 @@
 /* Sentinels. TND_DEPTH_MISS is finite so that every stored value is finite. */
 #define TND_DEPTH_MISS       1.0e30
 #define TND_VIS_NONE         0xFFFFFFFFu
-#define TND_CONTRACT_VERSION 3
+#define TND_CONTRACT_VERSION 4
 
 #ifdef TND_GLSL
 /* GLSL: one storage image per entry, binding = entry index, in set TND_CONTRACT_SET (which the

@@ -78,9 +78,10 @@ _Static_assert(sizeof(dn_params) == 352, "dn_params layout");
                               where no surface), y the shading normal (octahedral 11 + 11 bits),
                               roughness (8 bits) and checkerboard field (2 bits) */
 #define DN_B_OUT 11        /* linear HDR output */
-#define DN_B_PREV_LUM 12   /* R32UI, previous frame: luminances of the raw hf and spec as tnd_uf16
-                              (low, high half), read by the gradient selection at every
-                              candidate (4 bytes instead of 16 with the key) */
+#define DN_B_PREV_LUM 12   /* R32UI, previous frame: luminances of the raw hf (without the
+                              contract's diffuse_view) and spec as tnd_uf16 (low, high half),
+                              read by the gradient selection at every candidate (4 bytes
+                              instead of 16 with the key) */
 #define DN_B_GRAD 13       /* [2] 1/3 res: after the selection [0] holds xy the lf sums (now /
                               before), zw the sample's previous lum hf / spec; after the blur
                               (dn_gradients.comp) x g hf, y g spec, z g lf */

@@ -274,3 +274,13 @@ vec3 finite3(vec3 v)
                 tnd_nonfinite(v.z) ? 0.0 : v.z);
 }
 vec4 finite4(vec4 v) { return vec4(finite3(v.xyz), tnd_nonfinite(v.w) ? 0.0 : v.w); }
+/* The diffuse lobe's view factor, 1 - F(n.v), that the contract's hf and lf carry (its
+ * diffuse_view entry): the back-end divides it out where it reads them and the composite
+ * multiplies it back, so that the histories hold what does not change with the view and a
+ * moving camera's view of a surface does not lag (docs/denoise.md, "The diffuse lobe's view
+ * factor"). 1 where absent (captures from before contract version 4) or not finite. */
+float diffuse_view(ivec2 p)
+{
+    float v = imageLoad(img_diffuse_view, p).x;
+    return v >= 0.0 ? clamp(v, 1e-3, 1.0) : 1.0;
+}

@@ -108,6 +108,9 @@ void main()
         hf = at_hf(a);
         spec = at_spec(a);
         upsample_lf(p, ce.xyz, gn, depth, sh, cocg);
+        /* the diffuse lobe's view factor back (the histories are without it) */
+        float fv = diffuse_view(p);
+        hf *= fv, sh *= fv, cocg *= fv;
     }
     vec3 alb = imageLoad(img_albedo, p).rgb;
     float m = imageLoad(img_metallic, p).x;

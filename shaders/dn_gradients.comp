@@ -72,16 +72,20 @@ vec4 gradient(ivec2 s, out float var)
         for (int i = 0; i < DN_STRATUM; i++) {
             ivec2 p = s * DN_STRATUM + ivec2(i, j);
             if (inside(p) && imageLoad(img_vis_id, p).x != TND_VIS_NONE) {
-                float x = reshaded && uint(p.y) * P.size.x + uint(p.x) == smp.a.x
-                              ? (tnd_nonfinite(smp.c.w) ? 0.0 : smp.c.w)
-                              : finite4(imageLoad(img_lf_sh, p)).w;
+                float x = (reshaded && uint(p.y) * P.size.x + uint(p.x) == smp.a.x
+                               ? (tnd_nonfinite(smp.c.w) ? 0.0 : smp.c.w)
+                               : finite4(imageLoad(img_lf_sh, p)).w) /
+                          diffuse_view(p); /* (as the histories hold it) */
                 now += x;
                 var += x * x;
             }
         }
     vec2 g = vec2(0.0);
     if (reshaded) {
-        float hf = lum_rounded(luma(finite3(smp.c.rgb)));
+        /* (without the view factor, as the previous luminance was stored: the pixel's, where
+         * the re-shaded surface is) */
+        ivec2 sp = ivec2(int(smp.a.x % P.size.x), int(smp.a.x / P.size.x));
+        float hf = lum_rounded(luma(finite3(smp.c.rgb)) / diffuse_view(sp));
         float spec = lum_rounded(luma(finite3(smp.d.rgb)));
         g = vec2(grad_of(hf, g0.z), grad_of(spec, g0.w));
     }

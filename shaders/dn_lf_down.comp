@@ -60,7 +60,7 @@ void main()
         vec4 hs = hist_lf_sh(h);
         sh = w * hs;
         cw = vec3(w * hist_lf_cocg(h), w);
-        float raw = finite4(imageLoad(img_lf_sh, p)).w; /* this frame's sample */
+        float raw = finite4(imageLoad(img_lf_sh, p)).w / diffuse_view(p); /* this frame's sample */
         mom = vec4(w * raw * raw, w * raw, w * w, w * hist_lf_len(h));
     }
     s_sh[li] = sh;

@@ -182,9 +182,11 @@ void main()
         return;
     uint cur = pc.slot;
     uvec2 vis = imageLoad(img_vis_id, p).xy;
-    vec3 hf = finite3(load_hf(p)), spec = finite3(load_spec(p));
-    vec4 sh = finite4(imageLoad(img_lf_sh, p));
-    vec2 cocg = finite3(vec3(imageLoad(img_lf_cocg, p).xy, 0.0)).xy;
+    /* hf and lf without the diffuse lobe's view factor (the composite puts it back) */
+    float fv = 1.0 / diffuse_view(p);
+    vec3 hf = finite3(load_hf(p)) * fv, spec = finite3(load_spec(p));
+    vec4 sh = finite4(imageLoad(img_lf_sh, p)) * fv;
+    vec2 cocg = finite3(vec3(imageLoad(img_lf_cocg, p).xy, 0.0)).xy * fv;
     float depth = imageLoad(img_depth, p).x;
     uint field = imageLoad(img_path, p).x & (TND_PATH_SPLIT | TND_PATH_REFRACT);
     vec3 gn = imageLoad(img_geo_normal, p).xyz;
@@ -359,7 +361,7 @@ void main()
                 ivec2 q = p + ivec2(i, j);
                 if (!inside(q) || imageLoad(img_vis_id, q).x != vis.x)
                     continue;
-                float lq = luma(finite3(load_hf(q)));
+                float lq = luma(finite3(load_hf(q))) * fv; /* (the centre's factor) */
                 s1 += lq, s2 += lq * lq, n += 1.0;
             }
         m1 = s1 / max(n, 1.0), m2 = s2 / max(n, 1.0);

@@ -63,6 +63,7 @@ bool shade_pixel(uvec2 l, out ivec2 ip)
 struct shaded {
     vec3 hf, spec;
     float spec_hit; /* 0: no specular-lobe sample */
+    float dview;    /* the contract's diffuse_view: 1 - F(n.v) (luminance) */
     vec4 sh;
     vec2 cocg;
 };
@@ -86,7 +87,7 @@ surface gbuffer_surface(ivec2 ip)
 /* no light: what a pixel that sees nothing holds */
 shaded shaded_none()
 {
-    return shaded(vec3(0.0), vec3(0.0), 0.0, vec4(0.0), vec2(0.0));
+    return shaded(vec3(0.0), vec3(0.0), 0.0, 1.0, vec4(0.0), vec2(0.0));
 }
 
 /* Shade surface s (instance inst, primitive prim) seen at pixel ip with key `key`. */
@@ -110,6 +111,7 @@ shaded shade(ivec2 ip, surface s, uint inst, uint prim, uvec3 key)
     s.specular = materials[meshes[instances[inst].info.x].info.x].params.y;
     s.inst = inst;
     lobe_info L = lobes(s);
+    o.dview = tnd_luminance(1.0 - L.f_nv.x, 1.0 - L.f_nv.y, 1.0 - L.f_nv.z);
     vec3 demod;
     for (int k = 0; k < 3; k++)
         demod[k] = max(0.01, 0.04 * (1.0 - s.metallic) + s.base[k] * s.metallic);
@@ -245,6 +247,7 @@ void pt_shade_main(uvec2 launch)
     STORE_RGBE(img_hf, ip, o.hf);
     STORE_RGBE(img_spec, ip, o.spec);
     imageStore(img_spec_hit, ip, vec4(o.spec_hit));
+    imageStore(img_diffuse_view, ip, vec4(o.dview));
     imageStore(img_lf_sh, ip, o.sh);
     imageStore(img_lf_cocg, ip, vec4(o.cocg, 0.0, 0.0));
 }

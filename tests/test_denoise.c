@@ -232,6 +232,7 @@ static void test_history_storage(void)
     }
     REQUIRE(ci != UINT32_MAX && hi != UINT32_MAX, "dumps temporal.lf_cocg and temporal.hf exist");
     static float sh[W * H * 4], cocg[W * H * 2], cocg0[W * H * 2], dump[W * H * 4];
+    static float dv[W * H]; /* the histories hold CoCg without the diffuse lobe's view factor */
     static float gn[2][W * H * 4];
     static uint32_t vis[W * H * 2];
     for (uint32_t i = 0; i < 2; i++) {
@@ -255,6 +256,10 @@ static void test_history_storage(void)
               surfaces, i + 1);
         REQUIRE_OK(tnd_image_download(vk, &r.ct.images[TND_CT_LF_SH], sh, sizeof sh));
         REQUIRE_OK(tnd_image_download(vk, &r.ct.images[TND_CT_LF_COCG], cocg, sizeof cocg));
+        REQUIRE_OK(tnd_image_download(vk, &r.ct.images[TND_CT_DIFFUSE_VIEW], dv, sizeof dv));
+        for (int q = 0; q < W * H; q++)
+            for (int k = 0; k < 2; k++)
+                cocg[2 * q + k] /= dv[q] >= 0.0f ? fminf(fmaxf(dv[q], 1e-3f), 1.0f) : 1.0f;
         REQUIRE_OK(dn_dump(dn, ci, dump));
         if (i > 0) {
             /* the second frame blends the history (its CoCg unpacked by the shader) with the
@@ -314,6 +319,14 @@ cleanup:
  * float history does: 0.1% or less after 400 frames, where a float32 history leaves 2e-5 (hf)
  * and 5e-4 (spec, lf) and the stochastic rounding adds about a third of a step (1e-4 to 3e-4);
  * rounding to nearest leaves about 2% (hf and spec). */
+/* A frame whose signals the test writes itself, constants with no view factor in them: its
+ * diffuse_view at 1 (what the back-end divides out, test_view_factor_divided_out) */
+static void without_view_factor(tnd_frame *f)
+{
+    for (uint32_t q = 0; q < f->width * f->height; q++)
+        tnd_frame_f(f, TND_CT_DIFFUSE_VIEW)[q] = 1.0f;
+}
+
 /* the index of the back-end dump `name` (UINT32_MAX: none) */
 static uint32_t dump_index(const char *name)
 {
@@ -334,6 +347,7 @@ static void test_noiseless_history_converges(void)
     REQUIRE_OK(rig_open(vk, &r, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
     REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_SVGF}, &dn));
     REQUIRE_OK(test_embree_frame(r.fe, &r.st, &r.st, 0, W, H, &(femb_params){.bounces = 1}, &f));
+    without_view_factor(&f);
     const float hf[3] = {0.9f, 0.7f, 0.5f}, spec[3] = {0.3f, 0.25f, 0.2f};
     const float sh[4] = {0.12f, 0.08f, -0.05f, 0.4f}, cocg[2] = {0.05f, -0.02f};
     const uint32_t frames = 400;
@@ -453,6 +467,7 @@ static void test_recurrent_clamp_follows(void)
     double rc[2][3], sv[2][3];
     REQUIRE_OK(rig_open(vk, &r, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
     REQUIRE_OK(test_embree_frame(r.fe, &r.st, &r.st, 0, W, H, &(femb_params){.bounces = 1}, &f));
+    without_view_factor(&f);
     recurrent_step_case(vk, &r, &f, DN_MODE_RECURRENT, rc);
     recurrent_step_case(vk, &r, &f, DN_MODE_SVGF, sv);
     printf("     mean relative error (hf, spec, lf L0): before the drop recurrent %.1e %.1e "
@@ -466,6 +481,109 @@ static void test_recurrent_clamp_follows(void)
         CHECK(sv[1][e] >= 0.5, "svgf does not (the clamp is what follows) (%d): %.3f", e,
               sv[1][e]);
     }
+cleanup:
+    tnd_frame_destroy(&f);
+    rig_close(vk, &r);
+    gpu_end();
+}
+
+/* The contract's diffuse_view (1 - F(n.v), which hf and lf carry and which changes with the
+ * view alone) is divided out of the histories and multiplied back in the composite: a noiseless
+ * irradiance seen under a view factor that changes every frame (0.55 to 0.95, a different phase
+ * per pixel, as a camera moving past grazing walls makes it) gives histories equal to the
+ * irradiance and an output equal to the CPU composite of this frame's signals, where keeping the
+ * factor in the histories (diffuse_view left at 1: captures before contract version 4) lags it
+ * by the history's length. One run of 48 frames of SVGF each way (no gradients: the factor's
+ * change is no lighting change). */
+static void view_factor_case(tnd_vk *vk, rig *r, tnd_frame *f, bool given, double err[3])
+{
+    dn_context *dn = NULL;
+    static float dump[W * H * 4], out[W * H * 3], cpu[W * H * 3];
+    static unsigned char mask[W * H];
+    REQUIRE_OK(dn_create(vk, W, H, &(dn_desc){.mode = DN_MODE_SVGF}, &dn));
+    const float hf[3] = {0.9f, 0.7f, 0.5f}, spec[3] = {0.3f, 0.25f, 0.2f};
+    const float sh[4] = {0.12f, 0.08f, -0.05f, 0.4f}, cocg[2] = {0.05f, -0.02f};
+    const uint32_t frames = 48;
+    for (uint32_t fr = 0; fr < frames; fr++) {
+        for (int q = 0; q < W * H; q++) {
+            float v = 0.55f + 0.2f * (1.0f + sinf(0.3f * (float)fr + 0.01f * (float)q));
+            tnd_frame_f(f, TND_CT_DIFFUSE_VIEW)[q] = given ? v : 1.0f;
+            for (int c = 0; c < 3; c++) {
+                tnd_frame_f(f, TND_CT_HF)[3 * q + c] = v * hf[c];
+                tnd_frame_f(f, TND_CT_SPEC)[3 * q + c] = spec[c];
+            }
+            for (int c = 0; c < 4; c++)
+                tnd_frame_f(f, TND_CT_LF_SH)[4 * q + c] = v * sh[c];
+            for (int c = 0; c < 2; c++)
+                tnd_frame_f(f, TND_CT_LF_COCG)[2 * q + c] = v * cocg[c];
+        }
+        REQUIRE_OK(tnd_contract_upload(vk, &r->ct, f));
+        dn_frame df = dn_frame_for_camera(r->st.camera.proj, H, 0, fr == 0); /* no jitter */
+        REQUIRE_OK(dn_run(dn, &r->ct, &df, NULL));
+    }
+    /* surface pixels whose 3x3 neighbourhood is one instance and emits nothing (the a-trous and
+     * the lf filter of a field constant on each surface give the constant there) */
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            uint32_t inst = tnd_frame_u(f, TND_CT_VIS_ID)[2 * (y * W + x)];
+            bool ok = inst != TND_VIS_NONE && x > 0 && y > 0 && x < W - 1 && y < H - 1;
+            for (int dy = -1; ok && dy <= 1; dy++)
+                for (int dx = -1; ok && dx <= 1; dx++) {
+                    int q = (y + dy) * W + x + dx;
+                    ok = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q] == inst &&
+                         tnd_frame_f(f, TND_CT_EMISSION)[3 * q] == 0.0f;
+                }
+            mask[y * W + x] = ok;
+        }
+    /* the hf and lf histories against the irradiance (the factor divided out) */
+    const char *names[2] = {"temporal.hf", "temporal.lf_sh"};
+    const int ch[2] = {0, 3};
+    const float want[2] = {hf[0], sh[3]};
+    int n = 0;
+    for (int e = 0; e < 2; e++) {
+        uint32_t di = dump_index(names[e]);
+        REQUIRE(di != UINT32_MAX, "dump %s exists", names[e]);
+        REQUIRE_OK(dn_dump(dn, di, dump));
+        double sum = 0;
+        n = 0;
+        for (int q = 0; q < W * H; q++)
+            if (mask[q])
+                sum += fabs(dump[4 * q + ch[e]] - want[e]) / want[e], n++;
+        err[e] = n ? sum / n : 1e9;
+    }
+    /* the output against the CPU composite of the last frame's signals */
+    REQUIRE_OK(dn_download(dn, out));
+    tnd_frame_composite(f, cpu);
+    double sum = 0;
+    for (int q = 0; q < W * H; q++)
+        for (int c = 0; mask[q] && c < 3; c++)
+            sum += fabs(out[3 * q + c] - cpu[3 * q + c]) / fmax(cpu[3 * q + c], 1e-3) / 3.0;
+    err[2] = n ? sum / n : 1e9;
+    printf("     diffuse_view %s: mean relative error of the hf history %.2e, the lf's L0 %.2e "
+           "(against the irradiance), the output %.2e (against this frame's composite), %d "
+           "pixels\n", given ? "given" : "left at 1", err[0], err[1], err[2], n);
+cleanup:
+    dn_destroy(dn);
+}
+
+static void test_view_factor_divided_out(void)
+{
+    tnd_vk *vk = gpu_begin();
+    REQUIRE(vk, "no context");
+    rig r;
+    tnd_frame f = {0};
+    double on[3], off[3];
+    REQUIRE_OK(rig_open(vk, &r, TND_SOURCE_DIR "/data/scenes/cornell.gltf"));
+    REQUIRE_OK(test_embree_frame(r.fe, &r.st, &r.st, 0, W, H, &(femb_params){.bounces = 1}, &f));
+    view_factor_case(vk, &r, &f, true, on);
+    view_factor_case(vk, &r, &f, false, off);
+    /* 1e-3 and 2e-3: the 16-bit histories' rounding (2^-11) and the a-trous's over a few
+     * iterations; the lag without the factor: the factor swings by +-27% around its mean
+     * every 21 frames and the 48-frame history holds its mean */
+    CHECK(on[0] <= 1e-3 && on[1] <= 1e-3, "the histories hold the irradiance: %.2e, %.2e", on[0],
+          on[1]);
+    CHECK(on[2] <= 2e-3, "the output is this frame's signal: %.2e", on[2]);
+    CHECK(off[2] >= 0.05, "kept in the histories, the factor lags: %.2e", off[2]);
 cleanup:
     tnd_frame_destroy(&f);
     rig_close(vk, &r);
@@ -719,6 +837,19 @@ static float lum_rounded(const float *rgb)
     return tnd_uf16_decode(tnd_uf16_encode(0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2]));
 }
 
+/* the contract's diffuse_view at entry q as the back-end reads it (dn_common.glsl's
+ * diffuse_view), and a luminance without it, rounded as the back-end keeps it */
+static float dview(const tnd_frame *f, int q)
+{
+    float v = tnd_frame_f(f, TND_CT_DIFFUSE_VIEW)[q];
+    return v >= 0.0f ? fminf(fmaxf(v, 1e-3f), 1.0f) : 1.0f;
+}
+static float lum_rounded_div(const float *rgb, float v)
+{
+    return tnd_uf16_decode(
+        tnd_uf16_encode((0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2]) / v));
+}
+
 static float grad_of(float now, float prev)
 {
     float m = fmaxf(now, prev);
@@ -856,8 +987,10 @@ static void test_gradient_samples_reproduce_static(void)
                                 fabsf(dp0[pq] - dp1[q]) > 0.1f * dp1[q] ||
                                 g0[0] * g1[0] + g0[1] * g1[1] + g0[2] * g1[2] < 0.9f)
                                 continue;
-                            /* the luminances as the back-end keeps them (tnd_uf16: 2^-11) */
-                            float l = lum_rounded(hf0 + 3 * pq) + lum_rounded(sp0 + 3 * pq);
+                            /* the luminances as the back-end keeps them (tnd_uf16: 2^-11;
+                             * hf without the diffuse lobe's view factor) */
+                            float l = lum_rounded_div(hf0 + 3 * pq, dview(&f0, pq)) +
+                                      lum_rounded(sp0 + 3 * pq);
                             if (l > best * (1.0f + 1e-3f)) /* beyond their rounding */
                                 best = l, best_q = y * W + x;
                             else if (l >= best * (1.0f - 1e-3f) && best_q >= 0)
@@ -887,10 +1020,14 @@ static void test_gradient_samples_reproduce_static(void)
                     tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + c] *= 0.5f;
                     tnd_frame_f(&f1r, TND_CT_LF_SH)[4 * q + c] *= 0.5f;
                 }
-        for (int q = 0; q < W * H; q++) /* the lf L0 the gradient pass sums: at the samples, */
-            l0_now[q] = tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + 3]; /* the re-shaded one */
+        /* the lf L0 the gradient pass sums: at the samples, the re-shaded one; without the
+         * pixel's view factor, as the histories hold it */
+        for (int q = 0; q < W * H; q++)
+            l0_now[q] = tnd_frame_f(&f1, TND_CT_LF_SH)[4 * q + 3];
         for (uint32_t k = 0; k < n; k++)
             l0_now[fg[k].pixel] = tnd_frame_f(&f1r, TND_CT_LF_SH)[4 * fg[k].pixel + 3];
+        for (int q = 0; q < W * H; q++)
+            l0_now[q] /= dview(&f1, q);
         for (uint32_t k = 0; k < n; k++) {
             uint32_t q = fg[k].pixel, pq = fg[k].rng_pixel;
             const tnd_ct ch[2] = {TND_CT_HF, TND_CT_SPEC};
@@ -918,7 +1055,8 @@ static void test_gradient_samples_reproduce_static(void)
             for (int j = 0; j < 3; j++)
                 hf[j] *= fh, sp[j] *= fs;
             float *o = ref + 4 * ((q / W / 3) * GW + q % W / 3);
-            o[0] = grad_of(lum_rounded(hf), lum_rounded(tnd_frame_f(&f0, TND_CT_HF) + 3 * pq));
+            o[0] = grad_of(lum_rounded_div(hf, dview(&f1, (int)q)),
+                           lum_rounded_div(tnd_frame_f(&f0, TND_CT_HF) + 3 * pq, dview(&f0, (int)pq)));
             o[1] = grad_of(lum_rounded(sp), lum_rounded(tnd_frame_f(&f0, TND_CT_SPEC) + 3 * pq));
         }
         for (int y = 0; i > 0 && y < H; y++)
@@ -1445,7 +1583,7 @@ static void test_shutdown(void)
 
 TND_TEST_MAIN(T(test_off_equals_cpu_composite), T(test_svgf_static_cornell),
               T(test_history_storage), T(test_noiseless_history_converges),
-              T(test_recurrent_clamp_follows),
+              T(test_recurrent_clamp_follows), T(test_view_factor_divided_out),
               T(test_nan_does_not_spread), T(test_lf_firefly_is_deflickered),
               T(test_disocclusion_and_frontends), T(test_gradient_samples_reproduce_static),
               T(test_asvgf_follows_light_switch), T(test_gradient_blur_segments),
