@@ -125,7 +125,7 @@ static void false_colour(viewer *v, uint32_t view, const float *dump, uint32_t d
                     c[1] = 0.5f + f[1];
                     c[2] = 0.5f;
                     break;
-                case TND_CT_ROUGHNESS: case TND_CT_METALLIC:
+                case TND_CT_ROUGHNESS: case TND_CT_METALLIC: case TND_CT_DIFFUSE_VIEW:
                     c[0] = c[1] = c[2] = f[0];
                     break;
                 case TND_CT_VIS_BARY:
