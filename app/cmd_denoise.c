@@ -125,6 +125,14 @@ int cmd_denoise(int argc, char **argv)
                 "tandem: denoise: %s: the captures carry no spec.hitT: %s moves reflections "
                 "with their surfaces (no virtual motion)\n",
                 pl_frontend_frame_name(rp, 0), dn->name);
+    /* the built-in filters keep the diffuse lobe's view factor out of their histories
+     * (captures from before contract version 4, and other renderers', lack it) */
+    if ((dn->caps & PL_DN_DIFFUSE_VIEW) && !pl_frontend_recorded_has(rp, TND_CT_DIFFUSE_VIEW) &&
+        !app_quiet())
+        fprintf(stderr,
+                "tandem: denoise: %s: the captures carry no diffuse.view: %s keeps the diffuse "
+                "lobe's view factor in its histories (a moving camera's grazing surfaces lag)\n",
+                pl_frontend_frame_name(rp, 0), dn->name);
     const char *dn_name = dn->caps & PL_DN_PLUGIN ? denoiser : dn->name;
     pl_param_set own = {0}; /* the parameters it has */
     for (uint32_t i = 0; i < params.n; i++) {

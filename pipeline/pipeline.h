@@ -235,6 +235,8 @@ enum {
     PL_DN_CONFIDENCE = 16u, /* uses re-shaded gradient samples where the front-end gives them
                                (as a confidence in its history) and runs without them elsewhere */
     PL_DN_SPEC_HIT = 32u, /* follows reflections by the contract's spec_hit where it is given */
+    PL_DN_DIFFUSE_VIEW = 64u, /* keeps the contract's diffuse_view out of its histories where it
+                                 is given (docs/denoise.md, "The diffuse lobe's view factor") */
 };
 
 /* A capability bit's name ("gradients", "filters", ...; NULL past the last). */

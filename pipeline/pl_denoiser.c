@@ -87,9 +87,10 @@ tnd_result pl_denoiser_find(const char *name, const pl_denoiser_info **info)
 const char *pl_denoiser_cap_name(uint32_t bit)
 {
     /* in PL_DN_* order */
-    static const char *const names[] = {"gradients", "filters",    "dumps",
-                                        "plugin",    "confidence", "spec_hit"};
-    _Static_assert(1u << (sizeof names / sizeof *names - 1) == PL_DN_SPEC_HIT, "one name a bit");
+    static const char *const names[] = {"gradients",  "filters",  "dumps",       "plugin",
+                                        "confidence", "spec_hit", "diffuse_view"};
+    _Static_assert(1u << (sizeof names / sizeof *names - 1) == PL_DN_DIFFUSE_VIEW,
+                   "one name a bit");
     return bit < sizeof names / sizeof *names ? names[bit] : NULL;
 }
 

@@ -231,7 +231,8 @@ const pl_denoiser_ops pl_asvgf_ops = {
     .info = {"asvgf",
              "A-SVGF (Schied et al. 2018): SVGF whose history length follows temporal gradients "
              "of re-shaded samples",
-             PL_DN_GRADIENTS | PL_DN_FILTERS | PL_DN_DUMPS, "svgf", asvgf_params,
+             PL_DN_GRADIENTS | PL_DN_FILTERS | PL_DN_DUMPS | PL_DN_DIFFUSE_VIEW, "svgf",
+             asvgf_params,
              sizeof asvgf_params / sizeof *asvgf_params, asvgf_passes,
              sizeof asvgf_passes / sizeof *asvgf_passes},
     BACKEND_OPS(v_asvgf)};
@@ -239,14 +240,15 @@ const pl_denoiser_ops pl_recurrent_ops = {
     .info = {"recurrent",
              "recurrent (after NVIDIA's ReLAX): slow histories clamped to fast ones, history fix, "
              "gradients as the history's confidence where samples are re-shaded",
-             PL_DN_CONFIDENCE | PL_DN_SPEC_HIT | PL_DN_FILTERS | PL_DN_DUMPS, NULL,
+             PL_DN_CONFIDENCE | PL_DN_SPEC_HIT | PL_DN_FILTERS | PL_DN_DUMPS | PL_DN_DIFFUSE_VIEW,
+             NULL,
              recurrent_params,
              sizeof recurrent_params / sizeof *recurrent_params, recurrent_passes,
              sizeof recurrent_passes / sizeof *recurrent_passes},
     BACKEND_OPS(v_recurrent)};
 const pl_denoiser_ops pl_svgf_ops = {
     .info = {"svgf", "SVGF (Schied et al. 2017): temporal accumulation and variance-guided a-trous",
-             PL_DN_FILTERS | PL_DN_DUMPS, NULL, svgf_params,
+             PL_DN_FILTERS | PL_DN_DUMPS | PL_DN_DIFFUSE_VIEW, NULL, svgf_params,
              sizeof svgf_params / sizeof *svgf_params, svgf_passes,
              sizeof svgf_passes / sizeof *svgf_passes},
     BACKEND_OPS(v_svgf)};

@@ -427,10 +427,14 @@ rc=$?
     python3 -c 'import json, sys; assert json.load(open(sys.argv[1]))["resample"] == 1' \
         "$tmp/rs_o1/run.json"
 check "recurrent --resample: 1 and 2 differ under motion, agree on a still camera (got $rc)" $?
-# the contract's spec_hit: a capture carries it; one without it (an older capture, another
-# renderer's) is denoised with surface motion for reflections, and recurrent says so
-exrheader "$tmp/rc/capture/frame_0001.exr" 2>/dev/null | grep -q "spec.hitT"
-check "a capture carries spec.hitT" $?
+# the contract's spec_hit and diffuse_view: a capture carries them; one without them (an older
+# capture, another renderer's) is denoised with surface motion for reflections and the view
+# factor in the histories, and the denoiser says so (diffuse_view on svgf: this capture's
+# gradient samples were picked by luminances without the view factor, so recurrent's replay
+# of them needs it)
+exrheader "$tmp/rc/capture/frame_0001.exr" 2>/dev/null | grep -q "spec.hitT" &&
+    exrheader "$tmp/rc/capture/frame_0001.exr" 2>/dev/null | grep -q "diffuse.view"
+check "a capture carries spec.hitT and diffuse.view" $?
 mkdir -p "$tmp/nohit" && cp "$tmp/rc/capture/"* "$tmp/nohit/"
 for f in "$tmp/nohit/"frame_000?.exr; do
     chans=$(oiiotool --info -v "$f" | grep "channel list" | sed 's/.*channel list: //; s/ ([a-z]*)//g; s/, /,/g; s/spec.hitT,//')
@@ -438,10 +442,23 @@ for f in "$tmp/nohit/"frame_000?.exr; do
 done
 "$T" denoise --captures "$tmp/nohit" --denoiser recurrent --out "$tmp/nohit_dn" 2>"$tmp/err"; rc=$?
 [ $rc -eq 0 ] && grep -q "no spec.hitT: recurrent moves reflections with their surfaces" "$tmp/err" &&
+    ! grep -q "diffuse.view" "$tmp/err" &&
     ! exrheader "$tmp/nohit/frame_0001.exr" 2>/dev/null | grep -q "spec.hitT" &&
     "$T" denoise --captures "$tmp/rc/capture" --denoiser recurrent --out "$tmp/hit_dn" 2>"$tmp/err2" &&
-    ! grep -q "spec.hitT" "$tmp/err2"
+    ! grep -q "spec.hitT\|diffuse.view" "$tmp/err2"
 check "captures without spec.hitT: recurrent runs with surface motion and says so (got $rc)" $?
+mkdir -p "$tmp/noview" && cp "$tmp/rc/capture/"frame_000?.exr "$tmp/noview/"
+for f in "$tmp/noview/"frame_000?.exr; do
+    chans=$(oiiotool --info -v "$f" | grep "channel list" | sed 's/.*channel list: //; s/ ([a-z]*)//g; s/, /,/g; s/diffuse.view,//')
+    oiiotool "$f" --ch "$chans" -o "$f.tmp.exr" && mv "$f.tmp.exr" "$f"
+done
+"$T" denoise --captures "$tmp/noview" --denoiser svgf --out "$tmp/noview_dn" 2>"$tmp/err"; rc=$?
+[ $rc -eq 0 ] && grep -q "no diffuse.view: svgf keeps the diffuse lobe's view factor" "$tmp/err" &&
+    ! exrheader "$tmp/noview/frame_0001.exr" 2>/dev/null | grep -q "diffuse.view" &&
+    "$T" denoise --captures "$tmp/rc/capture" --denoiser svgf --out "$tmp/view_dn" 2>"$tmp/err2" &&
+    ! grep -q "diffuse.view" "$tmp/err2" &&
+    ! cmp -s "$tmp/noview_dn/frame_0002.exr" "$tmp/view_dn/frame_0002.exr"
+check "captures without diffuse.view: svgf keeps the view factor in its histories, and says so (got $rc)" $?
 # a sweep run here says its summary: the cells it runs quietly leave it loud
 "$T" bench --scene "$SRC/data/scenes/cornell.gltf" --size 24x16 --frames 2 --warmup 1 --spp 8 \
     --sweep antilag=2 --out "$tmp/loud" >"$tmp/loud_out" 2>"$tmp/loud_err"; rc=$?

@@ -1055,8 +1055,9 @@ static void test_gradient_samples_reproduce_static(void)
             for (int j = 0; j < 3; j++)
                 hf[j] *= fh, sp[j] *= fs;
             float *o = ref + 4 * ((q / W / 3) * GW + q % W / 3);
+            const float *prev_hf = tnd_frame_f(&f0, TND_CT_HF) + 3 * pq;
             o[0] = grad_of(lum_rounded_div(hf, dview(&f1, (int)q)),
-                           lum_rounded_div(tnd_frame_f(&f0, TND_CT_HF) + 3 * pq, dview(&f0, (int)pq)));
+                           lum_rounded_div(prev_hf, dview(&f0, (int)pq)));
             o[1] = grad_of(lum_rounded(sp), lum_rounded(tnd_frame_f(&f0, TND_CT_SPEC) + 3 * pq));
         }
         for (int y = 0; i > 0 && y < H; y++)
