@@ -101,6 +101,12 @@ static void false_colour(viewer *v, uint32_t view, const float *dump, uint32_t d
                     if (f[0] >= (float)TND_DEPTH_MISS)
                         c[2] = 0.25f;
                     break;
+                case TND_CT_SPEC_HIT: /* the reflection's distance as depth's; none: black */
+                    c[0] = c[1] = c[2] =
+                        f[0] > 0.0f && f[0] < (float)TND_DEPTH_MISS ? 1.0f / (1.0f + f[0]) : 0.0f;
+                    if (f[0] >= (float)TND_DEPTH_MISS) /* escaped: as the sky in depth */
+                        c[2] = 0.25f;
+                    break;
                 case TND_CT_MOTION: { /* direction as hue, length as value (4 pixels: full) */
                     float len = sqrtf(f[0] * f[0] + f[1] * f[1]);
                     hue(atan2f(f[1], f[0]) / (2.0f * (float)TND_PI) + 0.5f, c);
