@@ -117,22 +117,26 @@ int cmd_denoise(int argc, char **argv)
                 "needs a front-end to re-shade them: tandem render --capture --denoiser %s keeps "
                 "them)\n",
                 pl_frontend_frame_name(rp, 0), dn->name, asked->name, asked->name);
-    /* the recurrent denoiser follows reflections by the contract's spec_hit (captures from
-     * before contract version 3, and other renderers' through a mapping, lack it) */
-    if ((dn->caps & PL_DN_SPEC_HIT) && !pl_frontend_recorded_has(rp, TND_CT_SPEC_HIT) &&
-        !app_quiet())
-        fprintf(stderr,
-                "tandem: denoise: %s: the captures carry no spec.hitT: %s moves reflections "
-                "with their surfaces (no virtual motion)\n",
-                pl_frontend_frame_name(rp, 0), dn->name);
-    /* the built-in filters keep the diffuse lobe's view factor out of their histories
-     * (captures from before contract version 4, and other renderers', lack it) */
-    if ((dn->caps & PL_DN_DIFFUSE_VIEW) && !pl_frontend_recorded_has(rp, TND_CT_DIFFUSE_VIEW) &&
-        !app_quiet())
-        fprintf(stderr,
-                "tandem: denoise: %s: the captures carry no diffuse.view: %s keeps the diffuse "
-                "lobe's view factor in its histories (a moving camera's grazing surfaces lag)\n",
-                pl_frontend_frame_name(rp, 0), dn->name);
+    /* entries a denoiser uses where given, which captures from before their contract version
+     * (and other renderers' through a mapping) lack: the recurrent denoiser follows reflections
+     * by spec_hit (version 3), the built-in filters keep diffuse_view out of their histories (4) */
+    static const struct {
+        uint32_t cap;
+        tnd_ct entry;
+        const char *without;
+    } optional[] = {
+        {PL_DN_SPEC_HIT, TND_CT_SPEC_HIT,
+         "moves reflections with their surfaces (no virtual motion)"},
+        {PL_DN_DIFFUSE_VIEW, TND_CT_DIFFUSE_VIEW,
+         "keeps the diffuse lobe's view factor in its histories (a moving camera's grazing "
+         "surfaces lag)"}};
+    for (size_t i = 0; i < sizeof optional / sizeof *optional && !app_quiet(); i++)
+        if ((dn->caps & optional[i].cap) && !pl_frontend_recorded_has(rp, optional[i].entry)) {
+            char ch[64];
+            tnd_ct_exr_name(optional[i].entry, 0, ch, sizeof ch);
+            fprintf(stderr, "tandem: denoise: %s: the captures carry no %s: %s %s\n",
+                    pl_frontend_frame_name(rp, 0), ch, dn->name, optional[i].without);
+        }
     const char *dn_name = dn->caps & PL_DN_PLUGIN ? denoiser : dn->name;
     pl_param_set own = {0}; /* the parameters it has */
     for (uint32_t i = 0; i < params.n; i++) {

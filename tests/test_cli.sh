@@ -435,11 +435,16 @@ check "recurrent --resample: 1 and 2 differ under motion, agree on a still camer
 exrheader "$tmp/rc/capture/frame_0001.exr" 2>/dev/null | grep -q "spec.hitT" &&
     exrheader "$tmp/rc/capture/frame_0001.exr" 2>/dev/null | grep -q "diffuse.view"
 check "a capture carries spec.hitT and diffuse.view" $?
+# strip_channel DIR CHANNEL: the capture frames in DIR without CHANNEL (as an older capture)
+strip_channel() {
+    local f chans
+    for f in "$1/"frame_000?.exr; do
+        chans=$(oiiotool --info -v "$f" | grep "channel list" | sed "s/.*channel list: //; s/ ([a-z]*)//g; s/, /,/g; s/$2,//")
+        oiiotool "$f" --ch "$chans" -o "$f.tmp.exr" && mv "$f.tmp.exr" "$f"
+    done
+}
 mkdir -p "$tmp/nohit" && cp "$tmp/rc/capture/"* "$tmp/nohit/"
-for f in "$tmp/nohit/"frame_000?.exr; do
-    chans=$(oiiotool --info -v "$f" | grep "channel list" | sed 's/.*channel list: //; s/ ([a-z]*)//g; s/, /,/g; s/spec.hitT,//')
-    oiiotool "$f" --ch "$chans" -o "$f.tmp.exr" && mv "$f.tmp.exr" "$f"
-done
+strip_channel "$tmp/nohit" spec.hitT
 "$T" denoise --captures "$tmp/nohit" --denoiser recurrent --out "$tmp/nohit_dn" 2>"$tmp/err"; rc=$?
 [ $rc -eq 0 ] && grep -q "no spec.hitT: recurrent moves reflections with their surfaces" "$tmp/err" &&
     ! grep -q "diffuse.view" "$tmp/err" &&
@@ -448,10 +453,7 @@ done
     ! grep -q "spec.hitT\|diffuse.view" "$tmp/err2"
 check "captures without spec.hitT: recurrent runs with surface motion and says so (got $rc)" $?
 mkdir -p "$tmp/noview" && cp "$tmp/rc/capture/"frame_000?.exr "$tmp/noview/"
-for f in "$tmp/noview/"frame_000?.exr; do
-    chans=$(oiiotool --info -v "$f" | grep "channel list" | sed 's/.*channel list: //; s/ ([a-z]*)//g; s/, /,/g; s/diffuse.view,//')
-    oiiotool "$f" --ch "$chans" -o "$f.tmp.exr" && mv "$f.tmp.exr" "$f"
-done
+strip_channel "$tmp/noview" diffuse.view
 "$T" denoise --captures "$tmp/noview" --denoiser svgf --out "$tmp/noview_dn" 2>"$tmp/err"; rc=$?
 [ $rc -eq 0 ] && grep -q "no diffuse.view: svgf keeps the diffuse lobe's view factor" "$tmp/err" &&
     ! exrheader "$tmp/noview/frame_0001.exr" 2>/dev/null | grep -q "diffuse.view" &&

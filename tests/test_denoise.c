@@ -49,6 +49,23 @@ static void rig_close(tnd_vk *vk, rig *r)
  * (uniform over the pixel) agree; at edges no temporal denoiser without TAA can match it. */
 static unsigned char interior[W * H];
 
+/* mask[q]: f's pixel q is such an interior pixel */
+static void interior_of(const tnd_frame *f, unsigned char *mask)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            uint32_t inst = tnd_frame_u(f, TND_CT_VIS_ID)[2 * (y * W + x)];
+            bool ok = inst != TND_VIS_NONE && x > 0 && y > 0 && x < W - 1 && y < H - 1;
+            for (int dy = -1; ok && dy <= 1; dy++)
+                for (int dx = -1; ok && dx <= 1; dx++) {
+                    int q = (y + dy) * W + x + dx;
+                    ok = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q] == inst &&
+                         tnd_frame_f(f, TND_CT_EMISSION)[3 * q] == 0.0f;
+                }
+            mask[y * W + x] = ok;
+        }
+}
+
 /* Frame i of the static scene through the Embree front-end (4 bounces: the one-bounce estimator
  * misses the light of the second and later bounces, about 10% on cornell's walls, a bias no
  * denoiser can remove when measured against the full reference), uploaded; `composite`
@@ -60,18 +77,8 @@ static tnd_result rig_frame(tnd_vk *vk, rig *r, uint32_t i, float *composite, dn
         test_embree_frame(r->fe, &r->st, &r->st, i, W, H, &(femb_params){.bounces = 4}, &f);
     if (res == TND_OK && composite)
         tnd_frame_composite(&f, composite);
-    for (int y = 0; res == TND_OK && y < H; y++)
-        for (int x = 0; x < W; x++) {
-            uint32_t inst = tnd_frame_u(&f, TND_CT_VIS_ID)[2 * (y * W + x)];
-            bool ok = inst != TND_VIS_NONE && x > 0 && y > 0 && x < W - 1 && y < H - 1;
-            for (int dy = -1; ok && dy <= 1; dy++)
-                for (int dx = -1; ok && dx <= 1; dx++) {
-                    int q = (y + dy) * W + x + dx;
-                    ok = tnd_frame_u(&f, TND_CT_VIS_ID)[2 * q] == inst &&
-                         tnd_frame_f(&f, TND_CT_EMISSION)[3 * q] == 0.0f;
-                }
-            interior[y * W + x] = ok;
-        }
+    if (res == TND_OK)
+        interior_of(&f, interior);
     if (res == TND_OK)
         res = tnd_contract_upload(vk, &r->ct, &f);
     *df = dn_frame_for_camera(r->st.camera.proj, H, i, i == 0);
@@ -521,20 +528,9 @@ static void view_factor_case(tnd_vk *vk, rig *r, tnd_frame *f, bool given, doubl
         dn_frame df = dn_frame_for_camera(r->st.camera.proj, H, 0, fr == 0); /* no jitter */
         REQUIRE_OK(dn_run(dn, &r->ct, &df, NULL));
     }
-    /* surface pixels whose 3x3 neighbourhood is one instance and emits nothing (the a-trous and
-     * the lf filter of a field constant on each surface give the constant there) */
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            uint32_t inst = tnd_frame_u(f, TND_CT_VIS_ID)[2 * (y * W + x)];
-            bool ok = inst != TND_VIS_NONE && x > 0 && y > 0 && x < W - 1 && y < H - 1;
-            for (int dy = -1; ok && dy <= 1; dy++)
-                for (int dx = -1; ok && dx <= 1; dx++) {
-                    int q = (y + dy) * W + x + dx;
-                    ok = tnd_frame_u(f, TND_CT_VIS_ID)[2 * q] == inst &&
-                         tnd_frame_f(f, TND_CT_EMISSION)[3 * q] == 0.0f;
-                }
-            mask[y * W + x] = ok;
-        }
+    /* interior pixels (the a-trous and the lf filter of a field constant on each surface give
+     * the constant there) */
+    interior_of(f, mask);
     /* the hf and lf histories against the irradiance (the factor divided out) */
     const char *names[2] = {"temporal.hf", "temporal.lf_sh"};
     const int ch[2] = {0, 3};
